@@ -1,0 +1,101 @@
+"""Unit and angle conversions: the only place in optroute that holds them.
+
+Conventions (see ``shared/design.md``):
+
+* speeds in knots at the public surface (``_kn``), m/s inside physics (``_ms``);
+* distances in nautical miles (``_nm``) or metres (``_m``);
+* headings and courses in degrees true, the direction the ship goes **to**;
+* wave and wind directions in degrees true, the direction they come **from**;
+* wind and current vectors as (u, v) = (east, north) components of the
+  direction they go **to**.
+
+Sources: 1 international nautical mile = 1852 m exactly (BIPM SI Brochure,
+Table 8); 1 knot = 1 nm/h.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+M_PER_NM = 1852.0
+S_PER_H = 3600.0
+MS_PER_KN = M_PER_NM / S_PER_H  # 0.514444... m/s per knot
+
+
+def kn_to_ms(speed_kn: ArrayLike) -> np.ndarray:
+    """Knots [kn] to metres per second [m/s]."""
+    return np.asarray(speed_kn, dtype=float) * MS_PER_KN
+
+
+def ms_to_kn(speed_ms: ArrayLike) -> np.ndarray:
+    """Metres per second [m/s] to knots [kn]."""
+    return np.asarray(speed_ms, dtype=float) / MS_PER_KN
+
+
+def nm_to_m(distance_nm: ArrayLike) -> np.ndarray:
+    """Nautical miles [nm] to metres [m]."""
+    return np.asarray(distance_nm, dtype=float) * M_PER_NM
+
+
+def m_to_nm(distance_m: ArrayLike) -> np.ndarray:
+    """Metres [m] to nautical miles [nm]."""
+    return np.asarray(distance_m, dtype=float) / M_PER_NM
+
+
+def h_to_s(duration_h: ArrayLike) -> np.ndarray:
+    """Hours [h] to seconds [s]."""
+    return np.asarray(duration_h, dtype=float) * S_PER_H
+
+
+def s_to_h(duration_s: ArrayLike) -> np.ndarray:
+    """Seconds [s] to hours [h]."""
+    return np.asarray(duration_s, dtype=float) / S_PER_H
+
+
+def wrap_360(angle_deg: ArrayLike) -> np.ndarray:
+    """Wrap an angle [deg] into [0, 360)."""
+    return np.mod(np.asarray(angle_deg, dtype=float), 360.0)
+
+
+def wrap_180(angle_deg: ArrayLike) -> np.ndarray:
+    """Wrap an angle or a longitude [deg] into [-180, 180)."""
+    return np.mod(np.asarray(angle_deg, dtype=float) + 180.0, 360.0) - 180.0
+
+
+def from_to_flip_deg(direction_deg: ArrayLike) -> np.ndarray:
+    """Turn a 'coming from' direction into a 'going to' one, or back [deg, true]."""
+    return wrap_360(np.asarray(direction_deg, dtype=float) + 180.0)
+
+
+def uv_to_speed_to_deg(u: ArrayLike, v: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Vector (u east, v north) to its magnitude and the direction it goes **to**.
+
+    Parameters
+    ----------
+    u, v : array_like
+        East and north components [any speed unit].
+
+    Returns
+    -------
+    speed : ndarray
+        Magnitude [same unit as u, v].
+    to_deg : ndarray
+        Direction the vector points to [deg true, 0 = north, clockwise], in [0, 360).
+    """
+    u = np.asarray(u, dtype=float)
+    v = np.asarray(v, dtype=float)
+    return np.hypot(u, v), wrap_360(np.degrees(np.arctan2(u, v)))
+
+
+def speed_to_deg_to_uv(speed: ArrayLike, to_deg: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Magnitude and 'going to' direction [deg true] to (u east, v north)."""
+    speed = np.asarray(speed, dtype=float)
+    rad = np.radians(np.asarray(to_deg, dtype=float))
+    return speed * np.sin(rad), speed * np.cos(rad)
+
+
+def wind_uv_to_speed_from_deg(u_ms: ArrayLike, v_ms: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Wind (u, v) [m/s], the vector it blows to, to speed [m/s] and 'from' direction [deg true]."""
+    speed, to_deg = uv_to_speed_to_deg(u_ms, v_ms)
+    return speed, from_to_flip_deg(to_deg)
