@@ -1,0 +1,114 @@
+"""Ship particulars, calm-water power, SFOC and roll period against physics.md."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from optroute import ConfigError, ShipSpecError
+from optroute.ship import Ship, is_code_roll_period_s, sfoc_ratio
+
+# physics.md §4: IS Code 2008 Part A §2.3.4, checked rows (B, d, L_wl, GM, C, T_R).
+IS_CODE_CHECKED_ROWS = [
+    (32.2, 10.8, 232.5, 0.60, 0.341599, 28.401),
+    (32.25, 12.0, 240.0, 1.50, 0.3316125, 17.464),
+    (25.4, 9.5, 175.0, 1.02, 0.359245, 18.070),
+]
+
+
+@pytest.mark.parametrize(("b", "d", "lwl", "gm", "c", "tr"), IS_CODE_CHECKED_ROWS)
+def test_is_code_2008_roll_period_checked_rows(b, d, lwl, gm, c, tr):
+    assert is_code_roll_period_s(b, d, lwl, gm) == pytest.approx(tr, abs=5e-4)
+    assert 2 * c * b / math.sqrt(gm) == pytest.approx(tr, abs=5e-4)
+
+
+def test_general_cargo_preset_uses_the_checked_is_code_hull():
+    assert Ship.preset("general_cargo_25k_dwt").roll_period_s == pytest.approx(18.070, abs=5e-4)
+
+
+def test_fourth_imo_ghg_study_sfoc_curve_checked_points():
+    # physics.md §8: 1.039 at 50 % load, minimum 1.003 at 78 %, 1.025 at 100 %.
+    assert sfoc_ratio(0.5) == pytest.approx(1.03875, abs=1e-9)
+    assert sfoc_ratio(1.0) == pytest.approx(1.025, abs=1e-9)
+    loads = np.linspace(0.1, 1.0, 9001)
+    assert loads[np.argmin(sfoc_ratio(loads))] == pytest.approx(0.780, abs=1e-3)
+    assert sfoc_ratio(0.78) == pytest.approx(1.003, abs=5e-4)
+
+
+def test_fuel_rate_by_hand():
+    ship = Ship.preset("container_54k_dwt")
+    p = 0.5 * ship.mcr_kw  # 18 250 kW at 50 % load: 175 g/kWh * 1.03875 * 18250 kW / 1e6
+    assert ship.fuel_rate_tph(p) == pytest.approx(175 * 1.03875 * 18250 / 1e6, rel=1e-12)
+
+
+def test_admiralty_law_calibrated_to_service_point():
+    ship = Ship.preset("container_8000teu")
+    # 85 % MCR includes a 15 % sea margin: calm power at 25 kn = 0.85 * 68 640 / 1.15 kW.
+    assert ship.calm_power_kw(25.0) == pytest.approx(0.85 * 68_640 / 1.15, rel=1e-12)
+    # cube law: 20 kn needs (20/25)^3 of it.
+    assert ship.calm_power_kw(20.0) == pytest.approx(0.512 * 0.85 * 68_640 / 1.15, rel=1e-12)
+    assert ship.calm_power_kw(ship.max_calm_speed_kn) == pytest.approx(ship.mcr_kw, rel=1e-9)
+
+
+def test_speed_power_table_is_monotone_and_exact_at_its_points():
+    table = ((10.0, 3000.0), (14.0, 8000.0), (18.0, 15000.0), (24.5, 31000.0))
+    ship = Ship.preset("container_54k_dwt").replace(speed_power_table=table)
+    for v, p in table:
+        assert ship.calm_power_kw(v) == pytest.approx(p)
+    v = np.linspace(0.0, 30.0, 601)
+    assert np.all(np.diff(ship.calm_power_kw(v)) > 0)
+    # beyond the ends: the cube law through the end points
+    assert ship.calm_power_kw(5.0) == pytest.approx(3000.0 / 8.0)
+    assert ship.calm_power_kw(26.0) == pytest.approx(31000.0 * (26 / 24.5) ** 3)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.floats(1000.0, 60_000.0))
+def test_calm_speed_inverts_calm_power(power_kw):
+    for name in Ship.presets():
+        ship = Ship.preset(name)
+        assert ship.calm_power_kw(ship.calm_speed_kn(power_kw)) == pytest.approx(power_kw, rel=1e-9)
+
+
+def test_presets_listed_and_unknown_preset_lists_valid_names():
+    assert set(Ship.presets()) == {"container_54k_dwt", "container_8000teu", "general_cargo_25k_dwt"}
+    with pytest.raises(ConfigError, match="container_54k_dwt"):
+        Ship.preset("titanic")
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "pattern"),
+    [
+        ("length_m", 0.0, "length_m=0.0"),
+        ("length_m", -5.0, "length_m=-5.0"),
+        ("block_coefficient", 0.3, r"block_coefficient=0.3 .*\[0.35, 0.95\]"),
+        ("block_coefficient", 0.97, "block_coefficient"),
+        ("gm_m", 0.0, "gm_m=0.0"),
+        ("mcr_kw", -1.0, "mcr_kw"),
+        ("mcr_kw", float("nan"), "mcr_kw=nan"),
+        ("displacement_t", 670_400.0, "check the units"),
+        ("ship_type", "yacht", "ship_type='yacht'"),
+        ("loading", "half", "loading='half'"),
+        ("speed_power_table", ((10, 100), (9, 200), (12, 300)), "strictly increasing"),
+    ],
+)
+def test_non_physical_values_raise_naming_field_and_value(field, value, pattern):
+    with pytest.raises(ShipSpecError, match=pattern):
+        Ship.preset("container_54k_dwt").replace(**{field: value})
+
+
+def test_from_mapping_names_the_source():
+    data = {f: getattr(Ship.preset("container_54k_dwt"), f) for f in ("name", "length_m", "beam_m", "draught_m")}
+    with pytest.raises(ShipSpecError, match="ship.toml: missing required ship field"):
+        Ship.from_mapping(data, source="ship.toml")
+    with pytest.raises(ShipSpecError, match="unknown ship field"):
+        Ship.from_mapping({**data, "colour": "red"}, source="ship.toml")
+
+
+def test_design_speed_beyond_what_the_mcr_reaches_raises():
+    table = ((10.0, 3000.0), (14.0, 8000.0), (18.0, 15000.0), (24.5, 31000.0))
+    ship = Ship.preset("container_54k_dwt").replace(speed_power_table=table)
+    with pytest.raises(ShipSpecError, match=r"design_speed_kn=26.0 kn needs .* above mcr_kw.*reaches 25.\d\d kn"):
+        ship.replace(design_speed_kn=26.0)
