@@ -16,7 +16,7 @@ from optroute.errors import OptrouteError, SeaStateError
 def _first_bad(arr: np.ndarray, bad: np.ndarray) -> str:
     idx = np.argwhere(bad)[0]
     where = "" if arr.ndim == 0 else f" at index {tuple(int(i) for i in idx)}"
-    return f"{arr[tuple(idx)]!r}{where}"
+    return f"{float(arr[tuple(idx)])!r}{where}"
 
 
 def finite(

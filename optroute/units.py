@@ -54,13 +54,18 @@ def s_to_h(duration_s: ArrayLike) -> np.ndarray:
 
 
 def wrap_360(angle_deg: ArrayLike) -> np.ndarray:
-    """Wrap an angle [deg] into [0, 360)."""
-    return np.mod(np.asarray(angle_deg, dtype=float), 360.0)
+    """Wrap an angle [deg] into [0, 360).
+
+    ``np.mod`` of a tiny negative angle rounds to 360.0 itself; that case is
+    folded back to 0 so the half-open interval really holds.
+    """
+    r = np.mod(np.asarray(angle_deg, dtype=float), 360.0)
+    return np.where(r >= 360.0, 0.0, r)
 
 
 def wrap_180(angle_deg: ArrayLike) -> np.ndarray:
     """Wrap an angle or a longitude [deg] into [-180, 180)."""
-    return np.mod(np.asarray(angle_deg, dtype=float) + 180.0, 360.0) - 180.0
+    return wrap_360(np.asarray(angle_deg, dtype=float) + 180.0) - 180.0
 
 
 def from_to_flip_deg(direction_deg: ArrayLike) -> np.ndarray:
