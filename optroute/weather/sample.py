@@ -1,0 +1,407 @@
+"""Vectorised sampling of a canonical weather dataset at (time, lat, lon) points.
+
+:class:`WeatherSampler` is the hot path of the route search and of the NLP
+set-up: it turns the dataset into plain numpy arrays once and then
+interpolates any number of points with index arithmetic:
+
+* linear in time and bilinear in (lat, lon) on the 2 x 2 x 2 cell around the
+  point (trilinear on the grid, lat and lon taken as plane coordinates);
+* across the antimeridian: a query longitude in any convention is mapped
+  onto the dataset's increasing longitudes (see
+  :func:`~optroute.weather.schema.normalise_lon`), and a global grid wraps
+  its last column onto its first;
+* directions (``wave_from_deg``) are interpolated as unit vectors
+  (sin, cos), so 350 deg and 10 deg meet at 0 deg, not 180 deg;
+* NaN marks land or ice: a point whose 2 x 2 x 2 stencil touches a NaN cell
+  gets NaN — "no passage", never zero waves;
+* missing wind and current variables are zero (calm, no current), as
+  ``shared/design.md`` says; every other missing variable is an error.
+
+Coverage: a point outside the dataset's lat/lon box, or a time outside its
+span, raises :class:`~optroute.errors.WeatherCoverageError` naming the point,
+the time and the extent.  ``time_policy="hold"`` holds the first or last
+time slice instead; a static dataset (a single time) therefore covers all
+times only with ``time_policy="hold"`` — otherwise it covers just its instant.
+
+Lazy datasets (dask-backed, from :func:`~optroute.weather.io.open_weather`)
+bigger than ``load_bytes`` are never loaded whole: each call loads only the
+time slices its points need (horizontal fields of the used variables),
+keeping the most recently used ones up to ``cache_bytes``.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from numpy.typing import ArrayLike
+
+from optroute.errors import ConfigError, WeatherCoverageError, WeatherSchemaError
+from optroute.weather import schema
+from optroute.weather.io import TIME_POLICIES, check_required
+
+__all__ = ["WeatherSampler", "sample_weather"]
+
+_EPS_DEG = 1e-7
+_DIR = "wave_from_deg"
+
+
+class _Axis:
+    """A 1-D grid axis: locates points as (lower index, weight) by arithmetic when uniform."""
+
+    def __init__(self, values: np.ndarray) -> None:
+        self.values = np.asarray(values, dtype=float)
+        self.n = self.values.size
+        self.start = float(self.values[0])
+        self.stop = float(self.values[-1])
+        if self.n > 1:
+            self.step = (self.stop - self.start) / (self.n - 1)
+            self.uniform = bool(np.allclose(np.diff(self.values), self.step, rtol=1e-9, atol=1e-9 * abs(self.step)))
+        else:
+            self.step, self.uniform = 1.0, True
+
+    def locate(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Lower cell index in [0, n-2] and weight in [0, 1] of the upper neighbour (x inside the axis)."""
+        if self.n == 1:
+            return np.zeros(x.shape, dtype=np.int64), np.zeros(x.shape)
+        if self.uniform:
+            f = (x - self.start) / self.step
+            i = np.clip(np.floor(f), 0, self.n - 2).astype(np.int64)
+            w = f - i
+        else:
+            i = np.clip(np.searchsorted(self.values, x, side="right") - 1, 0, self.n - 2)
+            lo = self.values[i]
+            w = (x - lo) / (self.values[i + 1] - lo)
+        return i, np.clip(w, 0.0, 1.0)
+
+
+class WeatherSampler:
+    """Interpolate a canonical weather dataset at arrays of (time, lat, lon).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A canonical dataset (:mod:`optroute.weather.schema`), e.g. from
+        :func:`~optroute.weather.io.open_weather` or ``optroute.scenarios``.
+    time_policy : {"raise", "hold"}, optional
+        Out-of-span times raise :class:`~optroute.errors.WeatherCoverageError`
+        (``"raise"``) or take the first/last time slice (``"hold"``).  Default:
+        ``ds.attrs["time_policy"]``, else ``"raise"``.
+    required : sequence of sequences of str
+        Variable groups of which one each must be present (default: wave
+        height, a wave period, wave direction); ``()`` accepts any.
+    load_bytes : int
+        A lazy dataset whose used variables are at most this big [bytes] is
+        loaded into memory at construction; a bigger one is read slice by slice.
+    cache_bytes : int
+        Memory for the time slices a lazy dataset keeps between calls [bytes].
+
+    Raises
+    ------
+    WeatherSchemaError
+        Broken coordinates, a missing required variable, an all-NaN or
+        implausible field (checked as fields are loaded).
+
+    Examples
+    --------
+    >>> sampler = WeatherSampler(optroute.open_weather("era5.nc"))   # doctest: +SKIP
+    >>> wx = sampler.sample(times, lats, lons)                      # doctest: +SKIP
+    >>> wx["hs_m"], wx["wave_from_deg"]                             # doctest: +SKIP
+    """
+
+    def __init__(
+        self,
+        ds: xr.Dataset,
+        *,
+        time_policy: str | None = None,
+        required: Sequence[Sequence[str]] = schema.WAVE_REQUIRED,
+        load_bytes: int = 512 * 2**20,
+        cache_bytes: int = 512 * 2**20,
+    ) -> None:
+        self.source = str(ds.attrs.get("source", "dataset"))
+        schema.check_coords(ds, self.source)
+        check_required(ds, required, self.source)
+        self.time_policy = time_policy or str(ds.attrs.get("time_policy", "raise"))
+        if self.time_policy not in TIME_POLICIES:
+            raise ConfigError(f"time_policy={self.time_policy!r} is not known; use one of {TIME_POLICIES}")
+        self.variables: tuple[str, ...] = tuple(str(v) for v in ds.data_vars if v in schema.VARIABLES)
+        self._times = ds["time"].values.astype("datetime64[ns]")
+        self._t0 = self._times[0].astype(np.int64)
+        self._time = _Axis((self._times.astype(np.int64) - self._t0) / 1e9)  # seconds since the first time
+        self._lat = _Axis(ds["lat"].values)
+        self._lon = _Axis(ds["lon"].values)
+        self.periodic = schema.lon_is_periodic(self._lon.values)
+        self._shape = (self._time.n, self._lat.n, self._lon.n)
+        self._fields = [f for v in self.variables for f in ((_DIR + ":sin", _DIR + ":cos") if v == _DIR else (v,))]
+        self._ds = ds[list(self.variables)]
+        self._cache: OrderedDict[int, dict[str, np.ndarray]] = OrderedDict()
+        self._cache_bytes = int(cache_bytes)
+        nbytes = sum(self._ds[v].nbytes for v in self.variables)
+        in_memory = all(self._ds[v].chunks is None and getattr(self._ds[v].variable, "_in_memory", False) for v in self.variables)
+        self.lazy = not in_memory and nbytes > load_bytes
+        self._arrays: dict[str, np.ndarray] = {}
+        if not self.lazy:
+            values = self._read({})
+            self._arrays = self._derive(values, where=self.source)
+
+    # -- public -------------------------------------------------------------
+
+    @property
+    def extent(self) -> dict[str, Any]:
+        """The dataset's extent: ``lat`` and ``lon`` (min, max) [deg], ``time`` (first, last), ``periodic``."""
+        return {
+            "lat": (self._lat.start, self._lat.stop),
+            "lon": (self._lon.start, self._lon.stop),
+            "time": (self._times[0], self._times[-1]),
+            "periodic": self.periodic,
+        }
+
+    def covers(self, time: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> np.ndarray:
+        """Whether each point lies inside the dataset's area and (under ``"raise"``) its time span.
+
+        Parameters
+        ----------
+        time : array_like of datetime64
+            Times [UTC].
+        lat, lon : array_like
+            Positions [deg north, deg east, any longitude convention].
+
+        Returns
+        -------
+        ndarray of bool
+            Broadcast shape of the inputs.
+        """
+        shape, t, la, lo = self._inputs(time, lat, lon)
+        inside_xy, inside_t, _ = self._inside(t, la, lo)
+        return (inside_xy & inside_t).reshape(shape)
+
+    def sample(
+        self, time: ArrayLike, lat: ArrayLike, lon: ArrayLike, variables: Sequence[str] | None = None
+    ) -> dict[str, np.ndarray]:
+        """Interpolate the weather at points.
+
+        Parameters
+        ----------
+        time : array_like of datetime64
+            Times [UTC, timezone-naive]; broadcast against ``lat`` and ``lon``.
+        lat : array_like
+            Latitudes [deg north].
+        lon : array_like
+            Longitudes [deg east], any convention (-180–180, 0–360, unwrapped).
+        variables : sequence of str, optional
+            Canonical names wanted; default all present plus zeros for missing
+            wind and current.
+
+        Returns
+        -------
+        dict of str to ndarray
+            Canonical name → float64 values in canonical units
+            (``wave_from_deg`` in [0, 360) deg true, coming from), in the
+            broadcast shape of the inputs.  NaN where the interpolation
+            stencil touches a NaN cell (land, ice): no passage.
+
+        Raises
+        ------
+        WeatherCoverageError
+            A point lies outside the lat/lon box or (with ``time_policy="raise"``)
+            the time span; the message names the first such point, its time and
+            the dataset's extent.
+        WeatherSchemaError
+            A wanted variable is neither present nor a zero-default one; a
+            lazily loaded slice is all NaN, implausible or unreadable.
+        ConfigError
+            NaT times, non-finite or out-of-range positions.
+        """
+        wanted = self._wanted(variables)
+        shape, t, la, lo = self._inputs(time, lat, lon)
+        inside_xy, inside_t, lonu = self._inside(t, la, lo)
+        if not inside_xy.all() or not inside_t.all():
+            self._coverage_error(t, la, lo, inside_xy, inside_t)
+        t = np.clip(t, self._time.start, self._time.stop)
+        ti, tw = self._time.locate(t)
+        yi, yw = self._lat.locate(la)
+        if self.periodic:
+            f = (lonu - self._lon.start) / self._lon.step
+            xi = np.clip(np.floor(f), 0, self._lon.n - 1).astype(np.int64)
+            xw = np.clip(f - xi, 0.0, 1.0)
+            xj = np.where(xi == self._lon.n - 1, 0, xi + 1)
+        else:
+            xi, xw = self._lon.locate(lonu)
+            xj = xi + 1
+        arrays, ti = self._arrays_for(ti, wanted)
+        nt_local = next(iter(arrays.values())).shape[0] if arrays else 1
+        ny, nx = self._lat.n, self._lon.n
+        dt = ny * nx if nt_local > 1 else 0
+        row0 = (ti * ny + yi) * nx
+        row1 = row0 + nx
+        idx = (row0 + xi, row0 + xj, row1 + xi, row1 + xj)
+        wx1, wy1, wt1 = xw, yw, tw
+        wx0, wy0, wt0 = 1.0 - xw, 1.0 - yw, 1.0 - tw
+        weights = (wy0 * wx0, wy0 * wx1, wy1 * wx0, wy1 * wx1)
+
+        def interp(flat: np.ndarray) -> np.ndarray:
+            lo_t = sum(w * flat.take(i) for w, i in zip(weights, idx, strict=True))
+            if dt == 0:
+                return lo_t
+            hi_t = sum(w * flat.take(i + dt) for w, i in zip(weights, idx, strict=True))
+            return wt0 * lo_t + wt1 * hi_t
+
+        out: dict[str, np.ndarray] = {}
+        for name in wanted:
+            if name not in self.variables:
+                out[name] = np.zeros(shape)
+            elif name == _DIR:
+                s = interp(arrays[_DIR + ":sin"].ravel())
+                c = interp(arrays[_DIR + ":cos"].ravel())
+                out[name] = np.mod(np.degrees(np.arctan2(s, c)), 360.0).reshape(shape)
+            else:
+                out[name] = np.asarray(interp(arrays[name].ravel()), dtype=float).reshape(shape)
+        return out
+
+    # -- internals ----------------------------------------------------------
+
+    def _wanted(self, variables: Sequence[str] | None) -> list[str]:
+        if variables is None:
+            return list(self.variables) + [v for v in schema.OPTIONAL_ZERO if v not in self.variables]
+        wanted = [str(v) for v in variables]
+        for v in wanted:
+            if v not in self.variables and v not in schema.OPTIONAL_ZERO:
+                if v not in schema.VARIABLES:
+                    raise ConfigError(f"{v!r} is not a canonical weather variable; use one of {sorted(schema.VARIABLES)}")
+                raise WeatherSchemaError(
+                    f"{self.source}: variable {v} is not in the dataset (present: {', '.join(self.variables)}); "
+                    "only wind and current default to zero"
+                )
+        return wanted
+
+    def _inputs(self, time: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> tuple[tuple[int, ...], np.ndarray, np.ndarray, np.ndarray]:
+        try:
+            t = np.asarray(time, dtype="datetime64[ns]")
+        except (TypeError, ValueError) as exc:
+            raise ConfigError(f"time={time!r} is not a datetime64 array (UTC, timezone-naive)") from exc
+        la = np.asarray(lat, dtype=float)
+        lo = np.asarray(lon, dtype=float)
+        try:
+            shape = np.broadcast_shapes(t.shape, la.shape, lo.shape)
+        except ValueError as exc:
+            raise ConfigError(f"time, lat and lon shapes {t.shape}, {la.shape}, {lo.shape} do not broadcast") from exc
+        t = np.broadcast_to(t, shape).ravel()
+        la = np.broadcast_to(la, shape).ravel()
+        lo = np.broadcast_to(lo, shape).ravel()
+        if np.isnat(t).any():
+            raise ConfigError(f"time holds NaT at flat index {int(np.flatnonzero(np.isnat(t))[0])}; pass valid UTC times")
+        bad = ~(np.isfinite(la) & np.isfinite(lo)) | (np.abs(la) > 90.0)
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise ConfigError(f"position (lat={la[k]!r}, lon={lo[k]!r}) at flat index {k} is not a valid (lat, lon) in degrees")
+        seconds = (t.astype(np.int64) - self._t0) / 1e9
+        return shape, seconds, la, lo
+
+    def _inside(self, t: np.ndarray, la: np.ndarray, lo: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        lon0 = self._lon.start
+        lonu = lon0 + np.mod(lo - lon0, 360.0)
+        lonu = np.where(lonu > lon0 + 360.0 - _EPS_DEG, lonu - 360.0, lonu)
+        inside = (la >= self._lat.start - _EPS_DEG) & (la <= self._lat.stop + _EPS_DEG)
+        if not self.periodic:
+            inside &= lonu <= self._lon.stop + _EPS_DEG
+        if self.time_policy == "hold":
+            inside_t = np.ones(t.shape, dtype=bool)
+        else:
+            inside_t = (t >= self._time.start) & (t <= self._time.stop)
+        return inside, inside_t, lonu
+
+    def _coverage_error(self, t: np.ndarray, la: np.ndarray, lo: np.ndarray, inside_xy: np.ndarray, inside_t: np.ndarray) -> None:
+        out = ~(inside_xy & inside_t)
+        k = int(np.flatnonzero(out)[0])
+        when = np.datetime64(self._t0 + int(round(t[k] * 1e9)), "ns").astype("datetime64[s]")
+        lon_lo, lon_hi = self._lon.start, self._lon.stop
+        if self.periodic:
+            lon_txt = "all longitudes (global)"
+        elif lon_hi >= 180.0:
+            lon_txt = f"{lon_lo:.6g} to {lon_hi:.6g} deg E unwrapped (across the antimeridian, to {lon_hi - 360.0:.6g})"
+        else:
+            lon_txt = f"{lon_lo:.6g} to {lon_hi:.6g} deg E"
+        what = "area" if not inside_xy[k] else "time span"
+        fix = "extend the dataset or keep the voyage inside it"
+        if inside_xy[k]:
+            fix += ", or pass time_policy='hold' to hold the first/last time slice"
+        t0, t1 = (x.astype("datetime64[s]") for x in (self._times[0], self._times[-1]))
+        raise WeatherCoverageError(
+            f"point (lat={la[k]:.6g}, lon={lo[k]:.6g}) at {when} lies outside the weather dataset's {what} "
+            f"({self.source}: lat {self._lat.start:.6g} to {self._lat.stop:.6g} deg N, lon {lon_txt}, "
+            f"time {t0} to {t1}); {int(out.sum())} of {out.size} points are outside; {fix}"
+        )
+
+    def _read(self, isel: dict[str, Any]) -> dict[str, np.ndarray]:
+        try:
+            sub = self._ds.isel(isel) if isel else self._ds
+            sub = sub.compute() if any(sub[v].chunks is not None for v in sub.data_vars) else sub
+            return {v: np.asarray(sub[v].values) for v in self.variables}
+        except (OSError, RuntimeError, ValueError) as exc:
+            raise WeatherSchemaError(f"{self.source}: could not read the weather data ({exc}); the file is truncated or corrupted") from exc
+
+    def _derive(self, values: dict[str, np.ndarray], where: str) -> dict[str, np.ndarray]:
+        out: dict[str, np.ndarray] = {}
+        for v, arr in values.items():
+            if arr.dtype.kind != "f":
+                arr = arr.astype(float)
+            schema.check_values(v, arr, where)
+            if v == _DIR:
+                rad = np.radians(arr)
+                out[_DIR + ":sin"], out[_DIR + ":cos"] = np.sin(rad), np.cos(rad)
+            else:
+                out[v] = arr
+        return out
+
+    def _arrays_for(self, ti: np.ndarray, wanted: list[str]) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        fields = [f for f in self._fields if f.split(":")[0] in wanted]
+        if not self.lazy:
+            return {f: self._arrays[f] for f in fields}, ti
+        need = np.unique(np.concatenate([ti, np.minimum(ti + 1, self._time.n - 1)]))
+        missing = [int(k) for k in need if int(k) not in self._cache]
+        if missing:
+            values = self._read({"time": missing})
+            for j, k in enumerate(missing):
+                when = f"{self.source} at {self._times[k].astype('datetime64[s]')}"
+                self._cache[k] = self._derive({v: a[j : j + 1] for v, a in values.items()}, where=when)
+        for k in need:
+            self._cache.move_to_end(int(k))
+        self._evict(set(need.tolist()))
+        local = np.full(self._time.n, -1, dtype=np.int64)
+        local[need] = np.arange(need.size)
+        arrays = {f: np.concatenate([self._cache[int(k)][f] for k in need], axis=0) for f in fields}
+        return arrays, local[ti]
+
+    def _evict(self, keep: set[int]) -> None:
+        def size() -> int:
+            return sum(a.nbytes for d in self._cache.values() for a in d.values())
+
+        while len(self._cache) > len(keep) and size() > self._cache_bytes:
+            k = next(k for k in self._cache if k not in keep)
+            del self._cache[k]
+
+
+def sample_weather(
+    ds: xr.Dataset, time: ArrayLike, lat: ArrayLike, lon: ArrayLike, **kwargs: Any
+) -> dict[str, np.ndarray]:
+    """One-off :meth:`WeatherSampler.sample`; build a :class:`WeatherSampler` once for repeated calls.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A canonical weather dataset.
+    time, lat, lon : array_like
+        Times [UTC], latitudes [deg north], longitudes [deg east].
+    **kwargs
+        ``variables`` goes to :meth:`WeatherSampler.sample`, the rest to :class:`WeatherSampler`.
+
+    Returns
+    -------
+    dict of str to ndarray
+        As :meth:`WeatherSampler.sample`.
+    """
+    variables = kwargs.pop("variables", None)
+    return WeatherSampler(ds, **kwargs).sample(time, lat, lon, variables=variables)
