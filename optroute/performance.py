@@ -154,7 +154,11 @@ class KwonModel:
         return np.where(known, bn_wind, bn_hs)
 
     def calm_equivalent_speed_kn(self, stw_kn, *, hs_m=0.0, wave_angle_deg=0.0, wind_speed_ms=None, wind_angle_deg=None):
-        """Calm-water speed V₁ [kn] whose speed in this weather is ``stw_kn`` [kn]."""
+        """Calm-water speed V₁ [kn] whose speed in this weather is ``stw_kn`` [kn].
+
+        NaN where no calm-water speed within Kwon's range (Fn ≤ 0.30) makes
+        good ``stw_kn`` in this weather.
+        """
         stw = finite("stw_kn", stw_kn, minimum=0.0)
         bn = self.beaufort(hs_m, wind_speed_ms)
         angle = _fold_angle_deg(wave_angle_deg, "wave_angle_deg")
@@ -168,14 +172,20 @@ class KwonModel:
             angle,
             ship_type=self.ship.ship_type,
             loading=self.ship.loading,
+            on_unreachable="nan",
         )
 
     def brake_power_kw(self, stw_kn, *, hs_m=0.0, wave_angle_deg=0.0, wind_speed_ms=None, wind_angle_deg=None):
-        """Brake power [kW]: the calm-water power of Kwon's equivalent calm speed."""
+        """Brake power [kW]: the calm-water power of Kwon's equivalent calm speed.
+
+        ``inf`` where the speed cannot be made in this weather within Kwon's
+        range: no engine reaches it, so every power limit rejects it.
+        """
         v1 = self.calm_equivalent_speed_kn(
             stw_kn, hs_m=hs_m, wave_angle_deg=wave_angle_deg, wind_speed_ms=wind_speed_ms, wind_angle_deg=wind_angle_deg
         )
-        return self.ship.calm_power_kw(v1)
+        reachable = np.isfinite(v1)
+        return np.where(reachable, self.ship.calm_power_kw(np.where(reachable, v1, 0.0)), np.inf)
 
     def fuel_rate_tph(self, power_kw):
         """Fuel rate [t/h] at a brake power [kW] from the ship's SFOC curve."""

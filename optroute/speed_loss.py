@@ -551,7 +551,8 @@ def calm_speed_for_weather_kn(
         beaufort, volume_m3, ship_type, loading
     )
     v2, length, cb, c_bf = np.broadcast_arrays(v2, length, cb, c_bf)
-    v_max = fn_max * units.ms_to_kn(np.sqrt(G_MS2 * length))
+    # the bound itself is admitted up to rounding, so a V1 at exactly Fn = fn_max inverts
+    v_max = fn_max * units.ms_to_kn(np.sqrt(G_MS2 * length)) * (1.0 + 1e-12)
 
     def excess(v1: np.ndarray) -> np.ndarray:
         # weather speed of v1 minus the wanted v2: <= 0 at v1 = v2

@@ -127,3 +127,9 @@ def test_nan_sea_state_never_yields_power(kwon_2008_kcs_ship):
         KwonModel(kwon_2008_kcs_ship).brake_power_kw(15.0, hs_m=np.nan)
     with pytest.raises(SeaStateError, match="hs_m"):
         CalmWaterModel(kwon_2008_kcs_ship).brake_power_kw(15.0, hs_m=-1.0)
+
+
+def test_kwon_model_gives_infinite_power_beyond_its_range(kwon_2008_kcs_ship):
+    # Kwon's inverse is searched to Fn 0.30 (27.70 kn for L 230 m): 40 kn cannot be made.
+    p = KwonModel(kwon_2008_kcs_ship).brake_power_kw([20.0, 40.0], hs_m=3.0)
+    assert np.isfinite(p[0]) and np.isinf(p[1])
