@@ -763,6 +763,8 @@ def heading_for_course(
     stw_kn: ArrayLike,
     current_u_ms: ArrayLike,
     current_v_ms: ArrayLike,
+    *,
+    on_unreachable: OnUnreachable = "raise",
 ) -> tuple[np.ndarray, np.ndarray]:
     """Heading that makes good ``course_deg`` at a given STW, and the SOG along it.
 
@@ -782,6 +784,9 @@ def heading_for_course(
     current_u_ms, current_v_ms : array_like
         Current, east and north components of the vector the water flows
         to [m/s].
+    on_unreachable : {"raise", "nan"}
+        Where the course cannot be held (see Raises): raise (default), or
+        return NaN heading and SOG there so a vectorised caller can mark it.
 
     Returns
     -------
@@ -802,6 +807,11 @@ def heading_for_course(
     cu, cv = _current_kn(current_u_ms, current_v_ms)
     course, stw, cu, cv = np.broadcast_arrays(course, stw, cu, cv)
     along, cross = _along_cross(course, cu, cv)
+    if _on_unreachable(on_unreachable) == "nan":
+        delta = np.arcsin(np.clip(-cross / stw, -1.0, 1.0))
+        sog = stw * np.cos(delta) + along
+        bad = (np.abs(cross) > stw) | (sog <= 0.0)
+        return np.where(bad, np.nan, units.wrap_360(course + np.degrees(delta))), np.where(bad, np.nan, sog)
     bad = np.abs(cross) > stw
     if bad.any():
         idx, where = _first(bad)
