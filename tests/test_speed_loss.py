@@ -399,6 +399,7 @@ def test_heading_for_course_nan_mode_marks_unholdable_courses():
     # 2 kn STW against a 3 kn cross-current (current to the north, course east): cannot hold; 10 kn can.
     heading, sog = sl.heading_for_course(90.0, [2.0, 10.0], 0.0, 3.0 * 1852 / 3600, on_unreachable="nan")
     assert np.isnan(heading[0]) and np.isnan(sog[0])
-    # by hand: sin δ = −3/10 → δ = −17.46°, heading 72.54°, SOG = 10 cos δ = 9.539 kn
-    assert heading[1] == pytest.approx(90.0 - np.degrees(np.arcsin(0.3)))
+    # by hand: the set is to port (north) of an eastbound ship, so it heads south of east:
+    # sin δ = 3/10 → δ = +17.46°, heading 107.46°, SOG = 10 cos δ = 9.539 kn
+    assert heading[1] == pytest.approx(90.0 + np.degrees(np.arcsin(0.3)))
     assert sog[1] == pytest.approx(10.0 * np.sqrt(1 - 0.09))
