@@ -1,0 +1,3 @@
+from optroute.cli import main
+
+raise SystemExit(main())
