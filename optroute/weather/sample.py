@@ -296,7 +296,7 @@ class WeatherSampler:
         bad = ~(np.isfinite(la) & np.isfinite(lo)) | (np.abs(la) > 90.0)
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
-            raise ConfigError(f"position (lat={la[k]!r}, lon={lo[k]!r}) at flat index {k} is not a valid (lat, lon) in degrees")
+            raise ConfigError(f"position (lat={float(la[k])!r}, lon={float(lo[k])!r}) at flat index {k} is not a valid (lat, lon) in degrees")
         seconds = (t.astype(np.int64) - self._t0) / 1e9
         return shape, seconds, la, lo
 
@@ -316,7 +316,7 @@ class WeatherSampler:
     def _coverage_error(self, t: np.ndarray, la: np.ndarray, lo: np.ndarray, inside_xy: np.ndarray, inside_t: np.ndarray) -> None:
         out = ~(inside_xy & inside_t)
         k = int(np.flatnonzero(out)[0])
-        when = np.datetime64(self._t0 + int(round(t[k] * 1e9)), "ns").astype("datetime64[s]")
+        when = np.int64(self._t0 + round(float(t[k]) * 1e9)).astype("datetime64[ns]").astype("datetime64[s]")
         lon_lo, lon_hi = self._lon.start, self._lon.stop
         if self.periodic:
             lon_txt = "all longitudes (global)"
