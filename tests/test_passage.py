@@ -1,0 +1,89 @@
+"""Boeing speed reduction at sampled points against closed forms and brute force."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from optroute.passage import SeaState, best_speed, evaluate_speeds
+from optroute.performance import CalmWaterModel, KwonModel
+from optroute.safety import BandRules, forbidden_speed_intervals
+from optroute.ship import Ship
+
+SHIP = Ship.preset("container_8000teu")
+RULES = BandRules()
+
+
+def test_calm_sea_keeps_the_desired_speed_and_calm_power():
+    sea = SeaState.uniform(3)
+    choice = best_speed(SHIP, KwonModel(SHIP), RULES, [0.0, 90.0, 250.0], sea, 25.0)
+    assert choice.feasible.all()
+    assert choice.stw_kn == pytest.approx(25.0)
+    assert choice.power_kw == pytest.approx(SHIP.calm_power_kw(25.0))
+    assert choice.fuel_tph == pytest.approx(SHIP.fuel_rate_tph(SHIP.calm_power_kw(25.0)))
+
+
+def test_desired_speed_above_mcr_speed_is_reduced_to_the_ladder_step_below_it():
+    sea = SeaState.uniform(1)
+    choice = best_speed(SHIP, CalmWaterModel(SHIP), RULES, 0.0, sea, 30.0, step_kn=0.25)
+    vmax = SHIP.max_calm_speed_kn  # 27.65 kn for the 8000 TEU preset
+    expected = 30.0 - 0.25 * np.ceil((30.0 - vmax) / 0.25)
+    assert choice.stw_kn[0] == pytest.approx(expected)
+
+
+def test_surf_riding_band_forces_the_speed_below_its_closed_form_edge():
+    # Following sea (waves from the north, ship heading south), T 9 s: c = 27.3 kn, surf-riding
+    # band V ∈ [0.8 c, 1.2 c] for V cos χ = V; Hs 13 m ≥ 0.04·320 m so the bands apply.
+    sea = SeaState.uniform(1, hs_m=13.0, period_s=9.0, wave_from_deg=0.0)
+    intervals = forbidden_speed_intervals(SHIP, hs_m=13.0, period_s=9.0, wave_from_deg=0.0, heading_deg=180.0)
+    choice = best_speed(SHIP, CalmWaterModel(SHIP), RULES, 180.0, sea, 25.0, step_kn=0.01)
+    assert choice.feasible[0]
+    v = choice.stw_kn[0]
+    assert not any(iv.lo_kn <= v <= iv.hi_kn for iv in intervals)
+    # no allowed speed lies between v and 25 kn (brute force on a fine grid)
+    grid = np.arange(v + 0.01, 25.0, 0.01)
+    _, _, _, _, allowed = evaluate_speeds(SHIP, CalmWaterModel(SHIP), RULES, np.full(grid.size, 180.0),
+                                          SeaState.uniform(grid.size, hs_m=13.0, period_s=9.0), grid)
+    assert not allowed.any()
+
+
+def test_nan_sea_means_no_passage():
+    sea = SeaState.uniform(2, hs_m=2.0)
+    sea = SeaState(np.array([2.0, np.nan]), sea.period_s, sea.wave_from_deg, sea.wind_u_ms, sea.wind_v_ms,
+                   sea.current_u_ms, sea.current_v_ms)
+    choice = best_speed(SHIP, KwonModel(SHIP), RULES, 0.0, sea, 20.0)
+    assert choice.feasible.tolist() == [True, False]
+    assert np.isnan(choice.stw_kn[1])
+
+
+def test_min_load_makes_very_slow_speeds_infeasible_in_calm_water():
+    # 10 % MCR = 6 864 kW is reached in calm water at 25·(6864/50734)^(1/3) = 12.83 kn.
+    sea = SeaState.uniform(1)
+    v_min_load = 25.0 * (0.1 * 68_640 / (0.85 * 68_640 / 1.15)) ** (1 / 3)
+    _, _, _, _, allowed = evaluate_speeds(SHIP, CalmWaterModel(SHIP), RULES, [0.0], sea,
+                                          np.array([[v_min_load - 0.01, v_min_load + 0.01]]))
+    assert allowed.tolist() == [[False, True]]
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.floats(0.0, 16.0), st.floats(4.0, 16.0), st.floats(0.0, 360.0), st.floats(0.0, 360.0),
+    st.floats(-1.5, 1.5), st.floats(-1.5, 1.5), st.floats(8.0, 27.0),
+)
+def test_best_speed_is_the_fastest_allowed_ladder_speed(hs, tp, wave_from, course, cu, cv, desired):
+    sea = SeaState.uniform(1, hs_m=hs, period_s=tp, wave_from_deg=wave_from, current_u_ms=cu, current_v_ms=cv)
+    model = KwonModel(SHIP)
+    choice = best_speed(SHIP, model, RULES, course, sea, desired, step_kn=1.0)
+    ladder = desired - 1.0 * np.arange(int(desired - 1.0) + 1)
+    ok = []
+    for v in ladder:  # one speed at a time: independent of the vectorised ladder
+        *_, allowed = evaluate_speeds(SHIP, model, RULES, [course], sea, [v])
+        ok.append(bool(allowed[0]))
+    if any(ok):
+        assert choice.stw_kn[0] == pytest.approx(ladder[ok.index(True)])
+        forbidden = forbidden_speed_intervals(SHIP, hs_m=hs, period_s=tp, wave_from_deg=wave_from,
+                                              heading_deg=choice.heading_deg[0])
+        assert not any(iv.lo_kn <= choice.stw_kn[0] <= iv.hi_kn for iv in forbidden)
+        assert model.min_power_kw <= choice.power_kw[0] <= model.mcr_kw
+    else:
+        assert not choice.feasible[0]
