@@ -21,10 +21,22 @@ from optroute.errors import (
     WeatherCoverageError,
     WeatherSchemaError,
 )
+from optroute.performance import CalmWaterModel, KwonModel, PerformanceModel, PowerTableModel
+from optroute.safety import BandRules, ForbiddenInterval, band_margins, forbidden_speed_intervals
+from optroute.ship import Ship
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "BandRules",
+    "CalmWaterModel",
+    "ForbiddenInterval",
+    "KwonModel",
+    "PerformanceModel",
+    "PowerTableModel",
+    "Ship",
+    "band_margins",
+    "forbidden_speed_intervals",
     "ConfigError",
     "InfeasibleETA",
     "NoSafePassage",

@@ -64,13 +64,13 @@ def _add_bands(sub: argparse._SubParsersAction, common: argparse.ArgumentParser)
         ),
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
-    p.add_argument("--ship", default="container_8000teu", help="ship preset name (see Ship.presets())")
-    p.add_argument("--hs", type=float, default=6.0, metavar="M", help="significant wave height [m]")
-    p.add_argument("--period", type=float, default=11.0, metavar="S", help="wave period [s]")
+    p.add_argument("--ship", default="container_54k_dwt", help="ship preset name (see Ship.presets())")
+    p.add_argument("--hs", type=float, default=10.5, metavar="M", help="significant wave height [m]")
+    p.add_argument("--period", type=float, default=12.0, metavar="S", help="wave period [s]")
     p.add_argument(
         "--wave-from", type=float, default=0.0, metavar="DEG", help="direction the waves come from [deg true]"
     )
-    p.add_argument("--heading", type=float, default=180.0, metavar="DEG", help="ship heading, going to [deg true]")
+    p.add_argument("--heading", type=float, default=160.0, metavar="DEG", help="ship heading, going to [deg true]")
     p.add_argument("--rules", choices=RULE_SETS, default="boeing", help="rule set: Boeing EP 2145155 or IMO Circ.1228")
     p.add_argument("--margin", type=float, default=0.2, help="relative half-width of the ratio bands [-]")
     p.add_argument("--hs-fraction", type=float, default=0.04, metavar="F", help="bands apply where Hs >= F * L [-]")

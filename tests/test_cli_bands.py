@@ -32,19 +32,29 @@ def table_rows(out: str) -> list[tuple[str, float, float]]:
     return rows
 
 
-def test_defaults_work_and_say_bands_do_not_apply(capsys):
-    # container_8000teu, L 320 m: 0.04 L = 12.8 m > Hs 6 m
+def test_defaults_work_and_show_bands_that_apply(capsys):
+    # container_54k_dwt, L 250 m: 0.04 L = 10.0 m <= Hs 10.5 m; heading 160 into waves from 0: α 200°.
     code, out, err = run(capsys, "bands")
     assert code == 0 and err == ""
-    assert "container_8000teu" in out and "L 320.0 m" in out
+    assert "container_54k_dwt" in out and "L 250.0 m" in out
+    assert "bands APPLY" in out
+    assert "alpha 200 deg" in out
+    assert "lambda 224.8 m" in out  # 1.5613 · 12² = 224.8 m
+    assert table_rows(out)
+
+
+def test_below_threshold_says_bands_do_not_apply(capsys):
+    # container_8000teu, L 320 m: 0.04 L = 12.8 m > Hs 6 m
+    code, out, err = run(capsys, "bands", "--ship", "container_8000teu", "--hs", "6", "--period", "11",
+                         "--heading", "180", "--wave-from", "0")
+    assert code == 0 and err == ""
     assert "bands do not apply" in out
     assert "forbidden speeds [kn]: none" in out
     assert "alpha 180 deg (following seas" in out
-    assert "lambda 188.9 m" in out  # 1.5613 · 11² = 188.9 m
 
 
 def test_table_rows_are_forbidden_speeds(capsys):
-    code, out, err = run(capsys, "bands", "--hs", "14", "--period", "11", "--heading", "180", "--wave-from", "0")
+    code, out, err = run(capsys, "bands", "--ship", "container_8000teu", "--hs", "14", "--period", "11", "--heading", "180", "--wave-from", "0")
     assert code == 0 and err == ""
     assert "bands APPLY" in out
     rows = table_rows(out)
@@ -102,7 +112,7 @@ def test_beam_sea_all_forbidden(capsys):
 
 def test_plot_writes_png_atomically(capsys, tmp_path):
     target = tmp_path / "bands.png"
-    code, out, err = run(capsys, "bands", "--hs", "14", "--plot", str(target))
+    code, out, err = run(capsys, "bands", "--ship", "container_8000teu", "--hs", "14", "--plot", str(target))
     assert code == 0 and err == ""
     data = target.read_bytes()
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
