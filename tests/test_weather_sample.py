@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import math
 
 import numpy as np
@@ -214,3 +215,22 @@ def test_lazy_sampler_reads_slices_keeps_a_bounded_cache_and_checks_them(tmp_pat
         assert len(s._cache) <= 3
     with pytest.raises(WeatherSchemaError, match=r"at 2024-01-10T15:00:00: hs_m is NaN everywhere"):
         s.sample(T0 + 14 * H, 1.0, 1.0)
+
+
+@pytest.mark.skipif(importlib.util.find_spec("numba") is None, reason="numba is optional; the numpy kernel is the fallback")
+def test_numba_and_numpy_kernels_agree():
+    rng = np.random.default_rng(5)
+    lon = np.arange(-180.0, 180.0, 10.0)
+    hs = rng.uniform(0.5, 5.0, (3, 5, lon.size)).astype(np.float32)
+    hs[1, 2, 3] = np.nan
+    ds = _ds(T0 + np.arange(3) * 3 * H, np.linspace(-20, 20, 5), lon, hs, direction=rng.uniform(0, 360, (3, 5, lon.size)))
+    n = 2000
+    t = T0 + rng.integers(0, 6 * 3600, n).astype("timedelta64[s]")
+    la, lo = rng.uniform(-20, 20, n), rng.uniform(-180, 180, n)
+    a = WeatherSampler(ds, engine="numpy").sample(t, la, lo)
+    b = WeatherSampler(ds, engine="numba").sample(t, la, lo)
+    assert np.isnan(a["hs_m"]).any()
+    for name in a:
+        np.testing.assert_allclose(a[name], b[name], rtol=1e-12, atol=1e-12, equal_nan=True, err_msg=name)
+    with pytest.raises(ConfigError, match="engine='fast'"):
+        WeatherSampler(ds, engine="fast")

@@ -49,6 +49,63 @@ _EPS_DEG = 1e-7
 _DIR = "wave_from_deg"
 
 
+_NUMBA_MIN_POINTS = 256
+
+
+def _trilinear_numpy(
+    flat: np.ndarray, base: np.ndarray, xi: np.ndarray, xj: np.ndarray, nx: int, dt: int,
+    tw: np.ndarray, yw: np.ndarray, xw: np.ndarray,
+) -> np.ndarray:
+    """Trilinear interpolation by numpy gathers; ``flat`` is a (time, lat, lon) field raveled.
+
+    ``base`` is the flat index of the stencil's (time, lat) lower corner row,
+    ``xi``/``xj`` the lower/upper lon columns (``xj`` wraps on a global grid),
+    ``dt`` the flat offset of the next time slice (0 for a single slice),
+    ``tw``, ``yw``, ``xw`` the weights of the upper neighbours in [0, 1].
+    A NaN anywhere in the stencil gives NaN.
+    """
+    wx0, wy0 = 1.0 - xw, 1.0 - yw
+    idx = (base + xi, base + xj, base + nx + xi, base + nx + xj)
+    weights = (wy0 * wx0, wy0 * xw, yw * wx0, yw * xw)
+    lo = sum(w * flat.take(i) for w, i in zip(weights, idx, strict=True))
+    if dt == 0:
+        return np.asarray(lo, dtype=float)
+    hi = sum(w * flat.take(i + dt) for w, i in zip(weights, idx, strict=True))
+    return (1.0 - tw) * lo + tw * hi
+
+
+def _make_numba_kernel() -> Any:
+    try:
+        import numba
+    except ImportError:  # numba is optional: the numpy kernel gives the same numbers
+        return None
+
+    @numba.njit(parallel=True, cache=True, nogil=True)
+    def kernel(flat, base, xi, xj, nx, dt, tw, yw, xw):  # pragma: no cover - compiled
+        n = base.size
+        out = np.empty(n)
+        for p in numba.prange(n):
+            b, x0, x1 = base[p], xi[p], xj[p]
+            wx, wy, wt = xw[p], yw[p], tw[p]
+            lo = (1.0 - wy) * ((1.0 - wx) * flat[b + x0] + wx * flat[b + x1]) + wy * (
+                (1.0 - wx) * flat[b + nx + x0] + wx * flat[b + nx + x1]
+            )
+            if dt == 0:
+                out[p] = lo
+            else:
+                c = b + dt
+                hi = (1.0 - wy) * ((1.0 - wx) * flat[c + x0] + wx * flat[c + x1]) + wy * (
+                    (1.0 - wx) * flat[c + nx + x0] + wx * flat[c + nx + x1]
+                )
+                out[p] = (1.0 - wt) * lo + wt * hi
+        return out
+
+    return kernel
+
+
+_trilinear_numba = _make_numba_kernel()
+
+
 class _Axis:
     """A 1-D grid axis: locates points as (lower index, weight) by arithmetic when uniform."""
 
@@ -98,6 +155,10 @@ class WeatherSampler:
         loaded into memory at construction; a bigger one is read slice by slice.
     cache_bytes : int
         Memory for the time slices a lazy dataset keeps between calls [bytes].
+    engine : {"auto", "numpy", "numba"}
+        The interpolation kernel: numba (compiled, parallel; the default when
+        numba is installed — the first call compiles it, cached on disk) or
+        numpy (vectorised gathers).  Both give the same numbers.
 
     Raises
     ------
@@ -120,7 +181,13 @@ class WeatherSampler:
         required: Sequence[Sequence[str]] = schema.WAVE_REQUIRED,
         load_bytes: int = 512 * 2**20,
         cache_bytes: int = 512 * 2**20,
+        engine: str = "auto",
     ) -> None:
+        if engine not in ("auto", "numpy", "numba"):
+            raise ConfigError(f"engine={engine!r} is not known; use 'auto', 'numpy' or 'numba'")
+        if engine == "numba" and _trilinear_numba is None:
+            raise ConfigError("engine='numba' needs numba; install it with pip install numba, or use engine='numpy'")
+        self.engine = "numba" if engine == "auto" and _trilinear_numba is not None else ("numpy" if engine == "auto" else engine)
         self.source = str(ds.attrs.get("source", "dataset"))
         schema.check_coords(ds, self.source)
         check_required(ds, required, self.source)
@@ -235,19 +302,11 @@ class WeatherSampler:
         nt_local = next(iter(arrays.values())).shape[0] if arrays else 1
         ny, nx = self._lat.n, self._lon.n
         dt = ny * nx if nt_local > 1 else 0
-        row0 = (ti * ny + yi) * nx
-        row1 = row0 + nx
-        idx = (row0 + xi, row0 + xj, row1 + xi, row1 + xj)
-        wx1, wy1, wt1 = xw, yw, tw
-        wx0, wy0, wt0 = 1.0 - xw, 1.0 - yw, 1.0 - tw
-        weights = (wy0 * wx0, wy0 * wx1, wy1 * wx0, wy1 * wx1)
+        base = (ti * ny + yi) * nx
+        kernel = _trilinear_numba if (self.engine == "numba" and base.size >= _NUMBA_MIN_POINTS) else _trilinear_numpy
 
-        def interp(flat: np.ndarray) -> np.ndarray:
-            lo_t = sum(w * flat.take(i) for w, i in zip(weights, idx, strict=True))
-            if dt == 0:
-                return lo_t
-            hi_t = sum(w * flat.take(i + dt) for w, i in zip(weights, idx, strict=True))
-            return wt0 * lo_t + wt1 * hi_t
+        def interp(field: np.ndarray) -> np.ndarray:
+            return kernel(field.reshape(-1), base, xi, xj, nx, dt, tw, yw, xw)
 
         out: dict[str, np.ndarray] = {}
         for name in wanted:
@@ -346,8 +405,7 @@ class WeatherSampler:
     def _derive(self, values: dict[str, np.ndarray], where: str) -> dict[str, np.ndarray]:
         out: dict[str, np.ndarray] = {}
         for v, arr in values.items():
-            if arr.dtype.kind != "f":
-                arr = arr.astype(float)
+            arr = np.ascontiguousarray(arr if arr.dtype.kind == "f" else arr.astype(float))
             schema.check_values(v, arr, where)
             if v == _DIR:
                 rad = np.radians(arr)

@@ -320,8 +320,11 @@ def check_values(name: str, values: np.ndarray, where: str) -> None:
     if values.size == 0:
         raise WeatherSchemaError(f"{where}: {name} is empty")
     slices = values.reshape(values.shape[0], -1) if values.ndim >= 3 else values.reshape(1, -1)
-    finite = np.isfinite(slices)
-    dead = ~finite.any(axis=1)
+    if slices.dtype.kind != "f":
+        slices = slices.astype(float)
+    mins = np.fmin.reduce(slices, axis=1)  # fmin skips NaN: NaN only for an all-NaN slice
+    maxs = np.fmax.reduce(slices, axis=1)
+    dead = np.isnan(mins)
     if dead.any():
         k = int(np.flatnonzero(dead)[0])
         tail = f" (slice {k} of {slices.shape[0]})" if slices.shape[0] > 1 else ""
@@ -330,8 +333,7 @@ def check_values(name: str, values: np.ndarray, where: str) -> None:
             "the time range you downloaded"
         )
     lo, hi = PLAUSIBLE_RANGE.get(name, (-np.inf, np.inf))
-    vmin = float(np.min(slices, where=finite, initial=np.inf))
-    vmax = float(np.max(slices, where=finite, initial=-np.inf))
+    vmin, vmax = float(np.min(mins)), float(np.max(maxs))
     if vmin < lo or vmax > hi:
         bad = vmin if vmin < lo else vmax
         unit = VARIABLES.get(name, {}).get("units", "")
