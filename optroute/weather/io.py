@@ -238,9 +238,12 @@ def open_weather(
         xarray backend (``"netcdf4"``, ``"h5netcdf"``, ``"scipy"``, ``"zarr"``,
         ``"cfgrib"``); sniffed from the file's first bytes when omitted.
     chunks : "auto", int, dict or None
-        Dask chunks.  ``"auto"`` (default) opens lazily with dask: nothing is
-        read until sampled; ``None`` opens with xarray's lazy backend arrays
-        without dask.
+        Dask chunks.  ``"auto"`` (default) opens lazily with dask, one chunk
+        per time step (and level) holding whole lat/lon fields, so that the
+        sampler reads only the time slices it needs; a dict or int goes to
+        :func:`xarray.open_dataset` as is (provider dimension names); ``None``
+        uses xarray's lazy backend arrays without dask (a variable whose units
+        are converted is then read whole on first use).
     time_policy : {"raise", "hold"}
         Recorded in ``attrs["time_policy"]`` and used by
         :class:`~optroute.weather.sample.WeatherSampler`: ``"raise"`` makes a
@@ -360,14 +363,31 @@ def _open_path(path: Path, engine: str | None, chunks: Any, backend_kwargs: Mapp
             raise ConfigError(f'{path}: reading GRIB needs cfgrib and ecCodes; install them with pip install "optroute[grib]"')
         kwargs.setdefault("indexpath", "")  # never write .idx files beside the data
     try:
-        if engine == "zarr":
-            return xr.open_dataset(path, engine="zarr", chunks=chunks, backend_kwargs=kwargs or None)
+        if isinstance(chunks, str) and chunks == "auto":
+            raw = xr.open_dataset(path, engine=engine, chunks=None, cache=False, backend_kwargs=kwargs or None)
+            return raw.chunk(_slice_chunks(raw))
         return xr.open_dataset(path, engine=engine, chunks=chunks, backend_kwargs=kwargs or None)
     except (OSError, ValueError, RuntimeError, KeyError, TypeError, IndexError, EOFError) as exc:
         raise WeatherSchemaError(
             f"{path}: could not be read with the {engine!r} engine ({type(exc).__name__}: {exc}); "
             "the file is truncated, corrupted or not weather data"
         ) from exc
+
+
+def _slice_chunks(raw: xr.Dataset) -> dict[Hashable, int]:
+    """Dask chunks of one time step (and one level) with whole horizontal fields.
+
+    The sampler reads the time slices around its points; dask's ``"auto"``
+    chunks would bundle dozens of time steps into one chunk and read them all.
+    """
+    spec: dict[Hashable, int] = {}
+    for dim in raw.dims:
+        coord = raw.coords.get(dim)
+        horizontal = dim in _LAT_NAMES or dim in _LON_NAMES or (
+            coord is not None and coord.attrs.get("units") in ("degrees_north", "degrees_east")
+        )
+        spec[dim] = -1 if horizontal else 1
+    return spec
 
 
 # ---------------------------------------------------------------------------
