@@ -77,7 +77,7 @@ def _trilinear_numpy(
 def _make_numba_kernel() -> Any:
     try:
         import numba
-    except ImportError:  # numba is optional: the numpy kernel gives the same numbers
+    except ImportError:  # numba is optional: the numpy kernels give the same numbers
         return None
 
     @numba.njit(parallel=True, cache=True, nogil=True)
@@ -100,10 +100,28 @@ def _make_numba_kernel() -> Any:
                 out[p] = (1.0 - wt) * lo + wt * hi
         return out
 
-    return kernel
+    @numba.njit(parallel=True, cache=True, nogil=True)
+    def sincos(deg, s, c):  # pragma: no cover - compiled
+        flat, fs, fc = deg.reshape(-1), s.reshape(-1), c.reshape(-1)
+        for p in numba.prange(flat.size):
+            r = np.radians(flat[p])
+            fs[p] = np.sin(r)
+            fc[p] = np.cos(r)
+
+    return kernel, sincos
 
 
-_trilinear_numba = _make_numba_kernel()
+_trilinear_numba, _sincos_numba = _make_numba_kernel() or (None, None)
+
+
+def _unit_vectors(deg: np.ndarray, engine: str) -> tuple[np.ndarray, np.ndarray]:
+    """(sin, cos) of directions [deg], in the array's own float type."""
+    if engine == "numba" and _sincos_numba is not None and deg.size >= _NUMBA_MIN_POINTS:
+        s, c = np.empty_like(deg), np.empty_like(deg)
+        _sincos_numba(np.ascontiguousarray(deg), s, c)
+        return s, c
+    rad = np.radians(deg)
+    return np.sin(rad), np.cos(rad)
 
 
 class _Axis:
@@ -408,8 +426,7 @@ class WeatherSampler:
             arr = np.ascontiguousarray(arr if arr.dtype.kind == "f" else arr.astype(float))
             schema.check_values(v, arr, where)
             if v == _DIR:
-                rad = np.radians(arr)
-                out[_DIR + ":sin"], out[_DIR + ":cos"] = np.sin(rad), np.cos(rad)
+                out[_DIR + ":sin"], out[_DIR + ":cos"] = _unit_vectors(arr, self.engine)
             else:
                 out[v] = arr
         return out
