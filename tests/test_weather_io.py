@@ -301,6 +301,11 @@ def test_missing_required_variable_lists_the_accepted_names(tmp_path):
         assert alias in msg
 
 
+def test_half_a_wind_vector_is_refused(tmp_path):
+    with pytest.raises(WeatherSchemaError, match="wind_u_ms is present but wind_v_ms is not.*v10 \\(ERA5\\)"):
+        open_weather(_good(tmp_path).drop_vars("v10"))
+
+
 def test_unknown_units_name_variable_unit_and_accepted(tmp_path):
     raw = _good(tmp_path)
     raw["swh"].attrs["units"] = "furlongs"
@@ -419,3 +424,17 @@ def test_no_warning_for_clean_files(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         open_weather(tmp_path / "ok.nc")
+
+
+def test_era5_expver_dimension_is_merged():
+    """Old CDS files mixing ERA5 (expver 1) and ERA5T (expver 5): each time is valid in one of the two."""
+    lat, lon = np.array([0.0, 1.0]), np.array([10.0, 11.0])
+    raw = _raw(ERA5, lat, lon)
+    first = raw.where(raw["valid_time"] < TIMES[2])  # ERA5 up to the second time, ERA5T after
+    second = raw.where(raw["valid_time"] >= TIMES[2])
+    mixed = xr.concat([first, second], dim="expver").assign_coords(expver=[1, 5])
+    for v in ERA5:
+        mixed[v].attrs = raw[v].attrs
+    ds = open_weather(mixed)
+    _assert_canonical(ds, _expected(lat, lon, [*WAVES, "wind_u_ms", "wind_v_ms"]))
+    assert "expver merged" in ds.attrs["levels_selected"]

@@ -54,7 +54,7 @@ def test_matches_a_brute_force_reference_on_a_non_uniform_grid():
     lon = np.linspace(30.0, 40.0, 11)
     hs = rng.uniform(0.5, 6.0, (4, 6, 11))
     u = rng.normal(0.0, 8.0, (4, 6, 11))
-    ds = _ds(times, lat, lon, hs, wind_u_ms=u)
+    ds = _ds(times, lat, lon, hs, wind_u_ms=u, wind_v_ms=-u)
     n = 500
     th = rng.uniform(0.0, 12.0, n)
     pla, plo = rng.uniform(-5.0, 3.0, n), rng.uniform(30.0, 40.0, n)

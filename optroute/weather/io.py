@@ -205,8 +205,18 @@ def check_required(
     Raises
     ------
     WeatherSchemaError
-        Naming the missing variable and every accepted name across providers.
+        Naming the missing variable and every accepted name across providers;
+        also when one component of the wind or current vector is there
+        without the other (never filled with zero).
     """
+    for pair in (("wind_u_ms", "wind_v_ms"), ("current_u_ms", "current_v_ms")):
+        have = [name for name in pair if name in ds.data_vars]
+        if len(have) == 1:
+            lack = next(name for name in pair if name not in have)
+            raise WeatherSchemaError(
+                f"{source}: {have[0]} is present but {lack} is not; a vector needs both components "
+                f"(accepted names for {lack}: {accepted_names(lack)})"
+            )
     for group in required:
         if not any(name in ds.data_vars for name in group):
             accepted = "; ".join(f"{name}: {accepted_names(name)}" for name in group)
