@@ -1,0 +1,521 @@
+"""Time-dependent Dijkstra and A* over the routing grid.
+
+Boeing EP 2145155 (Figs. 14–16, 21–22) labels each grid point P with the
+cost L(P) of the best route found to it and the time T(P) the ship gets
+there; expanding P costs every neighbour N with C(P, N, T(P)), the cost of
+crossing the cells cut by P→N with the weather of the time the ship is in
+each one.  This module implements that search, generic over the cost of a
+leg (see :mod:`optroute.search.costs` for the two callback forms).
+
+Objectives
+----------
+``"time"``
+    Earliest arrival.  Label = arrival time.  Exact when the legs are FIFO (a
+    later departure never arrives earlier, true for speed fields that change
+    slowly against the leg duration); without FIFO it returns the fixed point
+    of ``T(N) = min_P T(P) + C(P, N, T(P))`` that every label-setting method
+    returns, as the patent does.
+``"cost"``
+    Label = fuel + λ·time [t], with ``λ = lambda_t_per_h`` [t/h]; the time is
+    carried along with the label.  With time-dependent weather this is a
+    heuristic label-setting search (a costlier but earlier partial route can
+    lead to a cheaper total, and is discarded), exactly like the patent's
+    "lowest cost" variant; with static weather it is exact.  ``λ = 0`` gives
+    the "fuel" objective.
+
+Methods
+-------
+``"dijkstra"``
+    Label-setting in increasing label order.  Nodes are settled in *batches*:
+    every open node whose label is below ``L_min + δ`` is final, where ``δ`` is
+    a lower bound on the cost of any edge (shortest true edge length over
+    ``v_max_kn``, times λ for the cost objective): no edge can bring another
+    open node below ``L_min + δ``.  Batching is therefore exact, and lets the
+    callback cost hundreds of nodes' edges in one vectorised call.
+``"astar"``
+    A* with the great-circle heuristic ``E(N) = w · distance_nm(N, end) /
+    v_max_kn`` (``w`` = 1 for time, λ for cost), consistent because every leg
+    is a great-circle arc sailed at most at ``v_max_kn``; it settles the same
+    labels as Dijkstra (same cost) and expands fewer nodes, one at a time.
+
+The search checks on every costed edge that ``duration_h >= distance /
+v_max_kn`` (otherwise the heuristic and the batching would not be exact) and
+raises :class:`~optroute.errors.ConfigError` if the callback sails faster.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from optroute._checks import finite
+from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
+from optroute.search.costs import EdgeCostFn, LegEvaluator, SegmentCostFn
+from optroute.search.grid import RouteGrid, chord_distance_nm, course_between_deg, segment_cells
+from optroute.search.neighbourhood import Neighbourhood
+
+_SPEED_TOL = 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class SearchResult:
+    """A route found on the grid, with the search's statistics.
+
+    Attributes
+    ----------
+    nodes : ndarray of int, shape (n, 2)
+        Grid nodes ``(i, j)`` from start to end.
+    lat_deg, lon_deg : ndarray, shape (n,)
+        Waypoints [deg], lon in [-180, 180).
+    times_h : ndarray, shape (n,)
+        Time at each waypoint [h from departure]; ``times_h[0] == 0``.
+    leg_duration_h, leg_fuel_t, leg_distance_nm : ndarray, shape (n-1,)
+        Per leg: duration [h], fuel [t], great-circle length [nm].
+    leg_course_deg : ndarray, shape (n-1,)
+        Initial great-circle course of each leg [deg true, to].
+    leg_sog_kn : ndarray, shape (n-1,)
+        Mean speed over ground of each leg [kn].
+    extra : dict of str to ndarray
+        The edge callback's extras for each leg (edge form), or the per-piece
+        records of the segment form (keys ``piece_*``, ``piece_leg`` = leg index).
+    cost : float
+        Objective value: arrival time [h] for ``"time"``, fuel + λ·time [t] for ``"cost"``.
+    arrival_h, total_fuel_t : float
+        Arrival [h from departure] and total fuel [t].
+    objective, method, neighbourhood : str
+        What was run.
+    lambda_t_per_h : float
+        λ of the cost objective [t/h] (0 for ``"time"``).
+    expanded : int
+        Nodes expanded (settled and their edges costed).
+    evaluated_edges : int
+        Edges costed by the callback.
+    callback_calls : int
+        Calls of the cost callback.
+    batches : int
+        Settling steps (``expanded`` for A*; fewer for batched Dijkstra).
+    """
+
+    nodes: np.ndarray
+    lat_deg: np.ndarray
+    lon_deg: np.ndarray
+    times_h: np.ndarray
+    leg_duration_h: np.ndarray
+    leg_fuel_t: np.ndarray
+    leg_distance_nm: np.ndarray
+    leg_course_deg: np.ndarray
+    leg_sog_kn: np.ndarray
+    extra: dict[str, np.ndarray]
+    cost: float
+    arrival_h: float
+    total_fuel_t: float
+    objective: str
+    method: str
+    neighbourhood: str
+    lambda_t_per_h: float
+    expanded: int
+    evaluated_edges: int
+    callback_calls: int
+    batches: int
+
+    @property
+    def distance_nm(self) -> float:
+        """Total great-circle length of the route [nm]."""
+        return float(self.leg_distance_nm.sum())
+
+
+# ------------------------------------------------------------------ graph
+def edge_mask(grid: RouteGrid, neighbourhood: Neighbourhood) -> np.ndarray:
+    """Which edges exist: ``mask[k, o]`` for flat node ``k`` and offset index ``o``.
+
+    An edge exists when its end node is on the grid and every cell its segment
+    crosses (supercover walk, including cells touched at a corner; Boeing
+    Fig. 14) is navigable, the start and end cells included.
+
+    Returns
+    -------
+    ndarray of bool, shape (ny * nx, m)
+    """
+    ny, nx = grid.shape
+    r = neighbourhood.radius_cells
+    pad = np.zeros((ny + 2 * r, nx + 2 * r), dtype=bool)
+    pad[r : r + ny, r : r + nx] = grid.navigable
+    out = np.empty((ny, nx, neighbourhood.m), dtype=bool)
+    shifted: dict[tuple[int, int], np.ndarray] = {}
+    for o, (di, dj) in enumerate(neighbourhood.offsets):
+        cells, _, _ = segment_cells(int(di), int(dj))
+        acc = grid.navigable.copy()
+        for ci, cj in cells:
+            key = (int(ci), int(cj))
+            if key not in shifted:
+                shifted[key] = pad[r + key[0] : r + key[0] + ny, r + key[1] : r + key[1] + nx]
+            acc &= shifted[key]
+        out[:, :, o] = acc
+    return out.reshape(ny * nx, neighbourhood.m)
+
+
+def grid_edges(grid: RouteGrid, neighbourhood: Neighbourhood) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """All edges of the grid graph as flat ``(source, target, offset index)`` arrays."""
+    mask = edge_mask(grid, neighbourhood)
+    u, o = np.nonzero(mask)
+    off = neighbourhood.offsets[:, 0] * grid.nx + neighbourhood.offsets[:, 1]
+    return u, u + off[o], o
+
+
+def _min_edge_length_nm(grid: RouteGrid, nb: Neighbourhood, ev: LegEvaluator) -> float:
+    """A lower bound on the true length of every edge [nm] (exact for unit steps).
+
+    Unit steps are measured on the grid; longer offsets use the gnomonic scale
+    bound true ≥ plane · cos²(c_max) (scale factors sec c and sec² c, Snyder §22).
+    """
+    ny, nx = grid.shape
+    xyz = ev.xyz.reshape(ny, nx, 3)
+    c2 = np.cos(np.radians(grid.max_angle_from_centre_deg())) ** 2
+    lengths = nb.lengths_cells
+    best = np.inf
+    for (di, dj), ln in zip(nb.offsets, lengths, strict=True):
+        if max(abs(di), abs(dj)) == 1:
+            a = xyz[max(0, -di) : ny - max(0, di), max(0, -dj) : nx - max(0, dj)]
+            b = xyz[max(0, di) : ny + min(0, di), max(0, dj) : nx + min(0, dj)]
+            if a.size:
+                best = min(best, float(chord_distance_nm(a.reshape(-1, 3), b.reshape(-1, 3)).min()))
+        else:
+            best = min(best, float(ln * grid.cell_nm * c2))
+    return best
+
+
+# ----------------------------------------------------------------- search
+def shortest_path(
+    grid: RouteGrid,
+    neighbourhood: Neighbourhood,
+    *,
+    v_max_kn: float,
+    edge_cost: EdgeCostFn | None = None,
+    segment_cost: SegmentCostFn | None = None,
+    method: Literal["astar", "dijkstra"] = "astar",
+    objective: Literal["time", "cost", "fuel"] = "time",
+    lambda_t_per_h: float = 0.0,
+    eta_h: float | None = None,
+    batched: bool = True,
+) -> SearchResult:
+    """Time-dependent shortest path from ``grid.start`` to ``grid.end``.
+
+    Parameters
+    ----------
+    grid : RouteGrid
+        The lattice and its navigable mask.
+    neighbourhood : Neighbourhood
+        The offsets a leg may take.
+    v_max_kn : float
+        An upper bound on the speed over ground any leg can make [kn] (the
+        ship's top speed plus the strongest following current): it makes the
+        A* heuristic admissible and the Dijkstra batches exact, and is checked.
+    edge_cost, segment_cost : callable
+        Exactly one: the whole-leg or the cell-by-cell callback, see
+        :mod:`optroute.search.costs`.  Times are [h from departure].
+    method : {"astar", "dijkstra"}
+        Search order; both give the same cost.
+    objective : {"time", "cost", "fuel"}
+        Earliest arrival, or fuel + λ·time (``"fuel"`` is ``"cost"`` with λ = 0).
+    lambda_t_per_h : float
+        λ, the value of an hour in tonnes of fuel [t/h], for ``"cost"``.
+    eta_h : float, optional
+        Required arrival [h from departure], ``"time"`` objective only: a later
+        earliest arrival raises :class:`InfeasibleETA`.
+    batched : bool
+        Settle every provably final node at once (default; exact, see
+        ``_Search._loop``) or one node per step (the textbook order, slower;
+        for checking).
+
+    Returns
+    -------
+    SearchResult
+
+    Raises
+    ------
+    NoSafePassage
+        Start or end lies in a non-navigable cell, or no feasible route joins
+        them; the message names the reached node closest to the end.
+    InfeasibleETA
+        The earliest arrival is after ``eta_h``; ``earliest_arrival`` and
+        ``earliest_arrival_h`` hold it [h from departure].
+    ConfigError
+        Bad options, or a callback that breaks its contract (including sailing
+        faster than ``v_max_kn``).
+    """
+    if method not in ("astar", "dijkstra"):
+        raise ConfigError(f"method={method!r} is not known; use 'astar' or 'dijkstra'")
+    if objective not in ("time", "cost", "fuel"):
+        raise ConfigError(f"objective={objective!r} is not known; use 'time', 'cost' or 'fuel'")
+    vmax = float(finite("v_max_kn", v_max_kn, minimum=0.0, strict=True, error=ConfigError))
+    lam = float(finite("lambda_t_per_h", lambda_t_per_h, minimum=0.0, error=ConfigError))
+    if objective in ("fuel", "time"):
+        lam = 0.0
+    if eta_h is not None and objective != "time":
+        raise ConfigError("eta_h is only checked for objective='time'; for fuel or cost use the DP or the NLP")
+    ev = LegEvaluator(grid, neighbourhood, edge_cost=edge_cost, segment_cost=segment_cost)
+    return _Search(grid, neighbourhood, ev, vmax, method, objective, lam, batched).run(eta_h)
+
+
+def dijkstra(grid: RouteGrid, neighbourhood: Neighbourhood, **kwargs: object) -> SearchResult:
+    """:func:`shortest_path` with ``method="dijkstra"``."""
+    return shortest_path(grid, neighbourhood, method="dijkstra", **kwargs)  # type: ignore[arg-type]
+
+
+def astar(grid: RouteGrid, neighbourhood: Neighbourhood, **kwargs: object) -> SearchResult:
+    """:func:`shortest_path` with ``method="astar"``."""
+    return shortest_path(grid, neighbourhood, method="astar", **kwargs)  # type: ignore[arg-type]
+
+
+class _Search:
+    def __init__(
+        self,
+        grid: RouteGrid,
+        nb: Neighbourhood,
+        ev: LegEvaluator,
+        vmax: float,
+        method: str,
+        objective: str,
+        lam: float,
+        batched: bool,
+    ) -> None:
+        self.grid, self.nb, self.ev = grid, nb, ev
+        self.vmax, self.method, self.objective, self.lam = vmax, method, objective, lam
+        self.batched = batched
+        self.f_slack = 1.0 if method == "astar" else np.inf
+        self.time_obj = objective == "time"
+        n = grid.n_nodes
+        ny, nx = grid.shape
+        r = nb.radius_cells
+        # static edge test on demand: destination on the grid and every crossed cell navigable
+        self.ii, self.jj = (a.astype(np.int64) for a in grid.unflat(np.arange(n)))
+        self.di = nb.offsets[:, 0].astype(np.int64)
+        self.dj = nb.offsets[:, 1].astype(np.int64)
+        self.off = self.di * nx + self.dj
+        nxp = nx + 2 * r
+        pad = np.zeros((ny + 2 * r, nxp), dtype=bool)
+        pad[r : r + ny, r : r + nx] = grid.navigable
+        self.nav_pad = pad.ravel()
+        self.all_navigable = bool(grid.navigable.all())
+        # true edge length <= plane length (gnomonic scale >= 1): a cheap first speed check
+        self.plane_len = nb.lengths_cells * grid.cell_nm
+        self.base_pad = (self.ii + r) * nxp + (self.jj + r)
+        walks = [segment_cells(int(a), int(b))[0] for a, b in nb.offsets]
+        kmax = max(len(w) for w in walks)
+        self.cell_off = np.zeros((nb.m, kmax), dtype=np.int64)  # padded with the start cell (navigable)
+        for o, w in enumerate(walks):
+            self.cell_off[o, : len(w)] = w[:, 0] * nxp + w[:, 1]
+        self.label = np.full(n, np.inf)
+        self.tarr = np.full(n, np.nan)
+        self.fuel = np.zeros(n)
+        self.parent = np.full(n, -1, dtype=np.int64)
+        self.poff = np.full(n, -1, dtype=np.int64)
+        self.state = np.zeros(n, dtype=np.int8)  # 0 unseen, 1 open, 2 settled
+        self.s = int(grid.flat(*grid.start))
+        self.g = int(grid.flat(*grid.end))
+        self.expanded = 0
+        self.evaluated = 0
+        self.batches = 0
+        self.weight = 1.0 if self.time_obj else lam
+
+    # ------------------------------------------------------------ relax
+    def _edges_ok(self, batch: np.ndarray) -> np.ndarray:
+        i = self.ii[batch, None] + self.di[None, :]
+        j = self.jj[batch, None] + self.dj[None, :]
+        ny, nx = self.grid.shape
+        ok = (i >= 0) & (i < ny) & (j >= 0) & (j < nx)
+        if not self.all_navigable:
+            cells = self.base_pad[batch, None, None] + self.cell_off[None, :, :]
+            ok &= self.nav_pad[cells].all(axis=2)
+        return ok
+
+    def _check_speed(self, u: np.ndarray, v: np.ndarray, dur: np.ndarray) -> None:
+        dist = self.ev.distance_nm(u, v)
+        fast = dur * self.vmax < dist * (1.0 - _SPEED_TOL)
+        if fast.any():
+            k = int(np.argmax(fast))
+            raise ConfigError(
+                f"the cost callback sailed a {dist[k]:.1f} nm leg in {dur[k]:.4g} h, i.e. at "
+                f"{dist[k] / dur[k]:.2f} kn > v_max_kn={self.vmax}; raise v_max_kn to a true upper bound "
+                "on the speed over ground (it keeps the search exact)"
+            )
+
+    def _relax(self, batch: np.ndarray) -> np.ndarray:
+        """Cost the edges out of settled ``batch``; return the nodes opened for the first time."""
+        nbr = batch[:, None] + self.off[None, :]
+        ok = self._edges_ok(batch)
+        ok &= self.state[np.where(ok, nbr, 0)] != 2
+        bi, o = np.nonzero(ok)
+        if bi.size == 0:
+            return np.zeros(0, dtype=np.int64)
+        u = batch[bi]
+        v = nbr[bi, o]
+        t0 = self.tarr[u]
+        dur, fu, feas, _ = self.ev.evaluate(u, v, o, t0)
+        self.evaluated += u.size
+        maybe = feas & (dur * self.vmax < self.plane_len[o] * (1.0 - _SPEED_TOL))
+        if maybe.any():
+            self._check_speed(u[maybe], v[maybe], dur[maybe])
+        inc = dur if self.time_obj else fu + self.lam * dur
+        new = self.label[u] + inc
+        keep = feas & (new < self.label[v])
+        if not keep.any():
+            return np.zeros(0, dtype=np.int64)
+        u, v, o, new, t1, fu = u[keep], v[keep], o[keep], new[keep], (t0 + dur)[keep], fu[keep]
+        order = np.lexsort((t1, new, v))
+        vs = v[order]
+        first = np.ones(vs.size, dtype=bool)
+        first[1:] = vs[1:] != vs[:-1]
+        sel = order[first]
+        u, v, o, new, t1, fu = u[sel], v[sel], o[sel], new[sel], t1[sel], fu[sel]
+        opened = v[self.state[v] == 0]
+        self.label[v] = new
+        self.tarr[v] = t1
+        self.fuel[v] = self.fuel[u] + fu
+        self.parent[v] = u
+        self.poff[v] = o
+        self.state[v] = 1
+        return opened
+
+    # -------------------------------------------------------------- run
+    def run(self, eta_h: float | None) -> SearchResult:
+        grid = self.grid
+        for name, node, pos in (("start", grid.start, grid.start_latlon), ("end", grid.end, grid.end_latlon)):
+            if not grid.navigable[node]:
+                raise NoSafePassage(
+                    f"the {name} ({pos[0]:.4f}, {pos[1]:.4f}) lies in a non-navigable grid cell {node}; "
+                    "move it to open water or check the navigable mask"
+                )
+        self.label[self.s] = 0.0
+        self.tarr[self.s] = 0.0
+        self.state[self.s] = 1
+        self._loop()
+        if self.state[self.g] != 2:
+            self._fail()
+        res = self._result()
+        if eta_h is not None and res.arrival_h > float(eta_h):
+            exc = InfeasibleETA(
+                f"the required arrival {float(eta_h):.2f} h after departure cannot be met: the earliest "
+                f"arrival found is {res.arrival_h:.2f} h after departure; allow a later ETA",
+                earliest_arrival=res.arrival_h,
+            )
+            exc.earliest_arrival_h = res.arrival_h  # type: ignore[attr-defined]
+            raise exc
+        return res
+
+    def _loop(self) -> None:
+        """Settle nodes in batches that provably cannot be improved any more.
+
+        With a consistent heuristic h (h = 0 for Dijkstra) and δ a lower bound
+        on every edge's cost, a path to open node y through another open node w
+        costs at least ``g(w) + δ`` and at least ``f(w) - h(y)``.  So y is final
+        when every open w with ``f(w) < f(y)`` has ``g(w) >= g(y) - δ``: with the
+        open set sorted by f, ``g(y) <= min(g over the nodes before y) + δ``.
+        For Dijkstra this is ``g(y) <= g_min + δ``.  The node of least f is
+        always final; settling all final nodes at once stays exact because a
+        path through one of them obeys the same two bounds.
+        """
+        n = self.grid.n_nodes
+        if self.method == "astar":
+            dist_goal = self.ev.distance_nm(np.arange(n), np.full(n, self.g))
+            h = self.weight * dist_goal / self.vmax
+        else:
+            h = np.zeros(n)
+        dmin = _min_edge_length_nm(self.grid, self.nb, self.ev) / self.vmax
+        delta = (dmin if self.time_obj else self.lam * dmin) * (1.0 - 1e-9)
+        open_nodes = np.array([self.s], dtype=np.int64)
+        while open_nodes.size:
+            g = self.label[open_nodes]
+            if not self.batched:
+                f = g + h[open_nodes]
+                sel = np.zeros(open_nodes.size, dtype=bool)
+                sel[int(np.argmin(f))] = True
+            elif self.method == "dijkstra":
+                sel = g <= g.min() + delta
+            else:
+                f = g + h[open_nodes]
+                cand = np.nonzero(f <= f.min() + self.f_slack * delta)[0]
+                order = cand[np.argsort(f[cand], kind="stable")]
+                gs = g[order]
+                prior = np.empty_like(gs)
+                prior[0] = np.inf
+                np.minimum.accumulate(gs[:-1], out=prior[1:])
+                final = gs <= prior + delta
+                final[0] = True
+                sel = np.zeros(open_nodes.size, dtype=bool)
+                sel[order[final]] = True
+            batch = open_nodes[sel]
+            open_nodes = open_nodes[~sel]
+            self.state[batch] = 2
+            self.expanded += batch.size
+            self.batches += 1
+            if self.state[self.g] == 2:
+                return
+            opened = self._relax(batch)
+            if opened.size:
+                open_nodes = np.concatenate([open_nodes, opened])
+
+    # ---------------------------------------------------------- output
+    def _fail(self) -> None:
+        grid = self.grid
+        reached = np.nonzero(np.isfinite(self.label))[0]
+        d = self.ev.distance_nm(reached, np.full(reached.size, self.g))
+        k = int(reached[int(np.argmin(d))])
+        i, j = (int(v) for v in grid.unflat(k))
+        raise NoSafePassage(
+            f"no feasible route from ({grid.start_latlon[0]:.4f}, {grid.start_latlon[1]:.4f}) to "
+            f"({grid.end_latlon[0]:.4f}, {grid.end_latlon[1]:.4f}): the search reached {reached.size} of "
+            f"{grid.n_nodes} nodes and stopped at node ({i}, {j}) = ({grid.lat_deg[i, j]:.3f}, "
+            f"{grid.lon_deg[i, j]:.3f}), {float(d.min()):.1f} nm from the end; widen the grid "
+            "(margin_nm), check the navigable mask, or the conditions that make legs infeasible"
+        )
+
+    def _result(self) -> SearchResult:
+        grid, ev = self.grid, self.ev
+        path = [self.g]
+        while path[-1] != self.s:
+            path.append(int(self.parent[path[-1]]))
+        path = np.array(path[::-1], dtype=np.int64)
+        u, v = path[:-1], path[1:]
+        o = self.poff[v]
+        times = self.tarr[path]
+        fuel_cum = self.fuel[path]
+        _, _, _, extra = ev.evaluate(u, v, o, times[:-1], detail=True)
+        dist = ev.distance_nm(u, v)
+        dur = np.diff(times)
+        i, j = grid.unflat(path)
+        return SearchResult(
+            nodes=np.stack([i, j], axis=1),
+            lat_deg=ev.lat[path].copy(),
+            lon_deg=ev.lon[path].copy(),
+            times_h=times,
+            leg_duration_h=dur,
+            leg_fuel_t=np.diff(fuel_cum),
+            leg_distance_nm=dist,
+            leg_course_deg=course_between_deg(ev.xyz[u], ev.xyz[v]),
+            leg_sog_kn=dist / dur,
+            extra=extra,
+            cost=float(self.label[self.g]),
+            arrival_h=float(times[-1]),
+            total_fuel_t=float(fuel_cum[-1]),
+            objective=self.objective,
+            method=self.method,
+            neighbourhood=self.nb.name,
+            lambda_t_per_h=self.lam,
+            expanded=self.expanded,
+            evaluated_edges=self.evaluated,
+            callback_calls=ev.calls,
+            batches=self.batches,
+        )
+
+
+__all__ = [
+    "SearchResult",
+    "astar",
+    "dijkstra",
+    "edge_mask",
+    "grid_edges",
+    "shortest_path",
+]
