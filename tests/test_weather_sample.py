@@ -218,7 +218,11 @@ def test_lazy_sampler_reads_slices_keeps_a_bounded_cache_and_checks_them(tmp_pat
 
 
 @pytest.mark.skipif(importlib.util.find_spec("numba") is None, reason="numba is optional; the numpy kernel is the fallback")
-def test_numba_and_numpy_kernels_agree():
+@pytest.mark.parametrize("parallel_from", [10**9, 1000])
+def test_numba_and_numpy_kernels_agree(monkeypatch, parallel_from):
+    from optroute.weather import sample as sm
+
+    monkeypatch.setattr(sm, "_NUMBA_PARALLEL_POINTS", parallel_from)  # serial, then threaded
     rng = np.random.default_rng(5)
     lon = np.arange(-180.0, 180.0, 10.0)
     hs = rng.uniform(0.5, 5.0, (3, 5, lon.size)).astype(np.float32)

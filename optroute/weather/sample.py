@@ -49,7 +49,8 @@ _EPS_DEG = 1e-7
 _DIR = "wave_from_deg"
 
 
-_NUMBA_MIN_POINTS = 256
+_NUMBA_MIN_POINTS = 64
+_NUMBA_PARALLEL_POINTS = 200_000
 
 
 def _trilinear_numpy(
@@ -74,44 +75,55 @@ def _trilinear_numpy(
     return (1.0 - tw) * lo + tw * hi
 
 
-def _make_numba_kernel() -> Any:
-    try:
-        import numba
-    except ImportError:  # numba is optional: the numpy kernels give the same numbers
-        return None
-
-    @numba.njit(parallel=True, cache=True, nogil=True)
-    def kernel(flat, base, xi, xj, nx, dt, tw, yw, xw):  # pragma: no cover - compiled
-        n = base.size
-        out = np.empty(n)
-        for p in numba.prange(n):
-            b, x0, x1 = base[p], xi[p], xj[p]
-            wx, wy, wt = xw[p], yw[p], tw[p]
-            lo = (1.0 - wy) * ((1.0 - wx) * flat[b + x0] + wx * flat[b + x1]) + wy * (
-                (1.0 - wx) * flat[b + nx + x0] + wx * flat[b + nx + x1]
-            )
-            if dt == 0:
-                out[p] = lo
-            else:
-                c = b + dt
-                hi = (1.0 - wy) * ((1.0 - wx) * flat[c + x0] + wx * flat[c + x1]) + wy * (
-                    (1.0 - wx) * flat[c + nx + x0] + wx * flat[c + nx + x1]
-                )
-                out[p] = (1.0 - wt) * lo + wt * hi
-        return out
-
-    @numba.njit(parallel=True, cache=True, nogil=True)
-    def sincos(deg, s, c):  # pragma: no cover - compiled
-        flat, fs, fc = deg.reshape(-1), s.reshape(-1), c.reshape(-1)
-        for p in numba.prange(flat.size):
-            r = np.radians(flat[p])
-            fs[p] = np.sin(r)
-            fc[p] = np.cos(r)
-
-    return kernel, sincos
+def _trilinear_body(flat, base, xi, xj, nx, dt, tw, yw, xw, out, p):  # pragma: no cover - compiled
+    b, x0, x1 = base[p], xi[p], xj[p]
+    wx, wy, wt = xw[p], yw[p], tw[p]
+    lo = (1.0 - wy) * ((1.0 - wx) * flat[b + x0] + wx * flat[b + x1]) + wy * (
+        (1.0 - wx) * flat[b + nx + x0] + wx * flat[b + nx + x1]
+    )
+    if dt == 0:
+        out[p] = lo
+    else:
+        c = b + dt
+        hi = (1.0 - wy) * ((1.0 - wx) * flat[c + x0] + wx * flat[c + x1]) + wy * (
+            (1.0 - wx) * flat[c + nx + x0] + wx * flat[c + nx + x1]
+        )
+        out[p] = (1.0 - wt) * lo + wt * hi
 
 
-_trilinear_numba, _sincos_numba = _make_numba_kernel() or (None, None)
+def _trilinear_serial(flat, base, xi, xj, nx, dt, tw, yw, xw):  # pragma: no cover - compiled
+    out = np.empty(base.size)
+    for p in range(base.size):
+        _trilinear_point(flat, base, xi, xj, nx, dt, tw, yw, xw, out, p)
+    return out
+
+
+def _trilinear_parallel(flat, base, xi, xj, nx, dt, tw, yw, xw):  # pragma: no cover - compiled
+    out = np.empty(base.size)
+    for p in numba.prange(base.size):
+        _trilinear_point(flat, base, xi, xj, nx, dt, tw, yw, xw, out, p)
+    return out
+
+
+def _sincos_parallel(deg, s, c):  # pragma: no cover - compiled
+    flat, fs, fc = deg.reshape(-1), s.reshape(-1), c.reshape(-1)
+    for p in numba.prange(flat.size):
+        r = np.radians(flat[p])
+        fs[p] = np.sin(r)
+        fc[p] = np.cos(r)
+
+
+try:  # numba is optional: the numpy kernels give the same numbers
+    import numba
+except ImportError:
+    numba = None
+    _trilinear_numba = _trilinear_numba_parallel = _sincos_numba = None
+else:
+    _jit = {"cache": True, "nogil": True}
+    _trilinear_point = numba.njit(inline="always", **_jit)(_trilinear_body)
+    _trilinear_numba = numba.njit(**_jit)(_trilinear_serial)
+    _trilinear_numba_parallel = numba.njit(parallel=True, **_jit)(_trilinear_parallel)
+    _sincos_numba = numba.njit(parallel=True, **_jit)(_sincos_parallel)
 
 
 def _unit_vectors(deg: np.ndarray, engine: str) -> tuple[np.ndarray, np.ndarray]:
@@ -321,7 +333,10 @@ class WeatherSampler:
         ny, nx = self._lat.n, self._lon.n
         dt = ny * nx if nt_local > 1 else 0
         base = (ti * ny + yi) * nx
-        kernel = _trilinear_numba if (self.engine == "numba" and base.size >= _NUMBA_MIN_POINTS) else _trilinear_numpy
+        if self.engine == "numpy" or base.size < _NUMBA_MIN_POINTS:
+            kernel = _trilinear_numpy
+        else:  # threads pay off only for big batches; small ones would wait on busy cores
+            kernel = _trilinear_numba_parallel if base.size >= _NUMBA_PARALLEL_POINTS else _trilinear_numba
 
         def interp(field: np.ndarray) -> np.ndarray:
             return kernel(field.reshape(-1), base, xi, xj, nx, dt, tw, yw, xw)
