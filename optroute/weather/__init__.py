@@ -3,12 +3,12 @@
 * :func:`open_weather` — NetCDF / Zarr / GRIB files of ERA5, CMEMS,
   WAVEWATCH III, GFS-Wave and GFS (THREDDS) as canonical datasets;
 * :class:`WeatherSampler` — vectorised interpolation at (time, lat, lon);
+* :mod:`optroute.weather.scenarios` — deterministic synthetic weather;
 * :mod:`optroute.weather.schema` — canonical names, units and checks.
 """
 
+from optroute.weather import scenarios
 from optroute.weather.io import open_weather
 from optroute.weather.sample import WeatherSampler, sample_weather
 
-# from optroute.weather import scenarios  # enabled once optroute/weather/scenarios.py exists
-
-__all__ = ["WeatherSampler", "open_weather", "sample_weather"]
+__all__ = ["WeatherSampler", "open_weather", "sample_weather", "scenarios"]
