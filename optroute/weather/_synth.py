@@ -4,11 +4,11 @@ Relations:
 
 * fully developed sea (Pierson & Moskowitz 1964): H_s = 0.21 U_19.5² / g,
   with U_19.5 = 1.083 U_10 (power-law wind profile, exponent 0.12 over open
-  sea), so U_10 = sqrt(g H_s / 0.21) / 1.083 (:func:`pm_wind_from_hs`);
+  sea, DNV-RP-C205), so U_10 = sqrt(g H_s / 0.21) / 1.083 (:func:`pm_wind_from_hs`);
 * T_p = 5.0 sqrt(H_s) for a fully developed sea (DNV-RP-C205);
 * T_p = 3.85 sqrt(H_s) for a young storm sea, inside the range
-  3.6 <= T_p / sqrt(H_s) <= 5 for which DNV-RP-C205 (§3.5.5) recommends
-  the JONSWAP spectrum.
+  3.6 <= T_p / sqrt(H_s) <= 5 for which DNV-RP-C205 recommends
+  the JONSWAP spectrum (its peak-shape guidance).
 """
 
 from __future__ import annotations

@@ -7,22 +7,28 @@ effective fetch, capped at the fully developed sea.  The force-7 circle of
 seed 004 (the radius inside which the 10 m wind reaches Beaufort 7,
 13.9 m/s) is :func:`cyclone_radius_km`.
 
+:func:`tropical_cyclone` builds the canonical dataset (default: seed 004's
+test typhoon, :func:`default_cyclone`) and stores the track with the
+force-7 radius at every time step in ``attrs["cyclone"]``;
+:func:`cyclone_track` and :func:`cyclone_exclusion` read it back, for a
+time-dependent exclusion circle (seed 004: R + 30 km).
+
 Sources
 -------
 * Holland, G. J. (1980), An analytic model of the wind and pressure profiles
   in hurricanes, *Mon. Wea. Rev.* 108, 1212–1218: pressure
-  p(r) = p_c + Δp exp(−(R_max/r)^B), gradient wind (his eq. 4)
+  p(r) = p_c + Δp exp(−(R_max/r)^B), gradient wind
 
       V_g(r) = sqrt( (B Δp / ρ) (R_max/r)^B exp(−(R_max/r)^B) + (r f / 2)² ) − r f / 2,
 
   and, without Coriolis, the maximum V_max = sqrt(B Δp / (ρ e)) at r = R_max.
-  f = 2 Ω sin φ, Ω = 7.2921e-5 rad/s; ρ = 1.15 kg/m³ (Holland's value for
-  tropical surface air).
+  f = 2 Ω sin φ, Ω = 7.2921e-5 rad/s; ρ = 1.15 kg/m³, the surface air
+  density usually taken with this profile.
 * Translation asymmetry: Jelesnianski, C. P. (1966), *Mon. Wea. Rev.* 94,
   379–394 (as used in NOAA's SLOSH model): the storm's motion U_t is added
   with weight r R_max / (r² + R_max²), half of U_t at R_max, fading far out.
 * Inflow angle: 20° towards the centre, a constant typical of parametric
-  models (Sobey, Harper & Stark 1977 give 10–25°); winds turn
+  models (10–25° is the usual range; a modelling choice); winds turn
   counter-clockwise in the northern hemisphere, clockwise in the southern.
 * 10 m wind = ``surface_factor`` × gradient wind, 0.8 by default (a modelling
   choice over open ocean; 0.7–0.9 is the usual range; 1.0 keeps the
@@ -33,8 +39,7 @@ Sources
   g H_s / U² = 0.2433, g T_p / U = 8.134.  The effective fetch F stands for
   Young's (1988) "equivalent fetch" of a moving cyclone (Young, I. R., 1988,
   Parametric hurricane wave prediction model, *J. Waterway Port Coastal
-  Ocean Eng.* 114, 637–652); its value is a modelling choice (300 km by
-  default).  Waves come from the direction the local wind comes from.
+  Ocean Eng.* 114(5)); its value is a modelling choice (300 km by default).  Waves come from the direction the local wind comes from.
 * Beaufort 7 lower limit 13.9 m/s: WMO No. 306 (physics.md §5).
 """
 
@@ -82,7 +87,7 @@ __all__ = [
 ]
 
 AIR_DENSITY_KGM3 = 1.15
-"""Air density in the cyclone boundary layer [kg/m³] (Holland 1980)."""
+"""Air density in the cyclone boundary layer [kg/m³]."""
 
 EARTH_ROTATION_RADS = 7.2921e-5
 """Earth's angular velocity Ω [rad/s]."""
@@ -115,7 +120,7 @@ def holland_vmax_ms(pressure_deficit_hpa: float, holland_b: float, air_density_k
     pressure_deficit_hpa : float
         Δp = ambient minus central pressure [hPa], > 0.
     holland_b : float
-        Holland's shape parameter B [-], in [0.5, 3].
+        Holland's shape parameter B [-], > 0 (typically 1–2.5).
     air_density_kgm3 : float
         ρ [kg/m³].
 

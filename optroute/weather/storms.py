@@ -242,8 +242,9 @@ def north_pacific_storms(
     where H_s >= 0.04 L = 12.8 m; T_R = 20.7 s by the IS Code) in head seas,
     the parametric-roll band T_E / T_R in [0.4, 0.6] covers every speed from
     10 to 25 kn when 13.4 s <= T_p <= 15.1 s; the storms' young sea,
-    T_p = 3.85 sqrt(H_s), gives 13.8–14.6 s for H_s 12.8–14.2 m, and their
-    waves meet a ship on the great circle within about 25° of the bow.
+    T_p = 3.85 sqrt(H_s), gives 13.9–14.7 s for H_s 12.8–14.2 m, and their
+    waves meet a ship on the great circle within 45° of the bow (head seas at
+    the storm centres), where the band still reaches below 10 kn.
 
     Storms (:func:`north_pacific_storm_specs`): peak H_s 14 m over a
     flat-topped ellipse (semi-axes 620 nm along and 330 nm across the great
