@@ -178,8 +178,10 @@ def angular_resolution(max_gap_deg: float = 5.0, radius_cells: int = 12) -> Neig
     differ by at most ``max_gap_deg``; among smallest sets, the one with the
     shortest total offset length.  The choice is a shortest-path over the
     octant's candidate directions sorted by angle (count first, length
-    second), so it is minimal; the octant's solution is mirrored to the other
-    seven by the lattice's symmetry.
+    second), so it is minimal among the sets that contain the 8 adjacent
+    cells (the patent keeps them; without them a smaller set can exist, e.g.
+    12 of the 16 radius-2 directions keep 40°); the octant's solution is
+    mirrored to the other seven by the lattice's symmetry.
 
     Parameters
     ----------

@@ -1,0 +1,167 @@
+"""The 3-D DP against the analytic constant-speed optimum, brute-force enumeration and dense no-go checks.
+
+Cubic fuel law: a leg of d nm sailed in t h burns k·d³/t² t (fuel rate ∝ v³).
+For a voyage of D nm in T h the optimum is the constant speed D/T (Jensen's
+inequality), with fuel k·D³/T²; any route of length ≥ D arriving at T burns
+at least that.
+"""
+
+import itertools
+
+import numpy as np
+import pytest
+
+from optroute import geo
+from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
+from optroute.search import solve_dp
+
+K = 1e-4
+START, END = (0.0, 0.0), (0.0, 20.0)
+D = float(geo.distance_nm(*START, *END))
+
+
+def cubic(lat0, lon0, lat1, lon1, t0, sog):
+    d = geo.distance_nm(lat0, lon0, lat1, lon1)
+    t = d / sog
+    return t, K * d**3 / t**2, np.ones(d.shape, dtype=bool)
+
+
+def analytic(t_h):
+    return K * D**3 / np.asarray(t_h) ** 2
+
+
+def test_converges_to_the_constant_speed_optimum_as_the_steps_shrink():
+    eta = 80.0
+    errors = []
+    for dv, dy in ((2.0, 60.0), (1.0, 40.0), (0.5, 30.0), (0.25, 20.0)):
+        r = solve_dp(
+            START,
+            END,
+            cubic,
+            eta_h=eta,
+            dx_nm=200,
+            dy_nm=dy,
+            half_width_nm=60,
+            speeds_kn=np.arange(8, 22.01, dv),
+            dt_h=0.25,
+        )
+        assert r.path.arrival_h <= eta
+        np.testing.assert_array_equal(r.path.lateral_nm, 0.0)  # uniform weather: the great circle
+        assert r.path.total_fuel_t >= analytic(eta) * (1 - 1e-12)
+        errors.append(r.path.total_fuel_t / analytic(eta) - 1)
+    assert errors[-1] < 0.005
+    assert errors[0] > errors[2] > errors[3]
+    assert np.all(np.diff(errors) <= 1e-12)
+
+
+def test_fuel_versus_eta_curve_is_non_increasing_and_above_the_analytic_bound():
+    r = solve_dp(
+        START, END, cubic, eta_h=80.0, dx_nm=200, dy_nm=50, half_width_nm=50, speeds_kn=np.arange(8, 22.01, 0.5)
+    )
+    ok = np.isfinite(r.curve_fuel_t)
+    fuel, eta = r.curve_fuel_t[ok], r.curve_bin_end_h[ok]
+    assert np.all(np.diff(fuel) <= 0.0)
+    assert np.all(fuel >= analytic(eta) * (1 - 1e-12))  # arriving by the ETA costs at least k D³ / ETA²
+    inner = (eta > 60) & (eta < 140)
+    assert np.all(fuel[inner] <= analytic(eta[inner]) * 1.03)
+    # the raw per-bin labels obey the bound at their exact arrival time
+    raw = np.isfinite(r.curve_fuel_in_bin_t)
+    assert np.all(r.curve_fuel_in_bin_t[raw] >= analytic(r.curve_arrival_h[raw]) * (1 - 1e-12))
+    assert r.earliest_arrival_h == pytest.approx(D / 22.0)
+    assert fuel[0] == pytest.approx(analytic(D / 22.0))
+    # another ETA from the same pass
+    p = r.path_for_eta(100.0)
+    assert p.arrival_h <= 100.0 and analytic(100.0) <= p.total_fuel_t <= analytic(100.0) * 1.02
+
+
+def test_impossible_eta_reports_the_earliest_arrival():
+    with pytest.raises(InfeasibleETA) as exc:
+        solve_dp(START, END, cubic, eta_h=40.0, dx_nm=300, dy_nm=60, half_width_nm=60, speeds_kn=[10.0, 15.0, 20.0])
+    assert exc.value.earliest_arrival_h == pytest.approx(D / 20.0)
+    assert exc.value.earliest_arrival == pytest.approx(D / 20.0)
+    assert f"{D / 20.0:.2f} h" in str(exc.value)
+
+
+def _weather_cost(lat0, lon0, lat1, lon1, t0, sog):
+    """Time- and place-dependent: head seas north of the equator in the first day, an MCR cap of 18 kn."""
+    d = geo.distance_nm(lat0, lon0, lat1, lon1)
+    v = np.minimum(sog, 18.0)
+    rough = 1.0 + 0.8 * ((lat0 + lat1) > 0.1) * (t0 < 24.0) + 0.02 * np.sin(0.1 * t0 + lon0)
+    t = d / v
+    return t, K * d**3 / t**2 * rough, np.ones(d.shape, dtype=bool)
+
+
+def test_matches_brute_force_enumeration_with_time_dependent_costs():
+    speeds = np.array([10.0, 14.0, 18.0, 22.0])
+    kw = dict(dx_nm=450, dy_nm=60, half_width_nm=60, speeds_kn=speeds, dt_h=1e-3, horizon_h=140.0)
+    eta = 90.0
+    r = solve_dp(START, END, _weather_cost, eta_h=eta, **kw)
+    lat, lon = r.stage_lat_deg, r.stage_lon_deg
+    n_st = lat.shape[0] - 1
+    best = np.inf
+    for lats in itertools.product(range(3), repeat=n_st - 1):
+        path = (1, *lats, 1)
+        for vs in itertools.product(speeds, repeat=n_st):
+            t, f = 0.0, 0.0
+            for k in range(n_st):
+                a, b = path[k], path[k + 1]
+                dur, fu, _ = _weather_cost(
+                    np.array([lat[k, a]]),
+                    np.array([lon[k, a]]),
+                    np.array([lat[k + 1, b]]),
+                    np.array([lon[k + 1, b]]),
+                    np.array([t]),
+                    np.array([vs[k]]),
+                )
+                t, f = t + float(dur[0]), f + float(fu[0])
+            if t <= eta:
+                best = min(best, f)
+    assert r.path.total_fuel_t == pytest.approx(best, rel=1e-12)
+
+
+def _island_and_storm(lat, lon, t, shrink_deg=0.0):
+    """Seed 001 case I, scaled: an island on the great circle, a storm south of it moving south at 3 kn after 20 h."""
+    m = shrink_deg
+    lon_in = (lon >= 6 + m) & (lon <= 12 - m)
+    island = lon_in & (lat >= -0.5 + m) & (lat <= 2 - m)
+    shift = np.where(t > 20.0, (t - 20.0) * 3.0 / 60.0, 0.0)
+    storm = lon_in & (lat <= -0.5 - shift - m) & (lat >= -3 - shift + m)
+    return ~(island | storm)
+
+
+def test_no_go_areas_are_avoided_when_sampled_densely_in_space_and_time():
+    kw = dict(dx_nm=150, dy_nm=40, half_width_nm=240, speeds_kn=np.arange(8, 22.01, 1.0))
+    r = solve_dp(START, END, cubic, eta_h=110.0, navigable=_island_and_storm, nogo_step_nm=10.0, **kw)
+    p = r.path
+    assert np.any(p.lateral_nm != 0)
+    for k in range(len(p.sog_kn)):
+        f = np.linspace(0, 1, 2000)
+        lat, lon = geo.intermediate_points(p.lat_deg[k], p.lon_deg[k], p.lat_deg[k + 1], p.lon_deg[k + 1], f)
+        t = p.times_h[k] + f * p.leg_duration_h[k]
+        # checks every 10 nm along a leg: it can clip a corner by less than that, never go deeper
+        assert _island_and_storm(lat, lon, t, shrink_deg=10.0 / 60.0).all()
+    free = solve_dp(
+        START, END, cubic, eta_h=110.0, dx_nm=150, dy_nm=40, half_width_nm=240, speeds_kn=np.arange(8, 22.01, 1.0)
+    )
+    assert np.all(free.path.lateral_nm == 0) and p.total_fuel_t > free.path.total_fuel_t
+
+
+def test_unreachable_end_raises_no_safe_passage():
+    def walled(lat, lon, t):
+        return lon < 15.0
+
+    with pytest.raises(NoSafePassage, match="stopped at stage"):
+        solve_dp(START, END, cubic, dx_nm=200, dy_nm=50, half_width_nm=100, speeds_kn=[10.0, 20.0], navigable=walled)
+
+
+def test_leg_cost_contract_is_enforced():
+    def too_fast(lat0, lon0, lat1, lon1, t0, sog):
+        d = geo.distance_nm(lat0, lon0, lat1, lon1)
+        return d / (sog + 1.0), 0 * d, np.ones(d.shape, dtype=bool)
+
+    with pytest.raises(ConfigError, match="only lower"):
+        solve_dp(START, END, too_fast, dx_nm=300, speeds_kn=[10.0])
+    with pytest.raises(ConfigError, match="dx_nm"):
+        solve_dp(START, END, cubic, dx_nm=0.0)
+    with pytest.raises(ConfigError, match="callable"):
+        solve_dp(START, END, None)
