@@ -72,6 +72,10 @@ def test_shao_dataset_nan_cells_follow_the_rectangles():
     assert float(ds["wind_v_ms"].sel(time=T0, lat=10.0, lon=20.0)) == pytest.approx(0.0, abs=1e-9)
     # the exact geometry from attrs equals the function's
     assert sc.no_go_areas(ds, T0 + 100 * H) == sc.shao_no_go(1, 100.0)
+    # and, vectorised over points and times, marks exactly the NaN grid points
+    tt, la, lo = np.meshgrid(ds.time.values[::5], ds.lat.values, ds.lon.values, indexing="ij")
+    np.testing.assert_array_equal(sc.in_no_go_area(ds, la, lo, tt), np.isnan(hs.values[::5]))
+    assert sc.in_no_go_area(ds, [-2.0, -2.0], [60.0, 60.0], [59.0, 90.0]).tolist() == [True, False]  # t=90 h: -2.5 .. -10.5
 
 
 def test_shao_no_go_is_no_passage_for_the_sampler_and_navigable():

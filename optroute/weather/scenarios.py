@@ -40,7 +40,7 @@ fully developed H_s = 0.21 U_19.5² / g with U_19.5 = 1.083 U_10, T_p =
 Public API
 ----------
 :func:`calm`, :func:`uniform`, :func:`shao_case`, :func:`shao_no_go`,
-:func:`no_go_areas`, :func:`north_pacific_storms` (+ :class:`Storm`,
+:func:`no_go_areas`, :func:`in_no_go_area`, :func:`north_pacific_storms` (+ :class:`Storm`,
 :func:`north_pacific_storm_specs`, :func:`storm_dataset`), :func:`moving_storm`,
 :func:`tropical_cyclone` (+
 :class:`Cyclone`, :func:`default_cyclone`, :func:`cyclone_track`,
@@ -107,6 +107,7 @@ __all__ = [
     "ensemble",
     "member",
     "moving_storm",
+    "in_no_go_area",
     "no_go_areas",
     "north_pacific_storm_specs",
     "north_pacific_storms",
@@ -307,6 +308,26 @@ class NoGoArea:
         lon = self.lon_min + np.mod(np.asarray(lon_deg, dtype=float) - self.lon_min + tol_deg, 360.0) - tol_deg
         return (lat >= self.lat_min - tol_deg) & (lat <= self.lat_max + tol_deg) & (lon <= self.lon_max + tol_deg)
 
+    def contains_at(self, lat_deg: ArrayLike, lon_deg: ArrayLike, time: Any, tol_deg: float = 1e-9) -> np.ndarray:
+        """Whether points lie in the moving rectangle at their own times (vectorised over time too).
+
+        Parameters
+        ----------
+        lat_deg, lon_deg : array_like
+            Positions [deg].
+        time : array_like
+            UTC times (datetime64) or hours after ``start``, broadcast against the positions.
+        """
+        t = np.asarray(time)
+        if np.issubdtype(t.dtype, np.datetime64) or t.dtype.kind in "US":
+            h = (t.astype("datetime64[ns]") - np.datetime64(self.start, "ns")) / np.timedelta64(1, "h")
+        else:
+            h = finite("time (hours after the start)", t, error=ConfigError)
+        dt = np.maximum(0.0, h - self.hold_h)
+        lat = np.asarray(lat_deg, dtype=float) - self.velocity_lat_deg_h * dt
+        lon = np.asarray(lon_deg, dtype=float) - self.velocity_lon_deg_h * dt
+        return self.contains(lat, lon, tol_deg)
+
     def corners(self) -> tuple[tuple[float, float], ...]:
         """(lat, lon) of the SW, SE, NE, NW corners [deg]."""
         return (
@@ -340,13 +361,43 @@ def no_go_areas(source: xr.Dataset | str, time: Any) -> list[NoGoArea]:
     list of NoGoArea
         The rectangles at that time (empty when the dataset has none).
     """
+    return [a.at(time) for a in _stored_areas(source)]
+
+
+def _stored_areas(source: xr.Dataset | str) -> list[NoGoArea]:
+    """The no-go areas as stored (at their start, with their hold and velocity)."""
     text = source if isinstance(source, str) else source.attrs.get("no_go_areas", "[]")
     try:
-        items = json.loads(text)
-        areas = [NoGoArea(**item) for item in items]
+        return [NoGoArea(**item) for item in json.loads(text)]
     except (TypeError, ValueError) as exc:
-        raise ConfigError(f"attrs['no_go_areas'] is not a JSON list of rectangles: {text[:200]!r}") from exc
-    return [a.at(time) for a in areas]
+        raise ConfigError(f"attrs['no_go_areas'] is not a JSON list of rectangles: {str(text)[:200]!r}") from exc
+
+
+def in_no_go_area(source: xr.Dataset | str, lat_deg: ArrayLike, lon_deg: ArrayLike, time: Any) -> np.ndarray:
+    """Whether points at their times lie in any no-go rectangle of a scenario (exact geometry).
+
+    Parameters
+    ----------
+    source : xarray.Dataset or str
+        A dataset with ``attrs["no_go_areas"]`` or that JSON.
+    lat_deg, lon_deg : array_like
+        Positions [deg].
+    time : array_like
+        UTC times (datetime64) or hours after the areas' start, broadcast
+        against the positions.
+
+    Returns
+    -------
+    ndarray of bool
+    """
+    areas = _stored_areas(source)
+    lat, lon, t = np.broadcast_arrays(
+        np.asarray(lat_deg, dtype=float), np.asarray(lon_deg, dtype=float), np.asarray(time)
+    )
+    out = np.zeros(lat.shape, dtype=bool)
+    for area in areas:
+        out |= area.contains_at(lat, lon, t)
+    return out
 
 
 SHAO_BACKGROUND = {"hs_m": 2.0, "wave_from_deg": 90.0}
