@@ -11,9 +11,12 @@ optroute never imports it but streams the same file into a bit-packed array
 in it, so the answers are those of ``global_land_mask.globe.is_land``.
 
 ``roaring-landmask`` (GSHHG full-resolution shoreline, Wessel & Smith 1996)
-is available as a second backend, ``land_mask("gshhg")``, when installed: it
-is closer to OpenStreetMap at the coast but needs a 100 MB wheel, 6–8 s and
-about 1.3 GB to start, and is 5–10 times slower per point.
+is the second backend, ``land_mask("gshhg")``: it is closer to
+OpenStreetMap at the coast but needs a 100 MB wheel, 6–8 s and about
+1.3 GB to start, and is 5–10 times slower per point.  The default is GLOBE
+when ``global-land-mask`` is installed, else GSHHG; the environment
+variable ``OPTROUTE_LAND_MASK=globe|gshhg`` or the ``mask=`` argument of
+every function chooses explicitly.
 
 Everything here is vectorised over numpy arrays, takes positions in degrees
 (lat north, lon east; any longitude, wrapped to [-180, 180) internally) and
@@ -44,6 +47,7 @@ from __future__ import annotations
 import functools
 import importlib.util
 import math
+import os
 import threading
 import warnings
 import zipfile
@@ -65,6 +69,7 @@ __all__ = [
     "GshhgLandMask",
     "LandMask",
     "is_land",
+    "default_land_mask_name",
     "land_mask",
     "leg_crosses_land",
     "legs_cross_land",
@@ -208,19 +213,47 @@ def _cached_mask(name: str) -> LandMask:
     return _BACKENDS[name]()
 
 
-def land_mask(name: str = "globe") -> LandMask:
+LAND_MASK_ENV = "OPTROUTE_LAND_MASK"
+"""Environment variable naming the default land mask (``globe`` or ``gshhg``)."""
+
+
+def default_land_mask_name() -> str:
+    """The backend used when none is named.
+
+    ``$OPTROUTE_LAND_MASK`` if set; otherwise ``"globe"`` when
+    ``global-land-mask`` is installed, else ``"gshhg"`` when
+    ``roaring-landmask`` is.
+
+    Raises
+    ------
+    ConfigError
+        Neither package is installed (and no variable is set).
+    """
+    name = os.environ.get(LAND_MASK_ENV, "").strip().lower()
+    if name:
+        return name
+    for name, package in (("globe", "global_land_mask"), ("gshhg", "roaring_landmask")):
+        if importlib.util.find_spec(package) is not None:
+            return name
+    raise ConfigError("no coastline data is installed; pip install global-land-mask (or roaring-landmask)")
+
+
+def land_mask(name: str | None = None) -> LandMask:
     """The process-wide land mask of a backend, built on first use.
 
     Parameters
     ----------
-    name : {"globe", "gshhg"}
-        ``"globe"``: GLOBE 1 km through ``global-land-mask`` (the default);
-        ``"gshhg"``: GSHHG through ``roaring-landmask``.
+    name : {"globe", "gshhg"}, optional
+        ``"globe"``: GLOBE 1 km through ``global-land-mask`` (preferred);
+        ``"gshhg"``: GSHHG through ``roaring-landmask``.  Default:
+        :func:`default_land_mask_name`.
 
     Returns
     -------
     LandMask
     """
+    if name is None:
+        name = default_land_mask_name()
     if name not in _BACKENDS:
         raise ConfigError(f"unknown land mask {name!r}; use one of {sorted(_BACKENDS)}")
     with _LOCK:
@@ -237,15 +270,15 @@ def _positions(lat_deg: ArrayLike, lon_deg: ArrayLike, what: str = "") -> tuple[
     return lat, units.wrap_180(lon)
 
 
-def is_land(lat_deg: ArrayLike, lon_deg: ArrayLike, *, mask: LandMask | str = "globe") -> np.ndarray:
+def is_land(lat_deg: ArrayLike, lon_deg: ArrayLike, *, mask: LandMask | str | None = None) -> np.ndarray:
     """Whether positions lie on land (coastline only, weather ignored).
 
     Parameters
     ----------
     lat_deg, lon_deg : array_like
         Positions [deg]; any longitude (wrapped to [-180, 180)).
-    mask : LandMask or str
-        The coastline source or its name (see :func:`land_mask`).
+    mask : LandMask or str, optional
+        The coastline source or its name; default :func:`default_land_mask_name`.
 
     Returns
     -------
@@ -253,7 +286,7 @@ def is_land(lat_deg: ArrayLike, lon_deg: ArrayLike, *, mask: LandMask | str = "g
         True on land (lakes included), broadcast shape of the inputs.
     """
     lat, lon = _positions(lat_deg, lon_deg)
-    m = land_mask(mask) if isinstance(mask, str) else mask
+    m = land_mask(mask) if mask is None or isinstance(mask, str) else mask
     return np.asarray(m.is_land(lat, lon), dtype=bool).reshape(lat.shape)
 
 
@@ -393,7 +426,7 @@ def navigable(
     time: Any = None,
     *,
     use_land_mask: bool | None = None,
-    mask: LandMask | str = "globe",
+    mask: LandMask | str | None = None,
 ) -> np.ndarray:
     """Whether a ship may be at these positions: at sea and not in a no-passage weather cell.
 
@@ -411,8 +444,8 @@ def navigable(
     use_land_mask : bool, optional
         Apply the real coastline.  Default: yes, unless ``weather`` declares
         ``attrs["geography"] == "synthetic"``.
-    mask : LandMask or str
-        The coastline source (see :func:`land_mask`).
+    mask : LandMask or str, optional
+        The coastline source or its name; default :func:`default_land_mask_name`.
 
     Returns
     -------
@@ -451,7 +484,7 @@ def snap_to_sea(
     weather: Any = None,
     time: Any = None,
     use_land_mask: bool | None = None,
-    mask: LandMask | str = "globe",
+    mask: LandMask | str | None = None,
     what: str = "point",
 ) -> tuple[float, float]:
     """Move a start or end point (ports lie on land) to the nearest navigable water.
@@ -580,7 +613,7 @@ def legs_cross_land(
     weather: Any = None,
     time: Any = None,
     use_land_mask: bool | None = None,
-    mask: LandMask | str = "globe",
+    mask: LandMask | str | None = None,
 ) -> np.ndarray:
     """Whether each great-circle leg touches land (or no-passage weather), vectorised over legs.
 
@@ -628,7 +661,7 @@ def leg_crosses_land(
     weather: Any = None,
     time: Any = None,
     use_land_mask: bool | None = None,
-    mask: LandMask | str = "globe",
+    mask: LandMask | str | None = None,
 ) -> tuple[float, float] | None:
     """The first non-navigable point on a great-circle leg, or None when the leg is clear.
 

@@ -156,3 +156,15 @@ def test_navigable_matches_the_sampler_on_a_quarter_degree_moving_box():
     nan = np.isnan(WeatherSampler(ds).sample(time, lat, lon)["hs_m"])
     np.testing.assert_array_equal(land.navigable(lat, lon, weather=ds, time=time), ~nan)
     assert 0.2 < nan.mean() < 0.9
+
+
+def test_default_backend_choice(monkeypatch):
+    monkeypatch.setenv(land.LAND_MASK_ENV, "gshhg")
+    assert land.default_land_mask_name() == "gshhg"
+    monkeypatch.delenv(land.LAND_MASK_ENV)
+    real = land.importlib.util.find_spec
+    monkeypatch.setattr(land.importlib.util, "find_spec", lambda name: None if name == "global_land_mask" else real(name))
+    assert land.default_land_mask_name() == "gshhg"
+    monkeypatch.setattr(land.importlib.util, "find_spec", lambda name: None)
+    with pytest.raises(ConfigError, match="pip install global-land-mask"):
+        land.default_land_mask_name()
