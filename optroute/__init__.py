@@ -24,6 +24,7 @@ from optroute.errors import (
 from optroute.performance import CalmWaterModel, KwonModel, PerformanceModel, PowerTableModel
 from optroute.safety import BandRules, ForbiddenInterval, band_margins, forbidden_speed_intervals
 from optroute.ship import Ship
+from optroute.weather import WeatherSampler, open_weather, scenarios
 
 __version__ = "0.1.0"
 
@@ -35,6 +36,9 @@ __all__ = [
     "PerformanceModel",
     "PowerTableModel",
     "Ship",
+    "WeatherSampler",
+    "open_weather",
+    "scenarios",
     "band_margins",
     "forbidden_speed_intervals",
     "ConfigError",
