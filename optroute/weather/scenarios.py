@@ -153,7 +153,7 @@ def calm(
     -------
     xarray.Dataset
     """
-    return uniform(
+    ds = uniform(
         hs_m=0.0,
         tp_s=1.0,
         wave_from_deg=0.0,
@@ -163,8 +163,9 @@ def calm(
         duration_h=duration_h,
         step_h=step_h,
         resolution_deg=resolution_deg,
-        _name="calm",
     )
+    ds.attrs.update(title="optroute synthetic scenario: calm", source="optroute.scenarios.calm", scenario="calm")
+    return ds
 
 
 def uniform(
@@ -181,7 +182,6 @@ def uniform(
     duration_h: float = 720.0,
     step_h: float = 6.0,
     resolution_deg: float = 5.0,
-    _name: str = "uniform",
 ) -> xr.Dataset:
     """The same sea state, wind and current everywhere and always.
 
@@ -248,7 +248,7 @@ def uniform(
         "step_h": step_h,
         "resolution_deg": resolution_deg,
     }
-    return schema.canonical_dataset(time, lat, lon, variables, scenario_attrs(_name, params, lon))
+    return schema.canonical_dataset(time, lat, lon, variables, scenario_attrs("uniform", params, lon))
 
 
 # --------------------------------------------------------------------------- no-go areas
