@@ -191,6 +191,15 @@ def evaluate_speeds(
     return np.where(held, heading, np.nan), sog, power, fuel, allowed
 
 
+def _pick(choice_idx: np.ndarray, feasible: np.ndarray, arrays: tuple[np.ndarray, ...]) -> list[np.ndarray]:
+    """Entry ``choice_idx[i]`` of row i of each (N, K) array; NaN where not feasible."""
+    return [np.where(feasible, np.take_along_axis(a, choice_idx[:, None], axis=1)[:, 0], np.nan) for a in arrays]
+
+
+def _subset(sea: SeaState, idx: np.ndarray) -> SeaState:
+    return SeaState(*(np.asarray(getattr(sea, f))[idx] for f in SeaState.__dataclass_fields__))
+
+
 def best_speed(
     ship: Ship,
     model: PerformanceModel,
@@ -206,7 +215,9 @@ def best_speed(
 
     Candidates run from ``desired_stw_kn`` down to ``min_stw_kn`` in steps of
     ``step_kn`` (EP 2145155 Fig. 22, "reduce VELOCIDAD until every condition
-    holds"; seed 001's MCR loop reduces by Δu the same way).
+    holds"; seed 001's MCR loop reduces by Δu the same way).  The desired
+    speed is tried first at every point; the ladder is evaluated only where
+    it is not allowed.
 
     Parameters
     ----------
@@ -228,20 +239,69 @@ def best_speed(
     vmin = float(finite("min_stw_kn", min_stw_kn, minimum=0.0, strict=True, error=ConfigError))
     n = np.asarray(sea.hs_m).shape[0]
     desired = np.broadcast_to(finite("desired_stw_kn", desired_stw_kn, minimum=0.0, strict=True), (n,))
-    k = int(np.floor((float(desired.max()) - vmin) / step)) + 1 if n else 1
-    ladder = desired[:, None] - step * np.arange(max(k, 1))[None, :]
-    valid = ladder >= vmin - 1e-12
-    ladder = np.where(valid, ladder, vmin)
+    course = np.broadcast_to(finite("course_deg", course_deg), (n,))
+    out = [np.full(n, np.nan) for _ in range(5)]
+    feasible = np.zeros(n, dtype=bool)
+    first = evaluate_speeds(ship, model, rules, course, sea, desired)
+    ok = first[4] & (desired >= vmin)
+    for o, a in zip(out, (desired,) + first[:4], strict=True):
+        o[ok] = a[ok]
+    feasible |= ok
+    rest = np.flatnonzero(~ok)
+    if rest.size:
+        k = int(np.floor((float(desired[rest].max()) - vmin) / step)) + 1
+        ladder = desired[rest, None] - step * np.arange(1, max(k, 1) + 1)[None, :]
+        valid = ladder >= vmin - 1e-12
+        ladder = np.where(valid, ladder, vmin)
+        heading, sog, power, fuel, allowed = evaluate_speeds(ship, model, rules, course[rest], _subset(sea, rest), ladder)
+        allowed &= valid
+        feas = allowed.any(axis=1)
+        picked = _pick(np.argmax(allowed, axis=1), feas, (ladder, heading, sog, power, fuel))
+        for o, a in zip(out, picked, strict=True):
+            o[rest] = a
+        feasible[rest] = feas
+    stw, heading, sog, power, fuel = out
+    return SpeedChoice(stw_kn=stw, sog_kn=sog, heading_deg=heading, power_kw=power, fuel_tph=fuel, feasible=feasible)
+
+
+def cheapest_speed(
+    ship: Ship,
+    model: PerformanceModel,
+    rules: BandRules,
+    course_deg: ArrayLike,
+    sea: SeaState,
+    speeds_kn: ArrayLike,
+    lambda_t_per_h: float,
+) -> SpeedChoice:
+    """The allowed speed minimising fuel + λ·time per mile made good.
+
+    For a piece of length d the cost of sailing it at speed V is
+    d (F(V) + λ) / SOG(V) [t], F the fuel rate; the piece length cancels, so
+    the choice is per point.  λ = 0 is the fuel-minimal (slowest economic)
+    speed; a large λ approaches the fastest allowed speed.  This is the
+    discrete speed choice of the grid search (seed 001's speed set;
+    the λ weighting is the Lagrangian of an ETA constraint).
+
+    Parameters
+    ----------
+    ship, model, rules, course_deg, sea
+        As in :func:`evaluate_speeds`; N points.
+    speeds_kn : array_like, shape (K,)
+        The discrete speed set [kn], > 0.
+    lambda_t_per_h : float
+        Value of an hour in tonnes of fuel [t/h], >= 0.
+
+    Returns
+    -------
+    SpeedChoice
+    """
+    lam = float(finite("lambda_t_per_h", lambda_t_per_h, minimum=0.0, error=ConfigError))
+    speeds = finite("speeds_kn", speeds_kn, minimum=0.0, strict=True, error=ConfigError).ravel()
+    n = np.asarray(sea.hs_m).shape[0]
+    ladder = np.broadcast_to(speeds[None, :], (n, speeds.size))
     heading, sog, power, fuel, allowed = evaluate_speeds(ship, model, rules, course_deg, sea, ladder)
-    allowed &= valid
-    feasible = allowed.any(axis=1)
-    first = np.argmax(allowed, axis=1)
-    pick = lambda a: np.where(feasible, np.take_along_axis(a, first[:, None], axis=1)[:, 0], np.nan)  # noqa: E731
-    return SpeedChoice(
-        stw_kn=pick(ladder),
-        sog_kn=pick(sog),
-        heading_deg=pick(heading),
-        power_kw=pick(power),
-        fuel_tph=pick(fuel),
-        feasible=feasible,
-    )
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rate = np.where(allowed & (sog > 0), (fuel + lam) / sog, np.inf)
+    feasible = np.isfinite(rate).any(axis=1)
+    stw, heading, sog, power, fuel = _pick(np.argmin(rate, axis=1), feasible, (ladder, heading, sog, power, fuel))
+    return SpeedChoice(stw_kn=stw, sog_kn=sog, heading_deg=heading, power_kw=power, fuel_tph=fuel, feasible=feasible)

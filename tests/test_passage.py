@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from optroute.passage import SeaState, best_speed, evaluate_speeds
+from optroute.passage import SeaState, best_speed, cheapest_speed, evaluate_speeds
 from optroute.performance import CalmWaterModel, KwonModel
 from optroute.safety import BandRules, forbidden_speed_intervals
 from optroute.ship import Ship
@@ -87,3 +87,18 @@ def test_best_speed_is_the_fastest_allowed_ladder_speed(hs, tp, wave_from, cours
         assert model.min_power_kw <= choice.power_kw[0] <= model.mcr_kw
     else:
         assert not choice.feasible[0]
+
+
+def test_cheapest_speed_is_the_argmin_of_fuel_plus_lambda_time_per_mile():
+    # Calm water, no current: cost per nm = (F(V) + λ) / V over the allowed set, checked by brute force.
+    speeds = np.arange(5.0, 28.0, 0.5)
+    sea = SeaState.uniform(1)
+    model = CalmWaterModel(SHIP)
+    for lam in (0.0, 2.0, 20.0, 200.0):
+        choice = cheapest_speed(SHIP, model, RULES, 45.0, sea, speeds, lam)
+        p = SHIP.calm_power_kw(speeds)
+        ok = (p <= SHIP.mcr_kw) & (p >= SHIP.min_power_kw)
+        rate = np.where(ok, (SHIP.fuel_rate_tph(p) + lam) / speeds, np.inf)
+        assert choice.stw_kn[0] == pytest.approx(speeds[np.argmin(rate)])
+    # λ = 200 t/h values time far above fuel: the fastest allowed speed of the set.
+    assert choice.stw_kn[0] == pytest.approx(speeds[speeds <= SHIP.max_calm_speed_kn].max())
