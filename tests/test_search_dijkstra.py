@@ -12,8 +12,10 @@ from scipy.sparse import csgraph, csr_matrix
 
 from optroute import geo
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
-from optroute.search import RouteGrid, angular_resolution, compass, grid_edges, shortest_path
+from optroute.search import RouteGrid, _kernels, angular_resolution, compass, grid_edges, shortest_path
 from optroute.search.costs import LegEvaluator
+
+ENGINES = ["numpy", "numba"] if _kernels.AVAILABLE else ["numpy"]
 
 SAN_DIEGO = (32.7, -117.2)
 TOKYO = (35.6, 139.8)
@@ -108,16 +110,18 @@ def test_astar_and_dijkstra_equal_cost_on_time_varying_fields(small_grid, seed):
     field = SpeedField(seed)
     nb = angular_resolution(10.0, 6)
     runs = {
-        (m, b): shortest_path(small_grid, nb, edge_cost=field.edge_cost, v_max_kn=V, method=m, batched=b)
+        (m, b, e): shortest_path(small_grid, nb, edge_cost=field.edge_cost, v_max_kn=V, method=m, batched=b, engine=e)
         for m in ("dijkstra", "astar")
         for b in (True, False)
+        for e in ENGINES
     }
     costs = [r.cost for r in runs.values()]
     np.testing.assert_allclose(costs, costs[0], rtol=1e-12)
-    assert runs[("astar", False)].expanded < runs[("dijkstra", False)].expanded
-    assert runs[("astar", True)].expanded < runs[("dijkstra", True)].expanded
-    assert runs[("dijkstra", True)].batches < runs[("dijkstra", False)].batches
-    r = runs[("astar", True)]
+    for e in ENGINES:
+        assert runs[("astar", False, e)].expanded < runs[("dijkstra", False, e)].expanded
+        assert runs[("astar", True, e)].expanded < runs[("dijkstra", True, e)].expanded
+        assert runs[("dijkstra", True, e)].batches < runs[("dijkstra", False, e)].batches
+    r = runs[("astar", True, "numpy")]
     np.testing.assert_allclose(np.diff(r.times_h), r.leg_duration_h)
     np.testing.assert_allclose(r.extra["speed_kn"], r.leg_distance_nm / r.leg_duration_h)
 
@@ -173,8 +177,9 @@ def test_time_dependent_fifo_field_matches_brute_force_label_correcting():
             break
         t = new
     for m in ("astar", "dijkstra"):
-        r = shortest_path(g, nb, edge_cost=field.edge_cost, v_max_kn=V, method=m)
-        assert r.arrival_h == pytest.approx(t[int(g.flat(*g.end))], rel=1e-12)
+        for e in ENGINES:
+            r = shortest_path(g, nb, edge_cost=field.edge_cost, v_max_kn=V, method=m, engine=e)
+            assert r.arrival_h == pytest.approx(t[int(g.flat(*g.end))], rel=1e-12)
 
 
 # ------------------------------------------------------------ segment form
@@ -208,7 +213,8 @@ def test_segment_form_equals_edge_form_in_calm_water(small_grid):
 
 
 # --------------------------------------------------------------- obstacles
-def test_obstacle_is_routed_around_and_legs_stay_in_open_water():
+@pytest.mark.parametrize("engine", ENGINES)
+def test_obstacle_is_routed_around_and_legs_stay_in_open_water(engine):
     start, end = (0.0, 0.0), (0.0, 6.0)
 
     def block(lat, lon):
@@ -216,7 +222,7 @@ def test_obstacle_is_routed_around_and_legs_stay_in_open_water():
 
     g = RouteGrid.build(start, end, cell_nm=15.0, margin_nm=120.0, navigable=block)
     nb = angular_resolution(10.0, 6)
-    r = shortest_path(g, nb, edge_cost=calm, v_max_kn=V)
+    r = shortest_path(g, nb, edge_cost=calm, v_max_kn=V, engine=engine)
     free = shortest_path(g.with_navigable(np.ones(g.shape, dtype=bool)), nb, edge_cost=calm, v_max_kn=V)
     assert r.cost > free.cost * 1.005
     # dense re-sampling of every leg: each sample's cell must be navigable (cells, not points: Boeing Fig. 14)
@@ -230,7 +236,8 @@ def test_obstacle_is_routed_around_and_legs_stay_in_open_water():
         assert not ((np.abs(lat) < 0.75) & (np.abs(lon - 3.0) < 0.25)).any()
 
 
-def test_a_diagonal_step_cannot_slip_between_two_cells_touching_at_a_corner():
+@pytest.mark.parametrize("engine", ENGINES)
+def test_a_diagonal_step_cannot_slip_between_two_cells_touching_at_a_corner(engine):
     g = RouteGrid.build((0.0, 0.0), (0.0, 1.0), cell_nm=6.0, extent_nm=(-40, 40, -40, 40))
     mask = np.ones(g.shape, dtype=bool)
     # a wall of cells along the anti-diagonal, only corner-connected, separating start and end
@@ -239,7 +246,7 @@ def test_a_diagonal_step_cannot_slip_between_two_cells_touching_at_a_corner():
         if 0 <= ci + d < g.ny and 0 <= cj - d < g.nx:
             mask[ci + d, cj - d] = False
     with pytest.raises(NoSafePassage):
-        shortest_path(g.with_navigable(mask), compass(8), edge_cost=calm, v_max_kn=V)
+        shortest_path(g.with_navigable(mask), compass(8), edge_cost=calm, v_max_kn=V, engine=engine)
 
 
 def test_enclosed_start_raises_no_safe_passage_naming_where_it_stopped():
@@ -287,3 +294,5 @@ def test_callback_contract_is_enforced(small_grid):
         shortest_path(small_grid, nb, edge_cost=lambda a, b, c, d, t: (-t - 1, t, np.ones(t.shape, bool)), v_max_kn=V)
     with pytest.raises(ConfigError, match="method"):
         shortest_path(small_grid, nb, edge_cost=calm, v_max_kn=V, method="bfs")
+    with pytest.raises(ConfigError, match="engine"):
+        shortest_path(small_grid, nb, edge_cost=calm, v_max_kn=V, engine="cuda")

@@ -88,22 +88,23 @@ def unpack_cost(out: Any, n: int, who: str) -> tuple[np.ndarray, np.ndarray, np.
             f"{who} must return (duration_h, fuel_t, feasible) or (duration_h, fuel_t, feasible, extra); "
             f"got {type(out).__name__}"
         )
-    try:
-        dur = np.broadcast_to(np.asarray(out[0], dtype=float), (n,))
-        fuel = np.broadcast_to(np.asarray(out[1], dtype=float), (n,))
-        feas = np.broadcast_to(np.asarray(out[2]), (n,))
-    except ValueError as exc:
-        raise ConfigError(f"{who} returned arrays that do not match the {n} legs it was given: {exc}") from exc
+    dur, fuel, feas = np.asarray(out[0], dtype=float), np.asarray(out[1], dtype=float), np.asarray(out[2])
+    if dur.shape != (n,) or fuel.shape != (n,) or feas.shape != (n,):
+        try:
+            dur, fuel, feas = (np.broadcast_to(a, (n,)) for a in (dur, fuel, feas))
+        except ValueError as exc:
+            raise ConfigError(f"{who} returned arrays that do not match the {n} legs it was given: {exc}") from exc
     if feas.dtype != bool:
         raise ConfigError(f"{who} returned feasible of dtype {feas.dtype}; return a bool array")
-    if n and feas.any():
-        d, f = dur[feas], fuel[feas]
-        bad = ~np.isfinite(d) | (d <= 0.0)
-        if bad.any():
-            raise ConfigError(f"{who} returned duration_h={d[bad][0]!r} on a feasible leg; it must be finite and > 0")
-        bad = ~np.isfinite(f) | (f < 0.0)
-        if bad.any():
-            raise ConfigError(f"{who} returned fuel_t={f[bad][0]!r} on a feasible leg; it must be finite and >= 0")
+    with np.errstate(invalid="ignore"):
+        good = (dur > 0.0) & (dur < np.inf) & (fuel >= 0.0) & (fuel < np.inf)
+    bad = feas & ~good
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise ConfigError(
+            f"{who} returned duration_h={dur[k]!r}, fuel_t={fuel[k]!r} on a feasible leg; the duration must be "
+            "finite and > 0 and the fuel finite and >= 0"
+        )
     extra: dict[str, np.ndarray] = {}
     if len(out) == 4 and out[3] is not None:
         if not isinstance(out[3], Mapping):
@@ -196,21 +197,25 @@ class LegEvaluator:
         fuel = np.zeros(n)
         feas = np.ones(n, dtype=bool)
         rec: list[dict[str, np.ndarray]] = []
-        for k in range(int(npc.max()) if n else 0):
+        kmax = int(npc.max()) if n else 0
+        # the geometry of every piece at once, (n, kmax): on the tangent plane a straight segment is the
+        # great circle, so the piece ends are normalised linear mixes of the two nodes' plane points
+        f0, f1 = f0[:, :kmax, None], f1[:, :kmax, None]
+        tu, tv = tu[:, None, :], tv[:, None, :]
+        pa = (1 - f0) * tu + f0 * tv
+        pb = (1 - f1) * tu + f1 * tv
+        pm = pa + pb
+        pa /= np.sqrt(np.sum(pa * pa, axis=-1, keepdims=True))
+        pb /= np.sqrt(np.sum(pb * pb, axis=-1, keepdims=True))
+        pm /= np.sqrt(np.sum(pm * pm, axis=-1, keepdims=True))
+        lat_all, lon_all = xyz_to_latlon(pm)
+        course_all = course_between_deg(pm, pb)
+        length_all = chord_distance_nm(pa, pb)
+        for k in range(kmax):
             act = np.nonzero(feas & (npc > k))[0]
             if act.size == 0:
                 break
-            a, b, c = f0[act, k, None], f1[act, k, None], 0.5 * (f0[act, k, None] + f1[act, k, None])
-            ta, tb = tu[act], tv[act]
-            pa = (1 - a) * ta + a * tb
-            pb = (1 - b) * ta + b * tb
-            pm = (1 - c) * ta + c * tb
-            pa /= np.linalg.norm(pa, axis=-1, keepdims=True)
-            pb /= np.linalg.norm(pb, axis=-1, keepdims=True)
-            pm /= np.linalg.norm(pm, axis=-1, keepdims=True)
-            lat, lon = xyz_to_latlon(pm)
-            course = course_between_deg(pm, pb)
-            length = chord_distance_nm(pa, pb)
+            lat, lon, course, length = lat_all[act, k], lon_all[act, k], course_all[act, k], length_all[act, k]
             out = self.segment_cost(lat, lon, course, length, t[act])
             self.calls += 1
             d, fu, ok, extra = unpack_cost(out, act.size, "segment_cost")

@@ -50,13 +50,16 @@ from typing import Literal
 
 import numpy as np
 
+from optroute import geo
 from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
+from optroute.search import _kernels
 from optroute.search.costs import EdgeCostFn, LegEvaluator, SegmentCostFn
-from optroute.search.grid import RouteGrid, chord_distance_nm, course_between_deg, segment_cells
+from optroute.search.grid import RouteGrid, course_between_deg, segment_cells
 from optroute.search.neighbourhood import Neighbourhood
 
 _SPEED_TOL = 1e-9
+_EMPTY = np.zeros(0, dtype=np.int64)
 
 
 @dataclass(frozen=True, eq=False)
@@ -164,26 +167,19 @@ def grid_edges(grid: RouteGrid, neighbourhood: Neighbourhood) -> tuple[np.ndarra
     return u, u + off[o], o
 
 
-def _min_edge_length_nm(grid: RouteGrid, nb: Neighbourhood, ev: LegEvaluator) -> float:
-    """A lower bound on the true length of every edge [nm] (exact for unit steps).
+def _edge_length_floor_nm(grid: RouteGrid) -> np.ndarray:
+    """A lower bound on the true length of every edge leaving each node [nm], shape ``(ny * nx,)``.
 
-    Unit steps are measured on the grid; longer offsets use the gnomonic scale
-    bound true ≥ plane · cos²(c_max) (scale factors sec c and sec² c, Snyder §22).
+    An edge leaves the 3 x 3-cell square around its node after at least one
+    cell of plane length, inside a disc of plane radius ``rho + sqrt(2) cell``
+    about the projection centre; the gnomonic scale is at most sec² c there
+    (Snyder 1987 §22: sec² c radially, sec c across), so the true length is at
+    least ``cell · cos²(arctan((rho + sqrt(2) cell) / R))``.
     """
-    ny, nx = grid.shape
-    xyz = ev.xyz.reshape(ny, nx, 3)
-    c2 = np.cos(np.radians(grid.max_angle_from_centre_deg())) ** 2
-    lengths = nb.lengths_cells
-    best = np.inf
-    for (di, dj), ln in zip(nb.offsets, lengths, strict=True):
-        if max(abs(di), abs(dj)) == 1:
-            a = xyz[max(0, -di) : ny - max(0, di), max(0, -dj) : nx - max(0, dj)]
-            b = xyz[max(0, di) : ny + min(0, di), max(0, dj) : nx + min(0, dj)]
-            if a.size:
-                best = min(best, float(chord_distance_nm(a.reshape(-1, 3), b.reshape(-1, 3)).min()))
-        else:
-            best = min(best, float(ln * grid.cell_nm * c2))
-    return best
+    jj, ii = np.meshgrid(np.arange(grid.nx), np.arange(grid.ny))
+    x, y = grid.node_xy_nm(ii, jj)
+    rho = np.hypot(x, y).ravel() + np.sqrt(2.0) * grid.cell_nm
+    return grid.cell_nm * np.cos(np.arctan(rho / geo.EARTH_RADIUS_NM)) ** 2
 
 
 # ----------------------------------------------------------------- search
@@ -199,6 +195,7 @@ def shortest_path(
     lambda_t_per_h: float = 0.0,
     eta_h: float | None = None,
     batched: bool = True,
+    engine: Literal["auto", "numba", "numpy"] = "auto",
 ) -> SearchResult:
     """Time-dependent shortest path from ``grid.start`` to ``grid.end``.
 
@@ -228,6 +225,10 @@ def shortest_path(
         Settle every provably final node at once (default; exact, see
         ``_Search._loop``) or one node per step (the textbook order, slower;
         for checking).
+    engine : {"auto", "numba", "numpy"}
+        The search's own bookkeeping (which edges to cost, label updates):
+        compiled with numba when it is installed ("auto"), or numpy; the same
+        labels either way.  The callbacks are plain Python in both.
 
     Returns
     -------
@@ -256,7 +257,12 @@ def shortest_path(
     if eta_h is not None and objective != "time":
         raise ConfigError("eta_h is only checked for objective='time'; for fuel or cost use the DP or the NLP")
     ev = LegEvaluator(grid, neighbourhood, edge_cost=edge_cost, segment_cost=segment_cost)
-    return _Search(grid, neighbourhood, ev, vmax, method, objective, lam, batched).run(eta_h)
+    if engine not in ("auto", "numba", "numpy"):
+        raise ConfigError(f"engine={engine!r} is not known; use 'auto', 'numba' or 'numpy'")
+    if engine == "numba" and not _kernels.AVAILABLE:
+        raise ConfigError("engine='numba' needs the numba package; install it or use engine='numpy'")
+    eng = "numba" if engine == "auto" and _kernels.AVAILABLE else ("numpy" if engine == "auto" else engine)
+    return _Search(grid, neighbourhood, ev, vmax, method, objective, lam, batched, eng).run(eta_h)
 
 
 def dijkstra(grid: RouteGrid, neighbourhood: Neighbourhood, **kwargs: object) -> SearchResult:
@@ -280,11 +286,12 @@ class _Search:
         objective: str,
         lam: float,
         batched: bool,
+        engine: str,
     ) -> None:
         self.grid, self.nb, self.ev = grid, nb, ev
         self.vmax, self.method, self.objective, self.lam = vmax, method, objective, lam
         self.batched = batched
-        self.f_slack = 1.0 if method == "astar" else np.inf
+        self.f_slack = 0.5
         self.time_obj = objective == "time"
         n = grid.n_nodes
         ny, nx = grid.shape
@@ -299,14 +306,16 @@ class _Search:
         pad[r : r + ny, r : r + nx] = grid.navigable
         self.nav_pad = pad.ravel()
         self.all_navigable = bool(grid.navigable.all())
-        # true edge length <= plane length (gnomonic scale >= 1): a cheap first speed check
-        self.plane_len = nb.lengths_cells * grid.cell_nm
         self.base_pad = (self.ii + r) * nxp + (self.jj + r)
         walks = [segment_cells(int(a), int(b))[0] for a, b in nb.offsets]
         kmax = max(len(w) for w in walks)
         self.cell_off = np.zeros((nb.m, kmax), dtype=np.int64)  # padded with the start cell (navigable)
         for o, w in enumerate(walks):
             self.cell_off[o, : len(w)] = w[:, 0] * nxp + w[:, 1]
+        self.cell_n = np.array([len(w) for w in walks], dtype=np.int64)
+        self.compiled = engine == "numba"
+        self.touched = np.zeros(n, dtype=np.int64) if self.compiled else None
+        self.batches_relaxed = 0
         self.label = np.full(n, np.inf)
         self.tarr = np.full(n, np.nan)
         self.fuel = np.zeros(n)
@@ -331,9 +340,8 @@ class _Search:
             ok &= self.nav_pad[cells].all(axis=2)
         return ok
 
-    def _check_speed(self, u: np.ndarray, v: np.ndarray, dur: np.ndarray) -> None:
-        dist = self.ev.distance_nm(u, v)
-        fast = dur * self.vmax < dist * (1.0 - _SPEED_TOL)
+    def _check_speed(self, dist: np.ndarray, dur: np.ndarray, feas: np.ndarray) -> None:
+        fast = feas & (dur * self.vmax < dist * (1.0 - _SPEED_TOL))
         if fast.any():
             k = int(np.argmax(fast))
             raise ConfigError(
@@ -342,40 +350,64 @@ class _Search:
                 "on the speed over ground (it keeps the search exact)"
             )
 
-    def _relax(self, batch: np.ndarray) -> np.ndarray:
-        """Cost the edges out of settled ``batch``; return the nodes opened for the first time."""
+    def _candidates(self, batch: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Edges out of ``batch`` that exist and could still improve a label: (u, v, offset, length [nm])."""
+        if self.compiled:
+            ny, nx = self.grid.shape
+            return _kernels.candidates(
+                batch, self.ii, self.jj, self.di, self.dj, self.off, ny, nx, self.nav_pad, self.base_pad,
+                self.cell_off, self.cell_n, self.all_navigable, self.state, self.label, self.h,
+                float(self.label[self.g]), self.ev.xyz, self.weight / self.vmax, 2.0 * geo.EARTH_RADIUS_NM,
+            )  # fmt: skip
         nbr = batch[:, None] + self.off[None, :]
         ok = self._edges_ok(batch)
         ok &= self.state[np.where(ok, nbr, 0)] != 2
         bi, o = np.nonzero(ok)
-        if bi.size == 0:
-            return np.zeros(0, dtype=np.int64)
         u = batch[bi]
         v = nbr[bi, o]
+        # exact pruning before the callback: an edge that cannot beat v's label, or the goal's, even
+        # sailed at v_max_kn, is not costed
+        dist = self.ev.distance_nm(u, v)
+        lb = self.label[u] + self.weight / self.vmax * dist
+        useful = np.nonzero((lb < self.label[v]) & (lb + self.h[v] < self.label[self.g]))[0]
+        if useful.size < u.size:
+            u, v, o, dist = u[useful], v[useful], o[useful], dist[useful]
+        return u, v, o, dist
+
+    def _relax(self, batch: np.ndarray) -> np.ndarray:
+        """Cost the edges out of settled ``batch``; return the nodes opened for the first time."""
+        u, v, o, dist = self._candidates(batch)
+        if u.size == 0:
+            return _EMPTY
         t0 = self.tarr[u]
         dur, fu, feas, _ = self.ev.evaluate(u, v, o, t0)
         self.evaluated += u.size
-        maybe = feas & (dur * self.vmax < self.plane_len[o] * (1.0 - _SPEED_TOL))
-        if maybe.any():
-            self._check_speed(u[maybe], v[maybe], dur[maybe])
-        inc = dur if self.time_obj else fu + self.lam * dur
-        new = self.label[u] + inc
-        keep = feas & (new < self.label[v])
-        if not keep.any():
-            return np.zeros(0, dtype=np.int64)
-        u, v, o, new, t1, fu = u[keep], v[keep], o[keep], new[keep], (t0 + dur)[keep], fu[keep]
-        order = np.lexsort((t1, new, v))
-        vs = v[order]
+        self._check_speed(dist, dur, feas)
+        new = self.label[u] + (dur if self.time_obj else fu + self.lam * dur)
+        if self.compiled:
+            self.batches_relaxed += 1
+            return _kernels.apply(
+                u, v, o, new, t0 + dur, fu, feas, self.label, self.tarr, self.fuel, self.parent, self.poff,
+                self.state, self.touched, self.batches_relaxed,
+            )  # fmt: skip
+        keep = np.nonzero(feas & (new < self.label[v]))[0]
+        if keep.size == 0:
+            return _EMPTY
+        t1 = t0[keep] + dur[keep]
+        new, vk = new[keep], v[keep]
+        order = np.lexsort((t1, new, vk))
+        vs = vk[order]
         first = np.ones(vs.size, dtype=bool)
         first[1:] = vs[1:] != vs[:-1]
         sel = order[first]
-        u, v, o, new, t1, fu = u[sel], v[sel], o[sel], new[sel], t1[sel], fu[sel]
+        w = keep[sel]
+        v = vs[first]
         opened = v[self.state[v] == 0]
-        self.label[v] = new
-        self.tarr[v] = t1
-        self.fuel[v] = self.fuel[u] + fu
-        self.parent[v] = u
-        self.poff[v] = o
+        self.label[v] = new[sel]
+        self.tarr[v] = t1[sel]
+        self.fuel[v] = self.fuel[u[w]] + fu[w]
+        self.parent[v] = u[w]
+        self.poff[v] = o[w]
         self.state[v] = 1
         return opened
 
@@ -388,6 +420,11 @@ class _Search:
                     f"the {name} ({pos[0]:.4f}, {pos[1]:.4f}) lies in a non-navigable grid cell {node}; "
                     "move it to open water or check the navigable mask"
                 )
+        n = grid.n_nodes
+        if self.method == "astar":
+            self.h = self.weight * self.ev.distance_nm(np.arange(n), np.full(n, self.g)) / self.vmax
+        else:
+            self.h = np.zeros(n)
         self.label[self.s] = 0.0
         self.tarr[self.s] = 0.0
         self.state[self.s] = 1
@@ -408,41 +445,55 @@ class _Search:
     def _loop(self) -> None:
         """Settle nodes in batches that provably cannot be improved any more.
 
-        With a consistent heuristic h (h = 0 for Dijkstra) and δ a lower bound
-        on every edge's cost, a path to open node y through another open node w
-        costs at least ``g(w) + δ`` and at least ``f(w) - h(y)``.  So y is final
-        when every open w with ``f(w) < f(y)`` has ``g(w) >= g(y) - δ``: with the
-        open set sorted by f, ``g(y) <= min(g over the nodes before y) + δ``.
-        For Dijkstra this is ``g(y) <= g_min + δ``.  The node of least f is
-        always final; settling all final nodes at once stays exact because a
-        path through one of them obeys the same two bounds.
+        With a consistent heuristic h (h = 0 for Dijkstra) and δ_w a lower
+        bound on the cost of every edge out of w (:func:`_edge_length_floor_nm`
+        over ``v_max_kn``), a path to open node y through another open node w
+        costs at least ``g(w) + δ_w`` and at least ``f(w) - h(y)``.  So y is
+        final when every open w with ``f(w) < f(y)`` has ``g(w) + δ_w >= g(y)``:
+        with the open set sorted by f, ``g(y) <= min(g + δ over the nodes before
+        y)``.  For Dijkstra this is ``g(y) <= min over the open set of (g + δ)``.
+        The node of least f is always final; settling all final nodes at once
+        stays exact because a path through one of them obeys the same two
+        bounds.  A* settles only nodes within ``δ`` of the least f, so that it
+        does not expand nodes that textbook A* would never reach.
         """
-        n = self.grid.n_nodes
-        if self.method == "astar":
-            dist_goal = self.ev.distance_nm(np.arange(n), np.full(n, self.g))
-            h = self.weight * dist_goal / self.vmax
-        else:
-            h = np.zeros(n)
-        dmin = _min_edge_length_nm(self.grid, self.nb, self.ev) / self.vmax
-        delta = (dmin if self.time_obj else self.lam * dmin) * (1.0 - 1e-9)
+        h = self.h
+        # δ_w: a lower bound on the cost of any edge out of w (time at v_max; λ·time for "cost")
+        delta = _edge_length_floor_nm(self.grid) / self.vmax * (1.0 - 1e-9) * self.weight
         open_nodes = np.array([self.s], dtype=np.int64)
+        mode = 0 if not self.batched else (1 if self.method == "dijkstra" else 2)
         while open_nodes.size:
+            if self.compiled:
+                batch, open_nodes = _kernels.select(open_nodes, self.label, h, delta, self.f_slack, mode)
+                self.state[batch] = 2
+                self.expanded += batch.size
+                self.batches += 1
+                if self.state[self.g] == 2:
+                    return
+                opened = self._relax(batch)
+                if opened.size:
+                    open_nodes = np.concatenate([open_nodes, opened])
+                continue
             g = self.label[open_nodes]
             if not self.batched:
                 f = g + h[open_nodes]
                 sel = np.zeros(open_nodes.size, dtype=bool)
                 sel[int(np.argmin(f))] = True
             elif self.method == "dijkstra":
-                sel = g <= g.min() + delta
+                sel = g <= (g + delta[open_nodes]).min()
+                if not sel.any():  # δ = 0 (fuel objective): the least label only
+                    sel = g <= g.min()
             else:
                 f = g + h[open_nodes]
-                cand = np.nonzero(f <= f.min() + self.f_slack * delta)[0]
+                k0 = int(np.argmin(f))
+                cand = np.nonzero(f <= f[k0] + self.f_slack * delta[open_nodes[k0]])[0]
                 order = cand[np.argsort(f[cand], kind="stable")]
                 gs = g[order]
+                reach = gs + delta[open_nodes[order]]
                 prior = np.empty_like(gs)
                 prior[0] = np.inf
-                np.minimum.accumulate(gs[:-1], out=prior[1:])
-                final = gs <= prior + delta
+                np.minimum.accumulate(reach[:-1], out=prior[1:])
+                final = gs <= prior
                 final[0] = True
                 sel = np.zeros(open_nodes.size, dtype=bool)
                 sel[order[final]] = True

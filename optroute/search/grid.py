@@ -33,6 +33,7 @@ of Amanatides & Woo (1987), "A fast voxel traversal algorithm".
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 from fractions import Fraction
@@ -399,6 +400,12 @@ def segment_cells(di: int, dj: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     """
     if di == 0 and dj == 0:
         raise ConfigError("a segment needs a non-zero offset")
+    cells, f0, f1 = _walk(int(di), int(dj))
+    return np.array(cells, dtype=np.int64).reshape(-1, 2), np.array(f0), np.array(f1)
+
+
+@functools.lru_cache(maxsize=4096)
+def _walk(di: int, dj: int) -> tuple[tuple[tuple[int, int], ...], tuple[float, ...], tuple[float, ...]]:
     adi, adj = abs(di), abs(dj)
     si, sj = (1 if di > 0 else -1), (1 if dj > 0 else -1)
     # crossings of column boundaries x = k + 1/2 and row boundaries y = k + 1/2
@@ -427,11 +434,7 @@ def segment_cells(di: int, dj: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]
         cells.append((ci, cj))
         f0.append(s)
     f1.append(Fraction(1))
-    return (
-        np.array(cells, dtype=np.int64),
-        np.array([float(v) for v in f0]),
-        np.array([float(v) for v in f1]),
-    )
+    return tuple(cells), tuple(float(v) for v in f0), tuple(float(v) for v in f1)
 
 
 def is_primitive(di: int, dj: int) -> bool:

@@ -1,0 +1,285 @@
+"""Route-search benchmark: our time-dependent search beside scipy's compiled static Dijkstra.
+
+1. San Diego → Tokyo (seed 000's example) on a 20 nm gnomonic grid with the
+   5° minimum-angular-resolution neighbourhood (radius 12), through two
+   storms that drift along the great circle and slow the ship from 25 kn to
+   8 kn (a synthetic time-dependent speed field shaped like
+   ``optroute.scenarios.north_pacific_storms()``; the one line to swap is
+   marked ``SWAP`` in :func:`pacific_edge_cost`).  Timed in the same run:
+   our batched A* and Dijkstra (whole-leg callback), A* with the cell-by-cell
+   callback (Boeing Fig. 14), and ``scipy.sparse.csgraph.dijkstra`` on a CSR
+   graph with the same nodes and edges and static weights (each edge's cost
+   at departure).  The CSR matrix (edge list + weights + conversion) is built
+   once beforehand and its build time is *excluded*, as is our grid build;
+   scipy computes every node's distance (it has no target), ours stops at
+   the goal.
+2. The graph sizes of seed 003's Table 1 (Gulf of Gdańsk, 595–3 222
+   vertices, 7 514–200 236 edges, 8/16/32 directions): grids of about the
+   same vertex counts, a sailing-boat polar under a slowly veering wind (head
+   to wind is infeasible), planning time per graph beside the paper's
+   0.19–1.74 s (their edge counts are larger than their direction sets allow
+   on a plain lattice; ours are printed beside theirs).
+3. The 3-D DP (seed 001 geometry: 5 400 nm on the equator, ΔX 360 nm, ΔY
+   75 nm, speeds 5–30 kn, Δt 1 h) with a cubic fuel law and case I's moving
+   no-go areas: time, transitions per second, and the ratio of a run with
+   ``max_lateral_step=3`` to the full one.
+
+Run ``python -m benchmarks.bench_search [--quick]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra as csgraph_dijkstra
+
+from optroute import geo
+from optroute.search import RouteGrid, _kernels, angular_resolution, compass, grid_edges, shortest_path, solve_dp
+from optroute.search.costs import LegEvaluator
+
+Arr = np.ndarray
+SAN_DIEGO = (32.7, -117.2)
+TOKYO = (35.6, 139.8)
+V_SHIP_KN = 25.0
+
+# seed 003, Table 1: (directions, vertices, edges, planning time [s])
+SEED003 = [(8, 595, 7514, 0.19), (16, 1178, 21794, 0.31), (32, 1335, 46730, 0.57),
+           (8, 1886, 30918, 1.12), (16, 2653, 91156, 1.45), (32, 3222, 200236, 1.74)]  # fmt: skip
+
+
+def _best_of(fn: Callable[[], Any], repeat: int) -> tuple[float, Any]:
+    best, out = np.inf, None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+# ------------------------------------------------------------ case 1: Pacific
+def _synthetic_storm_speed() -> Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
+    """Speed [kn] through two storms on the great circle (32 % and 73 % of the way) drifting east at 3 kn."""
+    d = float(geo.distance_nm(*SAN_DIEGO, *TOKYO))
+    storms = []
+    for frac0, hs_peak in ((0.32, 14.0), (0.73, 14.0)):
+        hours = np.arange(0.0, 16 * 24 + 1, 6.0)
+        lat, lon = geo.intermediate_points(*SAN_DIEGO, *TOKYO, frac0 - 3.0 * hours / d)
+        storms.append((hours, lat, geo.unwrap_lon_deg(lon), hs_peak))
+
+    def speed(lat: np.ndarray, lon: np.ndarray, t: np.ndarray) -> np.ndarray:
+        hs = np.full(np.shape(lat), 2.5)
+        for hours, slat, slon, peak in storms:
+            clat = np.interp(t, hours, slat)
+            clon = np.interp(t, hours, slon)
+            dlat = (lat - clat) * 60.0
+            dlon = (np.mod(lon - clon + 180.0, 360.0) - 180.0) * 60.0 * np.cos(np.radians(clat))
+            hs = np.maximum(hs, peak * np.exp(-0.5 * ((dlon / 450.0) ** 2 + (dlat / 250.0) ** 2)))
+        return np.clip(V_SHIP_KN - 1.6 * np.maximum(hs - 4.0, 0.0), 8.0, V_SHIP_KN)
+
+    return speed
+
+
+def _haversine_nm(lat0: np.ndarray, lon0: np.ndarray, lat1: np.ndarray, lon1: np.ndarray) -> np.ndarray:
+    p0, p1 = np.radians(lat0), np.radians(lat1)
+    h = np.sin((p1 - p0) / 2) ** 2 + np.cos(p0) * np.cos(p1) * np.sin(np.radians(lon1 - lon0) / 2) ** 2
+    return 2.0 * geo.EARTH_RADIUS_NM * np.arcsin(np.sqrt(np.clip(h, 0.0, 1.0)))
+
+
+def pacific_edge_cost() -> tuple[Callable[..., Any], Callable[..., Any]]:
+    """The whole-leg and the per-cell callbacks for case 1."""
+    speed = _synthetic_storm_speed()  # SWAP: speed = <physics speed field of> scenarios.north_pacific_storms()
+
+    def edge_cost(lat0: Arr, lon0: Arr, lat1: Arr, lon1: Arr, t0: Arr) -> tuple[Arr, Arr, Arr]:
+        d = _haversine_nm(lat0, lon0, lat1, lon1)
+        mid_lon = lon0 + 0.5 * (np.mod(lon1 - lon0 + 180.0, 360.0) - 180.0)
+        v = speed(0.5 * (lat0 + lat1), mid_lon, t0 + 0.5 * d / V_SHIP_KN)
+        return d / v, 2.0e-4 * d * v**2, np.ones(d.shape, dtype=bool)
+
+    def segment_cost(lat: Arr, lon: Arr, course: Arr, length: Arr, t: Arr) -> tuple[Arr, Arr, Arr]:
+        v = speed(lat, lon, t)
+        return length / v, 2.0e-4 * length * v**2, np.ones(length.shape, dtype=bool)
+
+    return edge_cost, segment_cost
+
+
+def bench_pacific(quick: bool) -> dict[str, Any]:
+    repeat = 1 if quick else 3
+    t0 = time.perf_counter()
+    grid = RouteGrid.build(SAN_DIEGO, TOKYO, cell_nm=20.0, margin_nm=600.0)
+    grid_s = time.perf_counter() - t0
+    nb = angular_resolution(5.0, 12)
+    edge_cost, segment_cost = pacific_edge_cost()
+    out: dict[str, Any] = {"grid": f"{grid.ny} x {grid.nx} = {grid.n_nodes:,} nodes", "grid_build_s": grid_s,
+                           "neighbourhood": f"{nb.name} ({nb.m} offsets)"}  # fmt: skip
+
+    # scipy: same nodes and edges, static weights (cost at departure); build excluded
+    t0 = time.perf_counter()
+    u, v, o = grid_edges(grid, nb)
+    w, _, _, _ = LegEvaluator(grid, nb, edge_cost=edge_cost).evaluate(u, v, o, np.zeros(u.size))
+    csr = csr_matrix((w, (u, v)), shape=(grid.n_nodes, grid.n_nodes))
+    out["csr_build_s"] = time.perf_counter() - t0
+    out["edges"] = int(u.size)
+    s = int(grid.flat(*grid.start))
+    out["scipy_s"], dist = _best_of(lambda: csgraph_dijkstra(csr, directed=True, indices=s), repeat + 2)
+    out["scipy_static_arrival_h"] = float(dist[int(grid.flat(*grid.end))])
+
+    # warm-up: compile (or load from cache) the numba kernels outside the timings
+    small = RouteGrid.build(SAN_DIEGO, (33.0, -120.0), cell_nm=20.0, margin_nm=40.0)
+    shortest_path(small, compass(8), edge_cost=edge_cost, v_max_kn=V_SHIP_KN)
+    out["engine"] = "numba" if _kernels.AVAILABLE else "numpy (numba not installed)"
+    rows = []
+    cases = [
+        ("A* (batched), whole-leg callback", dict(edge_cost=edge_cost, method="astar")),
+        ("Dijkstra (batched), whole-leg callback", dict(edge_cost=edge_cost, method="dijkstra")),
+        ("A* (batched), cell-by-cell callback (Boeing Fig. 14)", dict(segment_cost=segment_cost, method="astar")),
+        ("A* (batched), whole-leg, numpy bookkeeping", dict(edge_cost=edge_cost, method="astar", engine="numpy")),
+        ("A* one node at a time (textbook order)", dict(edge_cost=edge_cost, method="astar", batched=False)),
+    ]
+    for label, kw in cases:
+        if quick and "textbook" in label:
+            continue
+        sec, r = _best_of(lambda kw=kw: shortest_path(grid, nb, v_max_kn=V_SHIP_KN, **kw), repeat)
+        calls = r.callback_calls
+        rows.append({"method": label, "time_s": sec, "ratio_vs_scipy": sec / out["scipy_s"],
+                     "arrival_h": r.arrival_h, "expanded": r.expanded, "batches": r.batches,
+                     "edges_costed": r.evaluated_edges, "callback_calls": calls})  # fmt: skip
+    out["rows"] = rows
+    gc_h = float(geo.distance_nm(*SAN_DIEGO, *TOKYO)) / V_SHIP_KN
+    out["calm_great_circle_h"] = gc_h
+    return out
+
+
+# ------------------------------------------------------------- case 2: seed 003
+def _sailing_edge_cost() -> tuple[Callable[..., Any], float]:
+    """Boat speed from a polar under a wind veering 90° over 12 h; closer than 40° to the wind is infeasible."""
+    vmax = 9.5
+
+    def edge_cost(lat0: Arr, lon0: Arr, lat1: Arr, lon1: Arr, t0: Arr) -> tuple[Arr, Arr, Arr]:
+        d = _haversine_nm(lat0, lon0, lat1, lon1)
+        y = np.sin(np.radians(lon1 - lon0)) * np.cos(np.radians(lat1))
+        x = np.cos(np.radians(lat0)) * np.sin(np.radians(lat1)) - np.sin(np.radians(lat0)) * np.cos(
+            np.radians(lat1)
+        ) * np.cos(np.radians(lon1 - lon0))
+        course = np.degrees(np.arctan2(y, x))
+        wind_from = 250.0 + 7.5 * t0 + 10.0 * np.sin(np.radians(20.0 * (lat0 - 54.0) * 60.0))
+        twa = np.abs(np.mod(course - wind_from + 180.0, 360.0) - 180.0)
+        v = 2.0 + 7.5 * np.sin(np.radians(np.clip(twa, 0.0, 180.0)) / 2.0) ** 1.5
+        ok = twa >= 40.0
+        return d / v, 0.0 * d, ok
+
+    return edge_cost, vmax
+
+
+def bench_seed003(quick: bool) -> dict[str, Any]:
+    a, b = (54.56, 19.23), (54.52, 18.76)
+    edge_cost, vmax = _sailing_edge_cost()
+    width_nm, height_nm = 50.0, 43.0  # the paper's box, 18.069–19.508 E x 54.217–54.936 N
+    rows = []
+    for n_dir, n_vert, n_edge, paper_s in SEED003:
+        cell = (width_nm + height_nm + np.sqrt((width_nm - height_nm) ** 2 + 4 * width_nm * height_nm * n_vert)) / (
+            2 * (n_vert - 1)
+        )
+        grid = RouteGrid.build(
+            a, b, cell_nm=cell, extent_nm=(-width_nm / 2, width_nm / 2, -height_nm / 2, height_nm / 2)
+        )
+        nb = compass(n_dir)
+        u, _, _ = grid_edges(grid, nb)
+        sec, r = _best_of(
+            lambda g=grid, nb=nb: shortest_path(g, nb, edge_cost=edge_cost, v_max_kn=vmax), 1 if quick else 3
+        )
+        sec_d, _ = _best_of(
+            lambda g=grid, nb=nb: shortest_path(g, nb, edge_cost=edge_cost, v_max_kn=vmax, method="dijkstra"),
+            1 if quick else 3,
+        )
+        rows.append({"directions": n_dir, "paper_vertices": n_vert, "vertices": grid.n_nodes,
+                     "paper_edges": n_edge, "edges": int(u.size), "paper_s": paper_s, "astar_s": sec,
+                     "dijkstra_s": sec_d, "time_h": r.arrival_h, "paper_ratio": paper_s / sec})  # fmt: skip
+    return {"rows": rows}
+
+
+# ----------------------------------------------------------------- case 3: DP
+def bench_dp(quick: bool) -> dict[str, Any]:
+    k = 1e-4
+
+    def cubic(lat0: Arr, lon0: Arr, lat1: Arr, lon1: Arr, t0: Arr, sog: Arr) -> tuple[Arr, Arr, Arr]:
+        d = _haversine_nm(lat0, lon0, lat1, lon1)
+        t = d / sog
+        return t, k * d**3 / t**2, np.ones(d.shape, dtype=bool)
+
+    def case1(lat: Arr, lon: Arr, t: Arr) -> Arr:
+        island = (lon >= 50) & (lon <= 70) & (lat >= -1) & (lat <= 7)
+        shift = np.where(t > 60.0, (t - 60.0) * 3.0 / 60.0, 0.0)
+        storm = (lon >= 50) & (lon <= 70) & (lat <= -1 - shift) & (lat >= -9 - shift)
+        return ~(island | storm)
+
+    end = (0.0, 45.0) if quick else (0.0, 90.0)
+    kw = dict(eta_h=400.0 if not quick else 200.0, dx_nm=360.0, dy_nm=75.0, half_width_nm=600.0,
+              speeds_kn=np.arange(5.0, 30.5, 1.0), dt_h=1.0, navigable=case1)  # fmt: skip
+    full_s, full = _best_of(lambda: solve_dp((0.0, 0.0), end, cubic, **kw), 1)
+    step_s, step = _best_of(lambda: solve_dp((0.0, 0.0), end, cubic, max_lateral_step=3, **kw), 1)
+    return {"route": f"(0, 0) -> {end}", "stages": int(full.stage_lat_deg.shape[0] - 1),
+            "laterals": int(full.stage_lat_deg.shape[1]), "full_s": full_s, "full_transitions": full.n_transitions,
+            "step3_s": step_s, "step3_transitions": step.n_transitions, "full_fuel_t": full.path.total_fuel_t,
+            "step3_fuel_t": step.path.total_fuel_t, "curve_points": int(np.isfinite(full.curve_fuel_t).sum())}  # fmt: skip
+
+
+def run(quick: bool) -> dict[str, Any]:
+    """Run the three cases, print markdown tables, return the figures."""
+    pac = bench_pacific(quick)
+    print(f"\n### San Diego → Tokyo, {pac['grid']}, {pac['edges']:,} edges, neighbourhood {pac['neighbourhood']}\n")
+    print(f"scipy `csgraph.dijkstra`, static weights, all nodes: **{pac['scipy_s'] * 1e3:.1f} ms** "
+          f"(CSR build {pac['csr_build_s']:.2f} s and our grid build {pac['grid_build_s']:.2f} s excluded); "
+          f"our bookkeeping engine: {pac['engine']}\n")  # fmt: skip
+    print(
+        "| method | time [s] | ratio to scipy | arrival [h] | nodes expanded | settling steps | edges costed | callback calls |"
+    )
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    for r in pac["rows"]:
+        print(f"| {r['method']} | {r['time_s']:.3f} | {r['ratio_vs_scipy']:.1f} | {r['arrival_h']:.1f} | "
+              f"{r['expanded']:,} | {r['batches']:,} | {r['edges_costed']:,} | {r['callback_calls']:,} |")  # fmt: skip
+    print(f"\ncalm great circle at {V_SHIP_KN:g} kn: {pac['calm_great_circle_h']:.1f} h; "
+          f"scipy on the static (departure-time) weights: {pac['scipy_static_arrival_h']:.1f} h\n")  # fmt: skip
+
+    s3 = bench_seed003(quick)
+    print("### Seed 003 graph sizes (Gulf of Gdańsk, sailing polar, veering wind)\n")
+    print(
+        "| directions | vertices (paper) | vertices | edges (paper) | edges | paper [s] | A* [s] | Dijkstra [s] | paper / A* |"
+    )
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for r in s3["rows"]:
+        print(f"| {r['directions']} | {r['paper_vertices']:,} | {r['vertices']:,} | {r['paper_edges']:,} | "
+              f"{r['edges']:,} | {r['paper_s']:.2f} | {r['astar_s']:.3f} | {r['dijkstra_s']:.3f} | "
+              f"{r['paper_ratio']:.0f} |")  # fmt: skip
+
+    dp = bench_dp(quick)
+    print(f"\n### 3-D DP, {dp['route']}: {dp['stages']} stages x {dp['laterals']} laterals x 26 speeds, Δt 1 h, "
+          "case I no-go areas\n")  # fmt: skip
+    print("| lateral moves | time [s] | transitions | transitions / s | fuel [t] | ratio of times |")
+    print("|---|---:|---:|---:|---:|---:|")
+    print(f"| any | {dp['full_s']:.2f} | {dp['full_transitions']:,} | {dp['full_transitions'] / dp['full_s']:,.0f} | "
+          f"{dp['full_fuel_t']:.2f} | 1.0 |")  # fmt: skip
+    print(f"| ±3 per stage | {dp['step3_s']:.2f} | {dp['step3_transitions']:,} | "
+          f"{dp['step3_transitions'] / dp['step3_s']:,.0f} | {dp['step3_fuel_t']:.2f} | "
+          f"{dp['step3_s'] / dp['full_s']:.2f} |")  # fmt: skip
+    print()
+    return {"pacific": pac, "seed003": s3, "dp": dp}
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="smaller cases, single repetitions")
+    parser.add_argument("--json", action="store_true", help="also print the figures as JSON")
+    args = parser.parse_args(argv)
+    out = run(args.quick)
+    if args.json:
+        print(json.dumps(out, indent=1, default=float))
+
+
+if __name__ == "__main__":
+    main()
