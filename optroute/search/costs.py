@@ -27,6 +27,11 @@ calls ``segment_cost`` once per piece *position* for all legs of a batch, and
 carries the time forward: piece k+1 is entered at the time piece k is left.
 A leg is feasible when every piece is; its duration and fuel are the sums.
 
+Moving no-go areas (storms, seas where no speed survives the danger bands)
+are expressed by ``feasible = False``; static ones (land, missing weather)
+by the grid's navigable mask, which the search applies to every cell a leg
+crosses.
+
 In both forms ``duration_h`` [h] must be finite and positive and ``fuel_t``
 [t] finite and non-negative wherever ``feasible`` is True; elsewhere they are
 ignored (NaN is fine).  ``extra`` is an optional mapping of per-leg (or

@@ -27,20 +27,33 @@ Methods
 -------
 ``"dijkstra"``
     Label-setting in increasing label order.  Nodes are settled in *batches*:
-    every open node whose label is below ``L_min + δ`` is final, where ``δ`` is
-    a lower bound on the cost of any edge (shortest true edge length over
-    ``v_max_kn``, times λ for the cost objective): no edge can bring another
-    open node below ``L_min + δ``.  Batching is therefore exact, and lets the
-    callback cost hundreds of nodes' edges in one vectorised call.
+    every open node y with ``g(y) <= min over the open set of (g(w) + δ_w)``
+    is final, where ``δ_w`` is a lower bound on the cost of any edge out of w
+    (a floor of the true edge length there, over ``v_max_kn``; times λ for
+    the cost objective): no edge can bring an open node below that.  Batching
+    is therefore exact, and lets the callback cost the edges of many nodes in
+    one vectorised call.
 ``"astar"``
     A* with the great-circle heuristic ``E(N) = w · distance_nm(N, end) /
     v_max_kn`` (``w`` = 1 for time, λ for cost), consistent because every leg
-    is a great-circle arc sailed at most at ``v_max_kn``; it settles the same
-    labels as Dijkstra (same cost) and expands fewer nodes, one at a time.
+    is a great-circle arc sailed at most at ``v_max_kn``.  It settles the same
+    labels as Dijkstra (same cost), batched by the same argument refined by
+    the heuristic (see ``_Search._loop``), and expands fewer nodes.
 
-The search checks on every costed edge that ``duration_h >= distance /
-v_max_kn`` (otherwise the heuristic and the batching would not be exact) and
-raises :class:`~optroute.errors.ConfigError` if the callback sails faster.
+``batched=False`` settles one node per step (the textbook order) for
+comparison.  Before the callback is called, edges that could not improve
+their end node's label, or the goal's, even at ``v_max_kn`` are dropped
+(exact).  The search checks on every costed edge that ``duration_h >=
+distance / v_max_kn`` (otherwise the heuristic, the batching and the pruning
+would not be exact) and raises :class:`~optroute.errors.ConfigError` if the
+callback sails faster.
+
+Performance: the search's own bookkeeping (edge tests, pruning, label
+updates, batch selection) runs in numba when it is installed (``engine``),
+else in numpy with the same labels; the callback is called once per batch
+(whole-leg form) or once per piece position per batch (cell-by-cell form).
+The number of batches is bounded below by the voyage's duration over the
+shortest edge's duration, whatever the engine.
 """
 
 from __future__ import annotations
@@ -215,7 +228,10 @@ def shortest_path(
     method : {"astar", "dijkstra"}
         Search order; both give the same cost.
     objective : {"time", "cost", "fuel"}
-        Earliest arrival, or fuel + λ·time (``"fuel"`` is ``"cost"`` with λ = 0).
+        Earliest arrival, or fuel + λ·time (``"fuel"`` is ``"cost"`` with λ = 0;
+        with no price on time there is no positive lower bound on an edge's
+        cost, so nodes are settled one label at a time and A* has no
+        heuristic: slow on big grids).
     lambda_t_per_h : float
         λ, the value of an hour in tonnes of fuel [t/h], for ``"cost"``.
     eta_h : float, optional
