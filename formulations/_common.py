@@ -17,9 +17,13 @@ from numpy.typing import ArrayLike
 __all__ = [
     "BAND_KINDS",
     "Band",
+    "CorridorGeometry",
     "FormulationInputError",
+    "MovingExclusion",
     "NonConvexFuelModel",
     "PowerLawFuel",
+    "PowerModel",
+    "WeatherGrid",
     "G_OVER_2PI_KN_S",
     "as_float_array",
     "broadcast_legs",

@@ -1,0 +1,341 @@
+"""Per-sample physics of the corridor NLP and its structure-exploiting derivatives.
+
+Split out of :mod:`formulations.speed_nlp` to keep modules short. Two things live here:
+
+* :func:`sample_physics`, the symbolic (SX) model of one sample of one leg: kinematics with
+  current, encounter angle, power, engine load, fuel rate, band residuals and ratios;
+* :func:`structured_derivatives`, exact first and second derivatives of the NLP assembled leg
+  by leg, passed to ``nlpsol`` as its ``grad_f``, ``jac_g`` and ``hess_lag`` functions.
+
+Why the second: every objective term and constraint row of the NLP depends on the five
+variables of one leg, ``z_k = (y_k, y_{k+1}, V_k, t_k, t_{k+1})``; the weather enters through a
+spline evaluated at the sample's ``(t, s, y)``, where ``s`` is fixed and ``(t, y)`` are affine in
+``z_k``. CasADi's generic Hessian of the mapped MX graph needs one forward-over-reverse sweep
+over all samples per colour of the Hessian, which dominated the solve time. Here instead, at
+the point ``x`` where Ipopt asks for derivatives,
+
+1. the weather spline and its first and second partial derivatives in ``t`` and ``y`` are
+   evaluated once per sample (one batched call);
+2. each leg is an SX function of ``z_k`` in which the weather is the second-order Taylor
+   polynomial around that very point. A function and its second-order Taylor polynomial share
+   value, gradient and Hessian at the expansion point, so by the chain rule the leg's value,
+   gradient, Jacobian and Hessian in ``z_k`` are the exact ones of the true composite;
+3. the per-leg 5-column Jacobian rows and 5×5 Hessians (``Function.map`` over the legs) are
+   scattered into the global sparse matrices with constant sparse matrices.
+
+The test suite checks the result against CasADi's automatic derivatives of the plain model.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from formulations._common import Band, PowerModel
+
+__all__ = ["ABS_EPS_KN", "sample_physics", "structured_derivatives"]
+
+ABS_EPS_KN = 1e-3  # smoothing of |A T − V cos χ| in T_E [kn]
+_N_Z = 5  # y_k, y_{k+1}, V_k, t_k, t_{k+1}
+_TRIU = [(a, b) for b in range(_N_Z) for a in range(b + 1)]  # upper triangle, column-major
+
+
+def sample_physics(
+    v: Any,
+    cos_d: Any,
+    sin_d: Any,
+    ds: Any,
+    factor: Any,
+    col: dict[str, Any],
+    beta: Any,
+    power: PowerModel,
+    bands: tuple[Band, ...],
+    g_over_2pi: float,
+) -> dict[str, Any]:
+    """Symbolic quantities at one sample (see :mod:`formulations.speed_nlp` for the model).
+
+    Parameters
+    ----------
+    v : SX
+        Speed through water [kn].
+    cos_d, sin_d : SX
+        cos and sin of δ, the angle from the centreline tangent to the leg's course (counter-clockwise).
+    ds : SX
+        Length represented by the sample, ``L_k / m`` [nm].
+    factor : SX or float
+        Static per-leg power factor ``f_k`` [-].
+    col : dict
+        Weather fields at the sample by name (see ``WeatherGrid.field_names``).
+    beta : SX
+        Band edge used in each band's residual (``lower`` or ``upper`` by side), length B.
+    power, bands, g_over_2pi
+        The ship model, the bands and ``A = g/2π`` [kn/s].
+
+    Returns
+    -------
+    dict
+        ``dt`` [h], ``fuel`` [t], ``load``, ``power`` [kW], ``rate`` [t/h], ``cos_chi``, ``sog`` [kn],
+        ``h_perp`` (sine of the drift angle), ``res`` (B scaled band residuals, ``≤ 0`` on the lower
+        side and ``≥ 0`` on the upper side when satisfied), ``ratio`` (B band ratios).
+    """
+    pw = power
+    hs, per = col["hs_m"], col["period_s"]
+
+    def to_leg(a_name: str, c_name: str) -> tuple[Any, Any]:
+        # (along, across) of the centreline → (along, to port of) the leg
+        if a_name not in col:
+            return 0.0, 0.0
+        a, cc = col[a_name], col[c_name]
+        return a * cos_d + cc * sin_d, -a * sin_d + cc * cos_d
+
+    u_par, u_perp = to_leg("current_along_kn", "current_across_kn")
+    h_perp = -u_perp / v
+    h_par = ca.sqrt(1.0 - h_perp**2)
+    sog = v * h_par + u_par
+    w_par, w_perp = to_leg("wave_to_along", "wave_to_across")
+    w_norm = ca.sqrt(w_par**2 + w_perp**2 + 1e-12)
+    cos_chi = (h_par * w_par + h_perp * w_perp) / w_norm
+    cos_alpha = -cos_chi  # IMO encounter angle: 0 = head sea
+    p_calm = sum(cj * v**nj for cj, nj in zip(pw.calm_coef, pw.calm_exp, strict=True))
+    hs_pos = ca.fmax(hs, 0.0)
+    w_hs = sum(hm * hs_pos**qm for hm, qm in zip(pw.hs_coef, pw.hs_exp, strict=True)) if pw.hs_coef.size else 0.0
+    b0, b1, b2 = pw.angle_coef
+    d_dir = b0 + b1 * cos_alpha + b2 * cos_alpha**2
+    s_v = sum(ur * v**r for r, ur in enumerate(pw.speed_coef))
+    pwr = factor * p_calm * (1.0 + w_hs * d_dir * s_v)
+    if pw.wind_coef > 0.0 and "wind_along_kn" in col:
+        wd_par, wd_perp = to_leg("wind_along_kn", "wind_across_kn")
+        app = sog * h_par - (wd_par * h_par + wd_perp * h_perp)  # apparent head wind [kn]
+        app0 = sog * h_par  # its still-air value
+        pwr = pwr + pw.wind_coef * v * (app * ca.sqrt(app**2 + 1e-6) - app0**2)
+    load = pwr / pw.mcr_kw
+    a2, a1, a0 = pw.sfc_quad
+    rate = pwr * pw.sfc_base_gpkwh * (a2 * load**2 + a1 * load + a0) * 1e-6  # t/h
+    dt = ds / sog
+    a_ = g_over_2pi
+    along = v * cos_chi
+    res, ratio = [], []
+    for i, b in enumerate(bands):
+        if b.kind == "te_over_tr":
+            num = a_ * per**2
+            den = b.param * ca.sqrt((a_ * per - along) ** 2 + ABS_EPS_KN**2)
+            scl = a_ * per * b.param
+        else:
+            num = along
+            den = {"v_over_c": a_ * per, "v_over_cg": 0.5 * a_ * per}.get(b.kind, b.param)
+            scl = den
+        res.append((num - beta[i] * den) / scl)
+        ratio.append(num / den)
+    return {
+        "dt": dt,
+        "fuel": rate * dt,
+        "load": load,
+        "power": pwr,
+        "rate": rate,
+        "cos_chi": cos_chi,
+        "sog": sog,
+        "h_perp": h_perp,
+        "res": res,
+        "ratio": ratio,
+    }
+
+
+def jit_options(jit: bool) -> dict[str, Any]:
+    """CasADi options that compile an SX function to C with the system compiler (``"shell"`` plugin)."""
+    if not jit:
+        return {}
+    return {"jit": True, "compiler": "shell", "jit_options": {"flags": ["-O2"], "verbose": False}}
+
+
+def _taylor_function(fun: Any, n_out: int, name: str, *, time_only: bool, order: int) -> Any:
+    """``(t, s, y) ↦ [F, F_t, F_y, F_tt, F_ty, F_yy]`` stacked (6·n_out); second derivatives 0 if order 1."""
+    t, s, y = ca.MX.sym("t"), ca.MX.sym("s"), ca.MX.sym("y")
+    val = fun(t) if time_only else fun(ca.vertcat(t, s, y))
+    zero = ca.MX.zeros(n_out, 1)
+    ft = ca.jacobian(val, t)
+    fy = zero if time_only else ca.jacobian(val, y)
+    ftt = ca.jacobian(ft, t) if order > 1 else zero
+    fty = ca.jacobian(ft, y) if order > 1 and not time_only else zero
+    fyy = ca.jacobian(fy, y) if order > 1 and not time_only else zero
+    out = ca.densify(ca.vertcat(val, ft, fy, ftt, fty, fyy))
+    return ca.Function(name, [ca.vertcat(t, s, y)], [out])
+
+
+def _scatter(n_rows: int, n_cols: int, rows: np.ndarray, cols: np.ndarray, n_src: int) -> tuple[Any, Any]:
+    """Sparsity of the (rows, cols) pattern and the constant matrix summing n_src values into its nonzeros."""
+    keys = np.asarray(cols, dtype=np.int64) * n_rows + np.asarray(rows, dtype=np.int64)  # column-major order
+    uniq, inverse = np.unique(keys, return_inverse=True)
+    sp = ca.Sparsity.triplet(n_rows, n_cols, (uniq % n_rows).tolist(), (uniq // n_rows).tolist())
+    gather = ca.DM(ca.Sparsity.triplet(uniq.size, n_src, inverse.tolist(), list(range(n_src))), 1.0)
+    return sp, gather
+
+
+def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool = False) -> dict[str, Any]:
+    """``grad_f``, ``jac_g`` and ``hess_lag`` functions for ``nlpsol``, exact and assembled per leg.
+
+    Parameters
+    ----------
+    nlp : SpeedNLP
+        The problem being built (its geometry, weather, ship, bands, row layout).
+    jit : bool
+        Compile the per-leg SX functions to C (CasADi ``"shell"`` compiler plugin; needs ``cc``).
+    exact_hessian : bool
+        Include the weather's second derivatives in the Hessian. The default leaves them out
+        (the weather enters the Hessian through its first derivatives only, as it does for a
+        multilinear interpolant); gradients and Jacobians are exact either way, so Ipopt converges
+        to the same KKT point, and on the benchmark corridors in about half the iterations (the
+        weather curvature makes the exact Hessian more indefinite).
+
+    Returns
+    -------
+    dict
+        Options ``{"grad_f": ..., "jac_g": ..., "hess_lag": ...}`` for ``casadi.nlpsol``.
+    """
+    n, m, nb = nlp.n_legs, nlp.samples_per_leg, nlp.n_bands
+    k_ = n * m
+    nx, ng = nlp._nx, nlp._ng
+    cor = nlp.corridor
+    names = nlp.weather.field_names
+    nf = len(names)
+    has_excl = nlp.exclusion is not None
+    frac = nlp.sample_fraction
+    # ---- per-leg SX function of z_k -------------------------------------------------
+    n_theta = 2 + 6 * nf + (18 if has_excl else 0)  # t0, y0, weather Taylor, exclusion Taylor
+    z = ca.SX.sym("z", _N_Z)
+    geo = ca.SX.sym("geo", 11)  # c_k, c_k+1, n_k, n_k+1, tangent, factor
+    theta = ca.SX.sym("theta", n_theta * m)
+    beta = ca.SX.sym("beta", max(nb, 1) * m)
+    ya, yb, v, ta, tb = (z[i] for i in range(_N_Z))
+    pxa, pya = geo[0] + ya * geo[4], geo[1] + ya * geo[5]
+    pxb, pyb = geo[2] + yb * geo[6], geo[3] + yb * geo[7]
+    dx, dy = pxb - pxa, pyb - pya
+    length = ca.sqrt(dx**2 + dy**2)
+    cos_d = (geo[8] * dx + geo[9] * dy) / length
+    sin_d = (geo[8] * dy - geo[9] * dx) / length
+    dt_sum = 0.0
+    fuel_sum = 0.0
+    loads, bands_res, drifts, sogs, excls = [], [[] for _ in range(nb)], [], [], []
+    for j, fj in enumerate(frac):
+        th = theta[j * n_theta : (j + 1) * n_theta]
+        ts = ta + fj * (tb - ta)
+        ys = ya + fj * (yb - ya)
+        d_t, d_y = ts - th[0], ys - th[1]
+
+        def taylor(block: Any, count: int, d_t: Any = d_t, d_y: Any = d_y) -> Any:
+            f0, ft, fy = block[0:count], block[count : 2 * count], block[2 * count : 3 * count]
+            ftt, fty, fyy = block[3 * count : 4 * count], block[4 * count : 5 * count], block[5 * count : 6 * count]
+            return f0 + ft * d_t + fy * d_y + 0.5 * ftt * d_t**2 + fty * d_t * d_y + 0.5 * fyy * d_y**2
+
+        wvals = taylor(th[2 : 2 + 6 * nf], nf)
+        col = {name: wvals[i] for i, name in enumerate(names)}
+        b_j = [beta[b * m + j] for b in range(nb)]
+        phys = sample_physics(v, cos_d, sin_d, length / m, geo[10], col, b_j, nlp.power, nlp.bands, nlp.g_over_2pi)
+        dt_sum = dt_sum + phys["dt"]
+        fuel_sum = fuel_sum + phys["fuel"]
+        loads.append(phys["load"])
+        for b in range(nb):
+            bands_res[b].append(phys["res"][b])
+        drifts.append(phys["h_perp"])
+        sogs.append(phys["sog"])
+        if has_excl:
+            ex = taylor(th[2 + 6 * nf : 2 + 6 * nf + 18], 3)
+            xs, yfs = pxa + fj * dx, pya + fj * dy
+            excls.append(((xs - ex[0]) ** 2 + (yfs - ex[1]) ** 2 - ex[2] ** 2) / nlp.exclusion.radius_scale_nm**2)
+    g_parts = [tb - ta - dt_sum, *loads]
+    for b in range(nb):
+        g_parts += bands_res[b]
+    if nlp._has_current:
+        g_parts += drifts + sogs
+    if has_excl:
+        g_parts += excls
+    g_leg = ca.vertcat(*g_parts)
+    n_gl = g_leg.shape[0]
+    lam_leg = ca.SX.sym("lam", n_gl)
+    sigma = ca.SX.sym("sigma")  # lam_f · fuel weight
+    inputs = [z, geo, theta, beta]
+    hess = ca.hessian(sigma * fuel_sum + ca.dot(lam_leg, g_leg), z)[0]
+    fopts = jit_options(jit)
+    leg_grad = ca.Function("leg_grad", inputs, [fuel_sum, ca.gradient(fuel_sum, z)], fopts).map(n)
+    leg_jac = ca.Function("leg_jac", inputs, [g_leg, ca.jacobian(g_leg, z)], fopts).map(n)
+    triu = ca.vertcat(*[hess[a, b] for a, b in _TRIU])
+    leg_hess = ca.Function("leg_hess", [*inputs, sigma, lam_leg], [triu], fopts).map(n)
+
+    # ---- index bookkeeping ------------------------------------------------------------
+    legs = np.arange(n)
+    z_idx = np.vstack([legs, legs + 1, n + 1 + legs, 2 * n + 1 + legs, 2 * n + 2 + legs])  # (5, N)
+    rows = nlp._rows
+    local_rows = [rows["dyn"][0] + legs]
+    local_rows += [rows["load"][0] + legs * m + j for j in range(m)]
+    for b in range(nb):
+        local_rows += [rows["band"][0] + b * k_ + legs * m + j for j in range(m)]
+    if nlp._has_current:
+        local_rows += [rows["drift"][0] + legs * m + j for j in range(m)]
+        local_rows += [rows["sog"][0] + legs * m + j for j in range(m)]
+    if has_excl:
+        local_rows += [rows["excl"][0] + legs * m + j for j in range(m)]
+    g_idx = np.vstack(local_rows)  # (n_gl, N)
+    c, nrm, tau = cor.centre_xy_nm, cor.normal_xy, cor.tangent_xy
+    geo_dm = ca.DM(np.vstack([c[:-1].T, c[1:].T, nrm[:-1].T, nrm[1:].T, tau.T, nlp.leg_power_factor[None, :]]))
+    beta_idx = np.array([[2 + b * k_ + k * m + j for k in range(n)] for b in range(nb) for j in range(m)])
+    # ---- symbolic inputs of the nlpsol derivative functions ---------------------------
+    x = ca.MX.sym("x", nx)
+    p = ca.MX.sym("p", 2 + k_ * nb)
+    lam_f = ca.MX.sym("lam_f")
+    lam_g = ca.MX.sym("lam_g", ng)
+    zmat = ca.reshape(x[z_idx.T.ravel().tolist()], _N_Z, n)
+    beta_mat = ca.reshape(p[beta_idx.T.ravel().tolist()], nb * m, n) if nb else ca.MX.zeros(m, n)
+    # sample coordinates and the Taylor data of the weather at x
+    y_a, y_b = zmat[0, :], zmat[1, :]
+    t_a, t_b = zmat[3, :], zmat[4, :]
+    fr = ca.DM(np.tile(frac, n)[None, :])
+    rep = np.repeat(legs, m).tolist()
+    t_s = t_a[:, rep] + fr * (t_b[:, rep] - t_a[:, rep])
+    y_s = y_a[:, rep] + fr * (y_b[:, rep] - y_a[:, rep])
+    s = cor.s_nm
+    s_s = ca.DM((np.repeat(s[:-1], m) + np.tile(frac, n) * np.repeat(np.diff(s), m))[None, :])
+    pts = ca.vertcat(t_s, s_s, y_s)
+
+    def theta_at(order: int) -> Any:
+        parts = [t_s, y_s, nlp.weather.taylor_function(order).map(k_)(pts)]
+        if has_excl:
+            efun = _taylor_function(nlp.exclusion_function, 3, "excl_taylor", time_only=True, order=order)
+            parts.append(efun.map(k_)(pts))
+        return ca.reshape(ca.vertcat(*parts), n_theta * m, n)
+
+    theta_mat = theta_at(1)  # first derivatives suffice for the gradient and the Jacobian
+    args = [zmat, geo_dm, theta_mat, beta_mat]
+    # grad_f
+    fuel_k, grad_k = leg_grad(*args)
+    sp_gf, gat_gf = _scatter(nx, 1, z_idx.T.ravel(), np.zeros(_N_Z * n, dtype=int), _N_Z * n)
+    grad = ca.densify(ca.MX(sp_gf, ca.mtimes(gat_gf, ca.vec(grad_k)))) * p[0]
+    e_t = np.zeros(nx)
+    e_t[2 * n + 1 + n], e_t[2 * n + 1] = 1.0, -1.0
+    grad = grad + p[1] * ca.DM(e_t)
+    f_val = p[0] * ca.sum2(fuel_k) + p[1] * (x[3 * n + 1] - x[2 * n + 1])
+    grad_f = ca.Function("grad_f", [x, p], [f_val, grad], ["x", "p"], ["f", "grad_f_x"])
+    # jac_g: leg_jac output (n_gl, 5·N), column c of leg k at 5k + c; vec order (k, c, r)
+    g_k, jac_k = leg_jac(*args)
+    jr = np.concatenate([np.tile(g_idx[:, k], _N_Z) for k in range(n)])
+    jc = np.concatenate([np.repeat(z_idx[:, k], n_gl) for k in range(n)])
+    sp_j, gat_j = _scatter(ng, nx, jr, jc, jr.size)
+    g_full = ca.MX.zeros(ng, 1)
+    g_full[g_idx.T.ravel().tolist()] = ca.vec(g_k)
+    jac = ca.MX(sp_j, ca.mtimes(gat_j, ca.vec(jac_k)))
+    jac_g = ca.Function("jac_g", [x, p], [g_full, jac], ["x", "p"], ["g", "jac_g_x"])
+    # hess_lag: upper triangle of Σ_k ∇²(σ fuel_k + λ_k·g_k)
+    lam_mat = ca.reshape(lam_g[g_idx.T.ravel().tolist()], n_gl, n)
+    h_k = leg_hess(zmat, geo_dm, theta_at(2 if exact_hessian else 1), beta_mat, lam_f * p[0], lam_mat)  # (15, N)
+    hr, hc = [], []
+    for k in range(n):
+        for a, b in _TRIU:
+            ia, ib = z_idx[a, k], z_idx[b, k]
+            hr.append(min(ia, ib))
+            hc.append(max(ia, ib))
+    sp_h, gat_h = _scatter(nx, nx, np.array(hr), np.array(hc), len(hr))
+    hess_full = ca.MX(sp_h, ca.mtimes(gat_h, ca.vec(h_k)))
+    hess_lag = ca.Function(
+        "hess_lag", [x, p, lam_f, lam_g], [hess_full], ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]
+    )
+    return {"grad_f": grad_f, "jac_g": jac_g, "hess_lag": hess_lag}

@@ -1,0 +1,789 @@
+"""Speed-and-lateral-offset NLP over a corridor (CasADi + Ipopt/MUMPS).
+
+The corridor is a centreline of ``N`` legs, waypoints ``k = 0..N``. The
+decision variables are
+
+* ``y_k`` [nm], the lateral offset of every interior waypoint from the
+  centreline (``y_0 = y_N = 0``), positive to port (left of the direction of
+  travel), bounded by the corridor half-width and per-waypoint navigable bounds;
+* ``V_k`` [kn], the speed through water of every leg (constant along a leg);
+* ``t_k`` [h], the arrival time at every waypoint, ``t_0 = 0`` at departure.
+
+Geometry uses a locally flat frame (the caller's projection, e.g. gnomonic,
+in [nm]): waypoint ``P_k = c_k + y_k n_k`` with ``c_k`` the centreline point
+and ``n_k`` the unit normal (to port); a leg is the straight segment
+``P_k → P_{k+1}``, its length ``L_k = |P_{k+1} − P_k|`` and its course ``e_k``
+follow from the offsets. Every leg is sub-sampled at ``m`` points at
+fractions ``(j + ½)/m``; at each sample the position in corridor
+coordinates ``(s, y)`` and the time are interpolated linearly, the weather is
+read from CasADi interpolants over the corridor's ``(t, s, y)`` grid (so the
+conditions move with the ship's timing), and every constraint is imposed.
+Leg time and fuel are midpoint-rule integrals over the samples:
+
+    t_{k+1} − t_k = Σ_j (L_k/m) / SOG_kj,    fuel_k = Σ_j q_kj (L_k/m) / SOG_kj.
+
+Ship kinematics with a current ``u`` (components along ``e_k`` and to its
+port side ``u∥, u⊥``): the ship heads so as to cancel the cross-current,
+``h⊥ = −u⊥/V``, ``h∥ = √(1 − h⊥²)``, ``SOG = V h∥ + u∥``.
+
+Power model (the supported closed form; the domain layer fits its
+performance model, e.g. Kwon's speed loss (physics.md §6), to it):
+
+    P = f_k · P_calm(V) · (1 + W(Hs) · D(cos α) · S(V)) + P_wind     [kW]
+    P_calm(V) = Σ_j c_j V^{n_j}             calm-water (propeller law, physics.md §8)
+    W(Hs)     = Σ_m h_m Hs^{q_m}            added-power weight of the sea state
+    D(cos α)  = b_0 + b_1 cos α + b_2 cos² α  direction factor, α = 180° − χ (IMO: 0 = head sea)
+    S(V)      = Σ_r u_r V^r                  speed factor (the analogue of Kwon's C_U)
+    P_wind    = k_w V (a |a| − a_0²)          a: apparent head wind [kn], a_0: its still-air value
+
+``(1 + W D S)`` is the Kwon-type added factor: a speed loss ``δ`` at fixed
+power ``P = c V^n`` is an added power factor ``(1 − δ)^{−n} ≈ 1 + n δ``.
+``f_k`` is an optional static per-leg factor (fouling, or a static weather
+factor on a fixed path). Fuel rate ``q = P · SFOC(P/MCR) · 1e-6`` [t/h] with
+the Fourth IMO GHG Study curve ``SFOC(L) = SFC_base (0.455 L² − 0.710 L + 1.280)``
+(physics.md §8).
+
+Danger bands (:class:`formulations._common.Band`) are imposed per leg, sample
+and band with the side fixed by the caller (``ratio ≤ lower`` or ``ratio ≥
+upper``) as smooth one-sided constraints, only where the band is declared
+applicable; :meth:`SpeedNLP.solve` reports the ratios and the Hs at every
+sample so that the outer loop (:mod:`formulations.disjunctive`) can re-check
+applicability, which moves with the route, and flip sides.
+
+The model is built once per corridor/weather/ship in vectorised MX
+expressions (the interpolant is ``Function.map``-ped over all samples) and
+expanded to SX; ETA, objective, sides, applicability and the warm start are
+run-time inputs of the same Ipopt instance, so repeated solves (outer loop,
+fuel-versus-ETA sweeps) cost no rebuild.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import casadi as ca
+import numpy as np
+from numpy.typing import ArrayLike
+
+from formulations._common import (
+    G_OVER_2PI_KN_S,
+    Band,
+    CorridorGeometry,
+    FormulationInputError,
+    MovingExclusion,
+    PowerModel,
+    WeatherGrid,
+    broadcast_legs,
+)
+from formulations._nlp_model import sample_physics, structured_derivatives
+
+__all__ = [
+    "CorridorGeometry",
+    "MovingExclusion",
+    "NLPResult",
+    "PowerModel",
+    "SampleState",
+    "SpeedNLP",
+    "WeatherGrid",
+    "solve_speed_nlp",
+]
+
+Objective = Literal["time", "fuel", "cost"]
+
+_IPOPT_DEFAULTS: dict[str, Any] = {
+    "ipopt.print_level": 0,
+    "ipopt.sb": "yes",
+    "print_time": False,
+    "ipopt.tol": 1e-9,
+    "ipopt.acceptable_tol": 1e-6,
+    "ipopt.max_iter": 500,
+    "ipopt.linear_solver": "mumps",
+    "ipopt.mu_strategy": "adaptive",
+    "ipopt.bound_relax_factor": 0.0,
+}
+
+
+@dataclass(frozen=True)
+class SampleState:
+    """Conditions and derived quantities at every sample, arrays of shape (n_legs, m) (bands: (n_legs, m, n_bands)).
+
+    Attributes
+    ----------
+    time_h, s_nm, y_nm : numpy.ndarray
+        Time since departure [h] and corridor coordinates [nm] of the sample.
+    x_nm, y_flat_nm : numpy.ndarray
+        Position in the flat frame [nm].
+    hs_m, period_s : numpy.ndarray
+        Significant wave height [m] and wave period [s] interpolated there.
+    sog_kn, power_kw, load, fuel_rate_tph : numpy.ndarray
+        Speed over ground [kn], brake power [kW], engine load P/MCR [-], fuel rate [t/h].
+    cos_chi : numpy.ndarray
+        cos of the angle between heading and wave propagation [-] (1 = following sea).
+    ratio : numpy.ndarray, shape (n_legs, m, n_bands)
+        Band ratios (see :class:`formulations._common.Band`).
+    applies : numpy.ndarray of bool, shape (n_legs, m, n_bands)
+        ``hs_m ≥ band.hs_min_m`` at this sample.
+    inside : numpy.ndarray of bool, shape (n_legs, m, n_bands)
+        ``applies`` and ``lower < ratio < upper``: the sample is inside a band.
+    exclusion_margin_nm : numpy.ndarray
+        Distance to the moving exclusion circle's edge [nm] (> 0 outside; +inf without one).
+    outside_grid : numpy.ndarray of bool
+        The sample lies outside the weather grid (the interpolant extrapolates).
+    """
+
+    time_h: np.ndarray
+    s_nm: np.ndarray
+    y_nm: np.ndarray
+    x_nm: np.ndarray
+    y_flat_nm: np.ndarray
+    hs_m: np.ndarray
+    period_s: np.ndarray
+    sog_kn: np.ndarray
+    power_kw: np.ndarray
+    load: np.ndarray
+    fuel_rate_tph: np.ndarray
+    cos_chi: np.ndarray
+    ratio: np.ndarray
+    applies: np.ndarray
+    inside: np.ndarray
+    exclusion_margin_nm: np.ndarray
+    outside_grid: np.ndarray
+
+
+@dataclass(frozen=True)
+class NLPResult:
+    """Solution of :meth:`SpeedNLP.solve`.
+
+    Attributes
+    ----------
+    status : str
+        Ipopt's ``return_status``, verbatim (``"Solve_Succeeded"``, ``"Infeasible_Problem_Detected"``...).
+    success : bool
+        CasADi's ``stats()["success"]``.
+    iterations : int
+        Ipopt iterations.
+    solve_time_s : float
+        Wall-clock time of the Ipopt call [s].
+    objective : float
+        Optimal objective: fuel [t], time [h] or cost [currency].
+    offset_nm : numpy.ndarray, shape (N+1,)
+        Lateral offsets ``y_k`` [nm].
+    position_xy_nm : numpy.ndarray, shape (N+1, 2)
+        Waypoints in the flat frame [nm].
+    stw_kn : numpy.ndarray, shape (N,)
+        Speed through water per leg [kn].
+    time_h : numpy.ndarray, shape (N+1,)
+        Arrival time at every waypoint [h since departure].
+    distance_nm, duration_h, fuel_t : numpy.ndarray, shape (N,)
+        Leg length [nm], duration [h], fuel [t].
+    total_fuel_t, duration_total_h : float
+        Voyage fuel [t] and passage time [h].
+    eta_multiplier : float
+        ``-d(objective*)/d(T_eta)``, Ipopt's multiplier of the ETA bound; for ``"fuel"``
+        the fuel saved per extra hour of passage [t/h]. 0 without an active ETA.
+    band_multiplier : numpy.ndarray, shape (N, m, B)
+        Multipliers of the band constraints (0 where not imposed) [objective units per unit ratio·scale].
+    band_active : numpy.ndarray of bool, shape (N, m, B)
+        Band constraint imposed and binding (|multiplier| > 1e-8 or ratio within 1e-6 of its edge).
+    sides, applies : numpy.ndarray, shape (N, m, B)
+        The side (−1 / +1) and applicability used in this solve.
+    samples : SampleState
+        Per-sample conditions at the solution (re-evaluated, for the outer loop and reports).
+    max_violation : float
+        Largest constraint violation at the returned point (scaled units of each row).
+    """
+
+    status: str
+    success: bool
+    iterations: int
+    solve_time_s: float
+    objective: float
+    offset_nm: np.ndarray
+    position_xy_nm: np.ndarray
+    stw_kn: np.ndarray
+    time_h: np.ndarray
+    distance_nm: np.ndarray
+    duration_h: np.ndarray
+    fuel_t: np.ndarray
+    total_fuel_t: float
+    duration_total_h: float
+    eta_multiplier: float
+    band_multiplier: np.ndarray
+    band_active: np.ndarray
+    sides: np.ndarray
+    applies: np.ndarray
+    samples: SampleState
+    max_violation: float
+    x_opt: np.ndarray = field(repr=False)
+    lam_x: np.ndarray = field(repr=False)
+    lam_g: np.ndarray = field(repr=False)
+
+
+def _rep(col: Any, m: int) -> Any:
+    """Repeat every entry of an (N,1) column m times: (N·m,1), sample index k·m + j."""
+    n = col.shape[0]
+    return ca.reshape(ca.repmat(col.T, m, 1), n * m, 1)
+
+
+def _leg_sum(col: Any, n: int, m: int) -> Any:
+    """Sum an (N·m,1) sample column over the m samples of each leg: (N,1)."""
+    return ca.sum1(ca.reshape(col, m, n)).T
+
+
+class SpeedNLP:
+    """The corridor NLP, built once and solved many times.
+
+    Parameters
+    ----------
+    corridor : CorridorGeometry
+        Centreline, normals, along-track coordinates and lateral bounds (N legs).
+    weather : WeatherGrid
+        Fields on the corridor's (t, s, y) grid.
+    power : PowerModel
+        Power, fuel and engine-load model.
+    bands : sequence of Band, optional
+        The danger bands (B of them).
+    exclusion : MovingExclusion, optional
+        A moving circle the samples must stay out of.
+    samples_per_leg : int
+        ``m`` ≥ 1, samples per leg at fractions ``(j + ½)/m`` (default 2) for the midpoint-rule
+        quadrature of time and fuel and for every per-sample constraint. Choose ``m`` so that
+        the samples are closer than the weather grid spacing; the domain layer re-checks
+        constraints on a denser resampling.
+    v_min_kn, v_max_kn : float or array_like, shape (N,)
+        Bounds on the speed through water [kn]; ``v_min > 0``.
+    leg_power_factor : array_like, shape (N,), optional
+        Static multiplier ``f_k`` of the calm and wave power per leg (default 1).
+    g_over_2pi_kn_s : float
+        ``A = g/2π`` [kn/s] in the wave relations (default 3.0339; IMO's rounded form is 3.0).
+    sog_min_kn : float
+        Lower bound on the speed over ground at every sample [kn] (rows only when currents
+        can exceed half the minimum speed).
+    ipopt_options : dict, optional
+        Overrides of the Ipopt/CasADi options (keys as for ``nlpsol``, e.g. ``"ipopt.tol"``).
+    expand : bool
+        Expand the MX graph of the objective and constraints to SX (default False).
+    structured : bool
+        Use the exact leg-by-leg derivatives of :func:`formulations._nlp_model.structured_derivatives`
+        (default); ``False`` lets CasADi differentiate the MX graph (slower, same values).
+    jit : bool
+        Compile the per-leg derivative functions to C with the system compiler (CasADi's
+        ``"shell"`` plugin): about 1.5 s more to build, solves about 1.6× faster.
+    exact_hessian : bool
+        Keep the weather's second derivatives in the Hessian (see
+        :func:`formulations._nlp_model.structured_derivatives`; default False).
+    """
+
+    def __init__(
+        self,
+        corridor: CorridorGeometry,
+        weather: WeatherGrid,
+        power: PowerModel,
+        *,
+        bands: tuple[Band, ...] | list[Band] = (),
+        exclusion: MovingExclusion | None = None,
+        samples_per_leg: int = 2,
+        v_min_kn: ArrayLike = 1.0,
+        v_max_kn: ArrayLike = 30.0,
+        leg_power_factor: ArrayLike | None = None,
+        g_over_2pi_kn_s: float = G_OVER_2PI_KN_S,
+        sog_min_kn: float = 1.0,
+        ipopt_options: dict[str, Any] | None = None,
+        expand: bool = False,
+        structured: bool = True,
+        jit: bool = False,
+        exact_hessian: bool = False,
+    ) -> None:
+        started = time.perf_counter()
+        n = corridor.n_legs
+        if not (isinstance(samples_per_leg, int | np.integer) and samples_per_leg >= 1):
+            raise FormulationInputError(f"samples_per_leg must be an integer >= 1, got {samples_per_leg!r}")
+        m = int(samples_per_leg)
+        self.corridor, self.weather, self.power = corridor, weather, power
+        self.bands = tuple(bands)
+        self.exclusion = exclusion
+        self.n_legs, self.samples_per_leg, self.n_bands = n, m, len(self.bands)
+        self.sample_fraction = (np.arange(m) + 0.5) / m
+        self.v_min_kn = broadcast_legs(v_min_kn, n, "v_min_kn")
+        self.v_max_kn = broadcast_legs(v_max_kn, n, "v_max_kn")
+        if (self.v_min_kn <= 0).any() or (self.v_max_kn < self.v_min_kn).any():
+            raise FormulationInputError(
+                f"need 0 < v_min_kn <= v_max_kn, got v_min {self.v_min_kn.min():g}, v_max {self.v_max_kn.min():g}"
+            )
+        self.leg_power_factor = (
+            np.ones(n) if leg_power_factor is None else broadcast_legs(leg_power_factor, n, "leg_power_factor")
+        )
+        if (self.leg_power_factor <= 0).any():
+            raise FormulationInputError("leg_power_factor must be positive")
+        self.g_over_2pi = float(g_over_2pi_kn_s)
+        self.sog_min_kn = float(sog_min_kn)
+        for b in self.bands:
+            if not isinstance(b, Band):
+                raise FormulationInputError(f"bands must be Band instances, got {type(b).__name__}")
+        self._build(
+            expand=expand,
+            structured=structured,
+            jit=jit,
+            exact_hessian=exact_hessian,
+            ipopt_options=ipopt_options or {},
+        )
+        self.build_time_s = time.perf_counter() - started
+
+    # ------------------------------------------------------------------ model
+    def _sample_function(self) -> Any:
+        """Per-sample physics (:func:`formulations._nlp_model.sample_physics`) as an SX function.
+
+        Input (column): ``V, cos δ, sin δ, L/m, f_k``, the interpolated weather fields, ``β`` (B band
+        edges). Output (column): ``dt, fuel, load, power, rate, cos χ, sog, h⊥``, B band residuals,
+        B band ratios.
+        """
+        names = self.weather.field_names
+        nb = self.n_bands
+        inp = ca.SX.sym("in", 5 + len(names) + nb)
+        col = {name: inp[5 + i] for i, name in enumerate(names)}
+        beta = [inp[5 + len(names) + i] for i in range(nb)]
+        ph = sample_physics(inp[0], inp[1], inp[2], inp[3], inp[4], col, beta, self.power, self.bands, self.g_over_2pi)
+        keys = ("dt", "fuel", "load", "power", "rate", "cos_chi", "sog", "h_perp")
+        out = ca.vertcat(*[ph[k] for k in keys], *ph["res"], *ph["ratio"])
+        return ca.Function("sample", [inp], [out])
+
+    def _model(self, y: Any, v: Any, t: Any, beta: Any) -> dict[str, Any]:
+        """The symbolic model: leg geometry in vectorised MX, per-sample physics mapped; columns of length N·m."""
+        cor = self.corridor
+        n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
+        k_ = n * m
+        frac = np.tile(self.sample_fraction, n)[:, None]
+        c, nrm, tau, s = cor.centre_xy_nm, cor.normal_xy, cor.tangent_xy, cor.s_nm
+        px = c[:, 0:1] + y * nrm[:, 0:1]
+        py = c[:, 1:2] + y * nrm[:, 1:2]
+        dx, dy = px[1:] - px[:-1], py[1:] - py[:-1]
+        length = ca.sqrt(dx**2 + dy**2)
+        cos_d = (tau[:, 0:1] * dx + tau[:, 1:2] * dy) / length  # δ: from the centreline tangent to the leg
+        sin_d = (tau[:, 0:1] * dy - tau[:, 1:2] * dx) / length
+        s_s = np.repeat(s[:-1], m)[:, None] + frac * np.repeat(np.diff(s), m)[:, None]
+        y_s = _rep(y[:-1], m) + frac * _rep(y[1:] - y[:-1], m)
+        t_s = _rep(t[:-1], m) + frac * _rep(t[1:] - t[:-1], m)
+        x_s = _rep(px[:-1], m) + frac * _rep(dx, m)
+        yf_s = _rep(py[:-1], m) + frac * _rep(dy, m)
+        fields = self._interp_map(ca.horzcat(t_s, s_s, y_s).T)  # (n_fields, K)
+        factor = np.repeat(self.leg_power_factor, m)[None, :]
+        rows = ca.vertcat(
+            _rep(v, m).T, _rep(cos_d, m).T, _rep(sin_d, m).T, _rep(length / m, m).T, ca.DM(factor), fields
+        )
+        if nb:
+            rows = ca.vertcat(rows, ca.reshape(beta, k_, nb).T)
+        out = self._sample_map(rows).T  # (K, n_out)
+        names = ("dt", "fuel", "load", "power", "rate", "cos_chi", "sog", "h_perp")
+        col = {name: out[:, i] for i, name in enumerate(names)}
+        res = {
+            "length": length,
+            "px": px,
+            "py": py,
+            "t_s": t_s,
+            "s_s": ca.DM(s_s),
+            "y_s": y_s,
+            "x_s": x_s,
+            "yf_s": yf_s,
+            "hs": fields[0, :].T,
+            "per": fields[1, :].T,
+            "dt_leg": _leg_sum(col["dt"], n, m),
+            "fuel_leg": _leg_sum(col["fuel"], n, m),
+            **{k_name: col[k_name] for k_name in ("load", "power", "rate", "cos_chi", "sog", "h_perp")},
+        }
+        if nb:
+            res["band_res"] = ca.vec(out[:, 8 : 8 + nb])  # band-major: b·K + sample
+            res["ratio"] = out[:, 8 + nb : 8 + 2 * nb]
+        if self.exclusion is not None:
+            centre = self._excl_map(t_s.T).T  # (K, 3): cx, cy, r
+            d2 = (x_s - centre[:, 0]) ** 2 + (yf_s - centre[:, 1]) ** 2
+            res["excl_margin"] = ca.sqrt(d2 + 1e-12) - centre[:, 2]
+            res["excl_res"] = (d2 - centre[:, 2] ** 2) / self.exclusion.radius_scale_nm**2
+        return res
+
+    # ------------------------------------------------------------------ build
+    def _build(
+        self, *, expand: bool, structured: bool, jit: bool, exact_hessian: bool, ipopt_options: dict[str, Any]
+    ) -> None:
+        n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
+        k_ = n * m
+        self.weather_function = self.weather.interpolant()
+        self._interp_map = self.weather_function.map(k_)
+        self._sample_map = self._sample_function().map(k_)
+        if self.exclusion is not None:
+            self.exclusion_function = self.exclusion.interpolant()
+            self._excl_map = self.exclusion_function.map(k_)
+        nx = 3 * n + 2
+        x = ca.MX.sym("x", nx)
+        y, v, t = x[: n + 1], x[n + 1 : 2 * n + 1], x[2 * n + 1 :]
+        beta = ca.MX.sym("beta", k_ * nb)
+        weights = ca.MX.sym("w", 2)  # fuel weight, time weight
+        mdl = self._model(y, v, t, beta)
+        objective = weights[0] * ca.sum1(mdl["fuel_leg"]) + weights[1] * (t[n] - t[0])
+        rows: dict[str, tuple[int, int]] = {}
+        parts: list[Any] = []
+
+        def add(name: str, expr: Any) -> None:
+            start = sum(p.shape[0] for p in parts)
+            rows[name] = (start, start + expr.shape[0])
+            parts.append(expr)
+
+        add("dyn", (t[1:] - t[:-1]) - mdl["dt_leg"])
+        add("load", mdl["load"])
+        if nb:
+            add("band", mdl["band_res"])
+        self._has_current = self._needs_current_rows()
+        if self._has_current:
+            add("drift", mdl["h_perp"])
+            add("sog", mdl["sog"])
+        if self.exclusion is not None:
+            add("excl", mdl["excl_res"])
+        g = ca.vertcat(*parts)
+        self._rows, self._ng, self._nx = rows, g.shape[0], nx
+        opts = dict(_IPOPT_DEFAULTS)
+        opts.update(ipopt_options)
+        opts["expand"] = expand
+        if structured:
+            opts.update(structured_derivatives(self, jit=jit, exact_hessian=exact_hessian))
+        param = ca.vertcat(weights, beta)
+        self._solver = ca.nlpsol("speed_nlp", "ipopt", {"x": x, "p": param, "f": objective, "g": g}, opts)
+        names = ["t_s", "s_s", "y_s", "x_s", "yf_s", "hs", "per", "sog", "power", "load", "rate", "cos_chi"]
+        names += ["length", "dt_leg", "fuel_leg", "px", "py"]
+        outs = [mdl[k] for k in names]
+        if nb:
+            names.append("ratio")
+            outs.append(mdl["ratio"])
+        if self.exclusion is not None:
+            names.append("excl_margin")
+            outs.append(mdl["excl_margin"])
+        diag = ca.Function("speed_nlp_diag", [x, beta], outs)
+        self._diag = diag.expand() if expand else diag
+        self._diag_names = names
+
+    # ------------------------------------------------------------------ helpers
+    def _needs_current_rows(self) -> bool:
+        """Whether the drift-angle and SOG rows can ever bind.
+
+        With ``|u| ≤ v_min/2`` everywhere the drift angle stays ≤ 30° and
+        ``SOG ≥ V cos 30° − v_min/2 ≥ 0.366 v_min``; when that is at least ``sog_min_kn`` the rows
+        are left out (fewer rows, same solution).
+        """
+        wx = self.weather
+        if wx.current_along_kn is None:
+            return False
+        speed = np.hypot(np.asarray(wx.current_along_kn), np.asarray(wx.current_across_kn))
+        v_min = float(np.min(self.v_min_kn))
+        return not (float(speed.max()) <= 0.5 * v_min and 0.366 * v_min >= self.sog_min_kn)
+
+    def _pack(self, y: np.ndarray, v: np.ndarray, t: np.ndarray) -> np.ndarray:
+        return np.concatenate([y, v, t])
+
+    def _unpack(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        n = self.n_legs
+        return x[: n + 1], x[n + 1 : 2 * n + 1], x[2 * n + 1 :]
+
+    def _eval(self, x: np.ndarray) -> dict[str, np.ndarray]:
+        beta = np.zeros(self.n_legs * self.samples_per_leg * self.n_bands)
+        vals = self._diag(x, beta)
+        vals = vals if isinstance(vals, tuple | list) else [vals]
+        return {k: np.asarray(val, dtype=float) for k, val in zip(self._diag_names, vals, strict=True)}
+
+    def evaluate(self, offset_nm: ArrayLike, stw_kn: ArrayLike, time_h: ArrayLike) -> SampleState:
+        """Per-sample conditions for given offsets (N+1,) [nm], speeds (N,) [kn] and times (N+1,) [h].
+
+        Uses the same expressions as the NLP; the outer loop uses it to re-check where each
+        band applies and which side a sample is on.
+        """
+        n = self.n_legs
+        y = broadcast_legs(offset_nm, n + 1, "offset_nm")
+        v = broadcast_legs(stw_kn, n, "stw_kn")
+        t = broadcast_legs(time_h, n + 1, "time_h")
+        return self._state(self._eval(self._pack(y, v, t)))
+
+    def _state(self, ev: dict[str, np.ndarray]) -> SampleState:
+        n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
+
+        def sh(a: np.ndarray) -> np.ndarray:
+            return np.reshape(a, (n, m))
+
+        hs = sh(ev["hs"])
+        if nb:
+            ratio = np.reshape(ev["ratio"], (n, m, nb))
+        else:
+            ratio = np.zeros((n, m, 0))
+        hs_min = np.array([b.hs_min_m for b in self.bands])
+        lower = np.array([b.lower for b in self.bands])
+        upper = np.array([b.upper for b in self.bands])
+        applies = hs[:, :, None] >= hs_min[None, None, :]
+        inside = applies & (ratio > lower) & (ratio < upper)
+        wx = self.weather
+        t_s, s_s, y_s = sh(ev["t_s"]), sh(ev["s_s"]), sh(ev["y_s"])
+        tol = 1e-9
+        outside = (
+            (t_s < wx.t_h[0] - tol)
+            | (t_s > wx.t_h[-1] + tol)
+            | (s_s < wx.s_nm[0] - tol)
+            | (s_s > wx.s_nm[-1] + tol)
+            | (y_s < wx.y_nm[0] - tol)
+            | (y_s > wx.y_nm[-1] + tol)
+        )
+        margin = sh(ev["excl_margin"]) if "excl_margin" in ev else np.full((n, m), np.inf)
+        return SampleState(
+            time_h=t_s,
+            s_nm=s_s,
+            y_nm=y_s,
+            x_nm=sh(ev["x_s"]),
+            y_flat_nm=sh(ev["yf_s"]),
+            hs_m=hs,
+            period_s=sh(ev["per"]),
+            sog_kn=sh(ev["sog"]),
+            power_kw=sh(ev["power"]),
+            load=sh(ev["load"]),
+            fuel_rate_tph=sh(ev["rate"]),
+            cos_chi=sh(ev["cos_chi"]),
+            ratio=ratio,
+            applies=applies,
+            inside=inside,
+            exclusion_margin_nm=margin,
+            outside_grid=outside,
+        )
+
+    def consistent_times(self, offset_nm: ArrayLike, stw_kn: ArrayLike, *, iterations: int = 3) -> np.ndarray:
+        """Arrival times [h] (N+1,) that satisfy the NLP's time dynamics for given offsets and speeds.
+
+        A fixed-point iteration of ``t_{k+1} = t_k + Σ_j (L_k/m)/SOG_kj`` (the SOG depends on the time
+        through the current); used to build a consistent warm start.
+        """
+        n = self.n_legs
+        y = broadcast_legs(offset_nm, n + 1, "offset_nm")
+        v = broadcast_legs(stw_kn, n, "stw_kn")
+        t = np.concatenate([[0.0], np.cumsum(np.diff(self.corridor.s_nm) / v)])
+        for _ in range(max(1, iterations)):
+            ev = self._eval(self._pack(y, v, t))
+            t = np.concatenate([[0.0], np.cumsum(ev["dt_leg"].ravel())])
+        return t
+
+    def default_sides(self, state: SampleState) -> tuple[np.ndarray, np.ndarray]:
+        """Sides (−1/+1) and applicability (N, m, B) from the conditions of a (warm-start) state.
+
+        A sample takes the side it is on; inside a band, the nearer edge (in ratio) among the
+        band's allowed sides (:func:`formulations.disjunctive.select_sides`).
+        """
+        from formulations.disjunctive import select_sides
+
+        lower = np.array([b.lower for b in self.bands])
+        upper = np.array([b.upper for b in self.bands])
+        return select_sides(state.ratio, lower, upper), state.applies.copy()
+
+    # ------------------------------------------------------------------ solve
+    def solve(
+        self,
+        *,
+        eta_h: float | None = None,
+        eta_mode: Literal["le", "eq"] = "le",
+        objective: Objective = "fuel",
+        fuel_price: float = 1.0,
+        hourly_cost: float = 0.0,
+        sides: ArrayLike | None = None,
+        applies: ArrayLike | None = None,
+        offset0_nm: ArrayLike | None = None,
+        stw0_kn: ArrayLike | None = None,
+        time0_h: ArrayLike | None = None,
+        fix_offsets: bool = False,
+    ) -> NLPResult:
+        """Solve for one ETA, objective, band sides and warm start.
+
+        Parameters
+        ----------
+        eta_h : float, optional
+            Passage time allowed [h since departure]; ``None``: free arrival (minimum time with
+            ``objective="time"``).
+        eta_mode : {"le", "eq"}
+            Arrive no later than, or exactly at, ``eta_h``.
+        objective : {"time", "fuel", "cost"}
+            Minimise the passage time [h], the fuel [t], or
+            ``fuel_price · fuel + hourly_cost · time`` [currency].
+        fuel_price, hourly_cost : float
+            [currency/t] and [currency/h], for ``"cost"``.
+        sides : array_like of int, shape (N, m, B), optional
+            −1: ``ratio ≤ lower``, +1: ``ratio ≥ upper`` per leg, sample and band; default from
+            the warm start (:meth:`default_sides`).
+        applies : array_like of bool, shape (N, m, B), optional
+            Where each band constraint is imposed; default ``Hs ≥ hs_min`` at the warm start.
+        offset0_nm, stw0_kn, time0_h : array_like, optional
+            Warm start, shapes (N+1,), (N,), (N+1,); defaults: centreline, the constant
+            speed that makes the ETA (clipped to the speed bounds), consistent times.
+        fix_offsets : bool
+            Hold the offsets at ``offset0_nm`` (a fixed path).
+
+        Returns
+        -------
+        NLPResult
+            Including Ipopt's status verbatim; check ``success`` and ``max_violation``.
+        """
+        n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
+        k_ = n * m
+        if objective not in ("time", "fuel", "cost"):
+            raise FormulationInputError(f"objective must be 'time', 'fuel' or 'cost', got {objective!r}")
+        if eta_mode not in ("le", "eq"):
+            raise FormulationInputError(f"eta_mode must be 'le' or 'eq', got {eta_mode!r}")
+        if eta_h is not None and not (np.isfinite(eta_h) and eta_h > 0):
+            raise FormulationInputError(f"eta_h must be a positive number of hours, got {eta_h}")
+        weights = {"fuel": (1.0, 0.0), "time": (0.0, 1.0), "cost": (float(fuel_price), float(hourly_cost))}[objective]
+        # warm start
+        y0 = np.zeros(n + 1) if offset0_nm is None else broadcast_legs(offset0_nm, n + 1, "offset0_nm")
+        if stw0_kn is None:
+            total = float(self.corridor.s_nm[-1] - self.corridor.s_nm[0])
+            guess = total / eta_h if eta_h is not None else 0.9 * float(np.mean(self.v_max_kn))
+            v0 = np.clip(np.full(n, guess), self.v_min_kn, self.v_max_kn)
+        else:
+            v0 = broadcast_legs(stw0_kn, n, "stw0_kn")
+        t0 = self.consistent_times(y0, v0) if time0_h is None else broadcast_legs(time0_h, n + 1, "time0_h")
+        x0 = self._pack(y0, v0, t0)
+        # sides and applicability
+        if nb and (sides is None or applies is None):
+            d_sides, d_app = self.default_sides(self._state(self._eval(x0)))
+            sides = d_sides if sides is None else sides
+            applies = d_app if applies is None else applies
+        side_arr = np.zeros((n, m, nb), dtype=np.int8) if nb == 0 else np.asarray(sides).astype(np.int8)
+        app_arr = np.zeros((n, m, nb), dtype=bool) if nb == 0 else np.asarray(applies, dtype=bool)
+        if side_arr.shape != (n, m, nb) or app_arr.shape != (n, m, nb):
+            raise FormulationInputError(
+                f"sides and applies must have shape {(n, m, nb)}, got {side_arr.shape} and {app_arr.shape}"
+            )
+        lower = np.array([b.lower for b in self.bands])
+        upper = np.array([b.upper for b in self.bands])
+        if nb:
+            if not np.isin(side_arr, (-1, 1)).all():
+                raise FormulationInputError("sides must be -1 (ratio <= lower) or +1 (ratio >= upper)")
+            beta3 = np.where(side_arr < 0, lower[None, None, :], upper[None, None, :])
+            bad = app_arr & ~np.isfinite(beta3)
+            if bad.any():
+                k, j, b = np.argwhere(bad)[0]
+                raise FormulationInputError(
+                    f"band {self.bands[b].name or b} has no side {int(side_arr[k, j, b])} (its edge is infinite): "
+                    f"leg {k}, sample {j}"
+                )
+            beta3 = np.where(np.isfinite(beta3), beta3, 0.0)
+        else:
+            beta3 = np.zeros((n, m, 0))
+        beta = np.transpose(beta3.reshape(k_, nb)).ravel()  # band-major
+        # variable bounds
+        cor = self.corridor
+        y_lo, y_hi = cor.offset_bounds()
+        if fix_offsets:
+            y_lo, y_hi = y0.copy(), y0.copy()
+        t_lo = np.zeros(n + 1)
+        t_hi = np.full(n + 1, np.inf)
+        t_hi[0] = 0.0
+        if eta_h is not None:
+            t_hi[n] = eta_h
+            if eta_mode == "eq":
+                t_lo[n] = eta_h
+        lbx = np.concatenate([y_lo, self.v_min_kn, t_lo])
+        ubx = np.concatenate([y_hi, self.v_max_kn, t_hi])
+        x0 = np.clip(x0, lbx, ubx)
+        lbg = np.zeros(self._ng)
+        ubg = np.zeros(self._ng)
+
+        def set_rows(name: str, lo: Any, hi: Any) -> None:
+            a, b = self._rows[name]
+            lbg[a:b], ubg[a:b] = lo, hi
+
+        pw = self.power
+        set_rows("load", pw.min_load, pw.max_load)
+        if nb:
+            s_flat = np.transpose(side_arr.reshape(k_, nb)).ravel()
+            a_flat = np.transpose(app_arr.reshape(k_, nb)).ravel()
+            set_rows(
+                "band", np.where(a_flat & (s_flat > 0), 0.0, -np.inf), np.where(a_flat & (s_flat < 0), 0.0, np.inf)
+            )
+        if self._has_current:
+            set_rows("drift", -np.sqrt(0.75), np.sqrt(0.75))  # drift angle ≤ 60°
+            set_rows("sog", self.sog_min_kn, np.inf)
+        if self.exclusion is not None:
+            set_rows("excl", 0.0, np.inf)
+        p = np.concatenate([weights, beta])
+        started = time.perf_counter()
+        sol = self._solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        elapsed = time.perf_counter() - started
+        stats = self._solver.stats()
+        x = np.asarray(sol["x"], dtype=float).ravel()
+        lam_x = np.asarray(sol["lam_x"], dtype=float).ravel()
+        lam_g = np.asarray(sol["lam_g"], dtype=float).ravel()
+        g = np.asarray(sol["g"], dtype=float).ravel()
+        viol = max(
+            float(np.max(np.concatenate([[0.0], lbg - g, g - ubg]))),
+            float(np.max(np.concatenate([[0.0], lbx - x, x - ubx]))),
+        )
+        ev = self._eval(x)
+        state = self._state(ev)
+        y, v, t = self._unpack(x)
+        if nb:
+            a, b = self._rows["band"]
+            lam_b = np.transpose(lam_g[a:b].reshape(nb, k_)).reshape(n, m, nb)
+            res = np.transpose(g[a:b].reshape(nb, k_)).reshape(n, m, nb)
+            active = app_arr & ((np.abs(lam_b) > 1e-8) | (np.abs(res) < 1e-6))
+            lam_b = np.where(app_arr, lam_b, 0.0)
+        else:
+            lam_b = np.zeros((n, m, 0))
+            active = np.zeros((n, m, 0), dtype=bool)
+        eta_mult = float(lam_x[2 * n + 1 + n]) if eta_h is not None else 0.0
+        fuel_leg = ev["fuel_leg"].ravel()
+        return NLPResult(
+            status=str(stats.get("return_status", "unknown")),
+            success=bool(stats.get("success", False)),
+            iterations=int(stats.get("iter_count", -1)),
+            solve_time_s=elapsed,
+            objective=float(sol["f"]),
+            offset_nm=y,
+            position_xy_nm=np.column_stack([ev["px"].ravel(), ev["py"].ravel()]),
+            stw_kn=v,
+            time_h=t,
+            distance_nm=ev["length"].ravel(),
+            duration_h=np.diff(t),
+            fuel_t=fuel_leg,
+            total_fuel_t=float(fuel_leg.sum()),
+            duration_total_h=float(t[-1] - t[0]),
+            eta_multiplier=eta_mult,
+            band_multiplier=lam_b,
+            band_active=active,
+            sides=side_arr,
+            applies=app_arr,
+            samples=state,
+            max_violation=viol,
+            x_opt=x,
+            lam_x=lam_x,
+            lam_g=lam_g,
+        )
+
+
+def solve_speed_nlp(
+    corridor: CorridorGeometry,
+    weather: WeatherGrid,
+    power: PowerModel,
+    *,
+    bands: tuple[Band, ...] | list[Band] = (),
+    exclusion: MovingExclusion | None = None,
+    samples_per_leg: int = 2,
+    v_min_kn: ArrayLike = 1.0,
+    v_max_kn: ArrayLike = 30.0,
+    leg_power_factor: ArrayLike | None = None,
+    ipopt_options: dict[str, Any] | None = None,
+    **solve_kwargs: Any,
+) -> NLPResult:
+    """Build a :class:`SpeedNLP` and solve it once; ``solve_kwargs`` go to :meth:`SpeedNLP.solve`."""
+    nlp = SpeedNLP(
+        corridor,
+        weather,
+        power,
+        bands=bands,
+        exclusion=exclusion,
+        samples_per_leg=samples_per_leg,
+        v_min_kn=v_min_kn,
+        v_max_kn=v_max_kn,
+        leg_power_factor=leg_power_factor,
+        ipopt_options=ipopt_options,
+    )
+    return nlp.solve(**solve_kwargs)
