@@ -1,0 +1,670 @@
+"""Disjunctive danger bands: side selection, side-flip improvement and exact small-case modes.
+
+A band is the disjunction "ratio ≤ lower OR ratio ≥ upper", imposed wherever it applies
+(``Hs ≥`` a threshold). A continuous solver handles one side at a time (a smooth one-sided
+constraint); the combinatorial choice of sides is made here. physics.md §9: Ipopt converges to
+the side it starts on and reports success at a local optimum, so exact answers need
+enumeration of the disjuncts (or Bonmin with big-M); every answer is re-checked.
+
+Everything here is solver-agnostic. A *side array* has any shape (``(N, B)`` for legs × bands on
+a fixed path, ``(N, m, B)`` for the NLP's samples) with entries −1 (``ratio ≤ lower``) or +1
+(``ratio ≥ upper``); an *applies* array of the same shape says where a band is imposed. The inner
+solver is a callback ``solve(sides, applies) -> InnerOutcome``. Adapters:
+
+* :func:`convex_band_solver` wraps :func:`formulations.speed_convex.solve_speed_convex` on a
+  fixed path, where every band side is a speed bound on its leg;
+* :func:`nlp_band_solver` wraps :class:`formulations.speed_nlp.SpeedNLP` (sides per leg, sample
+  and band; :func:`nlp_groups` makes all samples of a leg and band flip together).
+
+Modes:
+
+(a) :func:`select_sides`: the side a value (e.g. the search's speed) is on — the nearer edge
+    when inside the band;
+(b) :func:`improve_sides`: the outer loop — solve, re-check where each band applies at the
+    solution (applicability only ever grows, a conservative rule that makes the loop finite),
+    then try flipping the sides of groups whose band constraint is active (most binding first),
+    keep the first improvement, repeat until none improves (a 1-flip local search);
+(c) :func:`enumerate_sides`: all ``2^G`` side combinations of the flippable groups (exact
+    for a fixed applicability; ``G ≤ 16``), and :func:`bonmin_fixed_path`, the fixed-path problem
+    as a convex MINLP with big-M constraints solved by Bonmin's branch and bound.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import os
+import sys
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from formulations._common import FormulationInputError, PowerLawFuel, as_float_array, broadcast_legs
+
+__all__ = [
+    "BonminResult",
+    "DisjunctiveResult",
+    "InnerOutcome",
+    "bonmin_fixed_path",
+    "convex_band_solver",
+    "enumerate_sides",
+    "fixed_path_speed_bounds",
+    "improve_sides",
+    "nlp_band_solver",
+    "nlp_groups",
+    "select_sides",
+]
+
+
+def select_sides(value: ArrayLike, lower: ArrayLike, upper: ArrayLike) -> np.ndarray:
+    """Side of each band a value is on: −1 (``value ≤ lower``) or +1 (``value ≥ upper``).
+
+    Inside the band (``lower < value < upper``) the nearer edge wins (ties: lower). A band with an
+    infinite edge has only the other side.
+
+    Parameters
+    ----------
+    value : array_like
+        Ratio (or speed) at the warm start; broadcast against ``lower`` and ``upper``.
+    lower, upper : array_like
+        Band edges.
+
+    Returns
+    -------
+    numpy.ndarray of int8
+        −1 or +1, shape of the broadcast.
+    """
+    v, lo, hi = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (value, lower, upper)))
+    side = np.where((v - lo) <= (hi - v), -1, 1)
+    side = np.where(~np.isfinite(lo), 1, np.where(~np.isfinite(hi), -1, side))
+    return side.astype(np.int8)
+
+
+@dataclass(frozen=True)
+class InnerOutcome:
+    """What an inner solve reports to the outer loop.
+
+    Attributes
+    ----------
+    feasible : bool
+        The solver found a point satisfying all constraints (its own verdict plus any re-check).
+    objective : float
+        Objective at that point (``inf`` when not feasible).
+    active : numpy.ndarray of bool
+        Shape of the side array: the side constraint is imposed and binding.
+    weight : numpy.ndarray
+        Same shape: how binding (a multiplier magnitude), used to order flips.
+    applies : numpy.ndarray of bool or None
+        Applicability re-evaluated at the solution (None: unchanged).
+    side_at_solution : numpy.ndarray of int8 or None
+        Side each entry is on at the solution (for entries that newly apply).
+    inside : numpy.ndarray of bool or None
+        Entries that apply at the solution and lie strictly inside their band.
+    status : str
+        The inner solver's status, verbatim.
+    payload : object
+        The inner solver's full result.
+    infeasibility : float
+        How far from feasible (0 when feasible; used by the repair step, smaller is better).
+    """
+
+    feasible: bool
+    objective: float
+    active: np.ndarray
+    weight: np.ndarray
+    applies: np.ndarray | None = None
+    side_at_solution: np.ndarray | None = None
+    inside: np.ndarray | None = None
+    status: str = ""
+    payload: Any = field(default=None, repr=False)
+    infeasibility: float = 0.0
+
+
+SolveFn = Callable[[np.ndarray, np.ndarray], InnerOutcome]
+
+
+@dataclass(frozen=True)
+class DisjunctiveResult:
+    """Result of :func:`improve_sides` or :func:`enumerate_sides`.
+
+    Attributes
+    ----------
+    sides, applies : numpy.ndarray
+        The side choice and applicability of the best solution.
+    outcome : InnerOutcome
+        The inner solve at that choice.
+    objective : float
+        Its objective (``inf`` if no feasible choice was found).
+    feasible : bool
+        Whether a feasible choice was found (and no applicable band is violated at it).
+    n_solves : int
+        Inner solves performed.
+    history : list of float
+        Objective after every accepted change.
+    solve_time_s : float
+        Wall-clock time [s].
+    """
+
+    sides: np.ndarray
+    applies: np.ndarray
+    outcome: InnerOutcome
+    objective: float
+    feasible: bool
+    n_solves: int
+    history: list[float]
+    solve_time_s: float
+
+
+def _groups_of(sides: np.ndarray, groups: ArrayLike | None) -> np.ndarray:
+    if groups is None:
+        return np.arange(sides.size).reshape(sides.shape)
+    g = np.asarray(groups)
+    if g.shape != sides.shape:
+        raise FormulationInputError(f"groups must have the shape of sides {sides.shape}, got {g.shape}")
+    return g
+
+
+class _Counter:
+    def __init__(self, solve: SolveFn, budget: int) -> None:
+        self.solve, self.budget, self.count = solve, budget, 0
+
+    def __call__(self, sides: np.ndarray, applies: np.ndarray) -> InnerOutcome:
+        self.count += 1
+        return self.solve(sides.copy(), applies.copy())
+
+    @property
+    def exhausted(self) -> bool:
+        return self.count >= self.budget
+
+
+def _settle(
+    solve: _Counter, sides: np.ndarray, applies: np.ndarray, max_rounds: int
+) -> tuple[np.ndarray, np.ndarray, InnerOutcome]:
+    """Solve, then re-check applicability at the solution until it is stable (it only grows)."""
+    out = solve(sides, applies)
+    for _ in range(max_rounds):
+        if out.applies is None or not out.feasible:
+            break
+        new = out.applies & ~applies
+        if not new.any():
+            break
+        sides = sides.copy()
+        if out.side_at_solution is not None:
+            sides[new] = out.side_at_solution[new]
+        applies = applies | out.applies
+        if solve.exhausted:
+            break
+        out = solve(sides, applies)
+    return sides, applies, out
+
+
+def _valid(out: InnerOutcome) -> bool:
+    return bool(out.feasible and np.isfinite(out.objective) and (out.inside is None or not out.inside.any()))
+
+
+def _flip(sides: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    out = sides.copy()
+    out[mask] = -out[mask]
+    return out
+
+
+def improve_sides(
+    solve: SolveFn,
+    sides: ArrayLike,
+    applies: ArrayLike,
+    *,
+    flippable: ArrayLike | None = None,
+    groups: ArrayLike | None = None,
+    pairs: bool = True,
+    rel_tol: float = 1e-9,
+    max_solves: int = 500,
+    max_applicability_rounds: int = 10,
+) -> DisjunctiveResult:
+    """Outer loop: applicability re-check plus flip local search over band sides.
+
+    1. Solve with the given sides; re-check where the bands apply at the solution and re-solve
+       while that set grows (entries that newly apply take the side the solution is on).
+    2. If infeasible, repair greedily: flip the group that most reduces the reported
+       infeasibility, until feasible or no flip helps.
+    3. Local search: flip one group whose band constraint is active (most binding first) and
+       keep the first improvement; when no single flip improves and ``pairs`` is set, try flipping
+       two groups together, at least one of them active (a 2-flip neighbourhood, which reaches
+       the swaps a tight ETA needs: one leg to its fast side, another to its slow side); stop
+       when nothing improves.
+
+    Parameters
+    ----------
+    solve : callable
+        ``solve(sides, applies) -> InnerOutcome`` with the sides fixed.
+    sides : array_like of int
+        Initial sides (−1/+1), e.g. from :func:`select_sides` at the search's solution.
+    applies : array_like of bool
+        Initial applicability.
+    flippable : array_like of bool, optional
+        Entries whose band has both sides (default: all).
+    groups : array_like of int, optional
+        Entries with the same label flip together (e.g. all samples of one leg and band).
+    pairs : bool
+        Use the 2-flip neighbourhood when no single flip improves.
+    rel_tol : float
+        A flip is kept when it lowers the objective by more than ``rel_tol · max(1, |objective|)``.
+    max_solves : int
+        Budget of inner solves.
+    max_applicability_rounds : int
+        Re-solves per settle step when applicability grows.
+
+    Returns
+    -------
+    DisjunctiveResult
+        The best valid solution found; ``feasible`` is False when none was.
+    """
+    started = time.perf_counter()
+    s0 = np.asarray(sides).astype(np.int8)
+    a0 = np.asarray(applies, dtype=bool)
+    if s0.shape != a0.shape:
+        raise FormulationInputError(f"sides {s0.shape} and applies {a0.shape} must have the same shape")
+    flip_ok = np.ones(s0.shape, dtype=bool) if flippable is None else np.asarray(flippable, dtype=bool)
+    grp = _groups_of(s0, groups)
+    counter = _Counter(solve, max_solves)
+    cur_s, cur_a, cur = _settle(counter, s0, a0, max_applicability_rounds)
+    history: list[float] = []
+
+    def settle(trial: np.ndarray) -> tuple[np.ndarray, np.ndarray, InnerOutcome]:
+        return _settle(counter, trial, cur_a, max_applicability_rounds)
+
+    while not _valid(cur) and not counter.exhausted:  # greedy repair on the infeasibility
+        best = None
+        for g in np.unique(grp[flip_ok & cur_a]):
+            if counter.exhausted:
+                break
+            ts, ta, to = settle(_flip(cur_s, (grp == g) & flip_ok & cur_a))
+            key = (0, to.objective) if _valid(to) else (1, to.infeasibility)
+            if best is None or key < best[0]:
+                best = (key, ts, ta, to)
+        if best is None or (best[0][0] == 1 and not best[0][1] < cur.infeasibility):
+            break
+        _, cur_s, cur_a, cur = best
+    if _valid(cur):
+        history.append(cur.objective)
+        while not counter.exhausted:
+            cand = cur.active & flip_ok & cur_a
+            labels = np.unique(grp[cand])
+            strength = np.array([np.max(np.where(cand & (grp == g), cur.weight, -np.inf)) for g in labels])
+            labels = labels[np.argsort(-strength, kind="stable")]
+            moves: list[tuple[int, ...]] = [(int(g),) for g in labels]
+            if pairs:
+                others = [int(h) for h in np.unique(grp[flip_ok & cur_a]) if h not in labels]
+                moves += [(int(g), int(h)) for g, h in itertools.combinations(labels, 2)]
+                moves += [(int(g), h) for g in labels for h in others]
+            improved = False
+            for move in moves:
+                if counter.exhausted:
+                    break
+                mask = np.isin(grp, move) & flip_ok & cur_a
+                ts, ta, to = settle(_flip(cur_s, mask))
+                if _valid(to) and to.objective < cur.objective - rel_tol * max(1.0, abs(cur.objective)):
+                    cur_s, cur_a, cur = ts, ta, to
+                    history.append(cur.objective)
+                    improved = True
+                    break
+            if not improved:
+                break
+    ok = _valid(cur)
+    return DisjunctiveResult(
+        sides=cur_s,
+        applies=cur_a,
+        outcome=cur,
+        objective=float(cur.objective) if ok else float("inf"),
+        feasible=ok,
+        n_solves=counter.count,
+        history=history,
+        solve_time_s=time.perf_counter() - started,
+    )
+
+
+def enumerate_sides(
+    solve: SolveFn,
+    sides: ArrayLike,
+    applies: ArrayLike,
+    *,
+    flippable: ArrayLike | None = None,
+    groups: ArrayLike | None = None,
+    max_groups: int = 16,
+) -> DisjunctiveResult:
+    """Exact mode: solve every side combination of the applicable, flippable groups.
+
+    Exact for the given applicability when each inner solve is globally optimal (e.g. the convex
+    fixed-path problem). ``2^G`` solves for ``G`` groups.
+
+    Raises
+    ------
+    FormulationInputError
+        When there are more than ``max_groups`` groups to enumerate.
+    """
+    started = time.perf_counter()
+    s0 = np.asarray(sides).astype(np.int8)
+    a0 = np.asarray(applies, dtype=bool)
+    flip_ok = np.ones(s0.shape, dtype=bool) if flippable is None else np.asarray(flippable, dtype=bool)
+    grp = _groups_of(s0, groups)
+    labels = np.unique(grp[flip_ok & a0])
+    if labels.size > max_groups:
+        raise FormulationInputError(
+            f"{labels.size} groups to enumerate (2^{labels.size} solves); the limit is max_groups={max_groups}"
+        )
+    best: tuple[np.ndarray, InnerOutcome] | None = None
+    first: InnerOutcome | None = None
+    count = 0
+    for combo in itertools.product((-1, 1), repeat=labels.size):
+        trial = s0.copy()
+        for g, side in zip(labels, combo, strict=True):
+            mask = (grp == g) & flip_ok & a0
+            trial[mask] = side
+        out = solve(trial.copy(), a0.copy())
+        count += 1
+        first = first or out
+        if _valid(out) and (best is None or out.objective < best[1].objective):
+            best = (trial, out)
+    if best is None:  # no combination is feasible; report the first solve (there is always one)
+        out0 = first if first is not None else solve(s0.copy(), a0.copy())
+        return DisjunctiveResult(s0, a0, out0, float("inf"), False, count, [], time.perf_counter() - started)
+    return DisjunctiveResult(
+        best[0], a0, best[1], float(best[1].objective), True, count, [best[1].objective], time.perf_counter() - started
+    )
+
+
+# ---------------------------------------------------------------------------
+# Fixed path: bands as forbidden speed intervals, the convex solver inside
+# ---------------------------------------------------------------------------
+
+
+def _intervals(forbidden_kn: ArrayLike, n: int) -> np.ndarray:
+    f = as_float_array(forbidden_kn, "forbidden_kn", finite=False)
+    if f.ndim == 2:
+        f = f[:, None, :]
+    if f.ndim != 3 or f.shape[0] != n or f.shape[2] != 2:
+        raise FormulationInputError(f"forbidden_kn must have shape ({n}, 2) or ({n}, B, 2), got {f.shape}")
+    return f
+
+
+def fixed_path_speed_bounds(
+    sides: np.ndarray, applies: np.ndarray, forbidden_kn: np.ndarray, v_min_kn: np.ndarray, v_max_kn: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Speed bounds per leg [kn] from base bounds and band sides: side −1 caps at ``a``, +1 floors at ``b``."""
+    a, b = forbidden_kn[..., 0], forbidden_kn[..., 1]
+    cap = np.where(applies & (sides < 0), a, np.inf)
+    floor = np.where(applies & (sides > 0), b, -np.inf)
+    return np.maximum(v_min_kn, floor.max(axis=1)), np.minimum(v_max_kn, cap.min(axis=1))
+
+
+def convex_band_solver(
+    distance_nm: ArrayLike,
+    fuel: PowerLawFuel,
+    forbidden_kn: ArrayLike,
+    *,
+    eta_h: float | None,
+    v_min_kn: ArrayLike = 0.0,
+    v_max_kn: ArrayLike = np.inf,
+    bound_tol: float = 1e-6,
+    **convex_kwargs: Any,
+) -> SolveFn:
+    """Inner solver for a fixed path: every band side is a speed bound, solved by Clarabel.
+
+    Parameters
+    ----------
+    distance_nm : array_like, shape (N,)
+        Leg lengths [nm].
+    fuel : PowerLawFuel
+        Per-leg fuel-rate model.
+    forbidden_kn : array_like, shape (N, 2) or (N, B, 2)
+        Forbidden speed interval ``[a, b]`` [kn] of each band on each leg (for a fixed heading and
+        sea state every band is such an interval, physics.md §3); NaN rows never apply.
+    eta_h : float or None
+        Passage time allowed [h].
+    v_min_kn, v_max_kn : float or array_like, shape (N,)
+        Base speed bounds [kn] (MCR, minimum load, maximum speed).
+    bound_tol : float
+        Relative distance to a side's speed bound below which that side counts as active.
+    **convex_kwargs
+        Passed to :func:`formulations.speed_convex.solve_speed_convex`.
+
+    Returns
+    -------
+    callable
+        ``solve(sides, applies) -> InnerOutcome`` with sides of shape (N, B); ``ratio`` is the speed.
+        A side choice whose bounds cross (``lo > hi``) is infeasible without a solve.
+    """
+    from formulations.speed_convex import solve_speed_convex
+
+    d = as_float_array(distance_nm, "distance_nm", ndim=1)
+    n = d.size
+    f = _intervals(forbidden_kn, n)
+    vmin = broadcast_legs(v_min_kn, n, "v_min_kn")
+    vmax = broadcast_legs(v_max_kn, n, "v_max_kn", finite=False)
+    lower, upper = f[..., 0], f[..., 1]
+
+    def solve(sides: np.ndarray, applies: np.ndarray) -> InnerOutcome:
+        s = np.asarray(sides).reshape(lower.shape)
+        a = np.asarray(applies, dtype=bool).reshape(lower.shape) & np.isfinite(lower) & np.isfinite(upper)
+        lo, hi = fixed_path_speed_bounds(s, a, f, vmin, vmax)
+        zero = np.zeros(s.shape)
+        # infeasibility [h]: crossed speed bounds, then the shortfall of the fastest passage
+        crossed = float(np.sum(np.maximum(0.0, d / hi - d / np.maximum(lo, 1e-9))))
+        shortfall = max(0.0, float(np.sum(d / hi)) - eta_h) if eta_h is not None else 0.0
+        if crossed > 0.0:
+            return InnerOutcome(
+                False, float("inf"), zero.astype(bool), zero, status="crossed_bounds", infeasibility=crossed + shortfall
+            )
+        res = solve_speed_convex(d, fuel, eta_h=eta_h, v_min_kn=lo, v_max_kn=hi, **convex_kwargs)
+        if not res.success:
+            return InnerOutcome(
+                False,
+                float("inf"),
+                zero.astype(bool),
+                zero,
+                status=res.status,
+                payload=res,
+                infeasibility=shortfall if shortfall > 0 else float("inf"),
+            )
+        v = res.speed_kn[:, None]
+        near_cap = a & (s < 0) & (np.abs(v - lower) <= bound_tol * lower)
+        near_floor = a & (s > 0) & (np.abs(v - upper) <= bound_tol * upper)
+        weight = np.where(near_cap, res.time_lower_dual[:, None], 0.0) + np.where(
+            near_floor, res.time_upper_dual[:, None], 0.0
+        )
+        inside = a & (v > lower * (1 + bound_tol)) & (v < upper * (1 - bound_tol))
+        return InnerOutcome(
+            feasible=True,
+            objective=res.objective,
+            active=near_cap | near_floor,
+            weight=np.abs(weight),
+            applies=None,
+            side_at_solution=select_sides(v, lower, upper),
+            inside=inside,
+            status=res.status,
+            payload=res,
+        )
+
+    return solve
+
+
+# ---------------------------------------------------------------------------
+# Corridor NLP inside
+# ---------------------------------------------------------------------------
+
+
+def nlp_groups(shape: tuple[int, int, int]) -> np.ndarray:
+    """Group labels (leg, band) for an (N, m, B) side array: all samples of a leg flip together."""
+    n, m, nb = shape
+    return np.broadcast_to((np.arange(n)[:, None] * nb + np.arange(nb)[None, :])[:, None, :], shape).copy()
+
+
+def nlp_band_solver(nlp: Any, *, violation_tol: float = 1e-6, **solve_kwargs: Any) -> SolveFn:
+    """Inner solver wrapping :meth:`formulations.speed_nlp.SpeedNLP.solve` (duck-typed).
+
+    Every solve is warm-started from the best valid solution so far (initially from the warm
+    start in ``solve_kwargs``). An outcome is feasible when Ipopt reports success and the largest
+    constraint violation is at most ``violation_tol``; applicability, the side each sample is on
+    and band violations are re-evaluated at the solution from the NLP's own sample states.
+
+    Parameters
+    ----------
+    nlp : SpeedNLP
+        The built problem.
+    violation_tol : float
+        Largest accepted constraint violation (scaled rows).
+    **solve_kwargs
+        ETA, objective, prices and the initial warm start, passed to ``nlp.solve``.
+
+    Returns
+    -------
+    callable
+        ``solve(sides, applies) -> InnerOutcome`` with arrays of shape (N, m, B).
+    """
+    lower = np.array([b.lower for b in nlp.bands])
+    upper = np.array([b.upper for b in nlp.bands])
+    kwargs = dict(solve_kwargs)
+    best: dict[str, float] = {"objective": float("inf")}
+
+    def solve(sides: np.ndarray, applies: np.ndarray) -> InnerOutcome:
+        res = nlp.solve(sides=sides, applies=applies, **kwargs)
+        feasible = bool(res.success and res.max_violation <= violation_tol)
+        st = res.samples
+        out = InnerOutcome(
+            feasible=feasible,
+            objective=float(res.objective) if feasible else float("inf"),
+            active=res.band_active,
+            weight=np.abs(res.band_multiplier),
+            applies=st.applies,
+            side_at_solution=select_sides(st.ratio, lower, upper),
+            inside=st.inside,
+            status=res.status,
+            payload=res,
+            infeasibility=0.0 if feasible else float(res.max_violation),
+        )
+        if feasible and not st.inside.any() and res.objective < best["objective"]:
+            best["objective"] = float(res.objective)
+            kwargs.update(offset0_nm=res.offset_nm, stw0_kn=res.stw_kn, time0_h=res.time_h)
+        return out
+
+    return solve
+
+
+@contextlib.contextmanager
+def _quiet_stdout() -> Iterator[None]:
+    """Silence C-level writes to stdout (Bonmin's node log ignores its print options)."""
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):
+        yield
+        return
+    sys.stdout.flush()
+    saved = os.dup(fd)
+    with open(os.devnull, "w") as null:
+        os.dup2(null.fileno(), fd)
+        try:
+            yield
+        finally:
+            os.dup2(saved, fd)
+            os.close(saved)
+
+
+@dataclass(frozen=True)
+class BonminResult:
+    """Result of :func:`bonmin_fixed_path` (status verbatim from Bonmin via CasADi)."""
+
+    status: str
+    success: bool
+    time_h: np.ndarray
+    speed_kn: np.ndarray
+    sides: np.ndarray
+    objective: float
+    solve_time_s: float
+
+
+def bonmin_fixed_path(
+    distance_nm: ArrayLike,
+    fuel: PowerLawFuel,
+    forbidden_kn: ArrayLike,
+    *,
+    eta_h: float,
+    v_min_kn: ArrayLike = 1.0,
+    v_max_kn: ArrayLike = 30.0,
+) -> BonminResult:
+    """Exact fixed-path band problem as a convex MINLP solved by Bonmin (B-BB), big-M in leg time.
+
+    With a binary ``z_ib`` per leg and applicable band, side −1 (``v ≤ a``) is ``t_i ≥ d_i/a − M z``
+    and side +1 (``v ≥ b``) is ``t_i ≤ d_i/b + M (1 − z)`` with ``M = d_i/v_min − d_i/v_max``.
+    The continuous relaxation is convex (the fuel of :class:`PowerLawFuel` is convex in ``t``), so
+    Bonmin's branch and bound returns the global optimum (physics.md §9).
+
+    Parameters
+    ----------
+    distance_nm, fuel, forbidden_kn
+        As for :func:`convex_band_solver`.
+    eta_h : float
+        Passage time allowed [h] (``Σ t ≤ eta_h``).
+    v_min_kn, v_max_kn : float or array_like
+        Base speed bounds [kn], ``v_min > 0`` (it bounds the big-M).
+
+    Returns
+    -------
+    BonminResult
+        ``sides`` as +1/−1 per (leg, band) (0 where no band).
+    """
+    import casadi as ca
+
+    d = as_float_array(distance_nm, "distance_nm", ndim=1)
+    n = d.size
+    f = _intervals(forbidden_kn, n)
+    vmin = broadcast_legs(v_min_kn, n, "v_min_kn")
+    vmax = broadcast_legs(v_max_kn, n, "v_max_kn")
+    if (vmin <= 0).any():
+        raise FormulationInputError("bonmin_fixed_path needs v_min_kn > 0 (it bounds the big-M)")
+    coef, p = fuel.for_legs(n), fuel.exponent
+    started = time.perf_counter()
+    opti = ca.Opti()
+    t = opti.variable(n)
+    opti.subject_to(opti.bounded(d / vmax, t, d / vmin))
+    opti.subject_to(ca.sum1(t) <= eta_h)
+    big_m = d / vmin - d / vmax
+    zs: dict[tuple[int, int], Any] = {}
+    for i, j in zip(*np.nonzero(np.isfinite(f[..., 0]) & np.isfinite(f[..., 1])), strict=True):
+        z = opti.variable()
+        opti.set_domain(z, "integer")
+        opti.subject_to(opti.bounded(0, z, 1))
+        a, b = f[i, j]
+        opti.subject_to(t[i] >= d[i] / a - big_m[i] * z)
+        opti.subject_to(t[i] <= d[i] / b + big_m[i] * (1 - z))
+        zs[(int(i), int(j))] = z
+    obj = 0
+    for jj, pj in enumerate(p):
+        obj += ca.sum1(ca.DM(coef[:, jj] * d**pj) * t ** (1.0 - pj))
+    opti.minimize(obj)
+    opti.set_initial(t, d / np.clip(d.sum() / eta_h, vmin, vmax))
+    quiet = {f"bonmin.{k}": 0 for k in ("bb_log_level", "nlp_log_level", "fp_log_level", "lp_log_level")}
+    opti.solver("bonmin", {"print_time": False, "bonmin.algorithm": "B-BB", **quiet})
+    with _quiet_stdout():
+        try:
+            sol = opti.solve()
+            stats, tv = sol.stats(), np.asarray(sol.value(t), dtype=float).reshape(n)
+            zv = {k: float(sol.value(z)) for k, z in zs.items()}
+            objective = float(sol.value(obj))
+        except RuntimeError:
+            stats, tv, zv, objective = opti.stats(), np.full(n, np.nan), {}, float("nan")
+    sides = np.zeros(f.shape[:2], dtype=np.int8)
+    for (i, j), val in zv.items():
+        sides[i, j] = 1 if val > 0.5 else -1
+    status = str(stats.get("return_status", "unknown"))
+    return BonminResult(
+        status=status,
+        success=bool(stats.get("success", False)),
+        time_h=tv,
+        speed_kn=d / tv,
+        sides=sides,
+        objective=objective,
+        solve_time_s=time.perf_counter() - started,
+    )
