@@ -496,49 +496,74 @@ class WeatherGrid:
             grids[axis] = g
         return grids, data
 
-    def interpolant(self) -> Any:
-        """A CasADi function ``(t, s, y) ↦ fields`` (3 inputs stacked, ``len(field_names)`` outputs)."""
+    def _raw_interpolant(self, grids: list[np.ndarray], data: np.ndarray) -> Any:
         import casadi as ca
 
-        grids, data = self._prepared()
         if self.method == "smooth":
             return _bspline_function("weather", *_quasi_spline(grids, data))
         # CasADi layout: outputs fastest, then the grid axes in Fortran order.
         return ca.interpolant("weather", self.method, grids, data.ravel(order="F"))
 
+    def interpolant(self) -> Any:
+        """A CasADi function ``(t, s, y) ↦ fields`` (3 inputs stacked, ``len(field_names)`` outputs).
+
+        Outside the grid every field is held at its value on the nearest edge (the inputs are
+        clamped to the grid; a B-spline would otherwise drop to zero there). Solutions report
+        samples outside the grid in ``SampleState.outside_grid``.
+        """
+        import casadi as ca
+
+        grids, data = self._prepared()
+        x = ca.MX.sym("tsy", 3)
+        lo, hi = [float(g[0]) for g in grids], [float(g[-1]) for g in grids]
+        inner = self._raw_interpolant(grids, data)
+        return ca.Function("weather", [x], [inner(ca.fmin(ca.fmax(x, ca.DM(lo)), ca.DM(hi)))])
+
     def taylor_function(self, order: int = 1) -> Any:
         """CasADi function ``(t, s, y) ↦ [F, F_t, F_y, F_tt, F_ty, F_yy]`` (6·n_fields, stacked by block).
 
-        The partial derivatives in time and across-track position of every field; the second
-        derivatives are zero for ``order=1``. For ``"smooth"`` they are explicit derivative splines
-        (lower-degree B-splines with differenced coefficients, cheaper than differentiating the
-        spline node); otherwise CasADi's derivatives of the interpolant.
+        The partial derivatives in time and across-track position of every field, consistent with
+        :meth:`interpolant` (zero outside the grid along an axis where the field is held constant);
+        the second derivatives are zero for ``order=1``. For ``"smooth"`` they are explicit
+        derivative splines (lower-degree B-splines with differenced coefficients, cheaper than
+        differentiating the spline node); otherwise CasADi's derivatives of the interpolant.
         """
         import casadi as ca
 
         nf = len(self.field_names)
+        grids, data = self._prepared()
+        lo, hi = [float(g[0]) for g in grids], [float(g[-1]) for g in grids]
         x = ca.MX.sym("tsy", 3)
+        xc = ca.fmin(ca.fmax(x, ca.DM(lo)), ca.DM(hi))
+        inside = [ca.logic_and(x[i] >= lo[i], x[i] <= hi[i]) for i in range(3)]
         zero = ca.MX.zeros(nf, 1)
         if self.method == "smooth":
-            knots, coef, deg = _quasi_spline(*self._prepared())
+            knots, coef, deg = _quasi_spline(grids, data)
 
             def part(axes: tuple[int, ...], name: str) -> Any:
                 k, c, d = knots, coef, deg
                 for ax in axes:
                     k, c, d = _spline_derivative(k, c, d, ax)
-                return _bspline_function(name, k, c, d)(x)
+                return _bspline_function(name, k, c, d)(xc)
 
             blocks = [part((), "f"), part((0,), "f_t"), part((2,), "f_y")]
             if order > 1:
                 blocks += [part((0, 0), "f_tt"), part((0, 2), "f_ty"), part((2, 2), "f_yy")]
         else:
-            val = self.interpolant()(x)
-            jac = ca.jacobian(val, x)
-            blocks = [val, jac[:, 0], jac[:, 2]]
+            xs = ca.MX.sym("xs", 3)
+            fun = ca.Function("f", [xs], [self._raw_interpolant(grids, data)(xs)])
+            val = fun(xc)
+            jac = ca.jacobian(fun(xs), xs)
+            jf = ca.Function("j", [xs], [jac])(xc)
+            blocks = [val, jf[:, 0], jf[:, 2]]
             if order > 1:
-                hess_t = ca.jacobian(jac[:, 0], x)
-                blocks += [hess_t[:, 0], hess_t[:, 2], ca.jacobian(jac[:, 2], x)[:, 2]]
+                hess_t = ca.Function("h", [xs], [ca.jacobian(jac[:, 0], xs)])(xc)
+                hess_y = ca.Function("h", [xs], [ca.jacobian(jac[:, 2], xs)])(xc)
+                blocks += [hess_t[:, 0], hess_t[:, 2], hess_y[:, 2]]
         blocks += [zero] * (6 - len(blocks))
+        # a derivative along an axis vanishes where the input is clamped on that axis
+        masks = [1, inside[0], inside[2], inside[0], inside[0] * inside[2], inside[2]]
+        blocks = [blk * mk for blk, mk in zip(blocks, masks, strict=True)]
         return ca.Function("weather_taylor", [x], [ca.densify(ca.vertcat(*blocks))])
 
 
@@ -695,8 +720,8 @@ class MovingExclusion:
     Parameters
     ----------
     t_h : array_like, shape (nc,)
-        Times of the track [h since departure], strictly increasing (cover the voyage:
-        the centre and radius are interpolated linearly and extrapolated linearly outside).
+        Times of the track [h since departure], strictly increasing; the centre and radius are
+        interpolated linearly and held at the first/last value outside.
     centre_xy_nm : array_like, shape (nc, 2)
         Centre in the corridor's flat frame [nm].
     radius_nm : array_like, shape (nc,)
@@ -723,7 +748,7 @@ class MovingExclusion:
         return max(1.0, float(np.max(self.radius_nm)))
 
     def interpolant(self) -> Any:
-        """CasADi linear interpolant ``t ↦ (cx, cy, r)``."""
+        """CasADi function ``t ↦ (cx, cy, r)``: linear interpolation, constant outside the track's times."""
         import casadi as ca
 
         t = np.asarray(self.t_h)
@@ -731,4 +756,6 @@ class MovingExclusion:
         if t.size == 1:
             t = np.array([t[0], t[0] + 1.0])
             data = np.vstack([data, data])
-        return ca.interpolant("exclusion", "linear", [t], data.T.ravel(order="F"))
+        inner = ca.interpolant("exclusion", "linear", [t], data.T.ravel(order="F"))
+        x = ca.MX.sym("t")
+        return ca.Function("exclusion", [x], [inner(ca.fmin(ca.fmax(x, t[0]), t[-1]))])

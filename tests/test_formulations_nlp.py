@@ -1,0 +1,290 @@
+"""formulations.speed_nlp against analytic splits, the convex optimum and independent re-computation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.interpolate import RegularGridInterpolator
+
+from formulations._common import (
+    G_OVER_2PI_KN_S,
+    Band,
+    CorridorGeometry,
+    FormulationInputError,
+    MovingExclusion,
+    PowerLawFuel,
+    PowerModel,
+    WeatherGrid,
+)
+from formulations.speed_convex import solve_speed_convex
+from formulations.speed_nlp import SpeedNLP
+
+D = np.array([300.0, 500.0, 200.0, 400.0])
+K = np.array([1.0, 1.5, 0.8, 1.2]) * 1e-3
+
+# fuel rate = P · SFOC · 1e-6 with a constant SFOC of 1e6 g/kWh and P = f_k · V³: exactly k V³ [t/h]
+CUBIC = PowerModel(calm_coef=[1.0], calm_exp=[3.0], mcr_kw=1e12, sfc_base_gpkwh=1e6, sfc_quad=(0.0, 0.0, 1.0))
+CALM = WeatherGrid(t_h=[0.0], s_nm=[0.0], y_nm=[0.0], hs_m=0.0, period_s=8.0)
+
+
+def _fixed_path(d: np.ndarray, k: np.ndarray, **kw: object) -> SpeedNLP:
+    return SpeedNLP(CorridorGeometry.straight(d), CALM, CUBIC, leg_power_factor=k, **kw)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("eta_mode", ["le", "eq"])
+@pytest.mark.parametrize("structured", [True, False])
+def test_physics_md_analytic_split(eta_mode: str, structured: bool) -> None:
+    nlp = _fixed_path(D, K, samples_per_leg=3, structured=structured, v_min_kn=1.0, v_max_kn=40.0)
+    res = nlp.solve(eta_h=100.0, eta_mode=eta_mode)
+    assert res.success and res.status == "Solve_Succeeded"
+    np.testing.assert_allclose(res.duration_h, [20.228, 38.592, 12.519, 28.661], atol=5e-4)
+    assert res.total_fuel_t == pytest.approx(326.2101, abs=5e-5)
+    assert res.duration_total_h <= 100.0 + 1e-9
+    # -dF*/dT = 2 F*/T for the cubic law
+    assert res.eta_multiplier == pytest.approx(2 * res.total_fuel_t / 100.0, rel=1e-6)
+    np.testing.assert_allclose(res.distance_nm, D, rtol=1e-12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(2, 20), seed=st.integers(0, 2**31 - 1), slack=st.floats(1.02, 1.5), capped=st.booleans())
+def test_fixed_path_nlp_equals_the_convex_optimum(n: int, seed: int, slack: float, capped: bool) -> None:
+    rng = np.random.default_rng(seed)
+    d = rng.uniform(20.0, 300.0, n)
+    k = rng.uniform(5e-4, 3e-3, n)
+    eta = d.sum() / 14.0 * slack
+    v_max = rng.uniform(13.0, 25.0, n) if capped else np.full(n, 40.0)
+    v_max = np.maximum(v_max, 1.01 * d.sum() / eta)  # keep the instance feasible
+    nlp = _fixed_path(d, k, v_min_kn=1.0, v_max_kn=v_max)
+    res = nlp.solve(eta_h=eta)
+    ref = solve_speed_convex(d, PowerLawFuel.cubic(k), eta_h=eta, v_max_kn=v_max, v_min_kn=1.0)
+    assert res.success and ref.success
+    assert res.total_fuel_t == pytest.approx(ref.total_fuel_t, rel=1e-6)
+    np.testing.assert_allclose(res.duration_h, ref.time_h, rtol=2e-3)
+    if not capped:  # no bound active: both are the analytic split t ∝ d k^(1/3)
+        t = d * k ** (1 / 3)
+        t *= eta / t.sum()
+        np.testing.assert_allclose(res.duration_h, t, rtol=1e-5)
+        assert res.total_fuel_t == pytest.approx(np.sum(k * d**3 / t**2), rel=1e-9)
+
+
+def _rich_problem(**kw: object) -> tuple[SpeedNLP, float]:
+    """A small corridor with everything: curvature, time-varying waves, current, wind, bands, a storm."""
+    n = 12
+    s = np.arange(n + 1) * 40.0
+    ang = np.radians(45 + 25 * np.sin(s / 200))
+    c = np.vstack([[0, 0], np.cumsum(np.column_stack([np.sin(ang[:-1]), np.cos(ang[:-1])]) * 40.0, axis=0)])
+    cor = CorridorGeometry(centre_xy_nm=c, half_width_nm=30.0)
+    tg, sg, yg = np.arange(0, 60, 6.0), np.linspace(0, cor.s_nm[-1], 9), np.linspace(-40, 40, 5)
+    tt, ss, yy = np.meshgrid(tg, sg, yg, indexing="ij")
+    hs = 2.0 + 3.0 * np.exp(-(((ss - 250 - 4 * tt) / 120) ** 2 + ((yy - 10) / 30) ** 2))
+    th = np.radians(20 + tt + ss / 20)
+    wx = WeatherGrid(
+        t_h=tg,
+        s_nm=sg,
+        y_nm=yg,
+        hs_m=hs,
+        period_s=4.5 * np.sqrt(hs) + 1,
+        wave_to_along=np.cos(th),
+        wave_to_across=np.sin(th),
+        current_along_kn=1.5 * np.sin(ss / 100),
+        current_across_kn=2.0 * np.cos(tt / 10),
+        wind_along_kn=10 * np.cos(th),
+        wind_across_kn=-8 * np.sin(th),
+    )
+    pw = PowerModel(
+        calm_coef=[2.2],
+        calm_exp=[3.0],
+        mcr_kw=36000,
+        min_load=0.1,
+        hs_coef=[0.02],
+        hs_exp=[2.0],
+        angle_coef=(0.6, 0.4, 0.1),
+        speed_coef=(1.0, 0.01),
+        wind_coef=0.3,
+    )
+    bands = (Band("te_over_tr", 0.8, 1.2, param=20.0, hs_min_m=3.0), Band("v_over_c", 0.8, 1.2, hs_min_m=3.0))
+    excl = MovingExclusion(t_h=[0, 30, 60], centre_xy_nm=[[150, 120], [200, 150], [260, 170]], radius_nm=[20, 25, 20])
+    nlp = SpeedNLP(cor, wx, pw, bands=bands, exclusion=excl, samples_per_leg=3, v_min_kn=6, v_max_kn=24, **kw)  # type: ignore[arg-type]
+    return nlp, float(cor.s_nm[-1] / 14.0)
+
+
+def test_structured_derivatives_equal_casadi_automatic_differentiation() -> None:
+    exact, _ = _rich_problem(exact_hessian=True)
+    auto, _ = _rich_problem(structured=False)
+    rng = np.random.default_rng(3)
+    n = exact.n_legs
+    x = np.concatenate([rng.uniform(-20, 20, n + 1), rng.uniform(10, 20, n), np.linspace(0, 40, n + 1)])
+    p = np.concatenate([[1.3, 0.7], rng.uniform(0.5, 1.5, n * 3 * 2)])
+    lam_g = rng.normal(size=exact._ng)
+    for name, args in (("nlp_grad_f", [x, p]), ("nlp_jac_g", [x, p]), ("nlp_hess_l", [x, p, 0.8, lam_g])):
+        mine = exact._solver.get_function(name)(*args)
+        ref = auto._solver.get_function(name)(*args)
+        mine = mine if isinstance(mine, tuple | list) else [mine]
+        ref = ref if isinstance(ref, tuple | list) else [ref]
+        for a, b in zip(mine, ref, strict=True):
+            a, b = np.array(a.full()), np.array(b.full())
+            np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(b).max()), err_msg=name)
+
+
+def test_rich_problem_solves_and_respects_every_constraint_independently() -> None:
+    nlp, eta = _rich_problem()
+    res = nlp.solve(eta_h=eta)
+    assert res.success, res.status
+    assert res.max_violation < 1e-6
+    y_lo, y_hi = nlp.corridor.offset_bounds()
+    assert np.all(res.offset_nm >= y_lo - 1e-9) and np.all(res.offset_nm <= y_hi + 1e-9)
+    assert res.duration_total_h <= eta + 1e-9
+    smp = res.samples
+    assert np.all(smp.load <= 1.0 + 1e-8) and np.all(smp.load >= 0.1 - 1e-8)
+    # samples recomputed independently: linear along the straight legs between waypoints, in time too
+    frac = nlp.sample_fraction
+    p = res.position_xy_nm
+    xs = p[:-1, None, 0] + frac[None, :] * np.diff(p[:, 0])[:, None]
+    ys = p[:-1, None, 1] + frac[None, :] * np.diff(p[:, 1])[:, None]
+    ts = res.time_h[:-1, None] + frac[None, :] * np.diff(res.time_h)[:, None]
+    ex = nlp.exclusion
+    cx = np.interp(ts, ex.t_h, ex.centre_xy_nm[:, 0])
+    cy = np.interp(ts, ex.t_h, ex.centre_xy_nm[:, 1])
+    r = np.interp(ts, ex.t_h, ex.radius_nm)
+    assert np.all(np.hypot(xs - cx, ys - cy) >= r - 1e-6)
+    # never inside a band where it applies (ratios recomputed from the sample state)
+    a = G_OVER_2PI_KN_S
+    v = res.stw_kn[:, None]
+    along = v * smp.cos_chi
+    te = a * smp.period_s**2 / np.abs(a * smp.period_s - along)
+    for b, ratio in enumerate((te / 20.0, along / (a * smp.period_s))):
+        applies = smp.hs_m >= 3.0
+        inside = applies & (ratio > 0.8 + 1e-6) & (ratio < 1.2 - 1e-6)
+        assert not inside.any(), f"band {b} violated"
+        np.testing.assert_allclose(ratio, smp.ratio[..., b], rtol=1e-6)
+
+
+def test_eta_multiplier_matches_the_finite_difference_of_the_optimum() -> None:
+    nlp, eta = _rich_problem()
+    base = nlp.solve(eta_h=eta)
+    warm = dict(offset0_nm=base.offset_nm, stw0_kn=base.stw_kn, sides=base.sides, applies=base.applies)
+    h = 0.25
+    up = nlp.solve(eta_h=eta + h, time0_h=base.time_h * (eta + h) / eta, **warm)
+    down = nlp.solve(eta_h=eta - h, time0_h=base.time_h * (eta - h) / eta, **warm)
+    assert base.success and up.success and down.success
+    fd = -(up.objective - down.objective) / (2 * h)
+    assert base.eta_multiplier > 0
+    assert base.eta_multiplier == pytest.approx(fd, rel=0.02)
+
+
+def test_lateral_freedom_moves_the_path_to_the_calmer_side() -> None:
+    d = np.full(20, 20.0)
+    cor = CorridorGeometry.straight(d, half_width_nm=30.0)
+    yg = np.linspace(-40, 40, 9)
+    hs = (1.0 + 0.08 * (yg + 40))[None, None, :] * np.ones((1, 3, 1))  # rougher to port (y > 0)
+    wx = WeatherGrid(
+        t_h=[0.0], s_nm=np.linspace(0, 400, 3), y_nm=yg, hs_m=hs, period_s=8.0, wave_to_along=-1.0, wave_to_across=0.0
+    )
+    pw = PowerModel(calm_coef=[2.0], calm_exp=[3.0], mcr_kw=40000, hs_coef=[0.03], hs_exp=[2.0])
+    nlp = SpeedNLP(cor, wx, pw, v_min_kn=5, v_max_kn=24)
+    free = nlp.solve(eta_h=400 / 14.0)
+    centre = nlp.solve(eta_h=400 / 14.0, fix_offsets=True)
+    assert free.success and centre.success
+    assert free.offset_nm.mean() < -10.0
+    assert np.all(np.abs(free.offset_nm) <= 30.0 + 1e-9)
+    assert free.total_fuel_t < 0.95 * centre.total_fuel_t
+    assert np.all(centre.offset_nm == 0.0)
+
+
+def test_minimum_time_runs_at_the_mcr_speed() -> None:
+    # calm water, P = c V³ ≤ 0.9 MCR → V = (0.9 MCR / c)^(1/3) everywhere
+    pw = PowerModel(calm_coef=[2.5], calm_exp=[3.0], mcr_kw=30000, max_load=0.9)
+    nlp = SpeedNLP(CorridorGeometry.straight(D), CALM, pw, v_min_kn=5, v_max_kn=40)
+    res = nlp.solve(objective="time")
+    v_mcr = (0.9 * 30000 / 2.5) ** (1 / 3)
+    assert res.success
+    np.testing.assert_allclose(res.stw_kn, v_mcr, rtol=1e-7)
+    assert res.duration_total_h == pytest.approx(D.sum() / v_mcr, rel=1e-7)
+
+
+def test_cost_objective_matches_the_convex_cost_optimum() -> None:
+    nlp = _fixed_path(D, K, v_min_kn=1.0, v_max_kn=40.0)
+    res = nlp.solve(objective="cost", fuel_price=600.0, hourly_cost=900.0)
+    ref = solve_speed_convex(D, PowerLawFuel.cubic(K), objective="cost", fuel_price=600.0, hourly_cost=900.0)
+    assert res.objective == pytest.approx(ref.objective, rel=1e-7)
+    # analytic: each leg t* = (2 · price · k d³ / hourly)^(1/3)
+    np.testing.assert_allclose(res.duration_h, (2 * 600.0 * K * D**3 / 900.0) ** (1 / 3), rtol=1e-6)
+
+
+def test_uniform_current_gives_the_closed_form_speed_through_water() -> None:
+    # SOG = sqrt(V² − u⊥²) + u∥ along the track; with ETA = D / SOG the STW is fixed
+    u_par, u_perp = -1.2, 2.0
+    wx = WeatherGrid(
+        t_h=[0.0], s_nm=[0.0], y_nm=[0.0], hs_m=0.0, period_s=8.0, current_along_kn=u_par, current_across_kn=u_perp
+    )
+    nlp = SpeedNLP(CorridorGeometry.straight(D, course_deg=70.0), wx, CUBIC, v_min_kn=3, v_max_kn=30)
+    res = nlp.solve(eta_h=D.sum() / 13.0, eta_mode="eq")
+    assert res.success
+    np.testing.assert_allclose(res.stw_kn, np.hypot(13.0 - u_par, u_perp), rtol=1e-7)
+    np.testing.assert_allclose(res.samples.sog_kn, 13.0, rtol=1e-7)
+
+
+@pytest.mark.parametrize("method", ["smooth", "linear"])
+def test_weather_interpolants_against_independent_references(method: str) -> None:
+    rng = np.random.default_rng(0)
+    tg, sg, yg = np.arange(0.0, 30.0, 6.0), np.linspace(0, 100, 6), np.linspace(-20, 20, 5)
+    tt, ss, yy = np.meshgrid(tg, sg, yg, indexing="ij")
+    lin = 1.0 + 0.05 * tt + 0.01 * ss - 0.02 * yy  # reproduced exactly by both
+    noise = rng.uniform(0, 3, tt.shape)
+    wx = WeatherGrid(t_h=tg, s_nm=sg, y_nm=yg, hs_m=lin, period_s=noise + 5, method=method)
+    f = wx.interpolant()
+    pts = np.column_stack([rng.uniform(0, 24, 50), rng.uniform(0, 100, 50), rng.uniform(-20, 20, 50)])
+    vals = np.array(f.map(50)(pts.T).full())
+    np.testing.assert_allclose(vals[0], 1.0 + 0.05 * pts[:, 0] + 0.01 * pts[:, 1] - 0.02 * pts[:, 2], rtol=1e-12)
+    if method == "linear":  # the multi-output layout against scipy's multilinear interpolation
+        ref = RegularGridInterpolator((tg, sg, yg), noise + 5)(pts)
+        np.testing.assert_allclose(vals[1], ref, rtol=1e-12)
+    else:  # the quasi-interpolant stays inside the data's range and is close to it at nodes
+        assert vals[1].min() >= 5.0 - 1e-9 and vals[1].max() <= 8.0 + 1e-9
+    # the Taylor function's first derivatives against central differences of the interpolant
+    tay = np.array(wx.taylor_function(2).map(50)(pts.T).full())
+    h = 1e-4
+    for block, axis in ((1, 0), (2, 2)):
+        e = np.zeros(3)
+        e[axis] = h
+        fd = (np.array(f.map(50)((pts + e).T).full()) - np.array(f.map(50)((pts - e).T).full())) / (2 * h)
+        np.testing.assert_allclose(tay[block * 2 : block * 2 + 2], fd, rtol=1e-5, atol=1e-7)
+
+
+def test_sub_samples_enforce_the_mcr_inside_a_leg_not_only_at_its_middle() -> None:
+    # a long leg (s = 60..300 nm) with a storm near its start: its midpoint (s = 180) is calm
+    d = np.array([60.0, 240.0, 60.0])
+    sg = np.linspace(0, 360, 37)
+    hs = np.where(np.abs(sg - 100) <= 30, 8.0, 1.0)[None, :, None]
+    wx = WeatherGrid(t_h=[0.0], s_nm=sg, y_nm=[0.0], hs_m=hs, period_s=9.0, wave_to_along=-1.0, wave_to_across=0.0)
+    pw = PowerModel(calm_coef=[2.0], calm_exp=[3.0], mcr_kw=20000, hs_coef=[0.02], hs_exp=[2.0])
+    cor = CorridorGeometry.straight(d)
+    coarse = SpeedNLP(cor, wx, pw, samples_per_leg=1, v_min_kn=5, v_max_kn=30)
+    fine = SpeedNLP(cor, wx, pw, samples_per_leg=6, v_min_kn=5, v_max_kn=30)
+    eta = 360.0 / 17.0
+    r1, r6 = coarse.solve(eta_h=eta), fine.solve(eta_h=eta)
+    assert r1.success and r6.success
+    assert np.all(r6.samples.load <= 1.0 + 1e-8)
+    # the coarse plan, re-evaluated on the fine samples, overloads the engine in the storm
+    seen = fine.evaluate(r1.offset_nm, r1.stw_kn, r1.time_h)
+    assert seen.load.max() > 1.05
+    # power recomputed from the model's closed form at the fine samples (head seas: cos α = 1)
+    p = 2.0 * r6.stw_kn[:, None] ** 3 * (1 + 0.02 * r6.samples.hs_m**2)
+    np.testing.assert_allclose(r6.samples.power_kw, p, rtol=1e-10)
+    np.testing.assert_allclose(r6.samples.cos_chi, -1.0, atol=1e-9)
+
+
+def test_invalid_inputs_raise_formulation_input_error() -> None:
+    with pytest.raises(FormulationInputError, match="grid shape"):
+        WeatherGrid(t_h=[0.0, 1.0], s_nm=[0.0], y_nm=[0.0], hs_m=np.ones((3, 1, 1)), period_s=8.0)
+    with pytest.raises(FormulationInputError, match="port"):
+        CorridorGeometry(centre_xy_nm=[[0, 0], [0, 10]], normal_xy=[[1, 0], [1, 0]])
+    with pytest.raises(FormulationInputError, match="min_load"):
+        PowerModel(calm_coef=[1.0], calm_exp=[3.0], mcr_kw=1000, min_load=0.9, max_load=0.5)
+    nlp = _fixed_path(D, K)
+    with pytest.raises(FormulationInputError, match="eta_h"):
+        nlp.solve(eta_h=-1.0)
+    with pytest.raises(FormulationInputError, match="objective"):
+        nlp.solve(eta_h=100.0, objective="distance")  # type: ignore[arg-type]
