@@ -58,6 +58,7 @@ from __future__ import annotations
 
 from typing import Literal
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -285,16 +286,22 @@ def kwon_speed_coefficient(froude: ArrayLike, block_coefficient: ArrayLike, load
     SeaStateError
         A Froude number that is not finite or is negative.
     """
-    rows = _KWON_CU_ROWS[_loading(loading)]
     fn = finite("froude", froude, minimum=0.0, fix="pass V1 / sqrt(g L) of the calm-water speed, >= 0")
-    cb = _block_coefficient(block_coefficient)
-    fn, cb = np.broadcast_arrays(fn, cb)
+    a, b, c = _cu_coefficients(_block_coefficient(block_coefficient), _loading(loading))
+    return a + b * fn + c * fn**2
+
+
+def _cu_coefficients(cb: np.ndarray, loading: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """C_U's a, b, c for validated Cb, interpolated linearly in Cb between Kwon's rows.
+
+    Interpolating the coefficients equals interpolating C_U itself, since C_U
+    is linear in them.
+    """
+    rows = _KWON_CU_ROWS[loading]
     i = np.clip(np.searchsorted(_CB_GRID, cb, side="right") - 1, 0, len(_CB_GRID) - 2)
-    t = (cb - _CB_GRID[i]) / (_CB_GRID[i + 1] - _CB_GRID[i])
-    lo, hi = rows[i], rows[i + 1]
-    cu_lo = lo[..., 0] + lo[..., 1] * fn + lo[..., 2] * fn**2
-    cu_hi = hi[..., 0] + hi[..., 1] * fn + hi[..., 2] * fn**2
-    return (1.0 - t) * cu_lo + t * cu_hi
+    t = ((cb - _CB_GRID[i]) / (_CB_GRID[i + 1] - _CB_GRID[i]))[..., None]
+    abc = (1.0 - t) * rows[i] + t * rows[i + 1]
+    return abc[..., 0], abc[..., 1], abc[..., 2]
 
 
 def kwon_form_coefficient(
@@ -360,7 +367,8 @@ def _loss_pct(
 ) -> np.ndarray:
     """Loss [%] for already validated inputs, C_β · C_Form precomputed."""
     fn = _froude(calm_stw_kn, length_m)
-    return np.maximum(c_beta_form * kwon_speed_coefficient(fn, block_coefficient, loading), 0.0)
+    a, b, c = _cu_coefficients(block_coefficient, _loading(loading))
+    return np.maximum(c_beta_form * (a + b * fn + c * fn**2), 0.0)
 
 
 def kwon_speed_loss_pct(
@@ -554,23 +562,17 @@ def calm_speed_for_weather_kn(
     # the bound itself is admitted up to rounding, so a V1 at exactly Fn = fn_max inverts
     v_max = fn_max * units.ms_to_kn(np.sqrt(G_MS2 * length)) * (1.0 + 1e-12)
 
-    def excess(v1: np.ndarray) -> np.ndarray:
-        # weather speed of v1 minus the wanted v2: <= 0 at v1 = v2
-        return v1 * (1.0 - _loss_pct(v1, length, cb, c_bf, load) / 100.0) - v2
+    # C_U's coefficients and 1/√(gL) are fixed along the root search: compute them once
+    a, b, c = _cu_coefficients(cb, load)
+    loss_per_cu = c_bf / 100.0
+    inv_sqrt_gl_kn = 1.0 / units.ms_to_kn(np.sqrt(G_MS2 * length))
 
     too_fast = v2 > v_max * (1.0 + 1e-12)  # slack: a V2 at the bound itself, up to rounding, is allowed
-    done = (excess(v2) >= 0.0) & ~too_fast  # no loss, or v2 = 0
-    lo = v2.copy()
-    hi = np.full_like(v2, np.nan)
-    found = done.copy()
-    n_scan = 32
-    for k in range(1, n_scan + 1):
-        v = v_max if k == n_scan else v2 + (v_max - v2) * (k / n_scan)
-        hit = ~found & ~too_fast & (excess(v) >= 0.0)
-        hi = np.where(hit, v, hi)
-        found |= hit
-        lo = np.where(~found, v, lo)
-    bad = ~found
+    arrays = np.broadcast_arrays(v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn, v_max)
+    flat = [np.ascontiguousarray(x, dtype=float).ravel() for x in arrays]
+    v1 = _invert_kwon(*flat, _N_SCAN, _N_BISECT).reshape(v2.shape)
+    v1 = np.where(too_fast, np.nan, v1)
+    bad = np.isnan(v1)
     if bad.any() and mode == "raise":
         idx, where = _first(bad)
         raise SeaStateError(
@@ -578,15 +580,54 @@ def calm_speed_for_weather_kn(
             f"no calm-water speed up to Fn {fn_max} ({v_max[idx]:.2f} kn for length_m={float(length[idx])!r}) reaches it "
             "by Kwon's method; ask for less speed, take another heading, or pass on_unreachable='nan'"
         )
-    refine = found & ~done
-    lo = np.where(refine, lo, 0.0)
-    hi = np.where(refine, hi, 0.0)
-    for _ in range(64):
-        mid = 0.5 * (lo + hi)
-        up = excess(mid) >= 0.0
-        hi = np.where(up, mid, hi)
-        lo = np.where(up, lo, mid)
-    return np.where(done, v2, np.where(refine, hi, np.nan))
+    return v1
+
+
+_N_SCAN = 32
+_N_BISECT = 52  # the bracket is at most (v_max - v2) / 32 wide: 52 halvings reach 1e-15 of it
+
+
+@numba.njit(cache=True)
+def _kwon_excess(v1, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn):  # pragma: no cover - compiled
+    """Weather speed of the calm speed V1 minus the wanted V2 [kn] (Kwon 2008, loss floored at 0)."""
+    fn = v1 * inv_sqrt_gl_kn
+    loss = loss_per_cu * (a + fn * (b + c * fn))
+    return v1 * (1.0 - max(loss, 0.0)) - v2
+
+
+@numba.njit(cache=True)
+def _invert_kwon(v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn, v_max, n_scan, n_bisect):  # pragma: no cover - compiled
+    """Smallest V1 in [V2, V_max] with V1 (1 - max(k C_U(Fn(V1)), 0)) >= V2, per element; NaN if none.
+
+    The weather speed is scanned on ``n_scan`` equal steps from V2 to V_max for
+    the first one reaching V2, then the root in the step before it is bisected
+    ``n_bisect`` times (the upper end is returned, so the result never falls short).
+    """
+    out = np.empty(v2.size)
+    for i in range(v2.size):
+        p = (v2[i], a[i], b[i], c[i], loss_per_cu[i], inv_sqrt_gl_kn[i])
+        if _kwon_excess(v2[i], *p) >= 0.0:
+            out[i] = v2[i]
+            continue
+        lo = v2[i]
+        hi = np.nan
+        for k in range(1, n_scan + 1):
+            v = v_max[i] if k == n_scan else v2[i] + (v_max[i] - v2[i]) * (k / n_scan)
+            if _kwon_excess(v, *p) >= 0.0:
+                hi = v
+                break
+            lo = v
+        if np.isnan(hi):
+            out[i] = np.nan
+            continue
+        for _ in range(n_bisect):
+            mid = 0.5 * (lo + hi)
+            if _kwon_excess(mid, *p) >= 0.0:
+                hi = mid
+            else:
+                lo = mid
+        out[i] = hi
+    return out
 
 
 # ------------------------------------------------------------------ IMO f_w
