@@ -28,6 +28,7 @@ The test suite checks the result against CasADi's automatic derivatives of the p
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import casadi as ca
@@ -304,8 +305,11 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
             parts.append(efun.map(k_)(pts))
         return ca.reshape(ca.vertcat(*parts), n_theta * m, n)
 
-    theta_mat = theta_at(1)  # first derivatives suffice for the gradient and the Jacobian
-    args = [zmat, geo_dm, theta_mat, beta_mat]
+    theta1 = ca.Function("theta1", [x], [theta_at(1)])  # first derivatives: gradient and Jacobian
+    theta_h = ca.Function("theta_h", [x], [theta_at(2)]) if exact_hessian else theta1
+    th = ca.MX.sym("theta", n_theta * m, n)
+    th_h = ca.MX.sym("theta_h", n_theta * m, n)
+    args = [zmat, geo_dm, th, beta_mat]
     # grad_f
     fuel_k, grad_k = leg_grad(*args)
     sp_gf, gat_gf = _scatter(nx, 1, z_idx.T.ravel(), np.zeros(_N_Z * n, dtype=int), _N_Z * n)
@@ -314,7 +318,7 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
     e_t[2 * n + 1 + n], e_t[2 * n + 1] = 1.0, -1.0
     grad = grad + p[1] * ca.DM(e_t)
     f_val = p[0] * ca.sum2(fuel_k) + p[1] * (x[3 * n + 1] - x[2 * n + 1])
-    grad_f = ca.Function("grad_f", [x, p], [f_val, grad], ["x", "p"], ["f", "grad_f_x"])
+    grad_core = ca.Function("grad_f_core", [x, p, th], [f_val, grad])
     # jac_g: leg_jac output (n_gl, 5·N), column c of leg k at 5k + c; vec order (k, c, r)
     g_k, jac_k = leg_jac(*args)
     jr = np.concatenate([np.tile(g_idx[:, k], _N_Z) for k in range(n)])
@@ -323,10 +327,10 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
     g_full = ca.MX.zeros(ng, 1)
     g_full[g_idx.T.ravel().tolist()] = ca.vec(g_k)
     jac = ca.MX(sp_j, ca.mtimes(gat_j, ca.vec(jac_k)))
-    jac_g = ca.Function("jac_g", [x, p], [g_full, jac], ["x", "p"], ["g", "jac_g_x"])
+    jac_core = ca.Function("jac_g_core", [x, p, th], [g_full, jac])
     # hess_lag: upper triangle of Σ_k ∇²(σ fuel_k + λ_k·g_k)
     lam_mat = ca.reshape(lam_g[g_idx.T.ravel().tolist()], n_gl, n)
-    h_k = leg_hess(zmat, geo_dm, theta_at(2 if exact_hessian else 1), beta_mat, lam_f * p[0], lam_mat)  # (15, N)
+    h_k = leg_hess(zmat, geo_dm, th_h, beta_mat, lam_f * p[0], lam_mat)  # (15, N)
     hr, hc = [], []
     for k in range(n):
         for a, b in _TRIU:
@@ -335,7 +339,83 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
             hc.append(max(ia, ib))
     sp_h, gat_h = _scatter(nx, nx, np.array(hr), np.array(hc), len(hr))
     hess_full = ca.MX(sp_h, ca.mtimes(gat_h, ca.vec(h_k)))
-    hess_lag = ca.Function(
-        "hess_lag", [x, p, lam_f, lam_g], [hess_full], ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]
-    )
-    return {"grad_f": grad_f, "jac_g": jac_g, "hess_lag": hess_lag}
+    hess_core = ca.Function("hess_lag_core", [x, p, lam_f, lam_g, th_h], [hess_full])
+    memo = _TaylorMemo(theta1, theta_h)
+    return {
+        "grad_f": _MemoCallback("grad_f", grad_core, memo.first, ["x", "p"], ["f", "grad_f_x"], cache=True),
+        "jac_g": _MemoCallback("jac_g", jac_core, memo.first, ["x", "p"], ["g", "jac_g_x"]),
+        "hess_lag": _MemoCallback(
+            "hess_lag", hess_core, memo.hessian, ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]
+        ),
+    }
+
+
+class _TaylorMemo:
+    """The weather's Taylor data at the last point asked for (Ipopt asks for the gradient, the
+    Jacobian and the Hessian at the same iterate: one weather evaluation serves all three)."""
+
+    def __init__(self, first: Any, hessian: Any) -> None:
+        self._fns = {"first": first, "hessian": hessian}
+        self._last: dict[str, tuple[bytes, Any]] = {}
+
+    def _get(self, which: str, x: Any) -> Any:
+        key = np.asarray(x).tobytes()
+        hit = self._last.get(which)
+        if hit is None or hit[0] != key:
+            hit = (key, self._fns[which](x))
+            self._last[which] = hit
+        return hit[1]
+
+    def first(self, x: Any) -> Any:
+        return self._get("first", x)
+
+    def hessian(self, x: Any) -> Any:
+        if self._fns["hessian"] is self._fns["first"]:
+            return self._get("first", x)
+        return self._get("hessian", x)
+
+
+class _MemoCallback(ca.Callback):
+    """A derivative function for ``nlpsol`` that feeds the memoised Taylor data to a core function."""
+
+    def __init__(
+        self,
+        name: str,
+        core: Any,
+        theta: Callable[[Any], Any],
+        names_in: list[str],
+        names_out: list[str],
+        cache: bool = False,
+    ) -> None:
+        ca.Callback.__init__(self)
+        self._core, self._theta, self._names = core, theta, (names_in, names_out)
+        self._cache = cache
+        self._last: tuple[bytes, Any] | None = None
+        self.construct(name, {})
+
+    def get_n_in(self) -> int:
+        return len(self._names[0])
+
+    def get_n_out(self) -> int:
+        return len(self._names[1])
+
+    def get_name_in(self, i: int) -> str:
+        return self._names[0][i]
+
+    def get_name_out(self, i: int) -> str:
+        return self._names[1][i]
+
+    def get_sparsity_in(self, i: int) -> Any:
+        return self._core.sparsity_in(i)
+
+    def get_sparsity_out(self, i: int) -> Any:
+        return self._core.sparsity_out(i)
+
+    def eval(self, arg: list[Any]) -> list[Any]:
+        key = b"".join(np.asarray(a).tobytes() for a in arg) if self._cache else b""
+        if self._cache and self._last is not None and self._last[0] == key:
+            return self._last[1]
+        out = self._core.call([*arg, self._theta(arg[0])])
+        if self._cache:
+            self._last = (key, out)
+        return out

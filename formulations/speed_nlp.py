@@ -445,7 +445,8 @@ class SpeedNLP:
         opts.update(ipopt_options)
         opts["expand"] = expand
         if structured:
-            opts.update(structured_derivatives(self, jit=jit, exact_hessian=exact_hessian))
+            self._derivatives = structured_derivatives(self, jit=jit, exact_hessian=exact_hessian)  # keep alive
+            opts.update(self._derivatives)
         param = ca.vertcat(weights, beta)
         self._solver = ca.nlpsol("speed_nlp", "ipopt", {"x": x, "p": param, "f": objective, "g": g}, opts)
         names = ["t_s", "s_s", "y_s", "x_s", "yf_s", "hs", "per", "sog", "power", "load", "rate", "cos_chi"]

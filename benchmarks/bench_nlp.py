@@ -1,0 +1,369 @@
+"""Corridor-NLP benchmark: solve time, scaling with the number of legs, band-heuristic quality.
+
+1. A 500-leg, 5 000 nm corridor (gently curving centreline, ±40 nm lateral freedom) through
+   time-varying weather: six storms drifting along and across it, wave directions that veer with
+   time and distance, a weak current, two danger bands (synchronous roll T_E/T_R with T_R = 20 s
+   and surf-riding V cos χ / c, both ±20 %, applied where Hs ≥ 4 m), fuel objective with an ETA
+   15 % above the 15 kn passage. Timed side by side in the same run: the median Ipopt solve with
+   the leg-by-leg structured derivatives (interpreted, and compiled with ``jit=True``) and with
+   CasADi's automatic derivatives of the same model; beside them the fuel of the same corridor at
+   constant speed on the centreline and of the NLP restricted to the centreline (what the
+   lateral freedom and the speed profile are worth).
+2. Scaling: the same corridor cut into 250 … 5 000 legs; median solve time against N and the
+   exponent of the least-squares fit ``time ∝ N^p``.
+3. Band heuristic quality on small fixed-path instances (4–6 legs, one forbidden speed
+   interval of ±20 % per leg, a constant-speed start from the "search"): the share of instances
+   where side selection + flip search reaches the exact optimum (exhaustive enumeration with the
+   convex solver; Bonmin big-M on a subset as a second exact reference) and the worst gap; and the
+   same loop with the NLP as the inner solver on the same instances.
+
+The DP comparison is added when the 3-D DP lands. Run ``python -m benchmarks.bench_nlp [--quick]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import time
+from typing import Any
+
+import numpy as np
+
+from formulations._common import (
+    G_OVER_2PI_KN_S,
+    Band,
+    CorridorGeometry,
+    PowerLawFuel,
+    PowerModel,
+    WeatherGrid,
+)
+from formulations.disjunctive import (
+    bonmin_fixed_path,
+    convex_band_solver,
+    enumerate_sides,
+    improve_sides,
+    nlp_band_solver,
+    nlp_groups,
+    select_sides,
+)
+from formulations.speed_nlp import SpeedNLP
+
+LENGTH_NM = 5000.0
+SPEED_KN = 15.0
+ETA_SLACK = 1.15
+TR_S = 18.0
+
+
+def corridor_case(
+    n_legs: int, seed: int = 0
+) -> tuple[CorridorGeometry, WeatherGrid, PowerModel, tuple[Band, ...], float]:
+    """The synthetic 5 000 nm corridor cut into ``n_legs`` legs (see the module docstring)."""
+    rng = np.random.default_rng(seed)
+    leg = LENGTH_NM / n_legs
+    s = np.arange(n_legs + 1) * leg
+    heading = np.radians(60 + 20 * np.sin(2 * np.pi * s / LENGTH_NM))
+    steps = np.column_stack([np.sin(heading[:-1]), np.cos(heading[:-1])]) * leg
+    cor = CorridorGeometry(centre_xy_nm=np.vstack([[0.0, 0.0], np.cumsum(steps, axis=0)]), half_width_nm=40.0)
+    eta = LENGTH_NM / SPEED_KN * ETA_SLACK
+    tg, sg, yg = np.arange(0.0, 1.6 * eta, 6.0), np.linspace(0, cor.s_nm[-1], 101), np.linspace(-60, 60, 7)
+    tt, ss, yy = np.meshgrid(tg, sg, yg, indexing="ij")
+    hs = np.full(tt.shape, 2.0)
+    for _ in range(6):
+        s0, y0, drift, amp = rng.uniform(0, LENGTH_NM), rng.uniform(-60, 60), rng.uniform(-15, 15), rng.uniform(2, 5)
+        hs += amp * np.exp(-(((ss - s0 - drift * tt) / 300) ** 2 + ((yy - y0) / 60) ** 2))
+    veer = np.radians(30 + 0.2 * tt + 0.005 * ss)
+    wx = WeatherGrid(
+        t_h=tg,
+        s_nm=sg,
+        y_nm=yg,
+        hs_m=hs,
+        period_s=4.5 * np.sqrt(hs) + 1.0,
+        wave_to_along=np.cos(veer),
+        wave_to_across=np.sin(veer),
+        current_along_kn=0.5 * np.sin(ss / 400 + tt / 50),
+        current_across_kn=0.3 * np.cos(ss / 300),
+    )
+    # 36 MW container ship: 85 % MCR at 24 kn (physics.md §8), Kwon-type added power
+    power = PowerModel(
+        calm_coef=[2.2],
+        calm_exp=[3.0],
+        mcr_kw=36000,
+        min_load=0.1,
+        hs_coef=[0.02],
+        hs_exp=[2.0],
+        angle_coef=(0.6, 0.4, 0.0),
+    )
+    bands = (
+        Band("te_over_tr", 0.8, 1.2, param=TR_S, hs_min_m=4.0, name="synchronous roll"),
+        Band("v_over_c", 0.8, 1.2, hs_min_m=4.0, name="surf-riding"),
+    )
+    return cor, wx, power, bands, eta
+
+
+def _median_solve(nlp: SpeedNLP, eta: float, repeat: int, **kw: Any) -> tuple[float, Any]:
+    times, res = [], None
+    for _ in range(repeat):
+        res = nlp.solve(eta_h=eta, **kw)
+        times.append(res.solve_time_s)
+    return statistics.median(times), res
+
+
+def _constant_speed_fuel(nlp: SpeedNLP, eta: float) -> float:
+    """Fuel [t] of the centreline at the constant speed through water that arrives at the ETA."""
+    n = nlp.n_legs
+    y = np.zeros(n + 1)
+    lo, hi = 1.0, 30.0
+    for _ in range(60):  # bisection on the speed for the arrival time
+        v = 0.5 * (lo + hi)
+        t = nlp.consistent_times(y, np.full(n, v), iterations=4)
+        lo, hi = (v, hi) if t[-1] > eta else (lo, v)
+    st = nlp.evaluate(y, np.full(n, hi), nlp.consistent_times(y, np.full(n, hi), iterations=4))
+    ds = np.diff(nlp.corridor.s_nm)[:, None] / nlp.samples_per_leg
+    return float(np.sum(st.fuel_rate_tph * ds / st.sog_kn))
+
+
+def bench_500(quick: bool) -> dict[str, Any]:
+    cor, wx, pw, bands, eta = corridor_case(500)
+    repeat = 3 if quick else 7
+    rows = []
+    for label, kw in (
+        ("structured derivatives", {}),
+        ("structured, jit=True", {"jit": True}),
+        ("CasADi automatic derivatives", {"structured": False}),
+    ):
+        t0 = time.perf_counter()
+        nlp = SpeedNLP(cor, wx, pw, bands=bands, v_min_kn=5, v_max_kn=24, **kw)
+        build = time.perf_counter() - t0
+        med, res = _median_solve(nlp, eta, 1 if (quick and "automatic" in label) else repeat)
+        rows.append(
+            {
+                "method": label,
+                "build_s": build,
+                "median_solve_s": med,
+                "iterations": res.iterations,
+                "status": res.status,
+                "fuel_t": res.total_fuel_t,
+                "max_violation": res.max_violation,
+            }
+        )
+    base = rows[0]["median_solve_s"]
+    for r in rows:
+        r["ratio_vs_structured"] = r["median_solve_s"] / base
+    nlp = SpeedNLP(cor, wx, pw, bands=bands, v_min_kn=5, v_max_kn=24)
+    fixed = nlp.solve(eta_h=eta, fix_offsets=True)
+    free = nlp.solve(eta_h=eta)
+    const = _constant_speed_fuel(nlp, eta)
+    outer = None
+    if not quick:  # the side-flip outer loop at full size: single flips, a budget of solves
+        res = improve_sides(
+            nlp_band_solver(nlp, eta_h=eta),
+            free.sides,
+            free.applies,
+            groups=nlp_groups(free.sides.shape),
+            pairs=False,
+            max_solves=12,
+        )
+        outer = {
+            "solves": res.n_solves,
+            "time_s": res.solve_time_s,
+            "start_t": free.total_fuel_t,
+            "best_t": res.objective,
+        }
+    return {
+        "legs": 500,
+        "samples": 500 * nlp.samples_per_leg,
+        "variables": 3 * 500 + 2,
+        "constraints": nlp._ng,
+        "eta_h": eta,
+        "rows": rows,
+        "constant_speed_centreline_fuel_t": const,
+        "nlp_centreline_fuel_t": fixed.total_fuel_t,
+        "nlp_corridor_fuel_t": free.total_fuel_t,
+        "eta_multiplier_t_per_h": free.eta_multiplier,
+        "band_active_samples": int(free.band_active.sum()),
+        "band_applicable_samples": int(free.applies.sum()),
+        "outer_loop": outer,
+    }
+
+
+def bench_scaling(quick: bool, known: dict[str, Any] | None = None) -> dict[str, Any]:
+    sizes = [250, 500, 1000] if quick else [250, 500, 1000, 2000, 5000]
+    rows = []
+    for n in sizes:
+        if known is not None and n == known["legs"]:  # the 500-leg case was just timed
+            rows.append(known)
+            continue
+        cor, wx, pw, bands, eta = corridor_case(n)
+        t0 = time.perf_counter()
+        nlp = SpeedNLP(cor, wx, pw, bands=bands, v_min_kn=5, v_max_kn=24)
+        build = time.perf_counter() - t0
+        med, res = _median_solve(nlp, eta, 1 if quick or n >= 2000 else 3)
+        rows.append(
+            {"legs": n, "build_s": build, "median_solve_s": med, "iterations": res.iterations, "status": res.status}
+        )
+    n_arr = np.array([r["legs"] for r in rows], dtype=float)
+    t_arr = np.array([r["median_solve_s"] for r in rows])
+    it_arr = np.array([r["iterations"] for r in rows], dtype=float)
+    exponent = float(np.polyfit(np.log(n_arr), np.log(t_arr), 1)[0])
+    per_iter = float(np.polyfit(np.log(n_arr), np.log(t_arr / it_arr), 1)[0])
+    return {"rows": rows, "exponent": exponent, "exponent_per_iteration": per_iter}
+
+
+def _instance(seed: int) -> tuple[np.ndarray, PowerLawFuel, np.ndarray, float]:
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(4, 7))
+    d = rng.uniform(100, 400, n)
+    k = rng.uniform(0.5e-3, 2e-3, n)
+    eta = d.sum() / rng.uniform(12, 16)
+    c = rng.uniform(11, 17, n)
+    return d, PowerLawFuel.cubic(k), np.column_stack([0.8 * c, 1.2 * c]), float(eta)
+
+
+def _nlp_for(d: np.ndarray, fuel: PowerLawFuel, forb: np.ndarray) -> SpeedNLP:
+    """The fixed-path instance as a corridor NLP with the band v cos χ / c (following sea)."""
+    s = np.concatenate([[0.0], np.cumsum(d)])
+    eps = 1e-3 * d.min()
+    nodes = np.ravel([[s[i] + eps, s[i + 1] - eps] for i in range(d.size)])
+    nodes[0], nodes[-1] = s[0], s[-1]
+    period = np.repeat(forb[:, 0] / 0.8 / G_OVER_2PI_KN_S, 2)[None, :, None]
+    wx = WeatherGrid(
+        t_h=[0.0],
+        s_nm=nodes,
+        y_nm=[0.0],
+        hs_m=5.0,
+        period_s=period,
+        wave_to_along=1.0,
+        wave_to_across=0.0,
+        method="linear",
+    )
+    pw = PowerModel(calm_coef=[1.0], calm_exp=[3.0], mcr_kw=1e12, sfc_base_gpkwh=1e6, sfc_quad=(0.0, 0.0, 1.0))
+    band = Band("v_over_c", 0.8, 1.2, hs_min_m=1.0)
+    return SpeedNLP(
+        CorridorGeometry.straight(d), wx, pw, bands=[band], v_min_kn=6, v_max_kn=22, leg_power_factor=fuel.coef[:, 0]
+    )
+
+
+def bench_heuristic(quick: bool) -> dict[str, Any]:
+    n_inst = 12 if quick else 200
+    n_bonmin = 3 if quick else 30
+    n_nlp = 4 if quick else 40
+    gaps, nlp_gaps, solves, bonmin_agree, infeasible = [], [], [], 0, 0
+    t_heur = t_exact = 0.0
+    for seed in range(n_inst):
+        d, fuel, forb, eta = _instance(seed)
+        solve = convex_band_solver(d, fuel, forb, eta_h=eta, v_min_kn=6, v_max_kn=22)
+        v0 = np.full((d.size, 1), d.sum() / eta)
+        s0, a0 = select_sides(v0, forb[:, None, 0], forb[:, None, 1]), np.ones((d.size, 1), dtype=bool)
+        heur = improve_sides(solve, s0, a0)
+        exact = enumerate_sides(solve, s0, a0)
+        t_heur += heur.solve_time_s
+        t_exact += exact.solve_time_s
+        solves.append(heur.n_solves)
+        if not exact.feasible:
+            infeasible += 1
+            continue
+        gaps.append((heur.objective - exact.objective) / exact.objective if heur.feasible else np.inf)
+        if seed < n_bonmin:
+            bon = bonmin_fixed_path(d, fuel, forb, eta_h=eta, v_min_kn=6, v_max_kn=22)
+            bonmin_agree += bool(bon.success and abs(bon.objective - exact.objective) <= 1e-5 * exact.objective)
+        if seed < n_nlp:
+            nlp = _nlp_for(d, fuel, forb)
+            v = np.full(d.size, d.sum() / eta)
+            st = nlp.evaluate(np.zeros(d.size + 1), v, nlp.consistent_times(np.zeros(d.size + 1), v))
+            sides, applies = nlp.default_sides(st)
+            res = improve_sides(nlp_band_solver(nlp, eta_h=eta), sides, applies, groups=nlp_groups(sides.shape))
+            nlp_gaps.append((res.objective - exact.objective) / exact.objective if res.feasible else np.inf)
+    g, ng = np.array(gaps), np.array(nlp_gaps)
+    return {
+        "instances": len(gaps),
+        "share_exact": float(np.mean(g <= 1e-6)),
+        "worst_gap": float(g.max()),
+        "mean_gap": float(g[np.isfinite(g)].mean()),
+        "mean_inner_solves": float(np.mean(solves)),
+        "heuristic_time_s": t_heur,
+        "enumeration_time_s": t_exact,
+        "bonmin_checked": min(n_bonmin, len(gaps)),
+        "bonmin_agrees": bonmin_agree,
+        "nlp_instances": len(ng),
+        "nlp_share_exact": float(np.mean(ng <= 1e-6)) if ng.size else float("nan"),
+        "nlp_worst_gap": float(ng.max()) if ng.size else float("nan"),
+        "no_feasible_side_choice": infeasible,
+    }
+
+
+def run(quick: bool) -> dict[str, Any]:
+    """Run the three benchmarks, print markdown tables, return the figures."""
+    started = time.perf_counter()
+    print(f"load average at start: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
+    b = bench_500(quick)
+    print(
+        f"\n### {b['legs']}-leg corridor, {b['samples']} samples, {b['variables']} variables, "
+        f"{b['constraints']} constraint rows, ETA {b['eta_h']:.1f} h\n"
+    )
+    print("| derivatives | build [s] | median solve [s] | ratio | iterations | status | fuel [t] |")
+    print("|---|---:|---:|---:|---:|---|---:|")
+    for r in b["rows"]:
+        print(
+            f"| {r['method']} | {r['build_s']:.2f} | {r['median_solve_s']:.3f} | {r['ratio_vs_structured']:.2f} | "
+            f"{r['iterations']} | {r['status']} | {r['fuel_t']:.2f} |"
+        )
+    c = b["constant_speed_centreline_fuel_t"]
+    print(
+        f"\nfuel: constant speed on the centreline {c:.2f} t; NLP on the centreline "
+        f"{b['nlp_centreline_fuel_t']:.2f} t ({b['nlp_centreline_fuel_t'] / c - 1:+.1%}); NLP in the corridor "
+        f"{b['nlp_corridor_fuel_t']:.2f} t ({b['nlp_corridor_fuel_t'] / c - 1:+.1%}); "
+        f"ETA multiplier {b['eta_multiplier_t_per_h']:.3f} t/h; band constraints active at "
+        f"{b['band_active_samples']} of {b['band_applicable_samples']} applicable samples"
+    )
+    if b["outer_loop"] is not None:
+        o = b["outer_loop"]
+        print(
+            f"side-flip outer loop (single flips, budget 12 solves): {o['solves']} solves in {o['time_s']:.1f} s, "
+            f"fuel {o['start_t']:.2f} → {o['best_t']:.2f} t"
+        )
+    first = b["rows"][0]
+    s = bench_scaling(
+        quick, {"legs": 500, **{k: first[k] for k in ("build_s", "median_solve_s", "iterations", "status")}}
+    )
+    print("\n### Scaling (same 5 000 nm corridor, more legs)\n")
+    print("| legs | build [s] | median solve [s] | iterations | ms / iteration | status |")
+    print("|---:|---:|---:|---:|---:|---|")
+    for r in s["rows"]:
+        print(
+            f"| {r['legs']} | {r['build_s']:.2f} | {r['median_solve_s']:.3f} | {r['iterations']} | "
+            f"{1e3 * r['median_solve_s'] / r['iterations']:.1f} | {r['status']} |"
+        )
+    print(f"\nfitted exponent: time ∝ N^{s['exponent']:.2f} (per iteration: N^{s['exponent_per_iteration']:.2f})")
+    h = bench_heuristic(quick)
+    print(f"\n### Band heuristic on {h['instances']} small fixed-path instances (4–6 legs, ±20 % bands)\n")
+    print("| inner solver | instances | share exact | worst gap | mean gap |")
+    print("|---|---:|---:|---:|---:|")
+    print(
+        f"| convex (Clarabel) | {h['instances']} | {h['share_exact']:.1%} | {h['worst_gap']:.2%} | {h['mean_gap']:.3%} |"
+    )
+    print(f"| NLP (Ipopt) | {h['nlp_instances']} | {h['nlp_share_exact']:.1%} | {h['nlp_worst_gap']:.2%} | |")
+    print(
+        f"\nmean inner solves per heuristic run {h['mean_inner_solves']:.1f}; heuristic {h['heuristic_time_s']:.2f} s "
+        f"vs enumeration {h['enumeration_time_s']:.2f} s in total "
+        f"({h['enumeration_time_s'] / h['heuristic_time_s']:.1f}×); Bonmin big-M agrees with enumeration on "
+        f"{h['bonmin_agrees']}/{h['bonmin_checked']}"
+    )
+    total = time.perf_counter() - started
+    print(f"\ntotal {total:.1f} s\n")
+    return {"corridor_500": b, "scaling": s, "heuristic": h, "total_s": total}
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="smaller cases, fewer repetitions (about 30 s)")
+    parser.add_argument("--json", action="store_true", help="also print the figures as JSON")
+    args = parser.parse_args(argv)
+    out = run(args.quick)
+    if args.json:
+        print(json.dumps(out, indent=1, default=float))
+
+
+if __name__ == "__main__":
+    main()
