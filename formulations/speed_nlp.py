@@ -16,8 +16,9 @@ and ``n_k`` the unit normal (to port); a leg is the straight segment
 follow from the offsets. Every leg is sub-sampled at ``m`` points at
 fractions ``(j + ½)/m``; at each sample the position in corridor
 coordinates ``(s, y)`` and the time are interpolated linearly, the weather is
-read from CasADi interpolants over the corridor's ``(t, s, y)`` grid (so the
-conditions move with the ship's timing), and every constraint is imposed.
+read from a CasADi spline/interpolant over the corridor's ``(t, s, y)`` grid
+(:class:`formulations._common.WeatherGrid`; so the conditions move with the
+ship's timing), and every constraint is imposed.
 Leg time and fuel are midpoint-rule integrals over the samples:
 
     t_{k+1} − t_k = Σ_j (L_k/m) / SOG_kj,    fuel_k = Σ_j q_kj (L_k/m) / SOG_kj.
@@ -50,11 +51,19 @@ applicable; :meth:`SpeedNLP.solve` reports the ratios and the Hs at every
 sample so that the outer loop (:mod:`formulations.disjunctive`) can re-check
 applicability, which moves with the route, and flip sides.
 
-The model is built once per corridor/weather/ship in vectorised MX
-expressions (the interpolant is ``Function.map``-ped over all samples) and
-expanded to SX; ETA, objective, sides, applicability and the warm start are
-run-time inputs of the same Ipopt instance, so repeated solves (outer loop,
-fuel-versus-ETA sweeps) cost no rebuild.
+The model is built once per corridor/weather/ship: objective and constraints
+in vectorised MX expressions (weather and per-sample physics ``Function.map``-ped
+over all samples), derivatives assembled leg by leg from SX functions mapped over
+the legs (:mod:`formulations._nlp_model`). ETA, objective, sides, applicability
+and the warm start are run-time inputs of the same Ipopt instance, so repeated
+solves (outer loop, fuel-versus-ETA sweeps) cost no rebuild. Ipopt runs with
+MUMPS, ``print_level 0``, ``tol 1e-9``, adaptive barrier and
+``bound_relax_factor 0`` (bounds such as the ETA hold exactly at the solution).
+
+Sources: the convexity of fuel in leg time and speed optimisation on a fixed
+path (Norstad, Fagerholt & Laporte 2011; Hvattum et al. 2013); encounter period
+and bands (IMO MSC.1/Circ.1228, Boeing EP 2145155; physics.md §2–3); SFOC
+(Fourth IMO GHG Study; physics.md §8); Kwon's speed loss (physics.md §6).
 """
 
 from __future__ import annotations
@@ -126,7 +135,7 @@ class SampleState:
     applies : numpy.ndarray of bool, shape (n_legs, m, n_bands)
         ``hs_m ≥ band.hs_min_m`` at this sample.
     inside : numpy.ndarray of bool, shape (n_legs, m, n_bands)
-        ``applies`` and ``lower < ratio < upper``: the sample is inside a band.
+        ``applies`` and ``lower + ε < ratio < upper − ε`` (ε = 1e-6 · max(1, |lower|), the solver tolerance).
     exclusion_margin_nm : numpy.ndarray
         Distance to the moving exclusion circle's edge [nm] (> 0 outside; +inf without one).
     outside_grid : numpy.ndarray of bool
@@ -517,7 +526,8 @@ class SpeedNLP:
         lower = np.array([b.lower for b in self.bands])
         upper = np.array([b.upper for b in self.bands])
         applies = hs[:, :, None] >= hs_min[None, None, :]
-        inside = applies & (ratio > lower) & (ratio < upper)
+        tol = 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(lower), lower, 0.0)))  # solver tolerance
+        inside = applies & (ratio > lower + tol) & (ratio < upper - tol)
         wx = self.weather
         t_s, s_s, y_s = sh(ev["t_s"]), sh(ev["s_s"]), sh(ev["y_s"])
         tol = 1e-9
@@ -765,26 +775,8 @@ def solve_speed_nlp(
     weather: WeatherGrid,
     power: PowerModel,
     *,
-    bands: tuple[Band, ...] | list[Band] = (),
-    exclusion: MovingExclusion | None = None,
-    samples_per_leg: int = 2,
-    v_min_kn: ArrayLike = 1.0,
-    v_max_kn: ArrayLike = 30.0,
-    leg_power_factor: ArrayLike | None = None,
-    ipopt_options: dict[str, Any] | None = None,
+    build: dict[str, Any] | None = None,
     **solve_kwargs: Any,
 ) -> NLPResult:
-    """Build a :class:`SpeedNLP` and solve it once; ``solve_kwargs`` go to :meth:`SpeedNLP.solve`."""
-    nlp = SpeedNLP(
-        corridor,
-        weather,
-        power,
-        bands=bands,
-        exclusion=exclusion,
-        samples_per_leg=samples_per_leg,
-        v_min_kn=v_min_kn,
-        v_max_kn=v_max_kn,
-        leg_power_factor=leg_power_factor,
-        ipopt_options=ipopt_options,
-    )
-    return nlp.solve(**solve_kwargs)
+    """Build a :class:`SpeedNLP` (keyword arguments ``build``) and solve it once (``solve_kwargs``)."""
+    return SpeedNLP(corridor, weather, power, **(build or {})).solve(**solve_kwargs)

@@ -243,6 +243,10 @@ def test_weather_interpolants_against_independent_references(method: str) -> Non
         np.testing.assert_allclose(vals[1], ref, rtol=1e-12)
     else:  # the quasi-interpolant stays inside the data's range and is close to it at nodes
         assert vals[1].min() >= 5.0 - 1e-9 and vals[1].max() <= 8.0 + 1e-9
+    # outside the grid the fields are held at the edge (a bare B-spline would drop to zero)
+    edge, beyond = np.array([24.0, 50.0, 3.0]), np.array([40.0, 50.0, 3.0])
+    np.testing.assert_allclose(np.array(f(beyond).full()), np.array(f(edge).full()), rtol=1e-12)
+    assert np.all(np.array(wx.taylor_function(1)(beyond).full())[2:4] == 0.0)  # ∂/∂t vanishes there
     # the Taylor function's first derivatives against central differences of the interpolant
     tay = np.array(wx.taylor_function(2).map(50)(pts.T).full())
     h = 1e-4
