@@ -22,6 +22,8 @@ from optroute.errors import (
     WeatherSchemaError,
 )
 from optroute.performance import CalmWaterModel, KwonModel, PerformanceModel, PowerTableModel
+from optroute.route import Corridor, Route
+from optroute.routing import search_route
 from optroute.safety import BandRules, ForbiddenInterval, band_margins, forbidden_speed_intervals
 from optroute.ship import Ship
 from optroute.weather import WeatherSampler, open_weather, scenarios
@@ -31,14 +33,17 @@ __version__ = "0.1.0"
 __all__ = [
     "BandRules",
     "CalmWaterModel",
+    "Corridor",
     "ForbiddenInterval",
     "KwonModel",
     "PerformanceModel",
     "PowerTableModel",
+    "Route",
     "Ship",
     "WeatherSampler",
     "open_weather",
     "scenarios",
+    "search_route",
     "band_margins",
     "forbidden_speed_intervals",
     "ConfigError",

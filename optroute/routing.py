@@ -1,0 +1,546 @@
+"""Route search through forecast weather: the physics callbacks and ``search_route``.
+
+The search machinery (:mod:`optroute.search`) knows nothing of ships or
+weather; this module hands it callbacks that sample the weather at the time
+the ship is at each piece of a leg and choose the speed there with
+:mod:`optroute.passage` (Boeing EP 2145155 Figs. 21–22; seed 001's MCR and
+ship-motion loop), and turns its answer into a :class:`~optroute.route.Route`.
+"""
+
+from __future__ import annotations
+
+import time as _time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+import xarray as xr
+from numpy.typing import ArrayLike
+
+from optroute import geo, land, units
+from optroute._checks import finite
+from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
+from optroute.passage import SeaState, SpeedChoice, best_speed, cheapest_speed
+from optroute.performance import PerformanceModel, default_model
+from optroute.route import Route
+from optroute.safety import BANDS, BandRules, band_margins
+from optroute.search.dijkstra import shortest_path
+from optroute.search.dp import solve_dp
+from optroute.search.grid import RouteGrid
+from optroute.search.neighbourhood import Neighbourhood, angular_resolution, compass
+from optroute.ship import Ship
+from optroute.weather.sample import WeatherSampler
+
+Objective = Literal["time", "fuel", "cost"]
+Method = Literal["astar", "dijkstra", "dp"]
+
+_SEA_VARS = ("hs_m", "tp_s", "tm_s", "wave_from_deg", "wind_u_ms", "wind_v_ms", "current_u_ms", "current_v_ms")
+
+
+def _as_time(t: Any, what: str) -> np.datetime64:
+    try:
+        out = np.datetime64(t, "ns")
+    except (TypeError, ValueError):
+        raise ConfigError(f"{what}={t!r} is not a time; pass a numpy.datetime64 or an ISO string (UTC)") from None
+    if np.isnat(out):
+        raise ConfigError(f"{what} is NaT; pass a UTC time")
+    return out
+
+
+def _h_to_td(h: ArrayLike) -> np.ndarray:
+    return (np.asarray(h, dtype=float) * 3.6e12).astype("timedelta64[ns]")
+
+
+def as_sampler(weather: xr.Dataset | WeatherSampler) -> WeatherSampler:
+    """A :class:`WeatherSampler` for a canonical dataset (or the sampler itself)."""
+    if isinstance(weather, WeatherSampler):
+        return weather
+    if isinstance(weather, xr.Dataset):
+        return WeatherSampler(weather)
+    raise ConfigError(f"weather must be a canonical xarray.Dataset or a WeatherSampler, got {type(weather).__name__}")
+
+
+@dataclass
+class PassagePhysics:
+    """Everything needed to cost a piece of passage: ship, model, rules, weather and clock.
+
+    Parameters
+    ----------
+    ship : Ship
+    model : PerformanceModel
+    rules : BandRules
+    sampler : WeatherSampler
+    departure : numpy.datetime64
+        Time zero of the search's clock [UTC].
+    """
+
+    ship: Ship
+    model: PerformanceModel
+    rules: BandRules
+    sampler: WeatherSampler
+    departure: np.datetime64
+    calls: int = field(default=0, init=False)
+    uncovered: int = field(default=0, init=False)
+
+    def sea(self, lat_deg: np.ndarray, lon_deg: np.ndarray, t_h: np.ndarray) -> SeaState:
+        """Sea state at positions [deg] and times [h from departure].
+
+        Points outside the weather's area or time span get NaN ("no passage")
+        and are counted in :attr:`uncovered`, so that a search exploring slow
+        or wide alternatives is not aborted by them; a search that fails
+        because of them says so (see :func:`search_route`).
+        """
+        self.calls += 1
+        lat = np.asarray(lat_deg, dtype=float)
+        lon = np.asarray(lon_deg, dtype=float)
+        when = np.broadcast_to(self.departure + _h_to_td(t_h), lat.shape)
+        names = [v for v in _SEA_VARS if v in self.sampler.variables]
+        inside = self.sampler.covers(when, lat, lon)
+        if inside.all():
+            return SeaState.from_sample(self.sampler.sample(when, lat, lon, variables=names))
+        self.uncovered += int((~inside).sum())
+        out = {v: np.full(lat.shape, np.nan) for v in names}
+        if inside.any():
+            got = self.sampler.sample(when[inside], lat[inside], lon[inside], variables=names)
+            for v in names:
+                out[v][inside] = got[v]
+        return SeaState.from_sample(out)
+
+    def _record(self, choice: SpeedChoice, sea: SeaState, length_nm: np.ndarray) -> tuple:
+        feas = choice.feasible & (choice.sog_kn > 0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            dur = np.where(feas, length_nm / choice.sog_kn, np.nan)
+        fuel = np.where(feas, choice.fuel_tph * dur, np.nan)
+        extra = {
+            "stw_kn": choice.stw_kn,
+            "heading_deg": choice.heading_deg,
+            "power_kw": choice.power_kw,
+            "hs_m": sea.hs_m,
+            "period_s": sea.period_s,
+            "wave_from_deg": sea.wave_from_deg,
+        }
+        return dur, fuel, feas, extra
+
+    def segment_time(self, desired_stw_kn: float, step_kn: float, min_stw_kn: float) -> Callable:
+        """Segment-cost callback: Boeing speed reduction from the desired speed."""
+
+        def cost(lat, lon, course, length_nm, t_h):
+            sea = self.sea(lat, lon, t_h)
+            choice = best_speed(
+                self.ship, self.model, self.rules, course, sea, desired_stw_kn, step_kn=step_kn, min_stw_kn=min_stw_kn
+            )
+            return self._record(choice, sea, length_nm)
+
+        return cost
+
+    def segment_cheapest(self, speeds_kn: np.ndarray, lambda_t_per_h: float) -> Callable:
+        """Segment-cost callback: the speed of the set minimising fuel + λ·time."""
+
+        def cost(lat, lon, course, length_nm, t_h):
+            sea = self.sea(lat, lon, t_h)
+            choice = cheapest_speed(self.ship, self.model, self.rules, course, sea, speeds_kn, lambda_t_per_h)
+            return self._record(choice, sea, length_nm)
+
+        return cost
+
+    def dp_leg(self, piece_nm: float) -> Callable:
+        """Leg-cost callback of the 3D DP: a commanded speed over ground, checked piece by piece.
+
+        Seed 001 simulates each stage in time steps: here each leg is cut into
+        pieces of at most ``piece_nm``; at each piece, at the time the ship is
+        there, the STW needed to make the SOG good against the current, its
+        power (within [min load, MCR]) and the danger bands are checked.
+        """
+        from optroute.passage import evaluate_speeds
+        from optroute.speed_loss import stw_for_sog
+
+        def cost(lat0, lon0, lat1, lon1, t0_h, sog_kn):
+            n = lat0.shape[0]
+            dist = geo.distance_nm(lat0, lon0, lat1, lon1)
+            m = max(1, int(np.ceil(float(dist.max(initial=0.0)) / piece_nm)))
+            f = (np.arange(m) + 0.5) / m
+            lat, lon, course = _points_along(lat0, lon0, lat1, lon1, f)
+            t = t0_h[:, None] + (f[None, :] * dist[:, None]) / sog_kn[:, None]
+            sea = self.sea(lat.ravel(), lon.ravel(), t.ravel())
+            sog = np.repeat(sog_kn, m)
+            stw, _ = stw_for_sog(course.ravel(), sog, sea.current_u_ms, sea.current_v_ms)
+            ok_stw = np.isfinite(stw) & (stw > 0)
+            stw_safe = np.where(ok_stw, stw, 1.0)
+            _, _, power, fuel_tph, allowed = evaluate_speeds(
+                self.ship, self.model, self.rules, course.ravel(), sea, stw_safe
+            )
+            allowed = (allowed & ok_stw).reshape(n, m)
+            dur = dist / sog_kn
+            fuel = np.where(np.isfinite(fuel_tph), fuel_tph, 0.0).reshape(n, m).mean(axis=1) * dur
+            feas = allowed.all(axis=1)
+            extra = {"stw_kn": stw.reshape(n, m).mean(axis=1), "power_kw": power.reshape(n, m).mean(axis=1)}
+            return dur, np.where(feas, fuel, np.nan), feas, extra
+
+        return cost
+
+
+def _points_along(lat0, lon0, lat1, lon1, fractions):
+    """Points at ``fractions`` along each great-circle leg, and the course there [deg]."""
+    p0 = np.radians(np.stack([lat0, lon0], axis=-1))
+    p1 = np.radians(np.stack([lat1, lon1], axis=-1))
+    a = np.stack([np.cos(p0[:, 0]) * np.cos(p0[:, 1]), np.cos(p0[:, 0]) * np.sin(p0[:, 1]), np.sin(p0[:, 0])], -1)
+    b = np.stack([np.cos(p1[:, 0]) * np.cos(p1[:, 1]), np.cos(p1[:, 0]) * np.sin(p1[:, 1]), np.sin(p1[:, 0])], -1)
+    omega = np.arccos(np.clip(np.sum(a * b, axis=-1), -1.0, 1.0))[:, None, None]
+    f = np.asarray(fractions)[None, :, None]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w0 = np.where(omega > 1e-12, np.sin((1 - f) * omega) / np.sin(omega), 1 - f)
+        w1 = np.where(omega > 1e-12, np.sin(f * omega) / np.sin(omega), f)
+    xyz = w0 * a[:, None, :] + w1 * b[:, None, :]
+    lat = np.degrees(np.arctan2(xyz[..., 2], np.hypot(xyz[..., 0], xyz[..., 1])))
+    lon = units.wrap_180(np.degrees(np.arctan2(xyz[..., 1], xyz[..., 0])))
+    lat1b = np.broadcast_to(lat1[:, None], lat.shape)
+    lon1b = np.broadcast_to(lon1[:, None], lat.shape)
+    course = geo.initial_course_deg(lat, lon, lat1b, lon1b)
+    return lat, lon, course
+
+
+def _neighbourhood(angular_resolution_deg: float | None, directions: int | None, radius: int) -> Neighbourhood:
+    if directions is not None:
+        return compass(directions)
+    if angular_resolution_deg is None:
+        raise ConfigError("give angular_resolution_deg (Boeing neighbourhood) or directions (8, 16 or 32)")
+    return angular_resolution(angular_resolution_deg, radius)
+
+
+def _max_current_kn(ds: xr.Dataset | None) -> float:
+    if ds is None or "current_u_ms" not in ds or "current_v_ms" not in ds:
+        return 0.0
+    speed = np.hypot(ds["current_u_ms"], ds["current_v_ms"]).max(skipna=True)
+    return float(units.ms_to_kn(float(speed.compute() if hasattr(speed, "compute") else speed)))
+
+
+def _leg_band_sides(ship: Ship, rules: BandRules, extra: dict[str, np.ndarray], leg_of: np.ndarray, n_legs: int):
+    """Per leg and band, the side kept where the band binds most (smallest margin); 0 where it never applies."""
+    sides = {b: np.zeros(n_legs, dtype=np.int8) for b in BANDS}
+    if not len(leg_of):
+        return sides
+    margins = band_margins(
+        ship,
+        speed_kn=extra["stw_kn"],
+        hs_m=extra["hs_m"],
+        period_s=extra["period_s"],
+        wave_from_deg=extra["wave_from_deg"],
+        heading_deg=extra["heading_deg"],
+        rules=rules,
+    )
+    for band, bm in margins.items():
+        best = np.full(n_legs, np.inf)
+        for k in np.argsort(-np.asarray(bm.margin)):  # ascending margin wins last
+            leg = int(leg_of[k])
+            if np.isfinite(bm.margin[k]) and bm.margin[k] <= best[leg]:
+                best[leg] = bm.margin[k]
+                sides[band][leg] = bm.side[k]
+    return sides
+
+
+def _per_leg(extra: dict[str, np.ndarray], key: str, weights: np.ndarray, leg_of: np.ndarray, n_legs: int):
+    w = np.bincount(leg_of, weights=weights, minlength=n_legs)
+    s = np.bincount(leg_of, weights=weights * extra[key], minlength=n_legs)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return s / w
+
+
+def search_route(
+    start: tuple[float, float],
+    end: tuple[float, float],
+    weather: xr.Dataset | WeatherSampler,
+    ship: Ship,
+    *,
+    departure: Any,
+    objective: Objective = "time",
+    eta: Any = None,
+    method: Method = "astar",
+    angular_resolution_deg: float | None = 5.0,
+    directions: int | None = None,
+    radius_cells: int = 12,
+    cell_nm: float = 20.0,
+    margin_nm: float | None = None,
+    desired_speed_kn: float | None = None,
+    speeds_kn: ArrayLike | None = None,
+    speed_step_kn: float = 0.5,
+    min_speed_kn: float = 3.0,
+    lambda_t_per_h: float | None = None,
+    fuel_price_per_t: float = 600.0,
+    hourly_cost_per_h: float = 0.0,
+    model: PerformanceModel | None = None,
+    rules: BandRules | None = None,
+    use_land_mask: bool | None = None,
+    snap_max_nm: float | None = None,
+    dp_options: dict[str, Any] | None = None,
+) -> Route:
+    """Search the route corridor through forecast weather.
+
+    Parameters
+    ----------
+    start, end : (float, float)
+        Departure and destination (lat, lon) [deg]; points on land (ports)
+        are snapped to navigable water within ``snap_max_nm`` with a warning.
+    weather : xarray.Dataset or WeatherSampler
+        Canonical weather (:func:`optroute.open_weather`, :mod:`optroute.scenarios`).
+    ship : Ship
+    departure : datetime64 or str
+        Departure time [UTC].
+    objective : {"time", "fuel", "cost"}
+        ``"time"``: earliest arrival, each piece at the fastest allowed speed
+        at or below ``desired_speed_kn`` (Boeing).  ``"fuel"``: least fuel;
+        with ``eta`` an outer bisection on λ (t/h) finds the least-fuel route
+        arriving by the ETA.  ``"cost"``: fuel price × fuel + hourly cost ×
+        time, i.e. λ = hourly cost / fuel price.
+    eta : datetime64 or str, optional
+        Required arrival [UTC] (arrive at or before).
+    method : {"astar", "dijkstra", "dp"}
+        Time-dependent A* or Dijkstra on a gnomonic grid (seed 000), or the
+        3D dynamic programme along the great circle (seed 001).
+    angular_resolution_deg, directions, radius_cells
+        Grid neighbourhood: Boeing's minimum-angular-resolution set (default
+        5° within 12 cells), or ``directions`` = 8, 16 or 32 (seed 003).
+    cell_nm : float
+        Grid cell size [nm].
+    margin_nm : float, optional
+        Grid margin around the start–end box [nm].
+    desired_speed_kn : float, optional
+        Speed through water wanted [kn]; default the ship's design speed.
+    speeds_kn : array_like, optional
+        Discrete speed set for ``"fuel"``/``"cost"`` and the DP [kn]; default
+        5, 5.5, … up to the ship's calm-water top speed.
+    speed_step_kn, min_speed_kn : float
+        Boeing speed-reduction step and floor [kn].
+    lambda_t_per_h : float, optional
+        Fix λ instead of deriving it (``"fuel"``/``"cost"``) [t/h].
+    fuel_price_per_t, hourly_cost_per_h : float
+        For ``"cost"``: fuel price [currency/t] and the ship's hourly cost
+        [currency/h].
+    model : PerformanceModel, optional
+        Default :class:`~optroute.performance.KwonModel`.
+    rules : BandRules, optional
+        Default Boeing bands.
+    use_land_mask : bool, optional
+        Apply the coastline; default: yes, unless the weather is synthetic
+        geography (``attrs["geography"] == "synthetic"``).
+    snap_max_nm : float, optional
+        How far a port may be moved to reach navigable water [nm]; default
+        20 nm plus two grid cells.  The grid search needs open water of about
+        one cell around its end points (a 20 nm cell cannot enter Tokyo Bay),
+        so ports are snapped with a clearance of half a cell; the last miles
+        into port are pilotage, outside the routing problem.
+    dp_options : dict, optional
+        Passed to :func:`optroute.search.dp.solve_dp` (``dx_nm``, ``dy_nm``,
+        ``half_width_nm``, ``dt_h`` …) for ``method="dp"``.
+
+    Returns
+    -------
+    Route
+
+    Raises
+    ------
+    NoSafePassage
+        No route through navigable, survivable water.
+    InfeasibleETA
+        The ETA cannot be met; ``earliest_arrival`` holds the earliest found.
+    OnLandError
+        A port is farther than ``snap_max_nm`` from navigable water.
+    WeatherCoverageError
+        The voyage leaves the weather's area or time span.
+    """
+    t_start = _time.perf_counter()
+    if objective not in ("time", "fuel", "cost"):
+        raise ConfigError(f"objective={objective!r} is not known; use 'time', 'fuel' or 'cost'")
+    if method not in ("astar", "dijkstra", "dp"):
+        raise ConfigError(f"method={method!r} is not known; use 'astar', 'dijkstra' or 'dp'")
+    t0 = _as_time(departure, "departure")
+    eta_h = None
+    if eta is not None:
+        eta_t = _as_time(eta, "eta")
+        eta_h = float((eta_t - t0) / np.timedelta64(1, "s")) / 3600.0
+        if eta_h <= 0:
+            raise ConfigError(f"eta={eta_t} is not after departure={t0}; give an arrival later than the departure")
+    ds = weather if isinstance(weather, xr.Dataset) else None
+    sampler = as_sampler(weather)
+    model = model if model is not None else default_model(ship)
+    rules = rules if rules is not None else BandRules()
+    desired = float(desired_speed_kn if desired_speed_kn is not None else ship.design_speed_kn)
+    finite("desired_speed_kn", desired, minimum=0.0, strict=True, error=ConfigError)
+    top = min(ship.max_calm_speed_kn, 40.0)
+    speeds = (
+        finite("speeds_kn", speeds_kn, minimum=0.0, strict=True, error=ConfigError).ravel()
+        if speeds_kn is not None
+        else np.arange(5.0, np.floor(top * 2) / 2 + 1e-9, 0.5)
+    )
+    physics = PassagePhysics(ship, model, rules, sampler, t0)
+
+    clearance = 0.5 * cell_nm if method != "dp" else 0.5
+    snap_nm = float(snap_max_nm) if snap_max_nm is not None else 20.0 + 2.0 * cell_nm
+    start, end = (
+        land.snap_to_sea(*p, snap_nm, clearance_nm=clearance, weather=ds, time=t0, use_land_mask=use_land_mask, what=w)
+        for p, w in ((start, "start"), (end, "end"))
+    )
+    # the fastest any leg can go over ground: the speed ceiling of the objective plus the strongest current
+    ceiling = desired if objective == "time" and lambda_t_per_h is None else float(speeds.max())
+    v_bound = ceiling + _max_current_kn(ds) + 1e-6
+
+    if method == "dp":
+        return _search_dp(physics, start, end, eta_h, speeds, dict(dp_options or {}), objective, t_start)
+
+    def nav(lat, lon):
+        covered = sampler.covers(np.full(np.shape(lat), t0), lat, lon)
+        out = covered.copy()
+        if out.any():
+            out[covered] = land.navigable(lat[covered], lon[covered], ds, use_land_mask=use_land_mask) if ds is not None \
+                else ~land.is_land(lat[covered], lon[covered])
+        return out
+
+    grid = RouteGrid.build(start, end, cell_nm=cell_nm, margin_nm=margin_nm, navigable=nav)
+    hood = _neighbourhood(angular_resolution_deg, directions, radius_cells)
+
+    def run(lam: float | None):
+        if objective == "time" and lam is None:
+            cb = physics.segment_time(desired, speed_step_kn, min_speed_kn)
+            return shortest_path(grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="time",
+                                 eta_h=eta_h)
+        cb = physics.segment_cheapest(speeds, lam)
+        return shortest_path(grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="cost",
+                             lambda_t_per_h=lam)
+
+    try:
+        res, lam_used = _run_objective(run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t)
+    except NoSafePassage as exc:
+        raise _explain(exc, physics) from None
+    return _route_from_search(res, physics, t0, objective, method, lam_used, t_start)
+
+
+def _explain(exc: NoSafePassage, physics: PassagePhysics) -> Exception:
+    """Say when the weather's extent, not the sea, stopped the search."""
+    if physics.uncovered:
+        ext = physics.sampler.extent
+        return NoSafePassage(
+            f"{exc} — {physics.uncovered} sampled points fell outside the weather data "
+            f"(lat {ext['lat']}, lon {ext['lon']}, time {ext['time'][0]} to {ext['time'][1]}) and counted as no "
+            "passage; extend the forecast in space or time"
+        )
+    return exc
+
+
+def _run_objective(run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t):
+    lam_used = 0.0
+    if objective == "time":
+        res = run(None)
+    elif lambda_t_per_h is not None or objective == "cost":
+        lam_used = float(lambda_t_per_h if lambda_t_per_h is not None else hourly_cost_per_h / fuel_price_per_t)
+        res = run(lam_used)
+        if eta_h is not None and res.arrival_h > eta_h + 1e-9:
+            raise InfeasibleETA(
+                f"with lambda {lam_used:.3g} t/h the least-cost route arrives after {res.arrival_h:.1f} h, later than "
+                f"the ETA {eta_h:.1f} h after departure; raise the hourly cost or give a later ETA",
+                earliest_arrival=t0 + _h_to_td(res.arrival_h),
+            )
+    else:
+        res, lam_used = _bisect_lambda(run, eta_h, t0)
+    return res, lam_used
+
+
+def _bisect_lambda(run: Callable, eta_h: float | None, t0: np.datetime64):
+    """Least λ whose least-cost route arrives by the ETA (fuel objective)."""
+    slow = run(0.0)
+    if eta_h is None or slow.arrival_h <= eta_h:
+        return slow, 0.0
+    lo, hi = 0.0, 1.0
+    fast = run(hi)
+    while fast.arrival_h > eta_h and hi < 1e4:
+        lo, hi = hi, hi * 4.0
+        fast = run(hi)
+    if fast.arrival_h > eta_h:
+        raise InfeasibleETA(
+            f"even valuing an hour at {hi:.0f} t of fuel the route arrives {fast.arrival_h:.1f} h after departure, "
+            f"later than the ETA {eta_h:.1f} h; give a later ETA",
+            earliest_arrival=t0 + _h_to_td(fast.arrival_h),
+        )
+    best = fast
+    for _ in range(12):
+        mid = 0.5 * (lo + hi)
+        r = run(mid)
+        if r.arrival_h <= eta_h:
+            hi, best = mid, r
+        else:
+            lo = mid
+    return best, hi
+
+
+def _route_from_search(res, physics: PassagePhysics, t0, objective, method, lam, t_start) -> Route:
+    n_legs = res.lat_deg.size - 1
+    extra = res.extra
+    leg_of = np.asarray(extra.get("piece_leg", np.zeros(0, dtype=int)), dtype=int)
+    piece_extra = {k.removeprefix("piece_"): np.asarray(v) for k, v in extra.items() if k.startswith("piece_")}
+    dur = np.asarray(piece_extra.get("duration_h", np.ones(leg_of.size)), dtype=float)
+    stw = _per_leg(piece_extra, "stw_kn", dur, leg_of, n_legs) if leg_of.size else np.full(n_legs, np.nan)
+    power = _per_leg(piece_extra, "power_kw", dur, leg_of, n_legs) if leg_of.size else np.full(n_legs, np.nan)
+    sides = _leg_band_sides(physics.ship, physics.rules, piece_extra, leg_of, n_legs)
+    return Route(
+        waypoints=np.column_stack([res.lat_deg, res.lon_deg]),
+        times=t0 + _h_to_td(res.times_h),
+        sog_kn=res.leg_sog_kn,
+        stw_kn=stw,
+        power_kw=power,
+        fuel_t=res.leg_fuel_t,
+        duration_h=res.leg_duration_h,
+        distance_nm=res.leg_distance_nm,
+        cost=float(res.cost),
+        objective=objective,
+        method=method,
+        band_side=sides,
+        stats={
+            "expanded": res.expanded,
+            "evaluated_edges": res.evaluated_edges,
+            "callback_calls": res.callback_calls,
+            "lambda_t_per_h": lam,
+            "neighbourhood": res.neighbourhood,
+            "runtime_s": _time.perf_counter() - t_start,
+        },
+    )
+
+
+def _search_dp(physics: PassagePhysics, start, end, eta_h, speeds, opts, objective, t_start) -> Route:
+    if objective == "time" and eta_h is not None:
+        raise ConfigError("the DP minimises fuel for an ETA; use objective='fuel' with method='dp'")
+    piece_nm = float(opts.pop("piece_nm", 30.0))
+    sampler = physics.sampler
+
+    def navigable(lat, lon, t_h):
+        return physics.sea(lat, lon, np.broadcast_to(t_h, np.shape(lat))).navigable
+
+    t_last = (sampler.extent["time"][1] - physics.departure) / np.timedelta64(1, "s") / 3600.0
+    opts.setdefault("horizon_h", float(t_last))
+    try:
+        res = solve_dp(start, end, physics.dp_leg(piece_nm), eta_h=eta_h, speeds_kn=speeds, navigable=navigable, **opts)
+    except NoSafePassage as exc:
+        raise _explain(exc, physics) from None
+    p = res.path
+    n_legs = p.lat_deg.size - 1
+    wp = np.column_stack([p.lat_deg, p.lon_deg])
+    return Route(
+        waypoints=wp,
+        times=physics.departure + _h_to_td(p.times_h),
+        sog_kn=p.sog_kn,
+        stw_kn=np.asarray(p.extra.get("stw_kn", np.full(n_legs, np.nan)), dtype=float),
+        power_kw=np.asarray(p.extra.get("power_kw", np.full(n_legs, np.nan)), dtype=float),
+        fuel_t=p.leg_fuel_t,
+        duration_h=p.leg_duration_h,
+        distance_nm=p.leg_distance_nm,
+        cost=float(p.total_fuel_t),
+        objective="fuel",
+        method="dp",
+        band_side={b: np.zeros(n_legs, dtype=np.int8) for b in BANDS},
+        stats={
+            "n_states": res.n_states,
+            "n_transitions": res.n_transitions,
+            "earliest_arrival_h": res.earliest_arrival_h,
+            "curve_bin_end_h": res.curve_bin_end_h,
+            "curve_fuel_t": res.curve_fuel_t,
+            "runtime_s": _time.perf_counter() - t_start,
+        },
+    )
