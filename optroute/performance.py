@@ -81,8 +81,28 @@ def _fold_angle_deg(angle_deg: ArrayLike, name: str) -> np.ndarray:
     return np.where(a > 180.0, 360.0 - a, a)
 
 
+class _ShipEngine:
+    """The engine side every built-in model shares: MCR, minimum load and SFOC come from ``self.ship``."""
+
+    ship: Ship
+
+    @property
+    def mcr_kw(self) -> float:
+        """Maximum continuous rating [kW]."""
+        return self.ship.mcr_kw
+
+    @property
+    def min_power_kw(self) -> float:
+        """Lowest sustained brake power [kW]."""
+        return self.ship.min_power_kw
+
+    def fuel_rate_tph(self, power_kw):
+        """Fuel rate [t/h] at a brake power [kW] from the ship's SFOC curve."""
+        return self.ship.fuel_rate_tph(power_kw)
+
+
 @dataclass(frozen=True)
-class CalmWaterModel:
+class CalmWaterModel(_ShipEngine):
     """The ship's calm-water power curve; wind and waves are ignored.
 
     Parameters
@@ -93,26 +113,14 @@ class CalmWaterModel:
 
     ship: Ship
 
-    @property
-    def mcr_kw(self) -> float:
-        return self.ship.mcr_kw
-
-    @property
-    def min_power_kw(self) -> float:
-        return self.ship.min_power_kw
-
     def brake_power_kw(self, stw_kn, *, hs_m=0.0, wave_angle_deg=0.0, wind_speed_ms=None, wind_angle_deg=None):
         """Calm-water brake power [kW] at ``stw_kn`` [kn]; the sea arguments are checked, then ignored."""
         finite("hs_m", hs_m, minimum=0.0)
         return self.ship.calm_power_kw(stw_kn)
 
-    def fuel_rate_tph(self, power_kw):
-        """Fuel rate [t/h] at a brake power [kW] from the ship's SFOC curve."""
-        return self.ship.fuel_rate_tph(power_kw)
-
 
 @dataclass(frozen=True)
-class KwonModel:
+class KwonModel(_ShipEngine):
     """Calm water plus Kwon's (2008) involuntary speed loss.
 
     The Beaufort number comes from the 10 m wind where it is given and
@@ -133,14 +141,6 @@ class KwonModel:
     """
 
     ship: Ship
-
-    @property
-    def mcr_kw(self) -> float:
-        return self.ship.mcr_kw
-
-    @property
-    def min_power_kw(self) -> float:
-        return self.ship.min_power_kw
 
     def beaufort(self, hs_m: ArrayLike, wind_speed_ms: ArrayLike | None) -> np.ndarray:
         """Beaufort number [-] from the wind [m/s] where known, else from Hs [m]."""
@@ -187,13 +187,9 @@ class KwonModel:
         reachable = np.isfinite(v1)
         return np.where(reachable, self.ship.calm_power_kw(np.where(reachable, v1, 0.0)), np.inf)
 
-    def fuel_rate_tph(self, power_kw):
-        """Fuel rate [t/h] at a brake power [kW] from the ship's SFOC curve."""
-        return self.ship.fuel_rate_tph(power_kw)
-
 
 @dataclass(frozen=True)
-class PowerTableModel:
+class PowerTableModel(_ShipEngine):
     """Brake power tabulated over (speed through water, Hs, relative wave angle).
 
     The table is what a performance engineer fits from noon reports or
@@ -242,14 +238,6 @@ class PowerTableModel:
         p.setflags(write=False)
         object.__setattr__(self, "power_kw", p)
 
-    @property
-    def mcr_kw(self) -> float:
-        return self.ship.mcr_kw
-
-    @property
-    def min_power_kw(self) -> float:
-        return self.ship.min_power_kw
-
     def brake_power_kw(self, stw_kn, *, hs_m=0.0, wave_angle_deg=0.0, wind_speed_ms=None, wind_angle_deg=None):
         """Brake power [kW] by trilinear interpolation; outside the table: SeaStateError."""
         stw = finite("stw_kn", stw_kn, minimum=0.0)
@@ -266,10 +254,6 @@ class PowerTableModel:
         interp = RegularGridInterpolator((self.stw_kn, self.hs_m, self.wave_angle_deg), self.power_kw)
         pts = np.stack([stw.ravel(), hs.ravel(), angle.ravel()], axis=-1)
         return interp(pts).reshape(stw.shape)
-
-    def fuel_rate_tph(self, power_kw):
-        """Fuel rate [t/h] at a brake power [kW] from the ship's SFOC curve."""
-        return self.ship.fuel_rate_tph(power_kw)
 
 
 def default_model(ship: Ship) -> KwonModel:
