@@ -445,16 +445,35 @@ def _run_objective(run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h,
 
 
 def _bisect_lambda(run: Callable, eta_h: float | None, t0: np.datetime64):
-    """Least λ whose least-cost route arrives by the ETA (fuel objective)."""
-    slow = run(0.0)
-    if eta_h is None or slow.arrival_h <= eta_h:
+    """Least λ whose least-cost route arrives by the ETA (fuel objective).
+
+    A λ whose route cannot be completed (too slow to finish inside the
+    forecast, say) counts as arriving too late; only when even the fastest
+    choice fails is the search's :class:`NoSafePassage` raised.
+    """
+    failure: list[NoSafePassage] = []
+
+    def attempt(lam: float):
+        try:
+            return run(lam)
+        except NoSafePassage as exc:
+            failure[:] = [exc]
+            return None
+
+    def late(r) -> bool:
+        return r is None or (eta_h is not None and r.arrival_h > eta_h)
+
+    slow = attempt(0.0)
+    if not late(slow):
         return slow, 0.0
     lo, hi = 0.0, 1.0
-    fast = run(hi)
-    while fast.arrival_h > eta_h and hi < 1e4:
+    fast = attempt(hi)
+    while late(fast) and hi < 1e4:
         lo, hi = hi, hi * 4.0
-        fast = run(hi)
-    if fast.arrival_h > eta_h:
+        fast = attempt(hi)
+    if fast is None:
+        raise failure[0]
+    if late(fast):
         raise InfeasibleETA(
             f"even valuing an hour at {hi:.0f} t of fuel the route arrives {fast.arrival_h:.1f} h after departure, "
             f"later than the ETA {eta_h:.1f} h; give a later ETA",
@@ -463,11 +482,11 @@ def _bisect_lambda(run: Callable, eta_h: float | None, t0: np.datetime64):
     best = fast
     for _ in range(12):
         mid = 0.5 * (lo + hi)
-        r = run(mid)
-        if r.arrival_h <= eta_h:
-            hi, best = mid, r
-        else:
+        r = attempt(mid)
+        if late(r):
             lo = mid
+        else:
+            hi, best = mid, r
     return best, hi
 
 
