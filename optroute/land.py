@@ -116,7 +116,7 @@ def _package_dir(package: str) -> Path:
     if spec is None or not spec.submodule_search_locations:
         raise ConfigError(
             f"the land mask needs the package {package.replace('_', '-')!r}, which is not installed; "
-            f"pip install {package.replace('_', '-')}"
+            + ('pip install "optroute[gshhg]"' if package == "roaring_landmask" else f"pip install {package.replace('_', '-')}")
         )
     return Path(next(iter(spec.submodule_search_locations)))
 
@@ -235,7 +235,7 @@ def default_land_mask_name() -> str:
     for name, package in (("globe", "global_land_mask"), ("gshhg", "roaring_landmask")):
         if importlib.util.find_spec(package) is not None:
             return name
-    raise ConfigError("no coastline data is installed; pip install global-land-mask (or roaring-landmask)")
+    raise ConfigError('no coastline data is installed; pip install global-land-mask (or pip install "optroute[gshhg]")')
 
 
 def land_mask(name: str | None = None) -> LandMask:

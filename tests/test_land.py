@@ -162,8 +162,9 @@ def test_default_backend_choice(monkeypatch):
     monkeypatch.setenv(land.LAND_MASK_ENV, "gshhg")
     assert land.default_land_mask_name() == "gshhg"
     monkeypatch.delenv(land.LAND_MASK_ENV)
-    real = land.importlib.util.find_spec
-    monkeypatch.setattr(land.importlib.util, "find_spec", lambda name: None if name == "global_land_mask" else real(name))
+    # GLOBE missing, roaring-landmask present (the optional 'gshhg' extra): GSHHG is chosen
+    present = object()
+    monkeypatch.setattr(land.importlib.util, "find_spec", lambda name: present if name == "roaring_landmask" else None)
     assert land.default_land_mask_name() == "gshhg"
     monkeypatch.setattr(land.importlib.util, "find_spec", lambda name: None)
     with pytest.raises(ConfigError, match="pip install global-land-mask"):
