@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+from matplotlib import patheffects
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import ListedColormap
 from matplotlib.figure import Figure
@@ -87,13 +88,14 @@ def route_map_figure(
                       cmap=ListedColormap(["#b8a98a"]), vmin=0, vmax=1)
     for k, (name, r) in enumerate(routes.items()):
         lon_r = geo.unwrap_lon_deg(r.waypoints[:, 1]) + shift
-        style = dict(color="white", lw=2.6) if k == 0 else dict(color=f"C{k}", lw=1.4, ls="--")
+        outline = [patheffects.Stroke(linewidth=4.2, foreground="black"), patheffects.Normal()]
+        style = dict(color="white", lw=2.6, path_effects=outline) if k == 0 else dict(color=f"C{k}", lw=1.4, ls="--")
         hours = r.total_duration_h
         ax.plot(lon_r, r.waypoints[:, 0], label=f"{name}: {r.total_distance_nm:,.0f} nm, {hours / 24:.2f} d, "
                 f"{r.total_fuel_t:,.0f} t", **style)
         pos = np.searchsorted(r.times, t_map)
         if 0 < pos < len(r.times):
-            ax.plot(lon_r[pos], r.waypoints[pos, 0], "o", color=style["color"], mec="black", ms=7)
+            ax.plot(lon_r[pos], r.waypoints[pos, 0], "o", color=style["color"], mec="black", ms=7, zorder=5)
     ax.plot([], [], "o", color="white", mec="black", label=f"ship position at the map time {str(t_map)[:16]} UTC")
     ax.set_xlim(lon_w.min(), lon_w.max())
     ax.set_ylim(lat_w.min(), lat_w.max())
