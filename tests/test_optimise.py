@@ -1,0 +1,339 @@
+"""optimise_corridor / plan_voyage against the convex optimum, analytic splits, the 3-D DP and verify().
+
+References, all independent of the NLP:
+
+* fixed path in static weather with an exactly representable ship model: the leg fuel is
+  k_i d_i³/t_i² (cubic law), the global optimum is :func:`formulations.speed_convex.solve_speed_convex`
+  (Clarabel) and, with no bound active, the analytic split t_i ∝ d_i k_i^(1/3) (physics.md §9),
+  with k_i computed by hand from the model at each leg's mid-point sea state;
+* calm water: constant speed D/T and fuel T · fuel_rate(calm_power(D/T)) from the Ship;
+* calm water, minimum time: D / (calm speed at MCR);
+* time-varying weather: the 3-D DP of :func:`optroute.search_route` on the same corridor and ETA.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import optroute as orx
+from formulations._common import PowerLawFuel
+from formulations.speed_convex import solve_speed_convex
+from optroute.optimise import optimise_corridor, plan_voyage
+from optroute.weather import schema
+
+SHIP = orx.Ship.preset("container_54k_dwt")
+T0 = np.datetime64("2024-01-10T00:00", "ns")
+
+
+def _hours(td: np.timedelta64) -> float:
+    return float(td / np.timedelta64(1, "ns")) / 3.6e12
+
+
+@dataclass(frozen=True)
+class LinearSeaModel:
+    """P = P_calm(V) (1 + h Hs (b0 + b1 cos α + b2 cos² α)), constant SFOC: inside the NLP's power form."""
+
+    ship: orx.Ship
+    h: float = 0.03
+    b: tuple[float, float, float] = (0.6, 0.3, 0.1)
+    sfoc_gpkwh: float = 180.0
+
+    @property
+    def mcr_kw(self) -> float:
+        return self.ship.mcr_kw
+
+    @property
+    def min_power_kw(self) -> float:
+        return self.ship.min_power_kw
+
+    def brake_power_kw(self, stw_kn, *, hs_m=0.0, wave_angle_deg=0.0, wind_speed_ms=None, wind_angle_deg=None):
+        ca = np.cos(np.radians(wave_angle_deg))
+        return self.ship.calm_power_kw(stw_kn) * (1.0 + self.h * np.asarray(hs_m) * (self.b[0] + self.b[1] * ca
+                                                                                     + self.b[2] * ca**2))
+
+    def fuel_rate_tph(self, power_kw):
+        return np.asarray(power_kw, dtype=float) * self.sfoc_gpkwh * 1e-6
+
+
+def _static_linear_sea(hs0: float, slope_per_deg: float, wave_from_deg: float) -> xr.Dataset:
+    """Hs linear in longitude, constant in time; bilinear interpolation and the NLP's spline both reproduce it."""
+    time = T0 + np.arange(0, 241, 24).astype("timedelta64[h]")
+    lat = np.arange(-5.0, 5.01, 1.0)
+    lon = np.arange(-32.0, -7.99, 1.0)
+    hs = hs0 + slope_per_deg * (lon + 30.0)
+    return schema.canonical_dataset(time, lat, lon, {"hs_m": hs[None, None, :], "tp_s": 8.0,
+                                                     "wave_from_deg": wave_from_deg},
+                                    {"title": "static linear sea", "source": "test"})
+
+
+def _storm(peak: float = 8.0, bg: float = 3.0, speed_kn: float = 5.0, lon0: float = -146.0) -> xr.Dataset:
+    """A sea of Hs bump moving east at ``speed_kn``, waves from the west (following for an eastbound ship)."""
+    time = T0 + (np.arange(0, 151, 3.0) * 3.6e12).astype("timedelta64[ns]")
+    lat = np.arange(0.0, 10.01, 0.5)
+    lon = np.arange(-155.0, -125.0 + 1e-9, 0.5)
+    lonc = lon0 + np.arange(time.size) * 3.0 * speed_kn / 60.0
+    bump = np.exp(-((lon[None, None, :] - lonc[:, None, None]) ** 2) / (2 * 1.5**2))
+    hs = bg + (peak - bg) * bump * np.exp(-((lat[None, :, None] - 5.0) ** 2) / (2 * 3.0**2))
+    return schema.canonical_dataset(time, lat, lon, {"hs_m": hs, "tp_s": 3.85 * np.sqrt(hs), "wave_from_deg": 270.0,
+                                                     "wind_u_ms": 10.0, "wind_v_ms": 0.0},
+                                    {"title": "eastbound storm", "source": "test"})
+
+
+@pytest.fixture(scope="module")
+def storm() -> xr.Dataset:
+    return _storm()
+
+
+def test_fixed_path_static_weather_equals_the_convex_optimum_and_the_analytic_split():
+    model = LinearSeaModel(SHIP)
+    wx = _static_linear_sea(1.0, 0.15, wave_from_deg=45.0)  # Hs 1 → 4 m along the route, no band (< 10 m)
+    corridor = orx.Corridor(np.array([[0.0, -30.0], [0.0, -10.0]]), 0.0)
+    eta_h = 80.0
+    plan = optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(80, "h"), model=model,
+                             max_leg_nm=60.0)
+    assert plan.verify() == []
+    # by hand: eastbound along the equator (course 90°), waves from 45°: α = 315°, cos α = cos 45°
+    legs = corridor.resample(60.0)
+    d = legs.leg_distance_nm
+    lon_mid = 0.5 * (legs.waypoints[:-1, 1] + legs.waypoints[1:, 1])
+    ca = np.cos(np.radians(45.0))
+    c = float(SHIP.calm_power_kw(1.0))  # admiralty law: P = c V³
+    k = model.sfoc_gpkwh * 1e-6 * c * (1 + model.h * (1.0 + 0.15 * (lon_mid + 30.0)) * (0.6 + 0.3 * ca + 0.1 * ca**2))
+    ref = solve_speed_convex(d, PowerLawFuel.cubic(k), eta_h=eta_h, v_min_kn=3.0, v_max_kn=SHIP.max_calm_speed_kn)
+    assert ref.success
+    assert plan.total_fuel_t == pytest.approx(ref.total_fuel_t, rel=1e-6)
+    t = d * k ** (1 / 3)
+    t *= eta_h / t.sum()
+    np.testing.assert_allclose(plan.legs["duration_h"], t, rtol=1e-5)
+    assert plan.duration_h == pytest.approx(eta_h, abs=1e-6)
+    # the optimiser's own certificate is the convex one here (constant SFOC, power laws)
+    cert = plan.solver_stats["certificate"]
+    assert cert["method"].startswith("convex") and abs(cert["gap"]) <= 1e-6
+    assert plan.solver_stats["fit_max_rel_error"] < 1e-9
+    assert plan.status == "optimal"
+    # -dF*/dT = 2 F*/T for the cubic law
+    assert plan.eta_shadow_price_t_per_h == pytest.approx(2 * ref.total_fuel_t / eta_h, rel=1e-5)
+
+
+def test_calm_water_constant_speed_matches_the_ship_by_hand():
+    wx = orx.scenarios.uniform(hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240,
+                               resolution_deg=1.0)
+    corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -10.0]], width_nm=0.0)
+    plan = optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(72, "h"), max_leg_nm=40.0)
+    v = corridor.length_nm / 72.0
+    by_hand = 72.0 * float(SHIP.fuel_rate_tph(SHIP.calm_power_kw(v)))
+    # Kwon in Hs 0 is the calm-water curve, so the fit is exact (its error is reported) and the
+    # tolerance is that error plus Ipopt's 1e-9 scaled tolerance
+    tol = plan.solver_stats["fit_max_rel_error"] + 1e-6
+    assert plan.solver_stats["fit_max_rel_error"] < 1e-9
+    assert plan.total_fuel_t == pytest.approx(by_hand, rel=tol)
+    np.testing.assert_allclose(plan.legs["stw_kn"], v, rtol=1e-6)
+    assert plan.verify() == []
+    # the IMO SFOC curve is outside the convex solver's class: the certificate is the dual bound
+    cert = plan.solver_stats["certificate"]
+    assert cert["method"] == "Lagrangian dual bound" and abs(cert["gap"]) <= 1e-6
+
+
+def test_unreachable_eta_raises_with_the_earliest_arrival():
+    wx = orx.scenarios.uniform(hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240,
+                               resolution_deg=1.0)
+    corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -10.0]], width_nm=0.0)
+    with pytest.raises(orx.InfeasibleETA) as err:
+        optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(30, "h"), max_leg_nm=40.0)
+    earliest = _hours(err.value.earliest_arrival - T0)
+    assert earliest == pytest.approx(corridor.length_nm / SHIP.max_calm_speed_kn, rel=1e-6)  # calm: top speed
+
+
+def test_solver_failure_carries_ipopts_status():
+    wx = orx.scenarios.uniform(hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240,
+                               resolution_deg=1.0)
+    corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -10.0]], width_nm=0.0)
+    with pytest.raises(orx.SolverFailure) as err:
+        optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(60, "h"), max_leg_nm=40.0,
+                          solver_options={"ipopt.max_iter": 1})
+    assert err.value.status == "Maximum_Iterations_Exceeded"
+    assert "Maximum_Iterations_Exceeded" in str(err.value)
+
+
+def test_storm_with_bands_active_returns_a_verified_plan_off_the_bands(storm):
+    # a stiff ship (T_R ≈ 9.9 s) with bands from Hs ≥ 0.02 L = 5 m: in the following storm sea the
+    # high-wave-attack band V ∈ [0.8, 1.2] c_g sits across the ETA's mean speed
+    ship = SHIP.replace(gm_m=4.5)
+    rules = orx.BandRules(hs_threshold_fraction=0.02)
+    corridor = orx.Corridor.from_waypoints([[5.0, -150.0], [5.0, -135.0]], width_nm=40.0)
+    plan = optimise_corridor(corridor, storm, ship, departure=T0, eta=T0 + np.timedelta64(50, "h"), rules=rules,
+                             max_leg_nm=30.0, band_solves=8)
+    assert plan.verify() == []
+    assert plan.duration_h <= 50.0 + 1 / 60
+    margins = plan.legs[[f"margin_{b}" for b in orx.safety.BANDS]].to_numpy()
+    assert np.isfinite(margins).any()  # bands apply on some legs …
+    assert (margins > 0).all()  # … and the plan keeps clear of every one
+    stats = plan.solver_stats
+    assert stats["ipopt_status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+    assert stats["nlp_solves"] >= 2 and stats["fit_max_rel_error"] > 0
+    assert plan.verify(step_nm=2.0) == []  # also on a finer resampling than the optimiser's own
+
+
+def test_moderate_sea_plans_pass_verification_for_every_objective(storm):
+    corridor = orx.Corridor.from_waypoints([[5.0, -150.0], [5.0, -138.0]], width_nm=40.0)
+    eta = T0 + np.timedelta64(48, "h")
+    fuel = optimise_corridor(corridor, storm, SHIP, departure=T0, eta=eta, max_leg_nm=40.0)
+    cost = optimise_corridor(corridor, storm, SHIP, departure=T0, eta=eta, objective="cost", max_leg_nm=40.0,
+                             fuel_price_per_t=600.0, hourly_cost_per_h=3000.0)
+    fast = optimise_corridor(corridor, storm, SHIP, departure=T0, objective="time", max_leg_nm=40.0)
+    for plan in (fuel, cost, fast):
+        assert plan.verify() == []
+    assert fast.duration_h < cost.duration_h <= fuel.duration_h + 1e-6 <= 48.0 + 1e-6
+    assert fuel.total_fuel_t < cost.total_fuel_t < fast.total_fuel_t
+    assert fuel.eta_shadow_price_t_per_h > 0 and np.isnan(fast.eta_shadow_price_t_per_h)
+
+
+def test_nlp_fuel_is_at_most_the_3d_dp_fuel_at_every_resolution(storm):
+    start, end = (5.0, -150.0), (5.0, -138.0)
+    eta = T0 + np.timedelta64(45, "h")
+    corridor = orx.Corridor.from_waypoints([start, end], width_nm=40.0)
+    plan = optimise_corridor(corridor, storm, SHIP, departure=T0, eta=eta, max_leg_nm=30.0)
+    assert plan.verify() == []
+    for dx, dy, dt in ((120.0, 20.0, 2.0), (60.0, 10.0, 1.0)):
+        dp = orx.search_route(start, end, storm, SHIP, departure=T0, method="dp", objective="fuel", eta=eta,
+                              speeds_kn=np.arange(10.0, 26.1, 1.0),
+                              dp_options={"dx_nm": dx, "dy_nm": dy, "half_width_nm": 20.0, "dt_h": dt})
+        assert _hours(dp.arrival - T0) <= 45.0 + 1e-9
+        assert plan.total_fuel_t <= dp.total_fuel_t
+
+
+def test_plan_voyage_searches_then_optimises(storm):
+    # the 3-D DP as the search (the grid A* works the same way, only slower on this small case)
+    search = {"method": "dp", "speeds_kn": np.arange(10.0, 26.1, 1.0),
+              "dp_options": {"dx_nm": 120.0, "dy_nm": 20.0, "half_width_nm": 20.0, "dt_h": 2.0}}
+    plan = plan_voyage((5.0, -150.0), (5.0, -140.0), storm, SHIP, departure=T0, eta=T0 + np.timedelta64(40, "h"),
+                       corridor_width_nm=40.0, search_options=search, max_leg_nm=40.0)
+    assert plan.verify() == []
+    assert plan.duration_h <= 40.0 + 1 / 60
+    found = plan.solver_stats["search"]
+    assert found["method"] == "dp" and found["duration_h"] <= 40.0
+    assert plan.total_fuel_t <= found["fuel_t"]  # the NLP improves on the search it starts from
+
+
+def test_bad_arguments_name_the_value():
+    wx = orx.scenarios.calm(bbox=(-5, 5, -5, 5), start=T0)
+    corridor = orx.Corridor.from_waypoints([[0.0, 0.0], [0.0, 1.0]])
+    with pytest.raises(orx.ConfigError, match="objective='speed'"):
+        optimise_corridor(corridor, wx, SHIP, departure=T0, objective="speed")
+    with pytest.raises(orx.ConfigError, match="not after departure"):
+        optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0)
+    with pytest.raises(orx.WeatherCoverageError, match="after the weather's last time"):
+        optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(2000, "h"))
+
+
+def test_exclusion_circle_is_passed_behind_and_progress_is_reported():
+    from optroute.plan import Exclusion
+
+    wx = orx.scenarios.uniform(hs_m=2.0, tp_s=8.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240,
+                               resolution_deg=1.0)
+    corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -20.0]], width_nm=120.0)
+    # a 30 nm circle moving north across the track at 6 kn, on the centreline when the ship gets there
+    excl = Exclusion(np.array([T0, T0 + np.timedelta64(100, "h")]), [-2.0, 8.0], [-25.0, -25.0], 30.0)
+    stages: list[tuple[str, float]] = []
+    plan = optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(40, "h"), exclusion=excl,
+                             max_leg_nm=20.0, progress=lambda stage, f: stages.append((stage, f)))
+    assert plan.verify() == []
+    # independent distance check: the waypoints and leg mid-points against the circle at their times
+    wp, times = plan.waypoints, plan.times
+    mids = [orx.geo.intermediate_points(*wp[k], *wp[k + 1], 0.5) for k in range(len(wp) - 1)]
+    t_mid = times[:-1] + (times[1:] - times[:-1]) / 2
+    lat = np.concatenate([wp[:, 0], [m[0] for m in mids]])
+    lon = np.concatenate([wp[:, 1], [m[1] for m in mids]])
+    clat, clon, rad = excl.at(np.concatenate([times, t_mid]))
+    assert np.all(orx.geo.distance_nm(lat, lon, clat, clon) >= rad)
+    assert wp[:, 0].min() < -0.3  # it went round south, behind the northbound circle
+    fractions = [f for _, f in stages]
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0 and stages[-1][0] == "done"
+
+
+def test_band_mapping_agrees_with_the_safety_module():
+    from optroute import seaway
+    from optroute.nlp_inputs import formulation_bands
+
+    rng = np.random.default_rng(7)
+    n = 4000
+    v = rng.uniform(0.5, 35.0, n)
+    period = rng.uniform(4.0, 18.0, n)
+    heading = rng.uniform(0.0, 360.0, n)
+    wave_from = rng.uniform(0.0, 360.0, n)
+    alpha = seaway.relative_wave_angle_deg(heading, wave_from)
+    cos_chi = -np.cos(np.radians(alpha))  # χ: heading vs wave propagation, 0 = following
+    hs = np.full(n, 11.0)  # above 0.04 L = 10 m
+    for rules, exact in ((orx.BandRules(), True), (orx.BandRules(period_form="imo"), True),
+                         (orx.BandRules(rule_set="imo"), False), (orx.BandRules(rule_set="imo", period_form="imo"), False)):
+        bands, names, a = formulation_bands(SHIP, rules)
+        for band, name in zip(bands, names, strict=True):
+            along = v * cos_chi
+            if band.kind == "te_over_tr":
+                ratio = a * period**2 / (band.param * np.abs(a * period - along))
+            else:
+                den = {"v_over_c": a * period, "v_over_cg": 0.5 * a * period}.get(band.kind, band.param)
+                ratio = along / den
+            inside = (ratio >= band.lower) & (ratio <= band.upper)
+            forbidden = orx.safety.is_speed_forbidden(SHIP, speed_kn=v, hs_m=hs, period_s=period,
+                                                      wave_from_deg=wave_from, heading_deg=heading, rules=rules,
+                                                      band=name)
+            edge = np.isclose(ratio, band.lower, rtol=1e-9) | np.isclose(ratio, band.upper, rtol=1e-9)
+            assert forbidden.any(), name
+            if exact:
+                np.testing.assert_array_equal(inside[~edge], forbidden[~edge], err_msg=f"{rules.rule_set} {name}")
+            else:  # IMO: the formulation drops the α sector and λ conditions, so it forbids more, never less
+                assert not np.any(forbidden & ~inside & ~edge), f"{rules.rule_set} {name}"
+        assert all(b.hs_min_m == pytest.approx(0.04 * SHIP.length_m) for b in bands)
+
+
+def test_frame_keeps_great_circle_lengths_and_weather_rotation_by_hand():
+    from optroute.nlp_inputs import build_frame, weather_grid
+
+    long_corridor = orx.Corridor(np.array([[30.0, -150.0], [45.0, -170.0], [40.0, 160.0]]), 50.0).resample(100.0)
+    frame = build_frame(long_corridor)
+    flat = np.linalg.norm(np.diff(frame.centre_xy_nm, axis=0), axis=1)
+    np.testing.assert_allclose(flat, long_corridor.leg_distance_nm, rtol=1e-12)
+    zigzag = np.where(np.arange(frame.n_legs + 1) % 2, 50.0, -50.0)
+    zigzag[[0, -1]] = 0.0
+    assert frame.distance_error(zigzag) < 1e-3  # O((y/R)²) with y = 50 nm over 3 000 nm of ocean
+    # eastbound on the equator: a 1 m/s current to the east is all along, waves from the north go to starboard
+    wx = orx.scenarios.uniform(hs_m=2.0, tp_s=8.0, wave_from_deg=0.0, current_speed_ms=1.0, current_to_deg=90.0,
+                               bbox=(-10, 10, -40, 0), start=T0, duration_h=48, resolution_deg=1.0)
+    eq = build_frame(orx.Corridor(np.array([[0.0, -30.0], [0.0, -25.0]]), 20.0).resample(60.0))
+    grid, samples = weather_grid(eq, orx.WeatherSampler(wx), departure=T0, t_end_h=24.0, dt_h=3.0, ds_nm=30.0,
+                                 dy_nm=10.0)
+    centre = grid.y_nm.size // 2
+    assert grid.y_nm[centre] == 0.0 and samples.static and samples.has_current
+    np.testing.assert_allclose(grid.current_along_kn[:, :, centre], 3600.0 / 1852.0, rtol=1e-9)
+    np.testing.assert_allclose(grid.current_across_kn[:, :, centre], 0.0, atol=1e-9)
+    np.testing.assert_allclose(grid.wave_to_along[:, :, centre], 0.0, atol=1e-9)
+    np.testing.assert_allclose(grid.wave_to_across[:, :, centre], -1.0, atol=1e-9)
+
+
+def test_nan_weather_narrows_the_corridor_and_a_blocked_waypoint_raises():
+    from optroute.nlp_inputs import build_frame, lateral_bounds
+
+    wx = orx.scenarios.uniform(hs_m=1.0, tp_s=6.0, bbox=(-5, 5, -32, -18), start=T0, duration_h=48,
+                               resolution_deg=0.5)
+    blocked = wx.copy(deep=True)
+    box = {"lat": blocked.lat[blocked.lat >= 1.0], "lon": blocked.lon[(blocked.lon >= -26) & (blocked.lon <= -24)]}
+    blocked["hs_m"].loc[box] = np.nan  # no passage north of 0.5° N (the sampler's stencil) near 25° W
+    frame = build_frame(orx.Corridor(np.array([[0.0, -30.0], [0.0, -20.0]]), 60.0).resample(30.0))
+    times = T0 + np.arange(0, 48, 12).astype("timedelta64[h]")
+    y_lo, y_hi = lateral_bounds(frame, sampler=orx.WeatherSampler(blocked), dataset=blocked, times=times,
+                                use_land_mask=False, step_nm=2.0)
+    lon = frame.corridor.waypoints[:, 1]
+    near = (lon > -26.6) & (lon < -23.4)
+    assert np.all(y_lo == -60.0)  # (the formulation pins the two ends to the centreline itself)
+    assert np.all((y_hi[near] >= 26.0) & (y_hi[near] <= 30.1))  # port = north: 0.5° = 30 nm
+    assert np.all(y_hi[~near][1:-1] == 60.0)
+    everywhere = wx.copy(deep=True)
+    everywhere["hs_m"].loc[{"lon": everywhere.lon[(everywhere.lon >= -26) & (everywhere.lon <= -24)]}] = np.nan
+    with pytest.raises(orx.NoSafePassage, match="no navigable point"):
+        lateral_bounds(frame, sampler=orx.WeatherSampler(everywhere), dataset=everywhere, times=times,
+                       use_land_mask=False)
