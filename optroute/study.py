@@ -1,0 +1,848 @@
+"""Studies: one case function over the Cartesian product of axes, on Dask, resumable.
+
+A *study* sweeps a case function over every combination of the values of its
+axes — ships × weather scenarios or ensemble members × ETAs, say — and
+collects the results in one :class:`xarray.Dataset` whose dimensions are the
+axes.  The engine is generic over what a case computes: a case function takes
+a ``dict`` ``{axis name: value}`` and returns an :class:`xarray.Dataset` or a
+mapping of variable name → array (a plan's totals, a fuel-versus-ETA front…).
+
+Cases run on Dask: a :class:`distributed.LocalCluster` of worker processes on
+the loopback interface by default, an existing cluster through
+``scheduler_address=``, or in this process with
+``scheduler_address="synchronous"`` (or ``n_workers=0``), which is also the
+reference the parallel runs must reproduce exactly.
+
+Every finished case is written at once, atomically, as one small NetCDF file
+in the study store (see :mod:`optroute._store` for the layout), so a study
+that is interrupted — a worker killed, the client stopped, the machine
+rebooted — resumes where it stopped when run again with the same axes and
+store: stored cases are not computed again and none is lost.  A case whose
+function raises is stored too, with status ``"failed: <exception>"``, and is
+not retried unless asked (``retry_failed=True``).
+
+The case function must be picklable so that it can be sent to worker
+processes: define it at module level in an importable module (workers import
+it by name) and bind fixed arguments — the corridor, the weather, the ship —
+with :func:`functools.partial`.  Lambdas and closures work too (they are
+shipped by value with cloudpickle) as long as what they capture pickles.  A
+script that starts a local cluster must guard its entry point with
+``if __name__ == "__main__":`` because the worker processes are spawned.
+
+Examples
+--------
+>>> def fuel_case(case):                       # module level
+...     k, d_nm, eta_h = case["ship"], case["distance_nm"], case["eta_h"]
+...     return {"fuel_t": k * d_nm**3 / eta_h**2}
+>>> ds = run_study({"ship": [1e-6, 2e-6], "distance_nm": [3000.0], "eta_h": [200.0, 240.0]},
+...                fuel_case, "runs/demo")  # doctest: +SKIP
+>>> ds.fuel_t.sel(ship=1e-6, eta_h=240.0)        # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import asyncio
+import concurrent.futures
+import contextlib
+import datetime as _dt
+import functools
+import math
+import numbers
+import pickle
+import socket
+import time
+import traceback
+import uuid
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import dask
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from optroute import _store
+from optroute._store import StudyError
+from optroute.errors import ConfigError
+
+__all__ = [
+    "SYNCHRONOUS",
+    "CaseFunction",
+    "ProgressCallback",
+    "SchedulerUnreachable",
+    "StudyError",
+    "load_study",
+    "run_study",
+]
+
+#: ``scheduler_address`` that runs every case in this process, one after the other.
+SYNCHRONOUS = "synchronous"
+
+CaseResult = xr.Dataset | Mapping[str, Any]
+#: A case function: ``{axis name: value}`` → dataset or mapping of name → array.
+CaseFunction = Callable[[dict[str, Any]], CaseResult]
+#: A progress callback: ``(cases done, cases in the study)``.
+ProgressCallback = Callable[[int, int], None]
+
+
+class SchedulerUnreachable(StudyError):
+    """The Dask scheduler at ``scheduler_address`` cannot be reached.
+
+    Parameters
+    ----------
+    message : str
+        What was tried and how to fix it.
+    address : str
+        The address as given.
+    """
+
+    def __init__(self, message: str, address: str) -> None:
+        super().__init__(message)
+        self.address = address
+
+
+# --------------------------------------------------------------------------- axes
+
+
+@dataclass(frozen=True)
+class _Axis:
+    name: str
+    labels: np.ndarray  # what the combined dataset uses as coordinate, and the manifest records
+    values: tuple[Any, ...]  # what case_fn receives
+
+
+_PRIMITIVE = (numbers.Number, np.number, np.bool_, np.datetime64, np.timedelta64, _dt.datetime, _dt.timedelta)
+_LABEL_TYPES = (str, *_PRIMITIVE)
+
+
+def _object_label(axis: str, value: Any) -> str:
+    if isinstance(value, _LABEL_TYPES):
+        return str(value)
+    name = getattr(value, "name", None)
+    if isinstance(name, str) and name:
+        return name
+    if isinstance(value, tuple) and all(isinstance(v, _LABEL_TYPES) for v in value):
+        return str(value)
+    raise ConfigError(
+        f"axis {axis!r} holds a value of type {type(value).__name__} with no `name` to label it by; "
+        f"pass the axis as a mapping {{label: value}} (e.g. {{'storm_a': ds_a, 'storm_b': ds_b}}) "
+        "so that every case has a stable label"
+    )
+
+
+def _labels(axis: str, items: Sequence[Any]) -> np.ndarray:
+    if all(isinstance(v, str) for v in items):
+        labels = np.array(items, dtype=str)
+    elif all(isinstance(v, _PRIMITIVE) and not isinstance(v, complex | np.complexfloating) for v in items):
+        index = pd.Index(list(items))
+        if isinstance(index.dtype, pd.DatetimeTZDtype):
+            index = index.tz_convert("UTC").tz_localize(None)
+        kind = index.dtype.kind
+        if kind == "M":
+            labels = index.to_numpy().astype("datetime64[ns]")
+        elif kind == "m":
+            labels = index.to_numpy().astype("timedelta64[ns]")
+        elif kind in "biuf":
+            labels = index.to_numpy()
+            if kind == "f" and not np.isfinite(labels).all():
+                raise ConfigError(f"axis {axis!r} has a non-finite value {labels.tolist()}; give finite values")
+        else:
+            raise ConfigError(
+                f"axis {axis!r} mixes values of several kinds ({sorted({type(v).__name__ for v in items})}); "
+                "give values of one kind: numbers, strings or times"
+            )
+    else:
+        labels = np.array([_object_label(axis, v) for v in items], dtype=str)
+    if labels.dtype.kind in "mM" and np.isnat(labels).any():
+        raise ConfigError(f"axis {axis!r} holds NaT; give valid times")
+    seen: set[Any] = set()
+    for label in labels.tolist():
+        if label in seen:
+            raise ConfigError(
+                f"axis {axis!r} has the label {label!r} twice; every case needs a distinct key: drop the duplicate "
+                "or pass a mapping {label: value} with distinct labels"
+            )
+        seen.add(label)
+    return labels
+
+
+def _make_axes(axes: Mapping[str, Any]) -> list[_Axis]:
+    if not isinstance(axes, Mapping) or not axes:
+        raise ConfigError(
+            f"axes={axes!r} must be a non-empty mapping of axis name → sequence of values, "
+            "e.g. {'ship': ships, 'eta': etas}"
+        )
+    out = []
+    for name, values in axes.items():
+        if not isinstance(name, str) or not name.isidentifier():
+            raise ConfigError(f"axis name {name!r} must be a string usable as a variable name, e.g. 'eta'")
+        if name in _store.RESERVED_VARS:
+            raise ConfigError(f"axis name {name!r} is reserved for the study's own variable; rename the axis")
+        if isinstance(values, Mapping):
+            keys = list(values.keys())
+            vals = tuple(values.values())
+        elif isinstance(values, str | bytes) or not isinstance(values, Iterable):
+            raise ConfigError(
+                f"axis {name!r} must be a sequence of values, got {type(values).__name__} {values!r}; "
+                f"wrap a single value in a list: [{values!r}]"
+            )
+        elif isinstance(values, set | frozenset):
+            raise ConfigError(
+                f"axis {name!r} is a {type(values).__name__}, whose order is not stable between runs and would "
+                "change the case keys; pass a list (e.g. sorted(values))"
+            )
+        else:
+            keys = list(values)
+            vals = tuple(keys)
+        if not keys:
+            raise ConfigError(f"axis {name!r} is empty; give it at least one value")
+        out.append(_Axis(name, _labels(name, keys), vals))
+    return out
+
+
+def _manifest(axes: list[_Axis], case_fn: Callable[..., Any]) -> dict[str, Any]:
+    while isinstance(case_fn, functools.partial):
+        case_fn = case_fn.func
+    qualname = getattr(case_fn, "__qualname__", None) or type(case_fn).__qualname__
+    module = getattr(case_fn, "__module__", None) or type(case_fn).__module__
+    return {
+        "format": _store.FORMAT,
+        "axes": [{"name": a.name, **_store.encode_labels(a.labels)} for a in axes],
+        "shape": [len(a.values) for a in axes],
+        "n_cases": math.prod(len(a.values) for a in axes),
+        "case_fn": f"{module}.{qualname}",
+        "created_utc": _dt.datetime.now(_dt.UTC).replace(tzinfo=None).isoformat(timespec="seconds"),
+    }
+
+
+def _axes_difference(old: list[dict[str, Any]], new: list[dict[str, Any]]) -> str | None:
+    old_names = [a["name"] for a in old]
+    new_names = [a["name"] for a in new]
+    if old_names != new_names:
+        return f"axes {old_names} in the store but {new_names} in this call"
+    for a, b in zip(old, new, strict=True):
+        if a["dtype"] != b["dtype"]:
+            return f"axis {a['name']!r} holds {a['dtype']} labels in the store but {b['dtype']} in this call"
+        if a["labels"] != b["labels"]:
+            if len(a["labels"]) != len(b["labels"]):
+                return (
+                    f"axis {a['name']!r} has {len(a['labels'])} values in the store but {len(b['labels'])} in this call"
+                )
+            i = next(i for i, (x, y) in enumerate(zip(a["labels"], b["labels"], strict=True)) if x != y)
+            return (
+                f"axis {a['name']!r} value #{i} is {a['labels'][i]!r} in the store but {b['labels'][i]!r} in this call"
+            )
+    return None
+
+
+# --------------------------------------------------------------------------- one case (runs on a worker)
+
+
+class _Outcome(NamedTuple):
+    index: tuple[int, ...]
+    status: str
+    payload: bytes | None  # the encoded case file, or None once a worker has stored it
+    runtime_s: float
+
+
+class _WorkerStoreError(StudyError):
+    """A worker computed a case but could not write its file into the store."""
+
+
+def _identity(obj: Any) -> Any:
+    return obj
+
+
+def _as_dataset(result: Any, reserved: Sequence[str]) -> xr.Dataset:
+    if isinstance(result, xr.Dataset):
+        ds = result.copy()
+    elif isinstance(result, xr.DataArray):
+        if result.name is None:
+            raise StudyError("case_fn returned an unnamed DataArray; give it a name or return a Dataset or a mapping")
+        ds = result.to_dataset()
+    elif isinstance(result, Mapping):
+        data_vars: dict[str, Any] = {}
+        for name, value in result.items():
+            if not isinstance(name, str):
+                raise StudyError(f"case_fn returned a mapping with key {name!r}; variable names must be strings")
+            if isinstance(value, xr.DataArray | xr.Variable | tuple):
+                data_vars[name] = value
+            else:
+                arr = np.asarray(value)
+                data_vars[name] = (tuple(f"{name}_dim_{k}" for k in range(arr.ndim)), arr)
+        ds = xr.Dataset(data_vars)
+    else:
+        raise StudyError(
+            f"case_fn returned {type(result).__name__}; return an xarray.Dataset or a mapping of name → array"
+        )
+    for name in list(ds.variables) + list(ds.dims):
+        if name in reserved:
+            raise StudyError(
+                f"case_fn returned a variable or dimension named {name!r}, which the study reserves "
+                f"(reserved: {sorted(reserved)}); rename it, e.g. ds.rename({{{name!r}: 'case_{name}'}})"
+            )
+    return ds
+
+
+def _encode(ds: xr.Dataset) -> bytes:
+    # Inside a Dask worker xarray would take a *distributed* write lock named after the target, which
+    # fails for an in-memory target; the local synchronous scheduler gives it a plain process lock.
+    with dask.config.set(scheduler="synchronous"):
+        return bytes(ds.to_netcdf(engine="h5netcdf"))
+
+
+def _failure(index: tuple[int, ...], exc: BaseException, runtime_s: float, tb: str | None = None) -> _Outcome:
+    status = f"failed: {type(exc).__name__}: {exc}"
+    if tb is None:
+        tb = "".join(traceback.format_exception(exc))
+    attrs = {
+        _store.KEY_ATTR: "-".join(map(str, index)),
+        _store.STATUS_ATTR: status,
+        _store.RUNTIME_ATTR: runtime_s,
+        _store.TRACEBACK_ATTR: tb,
+    }
+    return _Outcome(index, status, _encode(xr.Dataset(attrs=attrs)), runtime_s)
+
+
+def _compute_case(
+    case_fn: CaseFunction, index: tuple[int, ...], params: dict[str, Any], reserved: Sequence[str]
+) -> _Outcome:
+    """Run one case and encode its outcome as NetCDF bytes; never raises for an error of the case.
+
+    Any :class:`Exception` from ``case_fn``, from converting its result or
+    from encoding it becomes a ``"failed: ..."`` outcome (with the traceback),
+    so that one bad case is recorded rather than ending the study.
+    ``KeyboardInterrupt`` and ``SystemExit`` pass through: they stop the
+    study, which resumes later.
+    """
+    start = time.perf_counter()
+    try:
+        ds = _as_dataset(case_fn(dict(params)), reserved)
+        runtime = time.perf_counter() - start
+        ds.attrs.update(
+            {
+                _store.KEY_ATTR: "-".join(map(str, index)),
+                _store.STATUS_ATTR: "ok",
+                _store.RUNTIME_ATTR: runtime,
+            }
+        )
+        return _Outcome(index, "ok", _encode(ds), runtime)
+    except Exception as exc:  # noqa: BLE001 - recorded per case, by design
+        return _failure(index, exc, time.perf_counter() - start)
+
+
+def _run_case(
+    case_fn: CaseFunction,
+    index: tuple[int, ...],
+    params: dict[str, Any],
+    reserved: Sequence[str],
+    store: str | None = None,
+    replace: bool = False,
+) -> _Outcome:
+    """The task of one case: compute it and, when ``store`` is given, write its file from here.
+
+    Writing from the worker makes a result durable as soon as it exists, so
+    a worker that dies afterwards loses nothing; and a task that Dask runs
+    again after such a death finds the file and returns at once instead of
+    computing the case a second time (unless ``replace``: a failed case
+    being retried).
+    """
+    if store is not None and not replace and (_store.cases_dir(Path(store)) / _store.case_name(index)).exists():
+        return _Outcome(index, "stored", None, math.nan)
+    outcome = _compute_case(case_fn, index, params, reserved)
+    if store is None:
+        return outcome
+    try:
+        _store.write_case(Path(store), index, outcome.payload)
+    except OSError as exc:
+        raise _WorkerStoreError(
+            f"a worker could not write case {index} into {store!r} ({type(exc).__name__}: {exc})"
+        ) from exc
+    return outcome._replace(payload=None)
+
+
+# --------------------------------------------------------------------------- execution
+
+
+def _import_distributed() -> Any:
+    try:
+        import distributed
+    except ImportError as exc:
+        raise StudyError(
+            "running a study on a Dask cluster needs the 'distributed' package, which is not installed; "
+            "install it (pip install 'optroute[dask]' or pip install distributed), "
+            f"or pass scheduler_address={SYNCHRONOUS!r} to run in this process"
+        ) from exc
+    return distributed
+
+
+def _check_picklable(case_fn: Callable[..., Any]) -> None:
+    try:
+        import cloudpickle
+    except ImportError:  # pragma: no cover - cloudpickle comes with distributed
+        dumps = pickle.dumps
+    else:
+        dumps = cloudpickle.dumps
+    try:
+        dumps(case_fn)
+    except (pickle.PicklingError, TypeError, AttributeError, ValueError, RecursionError) as exc:
+        raise ConfigError(
+            f"case_fn={case_fn!r} cannot be pickled to send it to the Dask workers ({type(exc).__name__}: {exc}); "
+            "define it as a module-level function in an importable module and bind fixed arguments with "
+            f"functools.partial, or pass scheduler_address={SYNCHRONOUS!r} to run in this process"
+        ) from exc
+
+
+async def _scheduler_identity(address: str, timeout_s: float) -> dict[str, Any]:
+    from distributed.core import rpc
+
+    async with rpc(address, timeout=timeout_s) as remote:
+        return await remote.identity()
+
+
+def _probe(address: str, timeout_s: float) -> None:
+    """Fail within ``timeout_s`` unless a Dask scheduler answers at ``address``.
+
+    A refused TCP connection fails at once.  A port that accepts but does not
+    answer like a Dask scheduler (on which :class:`distributed.Client` would
+    wait for ever) fails after ``timeout_s``: the identity request runs on a
+    fresh event loop in a helper thread, so this also works where an event
+    loop is already running (Jupyter).
+    """
+    distributed = _import_distributed()
+    try:
+        scheme, location = distributed.comm.addressing.parse_address(address)
+        host, port = (
+            distributed.comm.addressing.parse_host_port(location, default_port=8786)
+            if scheme in ("tcp", "tls")
+            else (None, None)
+        )
+    except ValueError as exc:
+        raise SchedulerUnreachable(
+            f"scheduler_address={address!r} is not a Dask address ({exc}); give one like 'tcp://127.0.0.1:8786', "
+            f"or None for a local cluster, or {SYNCHRONOUS!r} to run in this process",
+            address,
+        ) from exc
+    if host is not None:
+        try:
+            with socket.create_connection((host, port), timeout=timeout_s):
+                pass
+        except OSError as exc:
+            raise _unreachable(address, timeout_s, exc) from exc
+    if scheme != "tcp":  # TLS needs the caller's security settings; the Client's own timeout applies
+        return
+    with concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="optroute-probe") as pool:
+        job = pool.submit(asyncio.run, asyncio.wait_for(_scheduler_identity(address, timeout_s), timeout_s))
+        try:
+            identity = job.result()
+        except (OSError, TimeoutError, ValueError, TypeError, KeyError) as exc:
+            raise _unreachable(address, timeout_s, exc) from exc
+    kind = identity.get("type") if isinstance(identity, dict) else None
+    if kind != "Scheduler":
+        raise SchedulerUnreachable(
+            f"{address!r} answers as a Dask {kind or 'server of unknown kind'}, not a scheduler; give the "
+            "scheduler's address (printed by `dask scheduler`, or client.scheduler.address)",
+            address,
+        )
+
+
+def _unreachable(address: str, timeout_s: float, exc: BaseException) -> SchedulerUnreachable:
+    return SchedulerUnreachable(
+        f"cannot reach the Dask scheduler at {address!r} within timeout_s={timeout_s:g} s "
+        f"({type(exc).__name__}: {exc}); start one there (`dask scheduler`, then `dask worker {address}`), "
+        f"correct the address, or pass scheduler_address=None for a local cluster "
+        f"({SYNCHRONOUS!r} runs in this process)",
+        address,
+    )
+
+
+@contextlib.contextmanager
+def _client(scheduler_address: str | None, n_workers: int, threads_per_worker: int, timeout_s: float) -> Iterator[Any]:
+    distributed = _import_distributed()
+    if scheduler_address is None:
+        cluster = distributed.LocalCluster(
+            n_workers=n_workers,
+            threads_per_worker=threads_per_worker,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address=None,
+            worker_dashboard_address=None,
+        )
+        try:
+            client = distributed.Client(cluster, timeout=timeout_s, set_as_default=False)
+            try:
+                yield client
+            finally:
+                client.close()
+        finally:
+            cluster.close()
+        return
+    _probe(scheduler_address, timeout_s)
+    try:
+        client = distributed.Client(scheduler_address, timeout=timeout_s, set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise _unreachable(scheduler_address, timeout_s, exc) from exc
+    try:
+        try:
+            client.wait_for_workers(1, timeout=timeout_s)
+        except TimeoutError as exc:
+            raise StudyError(
+                f"the Dask scheduler at {scheduler_address!r} has no workers after {timeout_s:g} s; "
+                f"start some (`dask worker {scheduler_address}`) or raise timeout_s"
+            ) from exc
+        yield client
+    finally:
+        client.close()
+
+
+def _run_distributed(
+    client: Any,
+    case_fn: CaseFunction,
+    pending: list[tuple[int, ...]],
+    params: Callable[[tuple[int, ...]], dict[str, Any]],
+    reserved: tuple[str, ...],
+    on_outcome: Callable[[_Outcome], None],
+    store: str | None,
+    replace: set[tuple[int, ...]],
+) -> None:
+    from distributed import as_completed
+
+    token = uuid.uuid4().hex[:8]
+    # The case function travels once per worker (as a task result the scheduler can recompute if the
+    # worker holding it dies), not once per case: it may carry a corridor and a weather dataset.
+    fn = client.submit(_identity, case_fn, pure=False, key=f"optroute-study-{token}-case_fn")
+    index_of: dict[str, tuple[int, ...]] = {}
+    submitted = []
+    for index in pending:
+        name = _store.case_name(index)[: -len(".nc")]
+        fut = client.submit(
+            _run_case,
+            fn,
+            index,
+            params(index),
+            reserved,
+            store,
+            index in replace,
+            pure=False,
+            key=f"optroute-study-{token}-{name}",
+        )
+        index_of[fut.key] = index
+        submitted.append(fut)
+    futures = as_completed(submitted, loop=client.loop)
+    del submitted  # hold each result only until it is stored
+    for fut in futures:
+        index = index_of.pop(fut.key)
+        if fut.status == "finished":
+            outcome = fut.result()
+        elif fut.status == "error" and fn.status == "error":
+            exc = fn.exception()
+            raise StudyError(
+                f"the Dask workers could not load case_fn ({type(exc).__name__}: {exc}); make its module importable "
+                "on every worker (same code and environment), or bind it with functools.partial to a module-level "
+                f"function; no case was recorded as failed: run the study again to resume"
+            ) from exc
+        elif fut.status == "error" and isinstance(fut.exception(), _WorkerStoreError):
+            exc = fut.exception()
+            raise StudyError(
+                f"{exc}; the workers must be able to write the store (on a shared filesystem, at the same path): "
+                "fix that, or pass store_on_workers=False to have this process write every case file; "
+                "then run the study again to resume"
+            ) from exc
+        elif fut.status == "error":  # the task itself failed: a worker died under it (KilledWorker), SystemExit…
+            exc = fut.exception()
+            tb = "".join(traceback.format_tb(fut.traceback())) + "".join(traceback.format_exception_only(exc))
+            outcome = _failure(index, exc, math.nan, tb)
+        else:
+            raise StudyError(
+                f"the Dask cluster lost case {index} (its future is {fut.status!r}), most likely because the "
+                "scheduler went away; the cases finished so far are stored: run the study again to resume"
+            )
+        fut.release()
+        on_outcome(outcome)
+
+
+# --------------------------------------------------------------------------- public API
+
+
+def run_study(
+    axes: Mapping[str, Sequence[Any] | Mapping[Any, Any]],
+    case_fn: CaseFunction,
+    store: str | Path,
+    *,
+    scheduler_address: str | None = None,
+    n_workers: int | None = None,
+    threads_per_worker: int = 1,
+    progress: ProgressCallback | None = None,
+    resume: bool = True,
+    timeout_s: float = 10,
+    retry_failed: bool = False,
+    output: str | Path | None = None,
+    store_on_workers: bool | None = None,
+) -> xr.Dataset:
+    """Run ``case_fn`` on every combination of the axes' values, resumably, and combine the results.
+
+    Parameters
+    ----------
+    axes : mapping of str to sequence or mapping
+        Axis name → its values, in order; the cases are the Cartesian product,
+        in C order (the last axis varies fastest).  Values that are numbers,
+        strings or times label themselves; objects are labelled by their
+        ``name`` attribute (a :class:`~optroute.Ship` is); anything else is
+        given as a mapping ``{label: value}``.  Labels must be distinct within
+        an axis.  The case key is the tuple of axis indices, so resuming needs
+        the same axes in the same order.
+    case_fn : callable
+        ``case_fn({axis name: value}) -> xarray.Dataset | Mapping[str, array]``.
+        Must be picklable: a module-level function (with
+        :func:`functools.partial` for fixed arguments).  A mapping's values
+        become variables with dimensions ``<name>_dim_0, ...``.  The names
+        ``status``, ``runtime_s`` and the axis names are reserved.  Each case
+        runs on its own, so keep its result small (totals, a front, a plan's
+        legs — not the weather).
+    store : str or path
+        Directory of the study store, created if needed.  It holds
+        ``manifest.json``, ``cases/<i>-<j>-<k>.nc`` (one file per finished
+        case) and, by default, the combined ``study.nc``.
+    scheduler_address : str, optional
+        ``None`` (default) starts a :class:`distributed.LocalCluster` of
+        ``n_workers`` processes bound to 127.0.0.1 with no dashboard, for this
+        call only.  ``"tcp://host:port"`` uses that existing scheduler (the
+        case function's module must be importable on its workers; the store
+        needs only be visible to this process, unless ``store_on_workers``).
+        ``"synchronous"`` runs the cases in this process, one after another.
+    n_workers : int, optional
+        Workers of the local cluster; default one per core (``threads_per_worker``
+        threads each), never more than the cases left.  ``0`` means
+        ``scheduler_address="synchronous"``.  Not allowed with an address.
+    threads_per_worker : int
+        Threads per local worker process (default 1: the optimiser is
+        CPU-bound and not thread-parallel).
+    progress : callable, optional
+        ``progress(done, total)``, called in this process once at the start
+        (``done`` counting the cases already stored) and after each case is
+        stored, failed cases included.  ``None`` is silent.
+    resume : bool
+        ``True`` (default): keep the cases already in ``store`` and compute
+        only the others; the axes must match the store's manifest.
+        ``False``: delete the store's case files and start over.
+    timeout_s : float
+        Seconds allowed to connect to an existing scheduler, and for it to
+        have a worker [s].
+    retry_failed : bool
+        Compute again the stored cases whose status is ``"failed: ..."``
+        (default: keep them as failed).
+    output : str or path, optional
+        Where to write the combined dataset, atomically: NetCDF for ``.nc``
+        (``.nc4``, ``.h5``), Zarr (format 2) for ``.zarr``.  Default
+        ``<store>/study.nc``.
+    store_on_workers : bool, optional
+        Whether the workers write the case files themselves, as soon as each
+        case is computed (a worker's death then loses only the case it was
+        running), rather than this process as it collects the results.
+        Default: True for the local cluster, False with ``scheduler_address``
+        (set True when the workers share the store's filesystem at the same
+        path).
+
+    Returns
+    -------
+    xarray.Dataset
+        The axes as dimension coordinates (labels as above); every variable
+        of the case results with the axes prepended; ``status`` (``"ok"``,
+        ``"missing"`` or ``"failed: <exception type>: <message>"``) and
+        ``runtime_s`` (wall-clock seconds of each case) over the axes.
+        Missing and failed cases hold NaN (integer and boolean variables are
+        then promoted to float64; times hold NaT, text "").  A case dimension
+        whose size varies between cases is padded likewise; its index
+        coordinate is kept when it is the same in every case, and is
+        otherwise given per case as ``case_<dim>``.
+
+    Raises
+    ------
+    ConfigError
+        Bad axes (empty, duplicate labels, unlabelled objects), an unpicklable
+        ``case_fn`` for a cluster, or inconsistent options.
+    SchedulerUnreachable
+        ``scheduler_address`` refuses or does not answer within ``timeout_s``.
+    StudyError
+        The store belongs to a study with other axes, is being written by
+        another run, or the cluster was lost mid-way (the study then resumes
+        when run again).
+
+    Notes
+    -----
+    Resume semantics.  A case counts as done when its file exists in
+    ``<store>/cases/``.  A file is moved into place only once complete (write
+    to a temporary name, fsync, :func:`os.replace`) as soon as its case is
+    computed: by the worker itself on the local cluster (see
+    ``store_on_workers``), by this process otherwise.  Interrupting the study
+    (Ctrl-C, killing this process or a worker, losing the cluster) therefore
+    loses only the cases that were running, and the next run computes exactly
+    the cases without a file; temporary files left by a killed write are
+    deleted.  A worker that dies while running a case is replaced and the case
+    re-run by Dask (a re-run whose file already exists returns at once); a
+    case that kills its worker repeatedly is recorded as ``"failed:
+    KilledWorker: ..."``.  An exception raised by ``case_fn`` is recorded as
+    that case's status (the traceback is kept in the case file's
+    ``optroute_study_traceback`` attribute) and not retried unless
+    ``retry_failed=True``.  One run at a time may write a store (an advisory
+    lock enforces it).
+    """
+    store = Path(store)
+    if not callable(case_fn):
+        raise ConfigError(f"case_fn={case_fn!r} is not callable; pass a function taking a dict of axis values")
+    if progress is not None and not callable(progress):
+        raise ConfigError(f"progress={progress!r} is not callable; pass a function (done, total) -> None, or None")
+    if (
+        isinstance(timeout_s, bool)
+        or not isinstance(timeout_s, numbers.Real)
+        or not math.isfinite(timeout_s)
+        or timeout_s <= 0
+    ):
+        raise ConfigError(f"timeout_s={timeout_s!r} must be a positive number of seconds, e.g. 10")
+    if (
+        isinstance(threads_per_worker, bool)
+        or not isinstance(threads_per_worker, numbers.Integral)
+        or threads_per_worker < 1
+    ):
+        raise ConfigError(f"threads_per_worker={threads_per_worker!r} must be an integer >= 1")
+    if n_workers is not None and (
+        isinstance(n_workers, bool) or not isinstance(n_workers, numbers.Integral) or n_workers < 0
+    ):
+        raise ConfigError(f"n_workers={n_workers!r} must be an integer >= 0 (0 runs in this process), or None")
+    if scheduler_address is not None and not isinstance(scheduler_address, str):
+        raise ConfigError(
+            f"scheduler_address={scheduler_address!r} must be a string such as 'tcp://127.0.0.1:8786', "
+            f"{SYNCHRONOUS!r}, or None"
+        )
+    if scheduler_address not in (None, SYNCHRONOUS) and n_workers is not None:
+        raise ConfigError(
+            f"n_workers={n_workers} applies to the local cluster only, but scheduler_address={scheduler_address!r} "
+            "was given; drop n_workers (the existing cluster has its own workers)"
+        )
+    synchronous = scheduler_address == SYNCHRONOUS or n_workers == 0
+    out_path = Path(output) if output is not None else store / _store.DEFAULT_OUTPUT
+    _store.output_format(out_path)
+    study_axes = _make_axes(axes)
+    if not synchronous:
+        _import_distributed()
+        _check_picklable(case_fn)
+    shape = tuple(len(a.values) for a in study_axes)
+    total = math.prod(shape)
+    names = tuple(a.name for a in study_axes)
+    reserved = tuple(_store.RESERVED_VARS) + names
+
+    def params(index: tuple[int, ...]) -> dict[str, Any]:
+        return {a.name: a.values[i] for a, i in zip(study_axes, index, strict=True)}
+
+    _store.cases_dir(store).mkdir(parents=True, exist_ok=True)
+    with _store.locked(store):
+        _store.remove_temporaries(store)
+        manifest = _manifest(study_axes, case_fn)
+        stored = _store.read_manifest(store)
+        if stored is not None and resume:
+            diff = _axes_difference(stored["axes"], manifest["axes"])
+            if diff is not None:
+                raise StudyError(
+                    f"study store {str(store)!r} holds a study with other axes: {diff}; use another store, or pass "
+                    "resume=False to delete its cases and start over"
+                )
+            manifest = stored
+        else:
+            if stored is not None:
+                for path in _store.list_cases(store, [len(a["labels"]) for a in stored["axes"]]).values():
+                    path.unlink()
+            try:
+                _store.write_json(store / _store.MANIFEST, manifest)
+            except OSError as exc:
+                raise StudyError(
+                    f"could not write the manifest of study store {str(store)!r} ({type(exc).__name__}: {exc}); "
+                    "free disk space or fix permissions, or choose another store"
+                ) from exc
+
+        existing = _store.list_cases(store, shape)
+        done = existing
+        if retry_failed:
+            done = {i: p for i, p in existing.items() if _store.read_case(p).attrs[_store.STATUS_ATTR] == "ok"}
+        pending = [index for index in np.ndindex(*shape) if index not in done]
+        n_done = total - len(pending)
+        if progress is not None:
+            progress(n_done, total)
+
+        def on_outcome(outcome: _Outcome) -> None:
+            nonlocal n_done
+            try:
+                if outcome.payload is not None:  # else a worker has stored it
+                    _store.write_case(store, outcome.index, outcome.payload)
+            except OSError as exc:
+                raise StudyError(
+                    f"could not store case {outcome.index} in {str(_store.cases_dir(store))!r} "
+                    f"({type(exc).__name__}: {exc}); free disk space or fix permissions, then run the study "
+                    f"again to resume ({n_done} of {total} cases are stored)"
+                ) from exc
+            n_done += 1
+            if progress is not None:
+                progress(n_done, total)
+
+        if pending and synchronous:
+            for index in pending:
+                on_outcome(_run_case(case_fn, index, params(index), reserved))
+        elif pending:
+            import dask.system
+
+            workers = n_workers if n_workers is not None else max(1, dask.system.CPU_COUNT // threads_per_worker)
+            with _client(scheduler_address, min(workers, len(pending)), threads_per_worker, timeout_s) as client:
+                on_workers = scheduler_address is None if store_on_workers is None else store_on_workers
+                store_arg = str(store.resolve()) if on_workers else None
+                retried = {index for index in pending if index in existing}
+                _run_distributed(client, case_fn, pending, params, reserved, on_outcome, store_arg, retried)
+
+        ds = _store.combine(store, manifest)
+        try:
+            _store.write_dataset(ds, out_path)
+        except OSError as exc:
+            raise StudyError(
+                f"all {total} cases are stored in {str(store)!r}, but the combined dataset could not be written "
+                f"to {str(out_path)!r} ({type(exc).__name__}: {exc}); fix that and call "
+                "load_study(store, output=...) or run the study again (nothing is recomputed)"
+            ) from exc
+    return ds
+
+
+def load_study(store: str | Path, *, output: str | Path | None = None) -> xr.Dataset:
+    """Combine the cases stored so far in a study store into one dataset.
+
+    Works on a finished, a running or an interrupted study (cases not yet
+    stored have status ``"missing"``); it reads the store only, unless
+    ``output`` asks for the combined dataset to be written.
+
+    Parameters
+    ----------
+    store : str or path
+        The study store given to :func:`run_study`.
+    output : str or path, optional
+        Also write the combined dataset there, atomically (NetCDF or Zarr by
+        suffix, as in :func:`run_study`).
+
+    Returns
+    -------
+    xarray.Dataset
+        As returned by :func:`run_study`.
+
+    Raises
+    ------
+    StudyError
+        ``store`` is not a study store, or a case file is unreadable.
+    """
+    store = Path(store)
+    manifest = _store.read_manifest(store)
+    if manifest is None:
+        raise StudyError(
+            f"no study in {str(store)!r}: {_store.MANIFEST} is missing; give the store passed to run_study, "
+            "or run the study first"
+        )
+    ds = _store.combine(store, manifest)
+    if output is not None:
+        _store.write_dataset(ds, Path(output))
+    return ds

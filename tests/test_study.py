@@ -1,0 +1,558 @@
+"""Studies: Cartesian product of axes on Dask, incremental atomic storage, resume, failures.
+
+The case functions are small deterministic numpy computations with a closed
+form: the fuel of a passage of ``d`` nautical miles in ``eta`` hours at
+constant speed with a cubic propulsion law, ``fuel = k d³ / eta²``
+(rate ``k v³`` [t/h] times time ``d / v``) — the independent reference every
+study result is checked against.  They live at module level so that Dask
+workers can import them.  Every address used is on 127.0.0.1.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from optroute import _store
+from optroute.errors import ConfigError, InfeasibleETA, OptrouteError
+from optroute.study import SchedulerUnreachable, StudyError, load_study, run_study
+
+ROOT = Path(__file__).resolve().parents[1]
+
+SHIP_K = {"feeder": 1.0e-6, "panamax": 2.0e-6, "vlcc": 3.5e-6}  # t / (nm³ h⁻²)
+DISTANCE_NM = [1000.0, 2500.0]
+ETA_H = [100.0, 150.0, 200.0, 250.0]
+MAX_SPEED_KN = 20.0
+N_LEGS = 4
+AXES = {"ship": list(SHIP_K), "distance_nm": DISTANCE_NM, "eta_h": ETA_H}
+N_CASES = len(SHIP_K) * len(DISTANCE_NM) * len(ETA_H)
+
+
+# --------------------------------------------------------------------------- case functions (module level)
+
+
+def _key(case: dict) -> str:
+    return f"{case['ship']}|{case['distance_nm']:g}|{case['eta_h']:g}"
+
+
+def _log(log: str | None, line: str) -> None:
+    if log is not None:  # O_APPEND: one short write per line, safe across processes
+        fd = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_APPEND)
+        try:
+            os.write(fd, (line + "\n").encode())
+        finally:
+            os.close(fd)
+
+
+def fuel_case(case: dict, log: str | None = None, delay_s: float = 0.0) -> dict:
+    """Fuel of a constant-speed passage; logs the case key (and where it ran) when ``log`` is given."""
+    k = SHIP_K[case["ship"]]
+    d, eta = case["distance_nm"], case["eta_h"]
+    if d / eta > MAX_SPEED_KN:
+        raise InfeasibleETA(f"eta_h={eta:g} needs {d / eta:g} kn over {d:g} nm, above the {MAX_SPEED_KN:g} kn limit")
+    if delay_s:
+        time.sleep(delay_s)
+    try:
+        from distributed import get_worker
+
+        where = get_worker().address
+    except (ImportError, ValueError):
+        where = "local"
+    _log(log, f"{_key(case)} {where} {os.getpid()}")
+    fuel = k * d**3 / eta**2
+    return {
+        "fuel_t": fuel,
+        "speed_kn": d / eta,
+        "cumulative_fuel_t": fuel * np.arange(1, N_LEGS + 1) / N_LEGS,  # equal legs
+    }
+
+
+def kill_worker_once_case(case: dict, log: str, marker: str, victim: str) -> dict:
+    """Like :func:`fuel_case`, but the first attempt at case ``victim`` kills its worker process."""
+    if _key(case) == victim:
+        try:
+            fd = os.open(marker, os.O_WRONLY | os.O_CREAT | os.O_EXCL)
+        except FileExistsError:
+            pass
+        else:
+            os.close(fd)
+            _log(log, f"{_key(case)} killed {os.getpid()}")
+            os._exit(1)
+    return fuel_case(case, log)
+
+
+def reserved_name_case(case: dict) -> dict:
+    return {"status": 1.0}
+
+
+def ragged_case(case: dict) -> xr.Dataset:
+    """A front whose number of points and ETAs depend on the case (like a trade-off curve)."""
+    n = int(case["n"])
+    etas = case["start_h"] + 10.0 * np.arange(n)
+    return xr.Dataset(
+        {"fuel_t": ("point", 100.0 / etas), "feasible": ("point", np.ones(n, dtype=bool))},
+        coords={"point": np.arange(n), "eta_h": ("point", etas)},
+    )
+
+
+def ragged_index_case(case: dict) -> xr.Dataset:
+    etas = case["start_h"] + 10.0 * np.arange(3)
+    return xr.Dataset({"fuel_t": ("eta_front", 100.0 / etas)}, coords={"eta_front": etas})
+
+
+def time_case(case: dict) -> dict:
+    hours = (case["eta"] - np.datetime64("2024-01-01T00:00")) / np.timedelta64(1, "h")
+    return {"hours": hours, "ship_length_m": case["ship"].length_m}
+
+
+class _NamedShip:
+    def __init__(self, name: str, length_m: float) -> None:
+        self.name = name
+        self.length_m = length_m
+
+
+def analytic_fuel() -> np.ndarray:
+    """``k d³ / eta²`` on the (ship, distance, eta) grid, NaN where the ETA needs more than the speed limit."""
+    k = np.array(list(SHIP_K.values()))[:, None, None]
+    d = np.array(DISTANCE_NM)[None, :, None]
+    eta = np.array(ETA_H)[None, None, :]
+    fuel = k * d**3 / eta**2
+    return np.where(d / eta > MAX_SPEED_KN, np.nan, fuel)
+
+
+def log_counts(log: Path) -> Counter:
+    lines = log.read_text().splitlines() if log.exists() else []
+    return Counter(line.split(" ")[0] for line in lines if " killed " not in line)
+
+
+def case_files(store: Path) -> list[str]:
+    return sorted(p.name for p in (store / "cases").iterdir() if not p.name.startswith("."))
+
+
+def all_keys() -> list[str]:
+    return [f"{s}|{d:g}|{e:g}" for s in SHIP_K for d in DISTANCE_NM for e in ETA_H]
+
+
+def stored_keys(store: Path) -> set[str]:
+    keys = set()
+    names = list(SHIP_K)
+    for name in case_files(store):
+        i, j, k = _store.parse_case_name(name)
+        keys.add(f"{names[i]}|{DISTANCE_NM[j]:g}|{ETA_H[k]:g}")
+    return keys
+
+
+# --------------------------------------------------------------------------- serial reference
+
+
+def test_serial_study_matches_closed_form(tmp_path):
+    calls = []
+    ds = run_study(
+        AXES, fuel_case, tmp_path / "s", scheduler_address="synchronous", progress=lambda *a: calls.append(a)
+    )
+    assert ds.fuel_t.dims == ("ship", "distance_nm", "eta_h")
+    assert list(ds.ship.values) == list(SHIP_K)
+    np.testing.assert_allclose(ds.fuel_t.values, analytic_fuel(), rtol=1e-15)
+    # one value by hand: 2e-6 * 2500³ / 250² = 2e-6 * 1.5625e10 / 62500 = 0.5 t
+    assert ds.fuel_t.sel(ship="panamax", distance_nm=2500.0, eta_h=250.0).item() == pytest.approx(0.5, rel=1e-15)
+    assert ds.cumulative_fuel_t.dims == ("ship", "distance_nm", "eta_h", "cumulative_fuel_t_dim_0")
+    np.testing.assert_allclose(ds.cumulative_fuel_t.isel(cumulative_fuel_t_dim_0=-1), ds.fuel_t)
+    # 2500 nm in 100 h needs 25 kn > 20 kn: recorded as failed, never dropped
+    bad = ds.status.sel(distance_nm=2500.0, eta_h=100.0)
+    assert all(str(s).startswith("failed: InfeasibleETA: eta_h=100 needs 25 kn") for s in bad.values)
+    assert int((ds.status == "ok").sum()) == N_CASES - len(SHIP_K)
+    assert calls == [(i, N_CASES) for i in range(N_CASES + 1)]
+    assert len(case_files(tmp_path / "s")) == N_CASES
+    manifest = json.loads((tmp_path / "s" / "manifest.json").read_text())
+    assert manifest["shape"] == [3, 2, 4] and manifest["case_fn"].endswith("fuel_case")
+    on_disk = xr.load_dataset(tmp_path / "s" / "study.nc")
+    xr.testing.assert_identical(on_disk, ds)
+    xr.testing.assert_identical(load_study(tmp_path / "s"), ds)
+
+
+def test_n_workers_zero_is_synchronous(tmp_path):
+    ds = run_study(AXES, fuel_case, tmp_path / "s", n_workers=0)
+    np.testing.assert_allclose(ds.fuel_t.values, analytic_fuel(), rtol=1e-15)
+
+
+# --------------------------------------------------------------------------- on a local cluster
+
+
+def test_two_worker_local_cluster_gives_exactly_the_serial_results_even_when_a_worker_dies(tmp_path):
+    pytest.importorskip("distributed")
+    log, marker = tmp_path / "cluster.log", tmp_path / "marker"
+    victim = "vlcc|1000|150"  # its first attempt kills the worker process running it
+    serial = run_study(AXES, fuel_case, tmp_path / "serial", scheduler_address="synchronous")
+    calls = []
+    par = run_study(
+        AXES,
+        functools.partial(kill_worker_once_case, log=str(log), marker=str(marker), victim=victim),
+        tmp_path / "par",
+        n_workers=2,
+        progress=lambda *a: calls.append(a),
+    )
+    assert par.attrs.pop("optroute_study_case_fn") == "tests.test_study.kill_worker_once_case"
+    assert serial.attrs.pop("optroute_study_case_fn") == "tests.test_study.fuel_case"
+    xr.testing.assert_identical(par.drop_vars("runtime_s"), serial.drop_vars("runtime_s"))  # bit for bit
+    np.testing.assert_allclose(par.fuel_t.values, analytic_fuel(), rtol=1e-15)
+    assert calls == [(i, N_CASES) for i in range(N_CASES + 1)]
+    assert len(case_files(tmp_path / "par")) == N_CASES
+    lines = log.read_text().splitlines()
+    assert marker.exists() and f"{victim} killed" in log.read_text()  # a worker really died mid-case
+    done = [line.split(" ") for line in lines if " killed " not in line]
+    assert all(w.startswith("tcp://127.0.0.1:") for _, w, _ in done), done  # workers on loopback only
+    assert {pid for *_, pid in done} - {str(os.getpid())}  # run in other processes
+    # every feasible case computed to completion exactly once, the victim included (on its second attempt)
+    assert log_counts(log) == Counter({k: 1 for k in all_keys() if "|2500|100" not in k})
+
+
+_KILL_SCRIPT = """
+import functools, sys
+sys.path.insert(0, {root!r})
+from optroute.study import run_study
+from tests.test_study import AXES, fuel_case
+
+if __name__ == "__main__":
+    run_study(AXES, functools.partial(fuel_case, log={log!r}, delay_s={delay}), {store!r}, {how})
+"""
+
+
+def _start_study_subprocess(tmp_path: Path, store: Path, log: Path, delay: float, how: str) -> subprocess.Popen:
+    script = tmp_path / "run.py"
+    script.write_text(_KILL_SCRIPT.format(root=str(ROOT), log=str(log), store=str(store), delay=delay, how=how))
+    stderr = open(tmp_path / "stderr.txt", "wb")  # noqa: SIM115 - the child owns it
+    return subprocess.Popen([sys.executable, str(script)], cwd=tmp_path, stderr=stderr)
+
+
+def _wait_for_cases(proc: subprocess.Popen, store: Path, n: int, timeout_s: float) -> None:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if (store / "cases").is_dir() and len(case_files(store)) >= n:
+            return
+        if proc.poll() is not None:
+            raise AssertionError(f"study exited early: {(store.parent / 'stderr.txt').read_text()[-2000:]}")
+        time.sleep(0.01)
+    proc.kill()
+    raise AssertionError(f"no {n} case files after {timeout_s} s")
+
+
+def test_study_killed_halfway_resumes_with_every_case_once(tmp_path):
+    psutil = pytest.importorskip("psutil")
+    pytest.importorskip("distributed")
+    store, log = tmp_path / "s", tmp_path / "log"
+    proc = _start_study_subprocess(tmp_path, store, log, delay=0.2, how="n_workers=2")
+    _wait_for_cases(proc, store, 6, timeout_s=40)
+    workers = psutil.Process(proc.pid).children(recursive=True)
+    os.kill(proc.pid, signal.SIGKILL)  # the client stops dead: no cleanup, no final combine
+    proc.wait(timeout=10)
+    _, alive = psutil.wait_procs(workers, timeout=15)  # orphaned workers notice their parent is gone
+    for p in alive:  # pragma: no cover - would be a leak of our own subprocesses
+        p.kill()
+    assert not alive, "worker processes outlived the killed client"
+    first = stored_keys(store)
+    assert 6 <= len(first) < N_CASES
+    assert not (store / "study.nc").exists()
+    partial = load_study(store)
+    assert int((partial.status == "missing").sum()) == N_CASES - len(first)
+    assert np.isnan(partial.fuel_t.where(partial.status == "missing")).all()
+
+    ds = run_study(AXES, functools.partial(fuel_case, log=str(log)), store, scheduler_address="synchronous")
+    np.testing.assert_allclose(ds.fuel_t.values, analytic_fuel(), rtol=1e-15)
+    statuses = ds.status.values.astype(str).ravel()
+    assert sum(s == "ok" for s in statuses) == N_CASES - len(SHIP_K)
+    assert all(s == "ok" or s.startswith("failed: InfeasibleETA") for s in statuses)
+    assert int((ds.status == "missing").sum()) == 0
+    assert len(case_files(store)) == N_CASES  # every case present, once (one file per key)
+    counts = log_counts(log)
+    assert {k for k in first if "|2500|100" not in k} <= set(counts)
+    assert all(counts[k] == 1 for k in first if "|2500|100" not in k)  # stored cases were not recomputed
+    assert all(counts[k] >= 1 for k in all_keys() if "|2500|100" not in k)
+
+
+# --------------------------------------------------------------------------- atomic writes
+
+
+def test_interrupted_case_write_leaves_no_case_file(tmp_path, monkeypatch):
+    store, log = tmp_path / "s", tmp_path / "log"
+    real = _store._write_all
+    writes = []
+
+    def interrupted(fh, data):
+        writes.append(fh.name)
+        if len([w for w in writes if "/cases/" in w]) == 3:  # the third case: half its bytes, then the user hits Ctrl-C
+            fh.write(memoryview(data)[: len(data) // 2])
+            fh.flush()
+            raise KeyboardInterrupt
+        real(fh, data)
+
+    monkeypatch.setattr(_store, "_write_all", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        run_study(AXES, functools.partial(fuel_case, log=str(log)), store, scheduler_address="synchronous")
+    assert case_files(store) == ["0-0-0.nc", "0-0-1.nc"]
+    assert not [p for p in (store / "cases").iterdir() if p.name.startswith(".tmp-")]
+    assert "0-0-2.nc" not in os.listdir(store / "cases")
+    monkeypatch.setattr(_store, "_write_all", real)
+
+    ds = run_study(AXES, functools.partial(fuel_case, log=str(log)), store, scheduler_address="synchronous")
+    np.testing.assert_allclose(ds.fuel_t.values, analytic_fuel(), rtol=1e-15)
+    counts = log_counts(log)
+    assert counts["feeder|1000|100"] == counts["feeder|1000|150"] == 1
+    assert counts["feeder|1000|200"] == 2  # computed, never stored, computed again
+
+
+_CRASH_SCRIPT = """
+import functools, os, signal, sys
+sys.path.insert(0, {root!r})
+from optroute import _store
+from optroute.study import run_study
+from tests.test_study import AXES, fuel_case
+
+real, n = _store._write_all, []
+
+def crash(fh, data):
+    n.append("/cases/" in fh.name)
+    if sum(n) == 4:  # the process dies half-way through the fourth case file
+        fh.write(memoryview(data)[: len(data) // 2])
+        fh.flush()
+        os.fsync(fh.fileno())
+        os.kill(os.getpid(), signal.SIGKILL)
+    real(fh, data)
+
+_store._write_all = crash
+run_study(AXES, fuel_case, {store!r}, scheduler_address="synchronous")
+"""
+
+
+def test_process_killed_during_a_write_leaves_only_a_temporary(tmp_path):
+    store = tmp_path / "s"
+    script = tmp_path / "crash.py"
+    script.write_text(_CRASH_SCRIPT.format(root=str(ROOT), store=str(store)))
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, timeout=60)
+    assert out.returncode == -signal.SIGKILL, out.stderr.decode()[-2000:]
+    assert case_files(store) == ["0-0-0.nc", "0-0-1.nc", "0-0-2.nc"]
+    tmp = [p for p in (store / "cases").iterdir() if p.name.startswith(".tmp-")]
+    assert len(tmp) == 1 and tmp[0].name.startswith(".tmp-0-0-3.nc")  # the half-written bytes, under a temp name
+    assert load_study(store).status.sel(ship="feeder", distance_nm=1000.0, eta_h=250.0).item() == "missing"
+    ds = run_study(AXES, fuel_case, store, scheduler_address="synchronous")
+    assert not [p for p in (store / "cases").iterdir() if p.name.startswith(".")]
+    np.testing.assert_allclose(ds.fuel_t.values, analytic_fuel(), rtol=1e-15)
+
+
+def test_failed_store_write_is_a_study_error_naming_the_fix(tmp_path, monkeypatch):
+    real = _store._write_all
+
+    def disk_full(fh, data):
+        if "/cases/" not in fh.name:
+            return real(fh, data)
+        fh.write(memoryview(data)[:10])
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(_store, "_write_all", disk_full)
+    with pytest.raises(StudyError, match="No space left on device.*free disk space.*resume"):
+        run_study(AXES, fuel_case, tmp_path / "s", scheduler_address="synchronous")
+    assert case_files(tmp_path / "s") == []
+    assert not list((tmp_path / "s" / "cases").iterdir())
+
+
+# --------------------------------------------------------------------------- failures per case
+
+
+def test_failing_cases_are_recorded_not_retried_unless_asked(tmp_path):
+    store, log = tmp_path / "s", tmp_path / "log"
+    case = functools.partial(fuel_case, log=str(log))
+    ds = run_study(AXES, case, store, scheduler_address="synchronous")
+    failed = ds.status.values.astype(str)
+    assert sum(s.startswith("failed: InfeasibleETA") for s in failed.ravel()) == len(SHIP_K)
+    assert np.isnan(ds.fuel_t.sel(distance_nm=2500.0, eta_h=100.0)).all()
+    tb = xr.open_dataset(store / "cases" / "0-1-0.nc", engine="h5netcdf").attrs[_store.TRACEBACK_ATTR]
+    assert "InfeasibleETA" in tb and "fuel_case" in tb
+    calls = []
+    again = run_study(AXES, case, store, scheduler_address="synchronous", progress=lambda *a: calls.append(a))
+    assert calls == [(N_CASES, N_CASES)]  # nothing left to do; failed cases are done
+    xr.testing.assert_identical(again.drop_vars("runtime_s"), ds.drop_vars("runtime_s"))
+    assert log_counts(log) == Counter({k: 1 for k in all_keys() if "|2500|100" not in k})
+    calls.clear()
+    run_study(
+        AXES, case, store, scheduler_address="synchronous", retry_failed=True, progress=lambda *a: calls.append(a)
+    )
+    assert calls[0] == (N_CASES - len(SHIP_K), N_CASES) and calls[-1] == (N_CASES, N_CASES)
+
+
+def test_reserved_result_name_fails_that_case_with_the_fix(tmp_path):
+    ds = run_study({"a": [1, 2]}, reserved_name_case, tmp_path / "s", scheduler_address="synchronous")
+    assert all("reserves" in s and "rename it" in s for s in ds.status.values.astype(str))
+
+
+def test_unpicklable_case_fn_is_refused_before_any_cluster_starts(tmp_path):
+    pytest.importorskip("distributed")
+    case = functools.partial(fuel_case, log=threading.Lock())
+    t0 = time.perf_counter()
+    with pytest.raises(ConfigError, match="cannot be pickled.*module-level"):
+        run_study(AXES, case, tmp_path / "s", n_workers=2)
+    assert time.perf_counter() - t0 < 2
+
+
+# --------------------------------------------------------------------------- schedulers
+
+
+def test_unreachable_scheduler_fails_fast_naming_the_address(tmp_path):
+    pytest.importorskip("distributed")
+    address = "tcp://127.0.0.1:1"
+    t0 = time.perf_counter()
+    with pytest.raises(SchedulerUnreachable, match="tcp://127.0.0.1:1") as info:
+        run_study(AXES, fuel_case, tmp_path / "s", scheduler_address=address, timeout_s=5)
+    assert time.perf_counter() - t0 < 5 + 3
+    assert isinstance(info.value, OptrouteError) and info.value.address == address
+    assert "dask scheduler" in str(info.value) and "scheduler_address=None" in str(info.value)
+    assert case_files(tmp_path / "s") == []
+
+
+def test_silent_scheduler_times_out_within_timeout(tmp_path):
+    """A port that accepts connections but never speaks Dask: fail after ~timeout_s, not hang."""
+    pytest.importorskip("distributed")
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    try:
+        t0 = time.perf_counter()
+        with pytest.raises(SchedulerUnreachable, match=address):
+            run_study(AXES, fuel_case, tmp_path / "s", scheduler_address=address, timeout_s=2)
+        assert time.perf_counter() - t0 < 2 + 4
+    finally:
+        server.close()
+
+
+def test_bad_options_are_config_errors(tmp_path):
+    with pytest.raises(ConfigError, match="n_workers=2 applies to the local cluster only"):
+        run_study(AXES, fuel_case, tmp_path / "s", scheduler_address="tcp://127.0.0.1:1", n_workers=2)
+    with pytest.raises(ConfigError, match="timeout_s"):
+        run_study(AXES, fuel_case, tmp_path / "s", timeout_s=0)
+    with pytest.raises(StudyError, match="suffix '.csv'"):
+        run_study(AXES, fuel_case, tmp_path / "s", scheduler_address="synchronous", output=tmp_path / "x.csv")
+
+
+# --------------------------------------------------------------------------- store and axes
+
+
+def test_resume_refuses_other_axes_and_resume_false_starts_over(tmp_path):
+    store = tmp_path / "s"
+    run_study({"ship": ["feeder"], "distance_nm": [1000.0], "eta_h": [100.0, 200.0]}, fuel_case, store, n_workers=0)
+    with pytest.raises(StudyError, match=r"axis 'eta_h' value #1 is 200.0 in the store but 250.0.*resume=False"):
+        run_study({"ship": ["feeder"], "distance_nm": [1000.0], "eta_h": [100.0, 250.0]}, fuel_case, store, n_workers=0)
+    with pytest.raises(StudyError, match="axes"):
+        run_study({"ship": ["feeder"], "eta_h": [100.0, 200.0]}, fuel_case, store, n_workers=0)
+    ds = run_study(
+        {"ship": ["feeder"], "distance_nm": [1000.0], "eta_h": [100.0, 250.0]},
+        fuel_case,
+        store,
+        n_workers=0,
+        resume=False,
+    )
+    assert ds.fuel_t.sel(eta_h=250.0).item() == pytest.approx(1e-6 * 1e9 / 250.0**2)
+
+
+def test_store_is_locked_while_a_run_writes_it(tmp_path):
+    store = tmp_path / "s"
+    store.mkdir()
+    with _store.locked(store), pytest.raises(StudyError, match="another run"):
+        run_study(AXES, fuel_case, store, n_workers=0)
+
+
+def test_load_study_without_a_store_says_so(tmp_path):
+    with pytest.raises(StudyError, match="manifest.json is missing"):
+        load_study(tmp_path)
+
+
+def test_zarr_output_by_suffix(tmp_path):
+    pytest.importorskip("zarr")
+    out = tmp_path / "front.zarr"
+    ds = run_study(AXES, fuel_case, tmp_path / "s", n_workers=0, output=out)
+    back = xr.open_zarr(out).load()
+    np.testing.assert_array_equal(back.fuel_t.values, ds.fuel_t.values)
+    assert [str(v) for v in back.status.values.ravel()] == [str(v) for v in ds.status.values.ravel()]
+    again = load_study(tmp_path / "s", output=out)  # replaces the existing Zarr store atomically
+    xr.testing.assert_equal(xr.open_zarr(out).fuel_t.load(), again.fuel_t)
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".tmp-")]
+
+
+def test_ragged_fronts_are_padded_and_keep_their_own_coordinates(tmp_path):
+    ds = run_study({"n": [2, 4], "start_h": [100.0, 200.0]}, ragged_case, tmp_path / "s", n_workers=0)
+    assert ds.fuel_t.dims == ("n", "start_h", "point") and ds.sizes["point"] == 4
+    np.testing.assert_array_equal(ds.point.values, np.arange(4))
+    row = ds.sel(n=2, start_h=200.0)
+    np.testing.assert_allclose(row.fuel_t.values[:2], 100.0 / np.array([200.0, 210.0]))
+    assert np.isnan(row.fuel_t.values[2:]).all() and np.isnan(row.eta_h.values[2:]).all()
+    assert ds.feasible.dtype == float  # bool with holes → float with NaN
+    ds2 = run_study({"start_h": [100.0, 200.0]}, ragged_index_case, tmp_path / "t", n_workers=0)
+    assert "case_eta_front" in ds2.coords and "eta_front" not in ds2.indexes
+    np.testing.assert_allclose(ds2.case_eta_front.sel(start_h=200.0), [200.0, 210.0, 220.0])
+
+
+def test_time_and_object_axes(tmp_path):
+    etas = np.array(["2024-01-02T00:00", "2024-01-03T12:00"], dtype="datetime64[s]")
+    ships = [_NamedShip("feeder", 120.0), _NamedShip("vlcc", 330.0)]
+    ds = run_study({"ship": ships, "eta": etas}, time_case, tmp_path / "s", n_workers=0)
+    assert list(ds.ship.values) == ["feeder", "vlcc"] and ds.eta.dtype == np.dtype("datetime64[ns]")
+    np.testing.assert_allclose(ds.hours.sel(ship="vlcc").values, [24.0, 60.0])
+    np.testing.assert_allclose(ds.ship_length_m.sel(eta=etas[0]).values, [120.0, 330.0])
+    by_map = run_study({"ship": {"a": ships[0], "b": ships[1]}, "eta": etas}, time_case, tmp_path / "m", n_workers=0)
+    assert list(by_map.ship.values) == ["a", "b"]
+
+
+@pytest.mark.parametrize(
+    ("axes", "match"),
+    [
+        ({}, "non-empty mapping"),
+        ({"eta": []}, "empty"),
+        ({"eta": [1.0, 1.0]}, "twice"),
+        ({"eta": {1.0, 2.0}}, "order is not stable"),
+        ({"eta": "abc"}, "wrap a single value"),
+        ({"wx": [object(), object()]}, "mapping"),
+        ({"status": [1]}, "reserved"),
+        ({"eta": [1.0, float("nan")]}, "non-finite"),
+    ],
+)
+def test_bad_axes_are_config_errors(tmp_path, axes, match):
+    with pytest.raises(ConfigError, match=match):
+        run_study(axes, fuel_case, tmp_path / "s", n_workers=0)
+
+
+def test_existing_cluster_through_its_address(tmp_path, monkeypatch):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=None
+    ) as cluster:
+        ds = run_study(AXES, fuel_case, tmp_path / "s", scheduler_address=cluster.scheduler_address)
+        worker = next(iter(cluster.workers.values())).address
+        with pytest.raises(SchedulerUnreachable, match="answers as a Dask Worker, not a scheduler"):
+            run_study(AXES, fuel_case, tmp_path / "t", scheduler_address=worker)
+        # workers that cannot write the store stop the study with the fix, recording no case as failed
+        real = _store._write_all
+
+        def read_only_cases(fh, data):
+            if "/cases/" in fh.name:
+                raise PermissionError(13, "Permission denied")
+            real(fh, data)
+
+        monkeypatch.setattr(_store, "_write_all", read_only_cases)
+        with pytest.raises(StudyError, match="shared filesystem.*store_on_workers=False"):
+            run_study(
+                AXES, fuel_case, tmp_path / "u", scheduler_address=cluster.scheduler_address, store_on_workers=True
+            )
+        assert case_files(tmp_path / "u") == []
+    np.testing.assert_allclose(ds.fuel_t.values, analytic_fuel(), rtol=1e-15)
+    assert int((ds.status == "ok").sum()) == N_CASES - len(SHIP_K)
