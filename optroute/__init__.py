@@ -26,6 +26,7 @@ from optroute.route import Corridor, Route
 from optroute.routing import search_route
 from optroute.safety import BandRules, ForbiddenInterval, band_margins, forbidden_speed_intervals
 from optroute.ship import Ship
+from optroute.study import StudyError, load_study, run_study
 from optroute.weather import WeatherSampler, open_weather, scenarios
 
 __version__ = "0.1.0"
@@ -40,12 +41,15 @@ __all__ = [
     "PowerTableModel",
     "Route",
     "Ship",
+    "StudyError",
     "WeatherSampler",
     "open_weather",
+    "run_study",
     "scenarios",
     "search_route",
     "band_margins",
     "forbidden_speed_intervals",
+    "load_study",
     "ConfigError",
     "InfeasibleETA",
     "NoSafePassage",
