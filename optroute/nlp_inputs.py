@@ -45,10 +45,10 @@ from formulations._common import G_OVER_2PI_KN_S, Band, CorridorGeometry, Moving
 from optroute import geo, land, seaway, units
 from optroute.errors import NoSafePassage, OnLandError, WeatherCoverageError
 from optroute.performance import PerformanceModel
-from optroute.plan import Exclusion, gc_points, project_to_polyline
 from optroute.route import Corridor
 from optroute.safety import IMO_HIGH_WAVE_TE_OVER_T, IMO_SURF_RIDING_KN_PER_SQRT_M, BandRules
 from optroute.ship import Ship
+from optroute.tracks import Exclusion, gc_points, project_to_polyline
 from optroute.weather.sample import WeatherSampler
 
 __all__ = [
