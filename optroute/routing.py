@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike
 from optroute import geo, land, units
 from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
-from optroute.passage import SeaState, SpeedChoice, best_speed, cheapest_speed
+from optroute.passage import SeaState, SpeedChoice, best_speed, cheapest_speed, evaluate_speeds
 from optroute.performance import PerformanceModel, default_model
 from optroute.route import Corridor, Route
 from optroute.safety import BANDS, BandRules, band_margins
@@ -122,25 +122,142 @@ class PassagePhysics:
         }
         return dur, fuel, feas, extra
 
-    def segment_time(self, desired_stw_kn: float, step_kn: float, min_stw_kn: float) -> Callable:
-        """Segment-cost callback: Boeing speed reduction from the desired speed."""
+    def segment_time(
+        self, desired_stw_kn: float, step_kn: float, min_stw_kn: float, check_nm: float | None = None
+    ) -> Callable:
+        """Segment-cost callback: Boeing speed reduction from the desired speed.
 
-        def cost(lat, lon, course, length_nm, t_h):
+        With ``check_nm`` the speed is checked along the piece, see :meth:`segment_checked`.
+        """
+
+        def first(lat, lon, course, t_h):
             sea = self.sea(lat, lon, t_h)
             choice = best_speed(
                 self.ship, self.model, self.rules, course, sea, desired_stw_kn, step_kn=step_kn, min_stw_kn=min_stw_kn
             )
-            return self._record(choice, sea, length_nm)
+            return choice, sea
+
+        if check_nm is not None:
+            ladder = desired_stw_kn - step_kn * np.arange(int(np.floor((desired_stw_kn - min_stw_kn) / step_kn + 1e-9)) + 1)
+            return self.segment_checked(first, ladder, None, check_nm)
+
+        def cost(lat, lon, course, length_nm, t_h):
+            return self._record(*first(lat, lon, course, t_h), length_nm)
 
         return cost
 
-    def segment_cheapest(self, speeds_kn: np.ndarray, lambda_t_per_h: float) -> Callable:
-        """Segment-cost callback: the speed of the set minimising fuel + λ·time."""
+    def segment_cheapest(self, speeds_kn: np.ndarray, lambda_t_per_h: float, check_nm: float | None = None) -> Callable:
+        """Segment-cost callback: the speed of the set minimising fuel + λ·time.
+
+        With ``check_nm`` the speed is checked along the piece, see :meth:`segment_checked`.
+        """
+
+        def first(lat, lon, course, t_h):
+            sea = self.sea(lat, lon, t_h)
+            return cheapest_speed(self.ship, self.model, self.rules, course, sea, speeds_kn, lambda_t_per_h), sea
+
+        if check_nm is not None:
+            return self.segment_checked(first, np.asarray(speeds_kn, dtype=float), lambda_t_per_h, check_nm)
 
         def cost(lat, lon, course, length_nm, t_h):
-            sea = self.sea(lat, lon, t_h)
-            choice = cheapest_speed(self.ship, self.model, self.rules, course, sea, speeds_kn, lambda_t_per_h)
-            return self._record(choice, sea, length_nm)
+            return self._record(*first(lat, lon, course, t_h), length_nm)
+
+        return cost
+
+    def segment_checked(
+        self, first: Callable, speeds_kn: np.ndarray, lambda_t_per_h: float | None, check_nm: float
+    ) -> Callable:
+        """Segment-cost callback whose one speed per piece holds along the whole piece, not only at its midpoint.
+
+        ``first(lat, lon, course, t_h) -> (SpeedChoice, SeaState)`` proposes a
+        speed from the piece's midpoint at the time the ship enters it (one sea
+        state per cell, as Boeing's Fig. 22).  The proposal is then checked
+        (danger bands, power within [min load, MCR], course held) at points
+        every ``check_nm`` [nm] or less along the piece, both ends included,
+        each at the time the ship reaches it at that speed.  A speed that fails
+        is struck out and the next one is taken from ``speeds_kn`` — the fastest
+        allowed at every point (``lambda_t_per_h`` None) or the one with the
+        least mean fuel + λ·time per mile over the points — and checked again at
+        its own times.  A piece where no speed survives (or that is still
+        unresolved after ``len(speeds_kn) + 10`` rounds) is infeasible.
+
+        Duration and fuel integrate 1/SOG and fuel rate over the points
+        (trapezoidal rule); heading, Hs, period and wave direction are reported
+        at the piece's midpoint.  The check is a sampling at ``check_nm``: a
+        band crossed between two points for less than their spacing can be
+        missed (checking at ``check_nm`` / 4 in the tests found none).
+        """
+        ship, model, rules = self.ship, self.model, self.rules
+        speeds = np.asarray(speeds_kn, dtype=float).ravel()
+        score = -speeds if lambda_t_per_h is None else None
+
+        def cost(lat, lon, course, length_nm, t_h):
+            n, k_n = lat.size, speeds.size
+            n_pts = 1 + 2 * np.maximum(1, np.ceil(length_nm / (2.0 * check_nm))).astype(int)  # odd: the midpoint is one
+            m = int(n_pts.max(initial=3))
+            frac = np.minimum(np.arange(m)[None, :], n_pts[:, None] - 1) / (n_pts[:, None] - 1)  # padded with the end
+            la, lo, crs = _piece_points(lat, lon, course, length_nm, frac)
+            seg = np.diff(frac, axis=1) * length_nm[:, None]
+            mid = ((n_pts - 1) // 2)[:, None]
+            choice, _ = first(lat, lon, course, t_h)
+            go = choice.feasible & (choice.sog_kn > 0)
+            guess = np.argmin(np.abs(speeds[None, :] - np.where(go, choice.stw_kn, -1.0)[:, None]), axis=1)
+            inv = np.repeat(np.where(go, 1.0 / np.where(go, choice.sog_kn, 1.0), 0.0)[:, None], m, axis=1)
+            struck = np.zeros((n, k_n), dtype=bool)
+            out = {k: np.full(n, np.nan) for k in ("dur", "fuel", "stw_kn", "power_kw", "heading_deg", "hs_m",
+                                                    "period_s", "wave_from_deg")}  # fmt: skip
+            feas = np.zeros(n, dtype=bool)
+            todo = np.flatnonzero(go)
+            for _ in range(k_n + 10):
+                if todo.size == 0:
+                    break
+                p = todo
+                tt = t_h[p, None] + _cumulative(0.5 * (inv[p, 1:] + inv[p, :-1]) * seg[p])
+                sea = self.sea(la[p].ravel(), lo[p].ravel(), tt.ravel())
+                spd = speeds[guess[p]]
+                head, sog, power, fuel, ok = (
+                    a.reshape(p.size, m)
+                    for a in evaluate_speeds(ship, model, rules, crs[p].ravel(), sea, np.repeat(spd, m))
+                )
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    ok = (ok & (sog > 0)).all(axis=1)
+                    inv_new = np.where(ok[:, None], 1.0 / sog, 0.0)
+                dt = 0.5 * (inv_new[:, 1:] + inv_new[:, :-1]) * seg[p]
+                done = ok & (np.abs(t_h[p, None] + _cumulative(dt) - tt).max(axis=1) <= 1e-3)
+                d, idx = np.flatnonzero(done), p[done]
+                out["dur"][idx] = dt[d].sum(axis=1)
+                out["fuel"][idx] = (0.5 * (fuel[d, 1:] + fuel[d, :-1]) * dt[d]).sum(axis=1)
+                out["power_kw"][idx] = (0.5 * (power[d, 1:] + power[d, :-1]) * dt[d]).sum(axis=1) / out["dur"][idx]
+                out["stw_kn"][idx] = spd[d]
+                out["heading_deg"][idx] = np.take_along_axis(head[d], mid[idx], axis=1)[:, 0]
+                for name in ("hs_m", "period_s", "wave_from_deg"):
+                    out[name][idx] = np.take_along_axis(getattr(sea, name).reshape(p.size, m)[d], mid[idx], axis=1)[:, 0]
+                feas[idx] = True
+                again = ok & ~done  # allowed, but the times were not yet its own: check again at them
+                inv[p[again]] = inv_new[again]
+                bad = np.flatnonzero(~ok)
+                struck[p[bad], guess[p[bad]]] = True
+                found = np.zeros(0, dtype=int)
+                if bad.size:
+                    sub = SeaState(*(np.asarray(getattr(sea, f)).reshape(p.size, m)[bad].ravel()
+                                     for f in SeaState.__dataclass_fields__))  # fmt: skip
+                    _, sog_k, _, fuel_k, ok_k = evaluate_speeds(
+                        ship, model, rules, crs[p[bad]].ravel(), sub, np.broadcast_to(speeds, (bad.size * m, k_n))
+                    )
+                    sog_k, fuel_k, ok_k = (a.reshape(bad.size, m, k_n) for a in (sog_k, fuel_k, ok_k))
+                    with np.errstate(invalid="ignore", divide="ignore"):
+                        ok_k = (ok_k & (sog_k > 0)).all(axis=1) & ~struck[p[bad]]
+                        rank = (np.broadcast_to(score, ok_k.shape) if score is not None
+                                else ((fuel_k + lambda_t_per_h) / sog_k).mean(axis=1))  # fmt: skip
+                    rank = np.where(ok_k, rank, np.inf)
+                    k = np.argmin(rank, axis=1)
+                    has = np.isfinite(rank[np.arange(bad.size), k])
+                    found = p[bad[has]]
+                    guess[found] = k[has]
+                    inv[found] = 1.0 / np.take_along_axis(sog_k[has], k[has, None, None], axis=2)[:, :, 0]
+                todo = np.concatenate([p[again], found])
+            extra = {k: v for k, v in out.items() if k not in ("dur", "fuel")}
+            return np.where(feas, out["dur"], np.nan), np.where(feas, out["fuel"], np.nan), feas, extra
 
         return cost
 
@@ -178,6 +295,22 @@ class PassagePhysics:
             return dur, np.where(feas, fuel, np.nan), feas, extra
 
         return cost
+
+
+def _cumulative(dt: np.ndarray) -> np.ndarray:
+    """Running sums of (n, m - 1) intervals as (n, m) times from 0."""
+    return np.concatenate([np.zeros((dt.shape[0], 1)), np.cumsum(dt, axis=1)], axis=1)
+
+
+def _piece_points(lat, lon, course, length_nm, fractions):
+    """Points at ``fractions`` (n, m) of pieces given by midpoint, course there and length; the course at each."""
+    s = (fractions - 0.5) * length_nm[:, None]
+    shape = s.shape
+    la, lo = geo.destination(np.broadcast_to(lat[:, None], shape), np.broadcast_to(lon[:, None], shape),
+                             np.where(s >= 0, course[:, None], course[:, None] + 180.0), np.abs(s))  # fmt: skip
+    far_lat, far_lon = geo.destination(lat, lon, course, 0.5 * length_nm + 1.0)  # past the end, same great circle
+    crs = geo.initial_course_deg(la, lo, np.broadcast_to(far_lat[:, None], shape), np.broadcast_to(far_lon[:, None], shape))
+    return la, lo, crs
 
 
 def _points_along(lat0, lon0, lat1, lon1, fractions):
@@ -272,6 +405,7 @@ def search_route(
     rules: BandRules | None = None,
     use_land_mask: bool | None = None,
     snap_max_nm: float | None = None,
+    band_check_nm: float | None = 10.0,
     dp_options: dict[str, Any] | None = None,
 ) -> Route:
     """Search the route corridor through forecast weather.
@@ -329,6 +463,13 @@ def search_route(
         one cell around its end points (a 20 nm cell cannot enter Tokyo Bay),
         so ports are snapped with a clearance of half a cell; the last miles
         into port are pilotage, outside the routing problem.
+    band_check_nm : float or None
+        Grid search: each piece's speed is checked (danger bands, MCR) at
+        points at most this far apart along the piece [nm], ends included, at
+        the times the ship passes them (:meth:`PassagePhysics.segment_checked`).
+        ``None`` checks the piece's midpoint at its entry time only (Boeing's
+        one sea state per cell): faster, but a route can then cross a band
+        between midpoints.
     dp_options : dict, optional
         Passed to :func:`optroute.search.dp.solve_dp` (``dx_nm``, ``dy_nm``,
         ``half_width_nm``, ``dt_h`` …) for ``method="dp"``.
@@ -336,6 +477,11 @@ def search_route(
     Returns
     -------
     Route
+        For the grid search, ``stats["pieces"]`` holds the per-piece records
+        of the route (``leg``, ``lat_deg``/``lon_deg`` of the midpoint,
+        ``course_deg``, ``length_nm``, ``t_h`` entry [h from departure],
+        ``duration_h``, ``stw_kn``, ``heading_deg``, ``power_kw``, …): the
+        speed actually sailed on each piece.
 
     Raises
     ------
@@ -398,12 +544,16 @@ def search_route(
     grid = RouteGrid.build(start, end, cell_nm=cell_nm, margin_nm=margin_nm, navigable=nav)
     hood = _neighbourhood(angular_resolution_deg, directions, radius_cells)
 
+    check = None if band_check_nm is None else float(
+        finite("band_check_nm", band_check_nm, minimum=0.0, strict=True, error=ConfigError)
+    )
+
     def run(lam: float | None):
         if objective == "time" and lam is None:
-            cb = physics.segment_time(desired, speed_step_kn, min_speed_kn)
+            cb = physics.segment_time(desired, speed_step_kn, min_speed_kn, check)
             return shortest_path(grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="time",
                                  eta_h=eta_h)
-        cb = physics.segment_cheapest(speeds, lam)
+        cb = physics.segment_cheapest(speeds, lam, check)
         return shortest_path(grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="cost",
                              lambda_t_per_h=lam)
 
@@ -519,6 +669,7 @@ def _route_from_search(res, physics: PassagePhysics, t0, objective, method, lam,
             "lambda_t_per_h": lam,
             "neighbourhood": res.neighbourhood,
             "runtime_s": _time.perf_counter() - t_start,
+            "pieces": piece_extra,
         },
     )
 
