@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike
 
 from optroute import geo, land, units
 from optroute._checks import finite
-from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
+from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, WeatherCoverageError
 from optroute.passage import SeaState, SpeedChoice, best_speed, cheapest_speed, evaluate_speeds
 from optroute.performance import PerformanceModel, default_model
 from optroute.route import Corridor, Route
@@ -508,6 +508,12 @@ def search_route(
             raise ConfigError(f"eta={eta_t} is not after departure={t0}; give an arrival later than the departure")
     ds = weather if isinstance(weather, xr.Dataset) else None
     sampler = as_sampler(weather)
+    first_t, last_t = sampler.extent["time"]
+    if sampler.time_policy == "raise" and not first_t <= t0 <= last_t:
+        raise WeatherCoverageError(
+            f"departure={t0} lies outside the weather's time span {first_t} to {last_t}; give a departure inside "
+            "it or a forecast that covers it"
+        )
     model = model if model is not None else default_model(ship)
     rules = rules if rules is not None else BandRules()
     desired = float(desired_speed_kn if desired_speed_kn is not None else ship.design_speed_kn)
@@ -561,7 +567,19 @@ def search_route(
         res, lam_used = _run_objective(run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t)
     except NoSafePassage as exc:
         raise _explain(exc, physics) from None
+    except InfeasibleETA as exc:
+        raise _eta_as_time(exc, t0) from None
     return _route_from_search(res, physics, t0, objective, method, lam_used, t_start)
+
+
+def _eta_as_time(exc: InfeasibleETA, t0: np.datetime64) -> InfeasibleETA:
+    """The search's :class:`InfeasibleETA` with ``earliest_arrival`` as a UTC time (the searches give hours)."""
+    early = exc.earliest_arrival
+    if early is None or isinstance(early, np.datetime64):
+        return exc
+    out = InfeasibleETA(f"{exc} (at {t0 + _h_to_td(float(early))})", earliest_arrival=t0 + _h_to_td(float(early)))
+    out.earliest_arrival_h = float(early)  # type: ignore[attr-defined]
+    return out
 
 
 def _explain(exc: NoSafePassage, physics: PassagePhysics) -> Exception:
@@ -689,6 +707,8 @@ def _search_dp(physics: PassagePhysics, start, end, eta_h, speeds, opts, objecti
         res = solve_dp(start, end, physics.dp_leg(piece_nm), eta_h=eta_h, speeds_kn=speeds, navigable=navigable, **opts)
     except NoSafePassage as exc:
         raise _explain(exc, physics) from None
+    except InfeasibleETA as exc:
+        raise _eta_as_time(exc, physics.departure) from None
     p = res.path
     n_legs = p.lat_deg.size - 1
     wp = np.column_stack([p.lat_deg, p.lon_deg])
