@@ -537,7 +537,10 @@ def search_route(
     v_bound = ceiling + _max_current_kn(ds) + 1e-6
 
     if method == "dp":
-        return _search_dp(physics, start, end, eta_h, speeds, dict(dp_options or {}), objective, t_start)
+        coast = use_land_mask if use_land_mask is not None else not (
+            ds is not None and ds.attrs.get("geography") == land.SYNTHETIC_GEOGRAPHY
+        )
+        return _search_dp(physics, start, end, eta_h, speeds, dict(dp_options or {}), objective, t_start, bool(coast))
 
     def nav(lat, lon):
         covered = sampler.covers(np.full(np.shape(lat), t0), lat, lon)
@@ -692,14 +695,15 @@ def _route_from_search(res, physics: PassagePhysics, t0, objective, method, lam,
     )
 
 
-def _search_dp(physics: PassagePhysics, start, end, eta_h, speeds, opts, objective, t_start) -> Route:
+def _search_dp(physics: PassagePhysics, start, end, eta_h, speeds, opts, objective, t_start, coast: bool) -> Route:
     if objective == "time" and eta_h is not None:
         raise ConfigError("the DP minimises fuel for an ETA; use objective='fuel' with method='dp'")
     piece_nm = float(opts.pop("piece_nm", 30.0))
     sampler = physics.sampler
 
-    def navigable(lat, lon, t_h):
-        return physics.sea(lat, lon, np.broadcast_to(t_h, np.shape(lat))).navigable
+    def navigable(lat, lon, t_h):  # the weather's no-passage cells, and the coastline as in the grid search
+        ok = physics.sea(lat, lon, np.broadcast_to(t_h, np.shape(lat))).navigable
+        return ok & ~land.is_land(lat, lon) if coast else ok
 
     t_last = (sampler.extent["time"][1] - physics.departure) / np.timedelta64(1, "s") / 3600.0
     opts.setdefault("horizon_h", float(t_last))
