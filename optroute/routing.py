@@ -267,7 +267,9 @@ class PassagePhysics:
         Seed 001 simulates each stage in time steps: here each leg is cut into
         pieces of at most ``piece_nm``; at each piece, at the time the ship is
         there, the STW needed to make the SOG good against the current, its
-        power (within [min load, MCR]) and the danger bands are checked.
+        power (within [min load, MCR]) and the danger bands are checked.  The
+        number of pieces is each leg's own (the legs of one call are padded to
+        the longest), so a leg costs the same whichever legs it is batched with.
         """
         from optroute.passage import evaluate_speeds
         from optroute.speed_loss import stw_for_sog
@@ -275,10 +277,12 @@ class PassagePhysics:
         def cost(lat0, lon0, lat1, lon1, t0_h, sog_kn):
             n = lat0.shape[0]
             dist = geo.distance_nm(lat0, lon0, lat1, lon1)
-            m = max(1, int(np.ceil(float(dist.max(initial=0.0)) / piece_nm)))
-            f = (np.arange(m) + 0.5) / m
+            n_pc = np.maximum(1, np.ceil(dist / piece_nm)).astype(int)[:, None]
+            m = int(n_pc.max(initial=1))
+            f = (np.minimum(np.arange(m)[None, :], n_pc - 1) + 0.5) / n_pc  # padded with the last piece
+            w = (np.arange(m)[None, :] < n_pc) / n_pc
             lat, lon, course = _points_along(lat0, lon0, lat1, lon1, f)
-            t = t0_h[:, None] + (f[None, :] * dist[:, None]) / sog_kn[:, None]
+            t = t0_h[:, None] + (f * dist[:, None]) / sog_kn[:, None]
             sea = self.sea(lat.ravel(), lon.ravel(), t.ravel())
             sog = np.repeat(sog_kn, m)
             stw, _ = stw_for_sog(course.ravel(), sog, sea.current_u_ms, sea.current_v_ms)
@@ -289,9 +293,9 @@ class PassagePhysics:
             )
             allowed = (allowed & ok_stw).reshape(n, m)
             dur = dist / sog_kn
-            fuel = np.where(np.isfinite(fuel_tph), fuel_tph, 0.0).reshape(n, m).mean(axis=1) * dur
+            fuel = (np.where(np.isfinite(fuel_tph), fuel_tph, 0.0).reshape(n, m) * w).sum(axis=1) * dur
             feas = allowed.all(axis=1)
-            extra = {"stw_kn": stw.reshape(n, m).mean(axis=1), "power_kw": power.reshape(n, m).mean(axis=1)}
+            extra = {"stw_kn": (stw.reshape(n, m) * w).sum(axis=1), "power_kw": (power.reshape(n, m) * w).sum(axis=1)}
             return dur, np.where(feas, fuel, np.nan), feas, extra
 
         return cost
@@ -314,13 +318,14 @@ def _piece_points(lat, lon, course, length_nm, fractions):
 
 
 def _points_along(lat0, lon0, lat1, lon1, fractions):
-    """Points at ``fractions`` along each great-circle leg, and the course there [deg]."""
+    """Points at ``fractions`` (shape (m,), or (n, m) per leg) along each great-circle leg, and the course there [deg]."""
     p0 = np.radians(np.stack([lat0, lon0], axis=-1))
     p1 = np.radians(np.stack([lat1, lon1], axis=-1))
     a = np.stack([np.cos(p0[:, 0]) * np.cos(p0[:, 1]), np.cos(p0[:, 0]) * np.sin(p0[:, 1]), np.sin(p0[:, 0])], -1)
     b = np.stack([np.cos(p1[:, 0]) * np.cos(p1[:, 1]), np.cos(p1[:, 0]) * np.sin(p1[:, 1]), np.sin(p1[:, 0])], -1)
     omega = np.arccos(np.clip(np.sum(a * b, axis=-1), -1.0, 1.0))[:, None, None]
-    f = np.asarray(fractions)[None, :, None]
+    f = np.asarray(fractions, dtype=float)
+    f = (f if f.ndim == 2 else f[None, :])[:, :, None]
     with np.errstate(invalid="ignore", divide="ignore"):
         w0 = np.where(omega > 1e-12, np.sin((1 - f) * omega) / np.sin(omega), 1 - f)
         w1 = np.where(omega > 1e-12, np.sin(f * omega) / np.sin(omega), f)
