@@ -178,13 +178,17 @@ def optimise_corridor(
     Returns
     -------
     Plan
-        Verified (``plan.verify() == []``). ``solver_stats`` holds: ``ipopt_status`` (verbatim),
-        ``iterations``, ``nlp_solves``, ``outer_flips``, ``outer_history``, ``solve_time_s``,
-        ``build_time_s``, ``total_time_s``, ``fit_max_rel_error``, ``fit_rms_rel_error``,
-        ``sfoc_fit_max_rel_error``, ``nlp_objective`` (fitted model), ``nlp_fuel_t``,
-        ``frame_max_rel_distance_error``, ``retries``, ``tightening`` (log), ``certificate``
-        (fixed path in static weather: method and gap), ``n_legs``, ``samples_per_leg``,
-        ``weather_grid_shape``, ``eta_h_solved``.
+        Verified (``plan.verify() == []``); ``total_fuel_t`` and ``legs`` are the true model's.
+        ``solver_stats`` holds: ``ipopt_status`` (verbatim, of the returned solve), ``iterations``
+        (all solves), ``nlp_solves`` and ``outer_flips`` and ``outer_history`` (band outer loop),
+        ``solve_time_s``, ``build_time_s``, ``total_time_s``; the power fit's ``fit_max_rel_error``,
+        ``fit_rms_rel_error``, ``sfoc_fit_max_rel_error``, ``fit_points``; ``nlp_objective`` and
+        ``nlp_fuel_t`` (the fitted model's), ``nlp_max_violation``;
+        ``frame_max_rel_distance_error``; ``retries``, ``fit_corrections``, ``tightening`` (log),
+        ``max_load``, ``band_margin``, ``band_hs_margin``, ``bands`` (of the returned solve);
+        ``certificate`` (fixed path in static weather: ``method``, ``gap``; else ``reason``);
+        ``n_legs``, ``samples_per_leg``, ``weather_grid_shape``, ``weather_nodes_filled``,
+        ``eta_h_solved``.
 
     Raises
     ------
@@ -292,7 +296,7 @@ def optimise_corridor(
     fresh_start = False
     solve_kw = {"eta_mode": eta_mode, "objective": objective, "fuel_price": fuel_price, "hourly_cost": hourly}
 
-    best: tuple[float, Plan, Solved, float | None] | None = None
+    best: tuple[float, Plan, Solved, float | None, dict[str, Any]] | None = None
     last_violations: list[Violation] = []
     last: Solved | None = None
     solve_time = 0.0
@@ -330,7 +334,9 @@ def optimise_corridor(
         if not violations:
             score = _score(plan, objective, fuel_price, hourly)
             if best is None or score < best[0] - 1e-12 * max(1.0, abs(best[0])):
-                best = (score, plan, sol, eta_solve)
+                snapshot = {"max_load": st.max_load, "band_margin": st.widen, "band_hs_margin": st.hs_margin,
+                            "bands": list(prob.band_names)}
+                best = (score, plan, sol, eta_solve, snapshot)
             if st.corrections >= fit_corrections:
                 break
             ratio = _correction(plan, sol.res)
@@ -355,7 +361,7 @@ def optimise_corridor(
             status=status,
             best_plan=_route_plan(route, ctx, verify_step_nm),
         )
-    _, plan, sol, eta_solve = best
+    _, plan, sol, eta_solve, snapshot = best
     _emit(progress, "certificate", 0.95)
     res = sol.res
     cert: dict[str, Any] = {"method": "not applicable", "gap": float("nan")}
@@ -391,12 +397,10 @@ def optimise_corridor(
         "retries": st.retries,
         "fit_corrections": st.corrections,
         "tightening": list(st.log),
-        "max_load": st.max_load,
-        "band_margin": st.widen,
+        **snapshot,
         "certificate": cert,
         "n_legs": frame.n_legs,
         "samples_per_leg": sol.nlp.samples_per_leg,
-        "bands": list(prob.band_names),
         "weather_grid_shape": list(np.shape(grid.hs_m)),
         "weather_nodes_filled": samples.filled,
         "eta_h_solved": eta_solve,
