@@ -21,7 +21,9 @@ from optroute.errors import (
     WeatherCoverageError,
     WeatherSchemaError,
 )
+from optroute.optimise import optimise_corridor, plan_voyage
 from optroute.performance import CalmWaterModel, KwonModel, PerformanceModel, PowerTableModel
+from optroute.plan import Exclusion, Plan, PlanContext, Violation
 from optroute.route import Corridor, Route
 from optroute.routing import search_route
 from optroute.safety import BandRules, ForbiddenInterval, band_margins, forbidden_speed_intervals
@@ -32,6 +34,12 @@ from optroute.weather import WeatherSampler, open_weather, scenarios
 __version__ = "0.1.0"
 
 __all__ = [
+    "Exclusion",
+    "Plan",
+    "PlanContext",
+    "Violation",
+    "optimise_corridor",
+    "plan_voyage",
     "BandRules",
     "CalmWaterModel",
     "Corridor",
