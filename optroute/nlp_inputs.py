@@ -49,6 +49,8 @@ from optroute.route import Corridor
 from optroute.safety import IMO_HIGH_WAVE_TE_OVER_T, IMO_SURF_RIDING_KN_PER_SQRT_M, BandRules
 from optroute.ship import Ship
 from optroute.tracks import Exclusion, gc_points, project_to_polyline
+from optroute.units import NS_PER_H as _NS_PER_H
+from optroute.units import h_to_timedelta as _h_to_td
 from optroute.weather.sample import WeatherSampler
 
 __all__ = [
@@ -62,11 +64,8 @@ __all__ = [
     "weather_grid",
 ]
 
-_NS_PER_H = 3.6e12
 
 
-def _h_to_td(h: ArrayLike) -> np.ndarray:
-    return np.round(np.asarray(h, dtype=float) * _NS_PER_H).astype("timedelta64[ns]")
 
 
 # --------------------------------------------------------------------------- frame

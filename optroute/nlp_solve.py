@@ -33,6 +33,7 @@ from optroute.route import Route
 from optroute.safety import BandRules
 from optroute.ship import Ship
 from optroute.tracks import Exclusion, gc_points, project_to_polyline
+from optroute.units import NS_PER_H as _NS_PER_H
 
 __all__ = [
     "Problem",
@@ -48,7 +49,6 @@ __all__ = [
     "warm_rules",
 ]
 
-_NS_PER_H = 3.6e12
 VIOLATION_TOL = 1e-6  # largest scaled constraint violation accepted from Ipopt
 
 

@@ -53,6 +53,9 @@ from optroute.plan import Exclusion, Plan, PlanContext, Violation
 from optroute.route import Corridor, Route
 from optroute.safety import BandRules
 from optroute.ship import Ship
+from optroute.units import as_utc_time as _as_time
+from optroute.units import h_to_timedelta as _h_to_td
+from optroute.units import timedelta_to_h as _hours
 from optroute.weather.sample import WeatherSampler
 
 __all__ = ["optimise_corridor", "plan_voyage"]
@@ -60,25 +63,12 @@ __all__ = ["optimise_corridor", "plan_voyage"]
 Objective = Literal["time", "fuel", "cost"]
 ProgressFn = Callable[[str, float], None]
 
-_NS_PER_H = 3.6e12
 
 
-def _h_to_td(h: float) -> np.timedelta64:
-    return np.timedelta64(int(round(float(h) * _NS_PER_H)), "ns")
 
 
-def _hours(td: Any) -> float:
-    return float(np.asarray(td, dtype="timedelta64[ns]").astype(np.int64)) / _NS_PER_H
 
 
-def _as_time(t: Any, what: str) -> np.datetime64:
-    try:
-        out = np.datetime64(t, "ns")
-    except (TypeError, ValueError):
-        raise ConfigError(f"{what}={t!r} is not a time; pass a numpy.datetime64 or an ISO string (UTC)") from None
-    if np.isnat(out):
-        raise ConfigError(f"{what} is NaT; pass a UTC time")
-    return out
 
 
 # --------------------------------------------------------------------------- main entry points

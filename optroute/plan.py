@@ -55,7 +55,11 @@ from optroute.route import Corridor
 from optroute.safety import BandRules, band_margins, is_speed_forbidden
 from optroute.ship import Ship
 from optroute.tracks import Exclusion, gc_points, project_to_polyline
+from optroute.units import as_utc_time as _as_time
+from optroute.units import h_to_timedelta as _h_to_td
+from optroute.units import timedelta_to_h as _td_to_h
 from optroute.weather.sample import WeatherSampler
+from optroute.weather.schema import VARIABLES
 
 __all__ = ["LEG_COLUMNS", "Exclusion", "Plan", "PlanContext", "Violation", "gc_points", "project_to_polyline"]
 
@@ -78,26 +82,13 @@ LEG_COLUMNS: tuple[str, ...] = (
     "encounter_period_s",
 )
 
-_SEA_VARS = ("hs_m", "tp_s", "tm_s", "wave_from_deg", "wind_u_ms", "wind_v_ms", "current_u_ms", "current_v_ms")
-_NS_PER_H = 3.6e12
+_SEA_VARS = tuple(VARIABLES)  # every canonical weather variable
 
 
-def _h_to_td(h: ArrayLike) -> np.ndarray:
-    return np.round(np.asarray(h, dtype=float) * _NS_PER_H).astype("timedelta64[ns]")
 
 
-def _td_to_h(td: ArrayLike) -> np.ndarray:
-    return np.asarray(td, dtype="timedelta64[ns]").astype(np.int64) / _NS_PER_H
 
 
-def _as_time(t: Any, what: str) -> np.datetime64:
-    try:
-        out = np.datetime64(t, "ns")
-    except (TypeError, ValueError):
-        raise ConfigError(f"{what}={t!r} is not a time; pass a numpy.datetime64 or an ISO string (UTC)") from None
-    if np.isnat(out):
-        raise ConfigError(f"{what} is NaT; pass a UTC time")
-    return out
 
 
 def _as_sampler(weather: xr.Dataset | WeatherSampler) -> tuple[WeatherSampler, xr.Dataset | None]:

@@ -17,7 +17,6 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import xarray as xr
-from numpy.typing import ArrayLike
 
 from optroute import geo, land, seaway, units
 from optroute.errors import ConfigError
@@ -27,30 +26,21 @@ from optroute.route import Corridor
 from optroute.safety import BANDS, BandRules, band_margins
 from optroute.ship import Ship
 from optroute.tracks import Exclusion, gc_points
+from optroute.units import as_utc_time as _as_time
+from optroute.units import h_to_timedelta as _h_to_td
+from optroute.units import timedelta_to_h as _td_to_h
 from optroute.weather.sample import WeatherSampler
+from optroute.weather.schema import VARIABLES
 
 __all__ = ["DenseTrack", "PlanContext", "Violation", "dense_points", "evaluate_track", "legs_table", "sample_sea"]
 
-_SEA_VARS = ("hs_m", "tp_s", "tm_s", "wave_from_deg", "wind_u_ms", "wind_v_ms", "current_u_ms", "current_v_ms")
-_NS_PER_H = 3.6e12
+_SEA_VARS = tuple(VARIABLES)  # every canonical weather variable
 
 
-def _h_to_td(h: ArrayLike) -> np.ndarray:
-    return np.round(np.asarray(h, dtype=float) * _NS_PER_H).astype("timedelta64[ns]")
 
 
-def _td_to_h(td: ArrayLike) -> np.ndarray:
-    return np.asarray(td, dtype="timedelta64[ns]").astype(np.int64) / _NS_PER_H
 
 
-def _as_time(t: Any, what: str) -> np.datetime64:
-    try:
-        out = np.datetime64(t, "ns")
-    except (TypeError, ValueError):
-        raise ConfigError(f"{what}={t!r} is not a time; pass a numpy.datetime64 or an ISO string (UTC)") from None
-    if np.isnat(out):
-        raise ConfigError(f"{what} is NaT; pass a UTC time")
-    return out
 
 
 # --------------------------------------------------------------------------- violations and context

@@ -30,26 +30,19 @@ from optroute.search.dp import solve_dp
 from optroute.search.grid import RouteGrid
 from optroute.search.neighbourhood import Neighbourhood, angular_resolution, compass
 from optroute.ship import Ship
+from optroute.units import as_utc_time as _as_time
+from optroute.units import h_to_timedelta as _h_to_td
 from optroute.weather.sample import WeatherSampler
+from optroute.weather.schema import VARIABLES
 
 Objective = Literal["time", "fuel", "cost"]
 Method = Literal["astar", "dijkstra", "dp"]
 
-_SEA_VARS = ("hs_m", "tp_s", "tm_s", "wave_from_deg", "wind_u_ms", "wind_v_ms", "current_u_ms", "current_v_ms")
+_SEA_VARS = tuple(VARIABLES)  # every canonical weather variable
 
 
-def _as_time(t: Any, what: str) -> np.datetime64:
-    try:
-        out = np.datetime64(t, "ns")
-    except (TypeError, ValueError):
-        raise ConfigError(f"{what}={t!r} is not a time; pass a numpy.datetime64 or an ISO string (UTC)") from None
-    if np.isnat(out):
-        raise ConfigError(f"{what} is NaT; pass a UTC time")
-    return out
 
 
-def _h_to_td(h: ArrayLike) -> np.ndarray:
-    return (np.asarray(h, dtype=float) * 3.6e12).astype("timedelta64[ns]")
 
 
 def as_sampler(weather: xr.Dataset | WeatherSampler) -> WeatherSampler:

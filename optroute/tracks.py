@@ -16,14 +16,12 @@ from numpy.typing import ArrayLike
 from optroute import geo, units
 from optroute._checks import finite
 from optroute.errors import ConfigError
+from optroute.units import timedelta_to_h as _td_to_h
 
 __all__ = ["Exclusion", "gc_points", "project_to_polyline"]
 
-_NS_PER_H = 3.6e12
 
 
-def _td_to_h(td: ArrayLike) -> np.ndarray:
-    return np.asarray(td, dtype="timedelta64[ns]").astype(np.int64) / _NS_PER_H
 
 
 # --------------------------------------------------------------------------- great-circle helpers

@@ -104,3 +104,36 @@ def wind_uv_to_speed_from_deg(u_ms: ArrayLike, v_ms: ArrayLike) -> tuple[np.ndar
     """Wind (u, v) [m/s], the vector it blows to, to speed [m/s] and 'from' direction [deg true]."""
     speed, to_deg = uv_to_speed_to_deg(u_ms, v_ms)
     return speed, from_to_flip_deg(to_deg)
+
+
+NS_PER_H = 3.6e12
+"""Nanoseconds per hour: times are ``datetime64[ns]``, durations hours."""
+
+
+def h_to_timedelta(duration_h: ArrayLike) -> np.ndarray | np.timedelta64:
+    """Hours [h] to ``timedelta64[ns]``, rounded to the nanosecond (a scalar for scalar input)."""
+    return np.round(np.asarray(duration_h, dtype=float) * NS_PER_H).astype("timedelta64[ns]")[()]
+
+
+def timedelta_to_h(duration: ArrayLike) -> np.ndarray | np.float64:
+    """``timedelta64`` to hours [h] (a scalar for scalar input)."""
+    return (np.asarray(duration, dtype="timedelta64[ns]").astype(np.int64) / NS_PER_H)[()]
+
+
+def as_utc_time(t: object, what: str) -> np.datetime64:
+    """A time as timezone-naive UTC ``datetime64[ns]``; ``what`` names it in the error.
+
+    Raises
+    ------
+    ConfigError
+        ``t`` is not a time or is NaT.
+    """
+    from optroute.errors import ConfigError
+
+    try:
+        out = np.datetime64(t, "ns")
+    except (TypeError, ValueError):
+        raise ConfigError(f"{what}={t!r} is not a time; pass a numpy.datetime64 or an ISO string (UTC)") from None
+    if np.isnat(out):
+        raise ConfigError(f"{what} is NaT; pass a UTC time")
+    return out
