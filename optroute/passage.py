@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from optroute import seaway, speed_loss, units
+from optroute import currents, seaway, units
 from optroute._checks import finite
 from optroute.errors import ConfigError
 from optroute.performance import PerformanceModel
@@ -167,7 +167,7 @@ def evaluate_speeds(
     hs = np.where(navigable, col(sea.hs_m), 0.0)
     period = np.where(navigable, col(sea.period_s), 1.0)
     wave_from = np.where(navigable, col(sea.wave_from_deg), 0.0)
-    heading, sog = speed_loss.heading_for_course(
+    heading, sog = currents.heading_for_course(
         course, stw, col(sea.current_u_ms), col(sea.current_v_ms), on_unreachable="nan"
     )
     held = np.isfinite(heading)

@@ -16,7 +16,7 @@ nothing with the NLP:
   times at the planned speed);
 * the sea state there comes from :class:`~optroute.weather.WeatherSampler`;
   the heading is crabbed against the current
-  (:func:`optroute.speed_loss.heading_for_course`), the brake power is the
+  (:func:`optroute.currents.heading_for_course`), the brake power is the
   true model's (:func:`optroute.passage.evaluate_speeds`);
 * checked: minimum load ≤ power ≤ MCR, no danger band
   (:func:`optroute.safety.is_speed_forbidden`, closed bands), navigable

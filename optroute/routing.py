@@ -270,8 +270,8 @@ class PassagePhysics:
         number of pieces is each leg's own (the legs of one call are padded to
         the longest), so a leg costs the same whichever legs it is batched with.
         """
+        from optroute.currents import stw_for_sog
         from optroute.passage import evaluate_speeds
-        from optroute.speed_loss import stw_for_sog
 
         def cost(lat0, lon0, lat1, lon1, t0_h, sog_kn):
             n = lat0.shape[0]

@@ -16,6 +16,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import brentq
 
+from optroute import currents
 from optroute import speed_loss as sl
 from optroute.errors import ConfigError, SeaStateError, ShipSpecError
 from optroute.seaway import G_MS2
@@ -259,11 +260,11 @@ def test_hand_worked_current_example_course_090_current_from_south():
     # u = 0, v = 1 kn = 0.514444 m/s).  The current pushes the ship to port
     # at 1 kn, so it crabs to starboard by δ = arcsin(1/10) = 5.7392°:
     # heading 095.7392°; SOG = √(10² − 1²) = √99 = 9.949874 kn.
-    heading, sog = sl.heading_for_course(90.0, 10.0, 0.0, 1.0 * KN)
+    heading, sog = currents.heading_for_course(90.0, 10.0, 0.0, 1.0 * KN)
     assert float(heading) == pytest.approx(95.739170, abs=1e-6)
     assert float(sog) == pytest.approx(9.949874, abs=1e-6)
     # Forward: 10 kn on 095.7392 plus 1 kn north → east 9.949874, north 0.
-    sog2, cog = sl.sog_from_stw(10.0, heading, 0.0, 1.0 * KN)
+    sog2, cog = currents.sog_from_stw(10.0, heading, 0.0, 1.0 * KN)
     assert float(cog) == pytest.approx(90.0, abs=1e-9)
     assert float(sog2) == pytest.approx(9.949874, abs=1e-6)
 
@@ -272,17 +273,17 @@ def test_hand_worked_stw_for_sog_course_000_current_to_east():
     # SOG 10 kn due north against a 1 kn current flowing east: the water
     # velocity is (−1, 10) kn → STW √101 = 10.049876 kn, heading
     # 360° − atan(1/10) = 354.289407°.
-    stw, heading = sl.stw_for_sog(0.0, 10.0, 1.0 * KN, 0.0)
+    stw, heading = currents.stw_for_sog(0.0, 10.0, 1.0 * KN, 0.0)
     assert float(stw) == pytest.approx(10.049876, abs=1e-6)
     assert float(heading) == pytest.approx(354.289407, abs=1e-6)
 
 
 def test_hand_worked_head_and_following_currents():
     # 2 kn current flowing south; ship heading north at 12 kn → SOG 10 kn, COG 000.
-    sog, cog = sl.sog_from_stw(12.0, 0.0, 0.0, -2.0 * KN)
+    sog, cog = currents.sog_from_stw(12.0, 0.0, 0.0, -2.0 * KN)
     assert float(sog) == pytest.approx(10.0, abs=1e-12)
     assert float(cog) == pytest.approx(0.0, abs=1e-9)
-    heading, sog = sl.heading_for_course(180.0, 12.0, 0.0, -2.0 * KN)  # with the current
+    heading, sog = currents.heading_for_course(180.0, 12.0, 0.0, -2.0 * KN)  # with the current
     assert float(heading) == pytest.approx(180.0, abs=1e-9)
     assert float(sog) == pytest.approx(14.0, abs=1e-12)
 
@@ -300,14 +301,14 @@ def _angle_diff(a, b):
 )
 def test_hypothesis_current_triangle_round_trips(course, stw, cur_ms, cur_to):
     u, v = cur_ms * math.sin(math.radians(cur_to)), cur_ms * math.cos(math.radians(cur_to))
-    heading, sog = sl.heading_for_course(course, stw, u, v)
+    heading, sog = currents.heading_for_course(course, stw, u, v)
     assert sog > 0.0
     # flying the crabbed heading at that STW tracks the course at that SOG
-    sog2, cog = sl.sog_from_stw(stw, heading, u, v)
+    sog2, cog = currents.sog_from_stw(stw, heading, u, v)
     assert _angle_diff(cog, course) < 1e-9
     assert float(sog2) == pytest.approx(float(sog), rel=1e-12, abs=1e-12)
     # and asking for that SOG along the course needs that STW and heading
-    stw3, heading3 = sl.stw_for_sog(course, sog, u, v)
+    stw3, heading3 = currents.stw_for_sog(course, sog, u, v)
     assert float(stw3) == pytest.approx(stw, rel=1e-12)
     assert _angle_diff(heading3, heading) < 1e-9
 
@@ -374,16 +375,16 @@ def test_infeasible_current_raises_with_fix():
     with pytest.raises(
         SeaStateError, match=r"cross-current 3\.888 kn exceeds stw_kn=1\.0.*more speed or another course"
     ):
-        sl.heading_for_course(0.0, 1.0, 2.0, 0.0)
+        currents.heading_for_course(0.0, 1.0, 2.0, 0.0)
     # 2 kn STW into a 3.89 kn head current: set back
     with pytest.raises(SeaStateError, match=r"SOG along course_deg=0\.0 would be -1\.888 kn.*more speed"):
-        sl.heading_for_course(0.0, 2.0, 0.0, -2.0)
+        currents.heading_for_course(0.0, 2.0, 0.0, -2.0)
     with pytest.raises(SeaStateError, match="stw_kn must be > 0.0, got 0.0"):
-        sl.heading_for_course(0.0, 0.0, 0.0, 0.0)
+        currents.heading_for_course(0.0, 0.0, 0.0, 0.0)
     with pytest.raises(SeaStateError, match="sog_kn must be >= 0.0, got -3.0"):
-        sl.stw_for_sog(0.0, -3.0, 0.0, 0.0)
+        currents.stw_for_sog(0.0, -3.0, 0.0, 0.0)
     with pytest.raises(SeaStateError, match=r"current_v_ms must be finite, got nan"):
-        sl.sog_from_stw(10.0, 0.0, 0.0, np.nan)
+        currents.sog_from_stw(10.0, 0.0, 0.0, np.nan)
 
 
 def test_bad_fw_inputs_raise_naming_the_value():
@@ -397,7 +398,7 @@ def test_bad_fw_inputs_raise_naming_the_value():
 
 def test_heading_for_course_nan_mode_marks_unholdable_courses():
     # 2 kn STW against a 3 kn cross-current (current to the north, course east): cannot hold; 10 kn can.
-    heading, sog = sl.heading_for_course(90.0, [2.0, 10.0], 0.0, 3.0 * 1852 / 3600, on_unreachable="nan")
+    heading, sog = currents.heading_for_course(90.0, [2.0, 10.0], 0.0, 3.0 * 1852 / 3600, on_unreachable="nan")
     assert np.isnan(heading[0]) and np.isnan(sog[0])
     # by hand: the set is to port (north) of an eastbound ship, so it heads south of east:
     # sin δ = 3/10 → δ = +17.46°, heading 107.46°, SOG = 10 cos δ = 9.539 kn
