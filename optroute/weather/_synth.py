@@ -105,6 +105,20 @@ def domain(bbox: Sequence[float], resolution_deg: float) -> tuple[np.ndarray, np
     return lat, lon0 + res * np.arange(nlon)
 
 
+def grid_params(
+    start: Any, duration_h: float, step_h: float, resolution_deg: float, bbox: Sequence[float], **specific: Any
+) -> dict[str, Any]:
+    """The parameters every synthetic scenario records: its grid and time axis, plus its own (``specific``)."""
+    return {
+        "start": str(start),
+        "duration_h": duration_h,
+        "step_h": step_h,
+        "resolution_deg": resolution_deg,
+        "bbox": list(bbox),
+        **specific,
+    }
+
+
 def scenario_attrs(name: str, params: dict[str, Any], lon: np.ndarray, **extra: Any) -> dict[str, Any]:
     attrs = {
         "title": f"optroute synthetic scenario: {name}",

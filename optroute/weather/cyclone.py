@@ -63,6 +63,7 @@ from optroute.weather._synth import (
     PM_TP_PER_SQRT_HS,
     as_start,
     domain,
+    grid_params,
     hours_since,
     pm_wind_from_hs,
     scenario_attrs,
@@ -566,15 +567,15 @@ def tropical_cyclone(
         out["wave_from_deg"][k] = units.wrap_360(np.degrees(np.arctan2(sx, cx)))
         out["wind_u_ms"][k] = cu + bg_u * e_bg / e
         out["wind_v_ms"][k] = cv + bg_v * e_bg / e
-    params = {
-        "start": str(t0),
-        "duration_h": duration_h,
-        "step_h": step_h,
-        "resolution_deg": resolution_deg,
-        "bbox": list(bbox),
-        "background_hs_m": hs_bg,
-        "background_from_deg": from_bg,
-    }
+    params = grid_params(
+        t0,
+        duration_h,
+        step_h,
+        resolution_deg,
+        bbox,
+        background_hs_m=hs_bg,
+        background_from_deg=from_bg,
+    )
     attrs = scenario_attrs(
         "tropical_cyclone",
         params,

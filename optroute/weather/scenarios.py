@@ -71,6 +71,7 @@ from optroute.weather._synth import (
     TOKYO,
     as_start,
     domain,
+    grid_params,
     hours_since,
     pm_wind_from_hs,
     scenario_attrs,
@@ -234,20 +235,20 @@ def uniform(
     if cspd > 0.0:
         cu, cv = units.speed_to_deg_to_uv(cspd, cto)
         variables["current_u_ms"], variables["current_v_ms"] = cu, cv
-    params = {
-        "hs_m": hs,
-        "tp_s": tp,
-        "wave_from_deg": wdir,
-        "wind_speed_ms": wspd,
-        "wind_from_deg": wfrom,
-        "current_speed_ms": cspd,
-        "current_to_deg": cto,
-        "bbox": list(bbox),
-        "start": str(time[0]),
-        "duration_h": duration_h,
-        "step_h": step_h,
-        "resolution_deg": resolution_deg,
-    }
+    params = grid_params(
+        time[0],
+        duration_h,
+        step_h,
+        resolution_deg,
+        bbox,
+        hs_m=hs,
+        tp_s=tp,
+        wave_from_deg=wdir,
+        wind_speed_ms=wspd,
+        wind_from_deg=wfrom,
+        current_speed_ms=cspd,
+        current_to_deg=cto,
+    )
     return schema.canonical_dataset(time, lat, lon, variables, scenario_attrs("uniform", params, lon))
 
 
@@ -536,16 +537,16 @@ def shao_case(
         "wind_u_ms": wu,
         "wind_v_ms": wv,
     }
-    params = {
-        "case": case,
-        "start": str(t0),
-        "duration_h": duration_h,
-        "step_h": step_h,
-        "resolution_deg": resolution_deg,
-        "bbox": list(bbox),
-        "background_hs_m": hs_bg,
-        "background_from_deg": wdir,
-    }
+    params = grid_params(
+        t0,
+        duration_h,
+        step_h,
+        resolution_deg,
+        bbox,
+        case=case,
+        background_hs_m=hs_bg,
+        background_from_deg=wdir,
+    )
     attrs = scenario_attrs(
         "shao_case",
         params,

@@ -29,6 +29,7 @@ from optroute.weather._synth import (
     TOKYO,
     as_start,
     domain,
+    grid_params,
     hours_since,
     pm_wind_from_hs,
     scenario_attrs,
@@ -357,15 +358,15 @@ def storm_dataset(
             systems.append((hs_s, from_s, s.tp_per_sqrt_hs))
         for key, value in zip(names, _compose(hs_bg, from_bg, systems), strict=True):
             out[key][k] = value
-    params = {
-        "start": str(t0),
-        "duration_h": duration_h,
-        "step_h": step_h,
-        "resolution_deg": resolution_deg,
-        "bbox": list(bbox),
-        "background_hs_m": hs_bg,
-        "background_from_deg": from_bg,
-    }
+    params = grid_params(
+        t0,
+        duration_h,
+        step_h,
+        resolution_deg,
+        bbox,
+        background_hs_m=hs_bg,
+        background_from_deg=from_bg,
+    )
     extra = {"storms": json.dumps([asdict(s) for s in specs]), **attrs}
     return schema.canonical_dataset(time, lat, lon, out, scenario_attrs(name, params, lon, **extra))
 
