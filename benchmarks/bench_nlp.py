@@ -22,8 +22,6 @@ The DP comparison is added when the 3-D DP lands. Run ``python -m benchmarks.ben
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import statistics
 import time
@@ -31,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks._cli import bench_main
 from formulations._common import (
     G_OVER_2PI_KN_S,
     Band,
@@ -364,13 +363,7 @@ def run(quick: bool) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="smaller cases, fewer repetitions (about 30 s)")
-    parser.add_argument("--json", action="store_true", help="also print the figures as JSON")
-    args = parser.parse_args(argv)
-    out = run(args.quick)
-    if args.json:
-        print(json.dumps(out, indent=1, default=float))
+    bench_main(run, __doc__.splitlines()[0], "smaller cases, fewer repetitions (about 30 s)", argv)
 
 
 if __name__ == "__main__":

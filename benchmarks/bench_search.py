@@ -42,8 +42,6 @@ Run ``python -m benchmarks.bench_search [--quick]``.
 
 from __future__ import annotations
 
-import argparse
-import json
 import time
 from collections.abc import Callable
 from typing import Any
@@ -53,6 +51,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra as csgraph_dijkstra
 
 import optroute as orx
+from benchmarks._cli import bench_main
 from optroute import geo, routing
 from optroute.search import RouteGrid, _kernels, angular_resolution, compass, grid_edges, shortest_path, solve_dp
 from optroute.search.costs import LegEvaluator
@@ -368,13 +367,7 @@ def run(quick: bool) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="smaller cases, single repetitions")
-    parser.add_argument("--json", action="store_true", help="also print the figures as JSON")
-    args = parser.parse_args(argv)
-    out = run(args.quick)
-    if args.json:
-        print(json.dumps(out, indent=1, default=float))
+    bench_main(run, __doc__.splitlines()[0], "smaller cases, single repetitions", argv)
 
 
 if __name__ == "__main__":

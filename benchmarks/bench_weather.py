@@ -17,7 +17,6 @@ Run ``python -m benchmarks.bench_weather [--quick]``.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import shutil
@@ -30,6 +29,8 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+
+from benchmarks._cli import bench_main
 
 ROOT = Path(__file__).resolve().parents[1]
 T0 = np.datetime64("2024-01-01T00:00", "ns")
@@ -246,10 +247,7 @@ def run(quick: bool) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="a 1 deg grid, fewer points, a small file")
-    args = parser.parse_args(argv)
-    run(args.quick)
+    bench_main(run, __doc__.splitlines()[0], "a 1 deg grid, fewer points, a small file", argv)
 
 
 if __name__ == "__main__":
