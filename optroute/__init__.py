@@ -29,7 +29,7 @@ from optroute.routing import search_route
 from optroute.safety import BandRules, ForbiddenInterval, band_margins, forbidden_speed_intervals
 from optroute.ship import Ship
 from optroute.study import StudyError, load_study, run_study
-from optroute.weather import WeatherSampler, open_weather, scenarios
+from optroute.weather import WeatherSampler, load_weather, open_weather, scenarios
 
 __version__ = "0.1.0"
 
@@ -51,6 +51,7 @@ __all__ = [
     "Ship",
     "StudyError",
     "WeatherSampler",
+    "load_weather",
     "open_weather",
     "run_study",
     "scenarios",

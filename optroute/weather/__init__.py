@@ -4,11 +4,22 @@
   WAVEWATCH III, GFS-Wave and GFS (THREDDS) as canonical datasets;
 * :class:`WeatherSampler` — vectorised interpolation at (time, lat, lon);
 * :mod:`optroute.weather.scenarios` — deterministic synthetic weather;
+* :func:`load_weather`, :func:`scenario`, :func:`scenario_names` — the
+  built-in scenarios by name, or a file (:mod:`optroute.weather.catalogue`);
 * :mod:`optroute.weather.schema` — canonical names, units and checks.
 """
 
 from optroute.weather import scenarios
+from optroute.weather.catalogue import load_weather, scenario, scenario_names
 from optroute.weather.io import open_weather
 from optroute.weather.sample import WeatherSampler, sample_weather
 
-__all__ = ["WeatherSampler", "open_weather", "sample_weather", "scenarios"]
+__all__ = [
+    "WeatherSampler",
+    "load_weather",
+    "open_weather",
+    "sample_weather",
+    "scenario",
+    "scenario_names",
+    "scenarios",
+]
