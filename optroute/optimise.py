@@ -27,6 +27,7 @@ import numpy as np
 import xarray as xr
 
 from formulations.speed_nlp import NLPResult, SpeedNLP
+from optroute import geo
 from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, OptrouteError, SolverFailure, WeatherCoverageError
 from optroute.nlp_inputs import (
@@ -91,6 +92,7 @@ def optimise_corridor(
     model: PerformanceModel | None = None,
     rules: BandRules | None = None,
     route: Route | None = None,
+    warm_plan: Plan | None = None,
     max_leg_nm: float = 50.0,
     samples_per_leg: int = 3,
     fuel_price_per_t: float = 600.0,
@@ -133,6 +135,11 @@ def optimise_corridor(
     route : Route, optional
         A search route: the warm start (its leg speeds on the corridor's legs) and hence the side
         of every danger band each leg starts on.
+    warm_plan : Plan, optional
+        A previous solution on the same corridor and ``max_leg_nm`` (e.g. a neighbouring ETA's, as
+        :func:`optroute.tradeoff` uses): the warm start, taking precedence over ``route``. Only its
+        ``waypoints`` (lateral offsets recovered across the centreline) and ``stw_kn`` are read; with
+        another number of legs its speeds are interpolated along track and the offsets are zero.
     max_leg_nm : float
         Longest NLP leg [nm]; the corridor is resampled on its great circles.
     samples_per_leg : int
@@ -277,7 +284,9 @@ def optimise_corridor(
     st = Tightening(factor=np.ones(frame.n_legs), max_load=1.0, min_load=fit.power.min_load, widen=margin0,
                      hs_margin=hs_margin0,
                      samples_per_leg=int(samples_per_leg), bound_scale=np.ones(frame.n_legs + 1))
-    if route is not None:
+    if warm_plan is not None:
+        warm = _plan_warm_start(warm_plan, frame)
+    elif route is not None:
         warm = route_warm_start(route, frame)
     else:
         warm = safe_warm_start(ctx, frame, t0, desired_speed(length, cap_h, v_max, objective), v_min,
@@ -398,6 +407,21 @@ def optimise_corridor(
     status = "optimal" if res.status == "Solve_Succeeded" else "feasible"
     _emit(progress, "done", 1.0)
     return replace(plan, status=status, solver_stats=stats, eta_shadow_price_t_per_h=shadow)
+
+
+def _plan_warm_start(plan: Plan, frame: CorridorFrame) -> dict[str, np.ndarray]:
+    """Warm start from a previous plan: its offsets across the centreline [nm, port +] and leg speeds [kn]."""
+    wp, stw = np.asarray(plan.waypoints, dtype=float), np.asarray(plan.stw_kn, dtype=float)
+    centre = frame.corridor.waypoints
+    if wp.shape != centre.shape or stw.shape != (frame.n_legs,):
+        s_old = np.concatenate([[0.0], np.cumsum(geo.distance_nm(wp[:-1, 0], wp[:-1, 1], wp[1:, 0], wp[1:, 1]))])
+        mid_old = 0.5 * (s_old[:-1] + s_old[1:]) / max(s_old[-1], 1e-9)
+        mid_new = 0.5 * (frame.s_nm[:-1] + frame.s_nm[1:]) / max(frame.s_nm[-1], 1e-9)
+        return {"offset_nm": np.zeros(frame.n_legs + 1), "stw_kn": np.interp(mid_new, mid_old, stw)}
+    dist = geo.distance_nm(centre[:, 0], centre[:, 1], wp[:, 0], wp[:, 1])
+    bearing = geo.initial_course_deg(centre[:, 0], centre[:, 1], wp[:, 0], wp[:, 1])
+    starboard = dist * np.cos(np.radians(bearing - frame.corridor.normal_course_deg()))
+    return {"offset_nm": np.where(dist > 1e-9, -starboard, 0.0), "stw_kn": stw}
 
 
 def _certificate_reason(fixed: bool, samples: Any, res: NLPResult, exclusion: Exclusion | None,
