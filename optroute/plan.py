@@ -32,10 +32,7 @@ direction the ship goes **to**; wave and wind directions where they come
 
 from __future__ import annotations
 
-import json
-import math
 import os
-import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -83,12 +80,6 @@ LEG_COLUMNS: tuple[str, ...] = (
 )
 
 _SEA_VARS = tuple(VARIABLES)  # every canonical weather variable
-
-
-
-
-
-
 
 
 def _as_sampler(weather: xr.Dataset | WeatherSampler) -> tuple[WeatherSampler, xr.Dataset | None]:
@@ -366,8 +357,9 @@ class Plan:
                 key = (kind, int(ev.leg[i]))
                 if key not in found or badness[i] > found[key][0]:
                     when = t0 + _h_to_td(ev.time_h[i])
-                    v = Violation(kind, key[1], (float(ev.lat[i]), float(ev.lon[i])), when, float(value[i]),
-                                  float(limit[i]))
+                    v = Violation(
+                        kind, key[1], (float(ev.lat[i]), float(ev.lon[i])), when, float(value[i]), float(limit[i])
+                    )
                     found[key] = (float(badness[i]), v)
 
         sea = ev.sea
@@ -391,11 +383,20 @@ class Plan:
         hs = np.where(nav, sea.hs_m, 0.0)
         per = np.where(nav, sea.period_s, 1.0)
         wfrom = np.where(nav, sea.wave_from_deg, 0.0)
-        margins = band_margins(ctx.ship, speed_kn=ev.stw, hs_m=hs, period_s=per, wave_from_deg=wfrom,
-                               heading_deg=heading, rules=ctx.rules)
+        margins = band_margins(
+            ctx.ship, speed_kn=ev.stw, hs_m=hs, period_s=per, wave_from_deg=wfrom, heading_deg=heading, rules=ctx.rules
+        )
         for band in ctx.rules.enabled_bands:
-            hit = ok & is_speed_forbidden(ctx.ship, speed_kn=ev.stw, hs_m=hs, period_s=per, wave_from_deg=wfrom,
-                                          heading_deg=heading, rules=ctx.rules, band=band)
+            hit = ok & is_speed_forbidden(
+                ctx.ship,
+                speed_kn=ev.stw,
+                hs_m=hs,
+                period_s=per,
+                wave_from_deg=wfrom,
+                heading_deg=heading,
+                rules=ctx.rules,
+                band=band,
+            )
             bm = margins[band]
             below = bm.ratio < 0.5 * (bm.lo + bm.hi) if np.isfinite(bm.hi) else np.ones(bm.ratio.shape, dtype=bool)
             edge = np.where(below, bm.lo, bm.hi)
@@ -419,8 +420,9 @@ class Plan:
         if bad.size:
             k = int(bad[np.argmax(np.abs(err[bad]))])
             leg = max(k - 1, 0)
-            v = Violation("schedule", leg, tuple(float(x) for x in self.waypoints[k]), self.times[k], float(err[k]),
-                          tol_h)
+            v = Violation(
+                "schedule", leg, tuple(float(x) for x in self.waypoints[k]), self.times[k], float(err[k]), tol_h
+            )
             found[("schedule", leg)] = (abs(float(err[k])), v)
         if eta_t is not None:
             eta_h = float(_td_to_h(eta_t - t0))
@@ -434,131 +436,82 @@ class Plan:
 
     # ------------------------------------------------------------------ export
     def to_geojson(self) -> dict[str, Any]:
-        """The plan as an RFC 7946 GeoJSON FeatureCollection.
+        """The plan as an RFC 7946 GeoJSON FeatureCollection (:func:`optroute.outputs.geojson`).
 
-        The track is a ``LineString`` of the waypoints ([lon, lat] positions), split into a
-        ``MultiLineString`` where it crosses the antimeridian (RFC 7946 §3.1.9), the crossing
-        latitude found on the leg's great circle. One ``Point`` feature per waypoint carries its
-        time and the quantities of the leg that starts there.
+        A ``track`` feature (``LineString`` of [lon, lat] positions, a ``MultiLineString`` split
+        at the antimeridian, RFC 7946 §3.1.9, the crossing latitude on the leg's great circle),
+        one ``leg`` feature per leg and one ``waypoint`` ``Point`` per waypoint, with the leg
+        quantities under their unit-suffixed names; NaN and infinite values are ``null``.
 
         Returns
         -------
         dict
-            JSON-serialisable (``json.dumps``).
+            JSON-serialisable (``json.dumps(..., allow_nan=False)``).
         """
-        wp = self.waypoints
-        parts: list[list[list[float]]] = [[[float(wp[0, 1]), float(wp[0, 0])]]]
-        for k in range(wp.shape[0] - 1):
-            (la0, lo0), (la1, lo1) = wp[k], wp[k + 1]
-            if abs(lo1 - lo0) > 180.0:
-                east = lo0 > 0  # leaving the eastern hemisphere side (lon → +180)
-                lo, hi = 0.0, 1.0
-                for _ in range(60):  # bisection on the fraction where the great circle crosses 180°
-                    mid = 0.5 * (lo + hi)
-                    _, lon_m, _ = gc_points(la0, lo0, la1, lo1, mid)
-                    if (float(lon_m) > 0) == east:
-                        lo = mid
-                    else:
-                        hi = mid
-                lat_x, _, _ = gc_points(la0, lo0, la1, lo1, 0.5 * (lo + hi))
-                edge = 180.0 if east else -180.0
-                parts[-1].append([edge, float(lat_x)])
-                parts.append([[-edge, float(lat_x)]])
-            parts[-1].append([float(lo1), float(la1)])
-        if len(parts) == 1:
-            geometry: dict[str, Any] = {"type": "LineString", "coordinates": parts[0]}
-        else:
-            geometry = {"type": "MultiLineString", "coordinates": parts}
-        track = {
-            "type": "Feature",
-            "geometry": geometry,
-            "properties": {
-                "kind": "track",
-                "departure": str(self.departure),
-                "arrival": str(self.arrival),
-                "duration_h": self.duration_h,
-                "total_fuel_t": self.total_fuel_t,
-                "distance_nm": self.distance_nm,
-                "status": self.status,
-                "eta_shadow_price_t_per_h": _json_number(self.eta_shadow_price_t_per_h),
-            },
-        }
-        features = [track]
-        legs = self.legs
-        for k in range(wp.shape[0]):
-            props: dict[str, Any] = {"kind": "waypoint", "index": k, "time": str(self.times[k])}
-            if k < len(legs):
-                for col in legs.columns:
-                    if col in ("lat", "lon", "time"):
-                        continue
-                    props[col] = _json_number(legs[col].iloc[k])
-            features.append(
-                {"type": "Feature", "geometry": {"type": "Point", "coordinates": [float(wp[k, 1]), float(wp[k, 0])]},
-                 "properties": props}
-            )
-        return {"type": "FeatureCollection", "features": features}
+        from optroute import outputs
+
+        return outputs.geojson(self)
 
     def to_dataset(self) -> xr.Dataset:
-        """The plan as an ``xarray.Dataset``: leg variables on ``leg``, waypoints on ``waypoint``."""
-        legs = self.legs
-        data: dict[str, Any] = {}
-        for col in legs.columns:
-            name = "leg_time" if col == "time" else col if col not in ("lat", "lon") else f"leg_start_{col}"
-            data[name] = ("leg", legs[col].to_numpy())
-        data["waypoint_lat"] = ("waypoint", self.waypoints[:, 0])
-        data["waypoint_lon"] = ("waypoint", self.waypoints[:, 1])
-        data["waypoint_time"] = ("waypoint", self.times)
-        attrs = {
-            "title": "optroute voyage plan",
-            "total_fuel_t": self.total_fuel_t,
-            "duration_h": self.duration_h,
-            "departure": str(self.departure),
-            "arrival": str(self.arrival),
-            "status": self.status,
-            "eta_shadow_price_t_per_h": self.eta_shadow_price_t_per_h,
-            "solver_stats": json.dumps(_jsonable(self.solver_stats)),
-            "conventions": "lat/lon deg; times UTC; heading deg true (to); wave_from_deg deg true (from)",
-        }
-        return xr.Dataset(data, attrs=attrs)
+        """The plan as a CF-1.8 ``xarray.Dataset`` (:func:`optroute.outputs.plan_dataset`).
+
+        Leg variables on ``leg`` (``leg_time``, ``leg_start_lat``, ``leg_start_lon`` and the
+        quantities of :attr:`legs`), waypoints on ``waypoint`` (``waypoint_lat``,
+        ``waypoint_lon``, ``waypoint_time``), each with ``units`` and ``long_name``.
+        """
+        from optroute import outputs
+
+        return outputs.plan_dataset(self)
 
     def to_netcdf(self, path: str | os.PathLike[str]) -> Path:
-        """Write :meth:`to_dataset` to NetCDF, atomically (a temporary file in the same folder, then ``os.replace``).
+        """Write :meth:`to_dataset` to NetCDF-4, atomically (temporary name in the same folder, then rename).
+
+        Returns
+        -------
+        pathlib.Path
+            The path written.
+
+        Raises
+        ------
+        ConfigError
+            The folder does not exist or cannot be written; an earlier file is left intact.
+        """
+        from optroute import outputs
+
+        return outputs.write_netcdf(self, path)
+
+    def to_csv(self, path: str | os.PathLike[str]) -> Path:
+        """Write one CSV row per leg, units in the headers (:func:`optroute.outputs.csv_frame`), atomically.
+
+        Columns: ``leg``, ``start_time_utc``, ``end_time_utc`` (ISO 8601 ``Z``),
+        ``start_lat_deg``, ``start_lon_deg``, ``end_lat_deg``, ``end_lon_deg`` [deg], then
+        ``heading_deg``, ``sog_kn``, ``stw_kn``, ``distance_nm``, ``duration_h``, ``power_kw``,
+        ``fuel_t``, ``hs_m``, ``period_s``, ``wave_from_deg``, ``encounter_period_s`` and
+        ``margin_<band>`` [-].
 
         Returns
         -------
         pathlib.Path
             The path written.
         """
-        target = Path(path)
-        folder = target.parent if str(target.parent) else Path(".")
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
-        os.close(fd)
-        try:
-            self.to_dataset().to_netcdf(tmp)
-            os.replace(tmp, target)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        return target
+        from optroute import outputs
 
+        return outputs.write_csv(self, path)
 
-def _json_number(x: Any) -> Any:
-    if isinstance(x, np.generic):
-        x = x.item()
-    if isinstance(x, float) and not math.isfinite(x):
-        return None if math.isnan(x) else ("inf" if x > 0 else "-inf")
-    return x
+    def plot(self, *, title: str | None = None) -> Any:
+        """The profile of the passage along the route (:func:`optroute.plot_plan.plan_profile_figure`).
 
+        Speed, power against MCR, Hs and the margin to each danger band against time.
 
-def _jsonable(obj: Any) -> Any:
-    if isinstance(obj, Mapping):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return [_jsonable(v) for v in obj.tolist()]
-    if isinstance(obj, np.datetime64):
-        return str(obj)
-    if isinstance(obj, np.generic | float | int | bool | str) or obj is None:
-        return _json_number(obj)
-    return str(obj)
+        Parameters
+        ----------
+        title : str, optional
+            Figure title.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from optroute.plot_plan import plan_profile_figure
+
+        return plan_profile_figure(self, title=title)
