@@ -25,9 +25,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -61,6 +63,14 @@ _RANGES: dict[str, tuple[float, float, bool]] = {
 
 # Δ / (ρ Cb L B T) must lie in this band: catches unit slips (kg for t, feet for m).
 _DISPLACEMENT_CONSISTENCY = (0.80, 1.25)
+
+
+def _range_text(fname: str) -> str:
+    """The allowed range of a field, for messages: ``(0, 15]`` or ``[0.35, 0.95]``."""
+    if fname not in _RANGES:
+        return ""
+    lo, hi, incl = _RANGES[fname]
+    return f"{'[' if incl else '('}{lo:g}, {hi:g}]"
 
 
 def sfoc_ratio(load_fraction: ArrayLike) -> np.ndarray:
@@ -189,13 +199,17 @@ class Ship:
         for fname, (lo, hi, incl) in _RANGES.items():
             self._check_range(fname, getattr(self, fname), lo, hi, incl)
         if self.ship_type not in SHIP_TYPES:
-            raise ShipSpecError(f"Ship {self.name!r}: ship_type={self.ship_type!r} is not known; use one of {SHIP_TYPES}")
+            raise ShipSpecError(
+                f"Ship {self.name!r}: ship_type={self.ship_type!r} is not known; use one of {SHIP_TYPES}"
+            )
         if self.loading not in LOADINGS:
             raise ShipSpecError(f"Ship {self.name!r}: loading={self.loading!r} is not known; use one of {LOADINGS}")
         if self.dwt_t is not None:
             self._check_range("dwt_t", self.dwt_t, 0.0, self.displacement_t, False)
         if self.waterline_length_m is not None:
-            self._check_range("waterline_length_m", self.waterline_length_m, 0.5 * self.length_m, 1.2 * self.length_m, True)
+            self._check_range(
+                "waterline_length_m", self.waterline_length_m, 0.5 * self.length_m, 1.2 * self.length_m, True
+            )
         if self.measured_roll_period_s is not None:
             self._check_range("measured_roll_period_s", self.measured_roll_period_s, 2.0, 80.0, True)
         implied = SEAWATER_DENSITY_T_M3 * self.block_coefficient * self.length_m * self.beam_m * self.draught_m
@@ -230,19 +244,25 @@ class Ship:
         ok = math.isfinite(v) and (v >= lo if inclusive_low else v > lo) and v <= hi
         if not ok:
             bracket = "[" if inclusive_low else "("
-            raise ShipSpecError(f"Ship {self.name!r}: {fname}={value!r} is outside the allowed range {bracket}{lo:g}, {hi:g}]")
+            raise ShipSpecError(
+                f"Ship {self.name!r}: {fname}={value!r} is outside the allowed range {bracket}{lo:g}, {hi:g}]"
+            )
 
     def _validated_table(self, table: Any) -> tuple[tuple[float, float], ...]:
         try:
             arr = np.asarray(table, dtype=float)
         except (TypeError, ValueError):
-            raise ShipSpecError(f"Ship {self.name!r}: speed_power_table must be pairs of numbers (stw_kn, power_kw)") from None
+            raise ShipSpecError(
+                f"Ship {self.name!r}: speed_power_table must be pairs of numbers (stw_kn, power_kw)"
+            ) from None
         if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] < 3:
             raise ShipSpecError(
                 f"Ship {self.name!r}: speed_power_table has shape {arr.shape}; give at least 3 (stw_kn, power_kw) pairs"
             )
         if not np.all(np.isfinite(arr)) or np.any(arr <= 0):
-            raise ShipSpecError(f"Ship {self.name!r}: speed_power_table holds a non-positive or non-finite value: {arr.tolist()}")
+            raise ShipSpecError(
+                f"Ship {self.name!r}: speed_power_table holds a non-positive or non-finite value: {arr.tolist()}"
+            )
         if np.any(np.diff(arr[:, 0]) <= 0) or np.any(np.diff(arr[:, 1]) <= 0):
             raise ShipSpecError(
                 f"Ship {self.name!r}: speed_power_table must be strictly increasing in speed and power: {arr.tolist()}"
@@ -375,6 +395,78 @@ class Ship:
             raise ShipSpecError(f"{source}: {exc}") from None
 
     @classmethod
+    def from_toml(cls, path: str | os.PathLike[str]) -> Ship:
+        """Read a ship from a TOML file.
+
+        Schema: the ship's fields as top-level keys, in the units their names carry (SI except
+        ``_kn`` knots, ``_kw`` kilowatts, ``_t`` tonnes, ``_gpkwh`` g/kWh)::
+
+            # my_ship.toml: a 4 500 TEU Panamax container ship
+            name = "my_panamax"              # optional: default the file's stem
+            length_m = 250.0                 # L_pp (0, 500]
+            beam_m = 32.2                    # (0, 80]
+            draught_m = 12.5                 # (0, 30]
+            gm_m = 1.5                       # (0, 15]
+            block_coefficient = 0.65         # [0.35, 0.95]
+            displacement_t = 67040.0         # within -20/+25 % of 1.025 Cb L B d
+            design_speed_kn = 24.0           # calm-water service speed (0, 45]
+            mcr_kw = 36500.0                 # (0, 200 000]
+            # optional, with their defaults:
+            ship_type = "container"          # container | bulk_carrier | tanker | general_cargo
+            loading = "normal"               # normal | loaded | ballast
+            # dwt_t = 54000.0
+            # min_load_fraction = 0.10
+            # sfoc_base_gpkwh = 175.0
+            # service_load_fraction = 0.85
+            # sea_margin = 0.15
+            # speed_power_table = [[12.0, 5200.0], [18.0, 16500.0], [24.0, 36000.0]]  # [stw_kn, power_kw]
+            # waterline_length_m = 255.0
+            # measured_roll_period_s = 22.0
+            # description = "..."
+
+        Required: ``length_m``, ``beam_m``, ``draught_m``, ``gm_m``, ``block_coefficient``,
+        ``displacement_t``, ``design_speed_kn``, ``mcr_kw``; the ranges are those of
+        :class:`Ship`, checked on construction.
+
+        Parameters
+        ----------
+        path : str or PathLike
+            The TOML file.
+
+        Returns
+        -------
+        Ship
+
+        Raises
+        ------
+        ShipSpecError
+            The file is missing or not valid TOML, a required field is missing, a field is
+            unknown, or a value is non-physical; the message names the file and the field.
+        """
+        import tomllib
+
+        source = os.fspath(path)
+        try:
+            with open(source, "rb") as fh:
+                data = tomllib.load(fh)
+        except FileNotFoundError:
+            raise ShipSpecError(
+                f"ship file {source!r} does not exist; give the path of a ship TOML file or a preset name "
+                f"({', '.join(sorted(_PRESETS))})"
+            ) from None
+        except IsADirectoryError:
+            raise ShipSpecError(f"ship file {source!r} is a directory; give the path of a ship TOML file") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise ShipSpecError(f"{source}: not valid TOML ({exc}); fix the syntax (see Ship.from_toml)") from None
+        required = [f.name for f in dataclasses.fields(cls) if f.default is dataclasses.MISSING and f.name != "name"]
+        missing = [n for n in required if n not in data]
+        if missing:
+            hints = ", ".join(f"{n} {_range_text(n)}" for n in missing)
+            raise ShipSpecError(f"{source}: missing required ship field(s) {hints}; add them to the file")
+        data = {"name": Path(source).stem, **data}
+        return cls.from_mapping(data, source=source)
+
+    @classmethod
     def presets(cls) -> tuple[str, ...]:
         """Names of the built-in ships."""
         return tuple(_PRESETS)
@@ -477,4 +569,3 @@ _PRESETS = {
     "container_8000teu": container_8000teu,
     "general_cargo_25k_dwt": general_cargo_25k_dwt,
 }
-
