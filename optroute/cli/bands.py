@@ -1,21 +1,8 @@
-"""The ``optroute`` command line.
+"""``optroute bands``: the forbidden speed intervals of one heading in one sea state.
 
-One subcommand per task, each a ``cmd_<name>(args) -> int`` function
-registered by ``_add_<name>(subparsers)``; :func:`main` parses, dispatches
-and turns every :class:`~optroute.errors.OptrouteError` or usage error into
-exit code 2 with a single ``optroute: error: ...`` line on stderr (the
-traceback too with ``--debug``).
-
-Exit codes: 0 success, 2 bad input (usage error or an OptrouteError).
-Anything else escaping is a bug and keeps Python's traceback and code 1.
-
-Commands
---------
-``optroute bands``
-    The forbidden speed intervals of one ship heading in one sea state
-    (:func:`optroute.safety.forbidden_speed_intervals`), the safe speed
-    ranges up to the ship's calm-water speed at MCR, and optionally a polar
-    diagram of the dangerous zones for every heading (``--plot FILE.png``).
+The forbidden speed intervals (:func:`optroute.safety.forbidden_speed_intervals`), the safe
+speed ranges up to the ship's calm-water speed at MCR, and optionally a polar diagram of the
+dangerous zones for every heading (``--plot FILE.png``).
 """
 
 from __future__ import annotations
@@ -23,12 +10,11 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-import traceback
-from collections.abc import Sequence
-from typing import NoReturn, TextIO
+from typing import TextIO
 
 from optroute import seaway, units
-from optroute.errors import ConfigError, OptrouteError
+from optroute.cli._common import add_command, load_ship
+from optroute.errors import ConfigError
 from optroute.safety import (
     PERIOD_FORMS,
     RULE_SETS,
@@ -37,34 +23,26 @@ from optroute.safety import (
     safe_speed_ranges,
 )
 
-PROG = "optroute"
 
-
-class UsageError(Exception):
-    """A command-line usage error (argparse's), reported as exit code 2."""
-
-
-class _Parser(argparse.ArgumentParser):
-    """ArgumentParser that raises instead of printing the usage and exiting."""
-
-    def error(self, message: str) -> NoReturn:
-        raise UsageError(f"{message} (see '{self.prog} --help')")
-
-
-# --------------------------------------------------------------------------- bands
-def _add_bands(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) -> None:
-    p = sub.add_parser(
+def add_bands(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) -> None:
+    p = add_command(
+        sub,
+        common,
         "bands",
-        parents=[common],
         help="forbidden speed intervals of one heading in one sea state",
         description=(
             "Print the ship and sea state, the speeds forbidden by the wave-encounter danger bands "
             "(synchronous roll, parametric roll, surf-riding, successive high-wave attack) and the safe "
             "speed ranges up to the ship's calm-water speed at MCR."
         ),
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        examples="""
+  optroute bands --ship container_8000teu --hs 14 --period 11 --heading 180 --wave-from 0
+  optroute bands --ship my_ship.toml --hs 8 --period 9 --heading 200 --rules imo --plot polar.png
+""",
     )
-    p.add_argument("--ship", default="container_54k_dwt", help="ship preset name (see Ship.presets())")
+    p.add_argument(
+        "--ship", default="container_54k_dwt", metavar="NAME|FILE.toml", help="ship preset name or ship TOML file"
+    )
     p.add_argument("--hs", type=float, default=10.5, metavar="M", help="significant wave height [m]")
     p.add_argument("--period", type=float, default=12.0, metavar="S", help="wave period [s]")
     p.add_argument(
@@ -103,10 +81,8 @@ def _kn(value: float) -> str:
 
 def cmd_bands(args: argparse.Namespace, out: TextIO | None = None) -> int:
     """Run ``optroute bands``: print the band table, optionally write the polar plot."""
-    from optroute.ship import Ship
-
     out = sys.stdout if out is None else out
-    ship = Ship.preset(args.ship)
+    ship = load_ship(args.ship)
     rules = BandRules(
         rule_set=args.rules,
         margin=args.margin,
@@ -178,76 +154,4 @@ def cmd_bands(args: argparse.Namespace, out: TextIO | None = None) -> int:
     return 0
 
 
-# --------------------------------------------------------------------------- demo
-def _add_demo(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) -> None:
-    p = sub.add_parser(
-        "demo",
-        parents=[common],
-        help="San Diego -> Tokyo through two winter storms (seed 000's worked example)",
-        description=(
-            "Search the route of a 25 kn 8000 TEU container ship from San Diego to Tokyo through the built-in "
-            "north_pacific_storms() forecast and compare it with the great circle sailed with forced slow-downs. "
-            "Example: optroute demo --out demo_out"
-        ),
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
-    )
-    p.add_argument("--out", default="optroute_demo", metavar="DIR", help="folder for the figures")
-    p.add_argument("--cell-nm", type=float, default=40.0, help="search grid cell [nm]")
-    p.set_defaults(func=cmd_demo)
-
-
-def cmd_demo(args: argparse.Namespace, out: TextIO | None = None) -> int:
-    """``optroute demo``: run the demo voyage, print the comparison table, write the figures."""
-    from optroute.demo import run_demo
-
-    out = out or sys.stdout
-    print("San Diego -> Tokyo, container_8000teu at 25 kn, built-in north_pacific_storms() forecast", file=out)
-    print("ship model: calm-water power + danger bands + top speed (EP 2145155's assumptions)\n", file=out)
-    result = run_demo(args.out, cell_nm=args.cell_nm)
-    print(result.table(), file=out)
-    print(f"\nfigures: {', '.join(str(f) for f in result.files)}  ({result.runtime_s:.0f} s)", file=out)
-    return 0
-
-
-# --------------------------------------------------------------------------- main
-def build_parser() -> argparse.ArgumentParser:
-    """The full ``optroute`` argument parser with every subcommand."""
-    common = _Parser(add_help=False)
-    common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help="show the traceback on errors")
-    parser = _Parser(prog=PROG, description="Ship voyage optimisation through forecast weather.")
-    parser.add_argument("--debug", action="store_true", default=False, help="show the traceback on errors")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=_Parser)
-    _add_demo(sub, common)
-    _add_bands(sub, common)
-    return parser
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``optroute`` script and ``python -m optroute``.
-
-    Parameters
-    ----------
-    argv : sequence of str, optional
-        Arguments without the program name; ``sys.argv[1:]`` by default.
-
-    Returns
-    -------
-    int
-        0 on success, 2 on bad input.
-    """
-    argv = list(sys.argv[1:] if argv is None else argv)
-    debug = "--debug" in argv
-    try:
-        args = build_parser().parse_args(argv)
-        return int(args.func(args))
-    except SystemExit as exc:  # --help
-        return exc.code if isinstance(exc.code, int) else 0
-    except (UsageError, OptrouteError) as exc:
-        if debug:
-            traceback.print_exc(file=sys.stderr)
-        message = " ".join(str(exc).split())  # one line, whatever the message holds
-        print(f"{PROG}: error: {message}", file=sys.stderr)
-        return 2
-
-
-__all__ = ["build_parser", "cmd_bands", "cmd_demo", "main"]
+__all__ = ["add_bands", "cmd_bands"]

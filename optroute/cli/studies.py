@@ -1,0 +1,329 @@
+"""``optroute tradeoff`` (the fuel-versus-ETA front of one voyage) and ``optroute study`` (ships × weather × ETAs on Dask)."""
+
+from __future__ import annotations
+
+import argparse
+import io
+import sys
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+import xarray as xr
+
+from optroute.cli._common import (
+    Progress,
+    add_command,
+    add_progress_option,
+    fmt_time,
+    load_ship,
+    load_weather,
+    output_paths,
+    parse_etas,
+    parse_position,
+    parse_time,
+    progress_enabled,
+    split_list,
+)
+from optroute.cli.voyage import read_corridor
+from optroute.errors import ConfigError
+
+# --------------------------------------------------------------------------- shared
+
+
+def _add_route_options(p: argparse.ArgumentParser) -> None:
+    where = p.add_argument_group("route (either endpoints or a corridor file)")
+    where.add_argument("--from", dest="start", default=None, metavar="LAT,LON", help="start position [deg]")
+    where.add_argument("--to", dest="end", default=None, metavar="LAT,LON", help="end position [deg]")
+    where.add_argument(
+        "--corridor",
+        default=None,
+        metavar="FILE.geojson|FILE.csv",
+        help="corridor centreline instead of endpoints (see 'optroute optimise --help')",
+    )
+    where.add_argument(
+        "--width-nm",
+        "--corridor-width-nm",
+        dest="width_nm",
+        type=float,
+        default=60.0,
+        metavar="NM",
+        help="total corridor width [nm]",
+    )
+    where.add_argument("--cell-nm", type=float, default=40.0, metavar="NM", help="route-search grid cell [nm]")
+    where.add_argument("--search", choices=("grid", "dp"), default="grid", help="route search method (endpoints)")
+
+
+def _add_cost_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--objective", choices=("fuel", "cost"), default="fuel", help="what each point minimises subject to its ETA"
+    )
+    p.add_argument("--fuel-price", type=float, default=600.0, metavar="PER_T", help="[currency/t], for cost")
+    p.add_argument("--hourly-cost", type=float, default=0.0, metavar="PER_H", help="[currency/h], for cost")
+    p.add_argument("--max-leg-nm", type=float, default=50.0, metavar="NM", help="longest optimiser leg [nm]")
+    p.add_argument("--max-iter", type=int, default=None, metavar="N", help="Ipopt iteration limit per solve")
+
+
+def _route(args: argparse.Namespace, weather: Any) -> tuple[Any, dict[str, Any]]:
+    """Endpoints or a corridor from the options; and the search options for endpoints."""
+    if args.corridor is not None:
+        if args.start is not None or args.end is not None:
+            raise ConfigError("give either --from/--to or --corridor, not both")
+        return read_corridor(args, weather), {}
+    if args.start is None or args.end is None:
+        raise ConfigError("give the route: --from LAT,LON --to LAT,LON, or --corridor FILE")
+    for name in ("width_nm", "cell_nm"):
+        value = getattr(args, name)
+        if not (np.isfinite(value) and value > 0):
+            raise ConfigError(f"--{name.replace('_', '-')} {value!r} must be a finite length > 0 [nm]")
+    ends = (parse_position(args.start, "--from"), parse_position(args.end, "--to"))
+    return ends, {
+        "corridor_width_nm": args.width_nm,
+        "search_options": {"cell_nm": args.cell_nm, "method": args.search},
+    }
+
+
+def _cost_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    for name in ("fuel_price", "hourly_cost"):
+        value = getattr(args, name)
+        if not (np.isfinite(value) and value >= 0):
+            raise ConfigError(f"--{name.replace('_', '-')} {value!r} must be a finite number >= 0")
+    if not (np.isfinite(args.max_leg_nm) and args.max_leg_nm > 0):
+        raise ConfigError(f"--max-leg-nm {args.max_leg_nm!r} must be a finite length > 0 [nm]")
+    kw: dict[str, Any] = {"max_leg_nm": args.max_leg_nm}
+    if args.objective == "cost":
+        kw.update(fuel_price_per_t=args.fuel_price, hourly_cost_per_h=args.hourly_cost)
+    if args.max_iter is not None:
+        if args.max_iter < 1:
+            raise ConfigError(f"--max-iter {args.max_iter} must be >= 1")
+        kw["solver_options"] = {"ipopt.max_iter": int(args.max_iter)}
+    return kw
+
+
+def _workers(args: argparse.Namespace) -> dict[str, Any]:
+    if args.scheduler is not None and args.workers is not None:
+        raise ConfigError(
+            f"--workers {args.workers} sizes a local cluster; with --scheduler {args.scheduler!r} the cluster's own "
+            "workers are used: drop --workers"
+        )
+    if args.workers is not None and args.workers < 0:
+        raise ConfigError(f"--workers {args.workers} must be >= 0 (0 or 1: serial, in this process)")
+    return {"scheduler_address": args.scheduler, "n_workers": args.workers}
+
+
+def _add_cluster_options(p: argparse.ArgumentParser, default_workers: str) -> None:
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="an existing Dask scheduler, e.g. tcp://10.0.0.5:8786 (its workers need optroute installed)",
+    )
+    p.add_argument("--workers", type=int, default=None, metavar="N", help=f"local Dask workers ({default_workers})")
+
+
+def front_frame(front: xr.Dataset) -> Any:
+    """The front's per-ETA variables as a table: ``eta_utc``, ``eta_h`` then every 1-D variable on ``eta``."""
+    import pandas as pd
+
+    table: dict[str, Any] = {"eta_utc": [str(np.datetime64(t, "s")) + "Z" for t in front["eta"].values]}
+    if "eta_h" in front.coords or "eta_h" in front:
+        table["eta_h"] = front["eta_h"].values
+    for name, var in front.data_vars.items():
+        if var.dims == ("eta",):
+            table[str(name)] = var.values
+    return pd.DataFrame(table)
+
+
+def write_front(front: xr.Dataset, paths: dict[str, Path]) -> list[str]:
+    """The front as NetCDF, CSV and a PNG figure, each written atomically."""
+    from optroute import outputs
+    from optroute.plot import save_png
+
+    buf = io.StringIO()
+    front_frame(front).to_csv(buf, index=False, lineterminator="\n")
+    written = [
+        outputs.write_netcdf(xr.Dataset(front), paths["nc"]),
+        outputs.write_bytes(paths["csv"], buf.getvalue().encode()),
+    ]
+    fig = front.plot()
+    try:
+        written.append(save_png(fig, paths["png"]))
+    finally:
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    return [str(p) for p in written]
+
+
+# --------------------------------------------------------------------------- tradeoff
+
+
+def add_tradeoff(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) -> None:
+    p = add_command(
+        sub,
+        common,
+        "tradeoff",
+        help="the fuel-versus-ETA front of one voyage (how much fuel each extra hour saves)",
+        description=(
+            "Solve the corridor optimisation for a sequence of ETAs, each warm-started from its neighbour, from "
+            "the earliest feasible arrival to the slow-steaming limit (or for the --etas given), and write the "
+            "front as NetCDF, CSV and a PNG figure with the knee marked. ETAs that cannot be met are reported "
+            "per point in the 'status' column, never dropped."
+        ),
+        examples="""
+  optroute tradeoff --from 32.71,-117.17 --to 35.65,139.77 --ship container_8000teu \\
+      --weather north_pacific_storms --n 20 --out runs/front/
+  optroute tradeoff --corridor route.geojson --width-nm 40 --weather forecast.nc \\
+      --etas +240:+300:10 --workers 2 --out runs/front_leg1
+  (--etas: ISO times or +HOURS separated by commas, or +FIRST:+LAST:STEP in hours)
+""",
+    )
+    _add_route_options(p)
+    p.add_argument("--ship", default="container_54k_dwt", metavar="NAME|FILE.toml", help="ship preset or TOML file")
+    p.add_argument("--weather", default="uniform", metavar="SCENARIO|FILE", help="weather scenario name or file")
+    p.add_argument(
+        "--departure", default=None, metavar="ISO", help="departure, UTC (default: the weather's first time)"
+    )
+    p.add_argument(
+        "--etas", default=None, metavar="LIST", help="the ETAs (default: --n evenly over the feasible range)"
+    )
+    p.add_argument("--n", type=int, default=30, help="points of the default front")
+    _add_cost_options(p)
+    _add_cluster_options(p, "default: serial, in this process")
+    p.add_argument(
+        "--out",
+        default="optroute_front/",
+        metavar="PREFIX|DIR",
+        help="output prefix (PREFIX.nc, .csv, .png) or folder (DIR/front.*)",
+    )
+    add_progress_option(p)
+    p.set_defaults(func=cmd_tradeoff)
+
+
+def cmd_tradeoff(args: argparse.Namespace, out: TextIO | None = None) -> int:
+    """``optroute tradeoff``."""
+    from optroute.tradeoff import tradeoff
+
+    out = out or sys.stdout
+    ship = load_ship(args.ship)
+    wx = load_weather(args.weather)
+    departure = (
+        np.datetime64(wx["time"].values[0], "ns")
+        if args.departure is None
+        else parse_time(args.departure, "--departure")
+    )
+    etas = parse_etas(args.etas, departure) if args.etas is not None else None
+    if etas is None and args.n < 2:
+        raise ConfigError(f"--n {args.n} must be >= 2 (the front's two ends and the points between)")
+    route, route_kw = _route(args, wx)
+    kw = {**_cost_kwargs(args), **_workers(args), **route_kw}
+    paths = output_paths(args.out, "front")
+    with Progress(progress_enabled(args), "front") as bar:
+        front = tradeoff(
+            route, wx, ship, departure=departure, etas=etas, n=args.n, objective=args.objective, progress=bar, **kw
+        )
+    files = write_front(front, paths)
+    table = front_frame(front)
+    lines = [
+        f"front      {len(table)} ETAs, ship {ship.name}, objective {args.objective}, departure {fmt_time(departure)}",
+        f"{'eta [UTC]':<22}{'eta [h]':>9}{'fuel [t]':>11}{'t/h saved':>11}  status",
+    ]
+    for _, row in table.iterrows():
+        price = row.get("eta_shadow_price_t_per_h", float("nan"))
+        lines.append(
+            f"{row['eta_utc'][:16].replace('T', ' '):<22}{row.get('eta_h', float('nan')):9.1f}"
+            f"{row.get('fuel_t', float('nan')):11.2f}{price:11.3f}  {row.get('status', '')}"
+        )
+    knee = front.attrs.get("knee_eta_h")
+    if isinstance(knee, int | float):
+        lines.append(f"knee       at {knee:.1f} h after departure")
+    lines.append(f"files      {', '.join(files)}")
+    print("\n".join(lines), file=out)
+    return 0
+
+
+# --------------------------------------------------------------------------- study
+
+
+def add_study(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) -> None:
+    p = add_command(
+        sub,
+        common,
+        "study",
+        help="ships x weather x ETAs on Dask, resumable, one stored case at a time",
+        description=(
+            "Optimise every combination of the ships, the weather scenarios (or files) and the ETAs on one route, "
+            "on a local Dask cluster or an existing one (--scheduler). Every finished case is written to the store "
+            "atomically; a study stopped half-way (Ctrl-C, a killed worker) resumes where it stopped when run "
+            "again with the same arguments. The combined results go to DIR/study.nc."
+        ),
+        examples="""
+  optroute study --ships container_54k_dwt,my_ship.toml --scenarios north_pacific_storms,calm \\
+      --from 32.71,-117.17 --to 35.65,139.77 --etas +250,+264,+280 --store runs/study1
+  optroute study --ships container_8000teu --scenarios ens_m00.nc,ens_m01.nc,ens_m02.nc \\
+      --corridor route.geojson --etas 2024-01-20T00:00,2024-01-21T00:00 \\
+      --store runs/ens --scheduler tcp://10.0.0.5:8786
+""",
+    )
+    p.add_argument(
+        "--ships", required=True, metavar="A,B|FILES", help="ship presets and/or TOML files, comma-separated"
+    )
+    p.add_argument(
+        "--scenarios", required=True, metavar="A,B|FILES", help="weather scenario names and/or files, comma-separated"
+    )
+    p.add_argument("--etas", required=True, metavar="LIST", help="ISO times or +HOURS, comma-separated, or +A:+B:STEP")
+    p.add_argument(
+        "--departure", default=None, metavar="ISO", help="departure, UTC (default: the first time of the first weather)"
+    )
+    p.add_argument("--store", required=True, metavar="DIR", help="study store (created; resumed when it exists)")
+    _add_route_options(p)
+    _add_cost_options(p)
+    _add_cluster_options(p, "default: one per core")
+    add_progress_option(p)
+    p.set_defaults(func=cmd_study)
+
+
+def cmd_study(args: argparse.Namespace, out: TextIO | None = None) -> int:
+    """``optroute study``."""
+    import optroute as orx
+
+    out = out or sys.stdout
+    ship_specs = split_list(args.ships, "--ships")
+    scenario_specs = split_list(args.scenarios, "--scenarios")
+    ships = [load_ship(s) for s in ship_specs]
+    names = [s.name for s in ships]
+    if len(set(names)) != len(names):
+        raise ConfigError(f"--ships {args.ships!r} names a ship twice ({names}); give each ship once")
+    weathers = {spec: load_weather(spec) for spec in scenario_specs}
+    first = next(iter(weathers.values()))
+    departure = (
+        np.datetime64(first["time"].values[0], "ns")
+        if args.departure is None
+        else parse_time(args.departure, "--departure")
+    )
+    etas = parse_etas(args.etas, departure)
+    route, route_kw = _route(args, first)
+    where = {"corridor": route} if args.corridor is not None else {"start": route[0], "end": route[1]}
+    kw = {**_cost_kwargs(args), **_workers(args), **where}
+    if route_kw:
+        kw["corridor_width_nm"] = route_kw["corridor_width_nm"]
+        kw["search_options"] = route_kw["search_options"]
+    study = getattr(orx, "study", None)
+    if study is None:
+        raise ConfigError("this optroute has no orx.study (the study API is not installed); update optroute")
+    with Progress(progress_enabled(args), "study") as bar:
+        ds = study(
+            ships, weathers, etas, departure=departure, store=args.store, objective=args.objective, progress=bar, **kw
+        )
+    status = ds["status"].values.ravel() if "status" in ds else np.array([])
+    n_ok = int(sum(str(s) == "ok" or str(s).startswith(("optimal", "feasible")) for s in status))
+    lines = [
+        f"study      {len(ships)} ship(s) x {len(weathers)} weather x {len(etas)} ETA(s) = "
+        f"{len(ships) * len(weathers) * len(etas)} cases, {n_ok} solved",
+        f"store      {args.store}",
+    ]
+    if "fuel_t" in ds:
+        fuel = ds["fuel_t"]
+        lines.append(f"fuel [t]   min {float(fuel.min()):,.2f}, max {float(fuel.max()):,.2f} over the solved cases")
+    print("\n".join(lines), file=out)
+    return 0

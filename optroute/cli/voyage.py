@@ -1,0 +1,328 @@
+"""``optroute plan`` (endpoints → searched and optimised plan) and ``optroute optimise`` (a corridor file → plan).
+
+Both write the plan as GeoJSON, CSV and NetCDF (:mod:`optroute.outputs`) and print a short
+summary; the exit codes are :mod:`optroute.cli`'s (3 for an unreachable ETA or no safe
+passage, 4 for a solver failure).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any, TextIO
+
+import numpy as np
+
+from optroute.cli._common import (
+    Progress,
+    add_command,
+    add_progress_option,
+    fmt_duration,
+    fmt_time,
+    load_ship,
+    load_weather,
+    output_paths,
+    parse_eta,
+    parse_position,
+    parse_time,
+    progress_enabled,
+    read_waypoints,
+)
+from optroute.errors import ConfigError
+
+OBJECTIVES = ("fuel", "time", "cost")
+
+
+# --------------------------------------------------------------------------- shared options
+
+
+def add_voyage_options(p: argparse.ArgumentParser, *, eta: bool = True) -> None:
+    """Ship, weather, times, objective and solver options of every voyage command."""
+    p.add_argument(
+        "--ship",
+        default="container_54k_dwt",
+        metavar="NAME|FILE.toml",
+        help="ship preset name or a ship TOML file (schema: Ship.from_toml)",
+    )
+    p.add_argument(
+        "--weather",
+        default="uniform",
+        metavar="SCENARIO|FILE",
+        help="built-in weather scenario name, or a NetCDF/Zarr/GRIB weather file",
+    )
+    p.add_argument(
+        "--departure", default=None, metavar="ISO", help="departure time, UTC (default: the first time of the weather)"
+    )
+    if eta:
+        p.add_argument(
+            "--eta",
+            default=None,
+            metavar="ISO|+HOURS",
+            help="required arrival, UTC, or hours after departure (default: none; 'fuel' and 'cost' "
+            "then stay within the weather's time span)",
+        )
+        p.add_argument(
+            "--eta-mode", choices=("le", "eq"), default="le", help="arrive no later than the ETA (le) or at it (eq)"
+        )
+    p.add_argument(
+        "--objective",
+        choices=OBJECTIVES,
+        default="fuel",
+        help="least fuel, least passage time, or least fuel_price*fuel + hourly_cost*time",
+    )
+    p.add_argument(
+        "--fuel-price", type=float, default=600.0, metavar="PER_T", help="fuel price for --objective cost [currency/t]"
+    )
+    p.add_argument(
+        "--hourly-cost",
+        type=float,
+        default=0.0,
+        metavar="PER_H",
+        help="time cost (charter, crew) for --objective cost [currency/h]",
+    )
+    p.add_argument("--max-leg-nm", type=float, default=50.0, metavar="NM", help="longest optimiser leg [nm]")
+    p.add_argument(
+        "--max-iter", type=int, default=None, metavar="N", help="Ipopt iteration limit per solve (default: Ipopt's)"
+    )
+
+
+def voyage_inputs(args: argparse.Namespace) -> dict[str, Any]:
+    """Ship, weather, departure and ETA from the options, all validated."""
+    ship = load_ship(args.ship)
+    wx = load_weather(args.weather)
+    if args.departure is None:
+        departure = np.datetime64(wx["time"].values[0], "ns")
+    else:
+        departure = parse_time(args.departure, "--departure")
+    eta = None
+    if getattr(args, "eta", None) is not None:
+        eta = parse_eta(args.eta, departure)
+    for name in ("fuel_price", "hourly_cost"):
+        value = getattr(args, name)
+        if not (np.isfinite(value) and value >= 0):
+            raise ConfigError(f"--{name.replace('_', '-')} {value!r} must be a finite number >= 0")
+    if not (np.isfinite(args.max_leg_nm) and args.max_leg_nm > 0):
+        raise ConfigError(f"--max-leg-nm {args.max_leg_nm!r} must be a finite length > 0 [nm]")
+    if args.max_iter is not None and args.max_iter < 1:
+        raise ConfigError(f"--max-iter {args.max_iter} must be >= 1")
+    return {"ship": ship, "weather": wx, "departure": departure, "eta": eta}
+
+
+def optimise_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """Keyword arguments of :func:`optroute.optimise_corridor` from the options."""
+    kw: dict[str, Any] = {
+        "objective": args.objective,
+        "fuel_price_per_t": args.fuel_price,
+        "hourly_cost_per_h": args.hourly_cost,
+        "max_leg_nm": args.max_leg_nm,
+    }
+    if getattr(args, "eta_mode", None) is not None:
+        kw["eta_mode"] = args.eta_mode
+    if args.max_iter is not None:
+        kw["solver_options"] = {"ipopt.max_iter": int(args.max_iter)}
+    return kw
+
+
+def weather_name(wx: Any, spec: str) -> str:
+    return str(wx.attrs.get("scenario_name") or spec)
+
+
+def write_plan(plan: Any, out: str, stem: str) -> list[str]:
+    """Write the plan's GeoJSON, CSV and NetCDF next to each other; return the paths."""
+    from optroute import outputs
+
+    paths = output_paths(out, stem)
+    written = [
+        outputs.write_geojson(plan, paths["geojson"]),
+        outputs.write_csv(plan, paths["csv"]),
+        outputs.write_netcdf(plan, paths["nc"]),
+    ]
+    return [str(p) for p in written]
+
+
+def plan_summary(plan: Any, inputs: dict[str, Any], args: argparse.Namespace, files: list[str]) -> list[str]:
+    """The short summary printed after a plan is written."""
+    ship = inputs["ship"]
+    legs = plan.legs
+    power = legs["power_kw"].to_numpy(dtype=float)
+    wp = plan.waypoints
+    sog = plan.distance_nm / plan.duration_h if plan.duration_h > 0 else float("nan")
+    eta = inputs["eta"]
+    eta_text = f" (ETA {fmt_time(eta)}, {args.eta_mode})" if eta is not None else ""
+    lines = [
+        f"route      ({wp[0, 0]:.4f}, {wp[0, 1]:.4f}) -> ({wp[-1, 0]:.4f}, {wp[-1, 1]:.4f}): "
+        f"{plan.distance_nm:,.1f} nm in {len(legs)} legs, status {plan.status}",
+        f"ship       {ship.name}; weather {weather_name(inputs['weather'], args.weather)}; objective {args.objective}",
+        f"departure  {fmt_time(plan.departure)}",
+        f"arrival    {fmt_time(plan.arrival)}{eta_text}",
+        f"passage    {fmt_duration(plan.duration_h)}, mean SOG {sog:.2f} kn, "
+        f"STW {legs['stw_kn'].min():.2f}-{legs['stw_kn'].max():.2f} kn",
+        f"fuel       {plan.total_fuel_t:,.2f} t",
+        f"power      max {power.max():,.0f} kW = {100 * power.max() / ship.mcr_kw:.1f} % MCR, "
+        f"max Hs on the route {legs['hs_m'].max():.2f} m",
+    ]
+    if args.objective == "cost":
+        cost = args.fuel_price * plan.total_fuel_t + args.hourly_cost * plan.duration_h
+        lines.append(f"cost       {cost:,.0f} (fuel {args.fuel_price:g}/t, time {args.hourly_cost:g}/h)")
+    price = plan.eta_shadow_price_t_per_h
+    if np.isfinite(price):
+        lines.append(f"ETA value  {price:.3f} t of fuel saved per extra hour of passage")
+    lines.append(f"files      {', '.join(files)}")
+    return lines
+
+
+# --------------------------------------------------------------------------- plan
+
+
+def add_plan(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) -> None:
+    p = add_command(
+        sub,
+        common,
+        "plan",
+        help="search a route between two positions and optimise its speeds and waypoints",
+        description=(
+            "Search the route from --from to --to through the weather (time-dependent A* on a gnomonic grid, "
+            "or the stage-wise DP), take the corridor around it, and optimise the waypoints and leg speeds in "
+            "that corridor (CasADi/Ipopt) for least fuel, time or cost under the ETA, the engine's MCR and the "
+            "wave-encounter danger bands. Writes the plan as GeoJSON, CSV and NetCDF and prints a summary."
+        ),
+        examples="""
+  optroute plan --from 32.71,-117.17 --to 35.65,139.77 --ship container_8000teu \\
+      --weather north_pacific_storms --eta +264 --out runs/sd_tokyo/
+  optroute plan --from 10N,60E --to 5N,80E --ship my_ship.toml --weather era5.nc \\
+      --departure 2024-01-10T06:00 --eta 2024-01-14T18:00 --objective cost \\
+      --fuel-price 650 --hourly-cost 1500 --out runs/arabian_sea
+""",
+    )
+    p.add_argument("--from", dest="start", required=True, metavar="LAT,LON", help="start position [deg]")
+    p.add_argument("--to", dest="end", required=True, metavar="LAT,LON", help="end position [deg]")
+    add_voyage_options(p)
+    p.add_argument(
+        "--corridor-width-nm",
+        type=float,
+        default=60.0,
+        metavar="NM",
+        help="total width of the corridor about the searched route [nm]",
+    )
+    p.add_argument("--cell-nm", type=float, default=40.0, metavar="NM", help="route-search grid cell [nm]")
+    p.add_argument(
+        "--search",
+        choices=("grid", "dp"),
+        default="grid",
+        help="route search: time-dependent A* on a grid, or the stage-wise dynamic programme",
+    )
+    p.add_argument(
+        "--out",
+        default="optroute_plan/",
+        metavar="PREFIX|DIR",
+        help="output prefix (PREFIX.geojson, .csv, .nc) or folder (DIR/plan.*)",
+    )
+    add_progress_option(p)
+    p.set_defaults(func=cmd_plan)
+
+
+def cmd_plan(args: argparse.Namespace, out: TextIO | None = None) -> int:
+    """``optroute plan``."""
+    import optroute as orx
+
+    out = out or sys.stdout
+    start = parse_position(args.start, "--from")
+    end = parse_position(args.end, "--to")
+    inputs = voyage_inputs(args)
+    for name in ("corridor_width_nm", "cell_nm"):
+        value = getattr(args, name)
+        if not (np.isfinite(value) and value > 0):
+            raise ConfigError(f"--{name.replace('_', '-')} {value!r} must be a finite length > 0 [nm]")
+    output_paths(args.out, "plan")  # a bad --out fails before the work, not after
+    search = {"cell_nm": args.cell_nm, "method": args.search}
+    with Progress(progress_enabled(args), "plan") as bar:
+        bar("route search", 0.0)
+        plan = orx.plan_voyage(
+            start,
+            end,
+            inputs["weather"],
+            inputs["ship"],
+            departure=inputs["departure"],
+            eta=inputs["eta"],
+            corridor_width_nm=args.corridor_width_nm,
+            search_options=search,
+            progress=bar,
+            **optimise_kwargs(args),
+        )
+    files = write_plan(plan, args.out, "plan")
+    print("\n".join(plan_summary(plan, inputs, args, files)), file=out)
+    return 0
+
+
+# --------------------------------------------------------------------------- optimise
+
+
+def add_optimise(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) -> None:
+    p = add_command(
+        sub,
+        common,
+        "optimise",
+        help="optimise speeds and waypoints inside a corridor read from a GeoJSON or CSV file",
+        description=(
+            "Read a corridor centreline from a GeoJSON file (a LineString, a Feature or a FeatureCollection "
+            "with one; [lon, lat] positions) or a CSV file (columns lat,lon), and optimise the waypoints within "
+            "--width-nm of it and the speed of every leg (CasADi/Ipopt) for least fuel, time or cost. "
+            "Writes the plan as GeoJSON, CSV and NetCDF and prints a summary."
+        ),
+        examples="""
+  optroute optimise --corridor route.geojson --width-nm 40 --ship container_54k_dwt \\
+      --weather forecast.nc --departure 2024-01-10T00:00 --eta +72 --out runs/leg1
+  optroute optimise --corridor waypoints.csv --width-nm 0 --weather uniform --objective time --out runs/
+  (a CSV corridor: a header 'lat,lon' and one waypoint a row, in degrees; --width-nm 0 fixes the path)
+""",
+    )
+    p.add_argument("--corridor", required=True, metavar="FILE.geojson|FILE.csv", help="corridor centreline")
+    p.add_argument(
+        "--width-nm",
+        type=float,
+        default=60.0,
+        metavar="NM",
+        help="total corridor width about the centreline [nm] (0 fixes the path)",
+    )
+    add_voyage_options(p)
+    p.add_argument(
+        "--out",
+        default="optroute_plan/",
+        metavar="PREFIX|DIR",
+        help="output prefix (PREFIX.geojson, .csv, .nc) or folder (DIR/plan.*)",
+    )
+    add_progress_option(p)
+    p.set_defaults(func=cmd_optimise)
+
+
+def read_corridor(args: argparse.Namespace, weather: Any) -> Any:
+    """The :class:`~optroute.route.Corridor` of ``--corridor`` and ``--width-nm``."""
+    import optroute as orx
+
+    if not (np.isfinite(args.width_nm) and args.width_nm >= 0):
+        raise ConfigError(f"--width-nm {args.width_nm!r} must be a finite width >= 0 [nm]")
+    wp = read_waypoints(args.corridor, weather)
+    return orx.Corridor.from_waypoints(wp, width_nm=args.width_nm)
+
+
+def cmd_optimise(args: argparse.Namespace, out: TextIO | None = None) -> int:
+    """``optroute optimise``."""
+    import optroute as orx
+
+    out = out or sys.stdout
+    inputs = voyage_inputs(args)
+    corridor = read_corridor(args, inputs["weather"])
+    output_paths(args.out, "plan")
+    with Progress(progress_enabled(args), "optimise") as bar:
+        plan = orx.optimise_corridor(
+            corridor,
+            inputs["weather"],
+            inputs["ship"],
+            departure=inputs["departure"],
+            eta=inputs["eta"],
+            progress=bar,
+            **optimise_kwargs(args),
+        )
+    files = write_plan(plan, args.out, "plan")
+    print("\n".join(plan_summary(plan, inputs, args, files)), file=out)
+    return 0
