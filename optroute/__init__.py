@@ -29,6 +29,7 @@ from optroute.routing import search_route
 from optroute.safety import BandRules, ForbiddenInterval, band_margins, forbidden_speed_intervals
 from optroute.ship import Ship
 from optroute.study import StudyError, load_study, run_study
+from optroute.tradeoff import TradeoffFront, tradeoff
 from optroute.weather import WeatherSampler, load_weather, open_weather, scenarios
 
 __version__ = "0.1.0"
@@ -50,12 +51,14 @@ __all__ = [
     "Route",
     "Ship",
     "StudyError",
+    "TradeoffFront",
     "WeatherSampler",
     "load_weather",
     "open_weather",
     "run_study",
     "scenarios",
     "search_route",
+    "tradeoff",
     "band_margins",
     "forbidden_speed_intervals",
     "load_study",

@@ -1,0 +1,215 @@
+"""orx.tradeoff: the fuel-versus-ETA front against hand-worked calm-water physics and the convex optimum.
+
+References, independent of the NLP:
+
+* calm water on a fixed path: the least fuel to arrive by T is at constant speed D/T, fuel
+  T · fuel_rate(calm_power(D/T)) from the Ship's own curves; the earliest arrival is D / (calm speed
+  at MCR) and the slow-steaming limit D / (calm speed at the minimum load);
+* a static sea with a power law (``LinearSeaModel`` of test_optimise, inside the NLP's class):
+  :func:`formulations.speed_convex.solve_speed_convex` (Clarabel), the global optimum.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import xarray as xr
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from matplotlib.figure import Figure
+
+import optroute as orx
+import optroute.tradeoff as tradeoff_mod
+from formulations._common import PowerLawFuel
+from formulations.speed_convex import solve_speed_convex
+from optroute.optimise import optimise_corridor
+from optroute.plot import save_png
+from optroute.plot_front import front_figure, knee_index
+from optroute.study import SchedulerUnreachable
+from optroute.tradeoff import TradeoffFront, tradeoff
+from tests.test_optimise import LinearSeaModel, _static_linear_sea
+
+SHIP = orx.Ship.preset("container_54k_dwt")
+T0 = np.datetime64("2024-01-10T00:00", "ns")
+KW = {"max_leg_nm": 150.0, "use_land_mask": False}
+
+
+def _calm() -> xr.Dataset:
+    return orx.scenarios.uniform(
+        hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240, resolution_deg=1.0
+    )
+
+
+CORRIDOR = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -20.0]], width_nm=0.0)
+
+
+@pytest.fixture(scope="module")
+def calm_front() -> TradeoffFront:
+    return tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, n=5, **KW)
+
+
+def _by_hand_fuel(eta_h: float) -> float:
+    v = CORRIDOR.length_nm / eta_h
+    return eta_h * float(SHIP.fuel_rate_tph(SHIP.calm_power_kw(v)))
+
+
+def test_calm_front_matches_the_ship_by_hand_from_earliest_arrival_to_slow_steaming(calm_front):
+    f = calm_front
+    assert f.sizes["eta"] == 5 and list(f.status.values) == ["optimal"] * 5
+    eta_h = f.eta_h.values
+    # the ends: top speed at MCR, and the speed at which the engine reaches its minimum load
+    assert eta_h[0] == pytest.approx(CORRIDOR.length_nm / SHIP.max_calm_speed_kn, rel=1e-6)
+    assert eta_h[-1] == pytest.approx(CORRIDOR.length_nm / SHIP.calm_speed_kn(SHIP.min_power_kw), rel=1e-5)
+    assert list(f.solve.values) == ["minimum_time", "eta", "eta", "eta", "slow_steaming"]
+    np.testing.assert_allclose(np.diff(eta_h), np.diff(eta_h)[0], rtol=1e-9)  # evenly spaced
+    for h, fuel in zip(eta_h, f.fuel_t.values, strict=True):
+        assert fuel == pytest.approx(_by_hand_fuel(h), rel=1e-5)
+    assert np.all(np.diff(f.fuel_t.values) < 0)
+    # the shadow price is -dF/dT of the by-hand curve (central difference)
+    for h, price in zip(eta_h[1:-1], f.eta_shadow_price_t_per_h.values[1:-1], strict=True):
+        slope = (_by_hand_fuel(h - 1e-3) - _by_hand_fuel(h + 1e-3)) / 2e-3
+        assert price == pytest.approx(slope, rel=1e-3)
+    # the per-point plans: constant speed D/T on every leg, waypoints on the fixed path
+    np.testing.assert_allclose(
+        f.leg_stw_kn.values, np.broadcast_to((CORRIDOR.length_nm / eta_h)[:, None], (5, 5)), rtol=1e-5
+    )
+    assert np.nanmax(np.abs(f.waypoint_lat_deg.values)) < 1e-9
+    np.testing.assert_allclose(f.waypoint_time_h.values[:, -1], f.duration_h.values, rtol=1e-9)
+
+
+def test_front_ends_are_the_independent_minimum_time_and_slow_steaming_solves(calm_front):
+    fast = optimise_corridor(CORRIDOR, _calm(), SHIP, departure=T0, objective="time", **KW)
+    slow = optimise_corridor(CORRIDOR, _calm(), SHIP, departure=T0, objective="fuel", **KW)
+    assert calm_front.duration_h.values[0] == pytest.approx(fast.duration_h, rel=1e-9)
+    assert calm_front.fuel_t.values[0] == pytest.approx(fast.total_fuel_t, rel=1e-9)
+    assert calm_front.duration_h.values[-1] == pytest.approx(slow.duration_h, rel=1e-9)
+    assert calm_front.fuel_t.values[-1] == pytest.approx(slow.total_fuel_t, rel=1e-9)
+
+
+def test_static_sea_front_equals_the_convex_optimum_at_every_eta():
+    model = LinearSeaModel(SHIP)
+    wx = _static_linear_sea(1.0, 0.15, wave_from_deg=45.0)
+    corridor = orx.Corridor(np.array([[0.0, -30.0], [0.0, -10.0]]), 0.0)
+    etas = [70.0, 80.0, 95.0]
+    front = tradeoff(corridor, wx, SHIP, departure=T0, etas=etas, model=model, max_leg_nm=60.0, use_land_mask=False)
+    legs = corridor.resample(60.0)
+    lon_mid = 0.5 * (legs.waypoints[:-1, 1] + legs.waypoints[1:, 1])
+    ca = np.cos(np.radians(45.0))
+    c = float(SHIP.calm_power_kw(1.0))
+    k = model.sfoc_gpkwh * 1e-6 * c * (1 + model.h * (1.0 + 0.15 * (lon_mid + 30.0)) * (0.6 + 0.3 * ca + 0.1 * ca**2))
+    for eta_h, fuel in zip(front.eta_h.values, front.fuel_t.values, strict=True):
+        ref = solve_speed_convex(
+            legs.leg_distance_nm, PowerLawFuel.cubic(k), eta_h=eta_h, v_min_kn=3.0, v_max_kn=SHIP.max_calm_speed_kn
+        )
+        assert fuel == pytest.approx(ref.total_fuel_t, rel=1e-6)
+    # fuel ∝ 1/T² for the cubic law on a fixed path
+    f = front.fuel_t.values
+    assert f[0] / f[1] == pytest.approx((80.0 / 70.0) ** 2, rel=1e-5)
+
+
+def test_infeasible_etas_are_reported_per_point_not_dropped(calm_front):
+    t_min = float(calm_front.eta_h.values[0])
+    etas = [T0 + np.timedelta64(int(0.8 * t_min * 3600), "s"), 35.0, 230.0, 500.0]
+    front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, etas=etas, **KW)
+    assert front.sizes["eta"] == 4
+    status = [str(s) for s in front.status.values]
+    assert status[0].startswith("infeasible: earliest arrival") and f"{t_min:.2f} h" in status[0]
+    assert status[1] == "optimal" and front.fuel_t.values[1] == pytest.approx(_by_hand_fuel(35.0), rel=1e-5)
+    # past the slow-steaming limit the ETA does not bind: the slow-steaming plan, arriving before it
+    assert status[2] == "optimal" and front.solve.values[2] == "slow_steaming"
+    assert front.duration_h.values[2] < 230.0
+    assert front.fuel_t.values[2] == pytest.approx(calm_front.fuel_t.values[-1], rel=1e-9)
+    # 500 h is past the 240 h forecast, but the slow-steaming plan arrives within it, by that ETA
+    assert status[3] == "optimal" and front.duration_h.values[3] == front.duration_h.values[2]
+    assert np.isnan(front.fuel_t.values[0]) and np.isnan(front.leg_fuel_t.values[0]).all()
+
+
+def test_a_rising_point_is_resolved_from_its_neighbours_else_flagged(monkeypatch):
+    real = tradeoff_mod._solve_point
+    calls = {"spoil": 0}
+
+    def spoiled(spec, eta_h, kind, warm, route=None, *, always=False):
+        p = real(spec, eta_h, kind, warm, route)
+        if kind == "eta" and eta_h == 35.0 and (always or calls["spoil"] == 0):
+            calls["spoil"] += 1
+            p = tradeoff_mod._replace(p, totals={**p.totals, "fuel_t": 1e6})
+        return p
+
+    monkeypatch.setattr(tradeoff_mod, "_solve_point", spoiled)
+    front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, etas=[30.0, 35.0, 40.0], **KW)
+    assert front.attrs["monotonicity_resolves"] >= 1
+    assert list(front.status.values) == ["optimal"] * 3
+    assert front.fuel_t.values[1] == pytest.approx(_by_hand_fuel(35.0), rel=1e-5)
+
+    monkeypatch.setattr(tradeoff_mod, "_solve_point", lambda *a, **k: spoiled(*a, **k, always=True))
+    front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, etas=[30.0, 35.0, 40.0], **KW)
+    assert "non-monotone" in str(front.status.values[1])
+    assert front.attrs["monotonicity_resolves"] == 2  # from the left and from the right neighbour
+
+
+def test_plot_returns_a_figure_and_the_front_round_trips_through_netcdf(calm_front, tmp_path):
+    fig = calm_front.plot()
+    assert isinstance(fig, Figure)
+    ax = fig.axes[0]
+    assert "ETA [h" in ax.get_xlabel() and "fuel [t]" in ax.get_ylabel() and fig._suptitle.get_text()
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "knee" in labels and any("shadow price" in s for s in labels)
+    png = save_png(fig, tmp_path / "front.png")
+    assert png.stat().st_size > 10_000
+    path = tmp_path / "front.nc"
+    calm_front.to_netcdf(path)
+    back = xr.open_dataset(path)
+    np.testing.assert_allclose(back.fuel_t.values, calm_front.fuel_t.values)
+    assert [str(s) for s in back.status.values] == [str(s) for s in calm_front.status.values]
+    assert isinstance(front_figure(back), Figure)
+    assert isinstance(TradeoffFront.from_dataset(back).plot(), Figure)
+
+
+def test_knee_by_hand():
+    # a front falling 10, 2, 1, 0.5: scaled, the second point is farthest below the chord
+    assert knee_index([0.0, 1.0, 2.0, 3.0, 4.0], [13.5, 3.5, 1.5, 0.5, 0.0]) == 1
+    assert knee_index([0.0, 1.0, 2.0], [2.0, 1.0, 0.0]) is None  # a straight line has no knee
+    assert knee_index([0.0, 1.0], [2.0, 1.0]) is None
+
+
+def test_bad_arguments_and_unreachable_scheduler():
+    wx = _calm()
+    with pytest.raises(orx.ConfigError, match="objective='time'"):
+        tradeoff(CORRIDOR, wx, SHIP, departure=T0, objective="time")
+    with pytest.raises(orx.ConfigError, match="eta"):
+        tradeoff(CORRIDOR, wx, SHIP, departure=T0, eta=T0)
+    with pytest.raises(orx.ConfigError, match="duplicates"):
+        tradeoff(CORRIDOR, wx, SHIP, departure=T0, etas=[30.0, 30.0])
+    with pytest.raises(orx.ConfigError, match="n=1"):
+        tradeoff(CORRIDOR, wx, SHIP, departure=T0, n=1)
+    with pytest.raises(orx.ConfigError, match="corridor_or_endpoints"):
+        tradeoff("Rotterdam", wx, SHIP, departure=T0)
+    with pytest.raises(SchedulerUnreachable, match="127.0.0.1:9"):
+        tradeoff(CORRIDOR, wx, SHIP, departure=T0, scheduler_address="tcp://127.0.0.1:9", timeout_s=2)
+
+
+@settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    hs=st.lists(st.floats(0.0, 4.0), min_size=2, max_size=4),
+    from_deg=st.floats(0.0, 359.0),
+)
+def test_fuel_never_rises_with_a_later_eta_on_random_fixed_paths(hs, from_deg):
+    # a static sea whose Hs steps along the path (one value per 3 deg of longitude)
+    lon = np.arange(-32.0, -7.99, 1.0)
+    field = np.interp(lon, np.linspace(-31.0, -9.0, len(hs)), hs)
+    time = T0 + np.arange(0, 241, 24).astype("timedelta64[h]")
+    wx = orx.weather.schema.canonical_dataset(
+        time,
+        np.arange(-5.0, 5.01, 1.0),
+        lon,
+        {"hs_m": np.broadcast_to(field, (11, lon.size))[None], "tp_s": 8.0, "wave_from_deg": from_deg},
+        {"title": "random static sea"},
+    )
+    front = tradeoff(CORRIDOR, wx, SHIP, departure=T0, n=4, **KW)
+    fuel = front.fuel_t.values
+    assert np.isfinite(fuel).all()
+    assert np.all(np.diff(fuel) <= 1e-6 * fuel[:-1])
+    assert not any("non-monotone" in str(s) for s in front.status.values)
+    assert math.isclose(front.eta_h.values[0], front.duration_h.values[0], rel_tol=1e-9)
