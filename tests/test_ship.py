@@ -112,3 +112,77 @@ def test_design_speed_beyond_what_the_mcr_reaches_raises():
     ship = Ship.preset("container_54k_dwt").replace(speed_power_table=table)
     with pytest.raises(ShipSpecError, match=r"design_speed_kn=26.0 kn needs .* above mcr_kw.*reaches 25.\d\d kn"):
         ship.replace(design_speed_kn=26.0)
+
+
+# --------------------------------------------------------------------------- TOML files
+
+PANAMAX_TOML = """\
+# seed 001's Panamax container ship, physics.md §8
+length_m = 250.0
+beam_m = 32.2
+draught_m = 12.5
+gm_m = 1.5
+block_coefficient = 0.65
+displacement_t = 67040.0
+design_speed_kn = 24.0
+mcr_kw = 36500.0
+ship_type = "container"
+dwt_t = 54000.0
+speed_power_table = [[12.0, 4200.0], [18.0, 13000.0], [24.0, 31000.0]]
+"""
+
+
+def test_from_toml_reads_the_documented_schema(tmp_path):
+    path = tmp_path / "panamax.toml"
+    path.write_text(PANAMAX_TOML)
+    ship = Ship.from_toml(path)
+    assert ship.name == "panamax"  # the file's stem when the file names none
+    assert (ship.length_m, ship.beam_m, ship.draught_m, ship.gm_m) == (250.0, 32.2, 12.5, 1.5)
+    assert ship.speed_power_table == ((12.0, 4200.0), (18.0, 13000.0), (24.0, 31000.0))
+    assert float(ship.calm_power_kw(18.0)) == pytest.approx(13000.0)  # the table's own point
+    assert ship.min_load_fraction == 0.10  # a default of the dataclass
+    named = tmp_path / "other.toml"
+    named.write_text('name = "my_panamax"\n' + PANAMAX_TOML)
+    assert Ship.from_toml(named).name == "my_panamax"
+
+
+def test_the_docstring_example_is_a_valid_ship(tmp_path):
+    doc = Ship.from_toml.__doc__
+    block = doc.split("::", 1)[1].split("Required:", 1)[0]
+    lines = [ln[12:] for ln in block.splitlines() if ln.strip()]
+    path = tmp_path / "doc.toml"
+    path.write_text("\n".join(lines) + "\n")
+    ship = Ship.from_toml(path)
+    assert ship.name == "my_panamax" and ship.mcr_kw == 36500.0
+
+
+@pytest.mark.parametrize(
+    ("edit", "needles"),
+    [
+        (lambda t: t.replace("gm_m = 1.5\n", ""), ["missing", "gm_m (0, 15]"]),
+        (lambda t: t.replace("mcr_kw = 36500.0\n", "").replace("beam_m = 32.2\n", ""), ["beam_m", "mcr_kw"]),
+        (lambda t: t.replace("gm_m = 1.5", "gm_m = -1.5"), ["gm_m=-1.5", "(0, 15]"]),
+        (lambda t: t.replace("draught_m = 12.5", 'draught_m = "deep"'), ["draught_m='deep'", "not a number"]),
+        (lambda t: t + "speed_kn = 20.0\n", ["unknown ship field", "speed_kn"]),
+        (lambda t: t.replace("block_coefficient = 0.65", "block_coefficient = 0.65 0.7"), ["not valid TOML"]),
+        (
+            lambda t: t.replace("displacement_t = 67040.0", "displacement_t = 6704.0").replace("dwt_t = 54000.0\n", ""),
+            ["displacement_t=6704.0", "disagrees"],
+        ),
+    ],
+)
+def test_bad_toml_names_the_file_and_the_field(tmp_path, edit, needles):
+    path = tmp_path / "bad.toml"
+    path.write_text(edit(PANAMAX_TOML))
+    with pytest.raises(ShipSpecError) as info:
+        Ship.from_toml(path)
+    message = str(info.value)
+    assert str(path) in message
+    for needle in needles:
+        assert needle in message
+
+
+def test_missing_toml_file_lists_the_presets(tmp_path):
+    with pytest.raises(ShipSpecError, match="does not exist") as info:
+        Ship.from_toml(tmp_path / "nope.toml")
+    assert all(name in str(info.value) for name in Ship.presets())
