@@ -30,6 +30,7 @@ from optroute.safety import BandRules, ForbiddenInterval, band_margins, forbidde
 from optroute.ship import Ship
 from optroute.study import StudyError, load_study, run_study
 from optroute.tradeoff import TradeoffFront, tradeoff
+from optroute.voyage_study import study
 from optroute.weather import WeatherSampler, load_weather, open_weather, scenarios
 
 __version__ = "0.1.0"
@@ -58,6 +59,7 @@ __all__ = [
     "run_study",
     "scenarios",
     "search_route",
+    "study",
     "tradeoff",
     "band_margins",
     "forbidden_speed_intervals",

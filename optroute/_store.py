@@ -406,6 +406,8 @@ def _combine_variable(
         values = var.values
         if dtype.kind == "O":
             values = values.astype(str).astype(object)
+            if values.ndim == 0:  # a 0-d array put into one cell of an object array would be stored as the array
+                values = values.item()
         data[index + tuple(slice(0, n) for n in var.shape)] = values
     return xr.Variable(axis_dims + own_dims, data, attrs=dict(first.attrs))
 

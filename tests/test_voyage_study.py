@@ -1,0 +1,150 @@
+"""orx.study (ships × weather × ETAs on Dask) and the parallel front, against calm-water physics by hand.
+
+The cluster tests share one 2-worker LocalCluster on the loopback interface (module fixture), reached
+through ``scheduler_address`` as an existing cluster would be.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import optroute as orx
+import optroute.voyage_study as vs
+from optroute.study import SchedulerUnreachable
+from optroute.tradeoff import tradeoff
+
+SHIP = orx.Ship.preset("container_54k_dwt")
+SMALL = SHIP.replace(name="small_feeder", mcr_kw=20000.0)
+T0 = np.datetime64("2024-01-10T00:00", "ns")
+CORRIDOR = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -20.0]], width_nm=0.0)
+KW = {"max_leg_nm": 150.0, "use_land_mask": False}
+
+
+def _sea(hs_m: float) -> xr.Dataset:
+    return orx.scenarios.uniform(
+        hs_m=hs_m, tp_s=7.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240, resolution_deg=1.0
+    )
+
+
+WEATHER = {"calm": _sea(0.0), "moderate": _sea(2.5)}
+ETAS = [20.0, 30.0, 40.0]  # 20 h is faster than either ship's top speed over the 600 nm
+
+
+def _by_hand_calm(ship: orx.Ship, eta_h: float) -> float:
+    v = CORRIDOR.length_nm / eta_h
+    return eta_h * float(ship.fuel_rate_tph(ship.calm_power_kw(v)))
+
+
+def _study(store: Path, **kw) -> xr.Dataset:
+    return orx.study([SHIP, SMALL], WEATHER, ETAS, corridor=CORRIDOR, departure=T0, store=store, **KW, **kw)
+
+
+@pytest.fixture(scope="module")
+def serial(tmp_path_factory) -> xr.Dataset:
+    return _study(tmp_path_factory.mktemp("serial"), n_workers=0)
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(
+        n_workers=2,
+        threads_per_worker=1,
+        processes=True,
+        host="127.0.0.1",
+        dashboard_address=None,
+        worker_dashboard_address=None,
+    ) as c:
+        yield c
+
+
+def test_synchronous_study_matches_calm_water_by_hand_and_reports_unreachable_etas(serial):
+    assert dict(serial.sizes) == {"ship": 2, "scenario": 2, "eta_h": 3}
+    assert list(serial.ship.values) == ["container_54k_dwt", "small_feeder"]
+    assert (serial.status == "ok").all()  # the engine: every case ran
+    for ship in (SHIP, SMALL):
+        case = serial.sel(ship=ship.name, scenario="calm")
+        assert str(case.plan_status.sel(eta_h=20.0).values).startswith("infeasible: earliest arrival")
+        assert np.isnan(case.fuel_t.sel(eta_h=20.0))
+        for h in (30.0, 40.0):
+            assert str(case.plan_status.sel(eta_h=h).values) == "optimal"
+            assert float(case.fuel_t.sel(eta_h=h)) == pytest.approx(_by_hand_calm(ship, h), rel=1e-5)
+    # waves cost fuel, and a later ETA never costs more
+    ok = serial.fuel_t.sel(eta_h=[30.0, 40.0])
+    assert (ok.sel(scenario="moderate") > ok.sel(scenario="calm")).all()
+    assert (ok.sel(eta_h=40.0) < ok.sel(eta_h=30.0)).all()
+    assert serial.eta.sel(eta_h=30.0).values == T0 + np.timedelta64(30, "h")
+
+
+def test_two_worker_cluster_study_equals_the_synchronous_one_exactly(serial, cluster, tmp_path):
+    par = _study(tmp_path / "par", scheduler_address=cluster.scheduler_address)
+    for name in ("fuel_t", "duration_h", "mean_power_kw", "max_power_kw", "eta_shadow_price_t_per_h"):
+        np.testing.assert_array_equal(par[name].values, serial[name].values)
+    np.testing.assert_array_equal(par.plan_status.values, serial.plan_status.values)
+
+
+def test_two_worker_front_equals_the_serial_front(cluster):
+    wx = WEATHER["moderate"]
+    ser = tradeoff(CORRIDOR, wx, SHIP, departure=T0, n=5, **KW)
+    par = tradeoff(CORRIDOR, wx, SHIP, departure=T0, n=5, scheduler_address=cluster.scheduler_address, **KW)
+    np.testing.assert_allclose(par.eta_h.values, ser.eta_h.values, rtol=1e-9)
+    np.testing.assert_allclose(par.fuel_t.values, ser.fuel_t.values, rtol=1e-7)
+    np.testing.assert_allclose(par.leg_stw_kn.values, ser.leg_stw_kn.values, rtol=1e-6)
+    assert list(par.status.values) == list(ser.status.values) == ["optimal"] * 5
+
+
+def test_interrupted_study_resumes_with_every_case_once(serial, tmp_path, monkeypatch):
+    real = vs._solve_point
+    calls = {"n": 0}
+
+    def interrupted(*args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 5:
+            raise KeyboardInterrupt  # Ctrl-C half-way through the 12 cases
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(vs, "_solve_point", interrupted)
+    store = tmp_path / "store"
+    with pytest.raises(KeyboardInterrupt):
+        _study(store, n_workers=0)
+    stored = sorted(p.name for p in (store / "cases").glob("*.nc"))
+    assert len(stored) == 4
+    calls["n"] = -1000  # no more interruptions
+    done = []
+    ds = _study(store, n_workers=0, progress=lambda d, t: done.append((d, t)))
+    assert calls["n"] == -1000 + 8  # only the 8 cases not stored were computed
+    assert done[0] == (4, 12) and done[-1] == (12, 12)
+    assert len(list((store / "cases").glob("*.nc"))) == 12
+    assert (ds.status == "ok").all()
+    np.testing.assert_array_equal(ds.fuel_t.values, serial.fuel_t.values)
+
+
+def test_unreachable_scheduler_fails_fast_naming_the_address(tmp_path):
+    started = time.perf_counter()
+    with pytest.raises(SchedulerUnreachable, match="127.0.0.1:9"):
+        _study(tmp_path / "s", scheduler_address="tcp://127.0.0.1:9", timeout_s=2)
+    assert time.perf_counter() - started < 10
+
+
+def test_axes_from_names_ensemble_members_and_bad_input():
+    ships = vs._ship_axis(["container_54k_dwt", SMALL])
+    assert list(ships) == ["container_54k_dwt", "small_feeder"]
+    ens = orx.scenarios.ensemble(
+        lambda storms: orx.scenarios.north_pacific_storms(storms=storms, resolution_deg=3.0, duration_h=24.0), 2
+    )
+    weathers = vs._weather_axis({"np": ens, "calm": "calm"})
+    assert list(weathers) == ["np[member=0]", "np[member=1]", "calm"]
+    assert "member" not in weathers["np[member=1]"].dims and weathers["calm"] == "calm"
+    with pytest.raises(orx.ConfigError, match="shao_case_1"):
+        vs._weather_axis(["atlantis"])
+    with pytest.raises(orx.ConfigError, match="twice"):
+        vs._ship_axis([SHIP, SHIP])
+    with pytest.raises(orx.ConfigError, match="corridor="):
+        orx.study(SHIP, "calm", [30.0], store="unused")
+    with pytest.raises(orx.ConfigError, match="objective"):
+        orx.study(SHIP, "calm", [30.0], corridor=CORRIDOR, store="unused", objective="time")
