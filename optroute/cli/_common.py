@@ -184,7 +184,7 @@ def parse_etas(text: str, departure: np.datetime64, what: str = "--etas") -> lis
         if not (math.isfinite(a) and math.isfinite(b) and math.isfinite(step) and step > 0 and b >= a):
             raise ConfigError(f"{what} {text!r}: need FIRST <= LAST and STEP > 0 [h], e.g. +240:+300:10")
         hours = np.arange(a, b + 1e-9 * max(1.0, abs(b)), step)
-        return [parse_eta(f"+{h!r}", departure, what) for h in hours]
+        return [parse_eta(f"+{float(h)!r}", departure, what) for h in hours]
     items = [x for x in raw.split(",") if x.strip()]
     if not items:
         raise ConfigError(f"{what} {text!r} holds no ETA; give ISO times or +HOURS separated by commas")

@@ -3,14 +3,18 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import io
+import logging
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, TextIO
 
 import numpy as np
 import xarray as xr
 
+from optroute import units
 from optroute.cli._common import (
     Progress,
     add_command,
@@ -111,6 +115,23 @@ def _workers(args: argparse.Namespace) -> dict[str, Any]:
     return {"scheduler_address": args.scheduler, "n_workers": args.workers}
 
 
+@contextlib.contextmanager
+def _quiet_dask(args: argparse.Namespace) -> Iterator[None]:
+    """Dask's own log lines (worker restarts, nanny warnings) only with ``--debug``."""
+    if getattr(args, "debug", False):
+        yield
+        return
+    loggers = [logging.getLogger(name) for name in ("distributed", "dask")]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        for lg, level in zip(loggers, levels, strict=True):
+            lg.setLevel(level)
+
+
 def _add_cluster_options(p: argparse.ArgumentParser, default_workers: str) -> None:
     p.add_argument(
         "--scheduler",
@@ -142,7 +163,7 @@ def write_front(front: xr.Dataset, paths: dict[str, Path]) -> list[str]:
     buf = io.StringIO()
     front_frame(front).to_csv(buf, index=False, lineterminator="\n")
     written = [
-        outputs.write_netcdf(xr.Dataset(front), paths["nc"]),
+        outputs.write_netcdf(front, paths["nc"]),
         outputs.write_bytes(paths["csv"], buf.getvalue().encode()),
     ]
     fig = front.plot()
@@ -218,7 +239,7 @@ def cmd_tradeoff(args: argparse.Namespace, out: TextIO | None = None) -> int:
     route, route_kw = _route(args, wx)
     kw = {**_cost_kwargs(args), **_workers(args), **route_kw}
     paths = output_paths(args.out, "front")
-    with Progress(progress_enabled(args), "front") as bar:
+    with Progress(progress_enabled(args), "front") as bar, _quiet_dask(args):
         front = tradeoff(
             route, wx, ship, departure=departure, etas=etas, n=args.n, objective=args.objective, progress=bar, **kw
         )
@@ -283,47 +304,54 @@ def add_study(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) 
     p.set_defaults(func=cmd_study)
 
 
+def _study_etas(text: str, departure: np.datetime64 | None, first_time: np.datetime64) -> list[Any]:
+    """``+HOURS`` lists → hours after departure [h] (floats); ISO lists → UTC times, after the departure."""
+    raw = str(text).strip()
+    items = [x.strip() for x in raw.split(",") if x.strip()]
+    relative = [x.startswith("+") for x in items]
+    if any(relative) and not all(relative):
+        raise ConfigError(f"--etas {text!r} mixes +HOURS and times; give all ETAs one way")
+    if all(relative):
+        ref = np.datetime64("2000-01-01T00:00", "ns")
+        return [float(units.timedelta_to_h(t - ref)) for t in parse_etas(raw, ref)]
+    return parse_etas(raw, departure if departure is not None else first_time)
+
+
 def cmd_study(args: argparse.Namespace, out: TextIO | None = None) -> int:
     """``optroute study``."""
-    import optroute as orx
+    from optroute.voyage_study import study
 
     out = out or sys.stdout
-    ship_specs = split_list(args.ships, "--ships")
-    scenario_specs = split_list(args.scenarios, "--scenarios")
-    ships = [load_ship(s) for s in ship_specs]
+    ships = [load_ship(s) for s in split_list(args.ships, "--ships")]
     names = [s.name for s in ships]
     if len(set(names)) != len(names):
         raise ConfigError(f"--ships {args.ships!r} names a ship twice ({names}); give each ship once")
-    weathers = {spec: load_weather(spec) for spec in scenario_specs}
-    first = next(iter(weathers.values()))
-    departure = (
-        np.datetime64(first["time"].values[0], "ns")
-        if args.departure is None
-        else parse_time(args.departure, "--departure")
-    )
-    etas = parse_etas(args.etas, departure)
-    route, route_kw = _route(args, first)
+    specs = split_list(args.scenarios, "--scenarios")
+    if len(set(specs)) != len(specs):
+        raise ConfigError(f"--scenarios {args.scenarios!r} names a weather twice; give each once")
+    weathers = [load_weather(spec) for spec in specs]  # fail fast here, not on a worker
+    first_time = np.datetime64(weathers[0]["time"].values[0], "ns")
+    departure = None if args.departure is None else parse_time(args.departure, "--departure")
+    etas = _study_etas(args.etas, departure, first_time)
+    route, route_kw = _route(args, weathers[0])
     where = {"corridor": route} if args.corridor is not None else {"start": route[0], "end": route[1]}
-    kw = {**_cost_kwargs(args), **_workers(args), **where}
-    if route_kw:
-        kw["corridor_width_nm"] = route_kw["corridor_width_nm"]
-        kw["search_options"] = route_kw["search_options"]
-    study = getattr(orx, "study", None)
-    if study is None:
-        raise ConfigError("this optroute has no orx.study (the study API is not installed); update optroute")
-    with Progress(progress_enabled(args), "study") as bar:
+    kw = {**_cost_kwargs(args), **_workers(args), **where, **route_kw}
+    with Progress(progress_enabled(args), "study") as bar, _quiet_dask(args):
         ds = study(
-            ships, weathers, etas, departure=departure, store=args.store, objective=args.objective, progress=bar, **kw
+            ships, specs, etas, departure=departure, store=args.store, objective=args.objective, progress=bar, **kw
         )
-    status = ds["status"].values.ravel() if "status" in ds else np.array([])
-    n_ok = int(sum(str(s) == "ok" or str(s).startswith(("optimal", "feasible")) for s in status))
     lines = [
-        f"study      {len(ships)} ship(s) x {len(weathers)} weather x {len(etas)} ETA(s) = "
-        f"{len(ships) * len(weathers) * len(etas)} cases, {n_ok} solved",
+        f"study      {len(ships)} ship(s) x {len(specs)} weather x {len(etas)} ETA(s) = "
+        f"{len(ships) * len(specs) * len(etas)} cases",
         f"store      {args.store}",
     ]
-    if "fuel_t" in ds:
-        fuel = ds["fuel_t"]
-        lines.append(f"fuel [t]   min {float(fuel.min()):,.2f}, max {float(fuel.max()):,.2f} over the solved cases")
+    table = ds[[v for v in ("fuel_t", "duration_h", "plan_status", "status") if v in ds]].to_dataframe()
+    if "plan_status" in table:
+        counts = table["plan_status"].astype(str).str.split(":").str[0].value_counts()
+        lines.append("outcome    " + ", ".join(f"{n} {k or 'missing'}" for k, n in counts.items()))
+    lines.append("")
+    lines.append(table.head(50).to_string(float_format=lambda x: f"{x:,.2f}"))
+    if len(table) > 50:
+        lines.append(f"... {len(table) - 50} more cases in the store's study.nc")
     print("\n".join(lines), file=out)
     return 0

@@ -1,0 +1,490 @@
+"""The ``optroute`` command line: every command's help, exit codes 0/2/3/4, outputs and one-line errors.
+
+Commands run in-process through :func:`optroute.cli.main` on tiny weather files (a 12° × 20°
+box of the mid-Pacific, 1° grid, 5 days) and three-waypoint corridors; one smoke test runs the
+installed console script. Independent references: in calm water on a fixed path the least-fuel
+plan for an ETA is the constant speed D/T and burns T · fuel_rate(calm_power(D/T)) (the
+ship's own calm-water curve, no optimiser involved); hand-written positions and times.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import xarray as xr
+
+import optroute as orx
+from optroute import geo
+from optroute.cli import exit_code, main
+from optroute.cli import tools as cli_tools
+from optroute.cli._common import parse_eta, parse_etas, parse_position, read_waypoints
+from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, OnLandError, SolverFailure
+from optroute.weather.catalogue import scenario_names
+from tests.test_outputs import check_rfc7946
+
+T0 = np.datetime64("2024-01-10T00:00", "ns")
+CORRIDOR = [(30.0, -150.0), (31.0, -145.0), (32.0, -140.0)]
+COMMANDS = ("plan", "optimise", "tradeoff", "study", "bands", "demo", "bench")
+SHIP = orx.Ship.preset("container_54k_dwt")
+
+
+def run(capsys, *argv: str) -> tuple[int, str, str]:
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def one_error_line(err: str) -> str:
+    lines = err.splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("optroute: error: ")
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory) -> dict[str, Path]:
+    folder = tmp_path_factory.mktemp("cli")
+    box = {"bbox": (25.0, 37.0, -155.0, -135.0), "start": T0, "duration_h": 120.0, "resolution_deg": 1.0}
+    paths = {"rough": folder / "rough.nc", "calm": folder / "calm.nc", "csv": folder / "corridor.csv"}
+    orx.scenarios.uniform(hs_m=2.0, **box).to_netcdf(paths["rough"])
+    orx.scenarios.calm(**box).to_netcdf(paths["calm"])
+    paths["csv"].write_text("lat,lon\n" + "".join(f"{la},{lo}\n" for la, lo in CORRIDOR))
+    return paths
+
+
+def corridor_nm() -> float:
+    wp = np.array(CORRIDOR)
+    return float(np.sum(geo.distance_nm(wp[:-1, 0], wp[:-1, 1], wp[1:, 0], wp[1:, 1])))
+
+
+# --------------------------------------------------------------------------- help
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_every_command_has_help_with_examples(capsys, command):
+    code, out, err = run(capsys, command, "--help")
+    assert code == 0 and err == ""
+    assert f"usage: optroute {command}" in out
+    assert "examples:\n  optroute " + command in out
+
+
+def test_top_level_help_lists_every_command_and_the_exit_codes(capsys):
+    code, out, _ = run(capsys, "--help")
+    assert code == 0
+    for command in COMMANDS:
+        assert command in out
+    assert "2 bad input, 3 infeasible" in out
+
+
+# --------------------------------------------------------------------------- success (exit 0)
+
+
+def test_optimise_calm_fixed_path_is_constant_speed_and_writes_three_files(capsys, files, tmp_path):
+    code, out, err = run(
+        capsys,
+        "optimise",
+        "--corridor",
+        files["csv"],
+        "--width-nm",
+        "0",
+        "--weather",
+        files["calm"],
+        "--eta",
+        "+36",
+        "--out",
+        tmp_path / "leg",
+        "--progress",
+    )
+    assert code == 0
+    assert "100%" in err  # the progress bar ran to the end
+    csv = pd.read_csv(tmp_path / "leg.csv")
+    d, t = corridor_nm(), 36.0
+    v = d / t
+    np.testing.assert_allclose(csv["stw_kn"], v, rtol=2e-4)
+    fuel = t * float(SHIP.fuel_rate_tph(SHIP.calm_power_kw(v)))
+    assert csv["fuel_t"].sum() == pytest.approx(fuel, rel=1e-3)
+    assert re.search(rf"fuel\s+{csv['fuel_t'].sum():,.2f} t", out)
+    assert "arrival    2024-01-11 12:00 UTC (ETA 2024-01-11 12:00 UTC, le)" in out
+    check_rfc7946(json.loads((tmp_path / "leg.geojson").read_text()))
+    nc = pd.read_csv(tmp_path / "leg.csv")  # the NetCDF agrees with the CSV
+    with xr.open_dataset(tmp_path / "leg.nc") as ds:
+        assert ds.attrs["Conventions"] == "CF-1.8"
+        np.testing.assert_allclose(ds["fuel_t"].values, nc["fuel_t"].to_numpy())
+
+
+def test_plan_searches_optimises_and_meets_the_eta(capsys, files, tmp_path):
+    code, out, err = run(
+        capsys,
+        "plan",
+        "--from",
+        "30,-150",
+        "--to",
+        "32N,140W",
+        "--weather",
+        files["rough"],
+        "--search",
+        "dp",
+        "--cell-nm",
+        "60",
+        "--eta",
+        "2024-01-11T16:00",
+        "--out",
+        f"{tmp_path}/run/",
+    )
+    assert code == 0, err
+    names = sorted(p.name for p in (tmp_path / "run").iterdir())
+    assert names == ["plan.csv", "plan.geojson", "plan.nc"]
+    csv = pd.read_csv(tmp_path / "run" / "plan.csv")
+    arrival = pd.Timestamp(csv["end_time_utc"].iloc[-1]).tz_localize(None)
+    assert arrival <= pd.Timestamp("2024-01-11T16:00") + pd.Timedelta(minutes=1)
+    assert (csv["start_lat_deg"].iloc[0], csv["start_lon_deg"].iloc[0]) == pytest.approx((30.0, -150.0), abs=1e-9)
+    assert (csv["end_lat_deg"].iloc[-1], csv["end_lon_deg"].iloc[-1]) == pytest.approx((32.0, -140.0), abs=1e-9)
+    doc = json.loads((tmp_path / "run" / "plan.geojson").read_text())
+    check_rfc7946(doc)
+    assert doc["features"][0]["properties"]["total_fuel_t"] == pytest.approx(csv["fuel_t"].sum())
+    assert "status optimal" in out and "ETA value" in out
+
+
+def test_a_plan_geojson_is_a_corridor_for_optimise(capsys, files, tmp_path):
+    assert (
+        run(
+            capsys,
+            "optimise",
+            "--corridor",
+            files["csv"],
+            "--width-nm",
+            "0",
+            "--weather",
+            files["calm"],
+            "--objective",
+            "time",
+            "--out",
+            tmp_path / "a",
+        )[0]
+        == 0
+    )
+    code, out, _ = run(
+        capsys,
+        "optimise",
+        "--corridor",
+        tmp_path / "a.geojson",
+        "--width-nm",
+        "0",
+        "--weather",
+        files["calm"],
+        "--objective",
+        "time",
+        "--out",
+        tmp_path / "b",
+    )
+    assert code == 0
+    a, b = pd.read_csv(tmp_path / "a.csv"), pd.read_csv(tmp_path / "b.csv")
+    assert b["distance_nm"].sum() == pytest.approx(a["distance_nm"].sum(), rel=1e-9)
+    # minimum time in calm water: the calm-water speed at MCR all the way
+    np.testing.assert_allclose(b["stw_kn"], SHIP.max_calm_speed_kn, rtol=1e-3)
+
+
+def test_tradeoff_writes_a_monotone_front(capsys, files, tmp_path):
+    code, out, err = run(
+        capsys,
+        "tradeoff",
+        "--corridor",
+        files["csv"],
+        "--width-nm",
+        "0",
+        "--weather",
+        files["calm"],
+        "--n",
+        "3",
+        "--out",
+        f"{tmp_path}/front/",
+    )
+    assert code == 0, err
+    front = pd.read_csv(tmp_path / "front" / "front.csv")
+    assert {"eta_utc", "eta_h", "fuel_t", "duration_h", "status"} <= set(front.columns)
+    assert len(front) == 3 and np.all(np.diff(front["fuel_t"]) <= 1e-9)
+    # the first point is the minimum-time passage: calm-water speed at MCR
+    assert front["eta_h"].iloc[0] == pytest.approx(corridor_nm() / SHIP.max_calm_speed_kn, rel=1e-3)
+    png = (tmp_path / "front" / "front.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000
+    assert (tmp_path / "front" / "front.nc").stat().st_size > 0
+    assert "knee" in out
+
+
+@pytest.mark.skipif(not hasattr(orx, "study"), reason="orx.study is not in this tree yet")
+def test_study_runs_every_case_into_the_store(capsys, files, tmp_path):
+    code, out, err = run(
+        capsys,
+        "study",
+        "--ships",
+        "container_54k_dwt",
+        "--scenarios",
+        f"{files['calm']},{files['rough']}",
+        "--corridor",
+        files["csv"],
+        "--width-nm",
+        "0",
+        "--etas",
+        "+36,+40",
+        "--store",
+        tmp_path / "store",
+        "--workers",
+        "0",
+    )
+    assert code == 0, err
+    assert "= 4 cases" in out and "outcome    4 optimal" in out
+    # calm water, fixed path: the container ship's rows are the constant-speed fuel T · fuel_rate(P_calm(D/T))
+    ds = xr.load_dataset(tmp_path / "store" / "study.nc")
+    for hours in (36.0, 40.0):
+        fuel = hours * float(SHIP.fuel_rate_tph(SHIP.calm_power_kw(corridor_nm() / hours)))
+        got = ds["fuel_t"].sel(ship="container_54k_dwt", scenario=str(files["calm"]), eta_h=hours)
+        assert float(got) == pytest.approx(fuel, rel=1e-3)
+    assert (tmp_path / "store").is_dir()
+
+
+# --------------------------------------------------------------------------- exit 3 and 4
+
+
+def test_unreachable_eta_exits_3_naming_the_earliest_arrival(capsys, files, tmp_path):
+    code, out, err = run(
+        capsys,
+        "optimise",
+        "--corridor",
+        files["csv"],
+        "--width-nm",
+        "0",
+        "--weather",
+        files["calm"],
+        "--eta",
+        "+10",
+        "--out",
+        tmp_path / "x",
+    )
+    assert code == 3 and out == ""
+    line = one_error_line(err)
+    assert "cannot be met" in line and "arrives" in line
+    assert not list(tmp_path.iterdir())  # nothing written
+
+
+def test_solver_failure_exits_4_with_ipopt_status(capsys, files, tmp_path):
+    code, out, err = run(
+        capsys,
+        "optimise",
+        "--corridor",
+        files["csv"],
+        "--width-nm",
+        "20",
+        "--weather",
+        files["rough"],
+        "--eta",
+        "+40",
+        "--max-iter",
+        "1",
+        "--out",
+        tmp_path / "x",
+    )
+    assert code == 4 and out == ""
+    assert "Maximum_Iterations_Exceeded" in one_error_line(err)
+
+
+def test_exit_codes_of_the_error_family():
+    assert exit_code(InfeasibleETA("late")) == 3
+    assert exit_code(NoSafePassage("storm everywhere")) == 3
+    assert exit_code(SolverFailure("ipopt", "Restoration_Failed")) == 4
+    assert exit_code(ConfigError("bad")) == 2
+    assert exit_code(OnLandError("land")) == 2
+
+
+def test_debug_shows_the_traceback(capsys, files):
+    code, _, err = run(capsys, "optimise", "--corridor", files["csv"], "--weather", "atlantis", "--debug")
+    assert code == 2 and "Traceback" in err
+    assert err.rstrip().splitlines()[-1].startswith("optroute: error: ")
+
+
+# --------------------------------------------------------------------------- bad input (exit 2)
+
+SHIP_TOML = """\
+length_m = 250.0
+beam_m = 32.2
+draught_m = 12.5
+gm_m = 1.5
+block_coefficient = 0.65
+displacement_t = 67040.0
+design_speed_kn = 24.0
+mcr_kw = 36500.0
+"""
+
+
+def bad_inputs(files: dict[str, Path], tmp: Path) -> list[tuple[list[str], list[str]]]:
+    missing = tmp / "missing_gm.toml"
+    missing.write_text(SHIP_TOML.replace("gm_m = 1.5\n", ""))
+    negative = tmp / "negative_gm.toml"
+    negative.write_text(SHIP_TOML.replace("gm_m = 1.5", "gm_m = -1.5"))
+    one = tmp / "one.csv"
+    one.write_text("lat,lon\n30,-150\n")
+    inland = tmp / "inland.geojson"  # Kansas
+    inland.write_text(json.dumps({"type": "LineString", "coordinates": [[-150.0, 30.0], [-98.0, 38.5]]}))
+    empty = tmp / "empty.geojson"
+    empty.write_text(json.dumps({"type": "FeatureCollection", "features": []}))
+    opt = ["optimise", "--corridor", str(files["csv"]), "--weather", str(files["calm"]), "--out", str(tmp / "o")]
+    return [
+        (opt + ["--eta", "2024-01-09T12:00"], ["2024-01-09 12:00 UTC", "departure 2024-01-10 00:00 UTC"]),
+        (opt + ["--departure", "2024-01-10T06:00", "--eta", "2024-01-10T05:00Z"], ["2024-01-10 06:00 UTC"]),
+        (opt + ["--eta", "+0"], ["is not after the departure"]),
+        (opt + ["--eta", "tomorrow"], ["'tomorrow' is not a time"]),
+        (opt + ["--ship", "titanic"], ["'titanic'", *orx.Ship.presets()]),
+        (opt + ["--ship", str(missing)], [str(missing), "missing", "gm_m"]),
+        (opt + ["--ship", str(negative)], [str(negative), "gm_m=-1.5"]),
+        (["optimise", "--corridor", str(files["csv"]), "--weather", "atlantis"], ["'atlantis'", *scenario_names()]),
+        (["optimise", "--corridor", str(one), "--weather", str(files["calm"])], [str(one), "1 point(s)", "two"]),
+        (["optimise", "--corridor", str(empty), "--weather", str(files["calm"])], ["no LineString"]),
+        (["optimise", "--corridor", str(inland), "--weather", str(files["calm"])], ["1 (38.5000, -98.0000)", "land"]),
+        (["optimise", "--corridor", str(tmp / "nope.csv"), "--weather", str(files["calm"])], ["does not exist"]),
+        (opt + ["--width-nm", "-5"], ["--width-nm -5.0"]),
+        (["plan", "--from", "95,10", "--to", "0,0"], ["latitude 95 is outside [-90, 90]"]),
+        (["plan", "--from", "30,-150"], ["--to"]),
+        (["plan", "--from", "30W,150N", "--to", "0,0"], ["'W' is not a hemisphere of latitude"]),
+        (["tradeoff", "--weather", str(files["calm"])], ["--from LAT,LON --to LAT,LON, or --corridor"]),
+        (
+            [
+                "study",
+                "--ships",
+                "container_54k_dwt,container_54k_dwt",
+                "--scenarios",
+                "calm",
+                "--etas",
+                "+30",
+                "--store",
+                str(tmp / "s"),
+                "--corridor",
+                str(files["csv"]),
+            ],
+            ["names a ship twice"],
+        ),
+        (["bench", "--only", "nope"], ["unknown benchmark(s) ['nope']"]),
+    ]
+
+
+def test_bad_input_exits_2_with_one_line_naming_the_problem(capsys, files, tmp_path):
+    for argv, needles in bad_inputs(files, tmp_path):
+        code, out, err = run(capsys, *argv)
+        assert code == 2, (argv, err)
+        assert out == "", argv
+        line = one_error_line(err)
+        for needle in needles:
+            assert needle in line, (argv, line)
+    assert not (tmp_path / "o").exists() and not list(tmp_path.glob("o.*"))
+
+
+# --------------------------------------------------------------------------- parsing
+
+
+def test_positions_in_decimal_degrees_or_with_hemisphere_letters():
+    assert parse_position("32.71,-117.17", "p") == (32.71, -117.17)
+    assert parse_position("32.71N, 117.17W", "p") == (32.71, -117.17)
+    assert parse_position("33.9s,151.2e", "p") == (-33.9, 151.2)
+    assert parse_position("0,190", "p") == (0.0, -170.0)  # wrapped to [-180, 180)
+    for bad in ("32.71", "a,b", "-1N,5E", "10E,5N", "1,2,3"):
+        with pytest.raises(ConfigError):
+            parse_position(bad, "p")
+
+
+def test_negative_positions_after_an_option_are_values(capsys, files, tmp_path):
+    # argparse would read "-33.9,151.2" as an option; main joins it to its option
+    code, _, err = run(capsys, "plan", "--from", "-95,10", "--to", "-1,-1")
+    assert code == 2 and "latitude -95 is outside" in one_error_line(err)
+
+
+def test_etas_as_times_offsets_and_ranges():
+    assert parse_eta("+36", T0) == np.datetime64("2024-01-11T12:00", "ns")
+    assert parse_eta("+0.5", T0) == np.datetime64("2024-01-10T00:30", "ns")
+    assert parse_eta("2024-01-12T00:00Z", T0) == np.datetime64("2024-01-12T00:00", "ns")
+    with pytest.raises(ConfigError, match="time-zone offset"):
+        parse_eta("2024-01-12T00:00+02:00", T0)
+    got = parse_etas("+240:+260:10", T0)
+    assert got == [T0 + np.timedelta64(h, "h") for h in (240, 250, 260)]
+    assert parse_etas("+30, 2024-01-12T00:00", T0) == [T0 + np.timedelta64(30, "h"), T0 + np.timedelta64(48, "h")]
+
+
+def test_a_line_split_at_the_antimeridian_reads_back_as_one_corridor(tmp_path):
+    doc = {
+        "type": "FeatureCollection",
+        "features": [
+            {
+                "type": "Feature",
+                "properties": {},
+                "geometry": {
+                    "type": "MultiLineString",
+                    "coordinates": [[[175.0, 35.0], [180.0, 35.5]], [[-180.0, 35.5], [-175.0, 36.0]]],
+                },
+            }
+        ],
+    }
+    path = tmp_path / "across.geojson"
+    path.write_text(json.dumps(doc))
+    wp = read_waypoints(path)
+    np.testing.assert_array_equal(wp, [[35.0, 175.0], [35.5, -180.0], [36.0, -175.0]])
+
+
+# --------------------------------------------------------------------------- bench, warnings, interrupts
+
+
+def test_bench_runs_the_checkout_benchmarks(capsys, monkeypatch):
+    root = cli_tools.find_benchmarks()
+    assert root is not None and (root / "benchmarks" / "__main__.py").is_file()
+    module = cli_tools._benchmarks_main(root)
+    calls = []
+    monkeypatch.setattr(module, "main", lambda argv: calls.append(argv) or 0)
+    code, _, err = run(capsys, "bench", "--quick", "--only", "nlp, search")
+    assert code == 0 and err == ""
+    assert calls == [["--quick", "--only", "nlp,search"]]
+
+
+def test_bench_outside_a_checkout_says_where_the_benchmarks_are(capsys, monkeypatch):
+    monkeypatch.setattr(cli_tools, "find_benchmarks", lambda cwd=None: None)
+    code, _, err = run(capsys, "bench")
+    assert code == 2 and "not installed with optroute" in one_error_line(err)
+
+
+def test_warnings_are_one_line_and_ctrl_c_exits_130(capsys, monkeypatch):
+    def warn_then_succeed(args, out=None):
+        warnings.warn("start (32.7, -117.2) is on land;\n moved 3.2 nm", UserWarning, stacklevel=1)
+        return 0
+
+    monkeypatch.setattr(cli_tools, "cmd_bench", warn_then_succeed)
+    code, _, err = run(capsys, "bench")
+    assert code == 0 and err == "optroute: warning: start (32.7, -117.2) is on land; moved 3.2 nm\n"
+
+    def interrupted(args, out=None):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli_tools, "cmd_bench", interrupted)
+    code, _, err = run(capsys, "bench")
+    assert code == 130 and err.startswith("optroute: interrupted") and err.count("\n") == 1
+
+
+def _console_script() -> str | None:
+    beside = Path(sys.executable).with_name("optroute")  # skip the pyenv shim when there is one
+    return str(beside) if beside.is_file() else shutil.which("optroute")
+
+
+@pytest.mark.skipif(_console_script() is None, reason="the console script is not installed")
+def test_console_script(tmp_path):
+    # one run (importing optroute takes seconds): the entry point works and a bad input is exit 2, one line
+    bad = subprocess.run(
+        [_console_script(), "plan", "--from", "30,-150", "--to", "32,-140", "--ship", "titanic"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
+    assert bad.returncode == 2 and bad.stdout == ""
+    assert bad.stderr.count("\n") == 1 and "container_8000teu" in bad.stderr
