@@ -55,6 +55,7 @@ def band_polar_figure(
     wave_from_deg: float = 0.0,
     speed_kn: float | None = None,
     angle_step_deg: float = 0.5,
+    title: str | None = None,
 ) -> Figure:
     """Polar diagram of the forbidden (speed, relative heading) zones for one sea state.
 
@@ -81,6 +82,8 @@ def band_polar_figure(
         A speed to mark on that line [kn].
     angle_step_deg : float
         Angular resolution of the shaded field [deg] (speeds use 300 steps).
+    title : str, optional
+        A first title line (where and when this sea state is), above the ship and sea-state lines.
 
     Returns
     -------
@@ -151,14 +154,14 @@ def band_polar_figure(
     ax.set_rlabel_position(112.5)
     c_kn = float(units.ms_to_kn(seaway.phase_speed_ms(period_s)))
     threshold = rules.hs_threshold_fraction * ship.length_m
-    title = (
+    text = (
         f"{getattr(ship, 'name', 'ship')} (L {ship.length_m:.0f} m, T_R {ship.roll_period_s:.1f} s): "
         f"Hs {hs_m:.1f} m, T {period_s:.1f} s, λ {float(seaway.wavelength_m(period_s)):.0f} m, c {c_kn:.1f} kn\n"
         f"{rules.rule_set} rules, margin ±{100 * rules.margin:.0f} %, bands where Hs ≥ "
         f"{rules.hs_threshold_fraction:g} L = {threshold:.1f} m\n"
         "angle: wave direction relative to the bow, α [deg] (IMO MSC.1/Circ.1228); radius: speed [kn]"
     )
-    fig.suptitle(title, fontsize=10)
+    fig.suptitle(text if title is None else f"{title}\n{text}", fontsize=10)
     if hs_m < threshold:
         ax.text(
             0.0,

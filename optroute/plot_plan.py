@@ -250,7 +250,7 @@ def plan_map_figure(
         others = {"baseline": compare}
     tracks = [Track.of("optimised plan", plan)] + [Track.of(str(k), v) for k, v in others.items()]
     rules, ship = plan.context.rules, plan.context.ship
-    fig = Figure(figsize=(11, 6.2), layout="constrained")
+    fig = Figure(figsize=(12, 5.8), layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
     t_map = hs_map(

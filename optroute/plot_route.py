@@ -323,7 +323,7 @@ def route_map_figure(
     matplotlib.figure.Figure
     """
     tracks = [Track.of("searched route", route)] + [Track.of(k, r) for k, r in (others or {}).items()]
-    fig = Figure(figsize=(11, 6.2), layout="constrained")
+    fig = Figure(figsize=(12, 5.8), layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
     t_map = hs_map(ax, weather, tracks, when=time, land_resolution_deg=land_resolution_deg)
