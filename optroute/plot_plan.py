@@ -45,6 +45,18 @@ def _check_plan(plan: Any, what: str) -> Plan:
     return plan
 
 
+def _interp(x: Any, xp: np.ndarray, fp: np.ndarray) -> np.ndarray:
+    """Piecewise-linear map through (xp, fp), extended linearly beyond its ends (for secondary axes).
+
+    ``np.interp`` alone clamps, which would pile the secondary axis's ticks beyond the passage on
+    its last point with wrong labels.
+    """
+    x = np.asarray(x, dtype=float)
+    slope = (fp[-1] - fp[0]) / (xp[-1] - xp[0])
+    y = np.interp(x, xp, fp)
+    return np.where(x < xp[0], fp[0] + (x - xp[0]) * slope, np.where(x > xp[-1], fp[-1] + (x - xp[-1]) * slope, y))
+
+
 def plan_profile_figure(plan: Plan, *, title: str | None = None, x: Literal["time", "distance"] = "time") -> Figure:
     """The profile along the passage: speed, power, Hs and the margin to every danger band.
 
@@ -110,12 +122,12 @@ def plan_profile_figure(plan: Plan, *, title: str | None = None, x: Literal["tim
     if x == "distance":
         top = ax_v.secondary_xaxis(
             "top",
-            functions=(lambda d: np.interp(d, dist_nm, time_h) / 24.0, lambda t: np.interp(t * 24.0, time_h, dist_nm)),
+            functions=(lambda d: _interp(d, dist_nm, time_h) / 24.0, lambda t: _interp(t * 24.0, time_h, dist_nm)),
         )
         top.set_xlabel("days since departure [d]")
     else:
         top = ax_v.secondary_xaxis(
-            "top", functions=(lambda t: np.interp(t, time_h, dist_nm), lambda d: np.interp(d, dist_nm, time_h))
+            "top", functions=(lambda t: _interp(t, time_h, dist_nm), lambda d: _interp(d, dist_nm, time_h))
         )
         top.set_xlabel("distance sailed [nm]")
 
