@@ -92,6 +92,8 @@ def test_optimise_calm_fixed_path_is_constant_speed_and_writes_three_files(capsy
     code, out, err = run(
         capsys,
         "optimise",
+        "--ship",
+        "container_54k_dwt",
         "--corridor",
         files["csv"],
         "--width-nm",
@@ -125,6 +127,8 @@ def test_plan_searches_optimises_and_meets_the_eta(capsys, files, tmp_path):
     code, out, err = run(
         capsys,
         "plan",
+        "--ship",
+        "container_54k_dwt",
         "--from",
         "30,-150",
         "--to",
@@ -159,6 +163,8 @@ def test_a_plan_geojson_is_a_corridor_for_optimise(capsys, files, tmp_path):
         run(
             capsys,
             "optimise",
+            "--ship",
+            "container_54k_dwt",
             "--corridor",
             files["csv"],
             "--width-nm",
@@ -175,6 +181,8 @@ def test_a_plan_geojson_is_a_corridor_for_optimise(capsys, files, tmp_path):
     code, out, _ = run(
         capsys,
         "optimise",
+        "--ship",
+        "container_54k_dwt",
         "--corridor",
         tmp_path / "a.geojson",
         "--width-nm",
@@ -197,6 +205,8 @@ def test_tradeoff_writes_a_monotone_front(capsys, files, tmp_path):
     code, out, err = run(
         capsys,
         "tradeoff",
+        "--ship",
+        "container_54k_dwt",
         "--corridor",
         files["csv"],
         "--width-nm",
@@ -258,6 +268,8 @@ def test_unreachable_eta_exits_3_naming_the_earliest_arrival(capsys, files, tmp_
     code, out, err = run(
         capsys,
         "optimise",
+        "--ship",
+        "container_54k_dwt",
         "--corridor",
         files["csv"],
         "--width-nm",
@@ -279,6 +291,8 @@ def test_solver_failure_exits_4_with_ipopt_status(capsys, files, tmp_path):
     code, out, err = run(
         capsys,
         "optimise",
+        "--ship",
+        "container_54k_dwt",
         "--corridor",
         files["csv"],
         "--width-nm",
@@ -305,7 +319,17 @@ def test_exit_codes_of_the_error_family():
 
 
 def test_debug_shows_the_traceback(capsys, files):
-    code, _, err = run(capsys, "optimise", "--corridor", files["csv"], "--weather", "atlantis", "--debug")
+    code, _, err = run(
+        capsys,
+        "optimise",
+        "--ship",
+        "container_54k_dwt",
+        "--corridor",
+        files["csv"],
+        "--weather",
+        "atlantis",
+        "--debug",
+    )
     assert code == 2 and "Traceback" in err
     assert err.rstrip().splitlines()[-1].startswith("optroute: error: ")
 
@@ -335,7 +359,17 @@ def bad_inputs(files: dict[str, Path], tmp: Path) -> list[tuple[list[str], list[
     inland.write_text(json.dumps({"type": "LineString", "coordinates": [[-150.0, 30.0], [-98.0, 38.5]]}))
     empty = tmp / "empty.geojson"
     empty.write_text(json.dumps({"type": "FeatureCollection", "features": []}))
-    opt = ["optimise", "--corridor", str(files["csv"]), "--weather", str(files["calm"]), "--out", str(tmp / "o")]
+    opt = [
+        "optimise",
+        "--ship",
+        "container_54k_dwt",
+        "--corridor",
+        str(files["csv"]),
+        "--weather",
+        str(files["calm"]),
+        "--out",
+        str(tmp / "o"),
+    ]
     return [
         (opt + ["--eta", "2024-01-09T12:00"], ["2024-01-09 12:00 UTC", "departure 2024-01-10 00:00 UTC"]),
         (opt + ["--departure", "2024-01-10T06:00", "--eta", "2024-01-10T05:00Z"], ["2024-01-10 06:00 UTC"]),
@@ -344,16 +378,48 @@ def bad_inputs(files: dict[str, Path], tmp: Path) -> list[tuple[list[str], list[
         (opt + ["--ship", "titanic"], ["'titanic'", *orx.Ship.presets()]),
         (opt + ["--ship", str(missing)], [str(missing), "missing", "gm_m"]),
         (opt + ["--ship", str(negative)], [str(negative), "gm_m=-1.5"]),
-        (["optimise", "--corridor", str(files["csv"]), "--weather", "atlantis"], ["'atlantis'", *scenario_names()]),
-        (["optimise", "--corridor", str(one), "--weather", str(files["calm"])], [str(one), "1 point(s)", "two"]),
-        (["optimise", "--corridor", str(empty), "--weather", str(files["calm"])], ["no LineString"]),
-        (["optimise", "--corridor", str(inland), "--weather", str(files["calm"])], ["1 (38.5000, -98.0000)", "land"]),
-        (["optimise", "--corridor", str(tmp / "nope.csv"), "--weather", str(files["calm"])], ["does not exist"]),
+        (
+            ["optimise", "--ship", "container_54k_dwt", "--corridor", str(files["csv"]), "--weather", "atlantis"],
+            ["'atlantis'", *scenario_names()],
+        ),
+        (
+            ["optimise", "--ship", "container_54k_dwt", "--corridor", str(one), "--weather", str(files["calm"])],
+            [str(one), "1 point(s)", "two"],
+        ),
+        (
+            ["optimise", "--ship", "container_54k_dwt", "--corridor", str(empty), "--weather", str(files["calm"])],
+            ["no LineString"],
+        ),
+        (
+            ["optimise", "--ship", "container_54k_dwt", "--corridor", str(inland), "--weather", str(files["calm"])],
+            ["1 (38.5000, -98.0000)", "land"],
+        ),
+        (
+            [
+                "optimise",
+                "--ship",
+                "container_54k_dwt",
+                "--corridor",
+                str(tmp / "nope.csv"),
+                "--weather",
+                str(files["calm"]),
+            ],
+            ["does not exist"],
+        ),
         (opt + ["--width-nm", "-5"], ["--width-nm -5.0"]),
-        (["plan", "--from", "95,10", "--to", "0,0"], ["latitude 95 is outside [-90, 90]"]),
-        (["plan", "--from", "30,-150"], ["--to"]),
-        (["plan", "--from", "30W,150N", "--to", "0,0"], ["'W' is not a hemisphere of latitude"]),
-        (["tradeoff", "--weather", str(files["calm"])], ["--from LAT,LON --to LAT,LON, or --corridor"]),
+        (
+            ["plan", "--ship", "container_54k_dwt", "--weather", "calm", "--from", "95,10", "--to", "0,0"],
+            ["latitude 95 is outside [-90, 90]"],
+        ),
+        (["plan", "--ship", "container_54k_dwt", "--weather", "calm", "--from", "30,-150"], ["--to"]),
+        (
+            ["plan", "--ship", "container_54k_dwt", "--weather", "calm", "--from", "30W,150N", "--to", "0,0"],
+            ["'W' is not a hemisphere of latitude"],
+        ),
+        (
+            ["tradeoff", "--ship", "container_54k_dwt", "--weather", str(files["calm"])],
+            ["--from LAT,LON --to LAT,LON, or --corridor"],
+        ),
         (
             [
                 "study",
@@ -400,7 +466,9 @@ def test_positions_in_decimal_degrees_or_with_hemisphere_letters():
 
 def test_negative_positions_after_an_option_are_values(capsys, files, tmp_path):
     # argparse would read "-33.9,151.2" as an option; main joins it to its option
-    code, _, err = run(capsys, "plan", "--from", "-95,10", "--to", "-1,-1")
+    code, _, err = run(
+        capsys, "plan", "--ship", "container_54k_dwt", "--weather", "calm", "--from", "-95,10", "--to", "-1,-1"
+    )
     assert code == 2 and "latitude -95 is outside" in one_error_line(err)
 
 
@@ -481,7 +549,20 @@ def _console_script() -> str | None:
 def test_console_script(tmp_path):
     # one run (importing optroute takes seconds): the entry point works and a bad input is exit 2, one line
     bad = subprocess.run(
-        [_console_script(), "plan", "--from", "30,-150", "--to", "32,-140", "--ship", "titanic"],
+        [
+            _console_script(),
+            "plan",
+            "--ship",
+            "container_54k_dwt",
+            "--weather",
+            "calm",
+            "--from",
+            "30,-150",
+            "--to",
+            "32,-140",
+            "--ship",
+            "titanic",
+        ],
         capture_output=True,
         text=True,
         cwd=tmp_path,

@@ -200,8 +200,8 @@ def add_tradeoff(sub: argparse._SubParsersAction, common: argparse.ArgumentParse
 """,
     )
     _add_route_options(p)
-    p.add_argument("--ship", default="container_54k_dwt", metavar="NAME|FILE.toml", help="ship preset or TOML file")
-    p.add_argument("--weather", default="uniform", metavar="SCENARIO|FILE", help="weather scenario name or file")
+    p.add_argument("--ship", required=True, metavar="NAME|FILE.toml", help="ship preset name or ship TOML file")
+    p.add_argument("--weather", required=True, metavar="SCENARIO|FILE", help="weather scenario name or weather file")
     p.add_argument(
         "--departure", default=None, metavar="ISO", help="departure, UTC (default: the weather's first time)"
     )

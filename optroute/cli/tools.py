@@ -33,11 +33,19 @@ def add_demo(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) -
         ),
         examples="""
   optroute demo
-  optroute demo --out demo_out --cell-nm 60
+  optroute demo --out demo_out
+  optroute demo --out demo_quick --cell-nm 120 --max-leg-nm 200   (a coarser, faster run)
 """,
     )
     p.add_argument("--out", default="optroute_demo", metavar="DIR", help="folder for the figures")
-    p.add_argument("--cell-nm", type=float, default=40.0, help="search grid cell [nm]")
+    p.add_argument("--cell-nm", type=float, default=40.0, metavar="NM", help="search grid cell [nm]")
+    p.add_argument(
+        "--max-leg-nm",
+        type=float,
+        default=None,
+        metavar="NM",
+        help="longest optimiser leg [nm] (default: the demo's own)",
+    )
     p.set_defaults(func=cmd_demo)
 
 
@@ -48,7 +56,8 @@ def cmd_demo(args: argparse.Namespace, out: TextIO | None = None) -> int:
     out = out or sys.stdout
     print("San Diego -> Tokyo, container_8000teu at 25 kn, built-in north_pacific_storms() forecast", file=out)
     print("ship model: calm-water power + danger bands + top speed (EP 2145155's assumptions)\n", file=out)
-    result = run_demo(args.out, cell_nm=args.cell_nm)
+    kw = {} if args.max_leg_nm is None else {"max_leg_nm": args.max_leg_nm}
+    result = run_demo(args.out, cell_nm=args.cell_nm, **kw)
     print(result.table(), file=out)
     print(f"\nfiles: {', '.join(str(f) for f in result.files)}  ({result.runtime_s:.0f} s)", file=out)
     return 0

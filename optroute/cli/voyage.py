@@ -40,15 +40,15 @@ def add_voyage_options(p: argparse.ArgumentParser, *, eta: bool = True) -> None:
     """Ship, weather, times, objective and solver options of every voyage command."""
     p.add_argument(
         "--ship",
-        default="container_54k_dwt",
+        required=True,
         metavar="NAME|FILE.toml",
-        help="ship preset name or a ship TOML file (schema: Ship.from_toml)",
+        help="ship preset name (container_54k_dwt, ...) or a ship TOML file (schema: Ship.from_toml)",
     )
     p.add_argument(
         "--weather",
-        default="uniform",
+        required=True,
         metavar="SCENARIO|FILE",
-        help="built-in weather scenario name, or a NetCDF/Zarr/GRIB weather file",
+        help="built-in weather scenario name (calm, uniform, north_pacific_storms, ...) or a NetCDF/Zarr/GRIB file",
     )
     p.add_argument(
         "--departure", default=None, metavar="ISO", help="departure time, UTC (default: the first time of the weather)"
