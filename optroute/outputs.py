@@ -201,13 +201,20 @@ def split_antimeridian(latlon: np.ndarray) -> list[list[list[float]]]:
     parts: list[list[list[float]]] = [[[float(lon[0]), float(wp[0, 0])]]]
     for k in range(wp.shape[0] - 1):
         la0, lo0, la1, lo1 = float(wp[k, 0]), float(lon[k]), float(wp[k + 1, 0]), float(lon[k + 1])
+        # a vertex on the antimeridian is written as +180 or -180, whichever side its leg lies on
+        if abs(lo0) == 180.0 and lo1 != 0.0 and abs(lo1) != 180.0:
+            lo0 = math.copysign(180.0, lo1)
+        if abs(lo1) == 180.0 and lo0 != 0.0:
+            lo1 = math.copysign(180.0, lo0)
+        if parts[-1][-1][0] != lo0:  # the previous leg ended on the other side's +-180
+            parts.append([[lo0, la0]])
         if abs(lo1 - lo0) > 180.0:
             lat_x = _crossing_lat(la0, lo0, la1, lo1)
             edge = 180.0 if lo0 > 0.0 else -180.0
             parts[-1].append([edge, lat_x])
             parts.append([[-edge, lat_x]])
         parts[-1].append([float(lo1), float(la1)])
-    return parts
+    return [p for p in parts if len(p) >= 2] or parts
 
 
 def _line_geometry(latlon: np.ndarray) -> dict[str, Any]:

@@ -242,3 +242,29 @@ def test_plan_plot_returns_the_profile_figure(atlantic):
 
     fig = atlantic.plot(title="test")
     assert isinstance(fig, Figure) and fig.axes
+
+
+@pytest.mark.parametrize(
+    ("latlon", "expected"),
+    [
+        # a waypoint on the antimeridian (stored as -180): the line breaks there, with no zero-length piece
+        ([[35, 175], [35.5, -180], [36, -175]], [[[175, 35], [180, 35.5]], [[-180, 35.5], [-175, 36]]]),
+        ([[35, -175], [35.5, 180], [36, 175]], [[[-175, 35], [-180, 35.5]], [[180, 35.5], [175, 36]]]),
+        # starting on it: written on the side the first leg goes
+        ([[35, 180], [36, 175]], [[[180, 35], [175, 36]]]),
+        ([[35, 180], [36, -175]], [[[-180, 35], [-175, 36]]]),
+        # touching it and turning back: one line
+        ([[35, 170], [35.5, 180], [36, 175]], [[[170, 35], [180, 35.5], [175, 36]]]),
+    ],
+)
+def test_vertices_on_the_antimeridian(latlon, expected):
+    parts = outputs.split_antimeridian(np.array(latlon, dtype=float))
+    assert parts == [[[float(x) for x in p] for p in part] for part in expected]
+    check_rfc7946(
+        {
+            "type": "FeatureCollection",
+            "features": [
+                {"type": "Feature", "properties": {}, "geometry": {"type": "MultiLineString", "coordinates": parts}}
+            ],
+        }
+    )
