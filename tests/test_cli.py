@@ -28,6 +28,7 @@ from optroute.cli import exit_code, main
 from optroute.cli import tools as cli_tools
 from optroute.cli._common import parse_eta, parse_etas, parse_position, read_waypoints
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, OnLandError, SolverFailure
+from optroute.land import SYNTHETIC_GEOGRAPHY
 from optroute.weather.catalogue import scenario_names
 from tests.test_outputs import check_rfc7946
 
@@ -279,12 +280,15 @@ def test_unreachable_eta_exits_3_naming_the_earliest_arrival(capsys, files, tmp_
         "--eta",
         "+10",
         "--out",
-        tmp_path / "x",
+        f"{tmp_path}/run/",
     )
     assert code == 3 and out == ""
     line = one_error_line(err)
     assert "cannot be met" in line and "arrives" in line
-    assert not list(tmp_path.iterdir())  # nothing written
+    # the minimum-time passage in calm water: the calm-water speed at MCR over the corridor
+    earliest_h = corridor_nm() / SHIP.max_calm_speed_kn
+    assert f"arrives {earliest_h:.2f} h after departure" in line
+    assert not list(tmp_path.iterdir())  # nothing written, not even the output folder
 
 
 def test_solver_failure_exits_4_with_ipopt_status(capsys, files, tmp_path):
@@ -501,6 +505,42 @@ def test_a_line_split_at_the_antimeridian_reads_back_as_one_corridor(tmp_path):
     path.write_text(json.dumps(doc))
     wp = read_waypoints(path)
     np.testing.assert_array_equal(wp, [[35.0, 175.0], [35.5, -180.0], [36.0, -175.0]])
+
+
+def test_corridor_files_points_csv_aliases_and_bad_rows(tmp_path):
+    points = {
+        "type": "FeatureCollection",
+        "features": [
+            {"type": "Feature", "properties": {"n": k}, "geometry": {"type": "Point", "coordinates": [lon, lat]}}
+            for k, (lat, lon) in enumerate(CORRIDOR)
+        ],
+    }
+    (tmp_path / "points.json").write_text(json.dumps(points))
+    np.testing.assert_array_equal(read_waypoints(tmp_path / "points.json"), CORRIDOR)
+    (tmp_path / "aliases.csv").write_text("name, Latitude, Longitude\na,30,210\nb,31,-145\n")
+    np.testing.assert_array_equal(read_waypoints(tmp_path / "aliases.csv"), [[30.0, -150.0], [31.0, -145.0]])
+    (tmp_path / "bad.csv").write_text("lat,lon\n30,-150\n31,east\n")
+    with pytest.raises(ConfigError, match="row 2 has lat=31"):
+        read_waypoints(tmp_path / "bad.csv")
+    (tmp_path / "nolat.csv").write_text("x,y\n30,-150\n31,-145\n")
+    with pytest.raises(ConfigError, match="needs a latitude column"):
+        read_waypoints(tmp_path / "nolat.csv")
+    (tmp_path / "swapped.geojson").write_text(
+        json.dumps({"type": "LineString", "coordinates": [[30, -150], [31, 145]]})
+    )
+    with pytest.raises(ConfigError, match="latitude -150 outside"):
+        read_waypoints(tmp_path / "swapped.geojson")
+    gabon = _write(tmp_path / "gabon.csv", "lat,lon\n-1.0,11.5\n0,0\n")  # inland Gabon, then the sea
+    with pytest.raises(OnLandError, match=r"point\(s\) 0 \(-1.0000, 11.5000\)"):
+        read_waypoints(gabon)
+    synthetic = orx.scenarios.calm(bbox=(-5, 5, -5, 15))
+    synthetic.attrs["geography"] = SYNTHETIC_GEOGRAPHY  # its own no-go cells are the land, not the coastline
+    assert read_waypoints(gabon, synthetic).shape == (2, 2)
+
+
+def _write(path: Path, text: str) -> Path:
+    path.write_text(text)
+    return path
 
 
 # --------------------------------------------------------------------------- bench, warnings, interrupts

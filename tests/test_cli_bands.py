@@ -186,3 +186,25 @@ def test_python_dash_m(tmp_path):
         [sys.executable, "-m", "optroute", "bands", "--hs", "-2"], capture_output=True, text=True, env=env, cwd=tmp_path
     )
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and bad.stderr.startswith("optroute: error: ")
+
+
+def test_ship_from_a_toml_file(capsys, tmp_path):
+    # the general cargo preset's hull written as a file: T_R 18.07 s (IS Code row of physics.md §4)
+    path = tmp_path / "cargo.toml"
+    path.write_text(
+        'name = "my_cargo"\nlength_m = 170.0\nbeam_m = 25.4\ndraught_m = 9.5\ngm_m = 1.02\n'
+        "block_coefficient = 0.75\ndisplacement_t = 31540.0\ndesign_speed_kn = 14.0\nmcr_kw = 7000.0\n"
+        'ship_type = "general_cargo"\nloading = "loaded"\nwaterline_length_m = 175.0\nmin_load_fraction = 0.15\n'
+    )
+    code, out, err = run(capsys, "bands", "--ship", str(path), "--hs", "8", "--period", "18", "--heading", "90")
+    assert code == 0 and err == ""
+    assert "my_cargo: L 170.0 m, T_R 18.07 s" in out
+    assert table_rows(out)[0][:2] == ("synchronous_roll", 0.0)  # beam seas at T = T_R, as with the preset
+
+
+def test_bad_ship_file_is_one_line(capsys, tmp_path):
+    path = tmp_path / "short.toml"
+    path.write_text("length_m = 170.0\n")
+    code, out, err = run(capsys, "bands", "--ship", str(path))
+    assert code == 2 and out == "" and len(err.splitlines()) == 1
+    assert str(path) in err and "beam_m" in err

@@ -396,21 +396,25 @@ def read_waypoints(path: str | os.PathLike[str], weather: xr.Dataset | None = No
 # --------------------------------------------------------------------------- outputs
 
 
-def output_paths(out: str, default_stem: str) -> dict[str, Path]:
-    """``--out PREFIX|DIR`` → ``{"geojson": …, "csv": …, "nc": …}``.
+def output_paths(out: str, default_stem: str, *, create: bool = True) -> dict[str, Path]:
+    """``--out PREFIX|DIR`` → ``{"geojson": …, "csv": …, "nc": …, "png": …}``.
 
-    A path that is an existing folder or ends in a separator is a folder (created if
-    needed) and the files are ``<DIR>/<default_stem>.<ext>``; anything else is a prefix
-    (``voyage/run1`` → ``voyage/run1.geojson`` …) whose folder must exist. A prefix given
-    with one of the suffixes has it removed.
+    A path that is an existing folder or ends in a separator is a folder (created when
+    ``create``, with its parents) and the files are ``<DIR>/<default_stem>.<ext>``; anything
+    else is a prefix (``voyage/run1`` → ``voyage/run1.geojson`` …) whose folder must exist. A
+    prefix given with one of the suffixes has it removed. Call with ``create=False`` to check
+    ``--out`` before the work and create nothing.
     """
     raw = str(out)
     p = Path(raw)
     if raw.endswith((os.sep, "/")) or p.is_dir():
-        try:
-            p.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise ConfigError(f"--out {raw!r}: cannot create the folder ({exc.strerror or exc})") from None
+        if p.exists() and not p.is_dir():
+            raise ConfigError(f"--out {raw!r} is a file, not a folder; give a folder or a prefix without '/'")
+        if create:
+            try:
+                p.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise ConfigError(f"--out {raw!r}: cannot create the folder ({exc.strerror or exc})") from None
         stem = p / default_stem
     else:
         if p.suffix.lower() in (".geojson", ".csv", ".nc", ".png"):

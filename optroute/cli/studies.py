@@ -238,22 +238,23 @@ def cmd_tradeoff(args: argparse.Namespace, out: TextIO | None = None) -> int:
         raise ConfigError(f"--n {args.n} must be >= 2 (the front's two ends and the points between)")
     route, route_kw = _route(args, wx)
     kw = {**_cost_kwargs(args), **_workers(args), **route_kw}
-    paths = output_paths(args.out, "front")
+    output_paths(args.out, "front", create=False)
     with Progress(progress_enabled(args), "front") as bar, _quiet_dask(args):
         front = tradeoff(
             route, wx, ship, departure=departure, etas=etas, n=args.n, objective=args.objective, progress=bar, **kw
         )
-    files = write_front(front, paths)
+    files = write_front(front, output_paths(args.out, "front"))
     table = front_frame(front)
     lines = [
         f"front      {len(table)} ETAs, ship {ship.name}, objective {args.objective}, departure {fmt_time(departure)}",
         f"{'eta [UTC]':<22}{'eta [h]':>9}{'fuel [t]':>11}{'t/h saved':>11}  status",
     ]
     for _, row in table.iterrows():
-        price = row.get("eta_shadow_price_t_per_h", float("nan"))
+        price = float(row.get("eta_shadow_price_t_per_h", float("nan")))
+        price_text = f"{price:11.3f}" if np.isfinite(price) else f"{'-':>11}"
         lines.append(
             f"{row['eta_utc'][:16].replace('T', ' '):<22}{row.get('eta_h', float('nan')):9.1f}"
-            f"{row.get('fuel_t', float('nan')):11.2f}{price:11.3f}  {row.get('status', '')}"
+            f"{row.get('fuel_t', float('nan')):11.2f}{price_text}  {row.get('status', '')}"
         )
     knee = front.attrs.get("knee_eta_h")
     if isinstance(knee, int | float):

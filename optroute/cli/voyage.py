@@ -233,7 +233,7 @@ def cmd_plan(args: argparse.Namespace, out: TextIO | None = None) -> int:
         value = getattr(args, name)
         if not (np.isfinite(value) and value > 0):
             raise ConfigError(f"--{name.replace('_', '-')} {value!r} must be a finite length > 0 [nm]")
-    output_paths(args.out, "plan")  # a bad --out fails before the work, not after
+    output_paths(args.out, "plan", create=False)  # a bad --out fails before the work, not after
     search = {"cell_nm": args.cell_nm, "method": args.search}
     with Progress(progress_enabled(args), "plan") as bar:
         bar("route search", 0.0)
@@ -312,7 +312,7 @@ def cmd_optimise(args: argparse.Namespace, out: TextIO | None = None) -> int:
     out = out or sys.stdout
     inputs = voyage_inputs(args)
     corridor = read_corridor(args, inputs["weather"])
-    output_paths(args.out, "plan")
+    output_paths(args.out, "plan", create=False)
     with Progress(progress_enabled(args), "optimise") as bar:
         plan = orx.optimise_corridor(
             corridor,
