@@ -11,6 +11,7 @@ References, independent of the NLP:
 
 from __future__ import annotations
 
+import importlib
 import math
 
 import numpy as np
@@ -21,7 +22,6 @@ from hypothesis import strategies as st
 from matplotlib.figure import Figure
 
 import optroute as orx
-import optroute.tradeoff as tradeoff_mod
 from formulations._common import PowerLawFuel
 from formulations.speed_convex import solve_speed_convex
 from optroute.optimise import optimise_corridor
@@ -31,6 +31,8 @@ from optroute.study import SchedulerUnreachable
 from optroute.tradeoff import TradeoffFront, tradeoff
 from tests.test_optimise import LinearSeaModel, _static_linear_sea
 
+# the module, not the function orx.tradeoff that shadows it as an attribute of the package
+tradeoff_mod = importlib.import_module("optroute.tradeoff")
 SHIP = orx.Ship.preset("container_54k_dwt")
 T0 = np.datetime64("2024-01-10T00:00", "ns")
 KW = {"max_leg_nm": 150.0, "use_land_mask": False}
