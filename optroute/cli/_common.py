@@ -23,7 +23,6 @@ import os
 import re
 import sys
 import textwrap
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn, TextIO
 
@@ -438,9 +437,10 @@ class Progress:
     ``progress(done: int, total: int)`` (studies, fronts).
     """
 
-    def __init__(self, enabled: bool, desc: str, stream: TextIO | None = None) -> None:
+    def __init__(self, enabled: bool, desc: str, stream: TextIO | None = None, *, unit: str = "case") -> None:
         self.enabled = enabled
         self.desc = desc
+        self.unit = unit
         self._bar: Any = None
         self._stream = stream if stream is not None else sys.stderr
 
@@ -472,7 +472,7 @@ class Progress:
             bar.n = max(0.0, min(100.0, 100.0 * float(b)))
         else:
             total = max(int(b), 1)
-            bar = self._ensure(total, "case")
+            bar = self._ensure(total, self.unit)
             if bar.total != total:
                 bar.total = total
             bar.n = int(a)
@@ -516,7 +516,3 @@ def fmt_duration(hours: float) -> str:
     h, m = divmod(rem, 60)
     text = f"{d} d {h:02d} h {m:02d} min" if d else f"{h} h {m:02d} min"
     return f"{text} ({hours:.2f} h)"
-
-
-def join_lines(lines: Sequence[str]) -> str:
-    return "\n".join(lines)

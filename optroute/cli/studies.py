@@ -239,7 +239,7 @@ def cmd_tradeoff(args: argparse.Namespace, out: TextIO | None = None) -> int:
     route, route_kw = _route(args, wx)
     kw = {**_cost_kwargs(args), **_workers(args), **route_kw}
     output_paths(args.out, "front", create=False)
-    with Progress(progress_enabled(args), "front") as bar, _quiet_dask(args):
+    with Progress(progress_enabled(args), "front", unit="ETA") as bar, _quiet_dask(args):
         front = tradeoff(
             route, wx, ship, departure=departure, etas=etas, n=args.n, objective=args.objective, progress=bar, **kw
         )
