@@ -178,10 +178,7 @@ def test_help_returns_0(capsys):
 
 def test_python_dash_m(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    ok = subprocess.run(
-        [sys.executable, "-m", "optroute", "bands", "--hs", "14"], capture_output=True, text=True, env=env, cwd=tmp_path
-    )
-    assert ok.returncode == 0 and "synchronous_roll" in ok.stdout
+    # one run (importing optroute takes seconds; the success path is tested in-process above)
     bad = subprocess.run(
         [sys.executable, "-m", "optroute", "bands", "--hs", "-2"], capture_output=True, text=True, env=env, cwd=tmp_path
     )
