@@ -322,11 +322,13 @@ def optimise_corridor(
             fresh = clear_of_exclusion(fresh, frame, exclusion, t0, *prob.bounds(st))
             sol = prob.solve(nlp, eta_h=eta_solve, warm=fresh, budget=band_solves, **solve_kw)
             iterations += int(sol.res.iterations)
+        if not sol.ok and attempt == 0:
+            # an unreachable ETA (InfeasibleETA / WeatherCoverageError), a hard start, or a solver failure
+            sol = _first_failure(prob, nlp, sol, longer=lambda: _longer(prob, st, sampler, data_end_h, horizon), ctx=ctx, cap_h=cap_h, eta_user_h=eta_user_h, t0=t0, route=route,
+                                 budget=band_solves, step_nm=verify_step_nm, solve_kw=solve_kw,
+                                 warm_rules=warm_rules(rules, st), first_warm=warm, log=st.log)
+            iterations += int(sol.res.iterations)
         if not sol.ok:
-            if attempt == 0:
-                _diagnose_failure(prob, nlp, sol, ctx=ctx, cap_h=cap_h, eta_user_h=eta_user_h, t0=t0, route=route,
-                                  budget=band_solves, step_nm=verify_step_nm, solve_kw=solve_kw,
-                                  warm_rules=warm_rules(rules, st))
             st.log.append(f"attempt {attempt}: Ipopt {sol.res.status} after tightening; keeping the last clean plan")
             break
         last = sol
@@ -521,11 +523,79 @@ def _route_plan(route: Route | None, ctx: PlanContext, step_nm: float) -> Plan |
     return plan if not plan.verify(step_nm=step_nm) else None
 
 
-def _diagnose_failure(
+def _minimum_time(
+    prob: Problem,
+    nlp: SpeedNLP,
+    *,
+    ctx: PlanContext,
+    t0: np.datetime64,
+    route: Route | None,
+    budget: int,
+    solve_kw: Mapping[str, Any],
+    warm_rules: BandRules,
+    first_warm: Mapping[str, np.ndarray],
+    log: list[str],
+) -> Solved | None:
+    """The minimum-time solve of the corridor, tried from several warm starts; None when every one fails.
+
+    Ipopt's minimum-time solve is local and can fail from one start and succeed from another (a storm
+    that follows the ship, bands whose sides are fixed from the start's timing, a minimum load that
+    leaves a narrow speed window between it and a band). The starts, cheapest and most often right
+    first: the fastest allowed speed leg by leg with the true model (Boeing's reduction from the top
+    speed), the search route's speeds, the failed solve's own (safe) start, and safe starts from
+    3/4 and 1/2 of the top speed (they reach a storm later, so their band sides are other ones).
+    """
+    kw = dict(solve_kw)
+    kw["objective"] = "time"
+    frame = prob.frame
+
+    def safe(fraction: float) -> dict[str, np.ndarray]:
+        return safe_warm_start(ctx, frame, t0, fraction * prob.v_max, prob.v_min, rules=warm_rules)
+
+    starts: list[tuple[str, Callable[[], Mapping[str, np.ndarray]]]] = [("top speed", lambda: safe(1.0))]
+    if route is not None:
+        starts.append(("search route", lambda: route_warm_start(route, frame)))
+    starts += [("first start", lambda: first_warm), ("3/4 top speed", lambda: safe(0.75)),
+               ("1/2 top speed", lambda: safe(0.5))]
+    for name, make in starts:
+        warm = clear_of_exclusion(dict(make()), frame, prob.exclusion, t0, prob.y_lo, prob.y_hi)
+        fast = prob.solve(nlp, eta_h=None, warm=warm, budget=budget, **kw)
+        log.append(f"minimum time from {name}: Ipopt {fast.res.status}"
+                   + (f", {fast.res.duration_total_h:.3f} h" if fast.ok else ""))
+        if fast.ok:
+            return fast
+    return None
+
+
+def _longer(prob: Problem, st: Tightening, sampler: WeatherSampler, data_end_h: float,
+            horizon_h: float) -> tuple[Problem, SpeedNLP]:
+    """The problem on a weather grid long enough for a minimum-time passage that misses the ETA.
+
+    The ETA's grid ends just after the ETA; a minimum-time solve that arrives later would meet weather
+    held at the grid's last time. The longer grid runs to 1.3 × the passage at half the design speed
+    (the free-arrival horizon) or the weather's end; the rest of the problem is the same.
+    """
+    frame, grid = prob.frame, prob.grid
+    want = 1.3 * float(frame.s_nm[-1]) / max(prob.v_min, 0.5 * prob.ship.design_speed_kn)
+    end = min(max(want, horizon_h), data_end_h) if math.isfinite(data_end_h) else max(want, horizon_h)
+    if end <= horizon_h + 1e-9 or grid.t_h.size < 2:
+        return prob, prob.build(st)
+    dt = float(grid.t_h[1] - grid.t_h[0])
+    ds = float(grid.s_nm[1] - grid.s_nm[0]) if grid.s_nm.size > 1 else float(frame.s_nm[-1])
+    dy = float(grid.y_nm[1] - grid.y_nm[0]) if grid.y_nm.size > 1 else 1.0
+    g, smp = weather_grid(frame, sampler, departure=prob.departure, t_end_h=end, dt_h=dt, ds_nm=ds, dy_nm=dy)
+    p = Problem(frame=frame, grid=g, samples=smp, fit=prob.fit, ship=prob.ship, rules=prob.rules, y_lo=prob.y_lo,
+                y_hi=prob.y_hi, v_min=prob.v_min, v_max=prob.v_max, exclusion=prob.exclusion,
+                departure=prob.departure, solver_options=prob.solver_options)
+    return p, p.build(st)
+
+
+def _first_failure(
     prob: Problem,
     nlp: SpeedNLP,
     sol: Solved,
     *,
+    longer: Callable[[], tuple[Problem, SpeedNLP]],
     ctx: PlanContext,
     cap_h: float | None,
     eta_user_h: float | None,
@@ -535,36 +605,88 @@ def _diagnose_failure(
     step_nm: float,
     solve_kw: Mapping[str, Any],
     warm_rules: BandRules,
-) -> None:
-    """The first solve failed: an unreachable ETA (InfeasibleETA / WeatherCoverageError) or a solver failure."""
-    status = sol.res.status
-    if cap_h is not None:
-        kw = dict(solve_kw)
-        kw["objective"] = "time"
-        fast_warm = safe_warm_start(ctx, prob.frame, t0, prob.v_max, prob.v_min, rules=warm_rules)
-        fast_warm = clear_of_exclusion(fast_warm, prob.frame, prob.exclusion, t0, prob.y_lo, prob.y_hi)
-        fast = prob.solve(nlp, eta_h=None, warm=fast_warm, budget=budget, **kw)
-        if fast.ok and fast.res.duration_total_h > cap_h + 1e-6:
-            earliest = t0 + _h_to_td(fast.res.duration_total_h)
-            if eta_user_h is None:
-                raise WeatherCoverageError(
-                    f"the passage cannot be completed within the weather's time span ({cap_h:.1f} h after departure): "
-                    f"the minimum-time solve arrives {fast.res.duration_total_h:.1f} h after departure, at {earliest}; "
-                    "extend the forecast or pass an ETA"
-                )
-            raise InfeasibleETA(
-                f"the ETA {cap_h:.2f} h after departure cannot be met: the minimum-time solve of this corridor arrives "
-                f"{fast.res.duration_total_h:.2f} h after departure, at {earliest} (Ipopt: {fast.res.status}); give an "
-                "ETA at or after that, or widen the corridor",
-                earliest_arrival=earliest,
+    first_warm: Mapping[str, np.ndarray],
+    log: list[str],
+) -> Solved:
+    """The first solve failed: find out why, and recover when the problem is solvable after all.
+
+    The minimum-time solve (:func:`_minimum_time`, several warm starts) decides:
+
+    * it arrives after the ETA (or after the weather's end without an ETA): :class:`InfeasibleETA`
+      carrying its arrival (:class:`WeatherCoverageError`);
+    * it meets the ETA: the ETA is reachable and the minimum-time solution is a feasible start, so
+      the problem is solved again from it (for ``objective="time"`` it *is* the solution) and the
+      new solve is returned; when that fails too, :class:`SolverFailure` carries the minimum-time
+      plan as the best verified plan;
+    * it fails from every start: :class:`SolverFailure` with the first solve's Ipopt status and the
+      best verified plan known (the search route's, else the safe warm start's).
+    """
+    fast = _minimum_time(prob, nlp, ctx=ctx, t0=t0, route=route, budget=budget, solve_kw=solve_kw,
+                         warm_rules=warm_rules, first_warm=first_warm, log=log)
+    if fast is not None and cap_h is not None and fast.res.duration_total_h > float(prob.grid.t_h[-1]):
+        # it arrives after the ETA's weather grid ends: again on a grid that covers the passage
+        p_long, nlp_long = longer()
+        if p_long is not prob:
+            again = p_long.solve(nlp_long, eta_h=None, warm={"offset_nm": fast.res.offset_nm,
+                                                             "stw_kn": fast.res.stw_kn},
+                                 budget=budget, **{**solve_kw, "objective": "time"})
+            log.append(f"minimum time on a grid to {float(p_long.grid.t_h[-1]):.1f} h: Ipopt {again.res.status}")
+            if again.ok:
+                fast = again
+    if fast is not None and cap_h is not None and fast.res.duration_total_h > cap_h + 1e-6:
+        earliest = t0 + _h_to_td(fast.res.duration_total_h)
+        if eta_user_h is None:
+            raise WeatherCoverageError(
+                f"the passage cannot be completed within the weather's time span ({cap_h:.1f} h after departure): "
+                f"the minimum-time solve arrives {fast.res.duration_total_h:.1f} h after departure, at {earliest}; "
+                "extend the forecast or pass an ETA"
             )
+        raise InfeasibleETA(
+            f"the ETA {cap_h:.2f} h after departure cannot be met: the minimum-time solve of this corridor arrives "
+            f"{fast.res.duration_total_h:.2f} h after departure, at {earliest} (Ipopt: {fast.res.status}); give an "
+            "ETA at or after that, or widen the corridor",
+            earliest_arrival=earliest,
+        )
+    status = sol.res.status
+    if fast is not None:
+        if solve_kw["objective"] == "time":
+            return fast
+        again = prob.solve(nlp, eta_h=cap_h, warm={"offset_nm": fast.res.offset_nm, "stw_kn": fast.res.stw_kn},
+                           budget=budget, **solve_kw)
+        log.append(f"attempt 0 again from the minimum-time solution: Ipopt {again.res.status}")
+        if again.ok:
+            return again
+        status = again.res.status
     raise SolverFailure(
         f"Ipopt did not solve the corridor problem: status {status!r} (best of {sol.n_solves} solves of the band "
         f"outer loop, {sol.res.iterations} iterations, largest constraint violation {sol.res.max_violation:.3g}); "
-        "raise ipopt.max_iter in solver_options or band_solves, use shorter legs, or check the corridor and ETA",
+        + ("the minimum-time solve meets the ETA (its plan is the error's best_plan); " if fast is not None else
+           "the minimum-time solve failed from every warm start too; ")
+        + "raise ipopt.max_iter in solver_options or band_solves, use shorter legs, or check the corridor and ETA "
+        f"(tried: {'; '.join(log)})",
         status=status,
-        best_plan=_route_plan(route, ctx, step_nm),
+        best_plan=_best_known_plan(fast, route, ctx, prob.frame, t0, first_warm, step_nm),
     )
+
+
+def _best_known_plan(fast: Solved | None, route: Route | None, ctx: PlanContext, frame: CorridorFrame,
+                     t0: np.datetime64, safe: Mapping[str, np.ndarray], step_nm: float) -> Plan | None:
+    """The best plan that passes verification: the minimum-time solve's, the search route's, the safe start's."""
+    candidates: list[Callable[[], Plan | None]] = []
+    if fast is not None:
+        candidates.append(lambda: _to_plan(ctx, frame, fast.res, t0, step_nm=step_nm))
+    candidates.append(lambda: _route_plan(route, ctx, step_nm))
+    candidates.append(lambda: Plan.from_context(ctx, frame.waypoints(np.asarray(safe["offset_nm"], dtype=float)),
+                                                np.asarray(safe["stw_kn"], dtype=float), departure=t0,
+                                                status="safe warm start", step_nm=step_nm))
+    for make in candidates:
+        try:
+            plan = make()
+        except OptrouteError:  # a fallback plan is optional; the failure being reported is what matters
+            continue
+        if plan is not None and not plan.verify(step_nm=step_nm):
+            return replace(plan, status="minimum time") if plan.status == "candidate" else plan
+    return None
 
 
 def plan_voyage(

@@ -148,6 +148,21 @@ def test_unreachable_eta_raises_with_the_earliest_arrival():
     assert earliest == pytest.approx(corridor.length_nm / SHIP.max_calm_speed_kn, rel=1e-6)  # calm: top speed
 
 
+def test_tight_eta_behind_a_following_storm_with_a_15_percent_minimum_load_raises_infeasible_eta(storm):
+    # the hard case: a general cargo ship (15.5 kn at MCR, 15 % minimum load) behind a storm that moves
+    # the same way at 5 kn; in its sea (Hs 7-8 m, Tp ~ 11 s, following) synchronous roll and high-wave
+    # attack leave a narrow window of slow speeds above the minimum load. The first solve and the
+    # minimum-time solve from the top speed both fail (this raised SolverFailure); the minimum time
+    # is established from another start (on a weather grid that covers its passage)
+    ship = orx.Ship.preset("general_cargo_25k_dwt").replace(min_load_fraction=0.15)
+    corridor = orx.Corridor.from_waypoints([[5.0, -150.0], [5.0, -140.0]], width_nm=40.0)
+    with pytest.raises(orx.InfeasibleETA) as err:
+        optimise_corridor(corridor, storm, ship, departure=T0, eta=T0 + np.timedelta64(45, "h"), max_leg_nm=60.0)
+    earliest = _hours(err.value.earliest_arrival - T0)
+    assert earliest > 45.0 and earliest > corridor.length_nm / ship.max_calm_speed_kn  # calm-water bound
+    assert "minimum-time solve" in str(err.value)
+
+
 def test_solver_failure_carries_ipopts_status():
     wx = orx.scenarios.uniform(hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240,
                                resolution_deg=1.0)
