@@ -17,7 +17,15 @@
    convex solver; Bonmin big-M on a subset as a second exact reference) and the worst gap; and the
    same loop with the NLP as the inner solver on the same instances.
 
-The DP comparison is added when the 3-D DP lands. Run ``python -m benchmarks.bench_nlp [--quick]``.
+4. The same comparison at the domain level, beside the 3-D DP: a 2 477 nm great circle at 30° N
+   (170° W → 122° W, ±40 nm) through a 13 m storm moving south-east at 12 kn across it
+   (:func:`optroute.scenarios.moving_storm`), the container ship, least fuel by an ETA at 18 kn.
+   ``orx.optimise_corridor`` with ``max_leg_nm`` giving 496 legs (median of a few calls: the whole
+   call, and its Ipopt solves alone) and, on the same great circle, half-width and ETA,
+   ``orx.search_route(method="dp")`` at three resolutions (coarse/medium/fine ΔX, ΔY, Δt and speed
+   step), each with its run time and fuel as ratios to the NLP's, the ETA met and ``verify()``.
+
+Run ``python -m benchmarks.bench_nlp [--quick]`` (quick: 124 legs, the coarse DP only).
 """
 
 from __future__ import annotations
@@ -294,6 +302,79 @@ def bench_heuristic(quick: bool) -> dict[str, Any]:
     }
 
 
+DP_START, DP_END = (30.0, -170.0), (30.0, -122.0)
+DP_T0 = np.datetime64("2024-01-10T00:00", "ns")
+STORM_LAT = 34.0
+
+
+def bench_dp(quick: bool) -> dict[str, Any]:
+    """The corridor NLP against the 3-D DP on one great circle, time-varying weather (item 4 above)."""
+    import optroute as orx
+    from optroute import geo
+
+    ship = orx.Ship.preset("container_54k_dwt")
+    wx = orx.scenarios.moving_storm(STORM_LAT, -160.0, 120.0, 12.0, peak_hs_m=13.0, radius_nm=250.0, start=DP_T0,
+                                    duration_h=240.0, step_h=3.0, resolution_deg=0.5, bbox=(15, 45, -178, -115))
+    length = float(geo.distance_nm(*DP_START, *DP_END))
+    eta_h = round(length / 18.0)
+    eta = DP_T0 + np.timedelta64(int(eta_h), "h")
+    half_width = 40.0
+    corridor = orx.Corridor.from_waypoints([DP_START, DP_END], width_nm=2 * half_width)
+    max_leg = 20.0 if quick else 5.0
+    totals, solves, plans = [], [], []
+    for _ in range(2 if quick else 3):
+        t0 = time.perf_counter()
+        plans.append(orx.optimise_corridor(corridor, wx, ship, departure=DP_T0, eta=eta, max_leg_nm=max_leg))
+        totals.append(time.perf_counter() - t0)
+        solves.append(plans[-1].solver_stats["solve_time_s"])
+    plan = plans[-1]
+    legs = plan.legs
+    margins = legs[[c for c in legs.columns if c.startswith("margin_")]].to_numpy()
+    nlp = {
+        "legs": int(plan.solver_stats["n_legs"]),
+        "median_total_s": statistics.median(totals),
+        "median_ipopt_s": statistics.median(solves),
+        "nlp_solves": plan.solver_stats["nlp_solves"] + plan.solver_stats["fit_corrections"],
+        "fuel_t": plan.total_fuel_t,
+        "duration_h": plan.duration_h,
+        "violations": len(plan.verify()),
+        "legs_with_a_band": int(np.isfinite(margins).any(axis=1).sum()),
+        "max_hs_m": float(legs["hs_m"].max()),
+    }
+    resolutions = [("coarse", 250.0, 20.0, 2.0, 1.0)]
+    if not quick:
+        resolutions += [("medium", 125.0, 10.0, 1.0, 0.5), ("fine", 100.0, 8.0, 0.5, 0.5)]
+    rows = []
+    for label, dx, dy, dt, dv in resolutions:
+        t0 = time.perf_counter()
+        route = orx.search_route(DP_START, DP_END, wx, ship, departure=DP_T0, method="dp", objective="fuel", eta=eta,
+                                 speeds_kn=np.arange(8.0, 26.0 + 1e-9, dv),
+                                 dp_options={"dx_nm": dx, "dy_nm": dy, "half_width_nm": half_width, "dt_h": dt})
+        el = time.perf_counter() - t0
+        arrival_h = float((route.arrival - DP_T0) / np.timedelta64(1, "s")) / 3600.0
+        rows.append({"resolution": label, "dx_nm": dx, "dy_nm": dy, "dt_h": dt, "speed_step_kn": dv, "time_s": el,
+                     "fuel_t": route.total_fuel_t, "arrival_h": arrival_h, "eta_met": arrival_h <= eta_h + 1e-9,
+                     "time_ratio": el / nlp["median_total_s"], "fuel_ratio": route.total_fuel_t / nlp["fuel_t"]})
+    return {"length_nm": length, "eta_h": float(eta_h), "half_width_nm": half_width, "nlp": nlp, "dp": rows}
+
+
+def _print_dp(b: dict[str, Any]) -> None:
+    n = b["nlp"]
+    print(f"\n### Domain level: NLP beside the 3-D DP ({b['length_nm']:.0f} nm great circle, ±{b['half_width_nm']:.0f} nm, "
+          f"moving 13 m storm, ETA {b['eta_h']:.0f} h)\n")
+    print(f"optimise_corridor, {n['legs']} legs: median {n['median_total_s']:.2f} s per call, of which Ipopt "
+          f"{n['median_ipopt_s']:.2f} s over {n['nlp_solves']} solves; fuel {n['fuel_t']:.2f} t, arrival "
+          f"{n['duration_h']:.2f} h, verify() violations {n['violations']}; Hs up to {n['max_hs_m']:.1f} m, a band "
+          f"applies on {n['legs_with_a_band']} legs\n")
+    print("| DP resolution | ΔX [nm] | ΔY [nm] | Δt [h] | speed step [kn] | time [s] | DP time / NLP time | fuel [t] | "
+          "DP fuel / NLP fuel | arrival [h] | ETA met |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
+    for r in b["dp"]:
+        print(f"| {r['resolution']} | {r['dx_nm']:g} | {r['dy_nm']:g} | {r['dt_h']:g} | {r['speed_step_kn']:g} | "
+              f"{r['time_s']:.2f} | {r['time_ratio']:.2f} | {r['fuel_t']:.2f} | {r['fuel_ratio']:.4f} | "
+              f"{r['arrival_h']:.2f} | {r['eta_met']} |")
+
+
 def run(quick: bool) -> dict[str, Any]:
     """Run the three benchmarks, print markdown tables, return the figures."""
     started = time.perf_counter()
@@ -357,9 +438,11 @@ def run(quick: bool) -> dict[str, Any]:
         f"({h['enumeration_time_s'] / h['heuristic_time_s']:.1f}×); Bonmin big-M agrees with enumeration on "
         f"{h['bonmin_agrees']}/{h['bonmin_checked']}"
     )
+    d = bench_dp(quick)
+    _print_dp(d)
     total = time.perf_counter() - started
     print(f"\ntotal {total:.1f} s\n")
-    return {"corridor_500": b, "scaling": s, "heuristic": h, "total_s": total}
+    return {"corridor_500": b, "scaling": s, "heuristic": h, "dp_comparison": d, "total_s": total}
 
 
 def main(argv: list[str] | None = None) -> None:

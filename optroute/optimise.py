@@ -190,10 +190,12 @@ def optimise_corridor(
     Raises
     ------
     InfeasibleETA
-        The ETA cannot be met; ``earliest_arrival`` is the minimum-time solve's arrival.
+        The ETA cannot be met; ``earliest_arrival`` is the minimum-time solve's arrival (tried from
+        several warm starts, on a weather grid covering its passage).
     SolverFailure
         Ipopt fails (``status`` verbatim) or no tightened re-solve gives a plan that passes
-        verification; ``best_plan`` is the search route's plan when it passes verification.
+        verification; ``best_plan`` is the best plan known that passes verification (the minimum-time
+        solve's, the search route's or the safe warm start's), else None.
     WeatherCoverageError
         The corridor or the ETA lies outside the weather.
     NoSafePassage, OnLandError
