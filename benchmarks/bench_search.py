@@ -16,7 +16,7 @@
 1b. The same voyage with the real physics: ``optroute.search_route`` through
    ``optroute.scenarios.north_pacific_storms()`` with
    ``Ship.preset("container_8000teu")`` (objective "time", 5° neighbourhood,
-   20 nm cells; 60 nm with ``--quick``), whose cell-by-cell callback samples
+   20 nm cells; 120 nm with ``--quick``), whose cell-by-cell callback samples
    the weather and runs Boeing's speed reduction (Kwon speed loss, MCR, the
    four danger bands) at every piece, checked along each piece every 10 nm
    (``band_check_nm``; also timed without the check).  Beside it, in the same
@@ -205,7 +205,7 @@ def bench_physics(quick: bool) -> dict[str, Any]:
     ship = orx.Ship.preset("container_8000teu")
     wx = orx.scenarios.north_pacific_storms()
     t0 = wx.time.values[0]
-    cell = 60.0 if quick else 20.0
+    cell = 120.0 if quick else 20.0
     base = dict(start=orx.scenarios.SAN_DIEGO, end=orx.scenarios.TOKYO, weather=wx, ship=ship, departure=t0,
                 angular_resolution_deg=5.0, cell_nm=cell)  # fmt: skip
     with warnings.catch_warnings():
