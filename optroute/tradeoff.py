@@ -34,8 +34,8 @@ Arriving by an ETA is allowed to arrive earlier (``eta_mode="le"``), so with
 the fuel objective the true front never rises with a later ETA.  A point
 whose fuel is above that of an earlier point (relative tolerance
 ``monotone_rtol``), or whose solve failed, is solved again warm-started from
-each neighbour's solution, keeping the least fuel; if it still rises, its
-status says so (``"optimal; non-monotone: …"``).  With ``objective="cost"``
+each neighbour's solution and once from the optimiser's own start, keeping
+the least fuel; if it still rises, its status says so (``"optimal; non-monotone: …"``).  With ``objective="cost"``
 (fuel and time both priced) a later ETA may legitimately cost more fuel, so
 nothing is re-solved.
 
@@ -248,7 +248,7 @@ def _solve_point(spec: _Spec, eta_h: float | None, kind: str, warm: _Point | _Wa
         return _Point(
             math.nan if eta_h is None else eta_h,
             kind,
-            f"solver failure: {exc.status or exc}",
+            f"solver failure: {_failure_text(exc)}",
             _time.perf_counter() - started,
             carry=carry,
         )
@@ -262,6 +262,12 @@ def _solve_point(spec: _Spec, eta_h: float | None, kind: str, warm: _Point | _Wa
         )
     arrival_h = float(plan.duration_h)
     return _from_plan(plan, arrival_h if eta_h is None else eta_h, kind, _time.perf_counter() - started)
+
+
+def _failure_text(exc: SolverFailure) -> str:
+    if exc.status in ("Solve_Succeeded", "Solved_To_Acceptable_Level"):
+        return f"no plan passed verification (last Ipopt status {exc.status})"
+    return exc.status or str(exc)
 
 
 # --------------------------------------------------------------------------- input handling
@@ -612,11 +618,11 @@ def _monotone(spec: _Spec, points: list[_Point], rtol: float) -> int:
         if eligible and (rises or not p.ok):
             left = next((q for q in reversed(points[:i]) if q.ok), None)
             right = next((q for q in points[i + 1 :] if q.ok), None)
-            for nb in (left, right):
+            for nb in (left, right, "cold"):  # each neighbour's solution, then the optimiser's own start
                 if nb is None:
                     continue
                 resolves += 1
-                q = _solve_point(spec, p.eta_h, "eta", nb)
+                q = _solve_point(spec, p.eta_h, "eta", None if nb == "cold" else nb)
                 if q.ok and (not p.ok or q.fuel_t < p.fuel_t):
                     p = _replace(q, runtime_s=p.runtime_s + q.runtime_s)
             points[i] = p
@@ -625,7 +631,7 @@ def _monotone(spec: _Spec, points: list[_Point], rtol: float) -> int:
                 p,
                 status=f"{p.status}; non-monotone: fuel {p.fuel_t:.6g} t above the "
                 f"{best_before:.6g} t of an earlier ETA after re-solving from both "
-                "neighbours",
+                "neighbours and cold",
             )
         if p.ok:
             best_before = min(best_before, p.fuel_t)

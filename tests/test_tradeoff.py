@@ -148,7 +148,7 @@ def test_a_rising_point_is_resolved_from_its_neighbours_else_flagged(monkeypatch
     monkeypatch.setattr(tradeoff_mod, "_solve_point", lambda *a, **k: spoiled(*a, **k, always=True))
     front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, etas=[30.0, 35.0, 40.0], **KW)
     assert "non-monotone" in str(front.status.values[1])
-    assert front.attrs["monotonicity_resolves"] == 2  # from the left and from the right neighbour
+    assert front.attrs["monotonicity_resolves"] == 3  # from the left and the right neighbour, and cold
 
 
 def test_plot_returns_a_figure_and_the_front_round_trips_through_netcdf(calm_front, tmp_path):
