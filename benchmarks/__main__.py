@@ -22,26 +22,12 @@ import sys
 import time
 from typing import Any, TextIO
 
-from benchmarks._cli import DEFAULT_RESULTS, set_results_dir
+from benchmarks._cli import DEFAULT_RESULTS, jsonable, set_results_dir
 from optroute._store import atomic_write_bytes
 
 BENCHES = ("weather", "search", "nlp", "compare", "shao", "seed000", "front")
 OPTIONAL = {"front": "benchmarks.bench_front"}
 """Benchmarks whose module may not exist yet: skipped with a message instead of failing the run."""
-
-
-def _jsonable(obj: Any) -> Any:
-    try:
-        json.dumps(obj, allow_nan=True)
-        return obj
-    except (TypeError, ValueError):
-        if isinstance(obj, dict):
-            return {str(k): _jsonable(v) for k, v in obj.items()}
-        if isinstance(obj, list | tuple):
-            return [_jsonable(v) for v in obj]
-        if hasattr(obj, "tolist"):
-            return _jsonable(obj.tolist())
-        return str(obj)
 
 
 class _Tee(io.TextIOBase):
@@ -96,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
                 t0 = time.perf_counter()
                 result = module.run(args.quick)
                 walls[name] = time.perf_counter() - t0
-                payload = {"benchmark": name, "quick": args.quick, "wall_s": walls[name], "result": _jsonable(result)}
+                payload = {"benchmark": name, "quick": args.quick, "wall_s": walls[name], "result": jsonable(result)}
                 atomic_write_bytes(results / f"{name}.json", json.dumps(payload, indent=2).encode())
             else:
                 walls[name] = None

@@ -14,6 +14,19 @@ RESULTS_ENV = "OPTROUTE_BENCH_RESULTS"
 """Environment variable naming the results folder (``--results DIR`` sets it for the whole run)."""
 
 
+def jsonable(obj: Any) -> Any:
+    """``obj`` with numpy arrays and scalars as lists and floats, other unknown objects as text (for ``json.dumps``)."""
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [jsonable(v) for v in obj]
+    if hasattr(obj, "tolist"):  # numpy arrays and scalars, datetime64 included
+        return jsonable(obj.tolist())
+    if obj is None or isinstance(obj, bool | int | float | str):
+        return obj
+    return str(obj)
+
+
 def results_dir() -> Path:
     """The folder the benchmarks write JSON, PNG and the report into (created on demand).
 
@@ -42,4 +55,4 @@ def bench_main(run: Callable[[bool], Any], description: str, quick_help: str, ar
     set_results_dir(args.results)
     out = run(args.quick)
     if args.json:
-        print(json.dumps(out, indent=1, default=float))
+        print(json.dumps(jsonable(out), indent=1))

@@ -1,0 +1,76 @@
+"""The benchmarks' quick mode: every section runs in CI in under 2 minutes and leaves a report, JSON and figures.
+
+Issue 6 (Tests): "the benchmarks' quick mode runs in CI in under 2 minutes". The run is a
+subprocess, as a user runs it (``python -m benchmarks --quick``), writing into a temporary folder
+(``--results``) so the git-ignored ``benchmarks/results/`` is left alone. What is checked is
+independent of the benchmark code: the wall clock of the subprocess, the files on disk, the PNG
+signature, and that the JSON holds the run's own figures (finite fuel for the optimiser
+comparison, the seed's published numbers quoted back).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from benchmarks.__main__ import BENCHES, OPTIONAL
+
+ROOT = Path(__file__).resolve().parents[1]
+LIMIT_S = 120.0
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, float, subprocess.CompletedProcess[str]]:
+    out = tmp_path_factory.mktemp("bench")
+    env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    t0 = time.perf_counter()
+    proc = subprocess.run(
+        [sys.executable, "-m", "benchmarks", "--quick", "--results", str(out)],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=10 * LIMIT_S,
+    )
+    return out, time.perf_counter() - t0, proc
+
+
+def test_quick_mode_finishes_in_under_two_minutes(quick_run):
+    _, wall_s, proc = quick_run
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert wall_s < LIMIT_S, f"python -m benchmarks --quick took {wall_s:.0f} s (limit {LIMIT_S:.0f} s)"
+
+
+def test_quick_mode_writes_the_report_json_and_figures(quick_run):
+    out, _, proc = quick_run
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    report = (out / "report.md").read_text()
+    for name in BENCHES:
+        assert f"\n## {name}\n" in report  # every section, skipped or not, has its heading
+        if name not in OPTIONAL:
+            payload = json.loads((out / f"{name}.json").read_text())
+            assert payload["benchmark"] == name and payload["quick"] is True
+    assert report.count("|---") >= 8  # markdown tables, not only headings
+    for png in ("compare.png", "shao_case1.png", "seed000.png"):
+        assert (out / png).read_bytes()[:8] == PNG_SIGNATURE
+    assert not list(out.glob("*.tmp*"))  # atomic writes leave no temporaries behind
+
+
+def test_quick_figures_are_the_runs_own(quick_run):
+    out, _, _ = quick_run
+    compare = json.loads((out / "compare.json").read_text())["result"]
+    nlp = [r for c in compare["cases"] for r in c["rows"] if r["method"] == "NLP"]
+    assert nlp and all(math.isfinite(r["fuel_t"]) and r["fuel_t"] > 0 for r in nlp)
+    assert all(r["fuel_ratio"] == pytest.approx(1.0) for r in nlp)
+    seed = json.loads((out / "seed000.json").read_text())["result"]
+    assert seed["seed_time_ratio_min"] == pytest.approx(288.0 / 200.0)  # EP 2145155: > 12 d against 8 d 8 h
+    shao = json.loads((out / "shao.json").read_text())["result"]
+    assert shao["cases"][0]["paper"]["window_h"] == [233.0, 272.0]  # seed 001, case I
