@@ -212,6 +212,10 @@ def _ratios(rows: list[dict[str, Any]]) -> None:
         r["runtime_ratio"] = r["runtime_s"] / nlp["runtime_s"]
 
 
+def _f(x: float, fmt: str) -> str:
+    return format(x, fmt) if np.isfinite(x) else "–"
+
+
 def _yes(flag: bool) -> str:
     return "yes" if flag else "**no**"
 
@@ -222,8 +226,9 @@ def print_table(cases: list[dict[str, Any]]) -> None:
     print("|---|---:|---|---:|---:|---|---:|---:|---|")
     for c in cases:
         for r in c["rows"]:
-            print(f"| {c['scenario']} | {c['eta_h']:g} | {r['method']} | {r['fuel_t']:.2f} | {r['fuel_ratio']:.3f} | "
-                  f"{_yes(r['eta_met'])} ({r['arrival_h']:.2f}) | {r['runtime_s']:.2f} | {r['runtime_ratio']:.2f} | "
+            met = f"{_yes(r['eta_met'])} ({r['arrival_h']:.2f})" if np.isfinite(r["arrival_h"]) else "–"
+            print(f"| {c['scenario']} | {c['eta_h']:g} | {r['method']} | {_f(r['fuel_t'], '.2f')} | "
+                  f"{_f(r['fuel_ratio'], '.3f')} | {met} | {r['runtime_s']:.2f} | {r['runtime_ratio']:.2f} | "
                   f"{r['verify']} |")  # fmt: skip
 
 

@@ -185,7 +185,7 @@ def figure(res: dict[str, Any], path: Any) -> Any:
     ax = fig.add_subplot(1, 1, 1)
     eta = np.array([r["eta_h"] for r in res["rows"]])
     for key, label, style in (("baseline", "constant speed, shortest safe route", "k-o"), ("dp", "3-D DP", "b-s"),
-                              ("nlp", "NLP on the DP corridor", "r^")):  # fmt: skip
+                              ("nlp", "NLP in the baseline route's corridor", "r^")):  # fmt: skip
         y = np.array([r[f"{key}_t"] for r in res["rows"]])
         ok = np.isfinite(y)
         ax.plot(eta[ok], y[ok], style, label=label, ms=4)
