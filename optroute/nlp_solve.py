@@ -113,6 +113,8 @@ class Problem:
         self.exclusion, self.departure = exclusion, departure
         self.solver_options = dict(solver_options or {})
         self.build_time_s = 0.0
+        self.builds = 0
+        self._cache: dict[tuple[Any, ...], tuple[SpeedNLP, tuple[str, ...]]] = {}
 
     trial_max_iter = 150
 
@@ -121,9 +123,38 @@ class Problem:
         mid = 0.5 * (self.y_lo + self.y_hi)
         return mid + (self.y_lo - mid) * st.bound_scale, mid + (self.y_hi - mid) * st.bound_scale
 
+    cache_size = 8  # built NLPs kept (a 300-leg build holds some tens of MB)
+
+    def _key(self, st: Tightening, max_iter: int | None) -> tuple[Any, ...]:
+        """What shapes a build: everything of the tightening but the load limits (solve-time bounds)."""
+        return (np.asarray(st.factor, dtype=float).tobytes(), float(st.widen), float(st.hs_margin),
+                int(st.samples_per_leg), float(st.extra_radius_nm), np.asarray(st.bound_scale, dtype=float).tobytes(),
+                max_iter)
+
     def build(self, st: Tightening, *, max_iter: int | None = None) -> SpeedNLP:
-        started = _time.perf_counter()
+        """The NLP of a tightening state: cached by :meth:`_key`, its load limits set from ``st``.
+
+        The load limits enter :meth:`SpeedNLP.solve` only as the bounds of its load rows (read from
+        ``nlp.power`` at each solve), so one build serves states that differ in them alone.
+        """
         self._last_state = st
+        power = replace(self.fit.power, max_load=st.max_load, min_load=st.min_load)
+        key = self._key(st, max_iter)
+        hit = self._cache.pop(key, None)
+        if hit is not None:
+            self._cache[key] = hit  # most recently used last
+            nlp, self.band_names = hit
+            nlp.power = power
+            return nlp
+        nlp = self._build(st, max_iter=max_iter)
+        self._cache[key] = (nlp, self.band_names)
+        while len(self._cache) > self.cache_size:
+            self._cache.pop(next(iter(self._cache)))
+        return nlp
+
+    def _build(self, st: Tightening, *, max_iter: int | None = None) -> SpeedNLP:
+        started = _time.perf_counter()
+        self.builds += 1
         options = dict(self.solver_options)
         if max_iter is not None:
             options["ipopt.max_iter"] = min(int(max_iter), int(options.get("ipopt.max_iter", max_iter)))

@@ -28,48 +28,31 @@ import xarray as xr
 
 from formulations.speed_nlp import NLPResult, SpeedNLP
 from optroute import geo
-from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, OptrouteError, SolverFailure, WeatherCoverageError
 from optroute.nlp_inputs import (
     CorridorFrame,
-    build_frame,
-    dataset_spacing,
-    fit_power_model,
-    lateral_bounds,
     weather_grid,
 )
 from optroute.nlp_solve import (
     Problem,
     Solved,
     Tightening,
-    certificate,
     clear_of_exclusion,
-    desired_speed,
     route_warm_start,
     safe_warm_start,
-    warm_rules,
 )
-from optroute.performance import PerformanceModel, default_model
+from optroute.performance import PerformanceModel
 from optroute.plan import Exclusion, Plan, PlanContext, Violation
 from optroute.route import Corridor, Route
 from optroute.safety import BandRules
 from optroute.ship import Ship
-from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
-from optroute.units import timedelta_to_h as _hours
 from optroute.weather.sample import WeatherSampler
 
 __all__ = ["optimise_corridor", "plan_voyage"]
 
 Objective = Literal["time", "fuel", "cost"]
 ProgressFn = Callable[[str, float], None]
-
-
-
-
-
-
-
 
 
 # --------------------------------------------------------------------------- main entry points
@@ -201,219 +184,26 @@ def optimise_corridor(
     NoSafePassage, OnLandError
         The corridor has a waypoint with no navigable offset, or starts or ends on land.
     """
-    started = _time.perf_counter()
+    from optroute.corridor_problem import PreparedCorridor
+
     if objective not in ("time", "fuel", "cost"):
         raise ConfigError(f"objective={objective!r} is not known; use 'time', 'fuel' or 'cost'")
     if eta_mode not in ("le", "eq"):
         raise ConfigError(f"eta_mode={eta_mode!r} is not known; use 'le' (arrive by) or 'eq' (arrive at)")
-    if not isinstance(corridor, Corridor):
-        raise ConfigError(f"corridor must be an optroute.Corridor, got {type(corridor).__name__}")
-    t0 = _as_time(departure, "departure")
-    eta_t = _as_time(eta, "eta") if eta is not None else None
-    eta_user_h = _hours(eta_t - t0) if eta_t is not None else None
-    if eta_user_h is not None and eta_user_h <= 0:
-        raise ConfigError(f"eta={eta_t} is not after departure={t0}; give an arrival later than the departure")
-    if not (isinstance(samples_per_leg, int | np.integer) and samples_per_leg >= 1):
-        raise ConfigError(f"samples_per_leg={samples_per_leg!r} must be an integer >= 1")
-    fuel_price = float(finite("fuel_price_per_t", fuel_price_per_t, minimum=0.0, strict=True, error=ConfigError))
-    hourly = float(finite("hourly_cost_per_h", hourly_cost_per_h, minimum=0.0, error=ConfigError))
-    margin0 = float(finite("band_margin", band_margin, minimum=0.0, error=ConfigError))
-    hs_margin0 = float(finite("band_hs_margin", band_hs_margin, minimum=0.0, error=ConfigError))
-    if isinstance(weather, WeatherSampler):
-        sampler, ds = weather, None
-    elif isinstance(weather, xr.Dataset):
-        sampler, ds = WeatherSampler(weather), weather
-    else:
-        raise ConfigError(f"weather must be a canonical xarray.Dataset or a WeatherSampler, got {type(weather).__name__}")
-    model = model if model is not None else default_model(ship)
-    rules = rules if rules is not None else BandRules()
-    if speed_range_kn is None:
-        v_min, v_max = 3.0, float(min(ship.max_calm_speed_kn, 40.0))
-    else:
-        v_min, v_max = (float(x) for x in finite("speed_range_kn", speed_range_kn, minimum=0.0, strict=True,
-                                                  error=ConfigError))
-        if v_max <= v_min:
-            raise ConfigError(f"speed_range_kn={speed_range_kn!r} needs lower < upper")
-    _emit(progress, "corridor", 0.0)
-
-    # ---- time window -----------------------------------------------------------------
-    ext = sampler.extent
-    data_end_h = _hours(ext["time"][1] - t0) if sampler.time_policy == "raise" else math.inf
-    if sampler.time_policy == "raise" and _hours(ext["time"][0] - t0) > 1e-9:
-        raise WeatherCoverageError(
-            f"departure={t0} is before the weather's first time {ext['time'][0]}; depart later or extend the forecast"
-        )
-    if data_end_h <= 0:
-        raise WeatherCoverageError(
-            f"departure={t0} is at or after the weather's last time {ext['time'][1]}; extend the forecast"
-        )
-    if eta_user_h is not None and eta_user_h > data_end_h + 1e-9:
-        raise WeatherCoverageError(
-            f"eta={eta_t} is after the weather's last time {ext['time'][1]}: the passage could not be checked against "
-            "the weather; extend the forecast, give an earlier eta, or open the weather with time_policy='hold'"
-        )
-    cap_h = eta_user_h if eta_user_h is not None else (data_end_h if objective != "time" and math.isfinite(data_end_h)
-                                                        else None)
-    cor = corridor.resample(float(finite("max_leg_nm", max_leg_nm, minimum=0.0, strict=True, error=ConfigError)))
-    frame = build_frame(cor)
-    length = float(frame.s_nm[-1])
-    if cap_h is not None:
-        horizon = cap_h * 1.02 + 1.0
-    else:
-        horizon = 1.3 * length / max(v_min, 0.5 * ship.design_speed_kn)
-    horizon = min(horizon, data_end_h) if math.isfinite(data_end_h) else horizon
-    dt_ds, ds_ds = dataset_spacing(ds)
-    # the NLP's grid is twice as fine as the data's, so that its smooth interpolant stays within about a
-    # quarter of its own O(h²) departure from the data's multilinear interpolation (the verifier's)
-    dt_h = float(np.clip(0.5 * dt_ds if dt_ds else 1.5, 0.5, 3.0))
-    # short NLP legs (a small max_leg_nm) do not refine it: the grid would grow with N and its spline's build
-    # dominate the solve (15 s against 1 s at 500 legs); the corridor's own vertices (where it turns) still bound it
-    ds_nm = float(min(np.clip(0.5 * ds_ds if ds_ds else 15.0, 5.0, 30.0),
-                      max(float(np.max(corridor.leg_distance_nm)), 5.0)))
-    hw_max = float(np.max(cor.half_width_nm))
-    dy_nm = float(np.clip(ds_nm / 2.0, 2.0, max(hw_max / 2.0, 2.0)))
-    _emit(progress, "weather grid", 0.05)
-    grid, samples = weather_grid(frame, sampler, departure=t0, t_end_h=horizon, dt_h=dt_h, ds_nm=ds_nm, dy_nm=dy_nm)
-    window = t0 + np.array([_h_to_td(h) for h in np.linspace(0.0, horizon, int(min(25, max(2, horizon / dt_h + 1))))])
-    _emit(progress, "lateral bounds", 0.1)
-    y_lo, y_hi = lateral_bounds(frame, sampler=sampler, dataset=ds, times=window, use_land_mask=use_land_mask,
-                                step_nm=max(1.0, min(5.0, hw_max / 10.0)) if hw_max > 0 else 1.0)
-    _emit(progress, "power fit", 0.15)
-    v_ref = length / cap_h if cap_h else 0.75 * v_max
-    fit = fit_power_model(model, hs_m=samples.hs_m, wind_ms=samples.wind_ms, v_min_kn=max(v_min, 0.5 * v_ref),
-                          v_max_kn=v_max, min_load=float(model.min_power_kw) / float(model.mcr_kw))
-    ctx = PlanContext(ship=ship, model=model, rules=rules, sampler=sampler, dataset=ds, corridor=corridor,
-                      eta=eta_t, eta_mode=eta_mode, exclusion=exclusion, use_land_mask=use_land_mask)
-    prob = Problem(frame=frame, grid=grid, samples=samples, fit=fit, ship=ship, rules=rules, y_lo=y_lo, y_hi=y_hi,
-                    v_min=v_min, v_max=v_max, exclusion=exclusion, departure=t0, solver_options=solver_options)
-    st = Tightening(factor=np.ones(frame.n_legs), max_load=1.0, min_load=fit.power.min_load, widen=margin0,
-                     hs_margin=hs_margin0,
-                     samples_per_leg=int(samples_per_leg), bound_scale=np.ones(frame.n_legs + 1))
-    if warm_plan is not None:
-        warm = _plan_warm_start(warm_plan, frame)
-    elif route is not None:
-        warm = route_warm_start(route, frame)
-    else:
-        warm = safe_warm_start(ctx, frame, t0, desired_speed(length, cap_h, v_max, objective), v_min,
-                                rules=warm_rules(rules, st))
-    warm = clear_of_exclusion(warm, frame, exclusion, t0, y_lo, y_hi)
-    fresh_start = False
-    solve_kw = {"eta_mode": eta_mode, "objective": objective, "fuel_price": fuel_price, "hourly_cost": hourly}
-
-    best: tuple[float, Plan, Solved, float | None, dict[str, Any]] | None = None
-    last_violations: list[Violation] = []
-    last: Solved | None = None
-    solve_time = 0.0
-    iterations = 0
-    total_attempts = max_retries + fit_corrections + 1
-    for attempt in range(total_attempts):
-        _emit(progress, "solve", 0.2 + 0.7 * attempt / total_attempts)
-        nlp = prob.build(st)
-        eta_solve = None if cap_h is None else cap_h - st.eta_shift_h
-        if eta_solve is not None and eta_solve <= 0:
-            break
-        t_s = _time.perf_counter()
-        sol = prob.solve(nlp, eta_h=eta_solve, warm=warm, budget=band_solves, **solve_kw)
-        solve_time += _time.perf_counter() - t_s
-        iterations += int(sol.res.iterations)
-        if not sol.ok and attempt > 0 and not fresh_start:
-            # the tightened problem failed from the last solution: once more from a safe warm start
-            fresh_start = True
-            fresh = safe_warm_start(ctx, frame, t0, desired_speed(length, eta_solve, v_max, objective), v_min,
-                                     rules=warm_rules(rules, st))
-            fresh = clear_of_exclusion(fresh, frame, exclusion, t0, *prob.bounds(st))
-            sol = prob.solve(nlp, eta_h=eta_solve, warm=fresh, budget=band_solves, **solve_kw)
-            iterations += int(sol.res.iterations)
-        if not sol.ok and attempt == 0:
-            # an unreachable ETA (InfeasibleETA / WeatherCoverageError), a hard start, or a solver failure
-            sol = _first_failure(prob, nlp, sol, longer=lambda: _longer(prob, st, sampler, data_end_h, horizon), ctx=ctx, cap_h=cap_h, eta_user_h=eta_user_h, t0=t0, route=route,
-                                 budget=band_solves, step_nm=verify_step_nm, solve_kw=solve_kw,
-                                 warm_rules=warm_rules(rules, st), first_warm=warm, log=st.log)
-            iterations += int(sol.res.iterations)
-        if not sol.ok:
-            st.log.append(f"attempt {attempt}: Ipopt {sol.res.status} after tightening; keeping the last clean plan")
-            break
-        last = sol
-        plan = _to_plan(ctx, frame, sol.res, t0, step_nm=verify_step_nm)
-        violations = plan.verify(step_nm=verify_step_nm)
-        warm = {"offset_nm": sol.res.offset_nm, "stw_kn": sol.res.stw_kn}
-        if not violations:
-            score = _score(plan, objective, fuel_price, hourly)
-            if best is None or score < best[0] - 1e-12 * max(1.0, abs(best[0])):
-                snapshot = {"max_load": st.max_load, "band_margin": st.widen, "band_hs_margin": st.hs_margin,
-                            "bands": list(prob.band_names)}
-                best = (score, plan, sol, eta_solve, snapshot)
-            if st.corrections >= fit_corrections:
-                break
-            ratio = _correction(plan, sol.res)
-            if np.all(np.abs(ratio - 1.0) <= 1e-6):
-                break  # the fit is exact at this solution: nothing to correct
-            st.corrections += 1
-            st.factor = st.factor * ratio
-            st.log.append(f"attempt {attempt}: clean; fit corrected on every leg (defect correction)")
-            continue
-        last_violations = violations
-        if st.retries >= max_retries:
-            break
-        st.retries += 1
-        _tighten(st, violations, plan, sol.res)
-    if best is None:
-        status = last.res.status if last is not None else "unknown"
-        listed = "; ".join(str(v) for v in last_violations[:6])
-        raise SolverFailure(
-            f"no plan passing verification after {st.retries} tightened re-solves (Ipopt: {status}); last "
-            f"violations: {listed or 'none (Ipopt failed)'}; try more samples_per_leg, shorter max_leg_nm or a "
-            "wider band_margin",
-            status=status,
-            best_plan=_route_plan(route, ctx, verify_step_nm),
-        )
-    _, plan, sol, eta_solve, snapshot = best
-    _emit(progress, "certificate", 0.95)
-    res = sol.res
-    cert: dict[str, Any] = {"method": "not applicable", "gap": float("nan")}
-    fixed = bool(np.all(y_lo == 0.0) and np.all(y_hi == 0.0))
-    reason = _certificate_reason(fixed, samples, res, exclusion, objective)
-    if reason is None:
-        cert = certificate(sol.nlp, res, objective=objective, eta_h=eta_solve, eta_mode=eta_mode,
-                            fuel_price=fuel_price, hourly_cost=hourly)
-    else:
-        cert["reason"] = reason
-    shadow = float("nan")
-    if eta_user_h is not None and objective == "fuel":
-        shadow = float(res.eta_multiplier)
-    elif eta_user_h is not None and objective == "cost":
-        shadow = float(res.eta_multiplier) / fuel_price
-    stats = {
-        "ipopt_status": res.status,
-        "iterations": iterations,
-        "nlp_solves": sol.n_solves,
-        "outer_flips": sol.flips,
-        "outer_history": sol.history,
-        "solve_time_s": solve_time,
-        "build_time_s": prob.build_time_s,
-        "total_time_s": _time.perf_counter() - started,
-        "fit_max_rel_error": fit.max_rel_error,
-        "fit_rms_rel_error": fit.rms_rel_error,
-        "sfoc_fit_max_rel_error": fit.sfoc_max_rel_error,
-        "fit_points": fit.n_points,
-        "nlp_objective": float(res.objective),
-        "nlp_fuel_t": float(res.total_fuel_t),
-        "nlp_max_violation": float(res.max_violation),
-        "frame_max_rel_distance_error": frame.distance_error(res.offset_nm),
-        "retries": st.retries,
-        "fit_corrections": st.corrections,
-        "tightening": list(st.log),
-        **snapshot,
-        "certificate": cert,
-        "n_legs": frame.n_legs,
-        "samples_per_leg": sol.nlp.samples_per_leg,
-        "weather_grid_shape": list(np.shape(grid.hs_m)),
-        "weather_nodes_filled": samples.filled,
-        "eta_h_solved": eta_solve,
-    }
-    status = "optimal" if res.status == "Solve_Succeeded" else "feasible"
-    _emit(progress, "done", 1.0)
-    return replace(plan, status=status, solver_stats=stats, eta_shadow_price_t_per_h=shadow)
+    started = _time.perf_counter()
+    prepared = PreparedCorridor(
+        corridor, weather, ship, departure=departure, latest_eta=eta, objective=objective, model=model, rules=rules,
+        max_leg_nm=max_leg_nm, samples_per_leg=samples_per_leg, fuel_price_per_t=fuel_price_per_t,
+        hourly_cost_per_h=hourly_cost_per_h, exclusion=exclusion, speed_range_kn=speed_range_kn,
+        band_solves=band_solves, fit_corrections=fit_corrections, max_retries=max_retries, band_margin=band_margin,
+        band_hs_margin=band_hs_margin, verify_step_nm=verify_step_nm, solver_options=solver_options,
+        use_land_mask=use_land_mask, progress=progress,
+    )
+    plan = prepared.solve(eta, eta_mode=eta_mode, objective=objective, warm_plan=warm_plan, route=route,
+                          progress=progress)
+    stats = dict(plan.solver_stats)
+    stats["total_time_s"] = _time.perf_counter() - started
+    return replace(plan, solver_stats=stats)
 
 
 def _plan_warm_start(plan: Plan, frame: CorridorFrame) -> dict[str, np.ndarray]:
