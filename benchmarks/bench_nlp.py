@@ -24,6 +24,12 @@
    call, and its Ipopt solves alone) and, on the same great circle, half-width and ETA,
    ``orx.search_route(method="dp")`` at three resolutions (coarse/medium/fine ΔX, ΔY, Δt and speed
    step), each with its run time and fuel as ratios to the NLP's, the ETA met and ``verify()``.
+   Measured: the finest DP's fuel is ~0.3 % below the NLP's (its route, evaluated as a ``Plan``
+   by the true model, ~0.17 % below). The cause is the NLP's power model, a least-squares fit of
+   the Kwon model (max relative error ~16 % over the fit's range): the per-leg defect correction
+   matches the power's level at the solution, not its slope in speed and sea state, so the NLP's
+   optimum is the fit's; warm-starting it from the DP route gives the same plan (not a local
+   optimum of the lateral path). No band applies on this route (see ``BAND_FRACTION``).
 
 Run ``python -m benchmarks.bench_nlp [--quick]`` (quick: 124 legs, the coarse DP only).
 """
@@ -305,6 +311,11 @@ def bench_heuristic(quick: bool) -> dict[str, Any]:
 DP_START, DP_END = (30.0, -170.0), (30.0, -122.0)
 DP_T0 = np.datetime64("2024-01-10T00:00", "ns")
 STORM_LAT = 34.0
+# the patent's 0.04 L (10 m): the route meets only the storm's edge (Hs <= 4.5 m), so no band applies. With the
+# threshold lowered into that sea (0.016 L = 4 m) the corridor NLP fails (Ipopt, also for minimum time), and at
+# 0.0175 L the coarse DP finds no passage with 8-26 kn: the band-active comparison is left open; BAND_FRACTION is
+# the knob that reproduces it
+BAND_FRACTION = 0.04
 
 
 def bench_dp(quick: bool) -> dict[str, Any]:
@@ -313,6 +324,7 @@ def bench_dp(quick: bool) -> dict[str, Any]:
     from optroute import geo
 
     ship = orx.Ship.preset("container_54k_dwt")
+    rules = orx.BandRules(hs_threshold_fraction=BAND_FRACTION)
     wx = orx.scenarios.moving_storm(STORM_LAT, -160.0, 120.0, 12.0, peak_hs_m=13.0, radius_nm=250.0, start=DP_T0,
                                     duration_h=240.0, step_h=3.0, resolution_deg=0.5, bbox=(15, 45, -178, -115))
     length = float(geo.distance_nm(*DP_START, *DP_END))
@@ -324,7 +336,8 @@ def bench_dp(quick: bool) -> dict[str, Any]:
     totals, solves, plans = [], [], []
     for _ in range(2 if quick else 3):
         t0 = time.perf_counter()
-        plans.append(orx.optimise_corridor(corridor, wx, ship, departure=DP_T0, eta=eta, max_leg_nm=max_leg))
+        plans.append(orx.optimise_corridor(corridor, wx, ship, departure=DP_T0, eta=eta, max_leg_nm=max_leg,
+                                            rules=rules))
         totals.append(time.perf_counter() - t0)
         solves.append(plans[-1].solver_stats["solve_time_s"])
     plan = plans[-1]
@@ -348,7 +361,7 @@ def bench_dp(quick: bool) -> dict[str, Any]:
     for label, dx, dy, dt, dv in resolutions:
         t0 = time.perf_counter()
         route = orx.search_route(DP_START, DP_END, wx, ship, departure=DP_T0, method="dp", objective="fuel", eta=eta,
-                                 speeds_kn=np.arange(8.0, 26.0 + 1e-9, dv),
+                                 rules=rules, speeds_kn=np.arange(8.0, 26.0 + 1e-9, dv),
                                  dp_options={"dx_nm": dx, "dy_nm": dy, "half_width_nm": half_width, "dt_h": dt})
         el = time.perf_counter() - t0
         arrival_h = float((route.arrival - DP_T0) / np.timedelta64(1, "s")) / 3600.0
