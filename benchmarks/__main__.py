@@ -7,7 +7,8 @@ same process (scipy's compiled Dijkstra, xarray's interp, CasADi's automatic der
 speed stepping and the 3-D DP, the seeds' published figures). Everything printed is collected in
 ``<results>/report.md``; each benchmark's figures go to ``<results>/<name>.json`` and its PNG
 figures beside them. ``<results>`` is the git-ignored ``benchmarks/results/`` unless ``--results``
-names another folder.
+names another folder. A benchmark that raises is reported as failed (the traceback on stderr), the
+others still run, and the exit status is 1.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import json
 import platform
 import sys
 import time
+import traceback
 from typing import Any, TextIO
 
 from benchmarks._cli import DEFAULT_RESULTS, jsonable, set_results_dir
@@ -73,34 +75,43 @@ def main(argv: list[str] | None = None) -> int:
     started = time.perf_counter()
     sections: list[str] = []
     walls: dict[str, float | None] = {}
+    status: dict[str, str] = {}
     for name in names:
         tee = _Tee(sys.stdout)
         with contextlib.redirect_stdout(tee):
             print(f"\n## {name}\n", flush=True)
             module = _load(name)
+            walls[name], status[name] = None, "skipped"
             if module is not None:
                 t0 = time.perf_counter()
-                result = module.run(args.quick)
-                walls[name] = time.perf_counter() - t0
-                payload = {"benchmark": name, "quick": args.quick, "wall_s": walls[name], "result": jsonable(result)}
-                atomic_write_bytes(results / f"{name}.json", json.dumps(payload, indent=2).encode())
-            else:
-                walls[name] = None
+                try:
+                    result = module.run(args.quick)
+                except Exception as exc:  # one broken benchmark must not lose the others' figures
+                    walls[name], status[name] = time.perf_counter() - t0, "**failed**"
+                    traceback.print_exc()
+                    print(f"\n**failed** after {walls[name]:.1f} s: `{type(exc).__name__}: {str(exc)[:500]}`\n")
+                else:
+                    walls[name], status[name] = time.perf_counter() - t0, f"`{name}.json`"
+                    payload = {"benchmark": name, "quick": args.quick, "wall_s": walls[name],
+                               "result": jsonable(result)}  # fmt: skip
+                    atomic_write_bytes(results / f"{name}.json", json.dumps(payload, indent=2).encode())
         sections.append(tee.copy.getvalue())
     head = [
         f"# optroute benchmarks ({'quick' if args.quick else 'full'} mode)\n",
         f"Python {platform.python_version()} on {platform.machine()}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; "
         f"total wall time {time.perf_counter() - started:.0f} s. Absolute times are noisy on a shared machine; "
         "the tables' ratios are measured side by side in one process.\n",
-        "| benchmark | wall time [s] | JSON |",
+        "| benchmark | wall time [s] | result |",
         "|---|---:|---|",
-        *(f"| {n} | {'skipped' if w is None else f'{w:.1f}'} | {'–' if w is None else f'`{n}.json`'} |"
-          for n, w in walls.items()),
+        *(f"| {n} | {'–' if w is None else f'{w:.1f}'} | {status[n]} |" for n, w in walls.items()),
     ]  # fmt: skip
     report = "\n".join(head) + "\n" + "".join(sections)
     atomic_write_bytes(results / "report.md", report.encode())
     print(f"\nreport: {results / 'report.md'}")
-    return 0
+    failed = [n for n, st in status.items() if st == "**failed**"]
+    if failed:
+        print(f"failed: {', '.join(failed)}", file=sys.stderr)
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":
