@@ -172,6 +172,12 @@ def test_solver_failure_carries_ipopts_status():
                           solver_options={"ipopt.max_iter": 1})
     assert err.value.status == "Maximum_Iterations_Exceeded"
     assert "Maximum_Iterations_Exceeded" in str(err.value)
+    # the best verified plan known travels with the error: here the safe warm start, the constant
+    # speed D/T in calm water, whose fuel is worked by hand from the Ship
+    best = err.value.best_plan
+    assert best is not None and best.verify() == [] and best.duration_h <= 60.0 + 1e-9
+    by_hand = 60.0 * float(SHIP.fuel_rate_tph(SHIP.calm_power_kw(corridor.length_nm / 60.0)))
+    assert best.total_fuel_t == pytest.approx(by_hand, rel=1e-6)
 
 
 def test_storm_with_bands_active_returns_a_verified_plan_off_the_bands(storm):
