@@ -278,11 +278,12 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
         local_rows += [rows["excl"][0] + legs * m + j for j in range(m)]
     g_idx = np.vstack(local_rows)  # (n_gl, N)
     c, nrm, tau = cor.centre_xy_nm, cor.normal_xy, cor.tangent_xy
-    geo_dm = ca.DM(np.vstack([c[:-1].T, c[1:].T, nrm[:-1].T, nrm[1:].T, tau.T, nlp.leg_power_factor[None, :]]))
+    geo_fixed = ca.DM(np.vstack([c[:-1].T, c[1:].T, nrm[:-1].T, nrm[1:].T, tau.T]))
     beta_idx = np.array([[2 + b * k_ + k * m + j for k in range(n)] for b in range(nb) for j in range(m)])
     # ---- symbolic inputs of the nlpsol derivative functions ---------------------------
     x = ca.MX.sym("x", nx)
-    p = ca.MX.sym("p", 2 + k_ * nb)
+    p = ca.MX.sym("p", 2 + k_ * nb + n)  # weights, band edges, per-leg power factors
+    geo_dm = ca.vertcat(geo_fixed, ca.reshape(p[2 + k_ * nb :], 1, n))
     lam_f = ca.MX.sym("lam_f")
     lam_g = ca.MX.sym("lam_g", ng)
     zmat = ca.reshape(x[z_idx.T.ravel().tolist()], _N_Z, n)

@@ -264,7 +264,9 @@ class SpeedNLP:
     v_min_kn, v_max_kn : float or array_like, shape (N,)
         Bounds on the speed through water [kn]; ``v_min > 0``.
     leg_power_factor : array_like, shape (N,), optional
-        Static multiplier ``f_k`` of the calm and wave power per leg (default 1).
+        Multiplier ``f_k`` of the calm and wave power per leg (default 1). A parameter of the
+        built NLP, not part of its graph: :meth:`set_leg_power_factor` changes it between solves
+        without a rebuild.
     g_over_2pi_kn_s : float
         ``A = g/2π`` [kn/s] in the wave relations (default 3.0339; IMO's rounded form is 3.0).
     sog_min_kn : float
@@ -358,7 +360,7 @@ class SpeedNLP:
         out = ca.vertcat(*[ph[k] for k in keys], *ph["res"], *ph["ratio"])
         return ca.Function("sample", [inp], [out])
 
-    def _model(self, y: Any, v: Any, t: Any, beta: Any) -> dict[str, Any]:
+    def _model(self, y: Any, v: Any, t: Any, beta: Any, fac: Any) -> dict[str, Any]:
         """The symbolic model: leg geometry in vectorised MX, per-sample physics mapped; columns of length N·m."""
         cor = self.corridor
         n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
@@ -377,10 +379,7 @@ class SpeedNLP:
         x_s = _rep(px[:-1], m) + frac * _rep(dx, m)
         yf_s = _rep(py[:-1], m) + frac * _rep(dy, m)
         fields = self._interp_map(ca.horzcat(t_s, s_s, y_s).T)  # (n_fields, K)
-        factor = np.repeat(self.leg_power_factor, m)[None, :]
-        rows = ca.vertcat(
-            _rep(v, m).T, _rep(cos_d, m).T, _rep(sin_d, m).T, _rep(length / m, m).T, ca.DM(factor), fields
-        )
+        rows = ca.vertcat(_rep(v, m).T, _rep(cos_d, m).T, _rep(sin_d, m).T, _rep(length / m, m).T, _rep(fac, m).T, fields)
         if nb:
             rows = ca.vertcat(rows, ca.reshape(beta, k_, nb).T)
         out = self._sample_map(rows).T  # (K, n_out)
@@ -428,7 +427,8 @@ class SpeedNLP:
         y, v, t = x[: n + 1], x[n + 1 : 2 * n + 1], x[2 * n + 1 :]
         beta = ca.MX.sym("beta", k_ * nb)
         weights = ca.MX.sym("w", 2)  # fuel weight, time weight
-        mdl = self._model(y, v, t, beta)
+        fac = ca.MX.sym("f", n)  # per-leg power factor: a parameter, so that changing it needs no build
+        mdl = self._model(y, v, t, beta, fac)
         objective = weights[0] * ca.sum1(mdl["fuel_leg"]) + weights[1] * (t[n] - t[0])
         rows: dict[str, tuple[int, int]] = {}
         parts: list[Any] = []
@@ -456,7 +456,7 @@ class SpeedNLP:
         if structured:
             self._derivatives = structured_derivatives(self, jit=jit, exact_hessian=exact_hessian)  # keep alive
             opts.update(self._derivatives)
-        param = ca.vertcat(weights, beta)
+        param = ca.vertcat(weights, beta, fac)
         self._solver = ca.nlpsol("speed_nlp", "ipopt", {"x": x, "p": param, "f": objective, "g": g}, opts)
         names = ["t_s", "s_s", "y_s", "x_s", "yf_s", "hs", "per", "sog", "power", "load", "rate", "cos_chi"]
         names += ["length", "dt_leg", "fuel_leg", "px", "py"]
@@ -467,7 +467,7 @@ class SpeedNLP:
         if self.exclusion is not None:
             names.append("excl_margin")
             outs.append(mdl["excl_margin"])
-        diag = ca.Function("speed_nlp_diag", [x, beta], outs)
+        diag = ca.Function("speed_nlp_diag", [x, beta, fac], outs)
         self._diag = diag.expand() if expand else diag
         self._diag_names = names
 
@@ -495,7 +495,7 @@ class SpeedNLP:
 
     def _eval(self, x: np.ndarray) -> dict[str, np.ndarray]:
         beta = np.zeros(self.n_legs * self.samples_per_leg * self.n_bands)
-        vals = self._diag(x, beta)
+        vals = self._diag(x, beta, self.leg_power_factor)
         vals = vals if isinstance(vals, tuple | list) else [vals]
         return {k: np.asarray(val, dtype=float) for k, val in zip(self._diag_names, vals, strict=True)}
 
@@ -559,6 +559,13 @@ class SpeedNLP:
             exclusion_margin_nm=margin,
             outside_grid=outside,
         )
+
+    def set_leg_power_factor(self, leg_power_factor: ArrayLike) -> None:
+        """Set the per-leg power factor ``f_k`` [-] of the next solves (shape (N,), positive); no rebuild."""
+        f = broadcast_legs(leg_power_factor, self.n_legs, "leg_power_factor")
+        if not (np.isfinite(f).all() and (f > 0).all()):
+            raise FormulationInputError("leg_power_factor must be finite and positive")
+        self.leg_power_factor = f.copy()
 
     def consistent_times(self, offset_nm: ArrayLike, stw_kn: ArrayLike, *, iterations: int = 3) -> np.ndarray:
         """Arrival times [h] (N+1,) that satisfy the NLP's time dynamics for given offsets and speeds.
@@ -715,7 +722,7 @@ class SpeedNLP:
             set_rows("sog", self.sog_min_kn, np.inf)
         if self.exclusion is not None:
             set_rows("excl", 0.0, np.inf)
-        p = np.concatenate([weights, beta])
+        p = np.concatenate([weights, beta, self.leg_power_factor])
         started = time.perf_counter()
         sol = self._solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         elapsed = time.perf_counter() - started

@@ -11,10 +11,10 @@ prepares the corridor once, for a horizon covering all its ETAs, and solves each
 :class:`SolverFailure` behaviour and ``solver_stats`` of :func:`optimise_corridor`, which is this
 class prepared for its one ETA.
 
-Builds are cached by the tightening state that shapes them (per-leg power factor, band back-offs,
-samples per leg, exclusion radius, lateral bounds; the load limits are solve-time constraint bounds
-and need no build), so the first build of every ETA is shared and a re-solve at a state met before
-costs only the solve. :class:`Learnt` carries what the verification loop learnt at one ETA (the
+Builds are cached by the tightening state that shapes them (band back-offs, samples per leg,
+exclusion radius, lateral bounds); the load limits are solve-time constraint bounds and the per-leg
+power factors a solve parameter, so the fit corrections and power tightenings of the verification
+loop, and every ETA after the first, cost a solve, not a build. :class:`Learnt` carries what the verification loop learnt at one ETA (the
 corrected power factor, the load limit and band back-offs) to the next one's start.
 """
 
@@ -443,8 +443,9 @@ class PreparedCorridor:
         fixed = bool(np.all(self.y_lo == 0.0) and np.all(self.y_hi == 0.0))
         reason = _certificate_reason(fixed, self.samples, res, exclusion, objective)
         if reason is None:
-            # a cached build is shared between states differing in the load limits only: the best solve's
+            # a cached build is shared by states differing in load limits and power factors: the best solve's
             sol.nlp.power = replace(self.fit.power, max_load=snapshot["max_load"], min_load=min_load)
+            sol.nlp.set_leg_power_factor(np.asarray(snapshot["leg_power_factor"], dtype=float))
             cert = certificate(sol.nlp, res, objective=objective, eta_h=eta_solve, eta_mode=eta_mode,
                                fuel_price=fuel_price, hourly_cost=hourly)
         else:

@@ -126,16 +126,18 @@ class Problem:
     cache_size = 8  # built NLPs kept (a 300-leg build holds some tens of MB)
 
     def _key(self, st: Tightening, max_iter: int | None) -> tuple[Any, ...]:
-        """What shapes a build: everything of the tightening but the load limits (solve-time bounds)."""
-        return (np.asarray(st.factor, dtype=float).tobytes(), float(st.widen), float(st.hs_margin),
+        """What shapes a build: the tightening but its load limits and power factors (solve-time data)."""
+        return (float(st.widen), float(st.hs_margin),
                 int(st.samples_per_leg), float(st.extra_radius_nm), np.asarray(st.bound_scale, dtype=float).tobytes(),
                 max_iter)
 
     def build(self, st: Tightening, *, max_iter: int | None = None) -> SpeedNLP:
-        """The NLP of a tightening state: cached by :meth:`_key`, its load limits set from ``st``.
+        """The NLP of a tightening state: cached by :meth:`_key`, its load limits and power factors set from ``st``.
 
         The load limits enter :meth:`SpeedNLP.solve` only as the bounds of its load rows (read from
-        ``nlp.power`` at each solve), so one build serves states that differ in them alone.
+        ``nlp.power`` at each solve) and the per-leg power factors are a solve parameter
+        (:meth:`SpeedNLP.set_leg_power_factor`), so one build serves states that differ in them alone:
+        the verification loop's power tightening and fit corrections cost a solve, not a build.
         """
         self._last_state = st
         power = replace(self.fit.power, max_load=st.max_load, min_load=st.min_load)
@@ -145,6 +147,7 @@ class Problem:
             self._cache[key] = hit  # most recently used last
             nlp, self.band_names = hit
             nlp.power = power
+            nlp.set_leg_power_factor(st.factor)
             return nlp
         nlp = self._build(st, max_iter=max_iter)
         self._cache[key] = (nlp, self.band_names)

@@ -124,7 +124,7 @@ def test_structured_derivatives_equal_casadi_automatic_differentiation() -> None
     rng = np.random.default_rng(3)
     n = exact.n_legs
     x = np.concatenate([rng.uniform(-20, 20, n + 1), rng.uniform(10, 20, n), np.linspace(0, 40, n + 1)])
-    p = np.concatenate([[1.3, 0.7], rng.uniform(0.5, 1.5, n * 3 * 2)])
+    p = np.concatenate([[1.3, 0.7], rng.uniform(0.5, 1.5, n * 3 * 2), rng.uniform(0.5, 1.5, n)])  # w, β, f_k
     lam_g = rng.normal(size=exact._ng)
     for name, args in (("nlp_grad_f", [x, p]), ("nlp_jac_g", [x, p]), ("nlp_hess_l", [x, p, 0.8, lam_g])):
         mine = exact._solver.get_function(name)(*args)
