@@ -61,6 +61,7 @@ import numbers
 import os
 import tempfile
 import time as _time
+import uuid
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -70,6 +71,7 @@ import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
+from optroute.corridor_problem import PreparedCorridor
 from optroute.errors import (
     ConfigError,
     InfeasibleETA,
@@ -164,6 +166,8 @@ class _Spec:
     departure: np.datetime64
     objective: str
     kwargs: Mapping[str, Any]
+    token: str = ""  # names this front's prepared corridor in a process's cache
+    latest_eta_h: float | None = None  # the chains' latest ETA [h]: set once the end solves are known
 
 
 @dataclass(frozen=True)
@@ -223,17 +227,22 @@ def _solve_point(spec: _Spec, eta_h: float | None, kind: str, warm: _Point | _Wa
     objective = "time" if kind == "minimum_time" else spec.objective if kind == "eta" else "fuel"
     eta = None if eta_h is None else spec.departure + h_to_timedelta(eta_h)
     try:
-        plan = optimise_corridor(
-            spec.corridor,
-            spec.weather,
-            spec.ship,
-            departure=spec.departure,
-            eta=eta,
-            objective=objective,
-            warm_plan=carry,
-            route=route,
-            **spec.kwargs,
-        )
+        if kind == "eta" and spec.latest_eta_h is not None and eta_h is not None and eta_h <= spec.latest_eta_h:
+            # the problem of optimise_corridor for this ETA from the same warm start; the untightened start (not
+            # the neighbour's learnt tightening) keeps every point independent of the chain it was solved in
+            plan = _prepared(spec).solve(eta, objective=objective, warm_plan=carry)  # type: ignore[arg-type]
+        else:
+            plan = optimise_corridor(
+                spec.corridor,
+                spec.weather,
+                spec.ship,
+                departure=spec.departure,
+                eta=eta,
+                objective=objective,
+                warm_plan=carry,
+                route=route,
+                **spec.kwargs,
+            )
     except InfeasibleETA as exc:
         if exc.earliest_arrival is not None:
             earliest = as_utc_time(exc.earliest_arrival, "earliest_arrival")
@@ -262,6 +271,38 @@ def _solve_point(spec: _Spec, eta_h: float | None, kind: str, warm: _Point | _Wa
         )
     arrival_h = float(plan.duration_h)
     return _from_plan(plan, arrival_h if eta_h is None else eta_h, kind, _time.perf_counter() - started)
+
+
+#: Prepared corridors of this process (a Dask worker's too), by front and latest ETA; the oldest is dropped.
+_PREPARED: dict[tuple[str, float], PreparedCorridor] = {}
+_PREPARED_KEEP = 2
+
+
+def _prepared(spec: _Spec) -> PreparedCorridor:
+    """The front's corridor problem prepared once in this process for its latest ETA (set-up and build shared)."""
+    latest = float(spec.latest_eta_h)  # type: ignore[arg-type]
+    key = (spec.token, latest)
+    hit = _PREPARED.get(key)
+    if hit is None:
+        hit = PreparedCorridor(
+            spec.corridor,
+            spec.weather,
+            spec.ship,
+            departure=spec.departure,
+            latest_eta=spec.departure + h_to_timedelta(latest),
+            objective=spec.objective,  # type: ignore[arg-type]
+            **spec.kwargs,
+        )
+        _PREPARED[key] = hit
+        while len(_PREPARED) > _PREPARED_KEEP:
+            _PREPARED.pop(next(iter(_PREPARED)))
+    return hit
+
+
+def _forget(spec: _Spec) -> None:
+    """Drop this front's prepared corridors from this process's cache."""
+    for key in [k for k in _PREPARED if k[0] == spec.token]:
+        _PREPARED.pop(key, None)
 
 
 def _failure_text(exc: SolverFailure) -> str:
@@ -365,6 +406,8 @@ class _Distributed:
     ) -> list[_Point]:
         from distributed import as_completed
 
+        # the spec now names the chains' latest ETA: each worker prepares the corridor once for it
+        shipped = self.client.scatter(spec, broadcast=True, hash=False)
         futures = []
         for c, (etas, warm) in enumerate(chains):
             where = [self.workers[c % len(self.workers)]]
@@ -372,7 +415,7 @@ class _Distributed:
             for eta_h in etas:
                 fut = self.client.submit(
                     _solve_point,
-                    self.spec,
+                    shipped,
                     eta_h,
                     "eta",
                     None if cold else prev,
@@ -523,7 +566,7 @@ def tradeoff(
         corridor_or_endpoints, weather, ship, departure, optimise_kwargs, corridor_width_nm, search_options
     )
     user_h = _eta_hours(etas, t0) if etas is not None else None
-    spec = _Spec(corridor, weather, ship, t0, objective, dict(optimise_kwargs))
+    spec = _Spec(corridor, weather, ship, t0, objective, dict(optimise_kwargs), token=uuid.uuid4().hex)
     parallel = scheduler_address is not None or (n_workers or 0) >= 2
     if parallel:
         from optroute.study import _client
@@ -565,7 +608,6 @@ def _front(
         grid = np.linspace(t_min, t_slow, n) if t_slow > t_min + _SAME_ETA_H else np.array([t_min])
     else:
         grid = user_h
-    total = grid.size
     done: dict[float, _Point] = {}
     todo: list[float] = []
     for h in grid.tolist():
@@ -580,6 +622,30 @@ def _front(
             done[h] = _replace(slow, eta_h=h)
         else:
             todo.append(h)
+    if todo:  # the points between the ends are solved on one corridor prepared per process for the latest
+        spec = _replace(spec, latest_eta_h=max(todo))
+    try:
+        return _rest(spec, grid, done, todo, t_min, t_slow, slow, fast, progress, runner, warm_start, rtol)
+    finally:
+        _forget(spec)
+
+
+def _rest(
+    spec: _Spec,
+    grid: np.ndarray,
+    done: dict[float, _Point],
+    todo: list[float],
+    t_min: float,
+    t_slow: float,
+    slow: _Point | None,
+    fast: _Point,
+    progress: FrontProgress | None,
+    runner: _Serial | _Distributed,
+    warm_start: bool,
+    rtol: float,
+) -> TradeoffFront:
+    """The chains between the ends, the monotonicity re-solves and the dataset."""
+    total = grid.size
     count = len(done)
     if progress is not None:
         progress(count, total)
@@ -602,7 +668,7 @@ def _front(
     return _dataset(spec, points, t_min, t_slow, resolves)
 
 
-def _replace(p: _Point, **changes: Any) -> _Point:
+def _replace(p: Any, **changes: Any) -> Any:
     from dataclasses import replace
 
     return replace(p, **changes)
