@@ -358,3 +358,40 @@ def test_nan_weather_narrows_the_corridor_and_a_blocked_waypoint_raises():
     with pytest.raises(orx.NoSafePassage, match="no navigable point"):
         lateral_bounds(frame, sampler=orx.WeatherSampler(everywhere), dataset=everywhere, times=times,
                        use_land_mask=False)
+
+
+def test_prepared_corridor_solves_several_etas_as_independent_optimise_corridor_calls():
+    """One set-up and one build for three ETAs; each plan as optimise_corridor's own (independent set-up).
+
+    The weather is static and the lowest speed (9 kn) is above half of every ETA's mean speed, so the
+    set-up for the latest ETA (longer weather grid, power fit from 9 kn) is the one each call makes:
+    the plans must agree to the solver's tolerance although the prepared solves are warm-started from
+    each other and share one CasADi build (power factors and load limits set per solve).
+    """
+    from optroute.corridor_problem import Learnt, PreparedCorridor
+    from optroute.errors import ConfigError
+
+    wx = _static_linear_sea(1.0, 0.15, wave_from_deg=45.0)
+    corridor = orx.Corridor(np.array([[0.0, -30.0], [0.0, -10.0]]), 20.0)
+    kw = {"max_leg_nm": 100.0, "use_land_mask": False, "speed_range_kn": (9.0, SHIP.max_calm_speed_kn)}
+    etas_h = [95.0, 80.0, 70.0]
+    prepared = PreparedCorridor(corridor, wx, SHIP, departure=T0, latest_eta=T0 + _td(etas_h[0]), **kw)
+    previous = None
+    for eta_h in etas_h:
+        eta = T0 + _td(eta_h)
+        plan = prepared.solve(eta, warm_plan=previous)
+        ref = optimise_corridor(corridor, wx, SHIP, departure=T0, eta=eta, **kw)
+        assert plan.verify() == [] and ref.verify() == []
+        assert plan.total_fuel_t == pytest.approx(ref.total_fuel_t, rel=1e-6)
+        assert plan.duration_h <= eta_h + 1e-6
+        assert plan.solver_stats["fit_corrections"] == ref.solver_stats["fit_corrections"]
+        previous = plan
+    assert prepared.problem.builds == 1  # fit corrections change a solve parameter, not the build
+    learnt = Learnt.from_plan(previous)
+    assert learnt is not None and learnt.leg_power_factor.shape == (prepared.frame.n_legs,)
+    with pytest.raises(ConfigError, match="latest ETA"):
+        prepared.solve(T0 + _td(100.0))
+
+
+def _td(hours: float) -> np.timedelta64:
+    return np.timedelta64(int(round(hours * 3600)), "s")

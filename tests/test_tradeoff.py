@@ -215,3 +215,31 @@ def test_fuel_never_rises_with_a_later_eta_on_random_fixed_paths(hs, from_deg):
     assert np.all(np.diff(fuel) <= 1e-6 * fuel[:-1])
     assert not any("non-monotone" in str(s) for s in front.status.values)
     assert math.isclose(front.eta_h.values[0], front.duration_h.values[0], rel_tol=1e-9)
+
+
+def test_a_front_on_a_prepared_corridor_is_monotone_and_prepares_once(monkeypatch):
+    """The points between the ends share one PreparedCorridor per process; each equals optimise_corridor's plan."""
+    from tests.test_optimise import _static_linear_sea
+
+    made = []
+
+    class Counting(tradeoff_mod.PreparedCorridor):
+        def __init__(self, *args, **kwargs):
+            made.append(kwargs["latest_eta"])
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(tradeoff_mod, "PreparedCorridor", Counting)
+    wx = _static_linear_sea(1.0, 0.15, wave_from_deg=45.0)
+    corridor = orx.Corridor(np.array([[0.0, -30.0], [0.0, -10.0]]), 20.0)
+    kw = {"max_leg_nm": 150.0, "use_land_mask": False, "speed_range_kn": (9.0, SHIP.max_calm_speed_kn)}
+    etas = [70.0, 80.0, 95.0, 110.0]
+    front = tradeoff(corridor, wx, SHIP, departure=T0, etas=etas, **kw)
+    fuel = front.fuel_t.values
+    assert np.all(np.isfinite(fuel)) and np.all(np.diff(fuel) <= 1e-6 * fuel[:-1])
+    assert not any("non-monotone" in str(s) for s in front.status.values)
+    interior = front.eta_h.values[front.solve.values == "eta"]
+    assert interior.size >= 2
+    assert made == [T0 + np.timedelta64(int(interior.max()), "h")]  # prepared once, for the latest ETA solved
+    assert tradeoff_mod._PREPARED == {}  # the front's prepared corridor is not kept after it
+    ref = optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(80, "h"), **kw)
+    assert fuel[1] == pytest.approx(ref.total_fuel_t, rel=1e-6)
