@@ -370,9 +370,10 @@ def _longer(prob: Problem, st: Tightening, sampler: WeatherSampler, data_end_h: 
     frame, grid = prob.frame, prob.grid
     want = 1.3 * float(frame.s_nm[-1]) / max(prob.v_min, 0.5 * prob.ship.design_speed_kn)
     end = min(max(want, horizon_h), data_end_h) if math.isfinite(data_end_h) else max(want, horizon_h)
-    if end <= horizon_h + 1e-9 or grid.t_h.size < 2:
+    t_h = np.asarray(grid.t_h, dtype=float)
+    if end <= horizon_h + 1e-9 or t_h.size < 2:
         return prob, prob.build(st)
-    dt = float(grid.t_h[1] - grid.t_h[0])
+    dt = float(t_h[1] - t_h[0])
     ds = float(grid.s_nm[1] - grid.s_nm[0]) if grid.s_nm.size > 1 else float(frame.s_nm[-1])
     dy = float(grid.y_nm[1] - grid.y_nm[0]) if grid.y_nm.size > 1 else 1.0
     g, smp = weather_grid(frame, sampler, departure=prob.departure, t_end_h=end, dt_h=dt, ds_nm=ds, dy_nm=dy)
@@ -415,7 +416,8 @@ def _first_failure(
     """
     fast = _minimum_time(prob, nlp, ctx=ctx, t0=t0, route=route, budget=budget, solve_kw=solve_kw,
                          warm_rules=warm_rules, first_warm=first_warm, log=log)
-    if fast is not None and cap_h is not None and fast.res.duration_total_h > float(prob.grid.t_h[-1]):
+    t_grid = np.asarray(prob.grid.t_h, dtype=float)
+    if fast is not None and cap_h is not None and t_grid.size > 1 and fast.res.duration_total_h > t_grid[-1]:
         # it arrives after the ETA's weather grid ends: again on a grid that covers the passage
         p_long, nlp_long = longer()
         if p_long is not prob:

@@ -67,6 +67,9 @@ def test_fixed_path_nlp_equals_the_convex_optimum(n: int, seed: int, slacks: lis
     for eta in etas:
         res = nlp.solve(eta_h=eta)
         ref = solve_speed_convex(d, PowerLawFuel.cubic(k), eta_h=eta, v_max_kn=v_max, v_min_kn=1.0)
+        if ref.status == "optimal_inaccurate":  # Clarabel on the power cones, rarely (n=9, seed=79547, slack 1.37)
+            ref = solve_speed_convex(d, PowerLawFuel.cubic(k), eta_h=eta, v_max_kn=v_max, v_min_kn=1.0,
+                                     formulation="power")
         assert res.success and ref.success
         assert res.total_fuel_t == pytest.approx(ref.total_fuel_t, rel=1e-6)
         np.testing.assert_allclose(res.duration_h, ref.time_h, rtol=2e-3)
