@@ -474,6 +474,20 @@ def _local_grid(
     return x, y, lat, lon
 
 
+def _erode_disk(ok: np.ndarray, radius: float, step: float) -> np.ndarray:
+    """Erode a boolean grid by the disk ``|offset| <= radius`` (grid spacing ``step``), outside = blocked.
+
+    The same cells as :func:`scipy.ndimage.binary_erosion` with that disk and ``border_value=0``,
+    done as a Euclidean distance transform: O(cells) instead of O(cells x disk cells) — the erosion
+    took 7–13 s per port with the default clearance.  A cell survives when the nearest blocked cell,
+    or the outside, is farther than ``radius`` (lengths in the same unit as ``step``).
+    """
+    from scipy import ndimage
+
+    padded = np.pad(ok, 1, constant_values=False)
+    return ndimage.distance_transform_edt(padded)[1:-1, 1:-1] > (radius + 1e-9) / step
+
+
 def snap_to_sea(
     lat_deg: float,
     lon_deg: float,
@@ -541,12 +555,7 @@ def snap_to_sea(
     x, y, glat, glon = _local_grid(lat0, lon0, max_d + reach, step)
     ok = navigable(glat, glon, weather, time, use_land_mask=use_land_mask, mask=mask)
     if clear > 0.0:
-        from scipy import ndimage
-
-        r = int(math.ceil(reach / step))
-        off = np.arange(-r, r + 1) * step
-        disk = np.hypot(*np.meshgrid(off, off)) <= reach + 1e-9
-        ok = ndimage.binary_erosion(ok, structure=disk, border_value=0)
+        ok = _erode_disk(ok, reach, step)
     c = ok.shape[0] // 2
     if ok[c, c]:
         return lat0, float(lon_a)

@@ -6,6 +6,8 @@ import warnings
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from optroute import geo, land
 from optroute.errors import ConfigError, OnLandError
@@ -169,3 +171,20 @@ def test_default_backend_choice(monkeypatch):
     monkeypatch.setattr(land.importlib.util, "find_spec", lambda name: None)
     with pytest.raises(ConfigError, match="pip install global-land-mask"):
         land.default_land_mask_name()
+
+
+@settings(max_examples=150, deadline=None)
+@given(n=st.integers(3, 40), seed=st.integers(0, 2**31 - 1), blocked=st.floats(0.0, 0.4),
+       step=st.floats(0.05, 3.0), reach_steps=st.floats(0.0, 8.0))
+def test_disk_erosion_equals_scipys_binary_erosion(n, seed, blocked, step, reach_steps):
+    from scipy import ndimage
+
+    from optroute.land import _erode_disk
+
+    ok = np.random.default_rng(seed).random((n, n)) >= blocked
+    reach = reach_steps * step
+    r = int(np.ceil(reach / step))
+    off = np.arange(-r, r + 1) * step
+    disk = np.hypot(*np.meshgrid(off, off)) <= reach + 1e-9
+    expected = ndimage.binary_erosion(ok, structure=disk, border_value=0)
+    np.testing.assert_array_equal(_erode_disk(ok, reach, step), expected)
