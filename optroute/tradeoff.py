@@ -52,6 +52,17 @@ slow-steaming plan (descending), any middle ones from the minimum-time plan.
 Each point is a Dask task depending on its predecessor in the chain, pinned
 to the chain's worker.  The results equal the serial ones within the
 solver's tolerance (the warm starts differ, not the problems).
+
+Set-up once per front
+---------------------
+The points between the two ends are solved on one
+:class:`~optroute.corridor_problem.PreparedCorridor` per process (this one
+when serial, each Dask worker's), prepared for the latest of them: the
+weather grid, lateral bounds, power fit and the CasADi build are made once,
+and each point costs only its solves (the ETA, the load limits and the fit's
+per-leg corrections are solve parameters).  Each point starts from the
+untightened problem, as :func:`optroute.optimise_corridor` would, so a point
+does not depend on the chain it was solved in.
 """
 
 from __future__ import annotations
