@@ -404,6 +404,7 @@ class _Distributed:
         self.client = client
         self.spec = client.scatter(spec, broadcast=True, hash=False)
         self.workers = sorted(client.scheduler_info()["workers"])
+        self._shipped: Any = None  # the spec naming the chains' latest ETA, once scattered
 
     def ends(self, spec: _Spec, route: Any, need_slow: bool) -> tuple[_Point, _Point | None]:
         fast = self.client.submit(_solve_point, self.spec, None, "minimum_time", None, route, pure=False)
@@ -412,13 +413,19 @@ class _Distributed:
         )
         return fast.result(), slow.result() if slow is not None else None
 
+    def resolve(self, spec: _Spec, eta_h: float, starts: list[_Point | None]) -> list[_Point]:
+        """Solves of one ETA from several starts, side by side (the workers' prepared corridors serve them)."""
+        shipped = self._shipped if self._shipped is not None else self.client.scatter(spec, broadcast=True, hash=False)
+        futures = [self.client.submit(_solve_point, shipped, eta_h, "eta", w, pure=False) for w in starts]
+        return [f.result() for f in futures]
+
     def chains(
         self, spec: _Spec, chains: list[tuple[list[float], _Point | None]], cold: bool, report: Callable[[_Point], None]
     ) -> list[_Point]:
         from distributed import as_completed
 
         # the spec now names the chains' latest ETA: each worker prepares the corridor once for it
-        shipped = self.client.scatter(spec, broadcast=True, hash=False)
+        shipped = self._shipped = self.client.scatter(spec, broadcast=True, hash=False)
         futures = []
         for c, (etas, warm) in enumerate(chains):
             where = [self.workers[c % len(self.workers)]]
@@ -675,7 +682,7 @@ def _rest(
     for p in runner.chains(spec, chains, not warm_start, report):
         done[p.eta_h] = p
     points = [done[h] for h in grid.tolist()]
-    resolves = _monotone(spec, points, rtol) if spec.objective == "fuel" else 0
+    resolves = _monotone(spec, points, rtol, runner) if spec.objective == "fuel" else 0
     return _dataset(spec, points, t_min, t_slow, resolves)
 
 
@@ -685,7 +692,7 @@ def _replace(p: Any, **changes: Any) -> Any:
     return replace(p, **changes)
 
 
-def _monotone(spec: _Spec, points: list[_Point], rtol: float) -> int:
+def _monotone(spec: _Spec, points: list[_Point], rtol: float, runner: _Serial | _Distributed | None = None) -> int:
     """Re-solve rising or failed points from each neighbour's solution; flag those that still rise."""
     resolves = 0
     best_before = math.inf
@@ -695,11 +702,14 @@ def _monotone(spec: _Spec, points: list[_Point], rtol: float) -> int:
         if eligible and (rises or not p.ok):
             left = next((q for q in reversed(points[:i]) if q.ok), None)
             right = next((q for q in points[i + 1 :] if q.ok), None)
-            for nb in (left, right, "cold"):  # each neighbour's solution, then the optimiser's own start
-                if nb is None:
-                    continue
-                resolves += 1
-                q = _solve_point(spec, p.eta_h, "eta", None if nb == "cold" else nb)
+            # each neighbour's solution, then the optimiser's own start (side by side on a cluster)
+            starts = [None if nb == "cold" else nb for nb in (left, right, "cold") if nb is not None]
+            resolves += len(starts)
+            if isinstance(runner, _Distributed):
+                tried = runner.resolve(spec, p.eta_h, starts)
+            else:
+                tried = [_solve_point(spec, p.eta_h, "eta", w) for w in starts]
+            for q in tried:
                 if q.ok and (not p.ok or q.fuel_t < p.fuel_t):
                     p = _replace(q, runtime_s=p.runtime_s + q.runtime_s)
             points[i] = p
