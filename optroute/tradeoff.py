@@ -71,6 +71,7 @@ import math
 import numbers
 import os
 import tempfile
+import threading
 import time as _time
 import uuid
 from collections.abc import Callable, Mapping, Sequence
@@ -241,7 +242,9 @@ def _solve_point(spec: _Spec, eta_h: float | None, kind: str, warm: _Point | _Wa
         if kind == "eta" and spec.latest_eta_h is not None and eta_h is not None and eta_h <= spec.latest_eta_h:
             # the problem of optimise_corridor for this ETA from the same warm start; the untightened start (not
             # the neighbour's learnt tightening) keeps every point independent of the chain it was solved in
-            plan = _prepared(spec).solve(eta, objective=objective, warm_plan=carry)  # type: ignore[arg-type]
+            prepared, lock = _prepared(spec)
+            with lock:  # one solve at a time: its cached builds are set up per solve (a worker may have threads)
+                plan = prepared.solve(eta, objective=objective, warm_plan=carry)  # type: ignore[arg-type]
         else:
             plan = optimise_corridor(
                 spec.corridor,
@@ -285,28 +288,30 @@ def _solve_point(spec: _Spec, eta_h: float | None, kind: str, warm: _Point | _Wa
 
 
 #: Prepared corridors of this process (a Dask worker's too), by front and latest ETA; the oldest is dropped.
-_PREPARED: dict[tuple[str, float], PreparedCorridor] = {}
+_PREPARED: dict[tuple[str, float], tuple[PreparedCorridor, threading.Lock]] = {}
 _PREPARED_KEEP = 2
+_PREPARING = threading.Lock()
 
 
-def _prepared(spec: _Spec) -> PreparedCorridor:
-    """The front's corridor problem prepared once in this process for its latest ETA (set-up and build shared)."""
+def _prepared(spec: _Spec) -> tuple[PreparedCorridor, threading.Lock]:
+    """The front's corridor problem prepared once in this process for its latest ETA, and its solve lock."""
     latest = float(spec.latest_eta_h)  # type: ignore[arg-type]
     key = (spec.token, latest)
-    hit = _PREPARED.get(key)
-    if hit is None:
-        hit = PreparedCorridor(
-            spec.corridor,
-            spec.weather,
-            spec.ship,
-            departure=spec.departure,
-            latest_eta=spec.departure + h_to_timedelta(latest),
-            objective=spec.objective,  # type: ignore[arg-type]
-            **spec.kwargs,
-        )
-        _PREPARED[key] = hit
-        while len(_PREPARED) > _PREPARED_KEEP:
-            _PREPARED.pop(next(iter(_PREPARED)))
+    with _PREPARING:
+        hit = _PREPARED.get(key)
+        if hit is None:
+            prepared = PreparedCorridor(
+                spec.corridor,
+                spec.weather,
+                spec.ship,
+                departure=spec.departure,
+                latest_eta=spec.departure + h_to_timedelta(latest),
+                objective=spec.objective,  # type: ignore[arg-type]
+                **spec.kwargs,
+            )
+            hit = _PREPARED[key] = (prepared, threading.Lock())
+            while len(_PREPARED) > _PREPARED_KEEP:
+                _PREPARED.pop(next(iter(_PREPARED)))
     return hit
 
 
