@@ -94,8 +94,12 @@ class Learnt:
         s = plan.solver_stats
         if "leg_power_factor" not in s:
             return None
-        return cls(np.asarray(s["leg_power_factor"], dtype=float), float(s["max_load"]), float(s["band_margin"]),
-                   float(s["band_hs_margin"]))
+        return cls(
+            np.asarray(s["leg_power_factor"], dtype=float),
+            float(s["max_load"]),
+            float(s["band_margin"]),
+            float(s["band_hs_margin"]),
+        )
 
 
 def _emit(progress: ProgressFn | None, stage: str, fraction: float) -> None:
@@ -164,8 +168,9 @@ class PreparedCorridor:
             raise ConfigError(f"eta={eta_t} is not after departure={t0}; give an arrival later than the departure")
         if not (isinstance(samples_per_leg, int | np.integer) and samples_per_leg >= 1):
             raise ConfigError(f"samples_per_leg={samples_per_leg!r} must be an integer >= 1")
-        self.fuel_price = float(finite("fuel_price_per_t", fuel_price_per_t, minimum=0.0, strict=True,
-                                       error=ConfigError))
+        self.fuel_price = float(
+            finite("fuel_price_per_t", fuel_price_per_t, minimum=0.0, strict=True, error=ConfigError)
+        )
         self.hourly = float(finite("hourly_cost_per_h", hourly_cost_per_h, minimum=0.0, error=ConfigError))
         self.margin0 = float(finite("band_margin", band_margin, minimum=0.0, error=ConfigError))
         self.hs_margin0 = float(finite("band_hs_margin", band_hs_margin, minimum=0.0, error=ConfigError))
@@ -182,8 +187,9 @@ class PreparedCorridor:
         if speed_range_kn is None:
             v_min, v_max = 3.0, float(min(ship.max_calm_speed_kn, 40.0))
         else:
-            v_min, v_max = (float(x) for x in finite("speed_range_kn", speed_range_kn, minimum=0.0, strict=True,
-                                                      error=ConfigError))
+            v_min, v_max = (
+                float(x) for x in finite("speed_range_kn", speed_range_kn, minimum=0.0, strict=True, error=ConfigError)
+            )
             if v_max <= v_min:
                 raise ConfigError(f"speed_range_kn={speed_range_kn!r} needs lower < upper")
         _emit(progress, "corridor", 0.0)
@@ -206,8 +212,11 @@ class PreparedCorridor:
                 "against the weather; extend the forecast, give an earlier eta, or open the weather with "
                 "time_policy='hold'"
             )
-        cap_h = eta_user_h if eta_user_h is not None else (
-            data_end_h if objective != "time" and math.isfinite(data_end_h) else None)
+        cap_h = (
+            eta_user_h
+            if eta_user_h is not None
+            else (data_end_h if objective != "time" and math.isfinite(data_end_h) else None)
+        )
         cor = corridor.resample(float(finite("max_leg_nm", max_leg_nm, minimum=0.0, strict=True, error=ConfigError)))
         frame = build_frame(cor)
         length = float(frame.s_nm[-1])
@@ -222,42 +231,76 @@ class PreparedCorridor:
         dt_h = float(np.clip(0.5 * dt_ds if dt_ds else 1.5, 0.5, 3.0))
         # short NLP legs (a small max_leg_nm) do not refine it: the grid would grow with N and its spline's build
         # dominate the solve (15 s against 1 s at 500 legs); the corridor's own vertices (where it turns) bound it
-        ds_nm = float(min(np.clip(0.5 * ds_ds if ds_ds else 15.0, 5.0, 30.0),
-                          max(float(np.max(corridor.leg_distance_nm)), 5.0)))
+        ds_nm = float(
+            min(np.clip(0.5 * ds_ds if ds_ds else 15.0, 5.0, 30.0), max(float(np.max(corridor.leg_distance_nm)), 5.0))
+        )
         hw_max = float(np.max(cor.half_width_nm))
         dy_nm = float(np.clip(ds_nm / 2.0, 2.0, max(hw_max / 2.0, 2.0)))
         _emit(progress, "weather grid", 0.05)
-        grid, samples = weather_grid(frame, sampler, departure=t0, t_end_h=horizon, dt_h=dt_h, ds_nm=ds_nm,
-                                     dy_nm=dy_nm)
-        window = t0 + np.array([_h_to_td(h) for h in np.linspace(0.0, horizon,
-                                                                 int(min(25, max(2, horizon / dt_h + 1))))])
+        grid, samples = weather_grid(frame, sampler, departure=t0, t_end_h=horizon, dt_h=dt_h, ds_nm=ds_nm, dy_nm=dy_nm)
+        window = t0 + np.array(
+            [_h_to_td(h) for h in np.linspace(0.0, horizon, int(min(25, max(2, horizon / dt_h + 1))))]
+        )
         _emit(progress, "lateral bounds", 0.1)
-        y_lo, y_hi = lateral_bounds(frame, sampler=sampler, dataset=ds, times=window, use_land_mask=use_land_mask,
-                                    step_nm=max(1.0, min(5.0, hw_max / 10.0)) if hw_max > 0 else 1.0)
+        y_lo, y_hi = lateral_bounds(
+            frame,
+            sampler=sampler,
+            dataset=ds,
+            times=window,
+            use_land_mask=use_land_mask,
+            step_nm=max(1.0, min(5.0, hw_max / 10.0)) if hw_max > 0 else 1.0,
+        )
         _emit(progress, "power fit", 0.15)
         v_ref = length / cap_h if cap_h else 0.75 * v_max
-        fit = fit_power_model(model, hs_m=samples.hs_m, wind_ms=samples.wind_ms, v_min_kn=max(v_min, 0.5 * v_ref),
-                              v_max_kn=v_max, min_load=float(model.min_power_kw) / float(model.mcr_kw))
+        fit = fit_power_model(
+            model,
+            hs_m=samples.hs_m,
+            wind_ms=samples.wind_ms,
+            v_min_kn=max(v_min, 0.5 * v_ref),
+            v_max_kn=v_max,
+            min_load=float(model.min_power_kw) / float(model.mcr_kw),
+        )
         self.corridor, self.ship, self.model, self.rules = corridor, ship, model, rules
         self.sampler, self.dataset, self.exclusion, self.use_land_mask = sampler, ds, exclusion, use_land_mask
         self.departure, self.data_end_h, self.horizon_h, self.prepared_cap_h = t0, data_end_h, horizon, cap_h
         self.frame, self.grid, self.samples, self.fit = frame, grid, samples, fit
         self.y_lo, self.y_hi, self.v_min, self.v_max, self.length_nm = y_lo, y_hi, v_min, v_max, length
         self.samples_per_leg = int(samples_per_leg)
-        self.band_solves, self.fit_corrections, self.max_retries = int(band_solves), int(fit_corrections), \
-            int(max_retries)
+        self.band_solves, self.fit_corrections, self.max_retries = (
+            int(band_solves),
+            int(fit_corrections),
+            int(max_retries),
+        )
         self.verify_step_nm = float(verify_step_nm)
-        self.problem = Problem(frame=frame, grid=grid, samples=samples, fit=fit, ship=ship, rules=rules, y_lo=y_lo,
-                               y_hi=y_hi, v_min=v_min, v_max=v_max, exclusion=exclusion, departure=t0,
-                               solver_options=solver_options)
+        self.problem = Problem(
+            frame=frame,
+            grid=grid,
+            samples=samples,
+            fit=fit,
+            ship=ship,
+            rules=rules,
+            y_lo=y_lo,
+            y_hi=y_hi,
+            v_min=v_min,
+            v_max=v_max,
+            exclusion=exclusion,
+            departure=t0,
+            solver_options=solver_options,
+        )
 
     # ------------------------------------------------------------------ one ETA
 
     def _tightening(self, learnt: Learnt | None) -> Tightening:
         n = self.frame.n_legs
-        st = Tightening(factor=np.ones(n), max_load=1.0, min_load=self.fit.power.min_load, widen=self.margin0,
-                        hs_margin=self.hs_margin0, samples_per_leg=self.samples_per_leg,
-                        bound_scale=np.ones(n + 1))
+        st = Tightening(
+            factor=np.ones(n),
+            max_load=1.0,
+            min_load=self.fit.power.min_load,
+            widen=self.margin0,
+            hs_margin=self.hs_margin0,
+            samples_per_leg=self.samples_per_leg,
+            bound_scale=np.ones(n + 1),
+        )
         if learnt is not None:
             if learnt.leg_power_factor.shape != (n,):
                 raise ConfigError(
@@ -333,8 +376,11 @@ class PreparedCorridor:
                 f"eta={eta_t} is after the weather's last time: the passage could not be checked against the "
                 "weather; extend the forecast, give an earlier eta, or open the weather with time_policy='hold'"
             )
-        cap_h = eta_user_h if eta_user_h is not None else (
-            data_end_h if objective != "time" and math.isfinite(data_end_h) else None)
+        cap_h = (
+            eta_user_h
+            if eta_user_h is not None
+            else (data_end_h if objective != "time" and math.isfinite(data_end_h) else None)
+        )
         prepared = self.prepared_cap_h
         if cap_h is not None and prepared is not None and cap_h > prepared + 1e-9:
             raise ConfigError(
@@ -349,9 +395,18 @@ class PreparedCorridor:
         fuel_price, hourly = self.fuel_price, self.hourly
         sampler, exclusion, rules, v_min, v_max = self.sampler, self.exclusion, self.rules, self.v_min, self.v_max
         length, step_nm = self.length_nm, self.verify_step_nm
-        ctx = PlanContext(ship=self.ship, model=self.model, rules=rules, sampler=sampler, dataset=self.dataset,
-                          corridor=self.corridor, eta=eta_t, eta_mode=eta_mode, exclusion=exclusion,
-                          use_land_mask=self.use_land_mask)
+        ctx = PlanContext(
+            ship=self.ship,
+            model=self.model,
+            rules=rules,
+            sampler=sampler,
+            dataset=self.dataset,
+            corridor=self.corridor,
+            eta=eta_t,
+            eta_mode=eta_mode,
+            exclusion=exclusion,
+            use_land_mask=self.use_land_mask,
+        )
         build_before = prob.build_time_s
         st = self._tightening(learnt)
         if warm_plan is not None:
@@ -359,8 +414,9 @@ class PreparedCorridor:
         elif route is not None:
             warm = route_warm_start(route, frame)
         else:
-            warm = safe_warm_start(ctx, frame, t0, desired_speed(length, cap_h, v_max, objective), v_min,
-                                   rules=warm_rules(rules, st))
+            warm = safe_warm_start(
+                ctx, frame, t0, desired_speed(length, cap_h, v_max, objective), v_min, rules=warm_rules(rules, st)
+            )
         warm = clear_of_exclusion(warm, frame, exclusion, t0, self.y_lo, self.y_hi)
         fresh_start = False
         solve_kw = {"eta_mode": eta_mode, "objective": objective, "fuel_price": fuel_price, "hourly_cost": hourly}
@@ -384,21 +440,41 @@ class PreparedCorridor:
             if not sol.ok and attempt > 0 and not fresh_start:
                 # the tightened problem failed from the last solution: once more from a safe warm start
                 fresh_start = True
-                fresh = safe_warm_start(ctx, frame, t0, desired_speed(length, eta_solve, v_max, objective), v_min,
-                                        rules=warm_rules(rules, st))
+                fresh = safe_warm_start(
+                    ctx,
+                    frame,
+                    t0,
+                    desired_speed(length, eta_solve, v_max, objective),
+                    v_min,
+                    rules=warm_rules(rules, st),
+                )
                 fresh = clear_of_exclusion(fresh, frame, exclusion, t0, *prob.bounds(st))
                 sol = prob.solve(nlp, eta_h=eta_solve, warm=fresh, budget=self.band_solves, **solve_kw)
                 iterations += int(sol.res.iterations)
             if not sol.ok and attempt == 0:
                 # an unreachable ETA (InfeasibleETA / WeatherCoverageError), a hard start, or a solver failure
-                sol = _first_failure(prob, nlp, sol,
-                                     longer=lambda st=st: _longer(prob, st, sampler, data_end_h, self.horizon_h),
-                                     ctx=ctx, cap_h=cap_h, eta_user_h=eta_user_h, t0=t0, route=route,
-                                     budget=self.band_solves, step_nm=step_nm, solve_kw=solve_kw,
-                                     warm_rules=warm_rules(rules, st), first_warm=warm, log=st.log)
+                sol = _first_failure(
+                    prob,
+                    nlp,
+                    sol,
+                    longer=lambda st=st: _longer(prob, st, sampler, data_end_h, self.horizon_h),
+                    ctx=ctx,
+                    cap_h=cap_h,
+                    eta_user_h=eta_user_h,
+                    t0=t0,
+                    route=route,
+                    budget=self.band_solves,
+                    step_nm=step_nm,
+                    solve_kw=solve_kw,
+                    warm_rules=warm_rules(rules, st),
+                    first_warm=warm,
+                    log=st.log,
+                )
                 iterations += int(sol.res.iterations)
             if not sol.ok:
-                st.log.append(f"attempt {attempt}: Ipopt {sol.res.status} after tightening; keeping the last clean plan")
+                st.log.append(
+                    f"attempt {attempt}: Ipopt {sol.res.status} after tightening; keeping the last clean plan"
+                )
                 break
             last = sol
             plan = _to_plan(ctx, frame, sol.res, t0, step_nm=step_nm)
@@ -407,9 +483,14 @@ class PreparedCorridor:
             if not violations:
                 score = _score(plan, objective, fuel_price, hourly)
                 if best is None or score < best[0] - 1e-12 * max(1.0, abs(best[0])):
-                    snapshot = {"max_load": st.max_load, "band_margin": st.widen, "band_hs_margin": st.hs_margin,
-                                "bands": list(prob.band_names), "leg_power_factor": st.factor.tolist(),
-                                "_min_load": st.min_load}
+                    snapshot = {
+                        "max_load": st.max_load,
+                        "band_margin": st.widen,
+                        "band_hs_margin": st.hs_margin,
+                        "bands": list(prob.band_names),
+                        "leg_power_factor": st.factor.tolist(),
+                        "_min_load": st.min_load,
+                    }
                     best = (score, plan, sol, eta_solve, snapshot)
                 if st.corrections >= self.fit_corrections:
                     break
@@ -446,8 +527,15 @@ class PreparedCorridor:
             # a cached build is shared by states differing in load limits and power factors: the best solve's
             sol.nlp.power = replace(self.fit.power, max_load=snapshot["max_load"], min_load=min_load)
             sol.nlp.set_leg_power_factor(np.asarray(snapshot["leg_power_factor"], dtype=float))
-            cert = certificate(sol.nlp, res, objective=objective, eta_h=eta_solve, eta_mode=eta_mode,
-                               fuel_price=fuel_price, hourly_cost=hourly)
+            cert = certificate(
+                sol.nlp,
+                res,
+                objective=objective,
+                eta_h=eta_solve,
+                eta_mode=eta_mode,
+                fuel_price=fuel_price,
+                hourly_cost=hourly,
+            )
         else:
             cert["reason"] = reason
         shadow = float("nan")
