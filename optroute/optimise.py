@@ -34,6 +34,7 @@ from optroute.nlp_inputs import (
     weather_grid,
 )
 from optroute.nlp_solve import (
+    VIOLATION_TOL,
     Problem,
     Solved,
     Tightening,
@@ -383,6 +384,16 @@ def _longer(prob: Problem, st: Tightening, sampler: WeatherSampler, data_end_h: 
     return p, p.build(st)
 
 
+#: Ipopt statuses that stop at a limit rather than at a verdict: the last iterate may still be feasible.
+_LIMIT_STATUSES = frozenset({"Maximum_Iterations_Exceeded", "Maximum_CpuTime_Exceeded", "Maximum_WallTime_Exceeded"})
+
+
+def _feasible_iterate(res: NLPResult) -> bool:
+    """Ipopt hit a limit at an iterate within the constraint tolerance, clear of every band."""
+    return bool(res.status in _LIMIT_STATUSES and res.max_violation <= VIOLATION_TOL
+                and not np.any(res.samples.inside))
+
+
 def _first_failure(
     prob: Problem,
     nlp: SpeedNLP,
@@ -442,6 +453,7 @@ def _first_failure(
             earliest_arrival=earliest,
         )
     status = sol.res.status
+    candidates = [sol]
     if fast is not None:
         if solve_kw["objective"] == "time":
             return fast
@@ -451,6 +463,15 @@ def _first_failure(
         if again.ok:
             return again
         status = again.res.status
+        candidates.insert(0, again)
+    for cand in candidates:
+        if _feasible_iterate(cand.res):
+            # Ipopt stopped on its iteration or time limit at a point that satisfies every constraint: a
+            # usable, not an optimal, solution. It goes through verify() like any other; the plan's status
+            # is "feasible" and solver_stats keeps Ipopt's status verbatim.
+            log.append(f"kept Ipopt's last iterate ({cand.res.status}, largest violation "
+                       f"{cand.res.max_violation:.2g}) as a feasible, not optimal, solution")
+            return replace(cand, ok=True)
     raise SolverFailure(
         f"Ipopt did not solve the corridor problem: status {status!r} (best of {sol.n_solves} solves of the band "
         f"outer loop, {sol.res.iterations} iterations, largest constraint violation {sol.res.max_violation:.3g}); "
