@@ -124,6 +124,19 @@ def test_optimise_calm_fixed_path_is_constant_speed_and_writes_three_files(capsy
         np.testing.assert_allclose(ds["fuel_t"].values, nc["fuel_t"].to_numpy())
 
 
+def test_plan_with_the_default_grid_search(capsys, files, tmp_path):
+    # the default --search grid is the time-dependent A* (a minimum-time plan: one search, no λ bisection);
+    # no plan can beat the great circle at the top calm-water speed
+    code, out, err = run(capsys, "plan", "--ship", "container_54k_dwt", "--from", "30,-150", "--to", "32N,140W",
+                         "--weather", files["rough"], "--cell-nm", "60", "--objective", "time",
+                         "--out", f"{tmp_path}/grid/")
+    assert code == 0, err
+    csv = pd.read_csv(tmp_path / "grid" / "plan.csv")
+    hours = csv["duration_h"].sum()
+    gc_nm = float(geo.distance_nm(30.0, -150.0, 32.0, -140.0))
+    assert hours >= gc_nm / orx.Ship.preset("container_54k_dwt").max_calm_speed_kn * (1 - 1e-6)
+
+
 def test_plan_searches_optimises_and_meets_the_eta(capsys, files, tmp_path):
     code, out, err = run(
         capsys,

@@ -84,6 +84,10 @@ class _HelpFormatter(argparse.RawDescriptionHelpFormatter):
 _COORD = re.compile(r"^\s*([+-]?\d+(?:\.\d*)?|[+-]?\.\d+)\s*([NSEWnsew]?)\s*$")
 
 
+#: ``--search`` choices → :func:`optroute.search_route` ``method``.
+SEARCH_METHODS = {"grid": "astar", "dp": "dp"}
+
+
 def parse_position(text: str, what: str) -> tuple[float, float]:
     """``"LAT,LON"`` → (lat, lon) [deg], lon wrapped to [-180, 180).
 

@@ -16,6 +16,7 @@ import xarray as xr
 
 from optroute import units
 from optroute.cli._common import (
+    SEARCH_METHODS,
     Progress,
     add_command,
     add_progress_option,
@@ -83,7 +84,7 @@ def _route(args: argparse.Namespace, weather: Any) -> tuple[Any, dict[str, Any]]
     ends = (parse_position(args.start, "--from"), parse_position(args.end, "--to"))
     return ends, {
         "corridor_width_nm": args.width_nm,
-        "search_options": {"cell_nm": args.cell_nm, "method": args.search},
+        "search_options": {"cell_nm": args.cell_nm, "method": SEARCH_METHODS[args.search]},
     }
 
 

@@ -14,6 +14,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from optroute.cli._common import (
+    SEARCH_METHODS,
     Progress,
     add_command,
     add_progress_option,
@@ -234,7 +235,7 @@ def cmd_plan(args: argparse.Namespace, out: TextIO | None = None) -> int:
         if not (np.isfinite(value) and value > 0):
             raise ConfigError(f"--{name.replace('_', '-')} {value!r} must be a finite length > 0 [nm]")
     output_paths(args.out, "plan", create=False)  # a bad --out fails before the work, not after
-    search = {"cell_nm": args.cell_nm, "method": args.search}
+    search = {"cell_nm": args.cell_nm, "method": SEARCH_METHODS[args.search]}
     with Progress(progress_enabled(args), "plan") as bar:
         bar("route search", 0.0)
         plan = orx.plan_voyage(
