@@ -213,6 +213,14 @@ def add_plan(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) -
         help="route search: time-dependent A* on a grid, or the stage-wise dynamic programme",
     )
     p.add_argument(
+        "--search-objective",
+        choices=("time", "plan"),
+        default="time",
+        help="what the route search minimises: passage time (one search; the optimiser then meets the ETA "
+        "for the plan's objective inside the corridor), or the plan's own objective with the ETA (about 15 "
+        "searches for the fuel or cost weight: minutes on an ocean grid); the DP always minimises fuel for the ETA",
+    )
+    p.add_argument(
         "--out",
         default="optroute_plan/",
         metavar="PREFIX|DIR",
@@ -236,6 +244,8 @@ def cmd_plan(args: argparse.Namespace, out: TextIO | None = None) -> int:
             raise ConfigError(f"--{name.replace('_', '-')} {value!r} must be a finite length > 0 [nm]")
     output_paths(args.out, "plan", create=False)  # a bad --out fails before the work, not after
     search = {"cell_nm": args.cell_nm, "method": SEARCH_METHODS[args.search]}
+    if args.search_objective == "time" and search["method"] != "dp":  # the DP always minimises fuel for the ETA
+        search["objective"] = "time"
     with Progress(progress_enabled(args), "plan") as bar:
         bar("route search", 0.0)
         plan = orx.plan_voyage(
