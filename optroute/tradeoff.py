@@ -268,6 +268,16 @@ def _solve_point(spec: _Spec, eta_h: float | None, kind: str, warm: _Point | _Wa
             status = f"infeasible: {exc}"
         return _Point(math.nan if eta_h is None else eta_h, kind, status, _time.perf_counter() - started, carry=carry)
     except SolverFailure as exc:
+        if kind == "minimum_time" and exc.best_plan is not None:
+            # the minimum-time NLP failed: the front starts from the fastest verified plan known (the search
+            # route's, or a safe start's), an upper bound on the earliest arrival, and its status says so
+            best = exc.best_plan
+            point = _from_plan(best, float(best.duration_h), kind, _time.perf_counter() - started)
+            return _replace(
+                point,
+                status=f"feasible: fastest verified plan known ({best.status}); the minimum-time solve failed: "
+                f"{_failure_text(exc)}",
+            )
         return _Point(
             math.nan if eta_h is None else eta_h,
             kind,

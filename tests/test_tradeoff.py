@@ -151,6 +151,26 @@ def test_a_rising_point_is_resolved_from_its_neighbours_else_flagged(monkeypatch
     assert front.attrs["monotonicity_resolves"] == 3  # from the left and the right neighbour, and cold
 
 
+def test_a_failed_minimum_time_solve_starts_the_front_from_the_fastest_verified_plan(monkeypatch):
+    # planted: the minimum-time NLP fails, carrying a verified 30 h plan as its best (as SolverFailure
+    # does with the search route's); the front starts there, labelled, and the rest is unchanged
+    real = tradeoff_mod.optimise_corridor
+    best = real(CORRIDOR, _calm(), SHIP, departure=T0, eta=T0 + np.timedelta64(30, "h"), **KW)
+
+    def failing(*args, objective="fuel", **kw):
+        if objective == "time":
+            raise orx.SolverFailure("planted", status="Maximum_Iterations_Exceeded", best_plan=best)
+        return real(*args, objective=objective, **kw)
+
+    monkeypatch.setattr(tradeoff_mod, "optimise_corridor", failing)
+    front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, n=3, **KW)
+    assert front.eta_h.values[0] == pytest.approx(best.duration_h, rel=1e-9)
+    assert str(front.status.values[0]).startswith("feasible: fastest verified plan known")
+    assert "Maximum_Iterations_Exceeded" in str(front.status.values[0])
+    assert front.fuel_t.values[0] == pytest.approx(_by_hand_fuel(best.duration_h), rel=1e-5)
+    assert np.all(np.diff(front.fuel_t.values) <= 0)
+
+
 def test_plot_returns_a_figure_and_the_front_round_trips_through_netcdf(calm_front, tmp_path):
     fig = calm_front.plot()
     assert isinstance(fig, Figure)
