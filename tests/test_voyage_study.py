@@ -83,9 +83,12 @@ def test_synchronous_study_matches_calm_water_by_hand_and_reports_unreachable_et
 
 def test_two_worker_cluster_study_equals_the_synchronous_one_exactly(serial, cluster, tmp_path):
     par = _study(tmp_path / "par", scheduler_address=cluster.scheduler_address)
-    for name in ("fuel_t", "duration_h", "mean_power_kw", "max_power_kw", "eta_shadow_price_t_per_h"):
+    for name in ("fuel_t", "duration_h", "mean_power_kw", "max_power_kw"):
         # the same solves; 1-ulp differences between processes were seen once, hence rounding-level tolerance
         np.testing.assert_allclose(par[name].values, serial[name].values, rtol=1e-12)
+    # the ETA multiplier is Ipopt's dual, converged to its 1e-9 tolerance, not to the last bit: a worker's
+    # BLAS threading sums in another order (4.6e-12 relative was seen in CI)
+    np.testing.assert_allclose(par.eta_shadow_price_t_per_h.values, serial.eta_shadow_price_t_per_h.values, rtol=1e-9)
     np.testing.assert_array_equal(par.plan_status.values, serial.plan_status.values)
 
 
