@@ -502,7 +502,9 @@ def nlp_groups(shape: tuple[int, int, int]) -> np.ndarray:
     return np.broadcast_to((np.arange(n)[:, None] * nb + np.arange(nb)[None, :])[:, None, :], shape).copy()
 
 
-def nlp_band_solver(nlp: Any, *, violation_tol: float = 1e-6, **solve_kwargs: Any) -> SolveFn:
+def nlp_band_solver(
+    nlp: Any, *, violation_tol: float = 1e-6, later: Callable[[], Any] | None = None, **solve_kwargs: Any
+) -> SolveFn:
     """Inner solver wrapping :meth:`formulations.speed_nlp.SpeedNLP.solve` (duck-typed).
 
     Every solve is warm-started from the best valid solution so far (initially from the warm
@@ -516,6 +518,10 @@ def nlp_band_solver(nlp: Any, *, violation_tol: float = 1e-6, **solve_kwargs: An
         The built problem.
     violation_tol : float
         Largest accepted constraint violation (scaled rows).
+    later : callable, optional
+        ``later() -> SpeedNLP``: the instance for every solve after the first (side flips,
+        applicability re-checks), e.g. the same problem with an iteration cap so that hopeless
+        flips fail fast; called when needed. Default: ``nlp`` throughout.
     **solve_kwargs
         ETA, objective, prices and the initial warm start, passed to ``nlp.solve``.
 
@@ -528,9 +534,12 @@ def nlp_band_solver(nlp: Any, *, violation_tol: float = 1e-6, **solve_kwargs: An
     upper = np.array([b.upper for b in nlp.bands])
     kwargs = dict(solve_kwargs)
     best: dict[str, float] = {"objective": float("inf")}
+    calls = [0]
 
     def solve(sides: np.ndarray, applies: np.ndarray) -> InnerOutcome:
-        res = nlp.solve(sides=sides, applies=applies, **kwargs)
+        which = nlp if calls[0] == 0 or later is None else later()
+        calls[0] += 1
+        res = which.solve(sides=sides, applies=applies, **kwargs)
         feasible = bool(res.success and res.max_violation <= violation_tol)
         st = res.samples
         out = InnerOutcome(

@@ -12,7 +12,6 @@
 
 from __future__ import annotations
 
-import math
 import time as _time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
@@ -22,7 +21,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from formulations._common import PowerLawFuel, PowerModel
-from formulations.disjunctive import InnerOutcome, improve_sides, nlp_groups, select_sides
+from formulations.disjunctive import InnerOutcome, improve_sides, nlp_band_solver, nlp_groups
 from formulations.speed_convex import solve_speed_convex
 from formulations.speed_nlp import NLPResult, SpeedNLP
 from optroute import units
@@ -240,40 +239,12 @@ class Problem:
 
 
 def band_solver(nlp: SpeedNLP, trial: Callable[[], SpeedNLP], kwargs: dict[str, Any]) -> Callable[..., InnerOutcome]:
-    """Inner solver of the band outer loop (as :func:`formulations.disjunctive.nlpband_solver`).
+    """Inner solver of the band outer loop: :func:`formulations.disjunctive.nlp_band_solver`.
 
     The first solve uses the full NLP; the later ones (side flips, applicability re-checks) an
     instance with an iteration cap. Every solve is warm-started from the best valid solution so far.
     """
-    lower = np.array([b.lower for b in nlp.bands])
-    upper = np.array([b.upper for b in nlp.bands])
-    warm = dict(kwargs)
-    best = {"objective": math.inf}
-    calls = [0]
-
-    def solve(sides: np.ndarray, applies: np.ndarray) -> InnerOutcome:
-        which = nlp if calls[0] == 0 else trial()
-        calls[0] += 1
-        res = which.solve(sides=sides, applies=applies, **warm)
-        feasible = bool(res.success and res.max_violation <= VIOLATION_TOL)
-        st = res.samples
-        if feasible and not st.inside.any() and res.objective < best["objective"]:
-            best["objective"] = float(res.objective)
-            warm.update(offset0_nm=res.offset_nm, stw0_kn=res.stw_kn, time0_h=res.time_h)
-        return InnerOutcome(
-            feasible=feasible,
-            objective=float(res.objective) if feasible else math.inf,
-            active=res.band_active,
-            weight=np.abs(res.band_multiplier),
-            applies=st.applies,
-            side_at_solution=select_sides(st.ratio, lower, upper),
-            inside=st.inside,
-            status=res.status,
-            payload=res,
-            infeasibility=0.0 if feasible else float(res.max_violation),
-        )
-
-    return solve
+    return nlp_band_solver(nlp, violation_tol=VIOLATION_TOL, later=trial, **kwargs)
 
 
 def flippable_groups(nlp: SpeedNLP, state: Any, n_speeds: int = 64) -> np.ndarray:
