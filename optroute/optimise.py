@@ -28,6 +28,7 @@ import xarray as xr
 
 from formulations.speed_nlp import NLPResult, SpeedNLP
 from optroute import geo
+from optroute.corridor_problem import Objective, ProgressFn
 from optroute.errors import ConfigError, InfeasibleETA, OptrouteError, SolverFailure, WeatherCoverageError
 from optroute.nlp_inputs import (
     CorridorFrame,
@@ -52,16 +53,9 @@ from optroute.weather.sample import WeatherSampler
 
 __all__ = ["optimise_corridor", "plan_voyage"]
 
-Objective = Literal["time", "fuel", "cost"]
-ProgressFn = Callable[[str, float], None]
 
 
 # --------------------------------------------------------------------------- main entry points
-
-
-def _emit(progress: ProgressFn | None, stage: str, fraction: float) -> None:
-    if progress is not None:
-        progress(stage, float(fraction))
 
 
 def optimise_corridor(
