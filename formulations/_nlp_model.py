@@ -36,11 +36,33 @@ import numpy as np
 
 from formulations._common import Band, PowerModel
 
-__all__ = ["ABS_EPS_KN", "sample_physics", "structured_derivatives"]
+__all__ = [
+    "ABS_EPS_KN",
+    "POWER_TERMS",
+    "POWER_TERM_DEFAULTS",
+    "power_multiplier",
+    "sample_physics",
+    "structured_derivatives",
+]
 
 ABS_EPS_KN = 1e-3  # smoothing of |A T − V cos χ| in T_E [kn]
 _N_Z = 5  # y_k, y_{k+1}, V_k, t_k, t_{k+1}
 _TRIU = [(a, b) for b in range(_N_Z) for a in range(b + 1)]  # upper triangle, column-major
+
+
+# the per-leg power multiplier M_k = f_k (V/V_k)^e_k exp(a_k τ tanh((t̄ − T_k)/τ)): parameter order and defaults
+POWER_TERMS = ("factor", "exponent", "ref_kn", "time_slope_per_h", "ref_time_h")
+POWER_TERM_DEFAULTS = {"exponent": 0.0, "ref_kn": 1.0, "time_slope_per_h": 0.0, "ref_time_h": 0.0}
+TIME_SCALE_H = 1.0  # τ [h]: the time term's reach
+
+
+def power_multiplier(v: Any, t_mid: Any, cols: list[Any], lib: Any) -> Any:
+    """``M_k`` [-] at the speed ``v`` [kn] and leg mid-time ``t_mid`` [h]; ``cols`` in :data:`POWER_TERMS` order.
+
+    ``lib`` is ``numpy`` or ``casadi`` (both spell ``exp``, ``log`` and ``tanh`` alike).
+    """
+    f, e, vr, a, tr = cols
+    return f * lib.exp(e * lib.log(v / vr) + a * TIME_SCALE_H * lib.tanh((t_mid - tr) / TIME_SCALE_H))
 
 
 def sample_physics(
@@ -205,10 +227,12 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
     # ---- per-leg SX function of z_k -------------------------------------------------
     n_theta = 2 + 6 * nf + (18 if has_excl else 0)  # t0, y0, weather Taylor, exclusion Taylor
     z = ca.SX.sym("z", _N_Z)
-    geo = ca.SX.sym("geo", 11)  # c_k, c_k+1, n_k, n_k+1, tangent, factor
+    n_pt = len(POWER_TERMS)
+    geo = ca.SX.sym("geo", 10 + n_pt)  # c_k, c_k+1, n_k, n_k+1, tangent, the power multiplier's terms
     theta = ca.SX.sym("theta", n_theta * m)
     beta = ca.SX.sym("beta", max(nb, 1) * m)
     ya, yb, v, ta, tb = (z[i] for i in range(_N_Z))
+    factor = power_multiplier(v, 0.5 * (ta + tb), [geo[10 + i] for i in range(n_pt)], ca)
     pxa, pya = geo[0] + ya * geo[4], geo[1] + ya * geo[5]
     pxb, pyb = geo[2] + yb * geo[6], geo[3] + yb * geo[7]
     dx, dy = pxb - pxa, pyb - pya
@@ -232,7 +256,7 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
         wvals = taylor(th[2 : 2 + 6 * nf], nf)
         col = {name: wvals[i] for i, name in enumerate(names)}
         b_j = [beta[b * m + j] for b in range(nb)]
-        phys = sample_physics(v, cos_d, sin_d, length / m, geo[10], col, b_j, nlp.power, nlp.bands, nlp.g_over_2pi)
+        phys = sample_physics(v, cos_d, sin_d, length / m, factor, col, b_j, nlp.power, nlp.bands, nlp.g_over_2pi)
         dt_sum = dt_sum + phys["dt"]
         fuel_sum = fuel_sum + phys["fuel"]
         loads.append(phys["load"])
@@ -282,8 +306,8 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
     beta_idx = np.array([[2 + b * k_ + k * m + j for k in range(n)] for b in range(nb) for j in range(m)])
     # ---- symbolic inputs of the nlpsol derivative functions ---------------------------
     x = ca.MX.sym("x", nx)
-    p = ca.MX.sym("p", 2 + k_ * nb + n)  # weights, band edges, per-leg power factors
-    geo_dm = ca.vertcat(geo_fixed, ca.reshape(p[2 + k_ * nb :], 1, n))
+    p = ca.MX.sym("p", 2 + k_ * nb + n_pt * n)  # weights, band edges, per-leg power-multiplier terms
+    geo_dm = ca.vertcat(geo_fixed, ca.reshape(p[2 + k_ * nb :], n, n_pt).T)
     lam_f = ca.MX.sym("lam_f")
     lam_g = ca.MX.sym("lam_g", ng)
     zmat = ca.reshape(x[z_idx.T.ravel().tolist()], _N_Z, n)

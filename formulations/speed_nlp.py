@@ -30,7 +30,7 @@ port side ``u∥, u⊥``): the ship heads so as to cancel the cross-current,
 Power model (the supported closed form; the domain layer fits its
 performance model, e.g. Kwon's speed loss (physics.md §6), to it):
 
-    P = f_k · P_calm(V) · (1 + W(Hs) · D(cos α) · S(V)) + P_wind     [kW]
+    P = M_k · P_calm(V) · (1 + W(Hs) · D(cos α) · S(V)) + P_wind     [kW]
     P_calm(V) = Σ_j c_j V^{n_j}             calm-water (propeller law, physics.md §8)
     W(Hs)     = Σ_m h_m Hs^{q_m}            added-power weight of the sea state
     D(cos α)  = b_0 + b_1 cos α + b_2 cos² α  direction factor, α = 180° − χ (IMO: 0 = head sea)
@@ -39,8 +39,12 @@ performance model, e.g. Kwon's speed loss (physics.md §6), to it):
 
 ``(1 + W D S)`` is the Kwon-type added factor: a speed loss ``δ`` at fixed
 power ``P = c V^n`` is an added power factor ``(1 − δ)^{−n} ≈ 1 + n δ``.
-``f_k`` is an optional static per-leg factor (fouling, or a static weather
-factor on a fixed path). Fuel rate ``q = P · SFOC(P/MCR) · 1e-6`` [t/h] with
+``M_k = f_k (V/V_k)^{e_k} exp(a_k τ tanh((t̄ − T_k)/τ))`` is an optional
+per-leg multiplier (fouling, a static weather factor on a fixed path, or the
+domain layer's first-order correction of a fitted model: level ``f_k``, speed
+elasticity ``e_k`` at the reference speed ``V_k``, and a logarithmic slope
+``a_k`` [1/h] in the leg's mid-time ``t̄`` about ``T_k``, saturating beyond
+``τ`` = 1 h); default ``M_k = f_k = 1``. Fuel rate ``q = P · SFOC(P/MCR) · 1e-6`` [t/h] with
 the Fourth IMO GHG Study curve ``SFOC(L) = SFC_base (0.455 L² − 0.710 L + 1.280)``
 (physics.md §8).
 
@@ -86,12 +90,19 @@ from formulations._common import (
     WeatherGrid,
     broadcast_legs,
 )
-from formulations._nlp_model import sample_physics, structured_derivatives
+from formulations._nlp_model import (
+    POWER_TERM_DEFAULTS,
+    POWER_TERMS,
+    power_multiplier,
+    sample_physics,
+    structured_derivatives,
+)
 
 __all__ = [
     "CorridorGeometry",
     "MovingExclusion",
     "NLPResult",
+    "POWER_TERMS",
     "PowerModel",
     "SampleState",
     "SpeedNLP",
@@ -267,6 +278,10 @@ class SpeedNLP:
         Multiplier ``f_k`` of the calm and wave power per leg (default 1). A parameter of the
         built NLP, not part of its graph: :meth:`set_leg_power_factor` changes it between solves
         without a rebuild.
+    leg_power_correction : mapping of str to array_like, optional
+        The other terms of the per-leg multiplier ``M_k`` (default: none): keys ``exponent``, ``ref_kn``,
+        ``time_slope_per_h``, ``ref_time_h`` as in :meth:`set_leg_power_factor`. Parameters, as
+        ``leg_power_factor``.
     g_over_2pi_kn_s : float
         ``A = g/2π`` [kn/s] in the wave relations (default 3.0339; IMO's rounded form is 3.0).
     sog_min_kn : float
@@ -299,6 +314,7 @@ class SpeedNLP:
         v_min_kn: ArrayLike = 1.0,
         v_max_kn: ArrayLike = 30.0,
         leg_power_factor: ArrayLike | None = None,
+        leg_power_correction: dict[str, ArrayLike] | None = None,
         g_over_2pi_kn_s: float = G_OVER_2PI_KN_S,
         sog_min_kn: float = 1.0,
         ipopt_options: dict[str, Any] | None = None,
@@ -323,11 +339,11 @@ class SpeedNLP:
             raise FormulationInputError(
                 f"need 0 < v_min_kn <= v_max_kn, got v_min {self.v_min_kn.min():g}, v_max {self.v_max_kn.min():g}"
             )
-        self.leg_power_factor = (
-            np.ones(n) if leg_power_factor is None else broadcast_legs(leg_power_factor, n, "leg_power_factor")
+        self.leg_power_factor = np.ones(n)
+        self.leg_power_terms: dict[str, np.ndarray] = {}
+        self.set_leg_power_factor(
+            np.ones(n) if leg_power_factor is None else leg_power_factor, **(leg_power_correction or {})
         )
-        if (self.leg_power_factor <= 0).any():
-            raise FormulationInputError("leg_power_factor must be positive")
         self.g_over_2pi = float(g_over_2pi_kn_s)
         self.sog_min_kn = float(sog_min_kn)
         for b in self.bands:
@@ -379,7 +395,9 @@ class SpeedNLP:
         x_s = _rep(px[:-1], m) + frac * _rep(dx, m)
         yf_s = _rep(py[:-1], m) + frac * _rep(dy, m)
         fields = self._interp_map(ca.horzcat(t_s, s_s, y_s).T)  # (n_fields, K)
-        rows = ca.vertcat(_rep(v, m).T, _rep(cos_d, m).T, _rep(sin_d, m).T, _rep(length / m, m).T, _rep(fac, m).T, fields)
+        rows = ca.vertcat(
+            _rep(v, m).T, _rep(cos_d, m).T, _rep(sin_d, m).T, _rep(length / m, m).T, _rep(fac, m).T, fields
+        )
         if nb:
             rows = ca.vertcat(rows, ca.reshape(beta, k_, nb).T)
         out = self._sample_map(rows).T  # (K, n_out)
@@ -427,8 +445,11 @@ class SpeedNLP:
         y, v, t = x[: n + 1], x[n + 1 : 2 * n + 1], x[2 * n + 1 :]
         beta = ca.MX.sym("beta", k_ * nb)
         weights = ca.MX.sym("w", 2)  # fuel weight, time weight
-        fac = ca.MX.sym("f", n)  # per-leg power factor: a parameter, so that changing it needs no build
-        mdl = self._model(y, v, t, beta, fac)
+        # the per-leg power multiplier M_k: parameters, so that changing them needs no build
+        fac = ca.MX.sym("f", len(POWER_TERMS) * n)
+        cols = [fac[i * n : (i + 1) * n] for i in range(len(POWER_TERMS))]
+        mult = power_multiplier(v, 0.5 * (t[:-1] + t[1:]), cols, ca)
+        mdl = self._model(y, v, t, beta, mult)
         objective = weights[0] * ca.sum1(mdl["fuel_leg"]) + weights[1] * (t[n] - t[0])
         rows: dict[str, tuple[int, int]] = {}
         parts: list[Any] = []
@@ -495,7 +516,7 @@ class SpeedNLP:
 
     def _eval(self, x: np.ndarray) -> dict[str, np.ndarray]:
         beta = np.zeros(self.n_legs * self.samples_per_leg * self.n_bands)
-        vals = self._diag(x, beta, self.leg_power_factor)
+        vals = self._diag(x, beta, self._factor_parameter())
         vals = vals if isinstance(vals, tuple | list) else [vals]
         return {k: np.asarray(val, dtype=float) for k, val in zip(self._diag_names, vals, strict=True)}
 
@@ -560,12 +581,54 @@ class SpeedNLP:
             outside_grid=outside,
         )
 
-    def set_leg_power_factor(self, leg_power_factor: ArrayLike) -> None:
-        """Set the per-leg power factor ``f_k`` [-] of the next solves (shape (N,), positive); no rebuild."""
-        f = broadcast_legs(leg_power_factor, self.n_legs, "leg_power_factor")
+    def set_leg_power_factor(self, leg_power_factor: ArrayLike, **terms: ArrayLike | None) -> None:
+        """Set the per-leg power multiplier ``M_k`` of the next solves (no rebuild).
+
+        ``M_k = f_k (V/V_k)^{e_k} exp(a_k τ tanh((t̄ − T_k)/τ))``, ``t̄`` the leg's mid-time [h],
+        ``τ`` = 1 h: a level, a speed elasticity and a time slope (saturating beyond ``τ``).
+
+        Parameters
+        ----------
+        leg_power_factor : array_like, shape (N,)
+            ``f_k`` [-], finite and positive.
+        exponent : array_like, shape (N,), optional
+            ``e_k`` [-] (default 0).
+        ref_kn : array_like, shape (N,), optional
+            ``V_k`` [kn], positive (default 1).
+        time_slope_per_h, ref_time_h : array_like, shape (N,), optional
+            ``a_k`` [1/h] and ``T_k`` [h since departure] (default 0).
+        """
+        n = self.n_legs
+        f = broadcast_legs(leg_power_factor, n, "leg_power_factor")
         if not (np.isfinite(f).all() and (f > 0).all()):
             raise FormulationInputError("leg_power_factor must be finite and positive")
-        self.leg_power_factor = f.copy()
+        unknown = set(terms) - set(POWER_TERMS[1:])
+        if unknown:
+            raise FormulationInputError(f"unknown power-multiplier terms {sorted(unknown)}; use {POWER_TERMS[1:]}")
+        out = {}
+        for name in POWER_TERMS[1:]:
+            given = terms.get(name)
+            a = np.full(n, POWER_TERM_DEFAULTS[name]) if given is None else broadcast_legs(given, n, name)
+            bad = ~np.isfinite(a) | ((a <= 0) if name == "ref_kn" else False)
+            if bad.any():
+                k = int(np.argmax(bad))
+                need = "finite and positive (a speed in kn)" if name == "ref_kn" else "finite"
+                raise FormulationInputError(f"power-multiplier term {name} must be {need}; leg {k} has {a[k]!r}")
+            out[name] = a.copy()
+        self.leg_power_factor, self.leg_power_terms = f.copy(), out
+
+    def leg_power_multiplier(self, v_kn: ArrayLike, time_mid_h: ArrayLike | None = None) -> np.ndarray:
+        """``M_k`` [-] at speeds ``v_kn`` [kn] of shape (N,) or (N, K) (leg on the first axis).
+
+        ``time_mid_h`` [h], the leg's mid-time, defaults to ``T_k``.
+        """
+        v = np.asarray(v_kn, dtype=float)
+        extra = (slice(None),) + (None,) * (v.ndim - 1)
+        cols = [self.leg_power_factor[extra]] + [self.leg_power_terms[k][extra] for k in POWER_TERMS[1:]]
+        return power_multiplier(v, cols[4] if time_mid_h is None else np.asarray(time_mid_h, dtype=float), cols, np)
+
+    def _factor_parameter(self) -> np.ndarray:
+        return np.concatenate([self.leg_power_factor] + [self.leg_power_terms[k] for k in POWER_TERMS[1:]])
 
     def consistent_times(self, offset_nm: ArrayLike, stw_kn: ArrayLike, *, iterations: int = 3) -> np.ndarray:
         """Arrival times [h] (N+1,) that satisfy the NLP's time dynamics for given offsets and speeds.
@@ -722,7 +785,7 @@ class SpeedNLP:
             set_rows("sog", self.sog_min_kn, np.inf)
         if self.exclusion is not None:
             set_rows("excl", 0.0, np.inf)
-        p = np.concatenate([weights, beta, self.leg_power_factor])
+        p = np.concatenate([weights, beta, self._factor_parameter()])
         started = time.perf_counter()
         sol = self._solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         elapsed = time.perf_counter() - started

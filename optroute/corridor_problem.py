@@ -29,8 +29,10 @@ from typing import Any, Literal
 import numpy as np
 import xarray as xr
 
+from formulations.speed_nlp import POWER_TERMS
 from optroute._checks import finite
 from optroute.errors import ConfigError, SolverFailure, WeatherCoverageError
+from optroute.fit_correction import fit_correction
 from optroute.nlp_inputs import build_frame, dataset_spacing, fit_power_model, lateral_bounds, weather_grid
 from optroute.nlp_solve import (
     Problem,
@@ -67,6 +69,9 @@ class Learnt:
     ----------
     leg_power_factor : numpy.ndarray
         Per-leg factor on the fitted power [-], shape (N,), positive (fit corrections, load tightening).
+    leg_power_terms : mapping of str to numpy.ndarray, optional
+        The other terms of the NLP's per-leg power multiplier (speed elasticity, time slope and their
+        reference points; :meth:`formulations.speed_nlp.SpeedNLP.set_leg_power_factor`).
     max_load : float
         Upper engine load limit of the NLP [fraction of MCR], in (0, 1].
     band_margin, band_hs_margin : float
@@ -77,12 +82,24 @@ class Learnt:
     max_load: float
     band_margin: float
     band_hs_margin: float
+    leg_power_terms: Mapping[str, np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         f = np.asarray(self.leg_power_factor, dtype=float)
         if f.ndim != 1 or not np.all(np.isfinite(f) & (f > 0)):
             raise ConfigError(f"Learnt.leg_power_factor must be a 1-D array of positive numbers, got {f!r}")
         object.__setattr__(self, "leg_power_factor", f.copy())
+        if self.leg_power_terms is not None:
+            terms = {}
+            for name, a in self.leg_power_terms.items():
+                a = np.asarray(a, dtype=float)
+                if name not in POWER_TERMS[1:] or a.shape != f.shape or not np.all(np.isfinite(a)):
+                    raise ConfigError(
+                        f"Learnt.leg_power_terms[{name!r}] must be one of {POWER_TERMS[1:]}, a finite array shaped "
+                        f"like leg_power_factor {f.shape}; got {a!r}; pass the learnt state of one plan"
+                    )
+                terms[name] = a.copy()
+            object.__setattr__(self, "leg_power_terms", terms)
         if not (0.0 < float(self.max_load) <= 1.0):
             raise ConfigError(f"Learnt.max_load={self.max_load!r} must be in (0, 1] (a fraction of MCR)")
         for name in ("band_margin", "band_hs_margin"):
@@ -99,6 +116,9 @@ class Learnt:
             float(s["max_load"]),
             float(s["band_margin"]),
             float(s["band_hs_margin"]),
+            {k: np.asarray(v, dtype=float) for k, v in s["leg_power_terms"].items()}
+            if "leg_power_terms" in s
+            else None,
         )
 
 
@@ -148,7 +168,7 @@ class PreparedCorridor:
         exclusion: Exclusion | None = None,
         speed_range_kn: tuple[float, float] | None = None,
         band_solves: int = 12,
-        fit_corrections: int = 1,
+        fit_corrections: int = 6,
         max_retries: int = 4,
         band_margin: float = 0.005,
         band_hs_margin: float = 0.05,
@@ -308,6 +328,8 @@ class PreparedCorridor:
                     "learnt state of a plan of the same prepared corridor"
                 )
             st.factor = learnt.leg_power_factor.copy()
+            if learnt.leg_power_terms is not None:
+                st.power_terms = {k: v.copy() for k, v in learnt.leg_power_terms.items()}
             st.max_load = float(learnt.max_load)
             st.widen, st.hs_margin = max(st.widen, learnt.band_margin), max(st.hs_margin, learnt.band_hs_margin)
             st.log.append("started from a neighbouring solve's tightening")
@@ -350,7 +372,6 @@ class PreparedCorridor:
         """
         from optroute.optimise import (
             _certificate_reason,
-            _correction,
             _first_failure,
             _longer,
             _plan_warm_start,
@@ -358,6 +379,7 @@ class PreparedCorridor:
             _score,
             _tighten,
             _to_plan,
+            _to_plan_xy,
         )
 
         started = _time.perf_counter()
@@ -419,9 +441,19 @@ class PreparedCorridor:
             )
         warm = clear_of_exclusion(warm, frame, exclusion, t0, self.y_lo, self.y_hi)
         fresh_start = False
+        if (warm_plan is not None or route is not None) and learnt is None and self.fit_corrections > 0:
+            # correct the fit where the given start is, so that the first solve sees the true model's power and
+            # slopes there (a start from a global search is not left for the fit's own optimum)
+            nlp0 = prob.build(st)
+            times0 = nlp0.consistent_times(warm["offset_nm"], warm["stw_kn"])
+            start_plan = _to_plan_xy(ctx, frame, warm["offset_nm"], warm["stw_kn"], t0, step_nm=step_nm)
+            corr = fit_correction(ctx, start_plan, nlp0, warm["offset_nm"], warm["stw_kn"], times0, step_nm=step_nm)
+            st.factor, st.power_terms = corr.factor, dict(corr.terms)
+            st.log.append(f"fit corrected at the given start (level off by up to {corr.level_error:.2%})")
         solve_kw = {"eta_mode": eta_mode, "objective": objective, "fuel_price": fuel_price, "hourly_cost": hourly}
 
         best: tuple[float, Plan, Solved, float | None, dict[str, Any]] | None = None
+        stale = 0  # clean solves since the best one
         last_violations: list[Violation] = []
         last: Solved | None = None
         solve_time = 0.0
@@ -489,17 +521,25 @@ class PreparedCorridor:
                         "band_hs_margin": st.hs_margin,
                         "bands": list(prob.band_names),
                         "leg_power_factor": st.factor.tolist(),
+                        "leg_power_terms": {k: v.tolist() for k, v in st.power_terms.items()},
                         "_min_load": st.min_load,
                     }
-                    best = (score, plan, sol, eta_solve, snapshot)
-                if st.corrections >= self.fit_corrections:
-                    break
-                ratio = _correction(plan, sol.res)
-                if np.all(np.abs(ratio - 1.0) <= 1e-6):
-                    break  # the fit is exact at this solution: nothing to correct
+                    best, stale = (score, plan, sol, eta_solve, snapshot), 0
+                else:
+                    stale += 1
+                if st.corrections >= self.fit_corrections or stale >= 2:
+                    break  # corrections used up, or two corrected solves in a row no better than the best
+                corr = fit_correction(
+                    ctx, plan, sol.nlp, sol.res.offset_nm, sol.res.stw_kn, sol.res.time_h, step_nm=step_nm
+                )
+                if corr.level_error <= 1e-4 and corr.slope_error <= 1e-3 and corr.time_slope_error <= 1e-4:
+                    break  # the corrected fit matches the model's power and its slopes at this solution
                 st.corrections += 1
-                st.factor = st.factor * ratio
-                st.log.append(f"attempt {attempt}: clean; fit corrected on every leg (defect correction)")
+                st.factor, st.power_terms = corr.factor, dict(corr.terms)
+                st.log.append(
+                    f"attempt {attempt}: clean ({_score(plan, objective, fuel_price, hourly):.6g}); fit corrected on "
+                    f"every leg (level off by up to {corr.level_error:.2%}, speed elasticity by {corr.slope_error:.3f})"
+                )
                 continue
             last_violations = violations
             if st.retries >= self.max_retries:
@@ -526,7 +566,10 @@ class PreparedCorridor:
         if reason is None:
             # a cached build is shared by states differing in load limits and power factors: the best solve's
             sol.nlp.power = replace(self.fit.power, max_load=snapshot["max_load"], min_load=min_load)
-            sol.nlp.set_leg_power_factor(np.asarray(snapshot["leg_power_factor"], dtype=float))
+            sol.nlp.set_leg_power_factor(
+                np.asarray(snapshot["leg_power_factor"], dtype=float),
+                **{k: np.asarray(v, dtype=float) for k, v in snapshot["leg_power_terms"].items()},
+            )
             cert = certificate(
                 sol.nlp,
                 res,

@@ -58,7 +58,7 @@ VIOLATION_TOL = 1e-6  # largest scaled constraint violation accepted from Ipopt
 class Tightening:
     """What the verification loop changes between solves."""
 
-    factor: np.ndarray  # per-leg power factor (fit correction) [-]
+    factor: np.ndarray  # per-leg power factor f_k (fit correction) [-]
     max_load: float
     min_load: float
     widen: float  # band back-off [-]
@@ -70,6 +70,7 @@ class Tightening:
     retries: int = 0
     corrections: int = 0
     log: list[str] = field(default_factory=list)
+    power_terms: dict[str, np.ndarray] = field(default_factory=dict)  # the other terms of the multiplier M_k
 
 
 @dataclass
@@ -146,7 +147,7 @@ class Problem:
             self._cache[key] = hit  # most recently used last
             nlp, self.band_names = hit
             nlp.power = power
-            nlp.set_leg_power_factor(st.factor)
+            nlp.set_leg_power_factor(st.factor, **st.power_terms)
             return nlp
         nlp = self._build(st, max_iter=max_iter)
         self._cache[key] = (nlp, self.band_names)
@@ -180,6 +181,7 @@ class Problem:
             v_min_kn=self.v_min,
             v_max_kn=self.v_max,
             leg_power_factor=st.factor,
+            leg_power_correction=st.power_terms,
             g_over_2pi_kn_s=a,
             ipopt_options=options,
         )
@@ -266,7 +268,8 @@ def flippable_groups(nlp: SpeedNLP, state: Any, n_speeds: int = 64) -> np.ndarra
     wd = w * (pw.angle_coef[0] + pw.angle_coef[1] * ca + pw.angle_coef[2] * ca**2)
     calm = sum(c * v**e for c, e in zip(pw.calm_coef, pw.calm_exp, strict=True))
     sv = sum(u * v**r for r, u in enumerate(pw.speed_coef))
-    load = nlp.leg_power_factor[:, None, None] * calm * (1.0 + wd * sv) / pw.mcr_kw
+    mult = nlp.leg_power_multiplier(np.broadcast_to(v[0, 0], (n, n_speeds)))[:, None, :]  # f_k (V/V_k)^e_k
+    load = mult * calm * (1.0 + wd * sv) / pw.mcr_kw
     ok_power = (load <= pw.max_load) & (load >= pw.min_load)
     a = nlp.g_over_2pi
     along = v * cos_chi
@@ -389,13 +392,11 @@ def leg_functions(nlp: SpeedNLP, res: NLPResult) -> tuple[Callable[[np.ndarray],
     w = sum((h * hs**q for h, q in zip(pw.hs_coef, pw.hs_exp, strict=True)), np.zeros_like(hs))
     b0, b1, b2 = pw.angle_coef
     wd = w * (b0 + b1 * ca + b2 * ca**2)  # (n, m)
-    f = nlp.leg_power_factor
-
     def power(v: np.ndarray) -> np.ndarray:  # v (n, K) → (n, m, K)
         vv = np.asarray(v, dtype=float)[:, None, :]
         calm = sum(c * vv**e for c, e in zip(pw.calm_coef, pw.calm_exp, strict=True))
         s = sum(u * vv**r for r, u in enumerate(pw.speed_coef))
-        return f[:, None, None] * calm * (1.0 + wd[:, :, None] * s)
+        return nlp.leg_power_multiplier(vv[:, 0, :])[:, None, :] * calm * (1.0 + wd[:, :, None] * s)
 
     lo, hi = nlp.v_min_kn.copy(), nlp.v_max_kn.copy()
     # load limits per sample → speed interval per leg (power increases with speed): bisection
@@ -445,7 +446,7 @@ def certificate(
     wd = wd * (pw.angle_coef[0] + pw.angle_coef[1] * ca + pw.angle_coef[2] * ca**2)
     wd_mean = wd.mean(axis=1)
     coef = None
-    if a2 == 0.0 and a1 == 0.0 and a0 > 0:
+    if a2 == 0.0 and a1 == 0.0 and a0 > 0 and not np.any(nlp.leg_power_terms["exponent"]):
         k = pw.sfc_base_gpkwh * a0 * 1e-6 * nlp.leg_power_factor
         exps: dict[float, np.ndarray] = {}
         for c, e, _ in pw_terms:

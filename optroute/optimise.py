@@ -79,7 +79,7 @@ def optimise_corridor(
     progress: ProgressFn | None = None,
     speed_range_kn: tuple[float, float] | None = None,
     band_solves: int = 12,
-    fit_corrections: int = 1,
+    fit_corrections: int = 6,
     max_retries: int = 4,
     band_margin: float = 0.005,
     band_hs_margin: float = 0.05,
@@ -133,8 +133,11 @@ def optimise_corridor(
     band_solves : int
         Budget of NLP solves of the band outer loop (side flips, applicability re-checks) per solve.
     fit_corrections : int
-        Re-solves after a clean plan with the per-leg power factor set to the ratio of the true
-        model's power to the fit's at the solution (defect correction of the fit).
+        Most re-solves after a clean plan with the fit corrected at the solution
+        (:mod:`optroute.fit_correction`: the per-leg power multiplier matched to the true model's
+        power, its speed elasticity and, relaxed, its time slope); the best clean plan by the true
+        model is kept, and the corrections stop early when they converge or two corrected solves in
+        a row do not improve on it. 0: the fit's optimum.
     max_retries : int
         Tightened re-solves after a failed verification.
     band_margin : float
@@ -242,22 +245,19 @@ def _score(plan: Plan, objective: str, fuel_price: float, hourly: float) -> floa
 
 
 def _to_plan(ctx: PlanContext, frame: CorridorFrame, res: NLPResult, t0: np.datetime64, *, step_nm: float) -> Plan:
-    wp = frame.waypoints(res.offset_nm)
-    return Plan.from_context(ctx, wp, np.asarray(res.stw_kn, dtype=float), departure=t0, status="candidate",
+    return _to_plan_xy(ctx, frame, res.offset_nm, res.stw_kn, t0, step_nm=step_nm)
+
+
+def _to_plan_xy(ctx: PlanContext, frame: CorridorFrame, offset_nm: np.ndarray, stw_kn: np.ndarray, t0: np.datetime64,
+                *, step_nm: float) -> Plan:
+    wp = frame.waypoints(offset_nm)
+    return Plan.from_context(ctx, wp, np.asarray(stw_kn, dtype=float), departure=t0, status="candidate",
                              step_nm=step_nm)
 
 
 def _nlp_leg_power(res: NLPResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     p = res.samples.power_kw
     return p.mean(axis=1), p.max(axis=1), p.min(axis=1)
-
-
-def _correction(plan: Plan, res: NLPResult) -> np.ndarray:
-    """Per-leg ratio of the true model's mean power to the fitted model's at the solution, in [0.5, 2]."""
-    true = plan.legs["power_kw"].to_numpy(dtype=float)
-    mean, _, _ = _nlp_leg_power(res)
-    ratio = np.where((mean > 0) & np.isfinite(true), true / np.where(mean > 0, mean, 1.0), 1.0)
-    return np.clip(ratio, 0.5, 2.0)
 
 
 def _tighten(st: Tightening, violations: list[Violation], plan: Plan, res: NLPResult) -> None:
