@@ -374,7 +374,7 @@ def test_nan_weather_narrows_the_corridor_and_a_blocked_waypoint_raises():
     assert np.all(y_hi[~near][1:-1] == 60.0)
     everywhere = wx.copy(deep=True)
     everywhere["hs_m"].loc[{"lon": everywhere.lon[(everywhere.lon >= -26) & (everywhere.lon <= -24)]}] = np.nan
-    with pytest.raises(orx.NoSafePassage, match="no navigable point"):
+    with pytest.raises(orx.NoSafePassage, match=r"no navigable passage at .* between its waypoints 7 and 8"):
         lateral_bounds(frame, sampler=orx.WeatherSampler(everywhere), dataset=everywhere, times=times,
                        use_land_mask=False)
 
