@@ -30,6 +30,7 @@ from formulations.speed_nlp import NLPResult, SpeedNLP
 from optroute import geo
 from optroute.corridor_problem import Objective, ProgressFn
 from optroute.errors import ConfigError, InfeasibleETA, OptrouteError, SolverFailure, WeatherCoverageError
+from optroute.lateral import avoid_point
 from optroute.nlp_inputs import (
     CorridorFrame,
     weather_grid,
@@ -260,6 +261,31 @@ def _correction(plan: Plan, res: NLPResult) -> np.ndarray:
     return np.clip(ratio, 0.5, 2.0)
 
 
+def _move_off(st: Tightening, v: Violation, plan: Plan, res: NLPResult) -> bool:
+    """Move the lateral bounds of leg ``v.leg`` off the land (no-passage) point the verification met.
+
+    The point is at fraction ``f`` along the leg, so at offset ``(1 − f) y_k + f y_{k+1}`` [nm, port +] in
+    the leg's sweep; :func:`optroute.lateral.avoid_point` keeps the leg a margin (1 nm, doubled on every
+    further cut of that leg) to the side with more room. False when the bounds are not the tightening's
+    or neither side has room (the caller then shrinks the bounds about their middle).
+    """
+    if st.y_lo is None or st.y_hi is None:
+        return False
+    k = v.leg
+    wp = np.asarray(plan.waypoints, dtype=float)
+    d = float(geo.distance_nm(wp[k, 0], wp[k, 1], wp[k + 1, 0], wp[k + 1, 1]))
+    f = float(geo.distance_nm(wp[k, 0], wp[k, 1], *v.position)) / d if d > 0 else 0.0
+    y = np.asarray(res.offset_nm, dtype=float)
+    at = (1.0 - f) * y[k] + f * y[k + 1]
+    cuts = sum(f"land cut on leg {k}:" in line for line in st.log)
+    moved = avoid_point(st.y_lo, st.y_hi, leg=k, fraction=f, offset_port_nm=at, margin_nm=2.0**cuts)
+    if moved is None:
+        return False
+    st.y_lo, st.y_hi = moved
+    st.log.append(f"land cut on leg {k}: bounds moved {2.0**cuts:g} nm off ({v.position[0]:.4f}, {v.position[1]:.4f})")
+    return True
+
+
 def _tighten(st: Tightening, violations: list[Violation], plan: Plan, res: NLPResult) -> None:
     """Change the problem where the verification found it wrong (see the module docstring)."""
     kinds = {v.kind.split(":")[0] for v in violations}
@@ -272,6 +298,8 @@ def _tighten(st: Tightening, violations: list[Violation], plan: Plan, res: NLPRe
         elif v.kind == "power_below_min":
             ratio = v.value / max(p_min[k], 1e-9)
             st.factor[k] *= float(np.clip(ratio, 0.5, 1.0)) * 0.997
+        elif v.kind in ("land", "no_passage") and _move_off(st, v, plan, res):
+            pass
         elif v.kind in ("land", "no_passage", "corridor", "course"):
             st.bound_scale[k] *= 0.5
             st.bound_scale[k + 1] *= 0.5
