@@ -9,7 +9,8 @@ turns the solution into a :class:`~optroute.plan.Plan` computed with the
 that fails verification is never returned: the problem is tightened where
 the verification says (per-leg power factors corrected to the true model's
 power, band edges backed off, the ETA, the exclusion radius, the lateral
-bounds) and solved again; when that does not produce a clean plan,
+bounds: moved off land or a no-passage cell the verification met, by
+:func:`optroute.lateral.avoid_point`, else shrunk about their middle) and solved again; when that does not produce a clean plan,
 :class:`~optroute.errors.SolverFailure` is raised with Ipopt's status.
 
 :func:`plan_voyage` is search → corridor → NLP in one call.
@@ -178,7 +179,8 @@ def optimise_corridor(
     WeatherCoverageError
         The corridor or the ETA lies outside the weather.
     NoSafePassage, OnLandError
-        The corridor has a waypoint with no navigable offset, or starts or ends on land.
+        No navigable channel joins the corridor's ends (the message names the leg where it closes;
+        :func:`optroute.lateral.lateral_bounds`), or it starts or ends on land.
     """
     from optroute.corridor_problem import PreparedCorridor
 
