@@ -320,6 +320,8 @@ class PreparedCorridor:
             hs_margin=self.hs_margin0,
             samples_per_leg=self.samples_per_leg,
             bound_scale=np.ones(n + 1),
+            y_lo=self.y_lo.copy(),
+            y_hi=self.y_hi.copy(),
         )
         if learnt is not None:
             if learnt.leg_power_factor.shape != (n,):

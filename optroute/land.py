@@ -175,6 +175,18 @@ class GlobeLandMask:
                 packed[i : i + k] = np.packbits(block == 0, axis=1)  # 1 = land
         return packed
 
+    def any_land_in_box(self, lat_min: float, lat_max: float, lon_min: float, lon_max: float) -> bool:
+        """Whether any cell touching the box [deg] is land (conservative by up to 8 cells in longitude).
+
+        The box must not cross the antimeridian (``-180 <= lon_min <= lon_max < 180``); callers split
+        or fall back to point look-ups otherwise.
+        """
+        i0 = int(np.clip((lat_max - self._lat0) / self._dlat, 0, self._nlat - 1))
+        i1 = int(np.clip((lat_min - self._lat0) / self._dlat, 0, self._nlat - 1))
+        j0 = int(np.clip((lon_min - self._lon0) / self._dlon, 0, self._nlon - 1))
+        j1 = int(np.clip((lon_max - self._lon0) / self._dlon, 0, self._nlon - 1))
+        return bool(self._land_bits[min(i0, i1) : max(i0, i1) + 1, j0 >> 3 : (j1 >> 3) + 1].any())
+
     def is_land(self, lat_deg: np.ndarray, lon_deg: np.ndarray) -> np.ndarray:
         """True on land [bool array] for lat [deg] and lon [deg] in [-180, 180)."""
         lat = np.clip(np.asarray(lat_deg, dtype=float), *self._lat_range)

@@ -13,8 +13,8 @@
   times and fuel are proportional to those lengths, so it is not used. The
   error actually incurred is measured on every plan
   (:meth:`CorridorFrame.distance_error`) and reported.
-* :func:`lateral_bounds` — the navigable lateral range at every waypoint from
-  the land mask and the weather's NaN cells, sampled across the corridor.
+* :func:`lateral_bounds` (from :mod:`optroute.lateral`) — the navigable lateral range at every
+  waypoint from the land mask and the weather's NaN cells, such that every leg stays navigable.
 * :func:`weather_grid` — the weather on the corridor's (time, along-track,
   across-track) grid, vectors rotated into components along and across the
   centreline.
@@ -42,8 +42,9 @@ from scipy import ndimage
 from scipy.optimize import least_squares, nnls
 
 from formulations._common import G_OVER_2PI_KN_S, Band, CorridorGeometry, MovingExclusion, PowerModel, WeatherGrid
-from optroute import geo, land, seaway, units
-from optroute.errors import NoSafePassage, OnLandError, WeatherCoverageError
+from optroute import geo, seaway, units
+from optroute.errors import NoSafePassage, WeatherCoverageError
+from optroute.lateral import lateral_bounds
 from optroute.performance import PerformanceModel
 from optroute.route import Corridor
 from optroute.safety import IMO_HIGH_WAVE_TE_OVER_T, IMO_SURF_RIDING_KN_PER_SQRT_M, BandRules
@@ -182,115 +183,6 @@ def build_frame(corridor: Corridor) -> CorridorFrame:
     tangent = np.column_stack([np.sin(phi), np.cos(phi)])
     centre = np.vstack([[0.0, 0.0], np.cumsum(tangent * d[:, None], axis=0)])
     return CorridorFrame(corridor, centre, np.concatenate([[0.0], np.cumsum(d)]), tangent)
-
-
-# --------------------------------------------------------------------------- navigability
-
-
-def _navigable(
-    lat: np.ndarray,
-    lon: np.ndarray,
-    *,
-    sampler: WeatherSampler,
-    dataset: xr.Dataset | None,
-    times: np.ndarray,
-    use_land_mask: bool | None,
-) -> np.ndarray:
-    """At sea (land mask) and with finite waves at every one of ``times`` (NaN cells are no passage)."""
-    ok = land.navigable(lat, lon, dataset, use_land_mask=use_land_mask) if dataset is not None else (
-        ~land.is_land(lat, lon) if use_land_mask is not False else np.ones(lat.shape, dtype=bool)
-    )
-    when = np.broadcast_to(times[:, None], (times.size, lat.size))
-    la = np.broadcast_to(lat[None, :], when.shape)
-    lo = np.broadcast_to(lon[None, :], when.shape)
-    covered = sampler.covers(when, la, lo)
-    ok &= covered.all(axis=0)
-    if ok.any():
-        names = [v for v in ("hs_m", "tp_s", "tm_s", "wave_from_deg") if v in sampler.variables]
-        idx = np.flatnonzero(ok)
-        got = sampler.sample(when[:, idx], la[:, idx], lo[:, idx], variables=names)
-        finite = np.all([np.isfinite(got[v]).all(axis=0) for v in names], axis=0)
-        ok[idx] = finite
-    return ok
-
-
-def lateral_bounds(
-    frame: CorridorFrame,
-    *,
-    sampler: WeatherSampler,
-    dataset: xr.Dataset | None,
-    times: np.ndarray,
-    use_land_mask: bool | None = None,
-    step_nm: float = 2.0,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Navigable lateral range [nm, port +] at every waypoint, within the corridor's half-width.
-
-    Offsets across each waypoint are sampled every ``step_nm`` or closer; a sample is navigable when
-    it is off the land mask and the weather is finite there at every time in ``times`` (moving no-go
-    areas block their whole sweep: conservative, because the NLP's bounds are static). The range is
-    the contiguous navigable run containing the centreline, or, where the centreline itself is
-    blocked, the widest run.
-
-    Raises
-    ------
-    OnLandError
-        The corridor's first or last waypoint (the ends are pinned) is not navigable.
-    NoSafePassage
-        An interior waypoint has no navigable offset at all.
-    """
-    n1 = frame.n_legs + 1
-    hw = np.asarray(frame.corridor.half_width_nm, dtype=float)
-    y_lo, y_hi = np.zeros(n1), np.zeros(n1)
-    ks, ys = [], []
-    counts = []
-    for k in range(n1):
-        m = int(math.ceil(hw[k] / step_nm)) if hw[k] > 0 else 0
-        y = np.linspace(-hw[k], hw[k], 2 * m + 1) if m else np.zeros(1)
-        ks.append(np.full(y.size, k))
-        ys.append(y)
-        counts.append(y.size)
-    kk, yy = np.concatenate(ks), np.concatenate(ys)
-    lat, lon = frame.normal_points(kk, yy)
-    ok = _navigable(lat, lon, sampler=sampler, dataset=dataset, times=times, use_land_mask=use_land_mask)
-    start = 0
-    wp = frame.corridor.waypoints
-    for k, c in enumerate(counts):
-        y, okk = ys[k], ok[start : start + c]
-        start += c
-        centre = c // 2
-        if okk[centre]:
-            lo_i = centre
-            while lo_i > 0 and okk[lo_i - 1]:
-                lo_i -= 1
-            hi_i = centre
-            while hi_i < c - 1 and okk[hi_i + 1]:
-                hi_i += 1
-        else:
-            if k in (0, n1 - 1):
-                which = "first" if k == 0 else "last"
-                raise OnLandError(
-                    f"the corridor's {which} waypoint ({wp[k, 0]:.4f}, {wp[k, 1]:.4f}) is not navigable (land, or NaN "
-                    "weather at some time of the voyage); move it to open water (search_route snaps ports to the sea)"
-                )
-            runs, i = [], 0
-            while i < c:
-                if okk[i]:
-                    j = i
-                    while j < c - 1 and okk[j + 1]:
-                        j += 1
-                    runs.append((i, j))
-                    i = j + 1
-                else:
-                    i += 1
-            if not runs:
-                raise NoSafePassage(
-                    f"corridor waypoint {k} at ({wp[k, 0]:.4f}, {wp[k, 1]:.4f}) has no navigable point within "
-                    f"±{hw[k]:g} nm at the times the ship may pass (land or no-passage weather); widen the corridor, "
-                    "or plan it with plan_voyage so that the search routes around"
-                )
-            lo_i, hi_i = max(runs, key=lambda r: (y[r[1]] - y[r[0]], -abs(y[r[0]] + y[r[1]])))
-        y_lo[k], y_hi[k] = y[lo_i], y[hi_i]
-    return y_lo, y_hi
 
 
 # --------------------------------------------------------------------------- weather grid

@@ -67,6 +67,8 @@ class Tightening:
     extra_radius_nm: float = 0.0
     eta_shift_h: float = 0.0
     bound_scale: np.ndarray = field(default_factory=lambda: np.ones(0))
+    y_lo: np.ndarray | None = None  # lateral bounds [nm, port +] moved off land met by the verification
+    y_hi: np.ndarray | None = None  # (None: the prepared ones; see optroute.lateral.avoid_point)
     retries: int = 0
     corrections: int = 0
     log: list[str] = field(default_factory=list)
@@ -119,9 +121,11 @@ class Problem:
     trial_max_iter = 150
 
     def bounds(self, st: Tightening) -> tuple[np.ndarray, np.ndarray]:
-        """Lateral bounds [nm], each range shrunk about its middle by the tightening's scale."""
-        mid = 0.5 * (self.y_lo + self.y_hi)
-        return mid + (self.y_lo - mid) * st.bound_scale, mid + (self.y_hi - mid) * st.bound_scale
+        """Lateral bounds [nm]: the tightening's (moved off land) or the prepared ones, shrunk about their middle."""
+        lo = self.y_lo if st.y_lo is None else st.y_lo
+        hi = self.y_hi if st.y_hi is None else st.y_hi
+        mid = 0.5 * (lo + hi)
+        return mid + (lo - mid) * st.bound_scale, mid + (hi - mid) * st.bound_scale
 
     cache_size = 8  # built NLPs kept (a 300-leg build holds some tens of MB)
 
@@ -129,7 +133,7 @@ class Problem:
         """What shapes a build: the tightening but its load limits and power factors (solve-time data)."""
         return (float(st.widen), float(st.hs_margin),
                 int(st.samples_per_leg), float(st.extra_radius_nm), np.asarray(st.bound_scale, dtype=float).tobytes(),
-                max_iter)
+                max_iter, *(b.tobytes() if b is not None else None for b in (st.y_lo, st.y_hi)))
 
     def build(self, st: Tightening, *, max_iter: int | None = None) -> SpeedNLP:
         """The NLP of a tightening state: cached by :meth:`_key`, its load limits and power factors set from ``st``.

@@ -9,7 +9,8 @@ turns the solution into a :class:`~optroute.plan.Plan` computed with the
 that fails verification is never returned: the problem is tightened where
 the verification says (per-leg power factors corrected to the true model's
 power, band edges backed off, the ETA, the exclusion radius, the lateral
-bounds) and solved again; when that does not produce a clean plan,
+bounds: moved off land or a no-passage cell the verification met, by
+:func:`optroute.lateral.avoid_point`, else shrunk about their middle) and solved again; when that does not produce a clean plan,
 :class:`~optroute.errors.SolverFailure` is raised with Ipopt's status.
 
 :func:`plan_voyage` is search → corridor → NLP in one call.
@@ -30,6 +31,7 @@ from formulations.speed_nlp import NLPResult, SpeedNLP
 from optroute import geo
 from optroute.corridor_problem import Objective, ProgressFn
 from optroute.errors import ConfigError, InfeasibleETA, OptrouteError, SolverFailure, WeatherCoverageError
+from optroute.lateral import avoid_point
 from optroute.nlp_inputs import (
     CorridorFrame,
     weather_grid,
@@ -180,7 +182,8 @@ def optimise_corridor(
     WeatherCoverageError
         The corridor or the ETA lies outside the weather.
     NoSafePassage, OnLandError
-        The corridor has a waypoint with no navigable offset, or starts or ends on land.
+        No navigable channel joins the corridor's ends (the message names the leg where it closes;
+        :func:`optroute.lateral.lateral_bounds`), or it starts or ends on land.
     """
     from optroute.corridor_problem import PreparedCorridor
 
@@ -260,6 +263,30 @@ def _nlp_leg_power(res: NLPResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return p.mean(axis=1), p.max(axis=1), p.min(axis=1)
 
 
+def _move_off(st: Tightening, v: Violation, plan: Plan, res: NLPResult) -> bool:
+    """Move the lateral bounds of leg ``v.leg`` off the land (no-passage) point the verification met.
+
+    The point is at fraction ``f`` along the leg, so at offset ``(1 − f) y_k + f y_{k+1}`` [nm, port +] in
+    the leg's sweep; :func:`optroute.lateral.avoid_point` keeps the leg a margin (1 nm, doubled on every
+    further cut of that leg) to the side with more room. False when the bounds are not the tightening's
+    or neither side has room (the caller then shrinks the bounds about their middle).
+    """
+    if st.y_lo is None or st.y_hi is None:
+        return False
+    k = v.leg
+    wp = np.asarray(plan.waypoints, dtype=float)
+    d = float(geo.distance_nm(wp[k, 0], wp[k, 1], wp[k + 1, 0], wp[k + 1, 1]))
+    f = float(geo.distance_nm(wp[k, 0], wp[k, 1], *v.position)) / d if d > 0 else 0.0
+    y = np.asarray(res.offset_nm, dtype=float)
+    at = (1.0 - f) * y[k] + f * y[k + 1]
+    cuts = sum(f"land cut on leg {k}:" in line for line in st.log)
+    moved = avoid_point(st.y_lo, st.y_hi, leg=k, fraction=f, offset_port_nm=at, margin_nm=2.0**cuts)
+    if moved is None:
+        return False
+    st.y_lo, st.y_hi = moved
+    st.log.append(f"land cut on leg {k}: bounds moved {2.0**cuts:g} nm off ({v.position[0]:.4f}, {v.position[1]:.4f})")
+    return True
+
 def _tighten(st: Tightening, violations: list[Violation], plan: Plan, res: NLPResult) -> None:
     """Change the problem where the verification found it wrong (see the module docstring)."""
     kinds = {v.kind.split(":")[0] for v in violations}
@@ -272,6 +299,8 @@ def _tighten(st: Tightening, violations: list[Violation], plan: Plan, res: NLPRe
         elif v.kind == "power_below_min":
             ratio = v.value / max(p_min[k], 1e-9)
             st.factor[k] *= float(np.clip(ratio, 0.5, 1.0)) * 0.997
+        elif v.kind in ("land", "no_passage") and _move_off(st, v, plan, res):
+            pass
         elif v.kind in ("land", "no_passage", "corridor", "course"):
             st.bound_scale[k] *= 0.5
             st.bound_scale[k + 1] *= 0.5

@@ -307,6 +307,28 @@ class Plan:
         return self.legs["stw_kn"].to_numpy(dtype=float)
 
     # ------------------------------------------------------------------ verification
+    def _land_between(self, found: dict[tuple[str, int], tuple[float, Violation]], step: float,
+                      sched_h: np.ndarray) -> None:
+        """Land checks at the land mask's own spacing where ``step`` is coarser (an island between two points).
+
+        Every leg is checked every :data:`optroute.land.DEFAULT_LEG_RESOLUTION_NM` (about one GLOBE cell);
+        the first land point of a leg not yet reported is added to ``found``.
+        """
+        res = land.DEFAULT_LEG_RESOLUTION_NM
+        if step <= res:
+            return
+        wp = np.asarray(self.waypoints, dtype=float)
+        lat, lon, leg = land._leg_points(wp[:-1, 0], wp[:-1, 1], wp[1:, 0], wp[1:, 1], res)
+        hit = land.is_land(lat, lon)
+        for i in np.flatnonzero(hit):
+            k = int(leg[i])
+            if ("land", k) in found:
+                continue
+            d = float(geo.distance_nm(wp[k, 0], wp[k, 1], wp[k + 1, 0], wp[k + 1, 1]))
+            f = float(geo.distance_nm(wp[k, 0], wp[k, 1], lat[i], lon[i])) / d if d > 0 else 0.0
+            when = self.departure + _h_to_td(float(sched_h[k] + f * (sched_h[k + 1] - sched_h[k])))
+            found[("land", k)] = (1.0, Violation("land", k, (float(lat[i]), float(lon[i])), when, 1.0, 0.0))
+
     def verify(
         self,
         *,
@@ -323,7 +345,8 @@ class Plan:
         ----------
         step_nm : float
             Longest piece of the resampling [nm]; the checks are made at every piece midpoint and
-            at both ends of every leg.
+            at both ends of every leg. Land is also checked every
+            :data:`optroute.land.DEFAULT_LEG_RESOLUTION_NM` (0.5 nm, about one GLOBE cell) along the legs.
         time_tol_h : float
             Tolerance of the ETA and of the schedule [h] (default one minute).
         power_rtol : float
@@ -370,6 +393,7 @@ class Plan:
         if ctx.land_mask_applies:
             on_land = land.is_land(ev.lat, ev.lon)
             report("land", on_land, ones, 0.0, ones)
+            self._land_between(found, step, sched)
         held = np.isfinite(ev.heading)
         report("course", nav & ~held, ones, 0.0, ones)
         ok = nav & held

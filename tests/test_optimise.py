@@ -364,13 +364,17 @@ def test_nan_weather_narrows_the_corridor_and_a_blocked_waypoint_raises():
     y_lo, y_hi = lateral_bounds(frame, sampler=orx.WeatherSampler(blocked), dataset=blocked, times=times,
                                 use_land_mask=False, step_nm=2.0)
     lon = frame.corridor.waypoints[:, 1]
-    near = (lon > -26.6) & (lon < -23.4)
-    assert np.all(y_lo == -60.0)  # (the formulation pins the two ends to the centreline itself)
+    # blocked where the stencil holds a NaN node: north of 0.5° N for -26.5° <= lon < -23.5°; a waypoint is
+    # bounded when either of its legs (10°/21 of longitude) reaches that area
+    dlon = 10.0 / frame.n_legs
+    near = (lon > -26.5 - dlon) & (lon < -23.5 + dlon)
+    assert y_lo[0] == y_hi[0] == y_lo[-1] == y_hi[-1] == 0.0  # the two ends are pinned
+    assert np.all(y_lo[1:-1] == -60.0)
     assert np.all((y_hi[near] >= 26.0) & (y_hi[near] <= 30.1))  # port = north: 0.5° = 30 nm
     assert np.all(y_hi[~near][1:-1] == 60.0)
     everywhere = wx.copy(deep=True)
     everywhere["hs_m"].loc[{"lon": everywhere.lon[(everywhere.lon >= -26) & (everywhere.lon <= -24)]}] = np.nan
-    with pytest.raises(orx.NoSafePassage, match="no navigable point"):
+    with pytest.raises(orx.NoSafePassage, match=r"no navigable passage at .* between its waypoints 7 and 8"):
         lateral_bounds(frame, sampler=orx.WeatherSampler(everywhere), dataset=everywhere, times=times,
                        use_land_mask=False)
 
