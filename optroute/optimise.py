@@ -30,6 +30,7 @@ from formulations.speed_nlp import NLPResult, SpeedNLP
 from optroute import geo
 from optroute.corridor_problem import Objective, ProgressFn
 from optroute.errors import ConfigError, InfeasibleETA, OptrouteError, SolverFailure, WeatherCoverageError
+from optroute.min_time import timed_safe_start
 from optroute.nlp_inputs import (
     CorridorFrame,
     weather_grid,
@@ -329,8 +330,12 @@ def _minimum_time(
     that follows the ship, bands whose sides are fixed from the start's timing, a minimum load that
     leaves a narrow speed window between it and a band). The starts, cheapest and most often right
     first: the fastest allowed speed leg by leg with the true model (Boeing's reduction from the top
-    speed), the search route's speeds, the failed solve's own (safe) start, and safe starts from
-    3/4 and 1/2 of the top speed (they reach a storm later, so their band sides are other ones).
+    speed) when a speed is allowed at every point of it; the earliest passage of the time-expanded
+    search (:func:`optroute.min_time.timed_safe_start`: its timing avoids the places and times where
+    no speed is allowed, which the point-by-point reduction meets at the lowest speed, below the
+    minimum load, on band sides no speed keeps); the search route's speeds, the failed solve's own
+    (safe) start, and safe starts from 3/4 and 1/2 of the top speed (they reach a storm later, so
+    their band sides are other ones).
     """
     kw = dict(solve_kw)
     kw["objective"] = "time"
@@ -339,13 +344,31 @@ def _minimum_time(
     def safe(fraction: float) -> dict[str, np.ndarray]:
         return safe_warm_start(ctx, frame, t0, fraction * prob.v_max, prob.v_min, rules=warm_rules)
 
-    starts: list[tuple[str, Callable[[], Mapping[str, np.ndarray]]]] = [("top speed", lambda: safe(1.0))]
+    def timed() -> Mapping[str, np.ndarray] | None:
+        started = _time.perf_counter()
+        found = timed_safe_start(ctx, frame, t0, v_min_kn=prob.v_min, v_max_kn=prob.v_max, rules=warm_rules)
+        log.append("timed safe start: " + ("no passage found" if found is None else
+                   f"{found.arrival_h:.3f} h") + f" ({_time.perf_counter() - started:.2f} s)")
+        return None if found is None else found.warm()
+
+    top = safe(1.0)
+    # a leg at the lowest speed is where no speed was allowed: that start's sides cannot be kept
+    top_clean = bool(np.all(top["stw_kn"] > prob.v_min + 1e-9))
+    starts: list[tuple[str, Callable[[], Mapping[str, np.ndarray] | None]]] = []
+    if top_clean:
+        starts.append(("top speed", lambda: top))
+    starts.append(("timed safe start", timed))
     if route is not None:
         starts.append(("search route", lambda: route_warm_start(route, frame)))
     starts += [("first start", lambda: first_warm), ("3/4 top speed", lambda: safe(0.75)),
                ("1/2 top speed", lambda: safe(0.5))]
+    if not top_clean:
+        starts.append(("top speed", lambda: top))
     for name, make in starts:
-        warm = clear_of_exclusion(dict(make()), frame, prob.exclusion, t0, prob.y_lo, prob.y_hi)
+        made = make()
+        if made is None:
+            continue
+        warm = clear_of_exclusion(dict(made), frame, prob.exclusion, t0, prob.y_lo, prob.y_hi)
         fast = prob.solve(nlp, eta_h=None, warm=warm, budget=budget, **kw)
         log.append(f"minimum time from {name}: Ipopt {fast.res.status}"
                    + (f", {fast.res.duration_total_h:.3f} h" if fast.ok else ""))
