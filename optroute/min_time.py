@@ -32,7 +32,7 @@ plan.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -43,7 +43,7 @@ from optroute.safety import BandRules
 from optroute.tracks import gc_points
 from optroute.units import NS_PER_H as _NS_PER_H
 
-__all__ = ["TimedStart", "timed_safe_start"]
+__all__ = ["DeadEnd", "TimedStart", "clean_start", "timed_safe_start"]
 
 
 @dataclass(frozen=True)
@@ -53,8 +53,7 @@ class TimedStart:
     Attributes
     ----------
     stw_kn : numpy.ndarray, shape (N,)
-        Speed through water of every leg of the corridor frame [kn] (its time over the leg from the
-        block speeds).
+        Speed through water of every leg of the corridor frame [kn] (its block's).
     offset_nm : numpy.ndarray, shape (N+1,)
         Lateral offsets [nm]: zero (the centreline).
     arrival_h : float
@@ -76,6 +75,33 @@ class TimedStart:
         return {"offset_nm": self.offset_nm.copy(), "stw_kn": self.stw_kn.copy()}
 
 
+@dataclass(frozen=True)
+class DeadEnd:
+    """Where :func:`timed_safe_start` found no passage: the block no state could sail.
+
+    Attributes
+    ----------
+    from_nm, to_nm : float
+        The block along the centreline [nm from the start].
+    lat, lon : float
+        Its midpoint [deg].
+    earliest_h, latest_h : float
+        The arrival times at its start that were tried [h after departure].
+    """
+
+    from_nm: float
+    to_nm: float
+    lat: float
+    lon: float
+    earliest_h: float
+    latest_h: float
+
+    def __str__(self) -> str:
+        return (f"no speed is allowed on the centreline between {self.from_nm:.0f} and {self.to_nm:.0f} nm along "
+                f"track (near {self.lat:.2f}, {self.lon:.2f}) for any arrival there from {self.earliest_h:.1f} to "
+                f"{self.latest_h:.1f} h after departure")
+
+
 def _centreline_points(frame: CorridorFrame, s_nm: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Latitude, longitude [deg] and course [deg true] of centreline points at along-track distances [nm]."""
     wp = frame.corridor.waypoints
@@ -95,11 +121,12 @@ def timed_safe_start(
     v_max_kn: float,
     rules: BandRules | None = None,
     block_nm: float = 30.0,
-    step_nm: float = 10.0,
+    step_nm: float = 5.0,
     speed_step_kn: float = 1.0,
     bucket_h: float = 0.5,
     window_h: float = 24.0,
-) -> TimedStart | None:
+    hs_backoff: float = 0.1,
+) -> TimedStart | DeadEnd:
     """The earliest passage along the corridor's centreline whose every sampled point is allowed.
 
     Parameters
@@ -115,21 +142,24 @@ def timed_safe_start(
     rules : BandRules, optional
         The bands to keep out of (e.g. the NLP's backed-off rules, :func:`optroute.nlp_solve.warm_rules`).
     block_nm : float
-        Longest block sailed at one speed [nm].
+        Longest block sailed at one speed [nm]: consecutive frame legs (a leg longer than this is a block).
     step_nm : float
-        Longest spacing of the points checked along a block [nm].
+        Longest spacing of the points checked along a block, its ends included [nm] (the verifier's 5 nm).
     speed_step_kn : float
         Spacing of the speed ladder [kn] (``v_max_kn`` is always on it).
     bucket_h : float
         Arrival times at a block end closer than this share one state (the earliest kept) [h].
     window_h : float
         States later than the earliest arrival at a block end by more than this are dropped [h].
+    hs_backoff : float
+        The bands are checked from ``(1 − hs_backoff)`` times the rules' Hs threshold [-]: between the
+        points checked the sea may cross the threshold, and a start is better a little cautious.
 
     Returns
     -------
-    TimedStart or None
-        None when no passage within the window exists on the ladder (the weather's span included:
-        a point outside it is not allowed).
+    TimedStart or DeadEnd
+        The passage; or, when no passage within the window exists on the ladder (a point outside the
+        weather's span is not allowed), the block where every state ended.
 
     Notes
     -----
@@ -137,10 +167,17 @@ def timed_safe_start(
     :func:`optroute.passage.evaluate_speeds` (about 5 µs each): 1–3 s for a 2 500–5 000 nm corridor
     with the defaults.
     """
-    use_rules = ctx.rules if rules is None else rules
-    length = float(frame.s_nm[-1])
-    n_blocks = max(1, int(np.ceil(length / block_nm)))
-    edges = np.linspace(0.0, length, n_blocks + 1)
+    base = ctx.rules if rules is None else rules
+    use_rules = replace(base, hs_threshold_fraction=base.hs_threshold_fraction * (1.0 - float(hs_backoff)))
+    s_wp = np.asarray(frame.s_nm, dtype=float)
+    # blocks of whole frame legs (one speed per block is one speed per leg of the NLP), each at most block_nm
+    # unless a single leg is longer
+    cut = [0]
+    for k in range(1, s_wp.size):
+        if k == s_wp.size - 1 or s_wp[k + 1] - s_wp[cut[-1]] > block_nm:
+            cut.append(k)
+    edges = s_wp[cut]
+    n_blocks = edges.size - 1
     speeds = np.unique(np.append(np.arange(v_min_kn, v_max_kn, speed_step_kn), v_max_kn))
     times = np.zeros(1)  # arrival times at the current block end [h]
     back: list[tuple[np.ndarray, np.ndarray]] = []  # per block: (previous state, speed index) of each state
@@ -148,7 +185,7 @@ def timed_safe_start(
     for b in range(n_blocks):
         d = edges[b + 1] - edges[b]
         m = max(2, int(np.ceil(d / step_nm)))
-        frac = (np.arange(m) + 0.5) / m
+        frac = np.linspace(0.0, 1.0, m + 1)  # both ends of the block too
         lat, lon, course = _centreline_points(frame, edges[b] + frac * d)
         dt = d / speeds  # (K,)
         t_pts = times[:, None, None] + frac[None, None, :] * dt[None, :, None]  # (B, K, m)
@@ -165,7 +202,9 @@ def timed_safe_start(
         ok = allowed.reshape(shape).all(axis=2)  # (B, K)
         prev, spd = np.nonzero(ok)
         if prev.size == 0:
-            return None
+            mid = _centreline_points(frame, np.array([edges[b] + 0.5 * d]))
+            return DeadEnd(float(edges[b]), float(edges[b + 1]), float(mid[0][0]), float(mid[1][0]),
+                           float(times.min()), float(times.max()))
         arrive = times[prev] + dt[spd]
         # one state per bucket (the earliest), within the window of the earliest arrival
         order = np.lexsort((arrive, np.floor(arrive / bucket_h)))
@@ -183,10 +222,7 @@ def timed_safe_start(
         prev, spd = back[b]
         block_speed[b] = speeds[spd[state]]
         state = int(prev[state])
-    block_time = np.concatenate([[0.0], np.cumsum(np.diff(edges) / block_speed)])
-    t_wp = np.interp(np.asarray(frame.s_nm, dtype=float), edges, block_time)
-    d_leg = np.diff(np.asarray(frame.s_nm, dtype=float))
-    stw = np.clip(d_leg / np.maximum(np.diff(t_wp), 1e-9), v_min_kn, v_max_kn)
+    stw = np.repeat(block_speed, np.diff(cut))
     return TimedStart(
         stw_kn=stw, offset_nm=np.zeros(frame.n_legs + 1), arrival_h=arrival, blocks=n_blocks, evaluations=evaluations
     )
@@ -235,10 +271,11 @@ def clean_start(
     if bool(np.all(safe["stw_kn"] > v_min_kn + 1e-9)):
         return safe
     found = timed_safe_start(ctx, frame, t0, v_min_kn=v_min_kn, v_max_kn=max(desired_kn, v_min_kn), rules=rules)
-    late = found is None or (eta_h is not None and found.arrival_h > eta_h)
+    late = not isinstance(found, TimedStart) or (eta_h is not None and found.arrival_h > eta_h)
     if late and desired_kn < v_max_kn:
         found = timed_safe_start(ctx, frame, t0, v_min_kn=v_min_kn, v_max_kn=v_max_kn, rules=rules)
     if log is not None:
         log.append("first start: the speed reduction finds no allowed speed somewhere; "
-                   + (f"timed safe start, {found.arrival_h:.3f} h" if found is not None else "no timed start either"))
-    return safe if found is None else found.warm()
+                   + (f"timed safe start, {found.arrival_h:.3f} h" if isinstance(found, TimedStart)
+                      else f"no timed start either ({found})"))
+    return found.warm() if isinstance(found, TimedStart) else safe

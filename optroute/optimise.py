@@ -30,7 +30,7 @@ from formulations.speed_nlp import NLPResult, SpeedNLP
 from optroute import geo
 from optroute.corridor_problem import Objective, ProgressFn
 from optroute.errors import ConfigError, InfeasibleETA, OptrouteError, SolverFailure, WeatherCoverageError
-from optroute.min_time import timed_safe_start
+from optroute.min_time import DeadEnd, TimedStart, timed_safe_start
 from optroute.nlp_inputs import (
     CorridorFrame,
     weather_grid,
@@ -323,6 +323,7 @@ def _minimum_time(
     warm_rules: BandRules,
     first_warm: Mapping[str, np.ndarray],
     log: list[str],
+    passages: list[TimedStart] | None = None,
 ) -> Solved | None:
     """The minimum-time solve of the corridor, tried from several warm starts; None when every one fails.
 
@@ -344,27 +345,38 @@ def _minimum_time(
     def safe(fraction: float) -> dict[str, np.ndarray]:
         return safe_warm_start(ctx, frame, t0, fraction * prob.v_max, prob.v_min, rules=warm_rules)
 
+    dead: list[DeadEnd] = []
+
     def timed() -> Mapping[str, np.ndarray] | None:
         started = _time.perf_counter()
         found = timed_safe_start(ctx, frame, t0, v_min_kn=prob.v_min, v_max_kn=prob.v_max, rules=warm_rules)
-        log.append("timed safe start: " + ("no passage found" if found is None else
-                   f"{found.arrival_h:.3f} h") + f" ({_time.perf_counter() - started:.2f} s)")
-        return None if found is None else found.warm()
+        log.append(f"timed safe start ({_time.perf_counter() - started:.2f} s): "
+                   + (f"{found.arrival_h:.3f} h" if isinstance(found, TimedStart) else f"no passage found: {found}"))
+        if isinstance(found, DeadEnd):
+            dead.append(found)
+            return None
+        if passages is not None:
+            passages.append(found)
+        return found.warm()
 
     top = safe(1.0)
     # a leg at the lowest speed is where no speed was allowed: that start's sides cannot be kept
     top_clean = bool(np.all(top["stw_kn"] > prob.v_min + 1e-9))
-    starts: list[tuple[str, Callable[[], Mapping[str, np.ndarray] | None]]] = []
+    starts: list[tuple[str, Callable[[], Mapping[str, np.ndarray] | None], bool]] = []
     if top_clean:
-        starts.append(("top speed", lambda: top))
-    starts.append(("timed safe start", timed))
+        starts.append(("top speed", lambda: top, False))
+    starts.append(("timed safe start", timed, False))
     if route is not None:
-        starts.append(("search route", lambda: route_warm_start(route, frame)))
-    starts += [("first start", lambda: first_warm), ("3/4 top speed", lambda: safe(0.75)),
-               ("1/2 top speed", lambda: safe(0.5))]
+        starts.append(("search route", lambda: route_warm_start(route, frame), False))
+    # the centreline starts at fixed fractions of the top speed are not tried once the timed search along the
+    # centreline found no passage at all: every one of them meets the place and time where it ended
+    starts += [("first start", lambda: first_warm, False), ("3/4 top speed", lambda: safe(0.75), True),
+               ("1/2 top speed", lambda: safe(0.5), True)]
     if not top_clean:
-        starts.append(("top speed", lambda: top))
-    for name, make in starts:
+        starts.append(("top speed", lambda: top, True))
+    for name, make, centreline in starts:
+        if centreline and dead:
+            continue
         made = make()
         if made is None:
             continue
@@ -442,8 +454,9 @@ def _first_failure(
     * it fails from every start: :class:`SolverFailure` with the first solve's Ipopt status and the
       best verified plan known (the search route's, else the safe warm start's).
     """
+    passages: list[TimedStart] = []
     fast = _minimum_time(prob, nlp, ctx=ctx, t0=t0, route=route, budget=budget, solve_kw=solve_kw,
-                         warm_rules=warm_rules, first_warm=first_warm, log=log)
+                         warm_rules=warm_rules, first_warm=first_warm, log=log, passages=passages)
     t_grid = np.asarray(prob.grid.t_h, dtype=float)
     if fast is not None and cap_h is not None and t_grid.size > 1 and fast.res.duration_total_h > t_grid[-1]:
         # it arrives after the ETA's weather grid ends: again on a grid that covers the passage
@@ -489,36 +502,54 @@ def _first_failure(
             log.append(f"kept Ipopt's last iterate ({cand.res.status}, largest violation "
                        f"{cand.res.max_violation:.2g}) as a feasible, not optimal, solution")
             return replace(cand, ok=True)
+    dead = next((line.split("no passage found: ", 1)[1] for line in log
+                 if line.startswith("timed safe start") and "no passage found: " in line), None)
     raise SolverFailure(
-        f"Ipopt did not solve the corridor problem: status {status!r} (best of {sol.n_solves} solves of the band "
+        (f"{dead} (the bands, the engine's load range [{prob.fit.power.min_load:g}, 1] of MCR and speeds of "
+         f"{prob.v_min:g}–{prob.v_max:.1f} kn leave no way through there), and the NLP found no passage off the "
+         "centreline either: try a wider corridor, another route or another departure. " if dead is not None else "")
+        + f"Ipopt did not solve the corridor problem: status {status!r} (best of {sol.n_solves} solves of the band "
         f"outer loop, {sol.res.iterations} iterations, largest constraint violation {sol.res.max_violation:.3g}); "
         + ("the minimum-time solve meets the ETA (its plan is the error's best_plan); " if fast is not None else
            "the minimum-time solve failed from every warm start too; ")
         + "raise ipopt.max_iter in solver_options or band_solves, use shorter legs, or check the corridor and ETA "
         f"(tried: {'; '.join(log)})",
         status=status,
-        best_plan=_best_known_plan(fast, route, ctx, prob.frame, t0, first_warm, step_nm),
+        best_plan=_best_known_plan(fast, route, ctx, prob.frame, t0, first_warm, step_nm, passages),
     )
 
 
 def _best_known_plan(fast: Solved | None, route: Route | None, ctx: PlanContext, frame: CorridorFrame,
-                     t0: np.datetime64, safe: Mapping[str, np.ndarray], step_nm: float) -> Plan | None:
-    """The best plan that passes verification: the minimum-time solve's, the search route's, the safe start's."""
-    candidates: list[Callable[[], Plan | None]] = []
+                     t0: np.datetime64, safe: Mapping[str, np.ndarray], step_nm: float,
+                     passages: list[TimedStart] | None = None) -> Plan | None:
+    """The best plan that passes verification: the minimum-time solve's; else the earliest arriving of the
+    timed safe start's passage (:func:`optroute.min_time.timed_safe_start`), the search route's and the safe
+    start's."""
+    def own(stw: np.ndarray, offsets: np.ndarray, status: str) -> Plan:
+        return Plan.from_context(ctx, frame.waypoints(np.asarray(offsets, dtype=float)), np.asarray(stw, dtype=float),
+                                 departure=t0, status=status, step_nm=step_nm)
+
     if fast is not None:
-        candidates.append(lambda: _to_plan(ctx, frame, fast.res, t0, step_nm=step_nm))
+        try:
+            plan = _to_plan(ctx, frame, fast.res, t0, step_nm=step_nm)
+            if not plan.verify(step_nm=step_nm):
+                return replace(plan, status="minimum time")
+        except OptrouteError:  # a fallback plan is optional; the failure being reported is what matters
+            pass
+    candidates: list[Callable[[], Plan | None]] = [
+        lambda p=p: own(p.stw_kn, p.offset_nm, "timed safe start") for p in (passages or [])
+    ]
     candidates.append(lambda: _route_plan(route, ctx, step_nm))
-    candidates.append(lambda: Plan.from_context(ctx, frame.waypoints(np.asarray(safe["offset_nm"], dtype=float)),
-                                                np.asarray(safe["stw_kn"], dtype=float), departure=t0,
-                                                status="safe warm start", step_nm=step_nm))
+    candidates.append(lambda: own(safe["stw_kn"], safe["offset_nm"], "safe warm start"))
+    clean: list[Plan] = []
     for make in candidates:
         try:
             plan = make()
         except OptrouteError:  # a fallback plan is optional; the failure being reported is what matters
             continue
         if plan is not None and not plan.verify(step_nm=step_nm):
-            return replace(plan, status="minimum time") if plan.status == "candidate" else plan
-    return None
+            clean.append(plan)
+    return min(clean, key=lambda p: p.duration_h) if clean else None
 
 
 def plan_voyage(
