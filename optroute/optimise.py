@@ -174,7 +174,9 @@ def optimise_corridor(
     SolverFailure
         Ipopt fails (``status`` verbatim) or no tightened re-solve gives a plan that passes
         verification; ``best_plan`` is the best plan known that passes verification (the minimum-time
-        solve's, the search route's or the safe warm start's), else None.
+        solve's; else the earliest of the timed safe start's passage, :func:`optroute.min_time.timed_safe_start`,
+        the search route's and the safe warm start's), else None. When the timed search finds no passage
+        along the centreline, the message begins with where and when no speed is allowed.
     WeatherCoverageError
         The corridor or the ETA lies outside the weather.
     NoSafePassage, OnLandError
@@ -452,7 +454,8 @@ def _first_failure(
       new solve is returned; when that fails too, :class:`SolverFailure` carries the minimum-time
       plan as the best verified plan;
     * it fails from every start: :class:`SolverFailure` with the first solve's Ipopt status and the
-      best verified plan known (the search route's, else the safe warm start's).
+      best verified plan known (the earliest of the timed passage's, the search route's and the safe
+      warm start's).
     """
     passages: list[TimedStart] = []
     fast = _minimum_time(prob, nlp, ctx=ctx, t0=t0, route=route, budget=budget, solve_kw=solve_kw,
