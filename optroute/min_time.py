@@ -122,7 +122,7 @@ def timed_safe_start(
     rules: BandRules | None = None,
     block_nm: float = 30.0,
     step_nm: float = 5.0,
-    speed_step_kn: float = 1.0,
+    speed_step_kn: float = 0.5,
     bucket_h: float = 0.5,
     window_h: float = 24.0,
     hs_backoff: float = 0.1,

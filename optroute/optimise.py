@@ -174,9 +174,9 @@ def optimise_corridor(
     SolverFailure
         Ipopt fails (``status`` verbatim) or no tightened re-solve gives a plan that passes
         verification; ``best_plan`` is the best plan known that passes verification (the minimum-time
-        solve's; else the earliest of the timed safe start's passage, :func:`optroute.min_time.timed_safe_start`,
-        the search route's and the safe warm start's), else None. When the timed search finds no passage
-        along the centreline, the message begins with where and when no speed is allowed.
+        solve's, the search route's, the safe warm start's, or the timed safe start's passage,
+        :func:`optroute.min_time.timed_safe_start`), else None. When the timed search finds no passage
+        along the centreline, the message begins with where and when it found no allowed speed.
     WeatherCoverageError
         The corridor or the ETA lies outside the weather.
     NoSafePassage, OnLandError
@@ -347,15 +347,12 @@ def _minimum_time(
     def safe(fraction: float) -> dict[str, np.ndarray]:
         return safe_warm_start(ctx, frame, t0, fraction * prob.v_max, prob.v_min, rules=warm_rules)
 
-    dead: list[DeadEnd] = []
-
     def timed() -> Mapping[str, np.ndarray] | None:
         started = _time.perf_counter()
         found = timed_safe_start(ctx, frame, t0, v_min_kn=prob.v_min, v_max_kn=prob.v_max, rules=warm_rules)
         log.append(f"timed safe start ({_time.perf_counter() - started:.2f} s): "
                    + (f"{found.arrival_h:.3f} h" if isinstance(found, TimedStart) else f"no passage found: {found}"))
         if isinstance(found, DeadEnd):
-            dead.append(found)
             return None
         if passages is not None:
             passages.append(found)
@@ -364,21 +361,19 @@ def _minimum_time(
     top = safe(1.0)
     # a leg at the lowest speed is where no speed was allowed: that start's sides cannot be kept
     top_clean = bool(np.all(top["stw_kn"] > prob.v_min + 1e-9))
-    starts: list[tuple[str, Callable[[], Mapping[str, np.ndarray] | None], bool]] = []
+    starts: list[tuple[str, Callable[[], Mapping[str, np.ndarray] | None]]] = []
     if top_clean:
-        starts.append(("top speed", lambda: top, False))
-    starts.append(("timed safe start", timed, False))
+        starts.append(("top speed", lambda: top))
+    starts.append(("timed safe start", timed))
     if route is not None:
-        starts.append(("search route", lambda: route_warm_start(route, frame), False))
-    # the centreline starts at fixed fractions of the top speed are not tried once the timed search along the
-    # centreline found no passage at all: every one of them meets the place and time where it ended
-    starts += [("first start", lambda: first_warm, False), ("3/4 top speed", lambda: safe(0.75), True),
-               ("1/2 top speed", lambda: safe(0.5), True)]
+        starts.append(("search route", lambda: route_warm_start(route, frame)))
+    # a dead end of the timed search is no proof (its speed ladder and blocks may miss a narrow window): the other
+    # starts are still tried
+    starts += [("first start", lambda: first_warm), ("3/4 top speed", lambda: safe(0.75)),
+               ("1/2 top speed", lambda: safe(0.5))]
     if not top_clean:
-        starts.append(("top speed", lambda: top, True))
-    for name, make, centreline in starts:
-        if centreline and dead:
-            continue
+        starts.append(("top speed", lambda: top))
+    for name, make in starts:
         made = make()
         if made is None:
             continue
@@ -454,8 +449,7 @@ def _first_failure(
       new solve is returned; when that fails too, :class:`SolverFailure` carries the minimum-time
       plan as the best verified plan;
     * it fails from every start: :class:`SolverFailure` with the first solve's Ipopt status and the
-      best verified plan known (the earliest of the timed passage's, the search route's and the safe
-      warm start's).
+      best verified plan known (the search route's, the safe warm start's, the timed passage's).
     """
     passages: list[TimedStart] = []
     fast = _minimum_time(prob, nlp, ctx=ctx, t0=t0, route=route, budget=budget, solve_kw=solve_kw,
@@ -508,9 +502,10 @@ def _first_failure(
     dead = next((line.split("no passage found: ", 1)[1] for line in log
                  if line.startswith("timed safe start") and "no passage found: " in line), None)
     raise SolverFailure(
-        (f"{dead} (the bands, the engine's load range [{prob.fit.power.min_load:g}, 1] of MCR and speeds of "
-         f"{prob.v_min:g}–{prob.v_max:.1f} kn leave no way through there), and the NLP found no passage off the "
-         "centreline either: try a wider corridor, another route or another departure. " if dead is not None else "")
+        (f"the timed search along the centreline found no passage: {dead} (the bands, the engine's load range "
+         f"[{prob.fit.power.min_load:g}, 1] of MCR and speeds of {prob.v_min:g}–{prob.v_max:.1f} kn, on its "
+         "speed ladder), and the NLP found none from any start: a wider corridor, another route or another "
+         "departure may pass. " if dead is not None else "")
         + f"Ipopt did not solve the corridor problem: status {status!r} (best of {sol.n_solves} solves of the band "
         f"outer loop, {sol.res.iterations} iterations, largest constraint violation {sol.res.max_violation:.3g}); "
         + ("the minimum-time solve meets the ETA (its plan is the error's best_plan); " if fast is not None else
@@ -525,9 +520,8 @@ def _first_failure(
 def _best_known_plan(fast: Solved | None, route: Route | None, ctx: PlanContext, frame: CorridorFrame,
                      t0: np.datetime64, safe: Mapping[str, np.ndarray], step_nm: float,
                      passages: list[TimedStart] | None = None) -> Plan | None:
-    """The best plan that passes verification: the minimum-time solve's; else the earliest arriving of the
-    timed safe start's passage (:func:`optroute.min_time.timed_safe_start`), the search route's and the safe
-    start's."""
+    """The best plan that passes verification: the minimum-time solve's, the search route's, the safe start's,
+    the timed safe start's passage (:func:`optroute.min_time.timed_safe_start`)."""
     def own(stw: np.ndarray, offsets: np.ndarray, status: str) -> Plan:
         return Plan.from_context(ctx, frame.waypoints(np.asarray(offsets, dtype=float)), np.asarray(stw, dtype=float),
                                  departure=t0, status=status, step_nm=step_nm)
@@ -540,19 +534,18 @@ def _best_known_plan(fast: Solved | None, route: Route | None, ctx: PlanContext,
         except OptrouteError:  # a fallback plan is optional; the failure being reported is what matters
             pass
     candidates: list[Callable[[], Plan | None]] = [
-        lambda p=p: own(p.stw_kn, p.offset_nm, "timed safe start") for p in (passages or [])
+        lambda: _route_plan(route, ctx, step_nm),
+        lambda: own(safe["stw_kn"], safe["offset_nm"], "safe warm start"),
     ]
-    candidates.append(lambda: _route_plan(route, ctx, step_nm))
-    candidates.append(lambda: own(safe["stw_kn"], safe["offset_nm"], "safe warm start"))
-    clean: list[Plan] = []
+    candidates += [lambda p=p: own(p.stw_kn, p.offset_nm, "timed safe start") for p in (passages or [])]
     for make in candidates:
         try:
             plan = make()
         except OptrouteError:  # a fallback plan is optional; the failure being reported is what matters
             continue
         if plan is not None and not plan.verify(step_nm=step_nm):
-            clean.append(plan)
-    return min(clean, key=lambda p: p.duration_h) if clean else None
+            return plan
+    return None
 
 
 def plan_voyage(
