@@ -33,6 +33,7 @@ from formulations.speed_nlp import POWER_TERMS
 from optroute._checks import finite
 from optroute.errors import ConfigError, SolverFailure, WeatherCoverageError
 from optroute.fit_correction import fit_correction
+from optroute.min_time import clean_start
 from optroute.nlp_inputs import build_frame, dataset_spacing, fit_power_model, lateral_bounds, weather_grid
 from optroute.nlp_solve import (
     Problem,
@@ -438,8 +439,9 @@ class PreparedCorridor:
         elif route is not None:
             warm = route_warm_start(route, frame)
         else:
-            warm = safe_warm_start(
-                ctx, frame, t0, desired_speed(length, cap_h, v_max, objective), v_min, rules=warm_rules(rules, st)
+            warm = clean_start(
+                ctx, frame, t0, desired_kn=desired_speed(length, cap_h, v_max, objective), v_min_kn=v_min,
+                v_max_kn=v_max, eta_h=cap_h, rules=warm_rules(rules, st), log=st.log,
             )
         warm = clear_of_exclusion(warm, frame, exclusion, t0, self.y_lo, self.y_hi)
         fresh_start = False

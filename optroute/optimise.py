@@ -32,6 +32,7 @@ from optroute import geo
 from optroute.corridor_problem import Objective, ProgressFn
 from optroute.errors import ConfigError, InfeasibleETA, OptrouteError, SolverFailure, WeatherCoverageError
 from optroute.lateral import avoid_point
+from optroute.min_time import DeadEnd, TimedStart, timed_safe_start
 from optroute.nlp_inputs import (
     CorridorFrame,
     weather_grid,
@@ -178,7 +179,9 @@ def optimise_corridor(
     SolverFailure
         Ipopt fails (``status`` verbatim) or no tightened re-solve gives a plan that passes
         verification; ``best_plan`` is the best plan known that passes verification (the minimum-time
-        solve's, the search route's or the safe warm start's), else None.
+        solve's, the search route's, the safe warm start's, or the timed safe start's passage,
+        :func:`optroute.min_time.timed_safe_start`), else None. When the timed search finds no passage
+        along the centreline, the message begins with where and when it found no allowed speed.
     WeatherCoverageError
         The corridor or the ETA lies outside the weather.
     NoSafePassage, OnLandError
@@ -351,6 +354,7 @@ def _minimum_time(
     warm_rules: BandRules,
     first_warm: Mapping[str, np.ndarray],
     log: list[str],
+    passages: list[TimedStart] | None = None,
 ) -> Solved | None:
     """The minimum-time solve of the corridor, tried from several warm starts; None when every one fails.
 
@@ -358,8 +362,12 @@ def _minimum_time(
     that follows the ship, bands whose sides are fixed from the start's timing, a minimum load that
     leaves a narrow speed window between it and a band). The starts, cheapest and most often right
     first: the fastest allowed speed leg by leg with the true model (Boeing's reduction from the top
-    speed), the search route's speeds, the failed solve's own (safe) start, and safe starts from
-    3/4 and 1/2 of the top speed (they reach a storm later, so their band sides are other ones).
+    speed) when a speed is allowed at every point of it; the earliest passage of the time-expanded
+    search (:func:`optroute.min_time.timed_safe_start`: its timing avoids the places and times where
+    no speed is allowed, which the point-by-point reduction meets at the lowest speed, below the
+    minimum load, on band sides no speed keeps); the search route's speeds, the failed solve's own
+    (safe) start, and safe starts from 3/4 and 1/2 of the top speed (they reach a storm later, so
+    their band sides are other ones).
     """
     kw = dict(solve_kw)
     kw["objective"] = "time"
@@ -368,13 +376,37 @@ def _minimum_time(
     def safe(fraction: float) -> dict[str, np.ndarray]:
         return safe_warm_start(ctx, frame, t0, fraction * prob.v_max, prob.v_min, rules=warm_rules)
 
-    starts: list[tuple[str, Callable[[], Mapping[str, np.ndarray]]]] = [("top speed", lambda: safe(1.0))]
+    def timed() -> Mapping[str, np.ndarray] | None:
+        started = _time.perf_counter()
+        found = timed_safe_start(ctx, frame, t0, v_min_kn=prob.v_min, v_max_kn=prob.v_max, rules=warm_rules)
+        log.append(f"timed safe start ({_time.perf_counter() - started:.2f} s): "
+                   + (f"{found.arrival_h:.3f} h" if isinstance(found, TimedStart) else f"no passage found: {found}"))
+        if isinstance(found, DeadEnd):
+            return None
+        if passages is not None:
+            passages.append(found)
+        return found.warm()
+
+    top = safe(1.0)
+    # a leg at the lowest speed is where no speed was allowed: that start's sides cannot be kept
+    top_clean = bool(np.all(top["stw_kn"] > prob.v_min + 1e-9))
+    starts: list[tuple[str, Callable[[], Mapping[str, np.ndarray] | None]]] = []
+    if top_clean:
+        starts.append(("top speed", lambda: top))
+    starts.append(("timed safe start", timed))
     if route is not None:
         starts.append(("search route", lambda: route_warm_start(route, frame)))
+    # a dead end of the timed search is no proof (its speed ladder and blocks may miss a narrow window): the other
+    # starts are still tried
     starts += [("first start", lambda: first_warm), ("3/4 top speed", lambda: safe(0.75)),
                ("1/2 top speed", lambda: safe(0.5))]
+    if not top_clean:
+        starts.append(("top speed", lambda: top))
     for name, make in starts:
-        warm = clear_of_exclusion(dict(make()), frame, prob.exclusion, t0, prob.y_lo, prob.y_hi)
+        made = make()
+        if made is None:
+            continue
+        warm = clear_of_exclusion(dict(made), frame, prob.exclusion, t0, prob.y_lo, prob.y_hi)
         fast = prob.solve(nlp, eta_h=None, warm=warm, budget=budget, **kw)
         log.append(f"minimum time from {name}: Ipopt {fast.res.status}"
                    + (f", {fast.res.duration_total_h:.3f} h" if fast.ok else ""))
@@ -446,10 +478,11 @@ def _first_failure(
       new solve is returned; when that fails too, :class:`SolverFailure` carries the minimum-time
       plan as the best verified plan;
     * it fails from every start: :class:`SolverFailure` with the first solve's Ipopt status and the
-      best verified plan known (the search route's, else the safe warm start's).
+      best verified plan known (the search route's, the safe warm start's, the timed passage's).
     """
+    passages: list[TimedStart] = []
     fast = _minimum_time(prob, nlp, ctx=ctx, t0=t0, route=route, budget=budget, solve_kw=solve_kw,
-                         warm_rules=warm_rules, first_warm=first_warm, log=log)
+                         warm_rules=warm_rules, first_warm=first_warm, log=log, passages=passages)
     t_grid = np.asarray(prob.grid.t_h, dtype=float)
     if fast is not None and cap_h is not None and t_grid.size > 1 and fast.res.duration_total_h > t_grid[-1]:
         # it arrives after the ETA's weather grid ends: again on a grid that covers the passage
@@ -495,35 +528,52 @@ def _first_failure(
             log.append(f"kept Ipopt's last iterate ({cand.res.status}, largest violation "
                        f"{cand.res.max_violation:.2g}) as a feasible, not optimal, solution")
             return replace(cand, ok=True)
+    dead = next((line.split("no passage found: ", 1)[1] for line in log
+                 if line.startswith("timed safe start") and "no passage found: " in line), None)
     raise SolverFailure(
-        f"Ipopt did not solve the corridor problem: status {status!r} (best of {sol.n_solves} solves of the band "
+        (f"the timed search along the centreline found no passage: {dead} (the bands, the engine's load range "
+         f"[{prob.fit.power.min_load:g}, 1] of MCR and speeds of {prob.v_min:g}–{prob.v_max:.1f} kn, on its "
+         "speed ladder), and the NLP found none from any start: a wider corridor, another route or another "
+         "departure may pass. " if dead is not None else "")
+        + f"Ipopt did not solve the corridor problem: status {status!r} (best of {sol.n_solves} solves of the band "
         f"outer loop, {sol.res.iterations} iterations, largest constraint violation {sol.res.max_violation:.3g}); "
         + ("the minimum-time solve meets the ETA (its plan is the error's best_plan); " if fast is not None else
            "the minimum-time solve failed from every warm start too; ")
         + "raise ipopt.max_iter in solver_options or band_solves, use shorter legs, or check the corridor and ETA "
         f"(tried: {'; '.join(log)})",
         status=status,
-        best_plan=_best_known_plan(fast, route, ctx, prob.frame, t0, first_warm, step_nm),
+        best_plan=_best_known_plan(fast, route, ctx, prob.frame, t0, first_warm, step_nm, passages),
     )
 
 
 def _best_known_plan(fast: Solved | None, route: Route | None, ctx: PlanContext, frame: CorridorFrame,
-                     t0: np.datetime64, safe: Mapping[str, np.ndarray], step_nm: float) -> Plan | None:
-    """The best plan that passes verification: the minimum-time solve's, the search route's, the safe start's."""
-    candidates: list[Callable[[], Plan | None]] = []
+                     t0: np.datetime64, safe: Mapping[str, np.ndarray], step_nm: float,
+                     passages: list[TimedStart] | None = None) -> Plan | None:
+    """The best plan that passes verification: the minimum-time solve's, the search route's, the safe start's,
+    the timed safe start's passage (:func:`optroute.min_time.timed_safe_start`)."""
+    def own(stw: np.ndarray, offsets: np.ndarray, status: str) -> Plan:
+        return Plan.from_context(ctx, frame.waypoints(np.asarray(offsets, dtype=float)), np.asarray(stw, dtype=float),
+                                 departure=t0, status=status, step_nm=step_nm)
+
     if fast is not None:
-        candidates.append(lambda: _to_plan(ctx, frame, fast.res, t0, step_nm=step_nm))
-    candidates.append(lambda: _route_plan(route, ctx, step_nm))
-    candidates.append(lambda: Plan.from_context(ctx, frame.waypoints(np.asarray(safe["offset_nm"], dtype=float)),
-                                                np.asarray(safe["stw_kn"], dtype=float), departure=t0,
-                                                status="safe warm start", step_nm=step_nm))
+        try:
+            plan = _to_plan(ctx, frame, fast.res, t0, step_nm=step_nm)
+            if not plan.verify(step_nm=step_nm):
+                return replace(plan, status="minimum time")
+        except OptrouteError:  # a fallback plan is optional; the failure being reported is what matters
+            pass
+    candidates: list[Callable[[], Plan | None]] = [
+        lambda: _route_plan(route, ctx, step_nm),
+        lambda: own(safe["stw_kn"], safe["offset_nm"], "safe warm start"),
+    ]
+    candidates += [lambda p=p: own(p.stw_kn, p.offset_nm, "timed safe start") for p in (passages or [])]
     for make in candidates:
         try:
             plan = make()
         except OptrouteError:  # a fallback plan is optional; the failure being reported is what matters
             continue
         if plan is not None and not plan.verify(step_nm=step_nm):
-            return replace(plan, status="minimum time") if plan.status == "candidate" else plan
+            return plan
     return None
 
 

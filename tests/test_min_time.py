@@ -1,0 +1,119 @@
+"""The timed safe start and the minimum-time solve through a place and time where no speed is allowed.
+
+The planted sea: on an east-going fixed path along the equator, a 24 nm stretch has 12 m beam seas
+from the north whose period is the ship's roll period for four hours. In beam seas the encounter
+period is the wave period at every speed, so synchronous roll forbids *every* speed there and then
+(physics.md §3): a ship must not be in the stretch during that window. At top speed it would be, so
+the earliest arrival (worked by hand below) waits for the window to pass.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import optroute as orx
+from optroute.min_time import DeadEnd, TimedStart, timed_safe_start
+from optroute.optimise import optimise_corridor
+from optroute.weather import schema
+
+SHIP = orx.Ship.preset("container_54k_dwt")
+T0 = np.datetime64("2024-01-10T00:00", "ns")
+LON0, LON1 = -30.0, -26.0  # the path [deg east] along the equator
+ZONE = (-28.2, -27.8)  # the stretch [deg east]
+WINDOW_H = (3.0, 6.0)  # the grid times [h] with 12 m there (1 m at the neighbouring times)
+KW = {"max_leg_nm": 30.0, "use_land_mask": False}
+
+
+def _blocked_sea(window_h: tuple[float, float] = WINDOW_H) -> xr.Dataset:
+    time = T0 + (np.arange(0, 49) * 3.6e12).astype("timedelta64[ns]")
+    lat = np.arange(-2.0, 2.01, 0.5)
+    lon = np.round(np.arange(-31.0, -24.99, 0.1), 6)
+    h = np.arange(time.size, dtype=float)
+    in_time = (h >= window_h[0]) & (h <= window_h[1])
+    in_zone = (lon >= ZONE[0] - 1e-9) & (lon <= ZONE[1] + 1e-9)
+    hs = np.where(in_time[:, None, None] & in_zone[None, None, :], 12.0, 1.0) * np.ones((1, lat.size, 1))
+    return schema.canonical_dataset(time, lat, lon, {
+        "hs_m": hs, "tp_s": np.full(hs.shape, SHIP.roll_period_s), "wave_from_deg": np.zeros(hs.shape),
+    }, {"title": "planted beam-sea window", "geography": "synthetic"})
+
+
+def _corridor() -> orx.Corridor:
+    return orx.Corridor.from_waypoints([[0.0, LON0], [0.0, LON1]], width_nm=0.0)
+
+
+def _nm(lon_a: float, lon_b: float) -> float:
+    return float(orx.geo.distance_nm(0.0, lon_a, 0.0, lon_b))
+
+
+def _earliest_by_hand(v_max: float) -> tuple[float, float]:
+    """Bounds on the earliest arrival [h]: the ship is west of the stretch until the 12 m sea is gone.
+
+    Hs is interpolated linearly between the hourly grid times and the 0.1° cells; the band applies from
+    0.04 L = 10 m. Between the window's last hour (12 m) and the next (1 m) Hs falls below 10 m at
+    6 + 2/11 h; in space the 12 m cells reach 10 m 0.1° × 2/11 outside the stretch. A verified passage
+    reaches the stretch's western edge no earlier than that time and then sails the rest at most at
+    ``v_max``: the lower bound, less a quarter hour for the verifier's 5 nm sampling. The upper bound
+    allows three quarters of an hour more (the search's 0.5 kn speed ladder and its cautious threshold).
+    """
+    gone_h = WINDOW_H[1] + 2.0 / 11.0
+    west_edge = ZONE[0] - 0.1 * 2.0 / 11.0
+    low = gone_h + _nm(west_edge, LON1) / v_max - 0.25
+    return low, low + 1.0
+
+
+@pytest.fixture(scope="module")
+def sea():
+    return _blocked_sea()
+
+
+def test_timed_safe_start_sails_calm_water_at_top_speed_and_waits_for_the_blocked_window(sea):
+    from optroute.corridor_problem import PreparedCorridor
+    from optroute.nlp_solve import warm_rules
+    from optroute.plan import PlanContext
+
+    pc = PreparedCorridor(_corridor(), sea, SHIP, departure=T0, objective="time", **KW)
+    ctx = PlanContext(ship=SHIP, model=pc.model, rules=pc.rules, sampler=pc.sampler, dataset=pc.dataset,
+                      corridor=pc.corridor, eta=None, eta_mode="le", exclusion=None, use_land_mask=False)
+    rules = warm_rules(pc.rules, pc._tightening(None))
+    # calm everywhere (the window moved past the end of the data): every block at the top speed, by hand L / v_max
+    calm = orx.Corridor.from_waypoints([[0.0, LON0], [0.0, -29.0]], width_nm=0.0)
+    pc_calm = PreparedCorridor(calm, sea, SHIP, departure=T0, objective="time", **KW)
+    ctx_calm = PlanContext(ship=SHIP, model=pc.model, rules=pc.rules, sampler=pc.sampler, dataset=pc.dataset,
+                           corridor=calm, eta=None, eta_mode="le", exclusion=None, use_land_mask=False)
+    fast = timed_safe_start(ctx_calm, pc_calm.frame, T0, v_min_kn=pc.v_min, v_max_kn=pc.v_max, rules=rules)
+    assert isinstance(fast, TimedStart)
+    assert fast.arrival_h == pytest.approx(_nm(LON0, -29.0) / pc.v_max, rel=1e-9)
+    # the blocked window: the passage arrives no earlier than the hand bound, and every leg keeps out of it
+    timed = timed_safe_start(ctx, pc.frame, T0, v_min_kn=pc.v_min, v_max_kn=pc.v_max, rules=rules)
+    assert isinstance(timed, TimedStart)
+    low, _ = _earliest_by_hand(pc.v_max)
+    assert timed.arrival_h >= low
+    # Boeing's reduction from the top speed meets the stretch inside the window: no allowed speed there
+    from optroute.nlp_solve import safe_warm_start
+
+    stuck = safe_warm_start(ctx, pc.frame, T0, pc.v_max, pc.v_min, rules=rules)
+    assert np.any(stuck["stw_kn"] <= pc.v_min + 1e-9)
+    # a window that never ends (all 48 h): no passage, and the dead end names the stretch
+    never = _blocked_sea((3.0, 48.0))
+    pc_never = PreparedCorridor(_corridor(), never, SHIP, departure=T0, objective="time", **KW)
+    dead = timed_safe_start(ctx.__class__(**{**ctx.__dict__, "sampler": pc_never.sampler, "dataset": never}),
+                            pc_never.frame, T0, v_min_kn=pc.v_min, v_max_kn=pc.v_max, rules=rules)
+    assert isinstance(dead, DeadEnd)
+    assert dead.from_nm <= _nm(LON0, ZONE[1]) and dead.to_nm >= _nm(LON0, ZONE[0]) - 30.0
+
+
+def test_minimum_time_through_a_blocked_window_fails_honestly_with_the_timed_passage_as_best_plan(sea):
+    # the NLP imposes a band where it applies at its start's timing and cannot leave a band by timing alone
+    # (Hs below the threshold is not one of its sides): every start ends inside the window. The error says
+    # so with Ipopt's status, and its best plan is the timed passage (the solve's first start here):
+    # verified, arriving within the hand bounds
+    with pytest.raises(orx.SolverFailure) as info:
+        optimise_corridor(_corridor(), sea, SHIP, departure=T0, objective="time", **KW)
+    best = info.value.best_plan
+    assert info.value.status == "Infeasible_Problem_Detected" and best is not None
+    assert best.verify() == []
+    v_max = float(min(SHIP.max_calm_speed_kn, 40.0))
+    low, high = _earliest_by_hand(v_max)
+    assert low <= best.duration_h <= high
