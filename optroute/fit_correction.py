@@ -34,6 +34,12 @@ elasticity 338.00 t (converged in three corrections: level error 12.8 % → 2.1 
 relaxed time slope 336.58 t after three corrections — below the finest 3-D DP's 337.20 t. With
 ``κ`` = 1 the iteration oscillated (best 337.45 t), with 0.5 it reached 337.15 t.
 
+A trust-region variant (each correction step solved in a box around the best verified point,
+widened after an improving step and halved otherwise) was tried: on the benchmark it reached the same
+336.58 t; on a storm crossing its track it stopped at 82.74 t against 81.95 t for the plain iteration,
+because Kwon's steps make even small corrected steps unreliable — exploring with whole corrected
+solves and keeping the best does better there.
+
 Not corrected: the derivative in lateral offset (tried, with no gain on the benchmark: 338.00 →
 337.97 t) and the band, load and drift constraints (the verification re-checks them with the true
 model).
