@@ -28,6 +28,7 @@ The test suite checks the result against CasADi's automatic derivatives of the p
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from typing import Any
 
@@ -165,11 +166,20 @@ def sample_physics(
     }
 
 
+def jit_compiler() -> str:
+    """The C compiler of ``jit=True``: ``$CC``, else ``gcc`` (CasADi's ``"shell"`` plugin default)."""
+    return os.environ.get("CC") or "gcc"
+
+
 def jit_options(jit: bool) -> dict[str, Any]:
     """CasADi options that compile an SX function to C with the system compiler (``"shell"`` plugin)."""
     if not jit:
         return {}
-    return {"jit": True, "compiler": "shell", "jit_options": {"flags": ["-O2"], "verbose": False}}
+    return {
+        "jit": True,
+        "compiler": "shell",
+        "jit_options": {"flags": ["-O2"], "verbose": False, "compiler": jit_compiler()},
+    }
 
 
 def _taylor_function(fun: Any, n_out: int, name: str, *, time_only: bool, order: int) -> Any:

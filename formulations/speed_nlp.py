@@ -93,6 +93,7 @@ from formulations._common import (
 from formulations._nlp_model import (
     POWER_TERM_DEFAULTS,
     POWER_TERMS,
+    jit_compiler,
     power_multiplier,
     sample_physics,
     structured_derivatives,
@@ -103,6 +104,7 @@ __all__ = [
     "MovingExclusion",
     "NLPResult",
     "POWER_TERMS",
+    "jit_compiler",
     "PowerModel",
     "SampleState",
     "SpeedNLP",

@@ -21,6 +21,7 @@ corrected power factor, the load limit and band back-offs) to the next one's sta
 from __future__ import annotations
 
 import math
+import shutil
 import time as _time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
@@ -29,7 +30,7 @@ from typing import Any, Literal
 import numpy as np
 import xarray as xr
 
-from formulations.speed_nlp import POWER_TERMS
+from formulations.speed_nlp import POWER_TERMS, jit_compiler
 from optroute._checks import finite
 from optroute.errors import ConfigError, SolverFailure, WeatherCoverageError
 from optroute.fit_correction import fit_correction
@@ -128,6 +129,18 @@ def _emit(progress: ProgressFn | None, stage: str, fraction: float) -> None:
         progress(stage, float(fraction))
 
 
+def _check_jit(jit: bool) -> bool:
+    """``jit`` as a bool; True needs a C compiler for CasADi's ``"shell"`` plugin."""
+    if not isinstance(jit, bool | np.bool_):
+        raise ConfigError(f"jit={jit!r} must be True or False")
+    if jit and shutil.which(jit_compiler()) is None:
+        raise ConfigError(
+            f"jit=True compiles the NLP's derivatives with a C compiler, and {jit_compiler()!r} is not on the PATH; "
+            "install gcc or name another compiler in the CC environment variable, or use jit=False"
+        )
+    return bool(jit)
+
+
 class PreparedCorridor:
     """The corridor NLP set up once for a range of ETAs; :meth:`solve` solves one ETA.
 
@@ -135,7 +148,7 @@ class PreparedCorridor:
     ----------
     corridor, weather, ship, departure, model, rules, max_leg_nm, samples_per_leg, fuel_price_per_t,
     hourly_cost_per_h, exclusion, speed_range_kn, band_solves, fit_corrections, max_retries,
-    band_margin, band_hs_margin, verify_step_nm, solver_options, use_land_mask
+    band_margin, band_hs_margin, verify_step_nm, solver_options, use_land_mask, jit
         As in :func:`optroute.optimise_corridor`.
     latest_eta : datetime64 or str, optional
         The latest ETA to be solved [UTC]: the weather grid runs to just after it, and the power fit
@@ -177,6 +190,7 @@ class PreparedCorridor:
         solver_options: Mapping[str, Any] | None = None,
         use_land_mask: bool | None = None,
         progress: ProgressFn | None = None,
+        jit: bool = False,
     ) -> None:
         if objective not in ("time", "fuel", "cost"):
             raise ConfigError(f"objective={objective!r} is not known; use 'time', 'fuel' or 'cost'")
@@ -307,6 +321,7 @@ class PreparedCorridor:
             exclusion=exclusion,
             departure=t0,
             solver_options=solver_options,
+            jit=_check_jit(jit),
         )
 
     # ------------------------------------------------------------------ one ETA

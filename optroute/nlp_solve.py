@@ -107,8 +107,10 @@ class Problem:
         exclusion: Exclusion | None,
         departure: np.datetime64,
         solver_options: Mapping[str, Any] | None,
+        jit: bool = False,
     ) -> None:
         self.frame, self.grid, self.samples, self.fit = frame, grid, samples, fit
+        self.jit = bool(jit)
         self.ship, self.rules = ship, rules
         self.y_lo, self.y_hi = y_lo, y_hi
         self.v_min, self.v_max = v_min, v_max
@@ -188,6 +190,7 @@ class Problem:
             leg_power_correction=st.power_terms,
             g_over_2pi_kn_s=a,
             ipopt_options=options,
+            jit=self.jit,
         )
         self.build_time_s += _time.perf_counter() - started
         return nlp

@@ -9,12 +9,16 @@ time slope by the relaxation share of the defect. The true model is evaluated by
 
 from __future__ import annotations
 
+import shutil
+
 import numpy as np
 import pytest
 
 import optroute as orx
+from formulations.speed_nlp import jit_compiler
 from optroute import fit_correction as fc
 from optroute.corridor_problem import PreparedCorridor
+from optroute.errors import ConfigError
 from optroute.optimise import _to_plan
 from optroute.plan import PlanContext
 from tests.test_optimise import SHIP, T0
@@ -116,3 +120,23 @@ def test_corrected_plan_beats_the_fits_optimum_by_the_true_model():
     assert fit_only.verify() == [] and corrected.verify() == []
     assert corrected.total_fuel_t < 0.995 * fit_only.total_fuel_t
     assert corrected.solver_stats["fit_corrections"] >= 1
+
+
+@pytest.mark.skipif(shutil.which(jit_compiler()) is None, reason="no C compiler for CasADi's jit")
+def test_compiled_derivatives_give_the_same_plan():
+    # jit=True compiles the same per-leg SX functions to C: the plan must be the interpreted one's
+    storm, corridor = _crossing_storm()
+    kw = {"departure": T0, "eta": T0 + np.timedelta64(int(ETA_H), "h"), "max_leg_nm": 60.0, "use_land_mask": False,
+          "fit_corrections": 1}
+    plain = orx.optimise_corridor(corridor, storm, SHIP, **kw)
+    compiled = orx.optimise_corridor(corridor, storm, SHIP, jit=True, **kw)
+    assert compiled.total_fuel_t == pytest.approx(plain.total_fuel_t, rel=1e-7)
+    np.testing.assert_allclose(compiled.stw_kn, plain.stw_kn, rtol=1e-5)
+
+
+def test_jit_without_a_compiler_names_the_compiler(monkeypatch):
+    monkeypatch.setenv("CC", "no-such-compiler-xyz")
+    storm, corridor = _crossing_storm()
+    with pytest.raises(ConfigError, match="no-such-compiler-xyz"):
+        orx.optimise_corridor(corridor, storm, SHIP, departure=T0, eta=T0 + np.timedelta64(56, "h"), jit=True,
+                              use_land_mask=False)
