@@ -68,7 +68,7 @@ def front_figure(front: xr.Dataset, *, title: str | None = None) -> Figure:
     Returns
     -------
     matplotlib.figure.Figure
-        Solved points as a line with markers (points flagged non-monotone as
+        Solved points as a line with markers (points served by an earlier ETA's plan as
         red squares), ETAs without a plan as crosses along the bottom axis,
         the knee circled and annotated, and the shadow price −dF/dETA [t/h]
         on the right axis.
@@ -85,7 +85,7 @@ def front_figure(front: xr.Dataset, *, title: str | None = None) -> Figure:
     fuel = np.asarray(front["fuel_t"].values, dtype=float)
     status = np.asarray(front["status"].values).astype(str)
     ok = np.isfinite(fuel)
-    flagged = ok & (np.char.find(status, "non-monotone") >= 0)
+    flagged = ok & (np.char.find(status, "the plan of the earlier ETA") >= 0)
     fig = Figure(figsize=(9, 5.5))
     FigureCanvasAgg(fig)
     ax = fig.subplots()
@@ -93,7 +93,7 @@ def front_figure(front: xr.Dataset, *, title: str | None = None) -> Figure:
     handles += ax.plot(eta_h[ok], fuel[ok], "o-", color="C0", ms=4, lw=1.6, label="least fuel arriving by the ETA")
     if flagged.any():
         handles += ax.plot(
-            eta_h[flagged], fuel[flagged], "s", color="tab:red", ms=7, mfc="none", label="non-monotone after re-solving"
+            eta_h[flagged], fuel[flagged], "s", color="tab:red", ms=7, mfc="none", label="an earlier ETA's plan (own solves rose)"
         )
     if (~ok).any():
         lo = float(np.nanmin(fuel)) if ok.any() else 0.0

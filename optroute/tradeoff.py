@@ -35,7 +35,9 @@ the fuel objective the true front never rises with a later ETA.  A point
 whose fuel is above that of an earlier point (relative tolerance
 ``monotone_rtol``), or whose solve failed, is solved again warm-started from
 each neighbour's solution and once from the optimiser's own start, keeping
-the least fuel; if it still rises, its status says so (``"optimal; non-monotone: …"``).  With ``objective="cost"``
+the least fuel; if it still rises (the NLP's fit corrections are a local search on a model that is only
+piecewise smooth), the point takes the earlier point's verified plan, which arrives by this ETA too, and its
+status says so (``"optimal; the plan of the earlier ETA …"``): the front never rises.  With ``objective="cost"``
 (fuel and time both priced) a later ETA may legitimately cost more fuel, so
 nothing is re-solved.
 
@@ -554,7 +556,8 @@ def tradeoff(
         ``eta_shadow_price_t_per_h`` (−dF/dETA of the solve's ETA constraint [t/h]; NaN at the two
         end solves, which have none), ``status`` (``"optimal"``/``"feasible"``, ``"infeasible:
         earliest arrival …"``, ``"infeasible: <reason>"``, ``"solver failure: <Ipopt status>"``,
-        with ``"; non-monotone: …"`` appended when a point stays above an earlier one), ``solve``
+        with ``"; the plan of the earlier ETA …"`` appended when its own solves rose above an earlier point
+        and that point's plan, arriving earlier, serves it), ``solve``
         (``"minimum_time"``, ``"slow_steaming"`` or ``"eta"``), ``runtime_s`` [s] and
         ``iterations`` (Ipopt) of the point; the plans on ``(eta, waypoint)`` —
         ``waypoint_lat_deg``, ``waypoint_lon_deg``, ``waypoint_time_h`` [h after departure] — and
@@ -711,6 +714,7 @@ def _monotone(spec: _Spec, points: list[_Point], rtol: float, runner: _Serial | 
     """Re-solve rising or failed points from each neighbour's solution; flag those that still rise."""
     resolves = 0
     best_before = math.inf
+    best_point: _Point | None = None
     for i, p in enumerate(points):
         eligible = p.kind == "eta" and not p.status.startswith("infeasible: earliest")
         rises = p.ok and p.fuel_t > best_before * (1.0 + rtol)
@@ -728,15 +732,20 @@ def _monotone(spec: _Spec, points: list[_Point], rtol: float, runner: _Serial | 
                 if q.ok and (not p.ok or q.fuel_t < p.fuel_t):
                     p = _replace(q, runtime_s=p.runtime_s + q.runtime_s)
             points[i] = p
-        if p.ok and p.fuel_t > best_before * (1.0 + rtol):
+        if p.ok and p.fuel_t > best_before * (1.0 + rtol) and best_point is not None:
+            # arriving by this ETA may arrive earlier: the earlier ETA's verified plan serves it with less fuel
             points[i] = p = _replace(
-                p,
-                status=f"{p.status}; non-monotone: fuel {p.fuel_t:.6g} t above the "
-                f"{best_before:.6g} t of an earlier ETA after re-solving from both "
-                "neighbours and cold",
+                best_point,
+                eta_h=p.eta_h,
+                kind=p.kind,
+                runtime_s=p.runtime_s,
+                carry=p.carry,
+                status=f"{best_point.status}; the plan of the earlier ETA {best_point.eta_h:.6g} h (arrives earlier): "
+                f"this ETA's own solves, from both neighbours and cold, ended {p.fuel_t:.6g} t, above its "
+                f"{best_before:.6g} t",
             )
-        if p.ok:
-            best_before = min(best_before, p.fuel_t)
+        if p.ok and p.fuel_t < best_before:
+            best_before, best_point = p.fuel_t, p
     return resolves
 
 

@@ -147,7 +147,11 @@ def test_a_rising_point_is_resolved_from_its_neighbours_else_flagged(monkeypatch
 
     monkeypatch.setattr(tradeoff_mod, "_solve_point", lambda *a, **k: spoiled(*a, **k, always=True))
     front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, etas=[30.0, 35.0, 40.0], **KW)
-    assert "non-monotone" in str(front.status.values[1])
+    # every solve at 35 h rises: arriving by 35 h may arrive at 30 h, so the 30 h plan serves it
+    assert "the plan of the earlier ETA 30 h" in str(front.status.values[1])
+    assert front.fuel_t.values[1] == front.fuel_t.values[0] == pytest.approx(_by_hand_fuel(30.0), rel=1e-5)
+    assert front.duration_h.values[1] == front.duration_h.values[0] <= 30.0 + 1e-6
+    assert front.eta_h.values[1] == 35.0
     assert front.attrs["monotonicity_resolves"] == 3  # from the left and the right neighbour, and cold
 
 
