@@ -390,6 +390,7 @@ class PreparedCorridor:
         """
         from optroute.optimise import (
             _certificate_reason,
+            _feasible_iterate,
             _first_failure,
             _longer,
             _plan_warm_start,
@@ -488,6 +489,9 @@ class PreparedCorridor:
             sol = prob.solve(nlp, eta_h=eta_solve, warm=warm, budget=self.band_solves, **solve_kw)
             solve_time += _time.perf_counter() - t_s
             iterations += int(sol.res.iterations)
+            if not sol.ok and attempt > 0 and _feasible_iterate(sol.res, ctx, frame, t0, step_nm):
+                st.log.append(f"attempt {attempt}: kept Ipopt's last iterate ({sol.res.status}): its plan verifies")
+                sol = replace(sol, ok=True)
             if not sol.ok and attempt > 0 and not fresh_start:
                 # the tightened problem failed from the last solution: once more from a safe warm start
                 fresh_start = True

@@ -448,10 +448,21 @@ def _longer(prob: Problem, st: Tightening, sampler: WeatherSampler, data_end_h: 
 _LIMIT_STATUSES = frozenset({"Maximum_Iterations_Exceeded", "Maximum_CpuTime_Exceeded", "Maximum_WallTime_Exceeded"})
 
 
-def _feasible_iterate(res: NLPResult) -> bool:
-    """Ipopt hit a limit at an iterate within the constraint tolerance, clear of every band."""
-    return bool(res.status in _LIMIT_STATUSES and res.max_violation <= VIOLATION_TOL
-                and not np.any(res.samples.inside))
+def _feasible_iterate(res: NLPResult, ctx: PlanContext, frame: CorridorFrame, t0: np.datetime64,
+                      step_nm: float) -> bool:
+    """Ipopt hit a limit at an iterate clear of every band whose plan is usable.
+
+    Usable: within Ipopt's constraint tolerance, or else its plan — recomputed with the true model, times
+    integrated from the speeds — passes :meth:`Plan.verify`. Near a flat optimum of a piecewise-smooth model
+    Ipopt can circle the solution with its scaled rows a few 1e-5 off (the time-dynamics rows, which the plan
+    does not use) until its iteration limit; the independent verification, not Ipopt's tolerance, is what a
+    returned plan must pass.
+    """
+    if res.status not in _LIMIT_STATUSES or np.any(res.samples.inside):
+        return False
+    if res.max_violation <= VIOLATION_TOL:
+        return True
+    return not _to_plan(ctx, frame, res, t0, step_nm=step_nm).verify(step_nm=step_nm)
 
 
 def _first_failure(
@@ -485,6 +496,10 @@ def _first_failure(
     * it fails from every start: :class:`SolverFailure` with the first solve's Ipopt status and the
       best verified plan known (the search route's, the safe warm start's, the timed passage's).
     """
+    if _feasible_iterate(sol.res, ctx, prob.frame, t0, step_nm):
+        log.append(f"kept Ipopt's last iterate ({sol.res.status}, largest violation {sol.res.max_violation:.2g}): "
+                   "its plan passes verification; a feasible, not optimal, solution")
+        return replace(sol, ok=True)
     passages: list[TimedStart] = []
     fast = _minimum_time(prob, nlp, ctx=ctx, t0=t0, route=route, budget=budget, solve_kw=solve_kw,
                          warm_rules=warm_rules, first_warm=first_warm, log=log, passages=passages)
@@ -526,7 +541,7 @@ def _first_failure(
         status = again.res.status
         candidates.insert(0, again)
     for cand in candidates:
-        if _feasible_iterate(cand.res):
+        if _feasible_iterate(cand.res, ctx, prob.frame, t0, step_nm):
             # Ipopt stopped on its iteration or time limit at a point that satisfies every constraint: a
             # usable, not an optimal, solution. It goes through verify() like any other; the plan's status
             # is "feasible" and solver_stats keeps Ipopt's status verbatim.
