@@ -249,7 +249,9 @@ def _where(frame: CorridorFrame, lat_: _Lattice, row: int) -> str:
     )
 
 
-def _channel(ok: np.ndarray, lat_: _Lattice, ref_rows: np.ndarray, frame: CorridorFrame) -> tuple[np.ndarray, np.ndarray]:
+def _channel(
+    ok: np.ndarray, lat_: _Lattice, ref_rows: np.ndarray, frame: CorridorFrame
+) -> tuple[np.ndarray, np.ndarray]:
     """The chosen run of every row as (first, last) column index (method step 3)."""
     n_rows, n_cols = ok.shape
     padded = np.zeros((n_rows, n_cols + 2), dtype=np.int8)
@@ -331,7 +333,9 @@ def _boxes_intersection(lo_r: np.ndarray, hi_r: np.ndarray, lat_: _Lattice, n: i
     return lo, hi
 
 
-def _boxes_lp(lo_r: np.ndarray, hi_r: np.ndarray, lat_: _Lattice, hw: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+def _boxes_lp(
+    lo_r: np.ndarray, hi_r: np.ndarray, lat_: _Lattice, hw: np.ndarray
+) -> tuple[np.ndarray, np.ndarray] | None:
     """Station boxes from the linear programme of method step 4 (None when infeasible)."""
     n1 = hw.size
     k, f = lat_.row_leg, lat_.row_f
@@ -348,8 +352,10 @@ def _boxes_lp(lo_r: np.ndarray, hi_r: np.ndarray, lat_: _Lattice, hw: np.ndarray
     inner = np.arange(1, n1 - 1)
     m = inner.size
     a_w = sparse.csr_matrix(
-        (np.concatenate([np.ones(m), -np.ones(m), np.ones(m)]),
-         (np.tile(np.arange(m), 3), np.concatenate([inner, inner + n1, np.full(m, nv - 1)]))),
+        (
+            np.concatenate([np.ones(m), -np.ones(m), np.ones(m)]),
+            (np.tile(np.arange(m), 3), np.concatenate([inner, inner + n1, np.full(m, nv - 1)])),
+        ),
         shape=(m, nv),
     )
     a = sparse.vstack([a_lo, a_hi, a_w]).tocsr()

@@ -97,9 +97,11 @@ class DeadEnd:
     latest_h: float
 
     def __str__(self) -> str:
-        return (f"no speed is allowed on the centreline between {self.from_nm:.0f} and {self.to_nm:.0f} nm along "
-                f"track (near {self.lat:.2f}, {self.lon:.2f}) for any arrival there from {self.earliest_h:.1f} to "
-                f"{self.latest_h:.1f} h after departure")
+        return (
+            f"no speed is allowed on the centreline between {self.from_nm:.0f} and {self.to_nm:.0f} nm along "
+            f"track (near {self.lat:.2f}, {self.lon:.2f}) for any arrival there from {self.earliest_h:.1f} to "
+            f"{self.latest_h:.1f} h after departure"
+        )
 
 
 def _centreline_points(frame: CorridorFrame, s_nm: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -203,8 +205,14 @@ def timed_safe_start(
         prev, spd = np.nonzero(ok)
         if prev.size == 0:
             mid = _centreline_points(frame, np.array([edges[b] + 0.5 * d]))
-            return DeadEnd(float(edges[b]), float(edges[b + 1]), float(mid[0][0]), float(mid[1][0]),
-                           float(times.min()), float(times.max()))
+            return DeadEnd(
+                float(edges[b]),
+                float(edges[b + 1]),
+                float(mid[0][0]),
+                float(mid[1][0]),
+                float(times.min()),
+                float(times.max()),
+            )
         arrive = times[prev] + dt[spd]
         # one state per bucket (the earliest), within the window of the earliest arrival
         order = np.lexsort((arrive, np.floor(arrive / bucket_h)))
@@ -275,7 +283,12 @@ def clean_start(
     if late and desired_kn < v_max_kn:
         found = timed_safe_start(ctx, frame, t0, v_min_kn=v_min_kn, v_max_kn=v_max_kn, rules=rules)
     if log is not None:
-        log.append("first start: the speed reduction finds no allowed speed somewhere; "
-                   + (f"timed safe start, {found.arrival_h:.3f} h" if isinstance(found, TimedStart)
-                      else f"no timed start either ({found})"))
+        log.append(
+            "first start: the speed reduction finds no allowed speed somewhere; "
+            + (
+                f"timed safe start, {found.arrival_h:.3f} h"
+                if isinstance(found, TimedStart)
+                else f"no timed start either ({found})"
+            )
+        )
     return found.warm() if isinstance(found, TimedStart) else safe

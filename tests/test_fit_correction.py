@@ -28,8 +28,19 @@ ETA_H = 56.0
 
 def _crossing_storm():
     """A 9 m storm moving SSE at 10 kn across a 730 nm great circle at 30° N (Kwon's loss follows its wind)."""
-    wx = orx.scenarios.moving_storm(33.0, -147.0, 160.0, 10.0, peak_hs_m=9.0, radius_nm=200.0, start=T0,
-                                    duration_h=72.0, step_h=3.0, resolution_deg=0.5, bbox=(20, 40, -160, -130))
+    wx = orx.scenarios.moving_storm(
+        33.0,
+        -147.0,
+        160.0,
+        10.0,
+        peak_hs_m=9.0,
+        radius_nm=200.0,
+        start=T0,
+        duration_h=72.0,
+        step_h=3.0,
+        resolution_deg=0.5,
+        bbox=(20, 40, -160, -130),
+    )
     return wx, orx.Corridor.from_waypoints([(30.0, -152.0), (30.0, -138.0)], width_nm=60.0)
 
 
@@ -37,15 +48,33 @@ def _crossing_storm():
 def solved():
     storm, corridor = _crossing_storm()
     eta_h = ETA_H
-    pc = PreparedCorridor(corridor, storm, SHIP, departure=T0, latest_eta=T0 + np.timedelta64(int(ETA_H), "h"),
-                          max_leg_nm=30.0, use_land_mask=False)
+    pc = PreparedCorridor(
+        corridor,
+        storm,
+        SHIP,
+        departure=T0,
+        latest_eta=T0 + np.timedelta64(int(ETA_H), "h"),
+        max_leg_nm=30.0,
+        use_land_mask=False,
+    )
     st = pc._tightening(None)
     nlp = pc.problem.build(st)
-    sol = pc.problem.solve(nlp, eta_h=eta_h, warm=None, budget=4, eta_mode="le", objective="fuel",
-                           fuel_price=600.0, hourly_cost=0.0)
+    sol = pc.problem.solve(
+        nlp, eta_h=eta_h, warm=None, budget=4, eta_mode="le", objective="fuel", fuel_price=600.0, hourly_cost=0.0
+    )
     assert sol.ok
-    ctx = PlanContext(ship=SHIP, model=pc.model, rules=pc.rules, sampler=pc.sampler, dataset=pc.dataset,
-                      corridor=corridor, eta=None, eta_mode="le", exclusion=None, use_land_mask=False)
+    ctx = PlanContext(
+        ship=SHIP,
+        model=pc.model,
+        rules=pc.rules,
+        sampler=pc.sampler,
+        dataset=pc.dataset,
+        corridor=corridor,
+        eta=None,
+        eta_mode="le",
+        exclusion=None,
+        use_land_mask=False,
+    )
     plan = _to_plan(ctx, pc.frame, sol.res, T0, step_nm=5.0)
     return ctx, plan, nlp, sol.res
 
@@ -89,7 +118,9 @@ def test_time_slope_moves_by_the_relaxation_share_of_the_defect(solved):
     ctx, plan, nlp, res = solved
     corr = fc.fit_correction(ctx, plan, nlp, res.offset_nm, res.stw_kn, res.time_h, step_nm=5.0)
     h = fc.TIME_STEP_H
-    a_true = np.log(fc._true_power(ctx, plan, res.stw_kn, 5.0, h) / fc._true_power(ctx, plan, res.stw_kn, 5.0, -h)) / (2 * h)
+    a_true = np.log(fc._true_power(ctx, plan, res.stw_kn, 5.0, h) / fc._true_power(ctx, plan, res.stw_kn, 5.0, -h)) / (
+        2 * h
+    )
 
     def nlp_slope() -> np.ndarray:
         up = nlp.evaluate(res.offset_nm, res.stw_kn, res.time_h + h).power_kw.mean(axis=1)
@@ -126,8 +157,13 @@ def test_corrected_plan_beats_the_fits_optimum_by_the_true_model():
 def test_compiled_derivatives_give_the_same_plan():
     # jit=True compiles the same per-leg SX functions to C: the plan must be the interpreted one's
     storm, corridor = _crossing_storm()
-    kw = {"departure": T0, "eta": T0 + np.timedelta64(int(ETA_H), "h"), "max_leg_nm": 60.0, "use_land_mask": False,
-          "fit_corrections": 1}
+    kw = {
+        "departure": T0,
+        "eta": T0 + np.timedelta64(int(ETA_H), "h"),
+        "max_leg_nm": 60.0,
+        "use_land_mask": False,
+        "fit_corrections": 1,
+    }
     plain = orx.optimise_corridor(corridor, storm, SHIP, **kw)
     compiled = orx.optimise_corridor(corridor, storm, SHIP, jit=True, **kw)
     assert compiled.total_fuel_t == pytest.approx(plain.total_fuel_t, rel=1e-7)
@@ -138,5 +174,6 @@ def test_jit_without_a_compiler_names_the_compiler(monkeypatch):
     monkeypatch.setenv("CC", "no-such-compiler-xyz")
     storm, corridor = _crossing_storm()
     with pytest.raises(ConfigError, match="no-such-compiler-xyz"):
-        orx.optimise_corridor(corridor, storm, SHIP, departure=T0, eta=T0 + np.timedelta64(56, "h"), jit=True,
-                              use_land_mask=False)
+        orx.optimise_corridor(
+            corridor, storm, SHIP, departure=T0, eta=T0 + np.timedelta64(56, "h"), jit=True, use_land_mask=False
+        )

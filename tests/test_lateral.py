@@ -19,10 +19,20 @@ def _gc_points(wp: np.ndarray, step_nm: float) -> np.ndarray:
     """Points every <= step_nm along the great circles between consecutive waypoints (slerp, by hand)."""
     out = []
     for (la1, lo1), (la2, lo2) in zip(wp[:-1], wp[1:], strict=True):
-        a = np.array([np.cos(np.radians(la1)) * np.cos(np.radians(lo1)), np.cos(np.radians(la1)) * np.sin(np.radians(lo1)),
-                      np.sin(np.radians(la1))])
-        b = np.array([np.cos(np.radians(la2)) * np.cos(np.radians(lo2)), np.cos(np.radians(la2)) * np.sin(np.radians(lo2)),
-                      np.sin(np.radians(la2))])
+        a = np.array(
+            [
+                np.cos(np.radians(la1)) * np.cos(np.radians(lo1)),
+                np.cos(np.radians(la1)) * np.sin(np.radians(lo1)),
+                np.sin(np.radians(la1)),
+            ]
+        )
+        b = np.array(
+            [
+                np.cos(np.radians(la2)) * np.cos(np.radians(lo2)),
+                np.cos(np.radians(la2)) * np.sin(np.radians(lo2)),
+                np.sin(np.radians(la2)),
+            ]
+        )
         om = np.arccos(np.clip(a @ b, -1.0, 1.0))
         n = max(2, int(np.ceil(om * 3440.065 / step_nm)) + 1)
         f = np.linspace(0.0, 1.0, n)[:, None]
@@ -51,8 +61,9 @@ class _DiscMask:
 
 
 def _weather():
-    return orx.scenarios.uniform(hs_m=1.5, tp_s=7.0, wave_from_deg=270.0, bbox=(-5, 5, -32, -18), start=T0,
-                                 duration_h=48, resolution_deg=1.0)
+    return orx.scenarios.uniform(
+        hs_m=1.5, tp_s=7.0, wave_from_deg=270.0, bbox=(-5, 5, -32, -18), start=T0, duration_h=48, resolution_deg=1.0
+    )
 
 
 def test_an_island_between_two_waypoints_is_excluded_from_every_leg_the_bounds_admit(monkeypatch):
@@ -64,8 +75,9 @@ def test_an_island_between_two_waypoints_is_excluded_from_every_leg_the_bounds_a
     island = (mid[0] + 1.0 / 60.0, mid[1], 3.0)  # port of an eastbound track = north
     monkeypatch.setattr(land, "land_mask", lambda name=None: _DiscMask([island]))
     wx = _weather()
-    y_lo, y_hi = lateral_bounds(frame, sampler=orx.WeatherSampler(wx), dataset=wx, times=np.array([T0]),
-                                use_land_mask=True)
+    y_lo, y_hi = lateral_bounds(
+        frame, sampler=orx.WeatherSampler(wx), dataset=wx, times=np.array([T0]), use_land_mask=True
+    )
     # passed on the starboard side (nearer the centreline: its edge is 2 nm to starboard, 4 nm to port)
     assert y_hi[k] < -2.0 and y_hi[k + 1] < -2.0
     assert np.all(y_lo[1:-1] == -10.0)
@@ -103,16 +115,26 @@ def test_avoid_point_moves_both_bounds_of_the_leg_to_the_roomier_side():
     new_lo, new_hi = avoid_point(lo, hi, leg=0, fraction=0.5, offset_port_nm=2.0, margin_nm=1.0)
     np.testing.assert_array_equal(new_hi, [0.0, 2.0, 10.0, 0.0])
     # no room on either side
-    assert avoid_point(np.array([0.0, -1.0, 0.0]), np.array([0.0, 1.0, 0.0]), leg=0, fraction=0.5,
-                       offset_port_nm=0.0, margin_nm=1.0) is None
+    assert (
+        avoid_point(
+            np.array([0.0, -1.0, 0.0]),
+            np.array([0.0, 1.0, 0.0]),
+            leg=0,
+            fraction=0.5,
+            offset_port_nm=0.0,
+            margin_nm=1.0,
+        )
+        is None
+    )
 
 
 SAN_CLEMENTE = [(32.5, -117.4), (33.2, -119.6), (34.0, -121.5)]  # passes San Clemente Island (32.9 N, 118.5 W)
 
 
 def _san_clemente_plan(**kw):
-    wx = orx.scenarios.uniform(hs_m=1.5, wave_from_deg=270.0, bbox=(25, 45, -130, -110), start=T0, duration_h=60,
-                               resolution_deg=1.0)
+    wx = orx.scenarios.uniform(
+        hs_m=1.5, wave_from_deg=270.0, bbox=(25, 45, -130, -110), start=T0, duration_h=60, resolution_deg=1.0
+    )
     cor = orx.Corridor.from_waypoints(SAN_CLEMENTE, width_nm=40.0)
     eta = T0 + np.timedelta64(int(cor.length_nm / 15.0 * 60), "m")
     ship = orx.Ship.preset("container_54k_dwt")

@@ -34,9 +34,17 @@ def _blocked_sea(window_h: tuple[float, float] = WINDOW_H) -> xr.Dataset:
     in_time = (h >= window_h[0]) & (h <= window_h[1])
     in_zone = (lon >= ZONE[0] - 1e-9) & (lon <= ZONE[1] + 1e-9)
     hs = np.where(in_time[:, None, None] & in_zone[None, None, :], 12.0, 1.0) * np.ones((1, lat.size, 1))
-    return schema.canonical_dataset(time, lat, lon, {
-        "hs_m": hs, "tp_s": np.full(hs.shape, SHIP.roll_period_s), "wave_from_deg": np.zeros(hs.shape),
-    }, {"title": "planted beam-sea window", "geography": "synthetic"})
+    return schema.canonical_dataset(
+        time,
+        lat,
+        lon,
+        {
+            "hs_m": hs,
+            "tp_s": np.full(hs.shape, SHIP.roll_period_s),
+            "wave_from_deg": np.zeros(hs.shape),
+        },
+        {"title": "planted beam-sea window", "geography": "synthetic"},
+    )
 
 
 def _corridor() -> orx.Corridor:
@@ -74,14 +82,34 @@ def test_timed_safe_start_sails_calm_water_at_top_speed_and_waits_for_the_blocke
     from optroute.plan import PlanContext
 
     pc = PreparedCorridor(_corridor(), sea, SHIP, departure=T0, objective="time", **KW)
-    ctx = PlanContext(ship=SHIP, model=pc.model, rules=pc.rules, sampler=pc.sampler, dataset=pc.dataset,
-                      corridor=pc.corridor, eta=None, eta_mode="le", exclusion=None, use_land_mask=False)
+    ctx = PlanContext(
+        ship=SHIP,
+        model=pc.model,
+        rules=pc.rules,
+        sampler=pc.sampler,
+        dataset=pc.dataset,
+        corridor=pc.corridor,
+        eta=None,
+        eta_mode="le",
+        exclusion=None,
+        use_land_mask=False,
+    )
     rules = warm_rules(pc.rules, pc._tightening(None))
     # calm everywhere (the window moved past the end of the data): every block at the top speed, by hand L / v_max
     calm = orx.Corridor.from_waypoints([[0.0, LON0], [0.0, -29.0]], width_nm=0.0)
     pc_calm = PreparedCorridor(calm, sea, SHIP, departure=T0, objective="time", **KW)
-    ctx_calm = PlanContext(ship=SHIP, model=pc.model, rules=pc.rules, sampler=pc.sampler, dataset=pc.dataset,
-                           corridor=calm, eta=None, eta_mode="le", exclusion=None, use_land_mask=False)
+    ctx_calm = PlanContext(
+        ship=SHIP,
+        model=pc.model,
+        rules=pc.rules,
+        sampler=pc.sampler,
+        dataset=pc.dataset,
+        corridor=calm,
+        eta=None,
+        eta_mode="le",
+        exclusion=None,
+        use_land_mask=False,
+    )
     fast = timed_safe_start(ctx_calm, pc_calm.frame, T0, v_min_kn=pc.v_min, v_max_kn=pc.v_max, rules=rules)
     assert isinstance(fast, TimedStart)
     assert fast.arrival_h == pytest.approx(_nm(LON0, -29.0) / pc.v_max, rel=1e-9)
@@ -98,8 +126,14 @@ def test_timed_safe_start_sails_calm_water_at_top_speed_and_waits_for_the_blocke
     # a window that never ends (all 48 h): no passage, and the dead end names the stretch
     never = _blocked_sea((3.0, 48.0))
     pc_never = PreparedCorridor(_corridor(), never, SHIP, departure=T0, objective="time", **KW)
-    dead = timed_safe_start(ctx.__class__(**{**ctx.__dict__, "sampler": pc_never.sampler, "dataset": never}),
-                            pc_never.frame, T0, v_min_kn=pc.v_min, v_max_kn=pc.v_max, rules=rules)
+    dead = timed_safe_start(
+        ctx.__class__(**{**ctx.__dict__, "sampler": pc_never.sampler, "dataset": never}),
+        pc_never.frame,
+        T0,
+        v_min_kn=pc.v_min,
+        v_max_kn=pc.v_max,
+        rules=rules,
+    )
     assert isinstance(dead, DeadEnd)
     assert dead.from_nm <= _nm(LON0, ZONE[1]) and dead.to_nm >= _nm(LON0, ZONE[0]) - 30.0
 
