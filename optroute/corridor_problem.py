@@ -326,6 +326,21 @@ class PreparedCorridor:
 
     # ------------------------------------------------------------------ one ETA
 
+    def plan_context(self, eta: np.datetime64 | None = None, eta_mode: Literal["le", "eq"] = "le") -> PlanContext:
+        """The :class:`PlanContext` its plans are evaluated and verified in (ETA [UTC] and mode as in :meth:`solve`)."""
+        return PlanContext(
+            ship=self.ship,
+            model=self.model,
+            rules=self.rules,
+            sampler=self.sampler,
+            dataset=self.dataset,
+            corridor=self.corridor,
+            eta=eta,
+            eta_mode=eta_mode,
+            exclusion=self.exclusion,
+            use_land_mask=self.use_land_mask,
+        )
+
     def _tightening(self, learnt: Learnt | None) -> Tightening:
         n = self.frame.n_legs
         st = Tightening(
@@ -436,18 +451,7 @@ class PreparedCorridor:
         fuel_price, hourly = self.fuel_price, self.hourly
         sampler, exclusion, rules, v_min, v_max = self.sampler, self.exclusion, self.rules, self.v_min, self.v_max
         length, step_nm = self.length_nm, self.verify_step_nm
-        ctx = PlanContext(
-            ship=self.ship,
-            model=self.model,
-            rules=rules,
-            sampler=sampler,
-            dataset=self.dataset,
-            corridor=self.corridor,
-            eta=eta_t,
-            eta_mode=eta_mode,
-            exclusion=exclusion,
-            use_land_mask=self.use_land_mask,
-        )
+        ctx = self.plan_context(eta_t, eta_mode)
         build_before = prob.build_time_s
         st = self._tightening(learnt)
         if warm_plan is not None:

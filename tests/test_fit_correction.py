@@ -20,7 +20,6 @@ from optroute import fit_correction as fc
 from optroute.corridor_problem import PreparedCorridor
 from optroute.errors import ConfigError
 from optroute.optimise import _to_plan
-from optroute.plan import PlanContext
 from tests.test_optimise import SHIP, T0
 
 ETA_H = 56.0
@@ -63,18 +62,7 @@ def solved():
         nlp, eta_h=eta_h, warm=None, budget=4, eta_mode="le", objective="fuel", fuel_price=600.0, hourly_cost=0.0
     )
     assert sol.ok
-    ctx = PlanContext(
-        ship=SHIP,
-        model=pc.model,
-        rules=pc.rules,
-        sampler=pc.sampler,
-        dataset=pc.dataset,
-        corridor=corridor,
-        eta=None,
-        eta_mode="le",
-        exclusion=None,
-        use_land_mask=False,
-    )
+    ctx = pc.plan_context()
     plan = _to_plan(ctx, pc.frame, sol.res, T0, step_nm=5.0)
     return ctx, plan, nlp, sol.res
 

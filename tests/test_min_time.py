@@ -79,37 +79,14 @@ def sea():
 def test_timed_safe_start_sails_calm_water_at_top_speed_and_waits_for_the_blocked_window(sea):
     from optroute.corridor_problem import PreparedCorridor
     from optroute.nlp_solve import warm_rules
-    from optroute.plan import PlanContext
 
     pc = PreparedCorridor(_corridor(), sea, SHIP, departure=T0, objective="time", **KW)
-    ctx = PlanContext(
-        ship=SHIP,
-        model=pc.model,
-        rules=pc.rules,
-        sampler=pc.sampler,
-        dataset=pc.dataset,
-        corridor=pc.corridor,
-        eta=None,
-        eta_mode="le",
-        exclusion=None,
-        use_land_mask=False,
-    )
+    ctx = pc.plan_context()
     rules = warm_rules(pc.rules, pc._tightening(None))
     # calm everywhere (the window moved past the end of the data): every block at the top speed, by hand L / v_max
     calm = orx.Corridor.from_waypoints([[0.0, LON0], [0.0, -29.0]], width_nm=0.0)
     pc_calm = PreparedCorridor(calm, sea, SHIP, departure=T0, objective="time", **KW)
-    ctx_calm = PlanContext(
-        ship=SHIP,
-        model=pc.model,
-        rules=pc.rules,
-        sampler=pc.sampler,
-        dataset=pc.dataset,
-        corridor=calm,
-        eta=None,
-        eta_mode="le",
-        exclusion=None,
-        use_land_mask=False,
-    )
+    ctx_calm = pc_calm.plan_context()
     fast = timed_safe_start(ctx_calm, pc_calm.frame, T0, v_min_kn=pc.v_min, v_max_kn=pc.v_max, rules=rules)
     assert isinstance(fast, TimedStart)
     assert fast.arrival_h == pytest.approx(_nm(LON0, -29.0) / pc.v_max, rel=1e-9)
