@@ -15,7 +15,7 @@ switches the bands on. For every scenario and ETA, side by side in one process:
 
 * **NLP**: ``optimise_corridor(objective="fuel")`` on the corridor (verified plan);
 * **speed stepping** (Boeing): the corridor's centreline (cut into 10 nm legs, one sea state
-  each) sailed with ``optroute.routing.sail_route`` at the lowest desired speed on a 0.5 kn step
+  each) sailed with ``optroute.search.routing.sail_route`` at the lowest desired speed on a 0.5 kn step
   whose arrival meets the ETA, forced slow-downs out of the bands included; its runtime is the
   whole scan of desired speeds, starting at the slowest one that could meet the ETA in calm water;
 * **DP coarse / medium / fine**: ``search_route(method="dp", objective="fuel", eta=)`` in the same
@@ -44,8 +44,8 @@ import xarray as xr
 
 import optroute as orx
 from benchmarks._cli import bench_main, results_dir
-from optroute import geo
-from optroute.routing import sail_route
+from optroute import geodesy as geo
+from optroute.search.routing import sail_route
 from optroute.weather import schema
 
 T0 = np.datetime64("2024-01-10T00:00", "ns")
@@ -252,7 +252,7 @@ def figure(cases: list[dict[str, Any]], path: Any) -> Any:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from optroute.plot import save_png
+    from optroute.plot.common import save_png
 
     fig = Figure(figsize=(7.5, 5.0))
     FigureCanvasAgg(fig)

@@ -1,6 +1,6 @@
 """Fuel-versus-ETA front benchmark: warm against cold starts, serial against a 2-worker local Dask cluster.
 
-One front (:func:`optroute.tradeoff`) of 30 ETAs on a 300-leg, ~3 300 nm corridor (±20 nm lateral
+One front (:func:`optroute.studies.tradeoff`) of 30 ETAs on a 300-leg, ~3 300 nm corridor (±20 nm lateral
 freedom) through time-varying weather — a storm of 6 m peak H_s moving east at 8 kn across the
 track — for ``container_54k_dwt``, computed three times in the same process, side by side:
 
@@ -29,7 +29,7 @@ import numpy as np
 
 import optroute as orx
 from benchmarks._cli import bench_main
-from optroute.plot import save_png
+from optroute.plot.common import save_png
 
 T0 = np.datetime64("2024-01-10T00:00", "ns")
 RESULTS = Path(__file__).resolve().parent / "results"

@@ -28,7 +28,7 @@
    re-evaluated by the plan evaluator that referees the NLP (the DP's own fuel sums 30 nm pieces).
    Measured: with the level-only correction the finest DP was 0.33 % below the NLP (the NLP
    optimised a least-squares fit of Kwon's model, max error ~16 %); with the first-order correction
-   (:mod:`optroute.fit_correction`: level, speed elasticity and a relaxed time slope matched to
+   (:mod:`optroute.optimise.fit_correction`: level, speed elasticity and a relaxed time slope matched to
    the true model) the NLP is 0.17 % below the finest DP's own figure and 0.34 % below its route
    re-evaluated. No band applies on this route (see ``BAND_FRACTION``).
    Full mode adds a storm crossing a 730 nm track (:func:`bench_crossing_storm`), where the fit is
@@ -47,7 +47,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks._cli import bench_main
-from formulations._common import (
+from formulations.common import (
     G_OVER_2PI_KN_S,
     Band,
     CorridorGeometry,
@@ -326,12 +326,23 @@ BAND_FRACTION = 0.04
 def bench_dp(quick: bool) -> dict[str, Any]:
     """The corridor NLP against the 3-D DP on one great circle, time-varying weather (item 4 above)."""
     import optroute as orx
-    from optroute import geo
+    from optroute import geodesy as geo
 
     ship = orx.Ship.preset("container_54k_dwt")
     rules = orx.BandRules(hs_threshold_fraction=BAND_FRACTION)
-    wx = orx.scenarios.moving_storm(STORM_LAT, -160.0, 120.0, 12.0, peak_hs_m=13.0, radius_nm=250.0, start=DP_T0,
-                                    duration_h=240.0, step_h=3.0, resolution_deg=0.5, bbox=(15, 45, -178, -115))
+    wx = orx.scenarios.moving_storm(
+        STORM_LAT,
+        -160.0,
+        120.0,
+        12.0,
+        peak_hs_m=13.0,
+        radius_nm=250.0,
+        start=DP_T0,
+        duration_h=240.0,
+        step_h=3.0,
+        resolution_deg=0.5,
+        bbox=(15, 45, -178, -115),
+    )
     length = float(geo.distance_nm(*DP_START, *DP_END))
     eta_h = round(length / 18.0)
     eta = DP_T0 + np.timedelta64(int(eta_h), "h")
@@ -341,13 +352,15 @@ def bench_dp(quick: bool) -> dict[str, Any]:
     totals, solves, plans = [], [], []
     for _ in range(1 if quick else 3):
         t0 = time.perf_counter()
-        plans.append(orx.optimise_corridor(corridor, wx, ship, departure=DP_T0, eta=eta, max_leg_nm=max_leg,
-                                            rules=rules))
+        plans.append(
+            orx.optimise_corridor(corridor, wx, ship, departure=DP_T0, eta=eta, max_leg_nm=max_leg, rules=rules)
+        )
         totals.append(time.perf_counter() - t0)
         solves.append(plans[-1].solver_stats["solve_time_s"])
     plan = plans[-1]
-    fit_only = orx.optimise_corridor(corridor, wx, ship, departure=DP_T0, eta=eta, max_leg_nm=max_leg, rules=rules,
-                                     fit_corrections=0)
+    fit_only = orx.optimise_corridor(
+        corridor, wx, ship, departure=DP_T0, eta=eta, max_leg_nm=max_leg, rules=rules, fit_corrections=0
+    )
     legs = plan.legs
     margins = legs[[c for c in legs.columns if c.startswith("margin_")]].to_numpy()
     nlp = {
@@ -369,30 +382,67 @@ def bench_dp(quick: bool) -> dict[str, Any]:
     rows = []
     for label, dx, dy, dt, dv in resolutions:
         t0 = time.perf_counter()
-        route = orx.search_route(DP_START, DP_END, wx, ship, departure=DP_T0, method="dp", objective="fuel", eta=eta,
-                                 rules=rules, speeds_kn=np.arange(8.0, 26.0 + 1e-9, dv),
-                                 dp_options={"dx_nm": dx, "dy_nm": dy, "half_width_nm": half_width, "dt_h": dt})
+        route = orx.search_route(
+            DP_START,
+            DP_END,
+            wx,
+            ship,
+            departure=DP_T0,
+            method="dp",
+            objective="fuel",
+            eta=eta,
+            rules=rules,
+            speeds_kn=np.arange(8.0, 26.0 + 1e-9, dv),
+            dp_options={"dx_nm": dx, "dy_nm": dy, "half_width_nm": half_width, "dt_h": dt},
+        )
         el = time.perf_counter() - t0
         rows.append(_dp_row(route, label, (dx, dy, dt, dv), el, nlp, eta_h, ship, wx, rules))
-    return {"length_nm": length, "eta_h": float(eta_h), "half_width_nm": half_width, "nlp": nlp, "dp": rows,
-            "crossing": None if quick else bench_crossing_storm()}
+    return {
+        "length_nm": length,
+        "eta_h": float(eta_h),
+        "half_width_nm": half_width,
+        "nlp": nlp,
+        "dp": rows,
+        "crossing": None if quick else bench_crossing_storm(),
+    }
 
 
-def _dp_row(route: Any, label: str, res: tuple[float, float, float, float], el: float, nlp: dict[str, Any],
-            eta_h: float, ship: Any, wx: Any, rules: Any) -> dict[str, Any]:
+def _dp_row(
+    route: Any,
+    label: str,
+    res: tuple[float, float, float, float],
+    el: float,
+    nlp: dict[str, Any],
+    eta_h: float,
+    ship: Any,
+    wx: Any,
+    rules: Any,
+) -> dict[str, Any]:
     """One DP row: its own fuel and its route re-evaluated by the plan evaluator (the NLP's referee), as ratios."""
     import optroute as orx
 
     t0 = route.times[0]
     arrival_h = float((route.arrival - t0) / np.timedelta64(1, "s")) / 3600.0
-    as_plan = orx.Plan.from_schedule(route.waypoints, route.stw_kn, departure=t0, ship=ship, weather=wx, rules=rules,
-                                     times=route.times, step_nm=5.0)
+    as_plan = orx.Plan.from_schedule(
+        route.waypoints, route.stw_kn, departure=t0, ship=ship, weather=wx, rules=rules, times=route.times, step_nm=5.0
+    )
     dx, dy, dt, dv = res
-    return {"resolution": label, "dx_nm": dx, "dy_nm": dy, "dt_h": dt, "speed_step_kn": dv, "time_s": el,
-            "fuel_t": route.total_fuel_t, "arrival_h": arrival_h, "eta_met": arrival_h <= eta_h + 1e-9,
-            "time_ratio": el / nlp["median_total_s"], "fuel_ratio": route.total_fuel_t / nlp["fuel_t"],
-            "as_plan_fuel_t": as_plan.total_fuel_t, "as_plan_ratio": as_plan.total_fuel_t / nlp["fuel_t"],
-            "as_plan_violations": len(as_plan.verify())}
+    return {
+        "resolution": label,
+        "dx_nm": dx,
+        "dy_nm": dy,
+        "dt_h": dt,
+        "speed_step_kn": dv,
+        "time_s": el,
+        "fuel_t": route.total_fuel_t,
+        "arrival_h": arrival_h,
+        "eta_met": arrival_h <= eta_h + 1e-9,
+        "time_ratio": el / nlp["median_total_s"],
+        "fuel_ratio": route.total_fuel_t / nlp["fuel_t"],
+        "as_plan_fuel_t": as_plan.total_fuel_t,
+        "as_plan_ratio": as_plan.total_fuel_t / nlp["fuel_t"],
+        "as_plan_violations": len(as_plan.verify()),
+    }
 
 
 def bench_crossing_storm() -> dict[str, Any]:
@@ -405,8 +455,19 @@ def bench_crossing_storm() -> dict[str, Any]:
     import optroute as orx
 
     ship = orx.Ship.preset("container_54k_dwt")
-    wx = orx.scenarios.moving_storm(33.0, -147.0, 160.0, 10.0, peak_hs_m=9.0, radius_nm=200.0, start=DP_T0,
-                                    duration_h=72.0, step_h=3.0, resolution_deg=0.5, bbox=(20, 40, -160, -130))
+    wx = orx.scenarios.moving_storm(
+        33.0,
+        -147.0,
+        160.0,
+        10.0,
+        peak_hs_m=9.0,
+        radius_nm=200.0,
+        start=DP_T0,
+        duration_h=72.0,
+        step_h=3.0,
+        resolution_deg=0.5,
+        bbox=(20, 40, -160, -130),
+    )
     start, end, eta_h = (30.0, -152.0), (30.0, -138.0), 56.0
     eta = DP_T0 + np.timedelta64(int(eta_h), "h")
     corridor = orx.Corridor.from_waypoints([start, end], width_nm=60.0)
@@ -415,45 +476,74 @@ def bench_crossing_storm() -> dict[str, Any]:
     plan = orx.optimise_corridor(corridor, wx, ship, **kw)
     el = time.perf_counter() - t0
     fit_only = orx.optimise_corridor(corridor, wx, ship, fit_corrections=0, **kw)
-    nlp = {"legs": int(plan.solver_stats["n_legs"]), "median_total_s": el, "fuel_t": plan.total_fuel_t,
-           "fit_only_fuel_t": fit_only.total_fuel_t, "violations": len(plan.verify()),
-           "fit_max_rel_error": float(plan.solver_stats["fit_max_rel_error"])}
+    nlp = {
+        "legs": int(plan.solver_stats["n_legs"]),
+        "median_total_s": el,
+        "fuel_t": plan.total_fuel_t,
+        "fit_only_fuel_t": fit_only.total_fuel_t,
+        "violations": len(plan.verify()),
+        "fit_max_rel_error": float(plan.solver_stats["fit_max_rel_error"]),
+    }
     t0 = time.perf_counter()
-    route = orx.search_route(start, end, wx, ship, departure=DP_T0, method="dp", objective="fuel", eta=eta,
-                             speeds_kn=np.arange(8.0, 24.0 + 1e-9, 0.5),
-                             dp_options={"dx_nm": 60.0, "dy_nm": 10.0, "half_width_nm": 30.0, "dt_h": 1.0})
+    route = orx.search_route(
+        start,
+        end,
+        wx,
+        ship,
+        departure=DP_T0,
+        method="dp",
+        objective="fuel",
+        eta=eta,
+        speeds_kn=np.arange(8.0, 24.0 + 1e-9, 0.5),
+        dp_options={"dx_nm": 60.0, "dy_nm": 10.0, "half_width_nm": 30.0, "dt_h": 1.0},
+    )
     row = _dp_row(route, "medium", (60.0, 10.0, 1.0, 0.5), time.perf_counter() - t0, nlp, eta_h, ship, wx, None)
     return {"nlp": nlp, "dp": row}
 
 
 def _print_dp(b: dict[str, Any]) -> None:
     n = b["nlp"]
-    print(f"\n### Domain level: NLP beside the 3-D DP ({b['length_nm']:.0f} nm great circle, ±{b['half_width_nm']:.0f} nm, "
-          f"moving 13 m storm, ETA {b['eta_h']:.0f} h)\n")
-    print(f"optimise_corridor, {n['legs']} legs: median {n['median_total_s']:.2f} s per call, of which Ipopt "
-          f"{n['median_ipopt_s']:.2f} s over {n['nlp_solves']} solves; fuel {n['fuel_t']:.2f} t, arrival "
-          f"{n['duration_h']:.2f} h, verify() violations {n['violations']}; Hs up to {n['max_hs_m']:.1f} m, a band "
-          f"applies on {n['legs_with_a_band']} legs\n")
-    print("| DP resolution | ΔX [nm] | ΔY [nm] | Δt [h] | speed step [kn] | time [s] | DP time / NLP time | fuel [t] | "
-          "DP fuel / NLP fuel | arrival [h] | ETA met |")
+    print(
+        f"\n### Domain level: NLP beside the 3-D DP ({b['length_nm']:.0f} nm great circle, ±{b['half_width_nm']:.0f} nm, "
+        f"moving 13 m storm, ETA {b['eta_h']:.0f} h)\n"
+    )
+    print(
+        f"optimise_corridor, {n['legs']} legs: median {n['median_total_s']:.2f} s per call, of which Ipopt "
+        f"{n['median_ipopt_s']:.2f} s over {n['nlp_solves']} solves; fuel {n['fuel_t']:.2f} t, arrival "
+        f"{n['duration_h']:.2f} h, verify() violations {n['violations']}; Hs up to {n['max_hs_m']:.1f} m, a band "
+        f"applies on {n['legs_with_a_band']} legs\n"
+    )
+    print(
+        "| DP resolution | ΔX [nm] | ΔY [nm] | Δt [h] | speed step [kn] | time [s] | DP time / NLP time | fuel [t] | "
+        "DP fuel / NLP fuel | arrival [h] | ETA met |"
+    )
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     for r in b["dp"]:
-        print(f"| {r['resolution']} | {r['dx_nm']:g} | {r['dy_nm']:g} | {r['dt_h']:g} | {r['speed_step_kn']:g} | "
-              f"{r['time_s']:.2f} | {r['time_ratio']:.2f} | {r['fuel_t']:.2f} | {r['fuel_ratio']:.4f} | "
-              f"{r['arrival_h']:.2f} | {r['eta_met']} |")
-    print(f"\nthe NLP without fit corrections (the fit's optimum): {n['fit_only_fuel_t']:.2f} t; with "
-          f"{n['fit_corrections']} corrections: {n['fuel_t']:.2f} t. The DP routes re-evaluated by the plan evaluator "
-          "(the NLP's referee, 5 nm steps, constant STW per DP leg): "
-          + "; ".join(f"{r['resolution']} {r['as_plan_fuel_t']:.2f} t ({r['as_plan_ratio']:.4f} of the NLP, "
-                      f"{r['as_plan_violations']} violations)" for r in b["dp"]))
+        print(
+            f"| {r['resolution']} | {r['dx_nm']:g} | {r['dy_nm']:g} | {r['dt_h']:g} | {r['speed_step_kn']:g} | "
+            f"{r['time_s']:.2f} | {r['time_ratio']:.2f} | {r['fuel_t']:.2f} | {r['fuel_ratio']:.4f} | "
+            f"{r['arrival_h']:.2f} | {r['eta_met']} |"
+        )
+    print(
+        f"\nthe NLP without fit corrections (the fit's optimum): {n['fit_only_fuel_t']:.2f} t; with "
+        f"{n['fit_corrections']} corrections: {n['fuel_t']:.2f} t. The DP routes re-evaluated by the plan evaluator "
+        "(the NLP's referee, 5 nm steps, constant STW per DP leg): "
+        + "; ".join(
+            f"{r['resolution']} {r['as_plan_fuel_t']:.2f} t ({r['as_plan_ratio']:.4f} of the NLP, "
+            f"{r['as_plan_violations']} violations)"
+            for r in b["dp"]
+        )
+    )
     c = b.get("crossing")
     if c:
         cn, cd = c["nlp"], c["dp"]
-        print(f"\nStorm crossing the track (730 nm, 9 m, ETA 56 h; fit error up to {cn['fit_max_rel_error']:.0%}): "
-              f"NLP {cn['legs']} legs {cn['fuel_t']:.2f} t in {cn['median_total_s']:.1f} s (fit's optimum "
-              f"{cn['fit_only_fuel_t']:.2f} t), verify {cn['violations']}; DP 60/10 nm, 1 h, 0.5 kn: {cd['fuel_t']:.2f} t "
-              f"({cd['fuel_ratio']:.4f} of the NLP) in {cd['time_s']:.1f} s, re-evaluated {cd['as_plan_fuel_t']:.2f} t "
-              f"({cd['as_plan_ratio']:.4f}, {cd['as_plan_violations']} violations) — the DP wins here")
+        print(
+            f"\nStorm crossing the track (730 nm, 9 m, ETA 56 h; fit error up to {cn['fit_max_rel_error']:.0%}): "
+            f"NLP {cn['legs']} legs {cn['fuel_t']:.2f} t in {cn['median_total_s']:.1f} s (fit's optimum "
+            f"{cn['fit_only_fuel_t']:.2f} t), verify {cn['violations']}; DP 60/10 nm, 1 h, 0.5 kn: {cd['fuel_t']:.2f} t "
+            f"({cd['fuel_ratio']:.4f} of the NLP) in {cd['time_s']:.1f} s, re-evaluated {cd['as_plan_fuel_t']:.2f} t "
+            f"({cd['as_plan_ratio']:.4f}, {cd['as_plan_violations']} violations) — the DP wins here"
+        )
 
 
 def run(quick: bool) -> dict[str, Any]:

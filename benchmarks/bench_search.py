@@ -52,8 +52,17 @@ from scipy.sparse.csgraph import dijkstra as csgraph_dijkstra
 
 import optroute as orx
 from benchmarks._cli import bench_main
-from optroute import geo, routing
-from optroute.search import RouteGrid, _kernels, angular_resolution, compass, grid_edges, shortest_path, solve_dp
+from optroute import geodesy as geo
+from optroute.search import (
+    RouteGrid,
+    _kernels,
+    angular_resolution,
+    compass,
+    grid_edges,
+    routing,
+    shortest_path,
+    solve_dp,
+)
 from optroute.search.costs import LegEvaluator
 
 Arr = np.ndarray

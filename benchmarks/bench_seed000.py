@@ -1,11 +1,11 @@
 """Seed 000 reproduction (Boeing EP 2145155): San Diego → Tokyo through two storms, great circle vs optimised route.
 
-``optroute.demo.run_demo`` composes the steps: ``north_pacific_storms()``,
+``optroute.cli.demo.run_demo`` composes the steps: ``north_pacific_storms()``,
 ``Ship.preset("container_8000teu")`` at 25 kn with the patent's ship model (calm-water power,
 the four danger bands, no minimum load), and
 
 1. the great circle sailed with forced slow-downs out of the bands
-   (``optroute.routing.sail_route``, Boeing's speed reduction);
+   (``optroute.search.routing.sail_route``, Boeing's speed reduction);
 2. the searched route (time-dependent A* on a gnomonic grid, 5° angular resolution, 25 kn);
 3. the optimised plan (``optimise_corridor``, least fuel arriving by the patent's 8 d 8 h, verified).
 
@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 
 from benchmarks._cli import bench_main, results_dir
-from optroute import geo
-from optroute.demo import SAN_DIEGO, TOKYO, run_demo
+from optroute import geodesy as geo
+from optroute.cli.demo import SAN_DIEGO, TOKYO, run_demo
 
 SEED_GC_H = 12 * 24.0
 """EP 2145155: the great circle with forced slow-downs takes "more than 12 days" [h] (a lower bound)."""
@@ -85,7 +85,7 @@ def figure(rows: list[dict[str, Any]], path: Any) -> Any:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from optroute.plot import save_png
+    from optroute.plot.common import save_png
 
     fig = Figure(figsize=(9.0, 4.0))
     FigureCanvasAgg(fig)

@@ -178,7 +178,7 @@ def figure(res: dict[str, Any], path: Any) -> Any:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from optroute.plot import save_png
+    from optroute.plot.common import save_png
 
     fig = Figure(figsize=(7.5, 4.8))
     FigureCanvasAgg(fig)

@@ -151,9 +151,20 @@ def _child(path: str, n: int, load_bytes: int) -> None:
     sampler.sample(t, rng.uniform(-60, 60, n), rng.uniform(-180, 180, n))
     sample_s = time.perf_counter() - t0
     sampled = _rss_bytes()
-    print(json.dumps({"base": base, "opened": opened, "sampled": sampled, "peak": _rss_bytes("VmHWM"),
-                      "dask_backed": dask_backed, "lazy": sampler.lazy, "slices": len(sampler._cache),
-                      "sample_s": sample_s}))
+    print(
+        json.dumps(
+            {
+                "base": base,
+                "opened": opened,
+                "sampled": sampled,
+                "peak": _rss_bytes("VmHWM"),
+                "dask_backed": dask_backed,
+                "lazy": sampler.lazy,
+                "slices": len(sampler._cache),
+                "sample_s": sample_s,
+            }
+        )
+    )
 
 
 def _write_big(path: Path, step: float, nt: int) -> None:
@@ -232,17 +243,25 @@ def run(quick: bool) -> dict[str, Any]:
     print("|---|---:|---:|")
     print(f"| `xarray.Dataset.interp` (DataArray indexers) | {s['xarray_interp_s']:.3f} | 1.0 |")
     print(f"| `WeatherSampler.sample` ({s['engine']} kernel) | {s['sampler_s']:.3f} | {s['speedup_vs_xarray']:.1f} |")
-    print(f"| `WeatherSampler.sample` (numpy kernel) | {s['numpy_engine_s']:.3f} | {s['numpy_speedup_vs_xarray']:.1f} |")
-    print(f"| `WeatherSampler` set-up + sample | {s['sampler_s'] + s['sampler_setup_s']:.3f} | {s['speedup_incl_setup']:.1f} |")
+    print(
+        f"| `WeatherSampler.sample` (numpy kernel) | {s['numpy_engine_s']:.3f} | {s['numpy_speedup_vs_xarray']:.1f} |"
+    )
+    print(
+        f"| `WeatherSampler` set-up + sample | {s['sampler_s'] + s['sampler_setup_s']:.3f} | {s['speedup_incl_setup']:.1f} |"
+    )
     print(f"\nmax |hs_m(sampler) - hs_m(xarray)| = {s['max_abs_diff_hs_m']:.2e} m\n")
     print("### Lazy open of a large NetCDF file\n")
     if "skipped" in lz:
         print(f"skipped: {lz['skipped']}")
     else:
-        print("| file [GB] | points | dask-backed | slices read | RSS after open [MB] | RSS after sampling [MB] | peak RSS [MB] | peak / file size | peak / one time slice |")
+        print(
+            "| file [GB] | points | dask-backed | slices read | RSS after open [MB] | RSS after sampling [MB] | peak RSS [MB] | peak / file size | peak / one time slice |"
+        )
         print("|---:|---:|:---:|---:|---:|---:|---:|---:|---:|")
-        print(f"| {lz['file_gb']:.2f} | {lz['points']:,} | {lz['dask_backed']} | {lz['slices_read']} | {lz['rss_open_mb']:.0f} | "
-              f"{lz['rss_sampled_mb']:.0f} | {lz['rss_peak_mb']:.0f} | {lz['peak_over_file']:.3f} | {lz['peak_over_slice']:.1f} |")
+        print(
+            f"| {lz['file_gb']:.2f} | {lz['points']:,} | {lz['dask_backed']} | {lz['slices_read']} | {lz['rss_open_mb']:.0f} | "
+            f"{lz['rss_sampled_mb']:.0f} | {lz['rss_peak_mb']:.0f} | {lz['peak_over_file']:.3f} | {lz['peak_over_slice']:.1f} |"
+        )
     return {"sampling": s, "lazy": lz}
 
 

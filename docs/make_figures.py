@@ -1,6 +1,6 @@
 """Regenerate the README's figures from the demo voyage: ``python docs/make_figures.py``.
 
-Runs :func:`optroute.demo.run_demo` (the same computation as ``optroute demo``:
+Runs :func:`optroute.cli.demo.run_demo` (the same computation as ``optroute demo``:
 San Diego → Tokyo through ``north_pacific_storms()``, searched and optimised)
 in a temporary folder and copies its PNG figures to ``docs/figures/``, each
 written atomically.  Nothing is drawn by hand; run it again after a change to
@@ -19,8 +19,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from optroute.demo import run_demo
-from optroute.outputs import write_bytes
+from optroute.cli.demo import run_demo
+from optroute.plan.outputs import write_bytes
 
 HERE = Path(__file__).resolve().parent
 MAX_BYTES = 300_000  # keep the repository light: every figure below 300 kB
@@ -37,7 +37,7 @@ def front_png() -> bytes:
 
     import matplotlib.pyplot as plt
 
-    from optroute import tradeoff
+    from optroute.studies import tradeoff
 
     sys.path.insert(0, str(HERE.parent))
     from benchmarks.bench_front import T0, case

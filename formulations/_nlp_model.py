@@ -35,7 +35,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from formulations._common import Band, PowerModel
+from formulations.common import Band, PowerModel
 
 __all__ = [
     "ABS_EPS_KN",

@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from formulations._common import FormulationInputError, PowerLawFuel, as_float_array, broadcast_legs
+from formulations.common import FormulationInputError, PowerLawFuel, as_float_array, broadcast_legs
 
 __all__ = [
     "BonminResult",

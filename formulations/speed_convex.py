@@ -3,7 +3,7 @@
 On a fixed path with static weather per leg and every band side fixed, the
 only decisions are the leg times ``t_i`` [h]. The fuel of a leg is the
 perspective ``t · r(d/t)`` of a convex fuel-rate curve ``r`` (see
-:class:`formulations._common.PowerLawFuel`), hence convex in ``t``
+:class:`formulations.common.PowerLawFuel`), hence convex in ``t``
 (Norstad, Fagerholt & Laporte 2011; Hvattum, Norstad, Fagerholt & Laporte
 2013), and the problem
 
@@ -41,7 +41,7 @@ import cvxpy as cp
 import numpy as np
 from numpy.typing import ArrayLike
 
-from formulations._common import FormulationInputError, PowerLawFuel, as_float_array, broadcast_legs
+from formulations.common import FormulationInputError, PowerLawFuel, as_float_array, broadcast_legs
 
 __all__ = ["ConvexSpeedResult", "solve_speed_convex"]
 

@@ -17,7 +17,7 @@ follow from the offsets. Every leg is sub-sampled at ``m`` points at
 fractions ``(j + ½)/m``; at each sample the position in corridor
 coordinates ``(s, y)`` and the time are interpolated linearly, the weather is
 read from a CasADi spline/interpolant over the corridor's ``(t, s, y)`` grid
-(:class:`formulations._common.WeatherGrid`; so the conditions move with the
+(:class:`formulations.common.WeatherGrid`; so the conditions move with the
 ship's timing), and every constraint is imposed.
 Leg time and fuel are midpoint-rule integrals over the samples:
 
@@ -48,7 +48,7 @@ elasticity ``e_k`` at the reference speed ``V_k``, and a logarithmic slope
 the Fourth IMO GHG Study curve ``SFOC(L) = SFC_base (0.455 L² − 0.710 L + 1.280)``
 (physics.md §8).
 
-Danger bands (:class:`formulations._common.Band`) are imposed per leg, sample
+Danger bands (:class:`formulations.common.Band`) are imposed per leg, sample
 and band with the side fixed by the caller (``ratio ≤ lower`` or ``ratio ≥
 upper``) as smooth one-sided constraints, only where the band is declared
 applicable; :meth:`SpeedNLP.solve` reports the ratios and the Hs at every
@@ -80,7 +80,15 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
-from formulations._common import (
+from formulations._nlp_model import (
+    POWER_TERM_DEFAULTS,
+    POWER_TERMS,
+    jit_compiler,
+    power_multiplier,
+    sample_physics,
+    structured_derivatives,
+)
+from formulations.common import (
     G_OVER_2PI_KN_S,
     Band,
     CorridorGeometry,
@@ -89,14 +97,6 @@ from formulations._common import (
     PowerModel,
     WeatherGrid,
     broadcast_legs,
-)
-from formulations._nlp_model import (
-    POWER_TERM_DEFAULTS,
-    POWER_TERMS,
-    jit_compiler,
-    power_multiplier,
-    sample_physics,
-    structured_derivatives,
 )
 
 __all__ = [
@@ -144,7 +144,7 @@ class SampleState:
     cos_chi : numpy.ndarray
         cos of the angle between heading and wave propagation [-] (1 = following sea).
     ratio : numpy.ndarray, shape (n_legs, m, n_bands)
-        Band ratios (see :class:`formulations._common.Band`).
+        Band ratios (see :class:`formulations.common.Band`).
     applies : numpy.ndarray of bool, shape (n_legs, m, n_bands)
         ``hs_m ≥ band.hs_min_m`` at this sample.
     inside : numpy.ndarray of bool, shape (n_legs, m, n_bands)

@@ -5,10 +5,22 @@ NLP then optimises the speed and heading along it for time, fuel or cost,
 subject to the ETA, the engine's MCR and the wave-encounter danger bands of
 IMO MSC.1/Circ.1228 and Boeing's EP 2145155.
 
-See ``README.md`` for the command line and ``shared/design.md`` for the
-public contract.
+The package follows the pipeline (``docs/design.md`` draws the layers, which
+import-linter enforces): :mod:`optroute.physics` → :mod:`optroute.weather` →
+:mod:`optroute.geo` → :mod:`optroute.search` → :mod:`optroute.plot` /
+:mod:`optroute.plan` → :mod:`optroute.optimise` → :mod:`optroute.studies` →
+:mod:`optroute.cli`.
+
+The public names below are loaded on first use (PEP 562), so ``import optroute``
+and ``optroute --help`` do not wait for CasADi, CVXPY, matplotlib or Dask.
 """
 
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+from optroute._version import __version__
 from optroute.errors import (
     ConfigError,
     InfeasibleETA,
@@ -21,49 +33,69 @@ from optroute.errors import (
     WeatherCoverageError,
     WeatherSchemaError,
 )
-from optroute.optimise import optimise_corridor, plan_voyage
-from optroute.performance import CalmWaterModel, KwonModel, PerformanceModel, PowerTableModel
-from optroute.plan import Exclusion, Plan, PlanContext, Violation
-from optroute.route import Corridor, Route
-from optroute.routing import search_route
-from optroute.safety import BandRules, ForbiddenInterval, band_margins, forbidden_speed_intervals
-from optroute.ship import Ship
-from optroute.study import StudyError, load_study, run_study
-from optroute.tradeoff import TradeoffFront, tradeoff
-from optroute.voyage_study import study
-from optroute.weather import WeatherSampler, load_weather, open_weather, scenarios
 
-__version__ = "0.1.0"
+#: Public name → the module that defines it (imported when the name is first used).
+_LAZY: dict[str, str] = {
+    "optimise_corridor": "optroute.optimise.api",
+    "plan_voyage": "optroute.optimise.api",
+    "CalmWaterModel": "optroute.physics.performance",
+    "KwonModel": "optroute.physics.performance",
+    "PerformanceModel": "optroute.physics.performance",
+    "PowerTableModel": "optroute.physics.performance",
+    "Exclusion": "optroute.plan.result",
+    "Plan": "optroute.plan.result",
+    "PlanContext": "optroute.plan.result",
+    "Violation": "optroute.plan.result",
+    "Corridor": "optroute.search.route",
+    "Route": "optroute.search.route",
+    "search_route": "optroute.search.routing",
+    "BandRules": "optroute.physics.safety",
+    "ForbiddenInterval": "optroute.physics.safety",
+    "band_margins": "optroute.physics.safety",
+    "forbidden_speed_intervals": "optroute.physics.safety",
+    "Ship": "optroute.physics.ship",
+    "StudyError": "optroute.studies.study",
+    "SchedulerUnreachable": "optroute.studies.study",
+    "load_study": "optroute.studies.study",
+    "run_study": "optroute.studies.study",
+    "TradeoffFront": "optroute.studies.tradeoff",
+    "tradeoff": "optroute.studies.tradeoff",
+    "study": "optroute.studies.voyage_study",
+    "WeatherSampler": "optroute.weather",
+    "load_weather": "optroute.weather",
+    "open_weather": "optroute.weather",
+    "scenarios": "optroute.weather",
+}
+
+if TYPE_CHECKING:  # what the lazy names resolve to, for type checkers and IDEs
+    from optroute.optimise.api import optimise_corridor, plan_voyage
+    from optroute.physics.performance import CalmWaterModel, KwonModel, PerformanceModel, PowerTableModel
+    from optroute.physics.safety import BandRules, ForbiddenInterval, band_margins, forbidden_speed_intervals
+    from optroute.physics.ship import Ship
+    from optroute.plan.result import Exclusion, Plan, PlanContext, Violation
+    from optroute.search.route import Corridor, Route
+    from optroute.search.routing import search_route
+    from optroute.studies.study import SchedulerUnreachable, StudyError, load_study, run_study
+    from optroute.studies.tradeoff import TradeoffFront, tradeoff
+    from optroute.studies.voyage_study import study
+    from optroute.weather import WeatherSampler, load_weather, open_weather, scenarios
+
+
+def __getattr__(name: str) -> Any:
+    """Load a public name on first use (PEP 562)."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'optroute' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = [
-    "Exclusion",
-    "Plan",
-    "PlanContext",
-    "Violation",
-    "optimise_corridor",
-    "plan_voyage",
-    "BandRules",
-    "CalmWaterModel",
-    "Corridor",
-    "ForbiddenInterval",
-    "KwonModel",
-    "PerformanceModel",
-    "PowerTableModel",
-    "Route",
-    "Ship",
-    "StudyError",
-    "TradeoffFront",
-    "WeatherSampler",
-    "load_weather",
-    "open_weather",
-    "run_study",
-    "scenarios",
-    "search_route",
-    "study",
-    "tradeoff",
-    "band_margins",
-    "forbidden_speed_intervals",
-    "load_study",
     "ConfigError",
     "InfeasibleETA",
     "NoSafePassage",
@@ -75,4 +107,33 @@ __all__ = [
     "WeatherCoverageError",
     "WeatherSchemaError",
     "__version__",
+    "optimise_corridor",
+    "plan_voyage",
+    "CalmWaterModel",
+    "KwonModel",
+    "PerformanceModel",
+    "PowerTableModel",
+    "Exclusion",
+    "Plan",
+    "PlanContext",
+    "Violation",
+    "Corridor",
+    "Route",
+    "search_route",
+    "BandRules",
+    "ForbiddenInterval",
+    "band_margins",
+    "forbidden_speed_intervals",
+    "Ship",
+    "StudyError",
+    "SchedulerUnreachable",
+    "load_study",
+    "run_study",
+    "TradeoffFront",
+    "tradeoff",
+    "study",
+    "WeatherSampler",
+    "load_weather",
+    "open_weather",
+    "scenarios",
 ]

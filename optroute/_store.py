@@ -16,7 +16,7 @@ to disk and then moved into place with :func:`os.replace`, so a reader (or a
 resumed run) sees either the whole file or none of it.  The set of case files
 *is* the study's progress: there is no second record that could disagree.
 
-This module knows nothing about Dask; :mod:`optroute.study` drives it.
+This module knows nothing about Dask; :mod:`optroute.studies.study` drives it.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ import xarray as xr
 
 from optroute.errors import OptrouteError
 
-FORMAT = "optroute.study/1"
+FORMAT = "optroute.studies.study/1"
 MANIFEST = "manifest.json"
 CASES = "cases"
 LOCK = ".lock"
@@ -64,7 +64,7 @@ _CHUNK_BYTES = 1 << 20
 class StudyError(OptrouteError):
     """A study store, its cluster or its cases cannot be used as asked.
 
-    Re-exported as :class:`optroute.study.StudyError`.
+    Re-exported as :class:`optroute.studies.study.StudyError`.
     """
 
 

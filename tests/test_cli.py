@@ -23,12 +23,12 @@ import pytest
 import xarray as xr
 
 import optroute as orx
-from optroute import geo
+from optroute import geodesy as geo
 from optroute.cli import exit_code, main
 from optroute.cli import tools as cli_tools
 from optroute.cli._common import parse_eta, parse_etas, parse_position, read_waypoints
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, OnLandError, SolverFailure
-from optroute.land import SYNTHETIC_GEOGRAPHY
+from optroute.geo.land import SYNTHETIC_GEOGRAPHY
 from optroute.weather.catalogue import scenario_names
 from tests.test_outputs import check_rfc7946
 
@@ -127,9 +127,24 @@ def test_optimise_calm_fixed_path_is_constant_speed_and_writes_three_files(capsy
 def test_plan_with_the_default_grid_search(capsys, files, tmp_path):
     # the default --search grid is the time-dependent A* (a minimum-time plan: one search, no λ bisection);
     # no plan can beat the great circle at the top calm-water speed
-    code, out, err = run(capsys, "plan", "--ship", "container_54k_dwt", "--from", "30,-150", "--to", "32N,140W",
-                         "--weather", files["rough"], "--cell-nm", "60", "--objective", "time",
-                         "--out", f"{tmp_path}/grid/")
+    code, out, err = run(
+        capsys,
+        "plan",
+        "--ship",
+        "container_54k_dwt",
+        "--from",
+        "30,-150",
+        "--to",
+        "32N,140W",
+        "--weather",
+        files["rough"],
+        "--cell-nm",
+        "60",
+        "--objective",
+        "time",
+        "--out",
+        f"{tmp_path}/grid/",
+    )
     assert code == 0, err
     csv = pd.read_csv(tmp_path / "grid" / "plan.csv")
     hours = csv["duration_h"].sum()

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from optroute.cli import main
-from optroute.safety import BANDS, is_speed_forbidden
-from optroute.ship import Ship
+from optroute.physics.safety import BANDS, is_speed_forbidden
+from optroute.physics.ship import Ship
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -45,8 +45,20 @@ def test_defaults_work_and_show_bands_that_apply(capsys):
 
 def test_below_threshold_says_bands_do_not_apply(capsys):
     # container_8000teu, L 320 m: 0.04 L = 12.8 m > Hs 6 m
-    code, out, err = run(capsys, "bands", "--ship", "container_8000teu", "--hs", "6", "--period", "11",
-                         "--heading", "180", "--wave-from", "0")
+    code, out, err = run(
+        capsys,
+        "bands",
+        "--ship",
+        "container_8000teu",
+        "--hs",
+        "6",
+        "--period",
+        "11",
+        "--heading",
+        "180",
+        "--wave-from",
+        "0",
+    )
     assert code == 0 and err == ""
     assert "bands do not apply" in out
     assert "forbidden speeds [kn]: none" in out
@@ -54,7 +66,20 @@ def test_below_threshold_says_bands_do_not_apply(capsys):
 
 
 def test_table_rows_are_forbidden_speeds(capsys):
-    code, out, err = run(capsys, "bands", "--ship", "container_8000teu", "--hs", "14", "--period", "11", "--heading", "180", "--wave-from", "0")
+    code, out, err = run(
+        capsys,
+        "bands",
+        "--ship",
+        "container_8000teu",
+        "--hs",
+        "14",
+        "--period",
+        "11",
+        "--heading",
+        "180",
+        "--wave-from",
+        "0",
+    )
     assert code == 0 and err == ""
     assert "bands APPLY" in out
     rows = table_rows(out)

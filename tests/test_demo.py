@@ -16,7 +16,7 @@ import pandas as pd
 import pytest
 import xarray as xr
 
-import optroute.demo as demo
+import optroute.cli.demo as demo
 from optroute.cli import main
 from optroute.errors import ConfigError
 

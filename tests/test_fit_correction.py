@@ -1,10 +1,10 @@
-"""The first-order fit correction (optroute.fit_correction) against finite differences of the true model.
+"""The first-order fit correction (optroute.optimise.fit_correction) against finite differences of the true model.
 
 At a solution of the corridor NLP (Kwon's model seen through its least-squares fit), the corrected
 multiplier must make the NLP's leg power equal the true model's, its speed elasticity equal the true
 one — checked here with a central difference five times finer than the module's own — and move its
 time slope by the relaxation share of the defect. The true model is evaluated by
-:func:`optroute.plan_eval.evaluate_track`, independently of the NLP.
+:func:`optroute.plan.evaluate.evaluate_track`, independently of the NLP.
 """
 
 from __future__ import annotations
@@ -16,10 +16,10 @@ import pytest
 
 import optroute as orx
 from formulations.speed_nlp import jit_compiler
-from optroute import fit_correction as fc
-from optroute.corridor_problem import PreparedCorridor
 from optroute.errors import ConfigError
-from optroute.optimise import _to_plan
+from optroute.optimise import fit_correction as fc
+from optroute.optimise.corridor_problem import PreparedCorridor
+from optroute.optimise.rescue import _to_plan
 from tests.test_optimise import SHIP, T0
 
 ETA_H = 56.0

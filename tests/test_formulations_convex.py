@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from formulations._common import FormulationInputError, NonConvexFuelModel, PowerLawFuel
+from formulations.common import FormulationInputError, NonConvexFuelModel, PowerLawFuel
 from formulations.speed_convex import solve_speed_convex
 
 # physics.md §9, checked by hand: t_i ∝ d_i k_i^(1/3), fuel = Σ k d³/t².

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from formulations._common import (
+from formulations.common import (
     G_OVER_2PI_KN_S,
     Band,
     CorridorGeometry,

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.interpolate import RegularGridInterpolator
 
-from formulations._common import (
+from formulations.common import (
     G_OVER_2PI_KN_S,
     Band,
     CorridorGeometry,
@@ -52,11 +52,20 @@ def test_leg_power_exponent_is_the_analytic_power_law_split(structured: bool) ->
     # f_k (V/V_k)^e_k · V³ is a power law V^(3+e_k): with one exponent n = 3 + e on every leg the fuel
     # Σ c_k d_k^n t_k^(1-n) (c_k = f_k V_k^-e) is least at t_k ∝ d_k c_k^(1/n) (Lagrange: (n-1) c_k d_k^n t_k^-n = λ)
     e, v_ref = np.array([0.4, 0.4, 0.4, 0.4]), np.array([12.0, 15.0, 9.0, 20.0])
-    nlp = SpeedNLP(CorridorGeometry.straight(D), CALM, CUBIC, leg_power_factor=K,
-                   leg_power_correction={"exponent": e, "ref_kn": v_ref}, samples_per_leg=2, structured=structured, v_min_kn=1.0, v_max_kn=40.0)
+    nlp = SpeedNLP(
+        CorridorGeometry.straight(D),
+        CALM,
+        CUBIC,
+        leg_power_factor=K,
+        leg_power_correction={"exponent": e, "ref_kn": v_ref},
+        samples_per_leg=2,
+        structured=structured,
+        v_min_kn=1.0,
+        v_max_kn=40.0,
+    )
     res = nlp.solve(eta_h=100.0)
     assert res.success
-    c = K * v_ref ** -e
+    c = K * v_ref**-e
     n_exp = 3.0 + e[0]
     t = D * c ** (1.0 / n_exp)
     t *= res.duration_total_h / t.sum()
@@ -88,8 +97,9 @@ def test_fixed_path_nlp_equals_the_convex_optimum(n: int, seed: int, slacks: lis
         res = nlp.solve(eta_h=eta)
         ref = solve_speed_convex(d, PowerLawFuel.cubic(k), eta_h=eta, v_max_kn=v_max, v_min_kn=1.0)
         if ref.status == "optimal_inaccurate":  # Clarabel on the power cones, rarely (n=9, seed=79547, slack 1.37)
-            ref = solve_speed_convex(d, PowerLawFuel.cubic(k), eta_h=eta, v_max_kn=v_max, v_min_kn=1.0,
-                                     formulation="power")
+            ref = solve_speed_convex(
+                d, PowerLawFuel.cubic(k), eta_h=eta, v_max_kn=v_max, v_min_kn=1.0, formulation="power"
+            )
         assert res.success and ref.success
         assert res.total_fuel_t == pytest.approx(ref.total_fuel_t, rel=1e-6)
         np.testing.assert_allclose(res.duration_h, ref.time_h, rtol=2e-3)
@@ -151,9 +161,17 @@ def test_structured_derivatives_equal_casadi_automatic_differentiation() -> None
     n = exact.n_legs
     x = np.concatenate([rng.uniform(-20, 20, n + 1), rng.uniform(10, 20, n), np.linspace(0, 40, n + 1)])
     # w, β, then the per-leg multiplier M_k = f_k (V/V_k)^e_k exp(a_k τ tanh((t̄ - T_k)/τ)): f, e, V, a, T
-    p = np.concatenate([[1.3, 0.7], rng.uniform(0.5, 1.5, n * 3 * 2), rng.uniform(0.5, 1.5, n),
-                        rng.uniform(-1.0, 1.0, n), rng.uniform(10.0, 20.0, n), rng.uniform(-0.3, 0.3, n),
-                        rng.uniform(0.0, 40.0, n)])
+    p = np.concatenate(
+        [
+            [1.3, 0.7],
+            rng.uniform(0.5, 1.5, n * 3 * 2),
+            rng.uniform(0.5, 1.5, n),
+            rng.uniform(-1.0, 1.0, n),
+            rng.uniform(10.0, 20.0, n),
+            rng.uniform(-0.3, 0.3, n),
+            rng.uniform(0.0, 40.0, n),
+        ]
+    )
     lam_g = rng.normal(size=exact._ng)
     for name, args in (("nlp_grad_f", [x, p]), ("nlp_jac_g", [x, p]), ("nlp_hess_l", [x, p, 0.8, lam_g])):
         mine = exact._solver.get_function(name)(*args)

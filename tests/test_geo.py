@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from optroute import geo
+from optroute import geodesy as geo
 
 lats = st.floats(-80.0, 80.0)
 lons = st.floats(-180.0, 179.999)

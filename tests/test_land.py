@@ -9,16 +9,32 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from optroute import geo, land
+from optroute import geodesy as geo
 from optroute.errors import ConfigError, OnLandError
+from optroute.geo import land
 from optroute.weather import WeatherSampler
 from optroute.weather.schema import canonical_dataset
 
 SAN_DIEGO = (32.71, -117.17)
 TOKYO = (35.65, 139.77)
 
-OPEN_OCEAN = [(30.0, -150.0), (0.0, -140.0), (45.0, 179.99), (45.0, -180.0), (-40.0, 20.0), (-50.0, -100.0), (10.0, 65.0)]
-LAND = [(38.5, -98.0), (48.85, 2.35), (-25.0, 135.0), (35.68, 139.69), (28.0, -113.0), (44.0, -87.0)]  # ... Lake Michigan
+OPEN_OCEAN = [
+    (30.0, -150.0),
+    (0.0, -140.0),
+    (45.0, 179.99),
+    (45.0, -180.0),
+    (-40.0, 20.0),
+    (-50.0, -100.0),
+    (10.0, 65.0),
+]
+LAND = [
+    (38.5, -98.0),
+    (48.85, 2.35),
+    (-25.0, 135.0),
+    (35.68, 139.69),
+    (28.0, -113.0),
+    (44.0, -87.0),
+]  # ... Lake Michigan
 
 
 def test_known_points():
@@ -32,7 +48,9 @@ def test_known_points():
     assert land.is_land(np.zeros((2, 3)), np.zeros((2, 3))).shape == (2, 3)
 
 
-@pytest.mark.parametrize(("port", "box"), [(SAN_DIEGO, (32.55, 32.75, -117.30, -117.10)), (TOKYO, (35.30, 35.70, 139.60, 140.10))])
+@pytest.mark.parametrize(
+    ("port", "box"), [(SAN_DIEGO, (32.55, 32.75, -117.30, -117.10)), (TOKYO, (35.30, 35.70, 139.60, 140.10))]
+)
 def test_ports_snap_to_sea_with_a_warning(port, box):
     with pytest.warns(UserWarning, match=r"moved .* nm to the nearest navigable water"):
         lat, lon = land.snap_to_sea(*port, max_distance_nm=10.0, what="start")
@@ -64,7 +82,9 @@ def test_leg_across_baja_california_crosses_land():
     assert -117.0 < hit[1] < -112.0 and land.is_land(*hit)
     # the first land point: everything before it along the leg is sea
     d = float(geo.distance_nm(31.5, -117.5, *hit))
-    lat, lon = geo.intermediate_points(31.5, -117.5, 25.0, -110.5, np.linspace(0, d / float(geo.distance_nm(31.5, -117.5, 25.0, -110.5)), 50)[:-2])
+    lat, lon = geo.intermediate_points(
+        31.5, -117.5, 25.0, -110.5, np.linspace(0, d / float(geo.distance_nm(31.5, -117.5, 25.0, -110.5)), 50)[:-2]
+    )
     assert not land.is_land(lat, lon).any()
 
 
@@ -81,7 +101,14 @@ def test_antimeridian_leg_through_the_aleutians():
 
 
 def test_vectorised_legs_agree_with_single_legs():
-    legs = np.array([[31.5, -117.5, 25.0, -110.5], [30.0, -150.0, 35.0, -140.0], [50.0, 170.0, 50.0, -170.0], [52.0, 179.0, 52.0, -178.0]])
+    legs = np.array(
+        [
+            [31.5, -117.5, 25.0, -110.5],
+            [30.0, -150.0, 35.0, -140.0],
+            [50.0, 170.0, 50.0, -170.0],
+            [52.0, 179.0, 52.0, -178.0],
+        ]
+    )
     many = land.legs_cross_land(*legs.T)
     single = [land.leg_crosses_land(*leg) is not None for leg in legs]
     assert many.tolist() == single == [True, False, False, True]
@@ -124,7 +151,9 @@ def test_navigable_follows_the_weather_nan_cells_like_the_sampler():
 def test_snap_and_legs_respect_weather_nan():
     ds, t0 = _weather()
     with pytest.warns(UserWarning, match="moved"):
-        lat, lon = land.snap_to_sea(15.0, 180.0, max_distance_nm=200.0, weather=ds, use_land_mask=False, clearance_nm=0.0)
+        lat, lon = land.snap_to_sea(
+            15.0, 180.0, max_distance_nm=200.0, weather=ds, use_land_mask=False, clearance_nm=0.0
+        )
     assert land.navigable(lat, lon, weather=ds, use_land_mask=False)
     # the sampler's stencil (floor, both neighbours) blocks lon 179..181 and lat 14..16 around the NaN point;
     # the nearest clear point is 1 deg of longitude east: 60 cos(15 deg) = 57.96 nm (to within the 1 nm candidate step)
@@ -174,12 +203,17 @@ def test_default_backend_choice(monkeypatch):
 
 
 @settings(max_examples=150, deadline=None)
-@given(n=st.integers(3, 40), seed=st.integers(0, 2**31 - 1), blocked=st.floats(0.0, 0.4),
-       step=st.floats(0.05, 3.0), reach_steps=st.floats(0.0, 8.0))
+@given(
+    n=st.integers(3, 40),
+    seed=st.integers(0, 2**31 - 1),
+    blocked=st.floats(0.0, 0.4),
+    step=st.floats(0.05, 3.0),
+    reach_steps=st.floats(0.0, 8.0),
+)
 def test_disk_erosion_equals_scipys_binary_erosion(n, seed, blocked, step, reach_steps):
     from scipy import ndimage
 
-    from optroute.land import _erode_disk
+    from optroute.geo.land import _erode_disk
 
     ok = np.random.default_rng(seed).random((n, n)) >= blocked
     reach = reach_steps * step

@@ -1,4 +1,4 @@
-"""Lateral bounds of the corridor NLP against land (optroute.lateral), checked by brute force and geometry."""
+"""Lateral bounds of the corridor NLP against land (optroute.optimise.lateral), checked by brute force and geometry."""
 
 from __future__ import annotations
 
@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 import optroute as orx
-from optroute import geo, land
-from optroute.lateral import avoid_point, lateral_bounds
-from optroute.nlp_inputs import build_frame
+from optroute import geodesy as geo
+from optroute.geo import land
+from optroute.optimise.lateral import avoid_point, lateral_bounds
+from optroute.optimise.nlp_inputs import build_frame
 
 T0 = np.datetime64("2024-01-01T00:00")
 
@@ -158,7 +159,7 @@ def test_san_clemente_corridor_returns_a_verified_plan_off_land():
 
 
 def test_the_verification_loop_moves_a_leg_off_land_the_bounds_missed(monkeypatch):
-    import optroute.corridor_problem as cp
+    import optroute.optimise.corridor_problem as cp
 
     def corridor_wide(frame, **kw):  # the old failure: bounds blind to the island
         hi = np.asarray(frame.corridor.half_width_nm, float).copy()

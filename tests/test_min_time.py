@@ -14,8 +14,9 @@ import pytest
 import xarray as xr
 
 import optroute as orx
-from optroute.min_time import DeadEnd, TimedStart, timed_safe_start
-from optroute.optimise import optimise_corridor
+from optroute import geodesy as orx_geodesy
+from optroute.optimise.api import optimise_corridor
+from optroute.optimise.min_time import DeadEnd, TimedStart, timed_safe_start
 from optroute.weather import schema
 
 SHIP = orx.Ship.preset("container_54k_dwt")
@@ -52,7 +53,7 @@ def _corridor() -> orx.Corridor:
 
 
 def _nm(lon_a: float, lon_b: float) -> float:
-    return float(orx.geo.distance_nm(0.0, lon_a, 0.0, lon_b))
+    return float(orx_geodesy.distance_nm(0.0, lon_a, 0.0, lon_b))
 
 
 def _earliest_by_hand(v_max: float) -> tuple[float, float]:
@@ -77,8 +78,8 @@ def sea():
 
 
 def test_timed_safe_start_sails_calm_water_at_top_speed_and_waits_for_the_blocked_window(sea):
-    from optroute.corridor_problem import PreparedCorridor
-    from optroute.nlp_solve import warm_rules
+    from optroute.optimise.corridor_problem import PreparedCorridor
+    from optroute.optimise.nlp_solve import warm_rules
 
     pc = PreparedCorridor(_corridor(), sea, SHIP, departure=T0, objective="time", **KW)
     ctx = pc.plan_context()
@@ -96,7 +97,7 @@ def test_timed_safe_start_sails_calm_water_at_top_speed_and_waits_for_the_blocke
     low, _ = _earliest_by_hand(pc.v_max)
     assert timed.arrival_h >= low
     # Boeing's reduction from the top speed meets the stretch inside the window: no allowed speed there
-    from optroute.nlp_solve import safe_warm_start
+    from optroute.optimise.nlp_solve import safe_warm_start
 
     stuck = safe_warm_start(ctx, pc.frame, T0, pc.v_max, pc.v_min, rules=rules)
     assert np.any(stuck["stw_kn"] <= pc.v_min + 1e-9)

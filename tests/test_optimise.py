@@ -20,9 +20,11 @@ import pytest
 import xarray as xr
 
 import optroute as orx
-from formulations._common import PowerLawFuel
+from formulations.common import PowerLawFuel
 from formulations.speed_convex import solve_speed_convex
-from optroute.optimise import optimise_corridor, plan_voyage
+from optroute import geodesy as orx_geodesy
+from optroute.optimise.api import optimise_corridor, plan_voyage
+from optroute.physics import safety as orx_safety
 from optroute.weather import schema
 
 SHIP = orx.Ship.preset("container_54k_dwt")
@@ -52,8 +54,9 @@ class LinearSeaModel:
 
     def brake_power_kw(self, stw_kn, *, hs_m=0.0, wave_angle_deg=0.0, wind_speed_ms=None, wind_angle_deg=None):
         ca = np.cos(np.radians(wave_angle_deg))
-        return self.ship.calm_power_kw(stw_kn) * (1.0 + self.h * np.asarray(hs_m) * (self.b[0] + self.b[1] * ca
-                                                                                     + self.b[2] * ca**2))
+        return self.ship.calm_power_kw(stw_kn) * (
+            1.0 + self.h * np.asarray(hs_m) * (self.b[0] + self.b[1] * ca + self.b[2] * ca**2)
+        )
 
     def fuel_rate_tph(self, power_kw):
         return np.asarray(power_kw, dtype=float) * self.sfoc_gpkwh * 1e-6
@@ -65,9 +68,13 @@ def _static_linear_sea(hs0: float, slope_per_deg: float, wave_from_deg: float) -
     lat = np.arange(-5.0, 5.01, 1.0)
     lon = np.arange(-32.0, -7.99, 1.0)
     hs = hs0 + slope_per_deg * (lon + 30.0)
-    return schema.canonical_dataset(time, lat, lon, {"hs_m": hs[None, None, :], "tp_s": 8.0,
-                                                     "wave_from_deg": wave_from_deg},
-                                    {"title": "static linear sea", "source": "test"})
+    return schema.canonical_dataset(
+        time,
+        lat,
+        lon,
+        {"hs_m": hs[None, None, :], "tp_s": 8.0, "wave_from_deg": wave_from_deg},
+        {"title": "static linear sea", "source": "test"},
+    )
 
 
 def _storm(peak: float = 8.0, bg: float = 3.0, speed_kn: float = 5.0, lon0: float = -146.0) -> xr.Dataset:
@@ -78,9 +85,13 @@ def _storm(peak: float = 8.0, bg: float = 3.0, speed_kn: float = 5.0, lon0: floa
     lonc = lon0 + np.arange(time.size) * 3.0 * speed_kn / 60.0
     bump = np.exp(-((lon[None, None, :] - lonc[:, None, None]) ** 2) / (2 * 1.5**2))
     hs = bg + (peak - bg) * bump * np.exp(-((lat[None, :, None] - 5.0) ** 2) / (2 * 3.0**2))
-    return schema.canonical_dataset(time, lat, lon, {"hs_m": hs, "tp_s": 3.85 * np.sqrt(hs), "wave_from_deg": 270.0,
-                                                     "wind_u_ms": 10.0, "wind_v_ms": 0.0},
-                                    {"title": "eastbound storm", "source": "test"})
+    return schema.canonical_dataset(
+        time,
+        lat,
+        lon,
+        {"hs_m": hs, "tp_s": 3.85 * np.sqrt(hs), "wave_from_deg": 270.0, "wind_u_ms": 10.0, "wind_v_ms": 0.0},
+        {"title": "eastbound storm", "source": "test"},
+    )
 
 
 @pytest.fixture(scope="module")
@@ -93,8 +104,9 @@ def test_fixed_path_static_weather_equals_the_convex_optimum_and_the_analytic_sp
     wx = _static_linear_sea(1.0, 0.15, wave_from_deg=45.0)  # Hs 1 → 4 m along the route, no band (< 10 m)
     corridor = orx.Corridor(np.array([[0.0, -30.0], [0.0, -10.0]]), 0.0)
     eta_h = 80.0
-    plan = optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(80, "h"), model=model,
-                             max_leg_nm=60.0)
+    plan = optimise_corridor(
+        corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(80, "h"), model=model, max_leg_nm=60.0
+    )
     assert plan.verify() == []
     # by hand: eastbound along the equator (course 90°), waves from 45°: α = 315°, cos α = cos 45°
     legs = corridor.resample(60.0)
@@ -120,8 +132,7 @@ def test_fixed_path_static_weather_equals_the_convex_optimum_and_the_analytic_sp
 
 
 def test_calm_water_constant_speed_matches_the_ship_by_hand():
-    wx = orx.scenarios.uniform(hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240,
-                               resolution_deg=1.0)
+    wx = orx.scenarios.uniform(hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240, resolution_deg=1.0)
     corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -10.0]], width_nm=0.0)
     plan = optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(72, "h"), max_leg_nm=40.0)
     v = corridor.length_nm / 72.0
@@ -151,11 +162,18 @@ def test_calm_water_constant_speed_matches_the_ship_by_hand():
 def test_iteration_limit_returns_a_verified_feasible_plan_not_an_optimal_one(max_iter, evidence):
     # Ipopt stopped by max_iter: the iterate goes through verify() and is labelled "feasible"; its fuel can be no
     # lower than the constant-speed optimum worked by hand (calm water, fixed path)
-    wx = orx.scenarios.uniform(hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240,
-                               resolution_deg=1.0)
+    wx = orx.scenarios.uniform(hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240, resolution_deg=1.0)
     corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -10.0]], width_nm=0.0)
-    plan = optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(72, "h"), max_leg_nm=40.0,
-                             solver_options={"ipopt.max_iter": max_iter}, use_land_mask=False)
+    plan = optimise_corridor(
+        corridor,
+        wx,
+        SHIP,
+        departure=T0,
+        eta=T0 + np.timedelta64(72, "h"),
+        max_leg_nm=40.0,
+        solver_options={"ipopt.max_iter": max_iter},
+        use_land_mask=False,
+    )
     by_hand = 72.0 * float(SHIP.fuel_rate_tph(SHIP.calm_power_kw(corridor.length_nm / 72.0)))
     assert plan.status == "feasible" and plan.verify() == []
     assert plan.total_fuel_t >= by_hand * (1 - 1e-9) and plan.duration_h <= 72.0 + 1e-6
@@ -163,8 +181,7 @@ def test_iteration_limit_returns_a_verified_feasible_plan_not_an_optimal_one(max
 
 
 def test_unreachable_eta_raises_with_the_earliest_arrival():
-    wx = orx.scenarios.uniform(hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240,
-                               resolution_deg=1.0)
+    wx = orx.scenarios.uniform(hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240, resolution_deg=1.0)
     corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -10.0]], width_nm=0.0)
     with pytest.raises(orx.InfeasibleETA) as err:
         optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(30, "h"), max_leg_nm=40.0)
@@ -188,12 +205,18 @@ def test_tight_eta_behind_a_following_storm_with_a_15_percent_minimum_load_raise
 
 
 def test_solver_failure_carries_ipopts_status():
-    wx = orx.scenarios.uniform(hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240,
-                               resolution_deg=1.0)
+    wx = orx.scenarios.uniform(hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240, resolution_deg=1.0)
     corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -10.0]], width_nm=0.0)
     with pytest.raises(orx.SolverFailure) as err:
-        optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(60, "h"), max_leg_nm=40.0,
-                          solver_options={"ipopt.max_iter": 1})
+        optimise_corridor(
+            corridor,
+            wx,
+            SHIP,
+            departure=T0,
+            eta=T0 + np.timedelta64(60, "h"),
+            max_leg_nm=40.0,
+            solver_options={"ipopt.max_iter": 1},
+        )
     assert err.value.status == "Maximum_Iterations_Exceeded"
     assert "Maximum_Iterations_Exceeded" in str(err.value)
     # the best verified plan known travels with the error: here the safe warm start, the constant
@@ -210,11 +233,19 @@ def test_storm_with_bands_active_returns_a_verified_plan_off_the_bands(storm):
     ship = SHIP.replace(gm_m=4.5)
     rules = orx.BandRules(hs_threshold_fraction=0.02)
     corridor = orx.Corridor.from_waypoints([[5.0, -150.0], [5.0, -135.0]], width_nm=40.0)
-    plan = optimise_corridor(corridor, storm, ship, departure=T0, eta=T0 + np.timedelta64(50, "h"), rules=rules,
-                             max_leg_nm=30.0, band_solves=8)
+    plan = optimise_corridor(
+        corridor,
+        storm,
+        ship,
+        departure=T0,
+        eta=T0 + np.timedelta64(50, "h"),
+        rules=rules,
+        max_leg_nm=30.0,
+        band_solves=8,
+    )
     assert plan.verify() == []
     assert plan.duration_h <= 50.0 + 1 / 60
-    margins = plan.legs[[f"margin_{b}" for b in orx.safety.BANDS]].to_numpy()
+    margins = plan.legs[[f"margin_{b}" for b in orx_safety.BANDS]].to_numpy()
     assert np.isfinite(margins).any()  # bands apply on some legs …
     assert (margins > 0).all()  # … and the plan keeps clear of every one
     stats = plan.solver_stats
@@ -227,8 +258,17 @@ def test_moderate_sea_plans_pass_verification_for_every_objective(storm):
     corridor = orx.Corridor.from_waypoints([[5.0, -150.0], [5.0, -138.0]], width_nm=40.0)
     eta = T0 + np.timedelta64(48, "h")
     fuel = optimise_corridor(corridor, storm, SHIP, departure=T0, eta=eta, max_leg_nm=40.0)
-    cost = optimise_corridor(corridor, storm, SHIP, departure=T0, eta=eta, objective="cost", max_leg_nm=40.0,
-                             fuel_price_per_t=600.0, hourly_cost_per_h=3000.0)
+    cost = optimise_corridor(
+        corridor,
+        storm,
+        SHIP,
+        departure=T0,
+        eta=eta,
+        objective="cost",
+        max_leg_nm=40.0,
+        fuel_price_per_t=600.0,
+        hourly_cost_per_h=3000.0,
+    )
     fast = optimise_corridor(corridor, storm, SHIP, departure=T0, objective="time", max_leg_nm=40.0)
     for plan in (fuel, cost, fast):
         assert plan.verify() == []
@@ -244,19 +284,40 @@ def test_nlp_fuel_is_at_most_the_3d_dp_fuel_at_every_resolution(storm):
     plan = optimise_corridor(corridor, storm, SHIP, departure=T0, eta=eta, max_leg_nm=30.0)
     assert plan.verify() == []
     for dx, dy, dt in ((120.0, 20.0, 2.0), (60.0, 10.0, 1.0)):
-        dp = orx.search_route(start, end, storm, SHIP, departure=T0, method="dp", objective="fuel", eta=eta,
-                              speeds_kn=np.arange(10.0, 26.1, 1.0),
-                              dp_options={"dx_nm": dx, "dy_nm": dy, "half_width_nm": 20.0, "dt_h": dt})
+        dp = orx.search_route(
+            start,
+            end,
+            storm,
+            SHIP,
+            departure=T0,
+            method="dp",
+            objective="fuel",
+            eta=eta,
+            speeds_kn=np.arange(10.0, 26.1, 1.0),
+            dp_options={"dx_nm": dx, "dy_nm": dy, "half_width_nm": 20.0, "dt_h": dt},
+        )
         assert _hours(dp.arrival - T0) <= 45.0 + 1e-9
         assert plan.total_fuel_t <= dp.total_fuel_t
 
 
 def test_plan_voyage_searches_then_optimises(storm):
     # the 3-D DP as the search (the grid A* works the same way, only slower on this small case)
-    search = {"method": "dp", "speeds_kn": np.arange(10.0, 26.1, 1.0),
-              "dp_options": {"dx_nm": 120.0, "dy_nm": 20.0, "half_width_nm": 20.0, "dt_h": 2.0}}
-    plan = plan_voyage((5.0, -150.0), (5.0, -140.0), storm, SHIP, departure=T0, eta=T0 + np.timedelta64(40, "h"),
-                       corridor_width_nm=40.0, search_options=search, max_leg_nm=40.0)
+    search = {
+        "method": "dp",
+        "speeds_kn": np.arange(10.0, 26.1, 1.0),
+        "dp_options": {"dx_nm": 120.0, "dy_nm": 20.0, "half_width_nm": 20.0, "dt_h": 2.0},
+    }
+    plan = plan_voyage(
+        (5.0, -150.0),
+        (5.0, -140.0),
+        storm,
+        SHIP,
+        departure=T0,
+        eta=T0 + np.timedelta64(40, "h"),
+        corridor_width_nm=40.0,
+        search_options=search,
+        max_leg_nm=40.0,
+    )
     assert plan.verify() == []
     assert plan.duration_h <= 40.0 + 1 / 60
     found = plan.solver_stats["search"]
@@ -276,33 +337,40 @@ def test_bad_arguments_name_the_value():
 
 
 def test_exclusion_circle_is_passed_behind_and_progress_is_reported():
-    from optroute.plan import Exclusion
+    from optroute.plan.result import Exclusion
 
-    wx = orx.scenarios.uniform(hs_m=2.0, tp_s=8.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240,
-                               resolution_deg=1.0)
+    wx = orx.scenarios.uniform(hs_m=2.0, tp_s=8.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240, resolution_deg=1.0)
     corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -20.0]], width_nm=120.0)
     # a 30 nm circle moving north across the track at 6 kn, on the centreline when the ship gets there
     excl = Exclusion(np.array([T0, T0 + np.timedelta64(100, "h")]), [-2.0, 8.0], [-25.0, -25.0], 30.0)
     stages: list[tuple[str, float]] = []
-    plan = optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(40, "h"), exclusion=excl,
-                             max_leg_nm=20.0, progress=lambda stage, f: stages.append((stage, f)))
+    plan = optimise_corridor(
+        corridor,
+        wx,
+        SHIP,
+        departure=T0,
+        eta=T0 + np.timedelta64(40, "h"),
+        exclusion=excl,
+        max_leg_nm=20.0,
+        progress=lambda stage, f: stages.append((stage, f)),
+    )
     assert plan.verify() == []
     # independent distance check: the waypoints and leg mid-points against the circle at their times
     wp, times = plan.waypoints, plan.times
-    mids = [orx.geo.intermediate_points(*wp[k], *wp[k + 1], 0.5) for k in range(len(wp) - 1)]
+    mids = [orx_geodesy.intermediate_points(*wp[k], *wp[k + 1], 0.5) for k in range(len(wp) - 1)]
     t_mid = times[:-1] + (times[1:] - times[:-1]) / 2
     lat = np.concatenate([wp[:, 0], [m[0] for m in mids]])
     lon = np.concatenate([wp[:, 1], [m[1] for m in mids]])
     clat, clon, rad = excl.at(np.concatenate([times, t_mid]))
-    assert np.all(orx.geo.distance_nm(lat, lon, clat, clon) >= rad)
+    assert np.all(orx_geodesy.distance_nm(lat, lon, clat, clon) >= rad)
     assert wp[:, 0].min() < -0.3  # it went round south, behind the northbound circle
     fractions = [f for _, f in stages]
     assert fractions == sorted(fractions) and fractions[-1] == 1.0 and stages[-1][0] == "done"
 
 
 def test_band_mapping_agrees_with_the_safety_module():
-    from optroute import seaway
-    from optroute.nlp_inputs import formulation_bands
+    from optroute.optimise.nlp_inputs import formulation_bands
+    from optroute.physics import seaway
 
     rng = np.random.default_rng(7)
     n = 4000
@@ -313,8 +381,12 @@ def test_band_mapping_agrees_with_the_safety_module():
     alpha = seaway.relative_wave_angle_deg(heading, wave_from)
     cos_chi = -np.cos(np.radians(alpha))  # χ: heading vs wave propagation, 0 = following
     hs = np.full(n, 11.0)  # above 0.04 L = 10 m
-    for rules, exact in ((orx.BandRules(), True), (orx.BandRules(period_form="imo"), True),
-                         (orx.BandRules(rule_set="imo"), False), (orx.BandRules(rule_set="imo", period_form="imo"), False)):
+    for rules, exact in (
+        (orx.BandRules(), True),
+        (orx.BandRules(period_form="imo"), True),
+        (orx.BandRules(rule_set="imo"), False),
+        (orx.BandRules(rule_set="imo", period_form="imo"), False),
+    ):
         bands, names, a = formulation_bands(SHIP, rules)
         for band, name in zip(bands, names, strict=True):
             along = v * cos_chi
@@ -324,9 +396,16 @@ def test_band_mapping_agrees_with_the_safety_module():
                 den = {"v_over_c": a * period, "v_over_cg": 0.5 * a * period}.get(band.kind, band.param)
                 ratio = along / den
             inside = (ratio >= band.lower) & (ratio <= band.upper)
-            forbidden = orx.safety.is_speed_forbidden(SHIP, speed_kn=v, hs_m=hs, period_s=period,
-                                                      wave_from_deg=wave_from, heading_deg=heading, rules=rules,
-                                                      band=name)
+            forbidden = orx_safety.is_speed_forbidden(
+                SHIP,
+                speed_kn=v,
+                hs_m=hs,
+                period_s=period,
+                wave_from_deg=wave_from,
+                heading_deg=heading,
+                rules=rules,
+                band=name,
+            )
             edge = np.isclose(ratio, band.lower, rtol=1e-9) | np.isclose(ratio, band.upper, rtol=1e-9)
             assert forbidden.any(), name
             if exact:
@@ -337,7 +416,7 @@ def test_band_mapping_agrees_with_the_safety_module():
 
 
 def test_frame_keeps_great_circle_lengths_and_weather_rotation_by_hand():
-    from optroute.nlp_inputs import build_frame, weather_grid
+    from optroute.optimise.nlp_inputs import build_frame, weather_grid
 
     long_corridor = orx.Corridor(np.array([[30.0, -150.0], [45.0, -170.0], [40.0, 160.0]]), 50.0).resample(100.0)
     frame = build_frame(long_corridor)
@@ -347,11 +426,21 @@ def test_frame_keeps_great_circle_lengths_and_weather_rotation_by_hand():
     zigzag[[0, -1]] = 0.0
     assert frame.distance_error(zigzag) < 1e-3  # O((y/R)²) with y = 50 nm over 3 000 nm of ocean
     # eastbound on the equator: a 1 m/s current to the east is all along, waves from the north go to starboard
-    wx = orx.scenarios.uniform(hs_m=2.0, tp_s=8.0, wave_from_deg=0.0, current_speed_ms=1.0, current_to_deg=90.0,
-                               bbox=(-10, 10, -40, 0), start=T0, duration_h=48, resolution_deg=1.0)
+    wx = orx.scenarios.uniform(
+        hs_m=2.0,
+        tp_s=8.0,
+        wave_from_deg=0.0,
+        current_speed_ms=1.0,
+        current_to_deg=90.0,
+        bbox=(-10, 10, -40, 0),
+        start=T0,
+        duration_h=48,
+        resolution_deg=1.0,
+    )
     eq = build_frame(orx.Corridor(np.array([[0.0, -30.0], [0.0, -25.0]]), 20.0).resample(60.0))
-    grid, samples = weather_grid(eq, orx.WeatherSampler(wx), departure=T0, t_end_h=24.0, dt_h=3.0, ds_nm=30.0,
-                                 dy_nm=10.0)
+    grid, samples = weather_grid(
+        eq, orx.WeatherSampler(wx), departure=T0, t_end_h=24.0, dt_h=3.0, ds_nm=30.0, dy_nm=10.0
+    )
     centre = grid.y_nm.size // 2
     assert grid.y_nm[centre] == 0.0 and samples.static and samples.has_current
     np.testing.assert_allclose(grid.current_along_kn[:, :, centre], 3600.0 / 1852.0, rtol=1e-9)
@@ -361,17 +450,17 @@ def test_frame_keeps_great_circle_lengths_and_weather_rotation_by_hand():
 
 
 def test_nan_weather_narrows_the_corridor_and_a_blocked_waypoint_raises():
-    from optroute.nlp_inputs import build_frame, lateral_bounds
+    from optroute.optimise.nlp_inputs import build_frame, lateral_bounds
 
-    wx = orx.scenarios.uniform(hs_m=1.0, tp_s=6.0, bbox=(-5, 5, -32, -18), start=T0, duration_h=48,
-                               resolution_deg=0.5)
+    wx = orx.scenarios.uniform(hs_m=1.0, tp_s=6.0, bbox=(-5, 5, -32, -18), start=T0, duration_h=48, resolution_deg=0.5)
     blocked = wx.copy(deep=True)
     box = {"lat": blocked.lat[blocked.lat >= 1.0], "lon": blocked.lon[(blocked.lon >= -26) & (blocked.lon <= -24)]}
     blocked["hs_m"].loc[box] = np.nan  # no passage north of 0.5° N (the sampler's stencil) near 25° W
     frame = build_frame(orx.Corridor(np.array([[0.0, -30.0], [0.0, -20.0]]), 60.0).resample(30.0))
     times = T0 + np.arange(0, 48, 12).astype("timedelta64[h]")
-    y_lo, y_hi = lateral_bounds(frame, sampler=orx.WeatherSampler(blocked), dataset=blocked, times=times,
-                                use_land_mask=False, step_nm=2.0)
+    y_lo, y_hi = lateral_bounds(
+        frame, sampler=orx.WeatherSampler(blocked), dataset=blocked, times=times, use_land_mask=False, step_nm=2.0
+    )
     lon = frame.corridor.waypoints[:, 1]
     # blocked where the stencil holds a NaN node: north of 0.5° N for -26.5° <= lon < -23.5°; a waypoint is
     # bounded when either of its legs (10°/21 of longitude) reaches that area
@@ -384,8 +473,9 @@ def test_nan_weather_narrows_the_corridor_and_a_blocked_waypoint_raises():
     everywhere = wx.copy(deep=True)
     everywhere["hs_m"].loc[{"lon": everywhere.lon[(everywhere.lon >= -26) & (everywhere.lon <= -24)]}] = np.nan
     with pytest.raises(orx.NoSafePassage, match=r"no navigable passage at .* between its waypoints 7 and 8"):
-        lateral_bounds(frame, sampler=orx.WeatherSampler(everywhere), dataset=everywhere, times=times,
-                       use_land_mask=False)
+        lateral_bounds(
+            frame, sampler=orx.WeatherSampler(everywhere), dataset=everywhere, times=times, use_land_mask=False
+        )
 
 
 def test_prepared_corridor_solves_several_etas_as_independent_optimise_corridor_calls():
@@ -396,8 +486,8 @@ def test_prepared_corridor_solves_several_etas_as_independent_optimise_corridor_
     the plans must agree to the solver's tolerance although the prepared solves are warm-started from
     each other and share one CasADi build (power factors and load limits set per solve).
     """
-    from optroute.corridor_problem import Learnt, PreparedCorridor
     from optroute.errors import ConfigError
+    from optroute.optimise.corridor_problem import Learnt, PreparedCorridor
 
     wx = _static_linear_sea(1.0, 0.15, wave_from_deg=45.0)
     corridor = orx.Corridor(np.array([[0.0, -30.0], [0.0, -10.0]]), 20.0)

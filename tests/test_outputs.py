@@ -18,8 +18,9 @@ import pytest
 import xarray as xr
 
 import optroute as orx
-from optroute import _store, outputs
-from optroute.plan import Plan
+from optroute import _store
+from optroute.plan import outputs
+from optroute.plan.result import Plan
 
 SHIP = orx.Ship.preset("container_54k_dwt")
 T0 = np.datetime64("2024-01-10T00:00", "ns")
@@ -237,7 +238,7 @@ def test_csv_text_round_trips_full_precision(atlantic):
 
 
 def test_plan_plot_returns_the_profile_figure(atlantic):
-    pytest.importorskip("optroute.plot_plan")
+    pytest.importorskip("optroute.plot.plan")
     from matplotlib.figure import Figure
 
     fig = atlantic.plot(title="test")

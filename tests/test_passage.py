@@ -5,10 +5,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from optroute.passage import SeaState, best_speed, cheapest_speed, evaluate_speeds
-from optroute.performance import CalmWaterModel, KwonModel
-from optroute.safety import BandRules, forbidden_speed_intervals
-from optroute.ship import Ship
+from optroute.physics.passage import SeaState, best_speed, cheapest_speed, evaluate_speeds
+from optroute.physics.performance import CalmWaterModel, KwonModel
+from optroute.physics.safety import BandRules, forbidden_speed_intervals
+from optroute.physics.ship import Ship
 
 SHIP = Ship.preset("container_8000teu")
 RULES = BandRules()
@@ -42,15 +42,28 @@ def test_surf_riding_band_forces_the_speed_below_its_closed_form_edge():
     assert not any(iv.lo_kn <= v <= iv.hi_kn for iv in intervals)
     # no allowed speed lies between v and 25 kn (brute force on a fine grid)
     grid = np.arange(v + 0.01, 25.0, 0.01)
-    _, _, _, _, allowed = evaluate_speeds(SHIP, CalmWaterModel(SHIP), RULES, np.full(grid.size, 180.0),
-                                          SeaState.uniform(grid.size, hs_m=13.0, period_s=9.0), grid)
+    _, _, _, _, allowed = evaluate_speeds(
+        SHIP,
+        CalmWaterModel(SHIP),
+        RULES,
+        np.full(grid.size, 180.0),
+        SeaState.uniform(grid.size, hs_m=13.0, period_s=9.0),
+        grid,
+    )
     assert not allowed.any()
 
 
 def test_nan_sea_means_no_passage():
     sea = SeaState.uniform(2, hs_m=2.0)
-    sea = SeaState(np.array([2.0, np.nan]), sea.period_s, sea.wave_from_deg, sea.wind_u_ms, sea.wind_v_ms,
-                   sea.current_u_ms, sea.current_v_ms)
+    sea = SeaState(
+        np.array([2.0, np.nan]),
+        sea.period_s,
+        sea.wave_from_deg,
+        sea.wind_u_ms,
+        sea.wind_v_ms,
+        sea.current_u_ms,
+        sea.current_v_ms,
+    )
     choice = best_speed(SHIP, KwonModel(SHIP), RULES, 0.0, sea, 20.0)
     assert choice.feasible.tolist() == [True, False]
     assert np.isnan(choice.stw_kn[1])
@@ -60,15 +73,21 @@ def test_min_load_makes_very_slow_speeds_infeasible_in_calm_water():
     # 10 % MCR = 6 864 kW is reached in calm water at 25·(6864/50734)^(1/3) = 12.83 kn.
     sea = SeaState.uniform(1)
     v_min_load = 25.0 * (0.1 * 68_640 / (0.85 * 68_640 / 1.15)) ** (1 / 3)
-    _, _, _, _, allowed = evaluate_speeds(SHIP, CalmWaterModel(SHIP), RULES, [0.0], sea,
-                                          np.array([[v_min_load - 0.01, v_min_load + 0.01]]))
+    _, _, _, _, allowed = evaluate_speeds(
+        SHIP, CalmWaterModel(SHIP), RULES, [0.0], sea, np.array([[v_min_load - 0.01, v_min_load + 0.01]])
+    )
     assert allowed.tolist() == [[False, True]]
 
 
 @settings(max_examples=40, deadline=None)
 @given(
-    st.floats(0.0, 16.0), st.floats(4.0, 16.0), st.floats(0.0, 360.0), st.floats(0.0, 360.0),
-    st.floats(-1.5, 1.5), st.floats(-1.5, 1.5), st.floats(8.0, 27.0),
+    st.floats(0.0, 16.0),
+    st.floats(4.0, 16.0),
+    st.floats(0.0, 360.0),
+    st.floats(0.0, 360.0),
+    st.floats(-1.5, 1.5),
+    st.floats(-1.5, 1.5),
+    st.floats(8.0, 27.0),
 )
 def test_best_speed_is_the_fastest_allowed_ladder_speed(hs, tp, wave_from, course, cu, cv, desired):
     sea = SeaState.uniform(1, hs_m=hs, period_s=tp, wave_from_deg=wave_from, current_u_ms=cu, current_v_ms=cv)
@@ -81,8 +100,9 @@ def test_best_speed_is_the_fastest_allowed_ladder_speed(hs, tp, wave_from, cours
         ok.append(bool(allowed[0]))
     if any(ok):
         assert choice.stw_kn[0] == pytest.approx(ladder[ok.index(True)])
-        forbidden = forbidden_speed_intervals(SHIP, hs_m=hs, period_s=tp, wave_from_deg=wave_from,
-                                              heading_deg=choice.heading_deg[0])
+        forbidden = forbidden_speed_intervals(
+            SHIP, hs_m=hs, period_s=tp, wave_from_deg=wave_from, heading_deg=choice.heading_deg[0]
+        )
         assert not any(iv.lo_kn <= choice.stw_kn[0] <= iv.hi_kn for iv in forbidden)
         assert model.min_power_kw <= choice.power_kw[0] <= model.mcr_kw
     else:

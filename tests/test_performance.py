@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from optroute import SeaStateError, ShipSpecError
-from optroute.performance import (
+from optroute.physics.performance import (
     CalmWaterModel,
     KwonModel,
     PerformanceModel,
@@ -12,7 +12,7 @@ from optroute.performance import (
     default_model,
     max_stw_kn,
 )
-from optroute.ship import Ship
+from optroute.physics.ship import Ship
 
 
 @pytest.fixture
@@ -34,7 +34,14 @@ def kwon_2008_kcs_ship():
 
 @pytest.mark.parametrize(
     ("hs_m", "angle", "loss_pct"),
-    [(2.0, 0.0, 3.965), (3.0, 0.0, 6.774), (4.0, 0.0, 12.863), (5.5, 0.0, 25.450), (3.0, 90.0, 3.048), (5.5, 180.0, 5.090)],
+    [
+        (2.0, 0.0, 3.965),
+        (3.0, 0.0, 6.774),
+        (4.0, 0.0, 12.863),
+        (5.5, 0.0, 25.450),
+        (3.0, 90.0, 3.048),
+        (5.5, 180.0, 5.090),
+    ],
 )
 def test_kwon_model_power_is_calm_power_of_the_kcs_calm_speed(kwon_2008_kcs_ship, hs_m, angle, loss_pct):
     # physics.md §6: at V1 = 24 kn, BN 5/6/7/8 head → 3.965/6.774/12.863/25.450 %; beam BN6 3.048; following BN8 5.090.

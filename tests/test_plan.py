@@ -15,9 +15,9 @@ import pytest
 import xarray as xr
 
 import optroute as orx
-from optroute import geo
-from optroute.plan import LEG_COLUMNS, Exclusion, Plan, gc_points, project_to_polyline
-from optroute.safety import BANDS
+from optroute import geodesy as geo
+from optroute.physics.safety import BANDS
+from optroute.plan.result import LEG_COLUMNS, Exclusion, Plan, gc_points, project_to_polyline
 
 SHIP = orx.Ship.preset("container_54k_dwt")
 T0 = np.datetime64("2024-01-10T00:00", "ns")
@@ -25,15 +25,17 @@ T0 = np.datetime64("2024-01-10T00:00", "ns")
 
 @pytest.fixture(scope="module")
 def calm() -> xr.Dataset:
-    return orx.scenarios.uniform(hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 20), start=T0, duration_h=240,
-                                 resolution_deg=1.0)
+    return orx.scenarios.uniform(
+        hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 20), start=T0, duration_h=240, resolution_deg=1.0
+    )
 
 
 @pytest.fixture(scope="module")
 def rough() -> xr.Dataset:
     # Hs 12 m (≥ 0.04 L = 10 m: every band applies), 14 s, from the west: following seas eastbound
-    return orx.scenarios.uniform(hs_m=12.0, tp_s=14.0, wave_from_deg=270.0, bbox=(-10, 10, -40, 0), start=T0,
-                                 duration_h=240, resolution_deg=1.0)
+    return orx.scenarios.uniform(
+        hs_m=12.0, tp_s=14.0, wave_from_deg=270.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240, resolution_deg=1.0
+    )
 
 
 def _kinds(violations, leg=None):
@@ -62,8 +64,16 @@ def test_calm_legs_are_distance_over_speed_and_calm_fuel(calm):
 
 def test_current_sets_the_schedule_by_the_speed_over_ground():
     # a 1 m/s current setting east along an eastbound leg: SOG = STW + 1.944 kn, heading unchanged
-    wx = orx.scenarios.uniform(hs_m=0.0, tp_s=6.0, current_speed_ms=1.0, current_to_deg=90.0, bbox=(-10, 10, -40, 0),
-                               start=T0, duration_h=240, resolution_deg=1.0)
+    wx = orx.scenarios.uniform(
+        hs_m=0.0,
+        tp_s=6.0,
+        current_speed_ms=1.0,
+        current_to_deg=90.0,
+        bbox=(-10, 10, -40, 0),
+        start=T0,
+        duration_h=240,
+        resolution_deg=1.0,
+    )
     wp = np.array([[0.0, -30.0], [0.0, -25.0]])
     plan = Plan.from_schedule(wp, [12.0], departure=T0, ship=SHIP, weather=wx, model=orx.CalmWaterModel(SHIP))
     sog = 12.0 + 3600.0 / 1852.0
@@ -91,8 +101,9 @@ def test_verify_finds_power_above_mcr_and_below_the_minimum_load(calm):
     wp = np.array([[0.0, -30.0], [0.0, -29.0], [0.0, -28.0], [0.0, -27.0]])
     too_fast = SHIP.max_calm_speed_kn * 1.02
     too_slow = SHIP.calm_speed_kn(SHIP.min_power_kw) * 0.9
-    plan = Plan.from_schedule(wp, [15.0, too_fast, too_slow], departure=T0, ship=SHIP, weather=calm,
-                              model=orx.CalmWaterModel(SHIP))
+    plan = Plan.from_schedule(
+        wp, [15.0, too_fast, too_slow], departure=T0, ship=SHIP, weather=calm, model=orx.CalmWaterModel(SHIP)
+    )
     found = plan.verify()
     assert _kinds(found, leg=0) == set()
     assert _kinds(found, leg=1) == {"power_above_mcr"}
@@ -107,8 +118,15 @@ def test_verify_finds_a_missed_eta_and_an_unsailable_schedule(calm):
     d = float(geo.distance_nm(0, -30, 0, -28))
     model = orx.CalmWaterModel(SHIP)
     sailed = d / 15.0
-    late = Plan.from_schedule(wp, [15.0], departure=T0, ship=SHIP, weather=calm, model=model,
-                              eta=T0 + np.timedelta64(int(3600 * (sailed - 0.5)), "s"))
+    late = Plan.from_schedule(
+        wp,
+        [15.0],
+        departure=T0,
+        ship=SHIP,
+        weather=calm,
+        model=model,
+        eta=T0 + np.timedelta64(int(3600 * (sailed - 0.5)), "s"),
+    )
     (v,) = late.verify()
     assert v.kind == "eta" and v.value == pytest.approx(0.5, abs=1e-3)
     assert late.verify(eta=T0 + np.timedelta64(int(3600 * (sailed + 0.1)), "s")) == []
@@ -124,15 +142,15 @@ def test_verify_finds_a_missed_eta_and_an_unsailable_schedule(calm):
 def test_verify_finds_a_waypoint_on_land(calm):
     # (-1.0, 12.0) lies inland in Gabon
     wp = np.array([[0.0, 2.0], [-1.0, 12.0], [-3.0, 8.0]])
-    plan = Plan.from_schedule(wp, [15.0, 15.0], departure=T0, ship=SHIP, weather=calm,
-                              model=orx.CalmWaterModel(SHIP))
+    plan = Plan.from_schedule(wp, [15.0, 15.0], departure=T0, ship=SHIP, weather=calm, model=orx.CalmWaterModel(SHIP))
     found = plan.verify()
     land = [v for v in found if v.kind == "land"]
     assert {v.leg for v in land} == {0, 1}
     assert any(v.position == (-1.0, 12.0) for v in land)
     # the same track with the land mask off is clean: the check is the mask's
-    plan_off = Plan.from_schedule(wp, [15.0, 15.0], departure=T0, ship=SHIP, weather=calm,
-                                  model=orx.CalmWaterModel(SHIP), use_land_mask=False)
+    plan_off = Plan.from_schedule(
+        wp, [15.0, 15.0], departure=T0, ship=SHIP, weather=calm, model=orx.CalmWaterModel(SHIP), use_land_mask=False
+    )
     assert plan_off.verify() == []
 
 
@@ -177,8 +195,9 @@ def test_gc_points_course_matches_initial_course():
 
 
 def test_geojson_splits_at_the_antimeridian_and_netcdf_round_trips(tmp_path):
-    wx = orx.scenarios.uniform(hs_m=1.0, tp_s=6.0, bbox=(20, 50, 160, -160), start=T0, duration_h=120,
-                               resolution_deg=1.0)
+    wx = orx.scenarios.uniform(
+        hs_m=1.0, tp_s=6.0, bbox=(20, 50, 160, -160), start=T0, duration_h=120, resolution_deg=1.0
+    )
     wp = np.array([[35.0, 175.0], [36.0, -178.0], [37.0, -170.0]])
     plan = Plan.from_schedule(wp, [16.0, 16.0], departure=T0, ship=SHIP, weather=wx)
     gj = json.loads(json.dumps(plan.to_geojson()))
@@ -207,7 +226,8 @@ def test_geojson_splits_at_the_antimeridian_and_netcdf_round_trips(tmp_path):
 
 def test_bad_inputs_name_the_value():
     with pytest.raises(orx.ConfigError, match="stw_kn"):
-        Plan.from_schedule([[0, 0], [0, 1]], [0.0], departure=T0, ship=SHIP,
-                           weather=orx.scenarios.calm(bbox=(-5, 5, -5, 5)))
+        Plan.from_schedule(
+            [[0, 0], [0, 1]], [0.0], departure=T0, ship=SHIP, weather=orx.scenarios.calm(bbox=(-5, 5, -5, 5))
+        )
     with pytest.raises(orx.ConfigError, match="strictly increasing"):
         Exclusion(np.array([T0, T0]), 0.0, 0.0, 10.0)

@@ -8,15 +8,15 @@ import xarray as xr
 
 import optroute as orx
 from optroute.errors import ConfigError
-from optroute.plot import save_png
-from optroute.plot_plan import plan_map_figure, plan_profile_figure
-from optroute.plot_route import lon_label
+from optroute.plot.common import save_png
+from optroute.plot.plan import plan_map_figure, plan_profile_figure
+from optroute.plot.route import lon_label
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
 def _haversine_nm(lat1, lon1, lat2, lon2):
-    """Great-circle distance by the haversine formula on a sphere of 3440.065 nm (written out here, not optroute.geo)."""
+    """Great-circle distance by the haversine formula on a sphere of 3440.065 nm (written out here, not optroute.geodesy)."""
     p1, p2 = math.radians(lat1), math.radians(lat2)
     dp, dl = p2 - p1, math.radians(lon2 - lon1)
     a = math.sin(dp / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(dl / 2) ** 2

@@ -3,10 +3,10 @@
 import numpy as np
 
 import optroute as orx
-from optroute import geo
-from optroute.plot import save_png
-from optroute.plot_route import route_map_figure, route_profile_figure
-from optroute.routing import sail_route
+from optroute import geodesy as geo
+from optroute.plot.common import save_png
+from optroute.plot.route import route_map_figure, route_profile_figure
+from optroute.search.routing import sail_route
 
 
 def _pacific_route():

@@ -4,7 +4,7 @@ References: the great-circle distance and the ship's own calm-water power and
 SFOC (calm water); the two-direction mixing theory of lattice paths; Dijkstra
 for A* (the same labels); an independent dense re-sampling of the weather
 along every returned leg, at the time the ship is there, checked with
-:func:`optroute.safety.is_speed_forbidden` at the speed sailed there; the
+:func:`optroute.physics.safety.is_speed_forbidden` at the speed sailed there; the
 constant-speed fuel optimum worked by hand from ``calm_power_kw`` and
 ``fuel_rate_tph``; the scenarios' exact no-go rectangles
 (:func:`~optroute.weather.scenarios.in_no_go_area`); and the time-optimal
@@ -22,12 +22,13 @@ import numpy as np
 import pytest
 
 import optroute as orx
-from optroute import geo, land
+from optroute import geodesy as geo
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, WeatherCoverageError
-from optroute.performance import default_model
-from optroute.routing import PassagePhysics, search_route
-from optroute.safety import BandRules, band_margins, is_speed_forbidden
+from optroute.geo import land
+from optroute.physics.performance import default_model
+from optroute.physics.safety import BandRules, band_margins, is_speed_forbidden
 from optroute.search import RouteGrid, angular_resolution, compass, shortest_path
+from optroute.search.routing import PassagePhysics, search_route
 from optroute.weather import WeatherSampler, scenarios
 from optroute.weather.schema import canonical_dataset
 
@@ -242,8 +243,11 @@ def test_every_grid_leg_keeps_out_of_the_bands_on_dense_resampling(rough, object
     assert forbidden.sum() == 0, f"{forbidden.sum()} of {forbidden.size} points in a band, worst margin {margin.min()}"
 
 
-@pytest.mark.xfail(strict=True, reason="known limitation: the along-piece check samples every 10 nm, and just past "
-                   "where Hs reaches the band threshold a speed can sit in the band for ~3 nm between two check points")
+@pytest.mark.xfail(
+    strict=True,
+    reason="known limitation: the along-piece check samples every 10 nm, and just past "
+    "where Hs reaches the band threshold a speed can sit in the band for ~3 nm between two check points",
+)
 def test_band_threshold_crossing_between_check_points():
     wx = random_sea(3, hs_m=(2.0, 10.0))
     r = search_route(*ROUGH_VOYAGE, wx, CARGO, departure=T0, cell_nm=30.0, **OPEN_SEA)

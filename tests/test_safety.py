@@ -3,7 +3,7 @@
 The brute-force reference here (:func:`reference_forbidden`) evaluates every
 band condition as the sources write it, straight from the seaway relations
 on a dense speed grid; it shares no code with the closed-form inversion in
-``optroute.safety``.
+``optroute.physics.safety``.
 """
 
 from __future__ import annotations
@@ -16,9 +16,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from optroute import seaway, units
+from optroute import units
 from optroute.errors import ConfigError, SeaStateError, ShipSpecError
-from optroute.safety import (
+from optroute.physics import seaway
+from optroute.physics.safety import (
     BANDS,
     BandRules,
     ForbiddenInterval,
@@ -479,7 +480,7 @@ def test_band_rules_are_frozen_and_list_enabled_bands():
 
 
 def test_with_real_presets():
-    from optroute.ship import Ship
+    from optroute.physics.ship import Ship
 
     for name in Ship.presets():
         s = Ship.preset(name)

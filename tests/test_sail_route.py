@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import optroute as orx
-from optroute import geo
+from optroute import geodesy as geo
 from optroute.errors import NoSafePassage
-from optroute.routing import sail_route
+from optroute.search.routing import sail_route
 
 
 def test_calm_sea_takes_distance_over_speed_and_calm_fuel():
@@ -46,8 +46,9 @@ def test_boeing_2008_searched_route_keeps_25_kn_and_arrives_in_about_8_days(boei
     ship, model, wx = boeing_2008_north_pacific
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the ports are snapped to open water, with a warning
-        r = orx.search_route((32.71, -117.17), (35.65, 139.77), wx, ship, departure=wx.time.values[0],
-                             cell_nm=80, model=model)
+        r = orx.search_route(
+            (32.71, -117.17), (35.65, 139.77), wx, ship, departure=wx.time.values[0], cell_nm=80, model=model
+        )
     # EP 2145155: "the optimised route keeps 25 kn and arrives in 8 days 8 hours"
     assert r.total_duration_h < 8.5 * 24
     assert np.nanmin(r.stw_kn) == pytest.approx(25.0)

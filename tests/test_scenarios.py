@@ -9,9 +9,11 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from optroute import geo, land, safety
+from optroute import geodesy as geo
 from optroute.errors import ConfigError
-from optroute.ship import Ship
+from optroute.geo import land
+from optroute.physics import safety
+from optroute.physics.ship import Ship
 from optroute.weather import WeatherSampler, open_weather
 from optroute.weather import cyclone as tc
 from optroute.weather import scenarios as sc
@@ -58,7 +60,9 @@ def test_shao_dataset_nan_cells_follow_the_rectangles():
     assert math.isnan(at(0, 0.0, 60.0)) and math.isnan(at(300, 7.0, 50.0))
     # weather box at t = 0, edges included, just outside finite
     assert math.isnan(at(0, -9.0, 70.0)) and math.isnan(at(0, -5.0, 60.0))
-    assert not math.isnan(at(0, -9.25, 60.0)) and not math.isnan(at(0, -5.0, 70.25)) and not math.isnan(at(0, -5.0, 49.75))
+    assert (
+        not math.isnan(at(0, -9.25, 60.0)) and not math.isnan(at(0, -5.0, 70.25)) and not math.isnan(at(0, -5.0, 49.75))
+    )
     # t = 102 h: moved 42 h x 0.05 = 2.1 deg south: lat -11.1 .. -3.1
     assert not math.isnan(at(102, -3.0, 60.0))  # between the box and the islands
     assert math.isnan(at(102, -3.25, 60.0)) and math.isnan(at(102, -11.0, 60.0))
@@ -75,7 +79,10 @@ def test_shao_dataset_nan_cells_follow_the_rectangles():
     # and, vectorised over points and times, marks exactly the NaN grid points
     tt, la, lo = np.meshgrid(ds.time.values[::5], ds.lat.values, ds.lon.values, indexing="ij")
     np.testing.assert_array_equal(sc.in_no_go_area(ds, la, lo, tt), np.isnan(hs.values[::5]))
-    assert sc.in_no_go_area(ds, [-2.0, -2.0], [60.0, 60.0], [59.0, 90.0]).tolist() == [True, False]  # t=90 h: -2.5 .. -10.5
+    assert sc.in_no_go_area(ds, [-2.0, -2.0], [60.0, 60.0], [59.0, 90.0]).tolist() == [
+        True,
+        False,
+    ]  # t=90 h: -2.5 .. -10.5
 
 
 def test_shao_no_go_is_no_passage_for_the_sampler_and_navigable():
@@ -227,13 +234,22 @@ def test_bands_force_a_25kn_ship_below_10kn_inside_the_storms(npac):
     for h in range(0, 300, 12):
         wx = s.sample(T0 + h * H, lat, lon)
         for k in np.flatnonzero(wx["hs_m"] >= 0.04 * SHIP.length_m):
-            args = {"hs_m": float(wx["hs_m"][k]), "period_s": float(wx["tp_s"][k]),
-                    "wave_from_deg": float(wx["wave_from_deg"][k]), "heading_deg": float(heading[k])}
+            args = {
+                "hs_m": float(wx["hs_m"][k]),
+                "period_s": float(wx["tp_s"][k]),
+                "wave_from_deg": float(wx["wave_from_deg"][k]),
+                "heading_deg": float(heading[k]),
+            }
             iv = safety.forbidden_speed_intervals(SHIP, max_speed_kn=25.0, **args)
             v = safety.max_safe_speed_kn(25.0, iv)
             assert v < 10.0, (h, frac[k], args, iv)
             if checked % 25 == 0:  # an independent brute-force check of the same claim
-                assert _brute_force_max_speed(SHIP, args["hs_m"], args["period_s"], args["wave_from_deg"], args["heading_deg"]) < 10.0
+                assert (
+                    _brute_force_max_speed(
+                        SHIP, args["hs_m"], args["period_s"], args["wave_from_deg"], args["heading_deg"]
+                    )
+                    < 10.0
+                )
             checked += 1
     assert checked > 500
 
@@ -249,9 +265,14 @@ def test_great_circle_at_band_free_speed_takes_more_than_12_days(npac):
         la, lo = geo.intermediate_points(*sc.SAN_DIEGO, *sc.TOKYO, [f, f + 1e-4])
         heading = float(geo.initial_course_deg(la[0], lo[0], la[1], lo[1]))
         wx = s.sample(T0 + np.timedelta64(int(t * 3600), "s"), la[0], lo[0])
-        iv = safety.forbidden_speed_intervals(SHIP, hs_m=float(wx["hs_m"]), period_s=float(wx["tp_s"]),
-                                              wave_from_deg=float(wx["wave_from_deg"]), heading_deg=heading,
-                                              max_speed_kn=25.0)
+        iv = safety.forbidden_speed_intervals(
+            SHIP,
+            hs_m=float(wx["hs_m"]),
+            period_s=float(wx["tp_s"]),
+            wave_from_deg=float(wx["wave_from_deg"]),
+            heading_deg=heading,
+            max_speed_kn=25.0,
+        )
         sailed += max(safety.max_safe_speed_kn(25.0, iv), 0.5) * dt
         t += dt
     assert t / 24.0 > 12.0
@@ -357,7 +378,9 @@ def test_ensemble_is_reproducible_and_perturbs(tmp_path):
     p1 = meta["members"][1]["perturbations"][0]
     m1 = sc.member(a, 1)
     tr = sc.cyclone_track(m1)
-    assert tr["lat"][0] == pytest.approx(20.0 + p1["dlat_deg"]) and tr["lon"][0] == pytest.approx(130.0 + p1["dlon_deg"])
+    assert tr["lat"][0] == pytest.approx(20.0 + p1["dlat_deg"]) and tr["lon"][0] == pytest.approx(
+        130.0 + p1["dlon_deg"]
+    )
     assert "member" not in m1.dims
     members = sc.ensemble(sc.north_pacific_storms, 2, seed=1, stack=False, resolution_deg=2.0, duration_h=12.0)
     assert isinstance(members, list) and len(members) == 2

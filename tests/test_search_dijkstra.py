@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.sparse import csgraph, csr_matrix
 
-from optroute import geo
+from optroute import geodesy as geo
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
 from optroute.search import RouteGrid, _kernels, angular_resolution, compass, grid_edges, shortest_path
 from optroute.search.costs import LegEvaluator

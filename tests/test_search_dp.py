@@ -11,7 +11,7 @@ import itertools
 import numpy as np
 import pytest
 
-from optroute import geo
+from optroute import geodesy as geo
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
 from optroute.search import solve_dp
 

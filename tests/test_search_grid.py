@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from optroute import geo
+from optroute import geodesy as geo
 from optroute.errors import ConfigError
 from optroute.search import RouteGrid, segment_cells
 

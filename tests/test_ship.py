@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from optroute import ConfigError, ShipSpecError
-from optroute.ship import Ship, is_code_roll_period_s, sfoc_ratio
+from optroute.physics.ship import Ship, is_code_roll_period_s, sfoc_ratio
 
 # physics.md §4: IS Code 2008 Part A §2.3.4, checked rows (B, d, L_wl, GM, C, T_R).
 IS_CODE_CHECKED_ROWS = [

@@ -1,4 +1,4 @@
-"""Tests of optroute.speed_loss, each against an independent reference.
+"""Tests of optroute.physics.speed_loss, each against an independent reference.
 
 References: the checked KCS values of Kwon (2008) in shared/physics.md §6,
 Kwon's tables evaluated by hand, the IMO MEPC.1/Circ.796 example and formula
@@ -16,10 +16,10 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import brentq
 
-from optroute import currents
-from optroute import speed_loss as sl
 from optroute.errors import ConfigError, SeaStateError, ShipSpecError
-from optroute.seaway import G_MS2
+from optroute.physics import currents
+from optroute.physics import speed_loss as sl
+from optroute.physics.seaway import G_MS2
 
 KN = 1852.0 / 3600.0  # m/s per knot, written out independently of optroute.units
 

@@ -22,17 +22,17 @@ from hypothesis import strategies as st
 from matplotlib.figure import Figure
 
 import optroute as orx
-from formulations._common import PowerLawFuel
+from formulations.common import PowerLawFuel
 from formulations.speed_convex import solve_speed_convex
-from optroute.optimise import optimise_corridor
-from optroute.plot import save_png
-from optroute.plot_front import front_figure, knee_index
-from optroute.study import SchedulerUnreachable
-from optroute.tradeoff import TradeoffFront, tradeoff
+from optroute.optimise.api import optimise_corridor
+from optroute.plot.common import save_png
+from optroute.plot.front import front_figure, knee_index
+from optroute.studies.study import SchedulerUnreachable
+from optroute.studies.tradeoff import TradeoffFront, tradeoff
 from tests.test_optimise import LinearSeaModel, _static_linear_sea
 
 # the module, not the function orx.tradeoff that shadows it as an attribute of the package
-tradeoff_mod = importlib.import_module("optroute.tradeoff")
+tradeoff_mod = importlib.import_module("optroute.studies.tradeoff")
 SHIP = orx.Ship.preset("container_54k_dwt")
 T0 = np.datetime64("2024-01-10T00:00", "ns")
 KW = {"max_leg_nm": 150.0, "use_land_mask": False}

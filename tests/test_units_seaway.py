@@ -7,7 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from optroute import SeaStateError, seaway, units
+from optroute import SeaStateError, units
+from optroute.physics import seaway
 
 finite_speeds = st.floats(0.0, 1e4, allow_nan=False)
 angles = st.floats(-1e4, 1e4, allow_nan=False)
@@ -98,15 +99,42 @@ def test_relative_wave_angle_convention():
 
 @pytest.mark.parametrize(
     ("u10", "bn"),
-    [(0.0, 0), (0.2, 0), (0.3, 1), (1.5, 1), (1.6, 2), (3.3, 2), (3.4, 3), (5.4, 3), (5.5, 4), (7.9, 4),
-     (8.0, 5), (10.7, 5), (10.8, 6), (13.8, 6), (13.9, 7), (17.1, 7), (17.2, 8), (20.7, 8), (20.8, 9),
-     (24.4, 9), (24.5, 10), (28.4, 10), (28.5, 11), (32.6, 11), (32.7, 12), (60.0, 12)],
+    [
+        (0.0, 0),
+        (0.2, 0),
+        (0.3, 1),
+        (1.5, 1),
+        (1.6, 2),
+        (3.3, 2),
+        (3.4, 3),
+        (5.4, 3),
+        (5.5, 4),
+        (7.9, 4),
+        (8.0, 5),
+        (10.7, 5),
+        (10.8, 6),
+        (13.8, 6),
+        (13.9, 7),
+        (17.1, 7),
+        (17.2, 8),
+        (20.7, 8),
+        (20.8, 9),
+        (24.4, 9),
+        (24.5, 10),
+        (28.4, 10),
+        (28.5, 11),
+        (32.6, 11),
+        (32.7, 12),
+        (60.0, 12),
+    ],
 )
 def test_beaufort_from_wind_wmo_table_edges(u10, bn):
     assert seaway.beaufort_from_wind(u10) == bn
 
 
-@pytest.mark.parametrize(("hs", "bn"), [(0.0, 0), (0.1, 1), (0.6, 3), (3.0, 6), (3.4, 6), (3.6, 7), (5.5, 8), (9.0, 10), (20.0, 12)])
+@pytest.mark.parametrize(
+    ("hs", "bn"), [(0.0, 0), (0.1, 1), (0.6, 3), (3.0, 6), (3.4, 6), (3.6, 7), (5.5, 8), (9.0, 10), (20.0, 12)]
+)
 def test_beaufort_from_hs_nearest_probable_height(hs, bn):
     assert seaway.beaufort_from_hs(hs) == bn
 

@@ -91,7 +91,11 @@ def test_era5_netcdf_descending_lat_and_0_360_lon(tmp_path):
     lat = np.array([60.0, 55.0, 50.0, 45.0])  # ERA5: north to south
     lon = np.arange(0.0, 360.0, 30.0)  # ERA5: 0..360
     raw = _raw(ERA5, lat, lon)
-    raw["tp"] = (("valid_time", "latitude", "longitude"), np.full((3, 4, 12), 1e-3), {"units": "m"})  # total precipitation
+    raw["tp"] = (
+        ("valid_time", "latitude", "longitude"),
+        np.full((3, 4, 12), 1e-3),
+        {"units": "m"},
+    )  # total precipitation
     raw = raw.assign_coords(number=0, expver=("valid_time", ["0001"] * 3))
     raw.to_netcdf(tmp_path / "era5.nc")
     ds = open_weather(tmp_path / "era5.nc")
@@ -108,9 +112,17 @@ def test_era5_forecast_time_plus_step(tmp_path):
     t = _truth(HOURS, lat, lon)
     dims = ("step", "latitude", "longitude")
     raw = xr.Dataset(
-        {"swh": (dims, t["hs_m"], {"units": "m"}), "mwd": (dims, t["wave_from_deg"], {"units": "degree"}),
-         "pp1d": (dims, t["tp_s"], {"units": "s"})},
-        coords={"time": T0, "step": HOURS.astype("timedelta64[h]").astype("timedelta64[ns]"), "latitude": lat, "longitude": lon},
+        {
+            "swh": (dims, t["hs_m"], {"units": "m"}),
+            "mwd": (dims, t["wave_from_deg"], {"units": "degree"}),
+            "pp1d": (dims, t["tp_s"], {"units": "s"}),
+        },
+        coords={
+            "time": T0,
+            "step": HOURS.astype("timedelta64[h]").astype("timedelta64[ns]"),
+            "latitude": lat,
+            "longitude": lon,
+        },
     )
     raw.to_netcdf(tmp_path / "fc.nc")
     _assert_canonical(open_weather(tmp_path / "fc.nc"), _expected(lat, lon, ["hs_m", "tp_s", "wave_from_deg"]))
@@ -119,8 +131,12 @@ def test_era5_forecast_time_plus_step(tmp_path):
 @pytest.mark.parametrize("total", [False, True])
 def test_cmems_waves_and_currents_with_depth(tmp_path, total):
     lat, lon = np.array([30.0, 30.5, 31.0]), np.array([-10.0, -9.5, -9.0, -8.5])
-    raw = _raw({"VHM0": ("hs_m", "m"), "VMDR": ("wave_from_deg", "degree"), "VTPK": ("tp_s", "s"),
-                "VTM10": ("tm_s", "s")}, lat, lon, dims=("time", "latitude", "longitude"))
+    raw = _raw(
+        {"VHM0": ("hs_m", "m"), "VMDR": ("wave_from_deg", "degree"), "VTPK": ("tp_s", "s"), "VTM10": ("tm_s", "s")},
+        lat,
+        lon,
+        dims=("time", "latitude", "longitude"),
+    )
     t = _truth(HOURS, lat, lon)
     depth = np.array([0.494, 1.54, 2.65])
     for name, canon in (("utotal" if total else "uo", "current_u_ms"), ("vtotal" if total else "vo", "current_v_ms")):
@@ -141,23 +157,42 @@ def test_cmems_waves_and_currents_with_depth(tmp_path, total):
 def test_ww3_fp_in_hz_across_the_antimeridian(tmp_path):
     lat = np.array([20.0, 30.0, 40.0])
     lon = np.arange(120.0, 251.0, 10.0)  # North Pacific 120E .. 110W in 0..360
-    raw = _raw({"hs": ("hs_m", "m"), "dir": ("wave_from_deg", "degree"), "fp": ("tp_s", "s-1"),
-                "uwnd": ("wind_u_ms", "m s-1"), "vwnd": ("wind_v_ms", "m s-1"),
-                "ucur": ("current_u_ms", "m s-1"), "vcur": ("current_v_ms", "m s-1")},
-               lat, lon, dims=("time", "latitude", "longitude"), convert={"fp": lambda tp: 1.0 / tp})
+    raw = _raw(
+        {
+            "hs": ("hs_m", "m"),
+            "dir": ("wave_from_deg", "degree"),
+            "fp": ("tp_s", "s-1"),
+            "uwnd": ("wind_u_ms", "m s-1"),
+            "vwnd": ("wind_v_ms", "m s-1"),
+            "ucur": ("current_u_ms", "m s-1"),
+            "vcur": ("current_v_ms", "m s-1"),
+        },
+        lat,
+        lon,
+        dims=("time", "latitude", "longitude"),
+        convert={"fp": lambda tp: 1.0 / tp},
+    )
     raw.to_netcdf(tmp_path / "ww3.nc")
     ds = open_weather(tmp_path / "ww3.nc")
     # one increasing piece, unwrapped past 180: 120 .. 250 (250 = 110 W)
-    _assert_canonical(ds, _expected(lat, lon, ["hs_m", "tp_s", "wave_from_deg", "wind_u_ms", "wind_v_ms",
-                                               "current_u_ms", "current_v_ms"]))
+    _assert_canonical(
+        ds,
+        _expected(
+            lat, lon, ["hs_m", "tp_s", "wave_from_deg", "wind_u_ms", "wind_v_ms", "current_u_ms", "current_v_ms"]
+        ),
+    )
     assert "across the antimeridian" in ds.attrs["lon_convention"]
 
 
 def test_ww3_given_in_minus180_180_order_is_unwrapped_the_same(tmp_path):
     lon = np.concatenate([np.arange(120.0, 180.0, 10.0), np.arange(-180.0, -109.0, 10.0)])  # 120..170, -180..-110
     lat = np.array([20.0, 30.0])
-    raw = _raw({"hs": ("hs_m", "m"), "dir": ("wave_from_deg", "degree"), "tp": ("tp_s", "s")},
-               lat, lon, dims=("time", "latitude", "longitude"))
+    raw = _raw(
+        {"hs": ("hs_m", "m"), "dir": ("wave_from_deg", "degree"), "tp": ("tp_s", "s")},
+        lat,
+        lon,
+        dims=("time", "latitude", "longitude"),
+    )
     ds = open_weather(raw)
     np.testing.assert_allclose(ds["lon"].values, np.arange(120.0, 251.0, 10.0))
     _assert_canonical(ds, _expected(lat, np.arange(120.0, 251.0, 10.0), ["hs_m", "tp_s", "wave_from_deg"]))
@@ -165,12 +200,24 @@ def test_ww3_given_in_minus180_180_order_is_unwrapped_the_same(tmp_path):
 
 def test_gfs_wave_names(tmp_path):
     lat, lon = np.array([-5.0, 0.0, 5.0]), np.array([350.0, 355.0, 0.0, 5.0])  # crosses 0 in 0..360
-    raw = _raw({"HTSGW": ("hs_m", "m"), "DIRPW": ("wave_from_deg", "deg"), "PERPW": ("tp_s", "s"),
-                "UGRD": ("wind_u_ms", "m/s"), "VGRD": ("wind_v_ms", "m/s")}, lat, lon, dims=("time", "lat", "lon"))
+    raw = _raw(
+        {
+            "HTSGW": ("hs_m", "m"),
+            "DIRPW": ("wave_from_deg", "deg"),
+            "PERPW": ("tp_s", "s"),
+            "UGRD": ("wind_u_ms", "m/s"),
+            "VGRD": ("wind_v_ms", "m/s"),
+        },
+        lat,
+        lon,
+        dims=("time", "lat", "lon"),
+    )
     raw.to_netcdf(tmp_path / "gfswave.nc")
     ds = open_weather(tmp_path / "gfswave.nc")
-    _assert_canonical(ds, _expected(lat, np.array([-10.0, -5.0, 0.0, 5.0]),
-                                    ["hs_m", "tp_s", "wave_from_deg", "wind_u_ms", "wind_v_ms"]))
+    _assert_canonical(
+        ds,
+        _expected(lat, np.array([-10.0, -5.0, 0.0, 5.0]), ["hs_m", "tp_s", "wave_from_deg", "wind_u_ms", "wind_v_ms"]),
+    )
     assert ds.attrs["provider"] == "GFS-Wave"
 
 
@@ -179,10 +226,17 @@ def _thredds(lat, lon, heights):
     dims = ("time1", "height_above_ground1", "lat", "lon")
     cube = {c: np.stack([t[c] + 3.0 * (h - 10.0) for h in heights], axis=1) for c in ("wind_u_ms", "wind_v_ms")}
     return xr.Dataset(
-        {"u-component_of_wind_height_above_ground": (dims, cube["wind_u_ms"], {"units": "m/s"}),
-         "v-component_of_wind_height_above_ground": (dims, cube["wind_v_ms"], {"units": "m/s"})},
-        coords={"time1": TIMES, "reftime": T0, "height_above_ground1": ("height_above_ground1", heights, {"units": "m"}),
-                "lat": lat, "lon": lon},
+        {
+            "u-component_of_wind_height_above_ground": (dims, cube["wind_u_ms"], {"units": "m/s"}),
+            "v-component_of_wind_height_above_ground": (dims, cube["wind_v_ms"], {"units": "m/s"}),
+        },
+        coords={
+            "time1": TIMES,
+            "reftime": T0,
+            "height_above_ground1": ("height_above_ground1", heights, {"units": "m"}),
+            "lat": lat,
+            "lon": lon,
+        },
     )
 
 
@@ -212,8 +266,13 @@ def test_zarr_store(tmp_path):
 
 @pytest.mark.parametrize(
     ("pname", "unit", "factor"),
-    [("swh", "cm", 100.0), ("swh", "ft", 1 / 0.3048), ("u10", "knots", 1 / KN), ("u10", "cm/s", 100.0),
-     ("mwd", "radians", np.pi / 180.0)],
+    [
+        ("swh", "cm", 100.0),
+        ("swh", "ft", 1 / 0.3048),
+        ("u10", "knots", 1 / KN),
+        ("u10", "cm/s", 100.0),
+        ("mwd", "radians", np.pi / 180.0),
+    ],
 )
 def test_alternative_units_are_converted(pname, unit, factor):
     lat, lon = np.array([0.0, 1.0]), np.array([10.0, 11.0])
@@ -258,18 +317,28 @@ def test_grib_through_cfgrib(tmp_path):
         for short, canon in (("swh", "hs_m"), ("mwd", "wave_from_deg"), ("pp1d", "tp_s")):
             for k, hour in enumerate(HOURS.astype(int)):
                 h = eccodes.codes_grib_new_from_samples("regular_ll_sfc_grib1")
-                for key, val in dict(Ni=360, Nj=3, latitudeOfFirstGridPointInDegrees=50.0,
-                                     latitudeOfLastGridPointInDegrees=48.0, longitudeOfFirstGridPointInDegrees=0.0,
-                                     longitudeOfLastGridPointInDegrees=359.0, iDirectionIncrementInDegrees=1.0,
-                                     jDirectionIncrementInDegrees=1.0, dataDate=20240110, dataTime=hour * 100,
-                                     table2Version=140, shortName=short).items():
+                for key, val in dict(
+                    Ni=360,
+                    Nj=3,
+                    latitudeOfFirstGridPointInDegrees=50.0,
+                    latitudeOfLastGridPointInDegrees=48.0,
+                    longitudeOfFirstGridPointInDegrees=0.0,
+                    longitudeOfLastGridPointInDegrees=359.0,
+                    iDirectionIncrementInDegrees=1.0,
+                    jDirectionIncrementInDegrees=1.0,
+                    dataDate=20240110,
+                    dataTime=hour * 100,
+                    table2Version=140,
+                    shortName=short,
+                ).items():
                     eccodes.codes_set(h, key, val)
                 eccodes.codes_set_values(h, t[canon][k].ravel())
                 eccodes.codes_write(h, fh)
                 eccodes.codes_release(h)
     ds = open_weather(tmp_path / "era5.grib")
-    _assert_canonical(ds, _expected(lat[::-1], np.arange(-180.0, 180.0, 1.0), ["hs_m", "tp_s", "wave_from_deg"]),
-                      atol=2e-3)  # GRIB packing is lossy
+    _assert_canonical(
+        ds, _expected(lat[::-1], np.arange(-180.0, 180.0, 1.0), ["hs_m", "tp_s", "wave_from_deg"]), atol=2e-3
+    )  # GRIB packing is lossy
     assert not list(tmp_path.glob("*.idx"))
 
 
@@ -297,7 +366,14 @@ def test_missing_required_variable_lists_the_accepted_names(tmp_path):
         open_weather(raw)
     msg = str(err.value)
     assert "tp_s or tm_s is missing" in msg
-    for alias in ("pp1d (ERA5)", "VTPK (CMEMS)", "fp (WAVEWATCH III", "PERPW (GFS-Wave)", "mwp (ERA5)", "VTM10 (CMEMS)"):
+    for alias in (
+        "pp1d (ERA5)",
+        "VTPK (CMEMS)",
+        "fp (WAVEWATCH III",
+        "PERPW (GFS-Wave)",
+        "mwp (ERA5)",
+        "VTM10 (CMEMS)",
+    ):
         assert alias in msg
 
 
@@ -309,7 +385,9 @@ def test_half_a_wind_vector_is_refused(tmp_path):
 def test_unknown_units_name_variable_unit_and_accepted(tmp_path):
     raw = _good(tmp_path)
     raw["swh"].attrs["units"] = "furlongs"
-    with pytest.raises(WeatherSchemaError, match=r"'swh' \(for hs_m\) has unknown units 'furlongs'; accepted units: .*cm.*m"):
+    with pytest.raises(
+        WeatherSchemaError, match=r"'swh' \(for hs_m\) has unknown units 'furlongs'; accepted units: .*cm.*m"
+    ):
         open_weather(raw)
 
 
@@ -395,8 +473,13 @@ def test_other_structural_problems(tmp_path):
         open_weather(raw.expand_dims(number=[0, 1]))
     with pytest.raises(WeatherSchemaError, match=r"no time coordinate"):
         open_weather(raw.isel(valid_time=0, drop=True))
-    runs = _raw(ERA5, lat, lon, dims=("step", "latitude", "longitude"),
-                time_coord={"step": HOURS.astype("timedelta64[h]"), "latitude": lat, "longitude": lon})
+    runs = _raw(
+        ERA5,
+        lat,
+        lon,
+        dims=("step", "latitude", "longitude"),
+        time_coord={"step": HOURS.astype("timedelta64[h]"), "latitude": lat, "longitude": lon},
+    )
     runs = runs.expand_dims(time=TIMES[:2])
     with pytest.raises(WeatherSchemaError, match="several forecast runs"):
         open_weather(runs)

@@ -64,8 +64,15 @@ def test_matches_a_brute_force_reference_on_a_non_uniform_grid():
         ref = RegularGridInterpolator(([0.0, 3.0, 9.0, 12.0], lat, lon), field)(pts)
         np.testing.assert_allclose(got[name], ref, rtol=1e-10, atol=1e-10, err_msg=name)
     # and plain xarray interpolation agrees on the same points
-    ref = ds["hs_m"].interp(time=xr.DataArray(T0 + (th * 3.6e12).astype("timedelta64[ns]"), dims="p"),
-                            lat=xr.DataArray(pla, dims="p"), lon=xr.DataArray(plo, dims="p")).values
+    ref = (
+        ds["hs_m"]
+        .interp(
+            time=xr.DataArray(T0 + (th * 3.6e12).astype("timedelta64[ns]"), dims="p"),
+            lat=xr.DataArray(pla, dims="p"),
+            lon=xr.DataArray(plo, dims="p"),
+        )
+        .values
+    )
     np.testing.assert_allclose(got["hs_m"], ref, rtol=1e-9)
 
 
@@ -104,9 +111,11 @@ def test_regional_domain_across_the_antimeridian(tmp_path):
     lon = np.array([170.0, 175.0, 180.0, 185.0, 190.0])
     hs = np.broadcast_to(np.array([1.0, 2.0, 4.0, 8.0, 16.0]), (2, 2, 5)).astype(np.float32)
     raw = xr.Dataset(
-        {"hs": (("time", "latitude", "longitude"), hs, {"units": "m"}),
-         "tp": (("time", "latitude", "longitude"), np.full((2, 2, 5), 9.0), {"units": "s"}),
-         "dir": (("time", "latitude", "longitude"), np.full((2, 2, 5), 45.0), {"units": "degree"})},
+        {
+            "hs": (("time", "latitude", "longitude"), hs, {"units": "m"}),
+            "tp": (("time", "latitude", "longitude"), np.full((2, 2, 5), 9.0), {"units": "s"}),
+            "dir": (("time", "latitude", "longitude"), np.full((2, 2, 5), 45.0), {"units": "degree"}),
+        },
         coords={"time": [T0, T0 + 3 * H], "latitude": [40.0, 41.0], "longitude": lon},
     )
     raw.to_netcdf(tmp_path / "np.nc")
@@ -118,7 +127,9 @@ def test_regional_domain_across_the_antimeridian(tmp_path):
     assert got[1] == pytest.approx(4.0 + (180.1 - 180.0) / 5.0 * (8.0 - 4.0))  # 4.08
     assert got[2] == pytest.approx(got[1])
     assert got[3] == pytest.approx(8.0 + 0.5 * (16.0 - 8.0))  # 172.5 W = 187.5 unwrapped
-    with pytest.raises(WeatherCoverageError, match=r"lon=-160.*lon 170 to 190 deg E unwrapped \(across the antimeridian, to -170\)"):
+    with pytest.raises(
+        WeatherCoverageError, match=r"lon=-160.*lon 170 to 190 deg E unwrapped \(across the antimeridian, to -170\)"
+    ):
         s.sample(T0, 40.5, -160.0)
 
 
@@ -157,12 +168,23 @@ def test_coverage_errors_name_point_time_and_extent():
     with pytest.raises(WeatherCoverageError) as err:
         s.sample(T0 + 3 * H, [15.0, 25.0], [-25.0, -25.0])
     msg = str(err.value)
-    for part in ("lat=25", "lon=-25", "2024-01-10T03:00:00", "area", "lat 10 to 20 deg N", "lon -30 to -20 deg E",
-                 "time 2024-01-10T00:00:00 to 2024-01-10T12:00:00", "1 of 2 points"):
+    for part in (
+        "lat=25",
+        "lon=-25",
+        "2024-01-10T03:00:00",
+        "area",
+        "lat 10 to 20 deg N",
+        "lon -30 to -20 deg E",
+        "time 2024-01-10T00:00:00 to 2024-01-10T12:00:00",
+        "1 of 2 points",
+    ):
         assert part in msg, part
     with pytest.raises(WeatherCoverageError, match=r"lon=-35\) at 2024-01-10T03:00:00"):
         s.sample(T0 + 3 * H, 15.0, -35.0)
-    with pytest.raises(WeatherCoverageError, match=r"2024-01-10T13:00:00 lies outside the weather dataset's time span.*time_policy='hold'"):
+    with pytest.raises(
+        WeatherCoverageError,
+        match=r"2024-01-10T13:00:00 lies outside the weather dataset's time span.*time_policy='hold'",
+    ):
         s.sample(T0 + 13 * H, 15.0, -25.0)
     with pytest.raises(WeatherCoverageError, match=r"2024-01-09T23:00:00"):
         s.sample(T0 - H, 15.0, -25.0)
@@ -211,13 +233,17 @@ def test_lazy_sampler_reads_slices_keeps_a_bounded_cache_and_checks_them(tmp_pat
     eager = WeatherSampler(_ds(times, np.linspace(0, 4, 5), np.linspace(0, 5, 6), np.nan_to_num(hs)))
     for hour in (1.0, 4.0, 7.0, 10.0, 2.0):
         t = T0 + np.timedelta64(int(hour * 60), "m")
-        np.testing.assert_allclose(s.sample(t, [1.2, 3.3], [0.4, 4.9])["hs_m"], eager.sample(t, [1.2, 3.3], [0.4, 4.9])["hs_m"])
+        np.testing.assert_allclose(
+            s.sample(t, [1.2, 3.3], [0.4, 4.9])["hs_m"], eager.sample(t, [1.2, 3.3], [0.4, 4.9])["hs_m"]
+        )
         assert len(s._cache) <= 3
     with pytest.raises(WeatherSchemaError, match=r"at 2024-01-10T15:00:00: hs_m is NaN everywhere"):
         s.sample(T0 + 14 * H, 1.0, 1.0)
 
 
-@pytest.mark.skipif(importlib.util.find_spec("numba") is None, reason="numba is optional; the numpy kernel is the fallback")
+@pytest.mark.skipif(
+    importlib.util.find_spec("numba") is None, reason="numba is optional; the numpy kernel is the fallback"
+)
 @pytest.mark.parametrize("parallel_from", [10**9, 1000])
 def test_numba_and_numpy_kernels_agree(monkeypatch, parallel_from):
     from optroute.weather import sample as sm
@@ -227,7 +253,9 @@ def test_numba_and_numpy_kernels_agree(monkeypatch, parallel_from):
     lon = np.arange(-180.0, 180.0, 10.0)
     hs = rng.uniform(0.5, 5.0, (3, 5, lon.size)).astype(np.float32)
     hs[1, 2, 3] = np.nan
-    ds = _ds(T0 + np.arange(3) * 3 * H, np.linspace(-20, 20, 5), lon, hs, direction=rng.uniform(0, 360, (3, 5, lon.size)))
+    ds = _ds(
+        T0 + np.arange(3) * 3 * H, np.linspace(-20, 20, 5), lon, hs, direction=rng.uniform(0, 360, (3, 5, lon.size))
+    )
     n = 2000
     t = T0 + rng.integers(0, 6 * 3600, n).astype("timedelta64[s]")
     la, lo = rng.uniform(-20, 20, n), rng.uniform(-180, 180, n)

@@ -8,7 +8,7 @@ code 2 and one line on stderr):
   (``32.71N,117.17W``);
 * times in ISO 8601, taken as UTC (``2024-01-10T06:00``; a trailing ``Z`` is accepted),
   an ETA also as ``+HOURS`` after the departure (``+264``);
-* a ship as a preset name or a TOML file (:meth:`optroute.ship.Ship.from_toml`);
+* a ship as a preset name or a TOML file (:meth:`optroute.physics.ship.Ship.from_toml`);
 * weather as a built-in scenario name or a file
   (:func:`optroute.weather.catalogue.load_weather`);
 * a corridor from a GeoJSON or CSV file (:func:`read_waypoints`).
@@ -198,7 +198,7 @@ def parse_etas(text: str, departure: np.datetime64, what: str = "--etas") -> lis
 
 
 def load_ship(spec: str) -> Any:
-    """A :class:`~optroute.ship.Ship` from a preset name or a TOML file path.
+    """A :class:`~optroute.physics.ship.Ship` from a preset name or a TOML file path.
 
     Raises
     ------
@@ -207,7 +207,7 @@ def load_ship(spec: str) -> Any:
     ShipSpecError
         The TOML file is missing or invalid (:meth:`Ship.from_toml`).
     """
-    from optroute.ship import Ship
+    from optroute.physics.ship import Ship
 
     if spec in Ship.presets():
         return Ship.preset(spec)
@@ -349,7 +349,7 @@ def read_waypoints(path: str | os.PathLike[str], weather: xr.Dataset | None = No
     OnLandError
         A point lies on land (real coastline, unless ``weather`` declares a synthetic geography).
     """
-    from optroute import land
+    from optroute.geo import land
 
     p = Path(path)
     source = os.fspath(path)

@@ -1,6 +1,6 @@
 """``optroute bands``: the forbidden speed intervals of one heading in one sea state.
 
-The forbidden speed intervals (:func:`optroute.safety.forbidden_speed_intervals`), the safe
+The forbidden speed intervals (:func:`optroute.physics.safety.forbidden_speed_intervals`), the safe
 speed ranges up to the ship's calm-water speed at MCR, and optionally a polar diagram of the
 dangerous zones for every heading (``--plot FILE.png``).
 """
@@ -12,10 +12,11 @@ import math
 import sys
 from typing import TextIO
 
-from optroute import seaway, units
+from optroute import units
 from optroute.cli._common import add_command, load_ship
 from optroute.errors import ConfigError
-from optroute.safety import (
+from optroute.physics import seaway
+from optroute.physics.safety import (
     PERIOD_FORMS,
     RULE_SETS,
     BandRules,
@@ -103,7 +104,7 @@ def cmd_bands(args: argparse.Namespace, out: TextIO | None = None) -> int:
 
     plot_path = None
     if args.plot is not None:
-        from optroute import plot
+        from optroute.plot import common as plot
 
         fig = plot.band_polar_figure(
             ship,

@@ -158,8 +158,8 @@ def front_frame(front: xr.Dataset) -> Any:
 
 def write_front(front: xr.Dataset, paths: dict[str, Path]) -> list[str]:
     """The front as NetCDF, CSV and a PNG figure, each written atomically."""
-    from optroute import outputs
-    from optroute.plot import save_png
+    from optroute.plan import outputs
+    from optroute.plot.common import save_png
 
     buf = io.StringIO()
     front_frame(front).to_csv(buf, index=False, lineterminator="\n")
@@ -224,7 +224,7 @@ def add_tradeoff(sub: argparse._SubParsersAction, common: argparse.ArgumentParse
 
 def cmd_tradeoff(args: argparse.Namespace, out: TextIO | None = None) -> int:
     """``optroute tradeoff``."""
-    from optroute.tradeoff import tradeoff
+    from optroute.studies.tradeoff import tradeoff
 
     out = out or sys.stdout
     ship = load_ship(args.ship)
@@ -321,7 +321,7 @@ def _study_etas(text: str, departure: np.datetime64 | None, first_time: np.datet
 
 def cmd_study(args: argparse.Namespace, out: TextIO | None = None) -> int:
     """``optroute study``."""
-    from optroute.voyage_study import study
+    from optroute.studies.voyage_study import study
 
     out = out or sys.stdout
     ships = [load_ship(s) for s in split_list(args.ships, "--ships")]

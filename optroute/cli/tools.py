@@ -51,7 +51,7 @@ def add_demo(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) -
 
 def cmd_demo(args: argparse.Namespace, out: TextIO | None = None) -> int:
     """``optroute demo``: run the demo voyage, print the comparison table, write the figures."""
-    from optroute.demo import run_demo
+    from optroute.cli.demo import run_demo
 
     out = out or sys.stdout
     print("San Diego -> Tokyo, container_8000teu at 25 kn, built-in north_pacific_storms() forecast", file=out)

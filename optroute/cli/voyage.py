@@ -1,6 +1,6 @@
 """``optroute plan`` (endpoints → searched and optimised plan) and ``optroute optimise`` (a corridor file → plan).
 
-Both write the plan as GeoJSON, CSV and NetCDF (:mod:`optroute.outputs`) and print a short
+Both write the plan as GeoJSON, CSV and NetCDF (:mod:`optroute.plan.outputs`) and print a short
 summary; the exit codes are :mod:`optroute.cli`'s (3 for an unreachable ETA or no safe
 passage, 4 for a solver failure).
 """
@@ -130,7 +130,7 @@ def weather_name(wx: Any, spec: str) -> str:
 
 def write_plan(plan: Any, out: str, stem: str) -> list[str]:
     """Write the plan's GeoJSON, CSV and NetCDF next to each other; return the paths."""
-    from optroute import outputs
+    from optroute.plan import outputs
 
     paths = output_paths(out, stem)
     written = [
@@ -307,7 +307,7 @@ def add_optimise(sub: argparse._SubParsersAction, common: argparse.ArgumentParse
 
 
 def read_corridor(args: argparse.Namespace, weather: Any) -> Any:
-    """The :class:`~optroute.route.Corridor` of ``--corridor`` and ``--width-nm``."""
+    """The :class:`~optroute.search.route.Corridor` of ``--corridor`` and ``--width-nm``."""
     import optroute as orx
 
     if not (np.isfinite(args.width_nm) and args.width_nm >= 0):

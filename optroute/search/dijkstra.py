@@ -63,7 +63,7 @@ from typing import Literal
 
 import numpy as np
 
-from optroute import geo
+from optroute import geodesy as geo
 from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
 from optroute.search import _kernels

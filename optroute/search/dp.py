@@ -53,7 +53,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from optroute import geo
+from optroute import geodesy as geo
 from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
 from optroute.search.costs import unpack_cost

@@ -42,7 +42,7 @@ from math import gcd
 import numpy as np
 from numpy.typing import ArrayLike
 
-from optroute import geo
+from optroute import geodesy as geo
 from optroute._checks import finite
 from optroute.errors import ConfigError
 

@@ -55,7 +55,8 @@ import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike
 
-from optroute import geo, units
+from optroute import geodesy as geo
+from optroute import units
 from optroute._checks import finite
 from optroute.errors import ConfigError
 from optroute.weather import schema

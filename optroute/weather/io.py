@@ -126,8 +126,10 @@ PROVIDER_NAMES: dict[str, tuple[tuple[str, str], ...]] = {
 _STANDARD_NAMES: dict[str, tuple[tuple[str, bool], ...]] = {
     "hs_m": (("sea_surface_wave_significant_height", False),),
     "tp_s": (("sea_surface_wave_period_at_variance_spectral_density_maximum", False),),
-    "tm_s": (("sea_surface_wave_mean_period_from_variance_spectral_density_inverse_frequency_moment", False),
-             ("sea_surface_wave_mean_period", False)),
+    "tm_s": (
+        ("sea_surface_wave_mean_period_from_variance_spectral_density_inverse_frequency_moment", False),
+        ("sea_surface_wave_mean_period", False),
+    ),
     "wave_from_deg": (("sea_surface_wave_from_direction", False), ("sea_surface_wave_to_direction", True)),
     "wind_u_ms": (("eastward_wind", False),),
     "wind_v_ms": (("northward_wind", False),),
@@ -137,19 +139,52 @@ _STANDARD_NAMES: dict[str, tuple[tuple[str, bool], ...]] = {
 
 # unit spellings by kind -> factor to the canonical unit; "frequency" converts by reciprocal
 _UNITS: dict[str, dict[str, float]] = {
-    "length": {"m": 1.0, "meter": 1.0, "meters": 1.0, "metre": 1.0, "metres": 1.0, "cm": 0.01, "ft": 0.3048, "feet": 0.3048},
+    "length": {
+        "m": 1.0,
+        "meter": 1.0,
+        "meters": 1.0,
+        "metre": 1.0,
+        "metres": 1.0,
+        "cm": 0.01,
+        "ft": 0.3048,
+        "feet": 0.3048,
+    },
     "period": {"s": 1.0, "sec": 1.0, "second": 1.0, "seconds": 1.0},
     "frequency": {"hz": 1.0, "s-1": 1.0, "1/s": 1.0, "/s": 1.0},
     "angle": {
-        "degree": 1.0, "degrees": 1.0, "deg": 1.0, "degree_true": 1.0, "degrees_true": 1.0, "degree true": 1.0,
-        "degrees true": 1.0, "degree_t": 1.0, "°": 1.0, "rad": 180.0 / np.pi, "radian": 180.0 / np.pi,
+        "degree": 1.0,
+        "degrees": 1.0,
+        "deg": 1.0,
+        "degree_true": 1.0,
+        "degrees_true": 1.0,
+        "degree true": 1.0,
+        "degrees true": 1.0,
+        "degree_t": 1.0,
+        "°": 1.0,
+        "rad": 180.0 / np.pi,
+        "radian": 180.0 / np.pi,
         "radians": 180.0 / np.pi,
     },
     "speed": {
-        "m s-1": 1.0, "m/s": 1.0, "ms-1": 1.0, "m.s-1": 1.0, "meter second-1": 1.0, "meters/second": 1.0,
-        "metres/second": 1.0, "m sec-1": 1.0, "meter/second": 1.0, "meters second-1": 1.0,
-        "knots": units.MS_PER_KN, "knot": units.MS_PER_KN, "kt": units.MS_PER_KN, "kts": units.MS_PER_KN,
-        "kn": units.MS_PER_KN, "cm s-1": 0.01, "cm/s": 0.01, "km/h": 1.0 / 3.6, "km h-1": 1.0 / 3.6,
+        "m s-1": 1.0,
+        "m/s": 1.0,
+        "ms-1": 1.0,
+        "m.s-1": 1.0,
+        "meter second-1": 1.0,
+        "meters/second": 1.0,
+        "metres/second": 1.0,
+        "m sec-1": 1.0,
+        "meter/second": 1.0,
+        "meters second-1": 1.0,
+        "knots": units.MS_PER_KN,
+        "knot": units.MS_PER_KN,
+        "kt": units.MS_PER_KN,
+        "kts": units.MS_PER_KN,
+        "kn": units.MS_PER_KN,
+        "cm s-1": 0.01,
+        "cm/s": 0.01,
+        "km/h": 1.0 / 3.6,
+        "km h-1": 1.0 / 3.6,
     },
 }
 _KIND_OF: dict[str, tuple[str, ...]] = {
@@ -300,7 +335,9 @@ def open_weather(
     try:
         ds, notes = _normalise(raw, where)
     except (OSError, RuntimeError) as exc:  # a lazily read coordinate failed: a damaged file
-        raise WeatherSchemaError(f"{where}: could not read the file's coordinates ({exc}); the file is truncated or corrupted") from exc
+        raise WeatherSchemaError(
+            f"{where}: could not read the file's coordinates ({exc}); the file is truncated or corrupted"
+        ) from exc
     check_required(ds, required, where, notes)
     _check_fields(ds, where)
     ds.attrs["time_policy"] = time_policy
@@ -320,7 +357,9 @@ def _sniff(path: Path) -> str:
         raise WeatherSchemaError(f"{path}: is a directory but not a Zarr store (no zarr.json or .zgroup inside)")
     size = path.stat().st_size
     if size == 0:
-        raise WeatherSchemaError(f"{path}: the file is empty (0 bytes); the download or the write failed — fetch it again")
+        raise WeatherSchemaError(
+            f"{path}: the file is empty (0 bytes); the download or the write failed — fetch it again"
+        )
     with path.open("rb") as fh:
         head = fh.read(8)
     if head.startswith(b"\x89HDF"):
@@ -370,7 +409,9 @@ def _open_path(path: Path, engine: str | None, chunks: Any, backend_kwargs: Mapp
     kwargs: dict[str, Any] = dict(backend_kwargs or {})
     if engine == "cfgrib":
         if not (_has_module("cfgrib") and _has_module("eccodes")):
-            raise ConfigError(f'{path}: reading GRIB needs cfgrib and ecCodes; install them with pip install "optroute[grib]"')
+            raise ConfigError(
+                f'{path}: reading GRIB needs cfgrib and ecCodes; install them with pip install "optroute[grib]"'
+            )
         kwargs.setdefault("indexpath", "")  # never write .idx files beside the data
     try:
         if isinstance(chunks, str) and chunks == "auto":
@@ -393,8 +434,10 @@ def _slice_chunks(raw: xr.Dataset) -> dict[Hashable, int]:
     spec: dict[Hashable, int] = {}
     for dim in raw.dims:
         coord = raw.coords.get(dim)
-        horizontal = dim in _LAT_NAMES or dim in _LON_NAMES or (
-            coord is not None and coord.attrs.get("units") in ("degrees_north", "degrees_east")
+        horizontal = (
+            dim in _LAT_NAMES
+            or dim in _LON_NAMES
+            or (coord is not None and coord.attrs.get("units") in ("degrees_north", "degrees_east"))
         )
         spec[dim] = -1 if horizontal else 1
     return spec
@@ -463,7 +506,8 @@ def _rename_horizontal(raw: xr.Dataset, where: str) -> xr.Dataset:
     ):
         found = [n for n in names if n in raw.variables]
         found += [
-            n for n, v in raw.coords.items()
+            n
+            for n, v in raw.coords.items()
             if n not in found and (v.attrs.get("standard_name") == std or v.attrs.get("units") == unit)
         ]
         if not found:
@@ -504,12 +548,16 @@ def _any_kind(units_attr: str) -> str | None:
     return next((kind for kind, table in _UNITS.items() if units_attr in table), None)
 
 
-def _choose_variables(raw: xr.Dataset, where: str) -> tuple[dict[str, tuple[str, xr.DataArray]], str, dict[str, tuple[str, str, str]]]:
+def _choose_variables(
+    raw: xr.Dataset, where: str
+) -> tuple[dict[str, tuple[str, xr.DataArray]], str, dict[str, tuple[str, str, str]]]:
     chosen: dict[str, tuple[str, xr.DataArray]] = {}
     sources: dict[str, tuple[str, str, str]] = {}
     rejected: list[str] = []
     for canon in schema.VARIABLES:
-        candidates: list[tuple[str, str, bool]] = [(n, p, False) for n, p in PROVIDER_NAMES[canon] if n in raw.data_vars]
+        candidates: list[tuple[str, str, bool]] = [
+            (n, p, False) for n, p in PROVIDER_NAMES[canon] if n in raw.data_vars
+        ]
         for std, flip in _STANDARD_NAMES[canon]:
             candidates += [
                 (str(n), f"standard_name={std}", flip)
@@ -534,7 +582,9 @@ def _choose_variables(raw: xr.Dataset, where: str) -> tuple[dict[str, tuple[str,
                 if hit is None:
                     other = _any_kind(u)
                     if other is not None:  # a known unit of another quantity: not this variable (ERA5 tp is rain)
-                        rejected.append(f"{name!r} has units {raw_units!r} ({other}), not {' or '.join(_KIND_OF[canon])}")
+                        rejected.append(
+                            f"{name!r} has units {raw_units!r} ({other}), not {' or '.join(_KIND_OF[canon])}"
+                        )
                         continue
                     accepted = sorted(set().union(*(_UNITS[k] for k in _KIND_OF[canon])))
                     raise WeatherSchemaError(
@@ -579,13 +629,17 @@ def _reduce_extra_dims(da: xr.DataArray, src: str, where: str, levels: list[str]
             levels.append(f"{src}: ERA5/ERA5T expver merged")
         elif name in _DEPTH_NAMES or attrs.get("standard_name") == "depth" or attrs.get("positive") == "down":
             if coord is None:
-                raise WeatherSchemaError(f"{where}: variable {src!r} has a depth dimension {name!r} without depth values")
+                raise WeatherSchemaError(
+                    f"{where}: variable {src!r} has a depth dimension {name!r} without depth values"
+                )
             k = int(np.argmin(np.abs(coord.values.astype(float))))
             levels.append(f"{src}: surface level {name}={float(coord.values[k]):g} m")
             da = da.isel({dim: k}, drop=True)
         elif name.lower().startswith("height") or attrs.get("standard_name") == "height":
             if coord is None:
-                raise WeatherSchemaError(f"{where}: variable {src!r} has a height dimension {name!r} without height values")
+                raise WeatherSchemaError(
+                    f"{where}: variable {src!r} has a height dimension {name!r} without height values"
+                )
             h = coord.values.astype(float)
             hit = np.flatnonzero(np.abs(h - 10.0) < 0.5)
             if hit.size == 0:
@@ -614,7 +668,9 @@ def _is_time_dim(da: xr.DataArray, dim: Hashable) -> bool:
     if dim in ("time", "valid_time", "step"):
         return True
     coord = da.coords.get(dim)
-    return coord is not None and (np.issubdtype(coord.dtype, np.datetime64) or np.issubdtype(coord.dtype, np.timedelta64))
+    return coord is not None and (
+        np.issubdtype(coord.dtype, np.datetime64) or np.issubdtype(coord.dtype, np.timedelta64)
+    )
 
 
 def _time_axis(da: xr.DataArray, src: str, where: str) -> xr.DataArray:
@@ -636,7 +692,9 @@ def _time_axis(da: xr.DataArray, src: str, where: str) -> xr.DataArray:
         if tdims:
             vt = da.coords[tdims[0]]
         else:
-            scalars = [c for c in da.coords if da.coords[c].ndim == 0 and np.issubdtype(da.coords[c].dtype, np.datetime64)]
+            scalars = [
+                c for c in da.coords if da.coords[c].ndim == 0 and np.issubdtype(da.coords[c].dtype, np.datetime64)
+            ]
             if not scalars:
                 raise WeatherSchemaError(
                     f"{where}: variable {src!r} has no time coordinate (dims {da.dims}); add one, e.g. "
@@ -685,5 +743,7 @@ def _check_fields(ds: xr.Dataset, where: str) -> None:
             else:
                 values = da.isel(time=sorted({0, da.sizes["time"] - 1})).values
         except (OSError, RuntimeError, ValueError) as exc:
-            raise WeatherSchemaError(f"{where}: could not read {name} ({exc}); the file is truncated or corrupted") from exc
+            raise WeatherSchemaError(
+                f"{where}: could not read {name} ({exc}); the file is truncated or corrupted"
+            ) from exc
         schema.check_values(str(name), values, f"{where}: {da.attrs.get('source_name', name)}")

@@ -54,8 +54,15 @@ _NUMBA_PARALLEL_POINTS = 200_000
 
 
 def _trilinear_numpy(
-    flat: np.ndarray, base: np.ndarray, xi: np.ndarray, xj: np.ndarray, nx: int, dt: int,
-    tw: np.ndarray, yw: np.ndarray, xw: np.ndarray,
+    flat: np.ndarray,
+    base: np.ndarray,
+    xi: np.ndarray,
+    xj: np.ndarray,
+    nx: int,
+    dt: int,
+    tw: np.ndarray,
+    yw: np.ndarray,
+    xw: np.ndarray,
 ) -> np.ndarray:
     """Trilinear interpolation by numpy gathers; ``flat`` is a (time, lat, lon) field raveled.
 
@@ -217,7 +224,9 @@ class WeatherSampler:
             raise ConfigError(f"engine={engine!r} is not known; use 'auto', 'numpy' or 'numba'")
         if engine == "numba" and _trilinear_numba is None:
             raise ConfigError("engine='numba' needs numba; install it with pip install numba, or use engine='numpy'")
-        self.engine = "numba" if engine == "auto" and _trilinear_numba is not None else ("numpy" if engine == "auto" else engine)
+        self.engine = (
+            "numba" if engine == "auto" and _trilinear_numba is not None else ("numpy" if engine == "auto" else engine)
+        )
         self.source = str(ds.attrs.get("source", "dataset"))
         schema.check_coords(ds, self.source)
         check_required(ds, required, self.source)
@@ -237,7 +246,9 @@ class WeatherSampler:
         self._cache: OrderedDict[int, dict[str, np.ndarray]] = OrderedDict()
         self._cache_bytes = int(cache_bytes)
         nbytes = sum(self._ds[v].nbytes for v in self.variables)
-        in_memory = all(self._ds[v].chunks is None and getattr(self._ds[v].variable, "_in_memory", False) for v in self.variables)
+        in_memory = all(
+            self._ds[v].chunks is None and getattr(self._ds[v].variable, "_in_memory", False) for v in self.variables
+        )
         self.lazy = not in_memory and nbytes > load_bytes
         self._arrays: dict[str, np.ndarray] = {}
         if not self.lazy:
@@ -362,14 +373,18 @@ class WeatherSampler:
         for v in wanted:
             if v not in self.variables and v not in schema.OPTIONAL_ZERO:
                 if v not in schema.VARIABLES:
-                    raise ConfigError(f"{v!r} is not a canonical weather variable; use one of {sorted(schema.VARIABLES)}")
+                    raise ConfigError(
+                        f"{v!r} is not a canonical weather variable; use one of {sorted(schema.VARIABLES)}"
+                    )
                 raise WeatherSchemaError(
                     f"{self.source}: variable {v} is not in the dataset (present: {', '.join(self.variables)}); "
                     "only wind and current default to zero"
                 )
         return wanted
 
-    def _inputs(self, time: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> tuple[tuple[int, ...], np.ndarray, np.ndarray, np.ndarray]:
+    def _inputs(
+        self, time: ArrayLike, lat: ArrayLike, lon: ArrayLike
+    ) -> tuple[tuple[int, ...], np.ndarray, np.ndarray, np.ndarray]:
         try:
             t = np.asarray(time, dtype="datetime64[ns]")
         except (TypeError, ValueError) as exc:
@@ -384,11 +399,15 @@ class WeatherSampler:
         la = np.broadcast_to(la, shape).ravel()
         lo = np.broadcast_to(lo, shape).ravel()
         if np.isnat(t).any():
-            raise ConfigError(f"time holds NaT at flat index {int(np.flatnonzero(np.isnat(t))[0])}; pass valid UTC times")
+            raise ConfigError(
+                f"time holds NaT at flat index {int(np.flatnonzero(np.isnat(t))[0])}; pass valid UTC times"
+            )
         bad = ~(np.isfinite(la) & np.isfinite(lo)) | (np.abs(la) > 90.0)
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
-            raise ConfigError(f"position (lat={float(la[k])!r}, lon={float(lo[k])!r}) at flat index {k} is not a valid (lat, lon) in degrees")
+            raise ConfigError(
+                f"position (lat={float(la[k])!r}, lon={float(lo[k])!r}) at flat index {k} is not a valid (lat, lon) in degrees"
+            )
         seconds = (t.astype(np.int64) - self._t0) / 1e9
         return shape, seconds, la, lo
 
@@ -405,7 +424,9 @@ class WeatherSampler:
             inside_t = (t >= self._time.start) & (t <= self._time.stop)
         return inside, inside_t, lonu
 
-    def _coverage_error(self, t: np.ndarray, la: np.ndarray, lo: np.ndarray, inside_xy: np.ndarray, inside_t: np.ndarray) -> None:
+    def _coverage_error(
+        self, t: np.ndarray, la: np.ndarray, lo: np.ndarray, inside_xy: np.ndarray, inside_t: np.ndarray
+    ) -> None:
         out = ~(inside_xy & inside_t)
         k = int(np.flatnonzero(out)[0])
         when = np.int64(self._t0 + round(float(t[k]) * 1e9)).astype("datetime64[ns]").astype("datetime64[s]")
@@ -433,7 +454,9 @@ class WeatherSampler:
             sub = sub.compute() if any(sub[v].chunks is not None for v in sub.data_vars) else sub
             return {v: np.asarray(sub[v].values) for v in self.variables}
         except (OSError, RuntimeError, ValueError) as exc:
-            raise WeatherSchemaError(f"{self.source}: could not read the weather data ({exc}); the file is truncated or corrupted") from exc
+            raise WeatherSchemaError(
+                f"{self.source}: could not read the weather data ({exc}); the file is truncated or corrupted"
+            ) from exc
 
     def _derive(self, values: dict[str, np.ndarray], where: str) -> dict[str, np.ndarray]:
         out: dict[str, np.ndarray] = {}

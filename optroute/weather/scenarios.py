@@ -20,7 +20,7 @@ keeps ``lon`` increasing past 180 (115 … 250 for 115 E – 110 W, values
 No-go areas.  :func:`shao_case` marks its islands and its bad-weather
 rectangle in two ways: the grid points inside a rectangle (edges included)
 have NaN ``hs_m``, ``tp_s`` and ``wave_from_deg`` — "no passage" to the
-sampler and to :func:`optroute.land.navigable` — and the exact, moving
+sampler and to :func:`optroute.geo.land.navigable` — and the exact, moving
 rectangles are stored as JSON in ``attrs["no_go_areas"]``, read back by
 :func:`no_go_areas` (or :func:`shao_no_go` without a dataset).  Because the
 sampler blocks the whole interpolation cell around a NaN point and both

@@ -36,14 +36,34 @@ import xarray as xr
 DIMS = ("time", "lat", "lon")
 
 VARIABLES: dict[str, dict[str, str]] = {
-    "hs_m": {"units": "m", "standard_name": "sea_surface_wave_significant_height", "long_name": "significant wave height"},
-    "tp_s": {"units": "s", "standard_name": "sea_surface_wave_period_at_variance_spectral_density_maximum", "long_name": "peak wave period"},
+    "hs_m": {
+        "units": "m",
+        "standard_name": "sea_surface_wave_significant_height",
+        "long_name": "significant wave height",
+    },
+    "tp_s": {
+        "units": "s",
+        "standard_name": "sea_surface_wave_period_at_variance_spectral_density_maximum",
+        "long_name": "peak wave period",
+    },
     "tm_s": {"units": "s", "standard_name": "sea_surface_wave_mean_period", "long_name": "mean wave period"},
-    "wave_from_deg": {"units": "degree", "standard_name": "sea_surface_wave_from_direction", "long_name": "mean wave direction (coming from, true)"},
+    "wave_from_deg": {
+        "units": "degree",
+        "standard_name": "sea_surface_wave_from_direction",
+        "long_name": "mean wave direction (coming from, true)",
+    },
     "wind_u_ms": {"units": "m s-1", "standard_name": "eastward_wind", "long_name": "10 m wind, eastward component"},
     "wind_v_ms": {"units": "m s-1", "standard_name": "northward_wind", "long_name": "10 m wind, northward component"},
-    "current_u_ms": {"units": "m s-1", "standard_name": "eastward_sea_water_velocity", "long_name": "surface current, eastward component"},
-    "current_v_ms": {"units": "m s-1", "standard_name": "northward_sea_water_velocity", "long_name": "surface current, northward component"},
+    "current_u_ms": {
+        "units": "m s-1",
+        "standard_name": "eastward_sea_water_velocity",
+        "long_name": "surface current, eastward component",
+    },
+    "current_v_ms": {
+        "units": "m s-1",
+        "standard_name": "northward_sea_water_velocity",
+        "long_name": "surface current, northward component",
+    },
 }
 
 REQUIRED = ("hs_m",)
@@ -167,7 +187,9 @@ def normalise_lon(lon: Any) -> tuple[np.ndarray, np.ndarray]:
     if lon.ndim != 1 or lon.size == 0:
         raise WeatherSchemaError(f"lon must be a non-empty 1-D coordinate, got shape {lon.shape}")
     if not np.all(np.isfinite(lon)):
-        raise WeatherSchemaError(f"lon holds non-finite values at indices {np.flatnonzero(~np.isfinite(lon))[:5].tolist()}")
+        raise WeatherSchemaError(
+            f"lon holds non-finite values at indices {np.flatnonzero(~np.isfinite(lon))[:5].tolist()}"
+        )
     wrapped = np.mod(lon + 180.0, 360.0) - 180.0
     order = np.argsort(wrapped, kind="stable")
     w = wrapped[order]
@@ -177,7 +199,9 @@ def normalise_lon(lon: Any) -> tuple[np.ndarray, np.ndarray]:
         seam = [k for k in dup if abs(abs(lon[order[k]] - lon[order[k + 1]]) - 360.0) < 1e-3]
         if len(seam) != len(dup):
             k = next(k for k in dup if k not in seam)
-            raise WeatherSchemaError(f"duplicate longitude {w[k]:.6g} deg east (columns {int(order[k])} and {int(order[k + 1])})")
+            raise WeatherSchemaError(
+                f"duplicate longitude {w[k]:.6g} deg east (columns {int(order[k])} and {int(order[k + 1])})"
+            )
         keep = np.ones(w.size, dtype=bool)
         keep[np.asarray(seam) + 1] = False
         order, w = order[keep], w[keep]
@@ -252,7 +276,9 @@ def check_coords(ds: xr.Dataset, source: str = "dataset") -> None:
         if name not in ds.coords:
             raise WeatherSchemaError(f"{source}: coordinate {name!r} is missing; a canonical dataset has coords {DIMS}")
         if ds[name].ndim != 1 or ds[name].size == 0:
-            raise WeatherSchemaError(f"{source}: coordinate {name!r} must be 1-D and non-empty, got shape {ds[name].shape}")
+            raise WeatherSchemaError(
+                f"{source}: coordinate {name!r} must be 1-D and non-empty, got shape {ds[name].shape}"
+            )
     t = ds["time"].values
     if not np.issubdtype(t.dtype, np.datetime64):
         raise WeatherSchemaError(f"{source}: time must be datetime64 (UTC, timezone-naive), got dtype {t.dtype}")
@@ -262,7 +288,9 @@ def check_coords(ds: xr.Dataset, source: str = "dataset") -> None:
     for name in ("lat", "lon"):
         v = ds[name].values.astype(float)
         if not np.all(np.isfinite(v)):
-            raise WeatherSchemaError(f"{source}: {name} holds non-finite values at indices {np.flatnonzero(~np.isfinite(v))[:5].tolist()}")
+            raise WeatherSchemaError(
+                f"{source}: {name} holds non-finite values at indices {np.flatnonzero(~np.isfinite(v))[:5].tolist()}"
+            )
         if v.size < 2:
             raise WeatherSchemaError(
                 f"{source}: {name} has {v.size} point; bilinear sampling needs at least 2 points along lat and lon"

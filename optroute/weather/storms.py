@@ -18,7 +18,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from optroute import geo, units
+from optroute import geodesy as geo
+from optroute import units
 from optroute._checks import finite
 from optroute.errors import ConfigError
 from optroute.weather import schema
@@ -256,7 +257,7 @@ def north_pacific_storms(
     developed (T_p 7.9 s, wind 10 m/s).
 
     Outcome (checked in ``tests/test_scenarios.py`` with
-    :func:`optroute.safety.forbidden_speed_intervals`): wherever the bands
+    :func:`optroute.physics.safety.forbidden_speed_intervals`): wherever the bands
     apply on the great circle the fastest band-free speed is below 9 kn, and
     a ship leaving San Diego at t = 0 that keeps to the great circle at the
     fastest band-free speed (at most 25 kn) needs about 12.5 days instead of

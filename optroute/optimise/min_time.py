@@ -1,0 +1,294 @@
+"""A timed safe start for the corridor NLP: the earliest passage along the centreline, found by a time-expanded DP.
+
+Why
+---
+The corridor NLP (:class:`formulations.speed_nlp.SpeedNLP`) fixes the side of every danger band from
+its warm start, and Ipopt stays on the sides it starts on. Where the sea is heavy enough for the bands
+to apply, the allowed speeds at a place can be *none* for hours: every speed between the engine's
+minimum load and MCR lies in some band while a storm passes (a moving no-go region in the corridor's
+(along-track, time) plane). :func:`optroute.optimise.nlp_solve.safe_warm_start` reduces the speed point by point
+(Boeing's rule) and, where nothing is allowed, falls to the lowest speed — below the minimum load, on
+band sides no speed can keep — so the NLP starts at a point from which it cannot recover
+(``Infeasible_Problem_Detected``), and a start one-quarter slower may reach the storm at another time
+and succeed. Which start succeeds is luck.
+
+What
+----
+:func:`timed_safe_start` searches the passage itself: the centreline is cut into blocks of at most
+``block_nm``; each block is sailed at one speed from a ladder between the lowest and the highest speed;
+a block at a speed is allowed when every point sampled along it (``step_nm`` apart), at the time the
+ship is there, has the speed allowed by :func:`optroute.physics.passage.evaluate_speeds` (outside every band,
+power within [minimum load, MCR], course held — the true model and the NLP's backed-off rules). The
+states are the arrival times at the block ends, bucketed to ``bucket_h`` (the earliest of a bucket
+kept) and kept within ``window_h`` of the earliest arrival at that block end, so that the passage can
+slow down before a storm to let it pass. The earliest arrival at the end, traced back, is a passage
+whose every sampled point is allowed: its band sides are sides a ship keeps, its timing avoids the
+no-go regions, and its arrival bounds the earliest arrival from above (up to the sampling; the NLP's
+solution is verified on its dense resampling as always).
+
+Timing uses the speed through water (the current's share is left to the NLP): this is a start, not a
+plan.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from optroute.geo.tracks import gc_points
+from optroute.optimise.nlp_inputs import CorridorFrame
+from optroute.physics.passage import evaluate_speeds
+from optroute.physics.safety import BandRules
+from optroute.plan.evaluate import PlanContext, sample_sea
+from optroute.units import NS_PER_H as _NS_PER_H
+
+__all__ = ["DeadEnd", "TimedStart", "clean_start", "timed_safe_start"]
+
+
+@dataclass(frozen=True)
+class TimedStart:
+    """The earliest passage found by :func:`timed_safe_start`.
+
+    Attributes
+    ----------
+    stw_kn : numpy.ndarray, shape (N,)
+        Speed through water of every leg of the corridor frame [kn] (its block's).
+    offset_nm : numpy.ndarray, shape (N+1,)
+        Lateral offsets [nm]: zero (the centreline).
+    arrival_h : float
+        Arrival at the corridor's end [h after departure].
+    blocks : int
+        Number of blocks of the search.
+    evaluations : int
+        Points × speeds evaluated [-].
+    """
+
+    stw_kn: np.ndarray
+    offset_nm: np.ndarray
+    arrival_h: float
+    blocks: int
+    evaluations: int
+
+    def warm(self) -> dict[str, np.ndarray]:
+        """The warm start of :meth:`optroute.optimise.nlp_solve.Problem.solve`: offsets [nm] and leg speeds [kn]."""
+        return {"offset_nm": self.offset_nm.copy(), "stw_kn": self.stw_kn.copy()}
+
+
+@dataclass(frozen=True)
+class DeadEnd:
+    """Where :func:`timed_safe_start` found no passage: the block no state could sail.
+
+    Attributes
+    ----------
+    from_nm, to_nm : float
+        The block along the centreline [nm from the start].
+    lat, lon : float
+        Its midpoint [deg].
+    earliest_h, latest_h : float
+        The arrival times at its start that were tried [h after departure].
+    """
+
+    from_nm: float
+    to_nm: float
+    lat: float
+    lon: float
+    earliest_h: float
+    latest_h: float
+
+    def __str__(self) -> str:
+        return (
+            f"no speed is allowed on the centreline between {self.from_nm:.0f} and {self.to_nm:.0f} nm along "
+            f"track (near {self.lat:.2f}, {self.lon:.2f}) for any arrival there from {self.earliest_h:.1f} to "
+            f"{self.latest_h:.1f} h after departure"
+        )
+
+
+def _centreline_points(frame: CorridorFrame, s_nm: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Latitude, longitude [deg] and course [deg true] of centreline points at along-track distances [nm]."""
+    wp = frame.corridor.waypoints
+    s = np.asarray(frame.s_nm, dtype=float)
+    leg = np.clip(np.searchsorted(s, s_nm, side="right") - 1, 0, frame.n_legs - 1)
+    d = np.diff(s)
+    frac = np.clip((s_nm - s[leg]) / np.where(d[leg] > 0, d[leg], 1.0), 0.0, 1.0)
+    return gc_points(wp[leg, 0], wp[leg, 1], wp[leg + 1, 0], wp[leg + 1, 1], frac)
+
+
+def timed_safe_start(
+    ctx: PlanContext,
+    frame: CorridorFrame,
+    t0: np.datetime64,
+    *,
+    v_min_kn: float,
+    v_max_kn: float,
+    rules: BandRules | None = None,
+    block_nm: float = 30.0,
+    step_nm: float = 5.0,
+    speed_step_kn: float = 0.5,
+    bucket_h: float = 0.5,
+    window_h: float = 24.0,
+    hs_backoff: float = 0.1,
+) -> TimedStart | DeadEnd:
+    """The earliest passage along the corridor's centreline whose every sampled point is allowed.
+
+    Parameters
+    ----------
+    ctx : PlanContext
+        Ship, true performance model, weather sampler (and the rules when ``rules`` is None).
+    frame : CorridorFrame
+        The NLP's corridor frame; the result has one speed per frame leg.
+    t0 : numpy.datetime64
+        Departure [UTC].
+    v_min_kn, v_max_kn : float
+        Speed-through-water range [kn] (the NLP's).
+    rules : BandRules, optional
+        The bands to keep out of (e.g. the NLP's backed-off rules, :func:`optroute.optimise.nlp_solve.warm_rules`).
+    block_nm : float
+        Longest block sailed at one speed [nm]: consecutive frame legs (a leg longer than this is a block).
+    step_nm : float
+        Longest spacing of the points checked along a block, its ends included [nm] (the verifier's 5 nm).
+    speed_step_kn : float
+        Spacing of the speed ladder [kn] (``v_max_kn`` is always on it).
+    bucket_h : float
+        Arrival times at a block end closer than this share one state (the earliest kept) [h].
+    window_h : float
+        States later than the earliest arrival at a block end by more than this are dropped [h].
+    hs_backoff : float
+        The bands are checked from ``(1 − hs_backoff)`` times the rules' Hs threshold [-]: between the
+        points checked the sea may cross the threshold, and a start is better a little cautious.
+
+    Returns
+    -------
+    TimedStart or DeadEnd
+        The passage; or, when no passage within the window exists on the ladder (a point outside the
+        weather's span is not allowed), the block where every state ended.
+
+    Notes
+    -----
+    Cost: blocks × states (≤ ``window_h / bucket_h``) × speeds × points per block evaluations of
+    :func:`optroute.physics.passage.evaluate_speeds` (about 5 µs each): 1–3 s for a 2 500–5 000 nm corridor
+    with the defaults.
+    """
+    base = ctx.rules if rules is None else rules
+    use_rules = replace(base, hs_threshold_fraction=base.hs_threshold_fraction * (1.0 - float(hs_backoff)))
+    s_wp = np.asarray(frame.s_nm, dtype=float)
+    # blocks of whole frame legs (one speed per block is one speed per leg of the NLP), each at most block_nm
+    # unless a single leg is longer
+    cut = [0]
+    for k in range(1, s_wp.size):
+        if k == s_wp.size - 1 or s_wp[k + 1] - s_wp[cut[-1]] > block_nm:
+            cut.append(k)
+    edges = s_wp[cut]
+    n_blocks = edges.size - 1
+    speeds = np.unique(np.append(np.arange(v_min_kn, v_max_kn, speed_step_kn), v_max_kn))
+    times = np.zeros(1)  # arrival times at the current block end [h]
+    back: list[tuple[np.ndarray, np.ndarray]] = []  # per block: (previous state, speed index) of each state
+    evaluations = 0
+    for b in range(n_blocks):
+        d = edges[b + 1] - edges[b]
+        m = max(2, int(np.ceil(d / step_nm)))
+        frac = np.linspace(0.0, 1.0, m + 1)  # both ends of the block too
+        lat, lon, course = _centreline_points(frame, edges[b] + frac * d)
+        dt = d / speeds  # (K,)
+        t_pts = times[:, None, None] + frac[None, None, :] * dt[None, :, None]  # (B, K, m)
+        shape = t_pts.shape
+        flat_t = t_pts.ravel()
+        when = t0 + (flat_t * _NS_PER_H).astype("timedelta64[ns]")
+        lat_f = np.broadcast_to(lat, shape).ravel()
+        lon_f = np.broadcast_to(lon, shape).ravel()
+        course_f = np.broadcast_to(course, shape).ravel()
+        speed_f = np.broadcast_to(speeds[None, :, None], shape).ravel()
+        sea, covered = sample_sea(ctx.sampler, when, lat_f, lon_f)
+        allowed = evaluate_speeds(ctx.ship, ctx.model, use_rules, course_f, sea, speed_f)[4] & covered
+        evaluations += flat_t.size
+        ok = allowed.reshape(shape).all(axis=2)  # (B, K)
+        prev, spd = np.nonzero(ok)
+        if prev.size == 0:
+            mid = _centreline_points(frame, np.array([edges[b] + 0.5 * d]))
+            return DeadEnd(
+                float(edges[b]),
+                float(edges[b + 1]),
+                float(mid[0][0]),
+                float(mid[1][0]),
+                float(times.min()),
+                float(times.max()),
+            )
+        arrive = times[prev] + dt[spd]
+        # one state per bucket (the earliest), within the window of the earliest arrival
+        order = np.lexsort((arrive, np.floor(arrive / bucket_h)))
+        bucket = np.floor(arrive[order] / bucket_h)
+        first = np.concatenate([[True], bucket[1:] != bucket[:-1]])
+        keep = order[first]
+        keep = keep[arrive[keep] <= arrive[keep].min() + window_h]
+        times = arrive[keep]
+        back.append((prev[keep], spd[keep]))
+    # trace the earliest arrival back: the block speeds
+    state = int(np.argmin(times))
+    arrival = float(times[state])
+    block_speed = np.empty(n_blocks)
+    for b in range(n_blocks - 1, -1, -1):
+        prev, spd = back[b]
+        block_speed[b] = speeds[spd[state]]
+        state = int(prev[state])
+    stw = np.repeat(block_speed, np.diff(cut))
+    return TimedStart(
+        stw_kn=stw, offset_nm=np.zeros(frame.n_legs + 1), arrival_h=arrival, blocks=n_blocks, evaluations=evaluations
+    )
+
+
+def clean_start(
+    ctx: PlanContext,
+    frame: CorridorFrame,
+    t0: np.datetime64,
+    *,
+    desired_kn: float,
+    v_min_kn: float,
+    v_max_kn: float,
+    eta_h: float | None,
+    rules: BandRules | None = None,
+    log: list[str] | None = None,
+) -> dict[str, np.ndarray]:
+    """The first warm start of a solve: Boeing's speed reduction, or the timed start where it gets stuck.
+
+    :func:`optroute.optimise.nlp_solve.safe_warm_start` at ``desired_kn`` is kept when it found an allowed speed
+    at every point (no leg at ``v_min_kn``). Otherwise the passage of :func:`timed_safe_start` with
+    speeds up to ``desired_kn`` is taken when it arrives by ``eta_h`` (or there is no ETA), else the
+    earliest passage with speeds up to ``v_max_kn``; when neither exists, the safe start after all.
+
+    Parameters
+    ----------
+    ctx, frame, t0, rules
+        As in :func:`timed_safe_start`.
+    desired_kn : float
+        Speed wanted [kn] (:func:`optroute.optimise.nlp_solve.desired_speed`).
+    v_min_kn, v_max_kn : float
+        The NLP's speed range [kn].
+    eta_h : float, optional
+        Arrival wanted [h after departure].
+    log : list of str, optional
+        Appended with what was chosen.
+
+    Returns
+    -------
+    dict
+        ``offset_nm`` (N+1,) [nm] and ``stw_kn`` (N,) [kn].
+    """
+    from optroute.optimise.nlp_solve import safe_warm_start
+
+    safe = safe_warm_start(ctx, frame, t0, desired_kn, v_min_kn, rules=rules)
+    if bool(np.all(safe["stw_kn"] > v_min_kn + 1e-9)):
+        return safe
+    found = timed_safe_start(ctx, frame, t0, v_min_kn=v_min_kn, v_max_kn=max(desired_kn, v_min_kn), rules=rules)
+    late = not isinstance(found, TimedStart) or (eta_h is not None and found.arrival_h > eta_h)
+    if late and desired_kn < v_max_kn:
+        found = timed_safe_start(ctx, frame, t0, v_min_kn=v_min_kn, v_max_kn=v_max_kn, rules=rules)
+    if log is not None:
+        log.append(
+            "first start: the speed reduction finds no allowed speed somewhere; "
+            + (
+                f"timed safe start, {found.arrival_h:.3f} h"
+                if isinstance(found, TimedStart)
+                else f"no timed start either ({found})"
+            )
+        )
+    return found.warm() if isinstance(found, TimedStart) else safe

@@ -1,0 +1,538 @@
+"""The solves behind :func:`optroute.optimise_corridor`: problem state, band outer loop, warm starts, certificate.
+
+* :class:`Problem` holds the domain → formulation adapters of one call (:mod:`optroute.optimise.nlp_inputs`)
+  and builds and solves :class:`formulations.speed_nlp.SpeedNLP` with the disjunctive outer loop
+  (:func:`formulations.disjunctive.improve_sides`); :class:`Tightening` is what the verification
+  loop changes between solves.
+* Warm starts: a search route's speeds (:func:`route_warm_start`), Boeing's speed reduction leg by
+  leg with the true model (:func:`safe_warm_start`), moved clear of an exclusion circle
+  (:func:`clear_of_exclusion`).
+* :func:`certificate`: the global-optimality certificate of a fixed-path, static-weather solve.
+"""
+
+from __future__ import annotations
+
+import time as _time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from formulations.common import PowerLawFuel, PowerModel
+from formulations.disjunctive import InnerOutcome, improve_sides, nlp_band_solver, nlp_groups
+from formulations.speed_convex import solve_speed_convex
+from formulations.speed_nlp import NLPResult, SpeedNLP
+from optroute import units
+from optroute.geo.tracks import Exclusion, gc_points, project_to_polyline
+from optroute.optimise.nlp_inputs import CorridorFrame, PowerFit, formulation_bands, moving_exclusion
+from optroute.physics.passage import best_speed
+from optroute.physics.safety import BandRules
+from optroute.physics.ship import Ship
+from optroute.plan.evaluate import PlanContext, sample_sea
+from optroute.search.route import Route
+from optroute.units import NS_PER_H as _NS_PER_H
+
+__all__ = [
+    "Problem",
+    "Solved",
+    "Tightening",
+    "band_solver",
+    "certificate",
+    "clear_of_exclusion",
+    "desired_speed",
+    "flippable_groups",
+    "route_warm_start",
+    "safe_warm_start",
+    "warm_rules",
+]
+
+VIOLATION_TOL = 1e-6  # largest scaled constraint violation accepted from Ipopt
+
+
+# --------------------------------------------------------------------------- tightening state
+
+
+@dataclass
+class Tightening:
+    """What the verification loop changes between solves."""
+
+    factor: np.ndarray  # per-leg power factor f_k (fit correction) [-]
+    max_load: float
+    min_load: float
+    widen: float  # band back-off [-]
+    hs_margin: float  # applicability back-off [-]
+    samples_per_leg: int
+    extra_radius_nm: float = 0.0
+    eta_shift_h: float = 0.0
+    bound_scale: np.ndarray = field(default_factory=lambda: np.ones(0))
+    y_lo: np.ndarray | None = None  # lateral bounds [nm, port +] moved off land met by the verification
+    y_hi: np.ndarray | None = None  # (None: the prepared ones; see optroute.optimise.lateral.avoid_point)
+    retries: int = 0
+    corrections: int = 0
+    log: list[str] = field(default_factory=list)
+    power_terms: dict[str, np.ndarray] = field(default_factory=dict)  # the other terms of the multiplier M_k
+
+
+@dataclass
+class Solved:
+    res: NLPResult
+    ok: bool
+    n_solves: int
+    flips: int
+    history: list[float]
+    nlp: SpeedNLP
+
+
+# --------------------------------------------------------------------------- the problem
+
+
+class Problem:
+    """The domain → formulation adapters of one call, and the solves."""
+
+    def __init__(
+        self,
+        *,
+        frame: CorridorFrame,
+        grid: Any,
+        samples: Any,
+        fit: PowerFit,
+        ship: Ship,
+        rules: BandRules,
+        y_lo: np.ndarray,
+        y_hi: np.ndarray,
+        v_min: float,
+        v_max: float,
+        exclusion: Exclusion | None,
+        departure: np.datetime64,
+        solver_options: Mapping[str, Any] | None,
+        jit: bool = False,
+    ) -> None:
+        self.frame, self.grid, self.samples, self.fit = frame, grid, samples, fit
+        self.jit = bool(jit)
+        self.ship, self.rules = ship, rules
+        self.y_lo, self.y_hi = y_lo, y_hi
+        self.v_min, self.v_max = v_min, v_max
+        self.exclusion, self.departure = exclusion, departure
+        self.solver_options = dict(solver_options or {})
+        self.build_time_s = 0.0
+        self.builds = 0
+        self._cache: dict[tuple[Any, ...], tuple[SpeedNLP, tuple[str, ...]]] = {}
+
+    trial_max_iter = 150
+
+    def bounds(self, st: Tightening) -> tuple[np.ndarray, np.ndarray]:
+        """Lateral bounds [nm]: the tightening's (moved off land) or the prepared ones, shrunk about their middle."""
+        lo = self.y_lo if st.y_lo is None else st.y_lo
+        hi = self.y_hi if st.y_hi is None else st.y_hi
+        mid = 0.5 * (lo + hi)
+        return mid + (lo - mid) * st.bound_scale, mid + (hi - mid) * st.bound_scale
+
+    cache_size = 8  # built NLPs kept (a 300-leg build holds some tens of MB)
+
+    def _key(self, st: Tightening, max_iter: int | None) -> tuple[Any, ...]:
+        """What shapes a build: the tightening but its load limits and power factors (solve-time data)."""
+        return (
+            float(st.widen),
+            float(st.hs_margin),
+            int(st.samples_per_leg),
+            float(st.extra_radius_nm),
+            np.asarray(st.bound_scale, dtype=float).tobytes(),
+            max_iter,
+            *(b.tobytes() if b is not None else None for b in (st.y_lo, st.y_hi)),
+        )
+
+    def build(self, st: Tightening, *, max_iter: int | None = None) -> SpeedNLP:
+        """The NLP of a tightening state: cached by :meth:`_key`, its load limits and power factors set from ``st``.
+
+        The load limits enter :meth:`SpeedNLP.solve` only as the bounds of its load rows (read from
+        ``nlp.power`` at each solve) and the per-leg power factors are a solve parameter
+        (:meth:`SpeedNLP.set_leg_power_factor`), so one build serves states that differ in them alone:
+        the verification loop's power tightening and fit corrections cost a solve, not a build.
+        """
+        self._last_state = st
+        power = replace(self.fit.power, max_load=st.max_load, min_load=st.min_load)
+        key = self._key(st, max_iter)
+        hit = self._cache.pop(key, None)
+        if hit is not None:
+            self._cache[key] = hit  # most recently used last
+            nlp, self.band_names = hit
+            nlp.power = power
+            nlp.set_leg_power_factor(st.factor, **st.power_terms)
+            return nlp
+        nlp = self._build(st, max_iter=max_iter)
+        self._cache[key] = (nlp, self.band_names)
+        while len(self._cache) > self.cache_size:
+            self._cache.pop(next(iter(self._cache)))
+        return nlp
+
+    def _build(self, st: Tightening, *, max_iter: int | None = None) -> SpeedNLP:
+        started = _time.perf_counter()
+        self.builds += 1
+        options = dict(self.solver_options)
+        if max_iter is not None:
+            options["ipopt.max_iter"] = min(int(max_iter), int(options.get("ipopt.max_iter", max_iter)))
+        bands, names, a = formulation_bands(self.ship, self.rules, widen=st.widen, hs_margin=st.hs_margin)
+        hs_top = float(np.max(self.grid.hs_m))
+        # a band applies only where Hs >= its threshold: leave out those the weather never reaches
+        keep = [i for i, b in enumerate(bands) if hs_top >= b.hs_min_m]
+        bands, self.band_names = tuple(bands[i] for i in keep), tuple(names[i] for i in keep)
+        geom = self.frame.geometry(*self.bounds(st))
+        power = replace(self.fit.power, max_load=st.max_load, min_load=st.min_load)
+        excl = None
+        if self.exclusion is not None:
+            excl = moving_exclusion(self.exclusion, self.frame, self.departure, extra_radius_nm=st.extra_radius_nm)
+        nlp = SpeedNLP(
+            geom,
+            self.grid,
+            power,
+            bands=bands,
+            exclusion=excl,
+            samples_per_leg=st.samples_per_leg,
+            v_min_kn=self.v_min,
+            v_max_kn=self.v_max,
+            leg_power_factor=st.factor,
+            leg_power_correction=st.power_terms,
+            g_over_2pi_kn_s=a,
+            ipopt_options=options,
+            jit=self.jit,
+        )
+        self.build_time_s += _time.perf_counter() - started
+        return nlp
+
+    def solve(
+        self,
+        nlp: SpeedNLP,
+        *,
+        eta_h: float | None,
+        eta_mode: str,
+        objective: str,
+        fuel_price: float,
+        hourly_cost: float,
+        warm: Mapping[str, np.ndarray] | None,
+        budget: int,
+    ) -> Solved:
+        """One solve with the band outer loop (side selection from the warm start, flips, applicability)."""
+        n = nlp.n_legs
+        kwargs: dict[str, Any] = {
+            "eta_h": eta_h,
+            "eta_mode": eta_mode,
+            "objective": objective,
+            "fuel_price": fuel_price,
+            "hourly_cost": hourly_cost,
+        }
+        if warm is not None:
+            y0 = np.clip(warm["offset_nm"], *nlp.corridor.offset_bounds())
+            v0 = np.clip(warm["stw_kn"], nlp.v_min_kn, nlp.v_max_kn)
+        else:
+            y0 = np.clip(np.zeros(n + 1), *nlp.corridor.offset_bounds())
+            total = float(self.frame.s_nm[-1])
+            guess = total / eta_h if eta_h is not None else 0.9 * self.v_max
+            v0 = np.clip(np.full(n, guess), nlp.v_min_kn, nlp.v_max_kn)
+        t0 = nlp.consistent_times(y0, v0)
+        kwargs.update(offset0_nm=y0, stw0_kn=v0, time0_h=t0)
+        if nlp.n_bands == 0:
+            res = nlp.solve(**kwargs)
+            ok = bool(res.success and res.max_violation <= VIOLATION_TOL)
+            return Solved(res, ok, 1, 0, [res.objective] if ok else [], nlp)
+        state = nlp.evaluate(y0, v0, t0)
+        sides, applies = nlp.default_sides(state)
+        shape = sides.shape
+        flippable = flippable_groups(nlp, state)
+        trial_nlp: list[SpeedNLP] = []
+
+        def trial() -> SpeedNLP:
+            if not trial_nlp:  # flip trials: an iteration cap, so that hopeless flips fail fast
+                trial_nlp.append(self.build(self._last_state, max_iter=self.trial_max_iter))
+            return trial_nlp[0]
+
+        solve = band_solver(nlp, trial, kwargs)
+        out = improve_sides(solve, sides, applies, flippable=flippable, groups=nlp_groups(shape), max_solves=budget)
+        res = out.outcome.payload
+        return Solved(res, bool(out.feasible), out.n_solves, max(0, len(out.history) - 1), list(out.history), nlp)
+
+
+def band_solver(nlp: SpeedNLP, trial: Callable[[], SpeedNLP], kwargs: dict[str, Any]) -> Callable[..., InnerOutcome]:
+    """Inner solver of the band outer loop: :func:`formulations.disjunctive.nlp_band_solver`.
+
+    The first solve uses the full NLP; the later ones (side flips, applicability re-checks) an
+    instance with an iteration cap. Every solve is warm-started from the best valid solution so far.
+    """
+    return nlp_band_solver(nlp, violation_tol=VIOLATION_TOL, later=trial, **kwargs)
+
+
+def flippable_groups(nlp: SpeedNLP, state: Any, n_speeds: int = 64) -> np.ndarray:
+    """(leg, band) groups whose both sides a ship can reach at every sample (speed and power bounds).
+
+    At the sample's sea state (Hs, wave period and encounter angle of ``state``) each side of a band
+    is tested on ``n_speeds`` speeds in the NLP's speed range with the fitted power within the load
+    limits. A side no allowed speed reaches cannot be flipped to: the flip would only cost a failed
+    solve. Shape (N, m, B), constant over the samples of a group.
+    """
+    pw: PowerModel = nlp.power
+    n, m, nb = nlp.n_legs, nlp.samples_per_leg, nlp.n_bands
+    v = np.linspace(float(np.min(nlp.v_min_kn)), float(np.max(nlp.v_max_kn)), n_speeds)[None, None, :]
+    hs = np.maximum(state.hs_m, 0.0)[..., None]
+    per = state.period_s[..., None]
+    cos_chi = state.cos_chi[..., None]
+    ca = -cos_chi
+    w = sum((h * hs**q for h, q in zip(pw.hs_coef, pw.hs_exp, strict=True)), np.zeros_like(hs))
+    wd = w * (pw.angle_coef[0] + pw.angle_coef[1] * ca + pw.angle_coef[2] * ca**2)
+    calm = sum(c * v**e for c, e in zip(pw.calm_coef, pw.calm_exp, strict=True))
+    sv = sum(u * v**r for r, u in enumerate(pw.speed_coef))
+    mult = nlp.leg_power_multiplier(np.broadcast_to(v[0, 0], (n, n_speeds)))[:, None, :]  # f_k (V/V_k)^e_k
+    load = mult * calm * (1.0 + wd * sv) / pw.mcr_kw
+    ok_power = (load <= pw.max_load) & (load >= pw.min_load)
+    a = nlp.g_over_2pi
+    along = v * cos_chi
+    out = np.zeros((n, m, nb), dtype=bool)
+    for i, b in enumerate(nlp.bands):
+        if len(b.allowed_sides) < 2:
+            continue
+        if b.kind == "te_over_tr":
+            ratio = a * per**2 / (b.param * np.maximum(np.abs(a * per - along), 1e-9))
+        else:
+            den = {"v_over_c": a * per, "v_over_cg": 0.5 * a * per}.get(b.kind, b.param)
+            ratio = along / den
+        low = np.any(ok_power & (ratio <= b.lower), axis=-1)
+        high = np.any(ok_power & (ratio >= b.upper), axis=-1)
+        both = low & high
+        out[:, :, i] = np.all(both | ~state.applies[:, :, i], axis=1)[:, None]
+    return out
+
+
+def route_warm_start(route: Route, frame: CorridorFrame) -> dict[str, np.ndarray]:
+    """Leg speeds of a search route on the corridor's legs (by along-track position), centreline offsets."""
+    wp = frame.corridor.waypoints
+    mid_lat = 0.5 * (wp[:-1, 0] + wp[1:, 0])
+    mid_lon = units.wrap_180(wp[:-1, 1] + 0.5 * units.wrap_180(wp[1:, 1] - wp[:-1, 1]))
+    _, _, _, k = project_to_polyline(route.waypoints, mid_lat, mid_lon)
+    stw = np.asarray(route.stw_kn, dtype=float)
+    sog = np.asarray(route.sog_kn, dtype=float)
+    speed = np.where(np.isfinite(stw) & (stw > 0), stw, sog)[k]
+    fallback = route.total_distance_nm / route.total_duration_h
+    speed = np.where(np.isfinite(speed) & (speed > 0), speed, fallback)
+    return {"offset_nm": np.zeros(frame.n_legs + 1), "stw_kn": speed}
+
+
+def safe_warm_start(
+    ctx: PlanContext,
+    frame: CorridorFrame,
+    t0: np.datetime64,
+    desired_kn: float,
+    v_min: float,
+    m: int = 3,
+    rules: BandRules | None = None,
+) -> dict[str, np.ndarray]:
+    """Centreline warm start at speeds the true model allows: Boeing's speed reduction leg by leg.
+
+    At ``m`` points of every centreline leg, at the time a ship sailing the desired speed is there,
+    :func:`optroute.physics.passage.best_speed` gives the fastest allowed speed at or below ``desired_kn``
+    (outside every band, within the power limits); the leg takes the slowest of its points (``v_min``
+    where none is allowed). The band sides the NLP starts on are then sides a ship can actually keep.
+    ``rules`` (default the context's) may be the NLP's backed-off rules (:func:`warm_rules`).
+    """
+    ctx_rules = ctx.rules if rules is None else rules
+    wp = frame.corridor.waypoints
+    n = frame.n_legs
+    frac = (np.arange(m) + 0.5) / m
+    leg = np.repeat(np.arange(n), m)
+    f = np.tile(frac, n)
+    lat, lon, course = gc_points(wp[leg, 0], wp[leg, 1], wp[leg + 1, 0], wp[leg + 1, 1], f)
+    d = np.diff(frame.s_nm)
+    speed = np.full(n, float(desired_kn))
+    for _ in range(2):
+        t_leg = np.concatenate([[0.0], np.cumsum(d / speed)])
+        t_h = t_leg[leg] + f * (d / speed)[leg]
+        when = t0 + (t_h * _NS_PER_H).astype("timedelta64[ns]")
+        sea, covered = sample_sea(ctx.sampler, when, lat, lon)
+        choice = best_speed(
+            ctx.ship, ctx.model, ctx_rules, course, sea, float(desired_kn), step_kn=0.25, min_stw_kn=v_min
+        )
+        v = np.where(choice.feasible & covered, choice.stw_kn, v_min)
+        speed = np.maximum(np.min(v.reshape(n, m), axis=1), v_min)
+    return {"offset_nm": np.zeros(n + 1), "stw_kn": speed}
+
+
+def clear_of_exclusion(
+    warm: dict[str, np.ndarray],
+    frame: CorridorFrame,
+    exclusion: Exclusion | None,
+    t0: np.datetime64,
+    y_lo: np.ndarray,
+    y_hi: np.ndarray,
+) -> dict[str, np.ndarray]:
+    """Move warm-start waypoints that the exclusion circle covers out of it, behind the moving circle.
+
+    The exclusion constraint is non-convex: started at the circle's centre, Ipopt has no direction to
+    leave by. A waypoint within 1.5 radii of the centre at the time the warm start passes it is moved
+    across the corridor to 1.3 radii from the centre, all on one side: the side the circle comes from
+    (passing behind it) when it moves across the corridor, else the side away from its centre.
+    """
+    if exclusion is None:
+        return warm
+    d = np.diff(frame.s_nm)
+    t_h = np.concatenate([[0.0], np.cumsum(d / np.asarray(warm["stw_kn"], dtype=float))])
+    when = t0 + (t_h * _NS_PER_H).astype("timedelta64[ns]")
+    clat, clon, rad = exclusion.at(when)
+    later = exclusion.at(when + np.timedelta64(1, "h"))
+    s_c, xt_c, _, _ = project_to_polyline(frame.corridor.waypoints, clat, clon)
+    _, xt_next, _, _ = project_to_polyline(frame.corridor.waypoints, later[0], later[1])
+    y_c, motion = -xt_c, -(xt_next - xt_c)  # port-positive offset of the centre and its lateral motion [nm/h]
+    y = np.asarray(warm["offset_nm"], dtype=float).copy()
+    gap = frame.s_nm - s_c
+    near = np.hypot(gap, y - y_c) < 1.5 * rad
+    if not near.any():
+        return warm
+    # one side for the whole encounter: behind the circle (against its lateral motion), else away from it
+    drift = float(np.mean(motion[near]))
+    offset = float(np.mean(y_c[near]))
+    ship_side = -np.sign(drift) if abs(drift) > 1e-3 else (-np.sign(offset) if abs(offset) > 1e-6 else -1.0)
+    reach = np.sqrt(np.maximum((1.3 * rad) ** 2 - gap**2, 0.0))
+    y = np.where(near, y_c + ship_side * reach, y)
+    return {**warm, "offset_nm": np.clip(y, y_lo, y_hi)}
+
+
+def desired_speed(length_nm: float, eta_h: float | None, v_max: float, objective: str) -> float:
+    """Speed of a warm start [kn]: the ETA's mean speed, the top speed for minimum time, else 3/4 of it."""
+    if eta_h:
+        return min(v_max, length_nm / eta_h)
+    return v_max if objective == "time" else 0.75 * v_max
+
+
+def warm_rules(rules: BandRules, st: Tightening) -> BandRules:
+    """The rules with about the NLP's back-offs: lower applicability threshold, wider bands."""
+    margin = min(0.95, rules.margin * (1.0 + st.widen) + st.widen)
+    return replace(rules, hs_threshold_fraction=rules.hs_threshold_fraction * (1.0 - st.hs_margin), margin=margin)
+
+
+# --------------------------------------------------------------------------- certificate
+
+
+def leg_functions(nlp: SpeedNLP, res: NLPResult) -> tuple[Callable[[np.ndarray], np.ndarray], np.ndarray, np.ndarray]:
+    """Per-leg power P_ij(V) on a fixed path in static weather without current, and the speed bounds."""
+    pw: PowerModel = nlp.power
+    smp = res.samples
+    hs = np.maximum(smp.hs_m, 0.0)
+    ca = -smp.cos_chi  # cos α (IMO: 0 = head sea); without current it does not depend on V
+    w = sum((h * hs**q for h, q in zip(pw.hs_coef, pw.hs_exp, strict=True)), np.zeros_like(hs))
+    b0, b1, b2 = pw.angle_coef
+    wd = w * (b0 + b1 * ca + b2 * ca**2)  # (n, m)
+
+    def power(v: np.ndarray) -> np.ndarray:  # v (n, K) → (n, m, K)
+        vv = np.asarray(v, dtype=float)[:, None, :]
+        calm = sum(c * vv**e for c, e in zip(pw.calm_coef, pw.calm_exp, strict=True))
+        s = sum(u * vv**r for r, u in enumerate(pw.speed_coef))
+        return nlp.leg_power_multiplier(vv[:, 0, :])[:, None, :] * calm * (1.0 + wd[:, :, None] * s)
+
+    lo, hi = nlp.v_min_kn.copy(), nlp.v_max_kn.copy()
+    # load limits per sample → speed interval per leg (power increases with speed): bisection
+    a, b = lo.copy(), hi.copy()
+    for _ in range(80):
+        mid = 0.5 * (a + b)
+        over = np.max(power(mid[:, None])[..., 0], axis=1) / pw.mcr_kw > pw.max_load
+        b = np.where(over, mid, b)
+        a = np.where(over, a, mid)
+    top = np.max(power(hi[:, None])[..., 0], axis=1) / pw.mcr_kw <= pw.max_load
+    hi = np.where(top, hi, a)
+    a, b = lo.copy(), hi.copy()
+    for _ in range(80):
+        mid = 0.5 * (a + b)
+        under = np.min(power(mid[:, None])[..., 0], axis=1) / pw.mcr_kw < pw.min_load
+        a = np.where(under, mid, a)
+        b = np.where(under, b, mid)
+    bottom = np.min(power(lo[:, None])[..., 0], axis=1) / pw.mcr_kw >= pw.min_load
+    lo = np.where(bottom, lo, b)
+    return power, lo, hi
+
+
+def certificate(
+    nlp: SpeedNLP,
+    res: NLPResult,
+    *,
+    objective: str,
+    eta_h: float | None,
+    eta_mode: str,
+    fuel_price: float,
+    hourly_cost: float,
+) -> dict[str, Any]:
+    """Global-optimality certificate of a fixed-path, static-weather solve.
+
+    With a constant SFOC and non-negative power terms the fuel rate is a sum of power laws and the
+    problem is :func:`formulations.speed_convex.solve_speed_convex`'s (Clarabel, the global optimum).
+    The IMO SFOC curve has a negative linear term and is outside that class (the fuel rate is still
+    convex in V: for P = cV³ its second derivative is a positive quadratic in the load), so the
+    bound is then weak Lagrangian duality at the NLP's ETA multiplier λ:
+    ``q(λ) = Σ_i min_t (F_i(t) + λ t) − λ T ≤ optimum``, each leg minimised on its speed interval.
+    """
+    pw: PowerModel = nlp.power
+    power, lo, hi = leg_functions(nlp, res)
+    d = res.distance_nm
+    n = d.size
+    w_f, w_t = (1.0, 0.0) if objective == "fuel" else (float(fuel_price), float(hourly_cost))
+    a2, a1, a0 = pw.sfc_quad
+    pw_terms = [(c, e, 0) for c, e in zip(pw.calm_coef, pw.calm_exp, strict=True)]
+    smp = res.samples
+    ca = -smp.cos_chi
+    hs = np.maximum(smp.hs_m, 0.0)
+    wd = sum((h * hs**q for h, q in zip(pw.hs_coef, pw.hs_exp, strict=True)), np.zeros_like(hs))
+    wd = wd * (pw.angle_coef[0] + pw.angle_coef[1] * ca + pw.angle_coef[2] * ca**2)
+    wd_mean = wd.mean(axis=1)
+    coef = None
+    if a2 == 0.0 and a1 == 0.0 and a0 > 0 and not np.any(nlp.leg_power_terms["exponent"]):
+        k = pw.sfc_base_gpkwh * a0 * 1e-6 * nlp.leg_power_factor
+        exps: dict[float, np.ndarray] = {}
+        for c, e, _ in pw_terms:
+            exps[float(e)] = exps.get(float(e), np.zeros(n)) + k * c
+            for r, u in enumerate(pw.speed_coef):
+                exps[float(e + r)] = exps.get(float(e + r), np.zeros(n)) + k * c * u * wd_mean
+        ex = np.array(sorted(exps))
+        coef = np.column_stack([exps[x] for x in ex])
+        scale = float(np.max(np.abs(coef))) or 1.0
+        # a sum of power laws with non-negative coefficients (exponents >= 1): PowerLawFuel's class
+        coef = np.where(np.abs(coef) <= 1e-12 * scale, 0.0, coef) if np.all(coef >= -1e-12 * scale) else None
+    if coef is not None:
+        fuel = PowerLawFuel(coef, ex)
+        conv = solve_speed_convex(
+            d,
+            fuel,
+            eta_h=eta_h,
+            eta_mode=eta_mode,
+            v_min_kn=lo,
+            v_max_kn=hi,
+            objective=objective,
+            fuel_price=fuel_price,
+            hourly_cost=hourly_cost,
+        )
+        if not conv.success:
+            return {"method": "convex (CVXPY + Clarabel)", "status": conv.status, "gap": float("nan")}
+        gap = (res.objective - conv.objective) / max(abs(conv.objective), 1e-12)
+        return {
+            "method": "convex (CVXPY + Clarabel)",
+            "status": conv.status,
+            "objective": conv.objective,
+            "total_fuel_t": conv.total_fuel_t,
+            "gap": float(gap),
+        }
+    lam = float(res.eta_multiplier) if eta_h is not None else 0.0
+
+    def leg_cost(i: int, t: float) -> float:
+        v = d[i] / t
+        p = power(np.full((n, 1), v))[i, :, 0]
+        rate = float(np.mean(pw.fuel_rate_tph(p)))
+        return w_f * t * rate + w_t * t + lam * t
+
+    total = 0.0
+    for i in range(n):
+        t_lo, t_hi = d[i] / hi[i], d[i] / lo[i]
+        cands = [leg_cost(i, t_lo), leg_cost(i, t_hi)]
+        if t_hi > t_lo:
+            r = minimize_scalar(
+                lambda t, i=i: leg_cost(i, t), bounds=(t_lo, t_hi), method="bounded", options={"xatol": 1e-10 * t_hi}
+            )
+            cands.append(float(r.fun))
+        total += min(cands)
+    bound = total - (lam * eta_h if eta_h is not None else 0.0)
+    gap = (res.objective - bound) / max(abs(res.objective), 1e-12)
+    return {"method": "Lagrangian dual bound", "lambda": lam, "bound": bound, "gap": float(gap)}
