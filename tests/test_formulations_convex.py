@@ -132,4 +132,5 @@ def test_unbounded_optimum_is_the_cube_root_split(n: int, seed: int, slack: floa
     res = solve_speed_convex(d, PowerLawFuel.cubic(k), eta_h=eta)
     assert res.success
     np.testing.assert_allclose(res.time_h, t, rtol=2e-4)
-    assert res.total_fuel_t == pytest.approx(np.sum(k * d**3 / t**2), rel=1e-8)
+    best = np.sum(k * d**3 / t**2)  # the closed-form optimum: no feasible schedule burns less
+    assert best * (1 - 1e-9) <= res.total_fuel_t <= best * (1 + 1e-6)  # Clarabel's tolerance, first order
