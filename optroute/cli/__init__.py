@@ -36,7 +36,7 @@ import traceback
 import warnings
 from collections.abc import Sequence
 
-from optroute.cli._common import PROG, Parser, UsageError
+from optroute.cli._parser import PROG, Parser, UsageError, add_version_option
 from optroute.cli.bands import add_bands, cmd_bands
 from optroute.cli.studies import add_study, add_tradeoff, cmd_study, cmd_tradeoff
 from optroute.cli.tools import add_bench, add_demo, cmd_bench, cmd_demo
@@ -82,6 +82,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="exit codes: 0 success, 2 bad input, 3 infeasible (ETA or passage), 4 solver failure",
     )
     parser.add_argument("--debug", action="store_true", default=False, help="show the traceback on errors")
+    add_version_option(parser)
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
     add_demo(sub, common)
     add_plan(sub, common)

@@ -22,62 +22,14 @@ import math
 import os
 import re
 import sys
-import textwrap
 from pathlib import Path
-from typing import Any, NoReturn, TextIO
+from typing import Any, TextIO
 
 import numpy as np
 import xarray as xr
 
 from optroute import units
 from optroute.errors import ConfigError, OnLandError
-
-PROG = "optroute"
-
-
-class UsageError(Exception):
-    """A command-line usage error (argparse's), reported as exit code 2."""
-
-
-class Parser(argparse.ArgumentParser):
-    """ArgumentParser that raises instead of printing the usage and exiting."""
-
-    def error(self, message: str) -> NoReturn:
-        raise UsageError(f"{message} (see '{self.prog} --help')")
-
-
-def add_command(
-    sub: argparse._SubParsersAction,
-    common: argparse.ArgumentParser,
-    name: str,
-    *,
-    help: str,
-    description: str,
-    examples: str,
-) -> argparse.ArgumentParser:
-    """A subcommand parser whose ``--help`` shows defaults and an *examples* epilog."""
-    return sub.add_parser(
-        name,
-        parents=[common],
-        help=help,
-        description=textwrap.fill(description, 88),
-        epilog="examples:\n" + examples.strip("\n"),
-        formatter_class=_HelpFormatter,
-    )
-
-
-class _HelpFormatter(argparse.RawDescriptionHelpFormatter):
-    """Keeps the examples' line breaks; shows an option's default unless it is None/False or the help names one."""
-
-    def _get_help_string(self, action: argparse.Action) -> str:
-        text = action.help or ""
-        default = action.default
-        if "default" in text or default is None or default is False or default is argparse.SUPPRESS:
-            return text
-        if action.option_strings or action.nargs in (argparse.OPTIONAL, argparse.ZERO_OR_MORE):
-            return text + " (default: %(default)s)"
-        return text
-
 
 # --------------------------------------------------------------------------- positions and times
 
@@ -500,15 +452,6 @@ def progress_enabled(args: argparse.Namespace) -> bool:
     if choice is None:
         return bool(getattr(sys.stderr, "isatty", lambda: False)())
     return bool(choice)
-
-
-def add_progress_option(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--progress",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="show a progress bar on stderr (default: when stderr is a terminal)",
-    )
 
 
 def fmt_duration(hours: float) -> str:

@@ -9,29 +9,13 @@ import logging
 import sys
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
-import numpy as np
-import xarray as xr
-
-from optroute import units
-from optroute.cli._common import (
-    SEARCH_METHODS,
-    Progress,
-    add_command,
-    add_progress_option,
-    fmt_time,
-    load_ship,
-    load_weather,
-    output_paths,
-    parse_etas,
-    parse_position,
-    parse_time,
-    progress_enabled,
-    split_list,
-)
-from optroute.cli.voyage import read_corridor
+from optroute.cli._parser import add_command, add_progress_option
 from optroute.errors import ConfigError
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 # --------------------------------------------------------------------------- shared
 
@@ -71,6 +55,11 @@ def _add_cost_options(p: argparse.ArgumentParser) -> None:
 
 def _route(args: argparse.Namespace, weather: Any) -> tuple[Any, dict[str, Any]]:
     """Endpoints or a corridor from the options; and the search options for endpoints."""
+    import numpy as np
+
+    from optroute.cli._common import SEARCH_METHODS, parse_position
+    from optroute.cli.voyage import read_corridor
+
     if args.corridor is not None:
         if args.start is not None or args.end is not None:
             raise ConfigError("give either --from/--to or --corridor, not both")
@@ -89,6 +78,9 @@ def _route(args: argparse.Namespace, weather: Any) -> tuple[Any, dict[str, Any]]
 
 
 def _cost_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """The cost and solver keyword arguments of the options, validated."""
+    import numpy as np
+
     for name in ("fuel_price", "hourly_cost"):
         value = getattr(args, name)
         if not (np.isfinite(value) and value >= 0):
@@ -145,6 +137,7 @@ def _add_cluster_options(p: argparse.ArgumentParser, default_workers: str) -> No
 
 def front_frame(front: xr.Dataset) -> Any:
     """The front's per-ETA variables as a table: ``eta_utc``, ``eta_h`` then every 1-D variable on ``eta``."""
+    import numpy as np
     import pandas as pd
 
     table: dict[str, Any] = {"eta_utc": [str(np.datetime64(t, "s")) + "Z" for t in front["eta"].values]}
@@ -167,13 +160,7 @@ def write_front(front: xr.Dataset, paths: dict[str, Path]) -> list[str]:
         outputs.write_netcdf(front, paths["nc"]),
         outputs.write_bytes(paths["csv"], buf.getvalue().encode()),
     ]
-    fig = front.plot()
-    try:
-        written.append(save_png(fig, paths["png"]))
-    finally:
-        import matplotlib.pyplot as plt
-
-        plt.close(fig)
+    written.append(save_png(front.plot(), paths["png"]))  # a pyplot-free Figure: nothing to close
     return [str(p) for p in written]
 
 
@@ -224,6 +211,18 @@ def add_tradeoff(sub: argparse._SubParsersAction, common: argparse.ArgumentParse
 
 def cmd_tradeoff(args: argparse.Namespace, out: TextIO | None = None) -> int:
     """``optroute tradeoff``."""
+    import numpy as np
+
+    from optroute.cli._common import (
+        Progress,
+        fmt_time,
+        load_ship,
+        load_weather,
+        output_paths,
+        parse_etas,
+        parse_time,
+        progress_enabled,
+    )
     from optroute.studies.tradeoff import tradeoff
 
     out = out or sys.stdout
@@ -306,8 +305,13 @@ def add_study(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) 
     p.set_defaults(func=cmd_study)
 
 
-def _study_etas(text: str, departure: np.datetime64 | None, first_time: np.datetime64) -> list[Any]:
+def _study_etas(text: str, departure: Any, first_time: Any) -> list[Any]:
     """``+HOURS`` lists → hours after departure [h] (floats); ISO lists → UTC times, after the departure."""
+    import numpy as np
+
+    from optroute import units
+    from optroute.cli._common import parse_etas
+
     raw = str(text).strip()
     items = [x.strip() for x in raw.split(",") if x.strip()]
     relative = [x.startswith("+") for x in items]
@@ -321,6 +325,9 @@ def _study_etas(text: str, departure: np.datetime64 | None, first_time: np.datet
 
 def cmd_study(args: argparse.Namespace, out: TextIO | None = None) -> int:
     """``optroute study``."""
+    import numpy as np
+
+    from optroute.cli._common import Progress, load_ship, load_weather, parse_time, progress_enabled, split_list
     from optroute.studies.voyage_study import study
 
     out = out or sys.stdout
