@@ -79,11 +79,10 @@ import uuid
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import xarray as xr
-from matplotlib.figure import Figure
 
 from optroute.errors import (
     ConfigError,
@@ -95,10 +94,13 @@ from optroute.optimise.api import optimise_corridor
 from optroute.optimise.corridor_problem import PreparedCorridor
 from optroute.physics.ship import Ship
 from optroute.plan.result import Plan
-from optroute.plot.front import front_figure, knee_index
+from optroute.plot.front import knee_index
 from optroute.search.route import Corridor
 from optroute.units import as_utc_time, h_to_timedelta, timedelta_to_h
 from optroute.weather.sample import WeatherSampler
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["TradeoffFront", "tradeoff"]
 
@@ -140,6 +142,8 @@ class TradeoffFront(xr.Dataset):
         matplotlib.figure.Figure
             See :func:`optroute.plot.front.front_figure`.
         """
+        from optroute.plot.front import front_figure  # matplotlib only when a figure is drawn
+
         return front_figure(self, title=title)
 
     def to_netcdf(self, path: Any = None, **kwargs: Any) -> Any:  # type: ignore[override]
