@@ -79,26 +79,37 @@ def parse_position(text: str, what: str) -> tuple[float, float]:
     return lat, float(units.wrap_180(lon))
 
 
+#: ``YYYY-MM-DD`` with an optional ``THH``, ``THH:MM``, ``THH:MM:SS`` or ``THH:MM:SS.fff``.
+_ISO_TIME = re.compile(r"^\d{4}-\d{2}-\d{2}(?:[T ]\d{2}(?::\d{2}(?::\d{2}(?:\.\d+)?)?)?)?$")
+#: The span ``datetime64[ns]`` holds (numpy wraps around silently outside it).
+_NS_FIRST, _NS_LAST = np.datetime64("1678-01-01", "s"), np.datetime64("2262-04-11", "s")
+_NEGATIVE_NUMBER = re.compile(r"^-\s*(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?$")
+
+
 def parse_time(text: str, what: str) -> np.datetime64:
-    """An ISO 8601 time as timezone-naive UTC ``datetime64[ns]`` (a trailing ``Z`` is accepted)."""
+    """An ISO 8601 time (``YYYY-MM-DD[THH[:MM[:SS]]]``, a trailing ``Z`` accepted) as UTC ``datetime64[ns]``.
+
+    Raises
+    ------
+    ConfigError
+        Not in that form, with a time-zone offset, not a calendar time, or outside the years
+        1678-2262 that ``datetime64[ns]`` holds (numpy would wrap such a time round silently).
+    """
     raw = str(text).strip()
     if raw.endswith(("Z", "z")):
         raw = raw[:-1]
     if re.search(r"[+-]\d\d:?\d\d$", raw) and "T" in raw:
         raise ConfigError(f"{what} {text!r} has a time-zone offset; give the time in UTC, e.g. 2024-01-10T06:00")
+    example = "give an ISO 8601 UTC time, e.g. 2024-01-10T06:00"
+    if not _ISO_TIME.match(raw):
+        raise ConfigError(f"{what} {text!r} is not a time; {example}")
     try:
-        t = np.datetime64(raw, "ns")
+        t = np.datetime64(raw.replace(" ", "T"), "s")
     except ValueError:
-        t = np.datetime64("NaT")
-    if np.isnat(t):
-        raise ConfigError(f"{what} {text!r} is not a time; give an ISO 8601 UTC time, e.g. 2024-01-10T06:00")
-    return t
-
-
-def fmt_time(t: Any) -> str:
-    """A UTC time as ``YYYY-MM-DD HH:MM UTC``."""
-    rounded = np.datetime64(t, "ns") + np.timedelta64(30, "s")  # to the nearest minute
-    return str(np.datetime64(rounded, "m")).replace("T", " ") + " UTC"
+        raise ConfigError(f"{what} {text!r} is not a calendar time; {example}") from None
+    if not _NS_FIRST <= t < _NS_LAST:
+        raise ConfigError(f"{what} {text!r} is outside the years 1678-2262 that optroute's times hold; {example}")
+    return np.datetime64(t, "ns")
 
 
 def parse_eta(text: str, departure: np.datetime64, what: str = "--eta") -> np.datetime64:
@@ -107,9 +118,17 @@ def parse_eta(text: str, departure: np.datetime64, what: str = "--eta") -> np.da
     Raises
     ------
     ConfigError
-        Not a time, or not after the departure (the message names both).
+        Not a time, a negative or zero offset (``-5``, ``+0``), or not after the departure (the
+        message names the value, the departure and the fix).
     """
     raw = str(text).strip()
+    dep = units.format_utc(departure)
+    later = "give +HOURS after the departure (e.g. +264) or an ISO time after it"
+    if _NEGATIVE_NUMBER.match(raw):
+        raise ConfigError(
+            f"{what} {text!r} would be {raw[1:].strip()} h before the departure {dep}, but an ETA comes after it; "
+            f"{later}"
+        )
     if raw.startswith("+"):
         try:
             hours = float(raw[1:])
@@ -117,27 +136,32 @@ def parse_eta(text: str, departure: np.datetime64, what: str = "--eta") -> np.da
             raise ConfigError(f"{what} {text!r}: {raw[1:]!r} is not a number of hours; e.g. +264") from None
         if not math.isfinite(hours):
             raise ConfigError(f"{what} {text!r} is not a finite number of hours; e.g. +264")
+        if hours <= 0:
+            raise ConfigError(f"{what} {text!r} ({hours:g} h) is not after the departure {dep}; {later}")
+        if hours > units.timedelta_to_h(np.datetime64(_NS_LAST, "ns") - departure):
+            raise ConfigError(
+                f"{what} {text!r} falls after 2262, beyond the times optroute holds; give fewer hours, e.g. +264"
+            )
         eta = departure + units.h_to_timedelta(hours)
     else:
         eta = parse_time(raw, what)
     if eta <= departure:
-        raise ConfigError(
-            f"{what} {text!r} ({fmt_time(eta)}) is not after the departure {fmt_time(departure)}; "
-            "give a later ETA, or +HOURS after the departure"
-        )
+        raise ConfigError(f"{what} {text!r} ({units.format_utc(eta)}) is not after the departure {dep}; {later}")
     return np.datetime64(eta, "ns")
 
 
 def parse_etas(text: str, departure: np.datetime64, what: str = "--etas") -> list[np.datetime64]:
     """A comma-separated list of ETAs (ISO or +HOURS), or ``+A:+B:STEP`` hours after departure."""
     raw = str(text).strip()
-    if ":" in raw and raw.startswith("+") and raw.count(":") == 2 and "T" not in raw:
+    if raw.count(":") == 2 and raw[:1] in "+-" and "T" not in raw:
         try:
             a, b, step = (float(x.strip().lstrip("+")) for x in raw.split(":"))
         except ValueError:
             raise ConfigError(f"{what} {text!r}: write +FIRST:+LAST:STEP in hours, e.g. +240:+300:10") from None
-        if not (math.isfinite(a) and math.isfinite(b) and math.isfinite(step) and step > 0 and b >= a):
-            raise ConfigError(f"{what} {text!r}: need FIRST <= LAST and STEP > 0 [h], e.g. +240:+300:10")
+        if not (math.isfinite(a) and math.isfinite(b) and math.isfinite(step) and step > 0 and 0 < a <= b):
+            raise ConfigError(
+                f"{what} {text!r}: need 0 < FIRST <= LAST and STEP > 0, in hours after the departure, e.g. +240:+300:10"
+            )
         hours = np.arange(a, b + 1e-9 * max(1.0, abs(b)), step)
         return [parse_eta(f"+{float(h)!r}", departure, what) for h in hours]
     items = [x for x in raw.split(",") if x.strip()]

@@ -137,10 +137,11 @@ def _add_cluster_options(p: argparse.ArgumentParser, default_workers: str) -> No
 
 def front_frame(front: xr.Dataset) -> Any:
     """The front's per-ETA variables as a table: ``eta_utc``, ``eta_h`` then every 1-D variable on ``eta``."""
-    import numpy as np
     import pandas as pd
 
-    table: dict[str, Any] = {"eta_utc": [str(np.datetime64(t, "s")) + "Z" for t in front["eta"].values]}
+    from optroute import units
+
+    table: dict[str, Any] = {"eta_utc": [units.format_utc(t) for t in front["eta"].values]}
     if "eta_h" in front.coords or "eta_h" in front:
         table["eta_h"] = front["eta_h"].values
     for name, var in front.data_vars.items():
@@ -213,9 +214,9 @@ def cmd_tradeoff(args: argparse.Namespace, out: TextIO | None = None) -> int:
     """``optroute tradeoff``."""
     import numpy as np
 
+    from optroute import units
     from optroute.cli._common import (
         Progress,
-        fmt_time,
         load_ship,
         load_weather,
         output_paths,
@@ -246,14 +247,15 @@ def cmd_tradeoff(args: argparse.Namespace, out: TextIO | None = None) -> int:
     files = write_front(front, output_paths(args.out, "front"))
     table = front_frame(front)
     lines = [
-        f"front      {len(table)} ETAs, ship {ship.name}, objective {args.objective}, departure {fmt_time(departure)}",
+        f"front      {len(table)} ETAs, ship {ship.name}, objective {args.objective}, "
+        f"departure {units.format_utc(departure)}",
         f"{'eta [UTC]':<22}{'eta [h]':>9}{'fuel [t]':>11}{'t/h saved':>11}  status",
     ]
     for _, row in table.iterrows():
         price = float(row.get("eta_shadow_price_t_per_h", float("nan")))
         price_text = f"{price:11.3f}" if np.isfinite(price) else f"{'-':>11}"
         lines.append(
-            f"{row['eta_utc'][:16].replace('T', ' '):<22}{row.get('eta_h', float('nan')):9.1f}"
+            f"{row['eta_utc']:<22}{row.get('eta_h', float('nan')):9.1f}"
             f"{row.get('fuel_t', float('nan')):11.2f}{price_text}  {row.get('status', '')}"
         )
     knee = front.attrs.get("knee_eta_h")

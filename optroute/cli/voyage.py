@@ -133,7 +133,8 @@ def plan_summary(plan: Any, inputs: dict[str, Any], args: argparse.Namespace, fi
     """The short summary printed after a plan is written."""
     import numpy as np
 
-    from optroute.cli._common import fmt_duration, fmt_time
+    from optroute import units
+    from optroute.cli._common import fmt_duration
 
     ship = inputs["ship"]
     legs = plan.legs
@@ -141,13 +142,13 @@ def plan_summary(plan: Any, inputs: dict[str, Any], args: argparse.Namespace, fi
     wp = plan.waypoints
     sog = plan.distance_nm / plan.duration_h if plan.duration_h > 0 else float("nan")
     eta = inputs["eta"]
-    eta_text = f" (ETA {fmt_time(eta)}, {args.eta_mode})" if eta is not None else ""
+    eta_text = f" (ETA {units.format_utc(eta)}, {args.eta_mode})" if eta is not None else ""
     lines = [
         f"route      ({wp[0, 0]:.4f}, {wp[0, 1]:.4f}) -> ({wp[-1, 0]:.4f}, {wp[-1, 1]:.4f}): "
         f"{plan.distance_nm:,.1f} nm in {len(legs)} legs, status {plan.status}",
         f"ship       {ship.name}; weather {weather_name(inputs['weather'], args.weather)}; objective {args.objective}",
-        f"departure  {fmt_time(plan.departure)}",
-        f"arrival    {fmt_time(plan.arrival)}{eta_text}",
+        f"departure  {units.format_utc(plan.departure)}",
+        f"arrival    {units.format_utc(plan.arrival)}{eta_text}",
         f"passage    {fmt_duration(plan.duration_h)}, mean SOG {sog:.2f} kn, "
         f"STW {legs['stw_kn'].min():.2f}-{legs['stw_kn'].max():.2f} kn",
         f"fuel       {plan.total_fuel_t:,.2f} t",

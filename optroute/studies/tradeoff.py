@@ -96,7 +96,7 @@ from optroute.physics.ship import Ship
 from optroute.plan.result import Plan
 from optroute.plot.front import knee_index
 from optroute.search.route import Corridor
-from optroute.units import as_utc_time, h_to_timedelta, timedelta_to_h
+from optroute.units import as_utc_time, format_utc, h_to_timedelta, timedelta_to_h
 from optroute.weather.sample import WeatherSampler
 
 if TYPE_CHECKING:
@@ -384,7 +384,9 @@ def _eta_hours(etas: Any, t0: np.datetime64) -> np.ndarray:
         else:
             h = timedelta_to_h(as_utc_time(e, "etas") - t0)
         if not math.isfinite(h) or h <= 0:
-            raise ConfigError(f"eta {e!r} is {h} h after departure {t0}; every ETA must be a finite time after it")
+            raise ConfigError(
+                f"eta {e!r} is {h} h after departure {format_utc(t0)}; every ETA must be a finite time after it"
+            )
         out.append(h)
     hours = np.array(out, dtype=float)
     if hours.size == 0:

@@ -40,6 +40,7 @@ import xarray as xr
 from numpy.typing import ArrayLike
 
 from optroute.errors import ConfigError, WeatherCoverageError, WeatherSchemaError
+from optroute.units import format_utc
 from optroute.weather import schema
 from optroute.weather.io import TIME_POLICIES, check_required
 
@@ -429,7 +430,7 @@ class WeatherSampler:
     ) -> None:
         out = ~(inside_xy & inside_t)
         k = int(np.flatnonzero(out)[0])
-        when = np.int64(self._t0 + round(float(t[k]) * 1e9)).astype("datetime64[ns]").astype("datetime64[s]")
+        when = format_utc(np.int64(self._t0 + round(float(t[k]) * 1e9)).astype("datetime64[ns]"))
         lon_lo, lon_hi = self._lon.start, self._lon.stop
         if self.periodic:
             lon_txt = "all longitudes (global)"
@@ -441,7 +442,7 @@ class WeatherSampler:
         fix = "extend the dataset or keep the voyage inside it"
         if inside_xy[k]:
             fix += ", or pass time_policy='hold' to hold the first/last time slice"
-        t0, t1 = (x.astype("datetime64[s]") for x in (self._times[0], self._times[-1]))
+        t0, t1 = (format_utc(x) for x in (self._times[0], self._times[-1]))
         raise WeatherCoverageError(
             f"point (lat={la[k]:.6g}, lon={lo[k]:.6g}) at {when} lies outside the weather dataset's {what} "
             f"({self.source}: lat {self._lat.start:.6g} to {self._lat.stop:.6g} deg N, lon {lon_txt}, "
@@ -478,7 +479,7 @@ class WeatherSampler:
         if missing:
             values = self._read({"time": missing})
             for j, k in enumerate(missing):
-                when = f"{self.source} at {self._times[k].astype('datetime64[s]')}"
+                when = f"{self.source} at {format_utc(self._times[k])}"
                 self._cache[k] = self._derive({v: a[j : j + 1] for v, a in values.items()}, where=when)
         for k in need:
             self._cache.move_to_end(int(k))
