@@ -224,6 +224,7 @@ def cmd_tradeoff(args: argparse.Namespace, out: TextIO | None = None) -> int:
         parse_time,
         progress_enabled,
     )
+    from optroute.cli._status import status_legend
     from optroute.studies.tradeoff import tradeoff
 
     out = out or sys.stdout
@@ -258,6 +259,10 @@ def cmd_tradeoff(args: argparse.Namespace, out: TextIO | None = None) -> int:
             f"{row['eta_utc']:<22}{row.get('eta_h', float('nan')):9.1f}"
             f"{row.get('fuel_t', float('nan')):11.2f}{price_text}  {row.get('status', '')}"
         )
+    lines.append(
+        "status     "
+        + "\n           ".join(x.strip() for x in status_legend(table["status"], objective=args.objective))
+    )
     knee = front.attrs.get("knee_eta_h")
     if isinstance(knee, int | float):
         lines.append(f"knee       at {knee:.1f} h after departure")
@@ -330,6 +335,7 @@ def cmd_study(args: argparse.Namespace, out: TextIO | None = None) -> int:
     import numpy as np
 
     from optroute.cli._common import Progress, load_ship, load_weather, parse_time, progress_enabled, split_list
+    from optroute.cli._status import status_legend
     from optroute.studies.voyage_study import study
 
     out = out or sys.stdout
@@ -360,6 +366,8 @@ def cmd_study(args: argparse.Namespace, out: TextIO | None = None) -> int:
     if "plan_status" in table:
         counts = table["plan_status"].astype(str).str.split(":").str[0].value_counts()
         lines.append("outcome    " + ", ".join(f"{n} {k or 'missing'}" for k, n in counts.items()))
+        legend = status_legend(table["plan_status"].astype(str), objective=args.objective)
+        lines.append("status     " + "\n           ".join(x.strip() for x in legend))
     lines.append("")
     lines.append(table.head(50).to_string(float_format=lambda x: f"{x:,.2f}"))
     if len(table) > 50:

@@ -135,6 +135,7 @@ def plan_summary(plan: Any, inputs: dict[str, Any], args: argparse.Namespace, fi
 
     from optroute import units
     from optroute.cli._common import fmt_duration
+    from optroute.cli._status import explain_status
 
     ship = inputs["ship"]
     legs = plan.legs
@@ -145,7 +146,9 @@ def plan_summary(plan: Any, inputs: dict[str, Any], args: argparse.Namespace, fi
     eta_text = f" (ETA {units.format_utc(eta)}, {args.eta_mode})" if eta is not None else ""
     lines = [
         f"route      ({wp[0, 0]:.4f}, {wp[0, 1]:.4f}) -> ({wp[-1, 0]:.4f}, {wp[-1, 1]:.4f}): "
-        f"{plan.distance_nm:,.1f} nm in {len(legs)} legs, status {plan.status}",
+        f"{plan.distance_nm:,.1f} nm in {len(legs)} legs",
+        f"status     {plan.status}: "
+        + explain_status(plan.status, ipopt_status=plan.solver_stats.get("ipopt_status"), objective=args.objective),
         f"ship       {ship.name}; weather {weather_name(inputs['weather'], args.weather)}; objective {args.objective}",
         f"departure  {units.format_utc(plan.departure)}",
         f"arrival    {units.format_utc(plan.arrival)}{eta_text}",

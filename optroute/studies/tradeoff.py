@@ -267,7 +267,7 @@ def _solve_point(spec: _Spec, eta_h: float | None, kind: str, warm: _Point | _Wa
         if exc.earliest_arrival is not None:
             earliest = as_utc_time(exc.earliest_arrival, "earliest_arrival")
             status = (
-                f"infeasible: earliest arrival {str(earliest)[:16]} "
+                f"infeasible: earliest arrival {format_utc(earliest)} "
                 f"({timedelta_to_h(earliest - spec.departure):.2f} h after departure)"
             )
         else:

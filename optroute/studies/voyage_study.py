@@ -127,7 +127,7 @@ def voyage_case(
         corridor, route = _corridors[key]
     spec = _Spec(corridor, wx, ship, t0, objective, dict(optimise_kwargs))
     if eta_h <= 0:
-        status = f"infeasible: the ETA is {eta_h:.2f} h after the departure {str(t0)[:16]}"
+        status = f"infeasible: the ETA is {eta_h:.2f} h after the departure {format_utc(t0)}"
         out: dict[str, Any] = {k: math.nan for k in TOTALS}
         return {**out, "plan_status": status, "iterations": 0}
     p = _solve_point(spec, eta_h, "eta", None, route)
