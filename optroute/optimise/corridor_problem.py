@@ -220,6 +220,10 @@ class PreparedCorridor:
             raise ConfigError(
                 f"weather must be a canonical xarray.Dataset or a WeatherSampler, got {type(weather).__name__}"
             )
+        n_wp = len(corridor.waypoints)
+        for k, (lat_k, lon_k) in enumerate(corridor.waypoints):  # named before any grid node is sampled
+            role = "start, " if k == 0 else ("end, " if k == n_wp - 1 else "")
+            sampler.require_area(lat_k, lon_k, what=f"{role}corridor point {k}")
         model = model if model is not None else default_model(ship)
         rules = rules if rules is not None else BandRules()
         if speed_range_kn is None:

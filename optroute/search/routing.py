@@ -539,8 +539,19 @@ def search_route(
 
     clearance = 0.5 * cell_nm if method != "dp" else 0.5
     snap_nm = float(snap_max_nm) if snap_max_nm is not None else 20.0 + 2.0 * cell_nm
+    for p, w in ((start, "start"), (end, "end")):  # outside the weather is not "on land": say which it is
+        sampler.require_area(*p, what=w)
     start, end = (
-        land.snap_to_sea(*p, snap_nm, clearance_nm=clearance, weather=ds, time=t0, use_land_mask=use_land_mask, what=w)
+        land.snap_to_sea(
+            *p,
+            snap_nm,
+            clearance_nm=clearance,
+            weather=ds,
+            time=t0,
+            use_land_mask=use_land_mask,
+            what=w,
+            fix="give a position at sea, e.g. a pilot station off the port",
+        )
         for p, w in ((start, "start"), (end, "end"))
     )
     # the fastest any leg can go over ground: the speed ceiling of the objective plus the strongest current
