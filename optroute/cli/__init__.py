@@ -37,6 +37,7 @@ import warnings
 from collections.abc import Sequence
 
 from optroute.cli._parser import PROG, Parser, UsageError, add_version_option
+from optroute.cli._voice import cli_voice
 from optroute.cli.bands import add_bands, cmd_bands
 from optroute.cli.studies import add_study, add_tradeoff, cmd_study, cmd_tradeoff
 from optroute.cli.tools import add_bench, add_demo, cmd_bench, cmd_demo
@@ -150,7 +151,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         except (UsageError, OptrouteError) as exc:
             if debug:
                 traceback.print_exc(file=sys.stderr)
-            print(f"{PROG}: error: {_one_line(str(exc))}", file=sys.stderr)
+            print(f"{PROG}: error: {_one_line(cli_voice(str(exc)))}", file=sys.stderr)
             return exit_code(exc)
         except KeyboardInterrupt:
             if debug:

@@ -851,7 +851,7 @@ def sail_route(
                 ship, model, rules, course[0, j : j + 1], sea, desired, step_kn=speed_step_kn, min_stw_kn=min_speed_kn
             )
             if not choice.feasible[0] or not choice.sog_kn[0] > 0:
-                when = t0 + _h_to_td(t_h)
+                when = units.format_utc(t0 + _h_to_td(t_h))
                 raise NoSafePassage(
                     f"no allowed speed down to {min_speed_kn} kn at ({lat[0, j]:.3f}, {lon[0, j]:.3f}) on leg {k} at "
                     f"{when} (Hs {sea.hs_m[0]:.1f} m): the fixed route cannot be sailed; search a route instead"
