@@ -15,6 +15,13 @@ demo        San Diego → Tokyo through two storms (seed 000)              :mod:
 bench       the benchmarks of a source checkout                          :mod:`.tools`
 ==========  ===========================================================  ======================
 
+``optroute --version`` prints ``optroute 0.2.0`` (:mod:`optroute._version`).  Building the
+parser imports nothing heavy (:mod:`optroute.cli._parser`): ``--help`` answers at once, and a
+command imports numpy, xarray, CasADi... when it runs.  Times print as ISO 8601 UTC to the
+second (:func:`optroute.units.format_utc`); every status printed is explained
+(:mod:`optroute.cli._status`); an error's fix names the command line's options
+(:mod:`optroute.cli._voice`).
+
 Exit codes
 ----------
 0 success; 2 bad input (a usage error, or any :class:`~optroute.errors.OptrouteError`
