@@ -1,10 +1,10 @@
 """Run every benchmark in one process; write one markdown report, a JSON file per benchmark and the figures.
 
-Usage: ``python -m benchmarks [--quick] [--only weather,search,nlp,compare,shao,seed000,front] [--results DIR]``.
+Usage: ``python -m benchmarks [--quick] [--only startup,weather,search,nlp,compare,shao,seed000,front] [--results DIR]``.
 
 Each benchmark prints markdown tables with ratios to a named baseline run side by side in the
-same process (scipy's compiled Dijkstra, xarray's interp, CasADi's automatic derivatives, Boeing
-speed stepping and the 3-D DP, the seeds' published figures). Everything printed is collected in
+same process (``import xarray`` for the start-up, scipy's compiled Dijkstra, xarray's interp,
+CasADi's automatic derivatives, Boeing speed stepping and the 3-D DP, the seeds' published figures). Everything printed is collected in
 ``<results>/report.md``; each benchmark's figures go to ``<results>/<name>.json`` and its PNG
 figures beside them. ``<results>`` is the git-ignored ``benchmarks/results/`` unless ``--results``
 names another folder. A benchmark that raises is reported as failed (the traceback on stderr), the
@@ -27,7 +27,7 @@ from typing import Any, TextIO
 from benchmarks._cli import DEFAULT_RESULTS, jsonable, set_results_dir
 from optroute._store import atomic_write_bytes
 
-BENCHES = ("weather", "search", "nlp", "compare", "shao", "seed000", "front")
+BENCHES = ("startup", "weather", "search", "nlp", "compare", "shao", "seed000", "front")
 OPTIONAL = {"front": "benchmarks.bench_front"}
 """Benchmarks whose module may not exist yet: skipped with a message instead of failing the run."""
 

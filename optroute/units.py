@@ -137,3 +137,24 @@ def as_utc_time(t: object, what: str) -> np.datetime64:
     if np.isnat(out):
         raise ConfigError(f"{what} is NaT; pass a UTC time")
     return out
+
+
+def format_utc(t: object) -> str:
+    """A time as ISO 8601 UTC to the second, e.g. ``2024-01-18T09:14:00Z``: the one format optroute prints.
+
+    Parameters
+    ----------
+    t : numpy.datetime64, datetime or str
+        A time, timezone-naive UTC (optroute's convention), of any precision.
+
+    Returns
+    -------
+    str
+        ``YYYY-MM-DDTHH:MM:SSZ``, rounded to the nearest second (half a second rounds up);
+        ``"NaT"`` for a missing time.
+    """
+    ns = np.datetime64(t, "ns")
+    if np.isnat(ns):
+        return "NaT"
+    # datetime64 casts floor to the coarser unit, so adding half a second first rounds to the nearest
+    return f"{(ns + np.timedelta64(500, 'ms')).astype('datetime64[s]')}Z"

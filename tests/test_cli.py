@@ -9,11 +9,14 @@ ship's own calm-water curve, no optimiser involved); hand-written positions and 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import re
 import shutil
+import socket
 import subprocess
 import sys
+import threading
 import warnings
 from pathlib import Path
 
@@ -24,9 +27,12 @@ import xarray as xr
 
 import optroute as orx
 from optroute import geodesy as geo
+from optroute import units
 from optroute.cli import exit_code, main
 from optroute.cli import tools as cli_tools
-from optroute.cli._common import parse_eta, parse_etas, parse_position, read_waypoints
+from optroute.cli._common import parse_eta, parse_etas, parse_position, parse_time, read_waypoints
+from optroute.cli._status import explain_status, status_legend
+from optroute.cli._voice import CLI_FIXES
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, OnLandError, SolverFailure
 from optroute.geo.land import SYNTHETIC_GEOGRAPHY
 from optroute.weather.catalogue import scenario_names
@@ -35,6 +41,12 @@ from tests.test_outputs import check_rfc7946
 T0 = np.datetime64("2024-01-10T00:00", "ns")
 CORRIDOR = [(30.0, -150.0), (31.0, -145.0), (32.0, -140.0)]
 COMMANDS = ("plan", "optimise", "tradeoff", "study", "bands", "demo", "bench")
+ROOT = Path(__file__).resolve().parents[1]
+#: Python-API parameters that no option of the command line sets: a CLI error's fix must not name them.
+API_ONLY = re.compile(
+    r"\b(max_distance_nm|snap_max_nm|scheduler_address|time_policy|solver_options|on_unreachable|timeout_s"
+    r"|plan_voyage|max_leg_nm)\b"
+)
 SHIP = orx.Ship.preset("container_54k_dwt")
 
 
@@ -116,7 +128,8 @@ def test_optimise_calm_fixed_path_is_constant_speed_and_writes_three_files(capsy
     fuel = t * float(SHIP.fuel_rate_tph(SHIP.calm_power_kw(v)))
     assert csv["fuel_t"].sum() == pytest.approx(fuel, rel=1e-3)
     assert re.search(rf"fuel\s+{csv['fuel_t'].sum():,.2f} t", out)
-    assert "arrival    2024-01-11 12:00 UTC (ETA 2024-01-11 12:00 UTC, le)" in out
+    assert "arrival    2024-01-11T12:00:00Z (ETA 2024-01-11T12:00:00Z, le)" in out
+    assert "status     optimal: Ipopt converged" in out
     check_rfc7946(json.loads((tmp_path / "leg.geojson").read_text()))
     nc = pd.read_csv(tmp_path / "leg.csv")  # the NetCDF agrees with the CSV
     with xr.open_dataset(tmp_path / "leg.nc") as ds:
@@ -184,7 +197,7 @@ def test_plan_searches_optimises_and_meets_the_eta(capsys, files, tmp_path):
     doc = json.loads((tmp_path / "run" / "plan.geojson").read_text())
     check_rfc7946(doc)
     assert doc["features"][0]["properties"]["total_fuel_t"] == pytest.approx(csv["fuel_t"].sum())
-    assert "status optimal" in out and "ETA value" in out
+    assert "status     optimal: " in out and "ETA value" in out
 
 
 def test_a_plan_geojson_is_a_corridor_for_optimise(capsys, files, tmp_path):
@@ -257,6 +270,7 @@ def test_tradeoff_writes_a_monotone_front(capsys, files, tmp_path):
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000
     assert (tmp_path / "front" / "front.nc").stat().st_size > 0
     assert "knee" in out
+    assert "status     optimal: Ipopt converged" in out  # the legend of the status column
 
 
 @pytest.mark.skipif(not hasattr(orx, "study"), reason="orx.study is not in this tree yet")
@@ -281,6 +295,7 @@ def test_study_runs_every_case_into_the_store(capsys, files, tmp_path):
     )
     assert code == 0, err
     assert "= 4 cases" in out and "outcome    4 optimal" in out
+    assert "status     optimal: Ipopt converged" in out
     # calm water, fixed path: the container ship's rows are the constant-speed fuel T · fuel_rate(P_calm(D/T))
     ds = xr.load_dataset(tmp_path / "store" / "study.nc")
     for hours in (36.0, 40.0):
@@ -403,8 +418,8 @@ def bad_inputs(files: dict[str, Path], tmp: Path) -> list[tuple[list[str], list[
         str(tmp / "o"),
     ]
     return [
-        (opt + ["--eta", "2024-01-09T12:00"], ["2024-01-09 12:00 UTC", "departure 2024-01-10 00:00 UTC"]),
-        (opt + ["--departure", "2024-01-10T06:00", "--eta", "2024-01-10T05:00Z"], ["2024-01-10 06:00 UTC"]),
+        (opt + ["--eta", "2024-01-09T12:00"], ["(2024-01-09T12:00:00Z)", "departure 2024-01-10T00:00:00Z"]),
+        (opt + ["--departure", "2024-01-10T06:00", "--eta", "2024-01-10T05:00Z"], ["departure 2024-01-10T06:00:00Z"]),
         (opt + ["--eta", "+0"], ["is not after the departure"]),
         (opt + ["--eta", "tomorrow"], ["'tomorrow' is not a time"]),
         (opt + ["--ship", "titanic"], ["'titanic'", *orx.Ship.presets()]),
@@ -480,6 +495,7 @@ def test_bad_input_exits_2_with_one_line_naming_the_problem(capsys, files, tmp_p
         line = one_error_line(err)
         for needle in needles:
             assert needle in line, (argv, line)
+        assert not API_ONLY.search(line), (argv, line)  # a fix names only options the command line has
     assert not (tmp_path / "o").exists() and not list(tmp_path.glob("o.*"))
 
 
@@ -637,3 +653,213 @@ def test_console_script(tmp_path):
     )
     assert bad.returncode == 2 and bad.stdout == ""
     assert bad.stderr.count("\n") == 1 and "container_8000teu" in bad.stderr
+
+
+# --------------------------------------------------------------------------- a CLI that answers at once
+
+#: What ``optroute --help`` must not wait for (issue 12): each takes from 0.3 s to seconds to import.
+HEAVY = ("numpy", "xarray", "pandas", "casadi", "cvxpy", "matplotlib", "dask", "distributed", "numba", "scipy")
+
+
+def _python(*args: str) -> subprocess.CompletedProcess:
+    # from the checkout's root, so that this tree's optroute is the one imported (python -m puts the cwd first)
+    return subprocess.run([sys.executable, *args], capture_output=True, text=True, cwd=ROOT, timeout=300)
+
+
+def test_help_and_version_in_a_fresh_interpreter():
+    version = re.search(r'__version__ = "([^"]+)"', (ROOT / "optroute" / "_version.py").read_text()).group(1)
+    got = _python("-m", "optroute", "--version")
+    assert got.returncode == 0 and got.stdout == f"optroute {version}\n" and got.stderr == ""
+    got = _python("-m", "optroute", "--help")
+    assert got.returncode == 0 and got.stderr == ""
+    assert got.stdout.startswith("usage: optroute [-h] [--debug] [--version] COMMAND")
+    assert all(command in got.stdout for command in COMMANDS)
+    got = _python("-m", "optroute", "bands", "--help")
+    assert got.returncode == 0 and "--rules {boeing,imo}" in got.stdout and "--period-form {exact,imo}" in got.stdout
+
+
+def test_the_parser_loads_no_heavy_module():
+    # every command's --help builds the whole parser: none of it may import numpy and the rest
+    code = (
+        "import json, sys, contextlib, io\n"
+        "import optroute.cli as cli\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        f"    codes = [cli.main([c, '--help']) for c in {COMMANDS!r}] + [cli.main(['--help']), cli.main(['--version'])]\n"
+        f"print(json.dumps([codes, [m for m in {HEAVY!r} if m in sys.modules], cli.__file__]))"
+    )
+    got = _python("-c", code)
+    assert got.returncode == 0, got.stderr
+    codes, loaded, where = json.loads(got.stdout)
+    assert Path(where).resolve().is_relative_to(ROOT)
+    assert codes == [0] * (len(COMMANDS) + 2) and loaded == []
+
+
+def test_heavy_dependencies_load_only_where_they_are_used():
+    # the optimiser builds no convex problem and draws nothing when imported; the tradeoff draws only in plot()
+    code = (
+        "import json, sys\n"
+        "import optroute.optimise.api, optroute.studies.tradeoff, optroute.plan.outputs\n"
+        "print(json.dumps([m for m in ('cvxpy', 'matplotlib', 'dask', 'distributed') if m in sys.modules]))"
+    )
+    got = _python("-c", code)
+    assert got.returncode == 0, got.stderr
+    assert json.loads(got.stdout) == []
+
+
+# --------------------------------------------------------------------------- times, ETAs, statuses, fixes
+
+
+@pytest.mark.parametrize(
+    ("t", "text"),
+    [
+        (np.datetime64("2024-01-18T09:14:00.123456789", "ns"), "2024-01-18T09:14:00Z"),
+        (np.datetime64("2024-01-18T09:13:59.5", "ns"), "2024-01-18T09:14:00Z"),  # half a second rounds up
+        (np.datetime64("2024-01-18T09:13:59.499999999", "ns"), "2024-01-18T09:13:59Z"),
+        (np.datetime64("1969-12-31T23:59:59.6", "ns"), "1970-01-01T00:00:00Z"),  # before the epoch too
+        (np.datetime64("2024-02-29", "D"), "2024-02-29T00:00:00Z"),
+        ("2024-01-10T06:00", "2024-01-10T06:00:00Z"),
+        (np.datetime64("NaT"), "NaT"),
+    ],
+)
+def test_times_print_as_iso_8601_utc_to_the_second(t, text):
+    assert units.format_utc(t) == text
+
+
+@pytest.mark.parametrize(
+    ("eta", "needles"),
+    [
+        ("-5", ["'-5' would be 5 h before the departure 2024-01-10T00:00:00Z", "give +HOURS"]),
+        ("-0.5", ["'-0.5' would be 0.5 h before the departure"]),
+        ("+-5", ["'+-5' (-5 h) is not after the departure 2024-01-10T00:00:00Z", "give +HOURS"]),
+        ("+0", ["'+0' (0 h) is not after the departure"]),
+        ("1748", ["'1748' is not a time", "ISO 8601"]),  # numpy would read a year
+        ("20240110", ["'20240110' is not a time"]),  # numpy would wrap it round to 1679
+        ("3000-01-01", ["outside the years 1678-2262"]),
+        ("+1e9", ["falls after 2262"]),
+    ],
+)
+def test_an_eta_before_the_departure_or_out_of_range_is_a_usage_error(capsys, files, eta, needles):
+    code, out, err = run(
+        capsys, "optimise", "--ship", "container_54k_dwt", "--corridor", files["csv"], "--weather", files["calm"],
+        "--eta", eta,
+    )  # fmt: skip
+    assert code == 2 and out == ""
+    line = one_error_line(err)
+    assert "1748-" not in line and "1679-" not in line
+    for needle in needles:
+        assert needle in line, line
+
+
+def test_relative_eta_lists_and_ranges_refuse_times_before_the_departure():
+    with pytest.raises(ConfigError, match=r"'-5:\+10:5': need 0 < FIRST <= LAST"):
+        parse_etas("-5:+10:5", T0)
+    with pytest.raises(ConfigError, match=r"'\+-5:\+10:5': need 0 < FIRST"):
+        parse_etas("+-5:+10:5", T0)
+    with pytest.raises(ConfigError, match="'-5' would be 5 h before the departure"):
+        parse_etas("+30,-5", T0)
+    with pytest.raises(ConfigError, match="'-5' is not a time"):
+        parse_time("-5", "--departure")
+
+
+def test_a_start_or_end_outside_the_weather_is_a_coverage_error_naming_the_area(capsys, files, tmp_path):
+    area = "lat 25 to 37 deg N, lon -155 to -135 deg E"  # the fixture's box
+    plan = ["plan", "--ship", "container_54k_dwt", "--weather", str(files["calm"]), "--out", str(tmp_path / "p")]
+    for ends, where in (
+        (["--from", "10,-150", "--to", "32,-140"], "start (10.0000, -150.0000)"),
+        (["--from", "30,-150", "--to", "32,-120"], "end (32.0000, -120.0000)"),
+    ):
+        code, out, err = run(capsys, *plan, *ends)
+        line = one_error_line(err)
+        assert code == 2 and f"{where} lies outside the weather's area" in line and area in line
+        assert "land" not in line and not API_ONLY.search(line)
+    outside = _write(tmp_path / "outside.csv", "lat,lon\n30,-150\n31,-145\n32,-120\n")
+    code, _, err = run(
+        capsys, "optimise", "--ship", "container_54k_dwt", "--corridor", outside, "--weather", files["calm"]
+    )
+    line = one_error_line(err)
+    assert code == 2 and "end, corridor point 2 (32.0000, -120.0000) lies outside the weather's area" in line
+    assert area in line
+
+
+def test_an_end_on_land_names_a_fix_the_user_has(capsys, tmp_path):
+    code, _, err = run(
+        capsys, "plan", "--ship", "container_54k_dwt", "--weather", "calm", "--from", "30,-150",
+        "--to", "38.5,-98", "--out", tmp_path / "p",
+    )  # fmt: skip
+    line = one_error_line(err)  # Kansas
+    assert code == 2 and "end (38.5000, -98.0000) is on land" in line and "give a position at sea" in line
+    assert not API_ONLY.search(line)
+
+
+def test_an_iteration_limited_plan_says_what_feasible_means(capsys, files, tmp_path):
+    code, out, err = run(
+        capsys, "optimise", "--ship", "container_54k_dwt", "--corridor", files["csv"], "--width-nm", "20",
+        "--weather", files["rough"], "--eta", "+40", "--max-iter", "15", "--out", tmp_path / "x",
+    )  # fmt: skip
+    assert code == 0, err
+    assert re.search(r"^status     feasible: Ipopt stopped at its iteration limit at a point that verifies; "
+                     r"the plan is safe but not proven least-fuel$", out, re.M)  # fmt: skip
+
+
+def test_every_status_has_an_explanation():
+    known = {
+        "optimal": "Ipopt converged",
+        "optimal; the plan of the earlier ETA 30 h (arrives earlier): fuel rose": "front never rises",
+        "feasible": "not proven least-fuel",
+        "feasible: fastest verified plan known (optimal); the minimum-time solve failed: x": "upper bound",
+        "minimum time": "fastest verified passage",
+        "infeasible: earliest arrival 2024-01-11T07:23:47Z (31.40 h after departure)": "no verified passage",
+        "solver failure: Restoration_Failed": "no verified plan",
+        "ok": "stored",
+        "failed: ValueError('x')": "raised an error",
+    }
+    for status, needle in known.items():
+        assert needle in explain_status(status), status
+    assert "least-cost" in explain_status("feasible", objective="cost")
+    stops = {"Maximum_Iterations_Exceeded": "iteration limit", "Solved_To_Acceptable_Level": "'acceptable'"}
+    for ipopt, needle in stops.items():
+        assert needle in explain_status("feasible", ipopt_status=ipopt)
+    assert explain_status("something new") == "a status this version of optroute does not explain"
+    legend = status_legend(["optimal", "infeasible: earliest arrival x", "optimal", "solver failure: y"])
+    assert [x.split(":")[0].strip() for x in legend] == ["optimal", "infeasible", "solver failure"]
+
+
+def test_every_library_phrase_the_cli_rewords_is_still_in_the_sources():
+    sources = "".join(
+        p.read_text().replace("{SYNCHRONOUS!r}", "'synchronous'")
+        for p in (ROOT / "optroute").rglob("*.py")
+        if "cli" not in p.relative_to(ROOT / "optroute").parts
+    )
+    for library, cli in CLI_FIXES:
+        assert library in sources, library
+        assert not API_ONLY.search(cli), cli
+
+
+def test_a_scheduler_error_names_the_study_commands_options(capsys, files, tmp_path):
+    pytest.importorskip("distributed")
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(4)
+    address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    server.settimeout(60.0)
+
+    def greet_with_http() -> None:  # one connection: the probe's
+        with contextlib.suppress(OSError):
+            conn, _ = server.accept()
+            with conn:
+                conn.sendall(b"HTTP/1.1 400 Bad Request\r\n\r\n")
+
+    thread = threading.Thread(target=greet_with_http, daemon=True)
+    thread.start()
+    try:
+        code, out, err = run(
+            capsys, "study", "--ships", "container_54k_dwt", "--scenarios", files["calm"], "--corridor",
+            files["csv"], "--width-nm", "0", "--etas", "+36", "--store", tmp_path / "s", "--scheduler", address,
+        )  # fmt: skip
+    finally:
+        thread.join(timeout=70.0)
+        server.close()
+    line = one_error_line(err)
+    assert code == 2 and out == "" and f"{address!r} answers, but not as a Dask scheduler" in line
+    assert "leave out --scheduler for a local cluster (--workers 0 runs in this process)" in line
+    assert not API_ONLY.search(line)

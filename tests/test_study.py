@@ -15,6 +15,7 @@ import json
 import os
 import signal
 import socket
+import struct
 import subprocess
 import sys
 import threading
@@ -429,6 +430,74 @@ def test_silent_scheduler_times_out_within_timeout(tmp_path):
             run_study(AXES, fuel_case, tmp_path / "s", scheduler_address=address, timeout_s=2)
     finally:
         server.close()
+
+
+class _LoopbackServer:
+    """A TCP server on 127.0.0.1 that is not Dask: it sends ``reply`` at once, or after the client speaks."""
+
+    def __init__(self, reply: bytes, *, after_request: bool) -> None:
+        self.reply, self.after_request = reply, after_request
+        self.stop = threading.Event()
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.listen(8)
+        self.sock.settimeout(0.1)  # accept() polls the stop flag
+        self.address = f"tcp://127.0.0.1:{self.sock.getsockname()[1]}"
+        self.thread = threading.Thread(target=self._serve, daemon=True)
+        self.thread.start()
+
+    def _serve(self) -> None:
+        deadline = time.monotonic() + 120.0  # a ceiling against a hang, should the test never stop it
+        while not self.stop.is_set() and time.monotonic() < deadline:
+            try:
+                conn, _ = self.sock.accept()
+            except TimeoutError:
+                continue
+            except OSError:
+                return
+            with conn:
+                try:
+                    conn.settimeout(10.0)
+                    if self.after_request:
+                        conn.recv(65536)
+                    conn.sendall(self.reply)
+                except OSError:
+                    pass
+
+    def close(self) -> None:
+        self.stop.set()
+        self.thread.join(timeout=15.0)
+        self.sock.close()
+
+
+HTTP_400 = b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\nConnection: close\r\n\r\n"
+
+
+@pytest.mark.parametrize(
+    ("reply", "after_request", "match"),
+    [
+        # a web server answering what it is sent: read by Dask as an 8-byte length, "HTTP/1.1" asks for 3 EiB
+        (HTTP_400, False, r"not as a Dask scheduler \(an HTTP server.*length of 3543824036068086856 bytes"),
+        (bytes(range(255, 191, -1)), False, r"not as a Dask scheduler: its first 8 bytes give a message length"),
+        # a plausible length prefix, then bytes that are not Dask frames: Dask's own read fails on them
+        (struct.pack("Q", 16) + b"\x01" * 16, False, r"not as a Dask scheduler: its answer to Dask's handshake"),
+        # a server that speaks only when spoken to: no greeting within timeout_s
+        (HTTP_400, True, r"not as a Dask scheduler: it sent nothing within timeout_s=2 s"),
+    ],
+    ids=["http-text", "garbage-bytes", "bad-frames", "silent-until-asked"],
+)
+def test_a_service_that_is_not_dask_is_scheduler_unreachable(tmp_path, reply, after_request, match):
+    pytest.importorskip("distributed")
+    server = _LoopbackServer(reply, after_request=after_request)
+    try:
+        with pytest.raises(SchedulerUnreachable, match=match) as info:
+            run_study(AXES, fuel_case, tmp_path / "s", scheduler_address=server.address, timeout_s=2)
+    finally:
+        server.close()
+    message = str(info.value)
+    assert info.value.address == server.address and server.address in message
+    assert "port 8786 by default" in message and "scheduler_address=None" in message  # the fix
+    assert "EiB" not in message and case_files(tmp_path / "s") == []
 
 
 def test_bad_options_are_config_errors(tmp_path):

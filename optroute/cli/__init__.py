@@ -15,6 +15,13 @@ demo        San Diego → Tokyo through two storms (seed 000)              :mod:
 bench       the benchmarks of a source checkout                          :mod:`.tools`
 ==========  ===========================================================  ======================
 
+``optroute --version`` prints ``optroute 0.2.0`` (:mod:`optroute._version`).  Building the
+parser imports nothing heavy (:mod:`optroute.cli._parser`): ``--help`` answers at once, and a
+command imports numpy, xarray, CasADi... when it runs.  Times print as ISO 8601 UTC to the
+second (:func:`optroute.units.format_utc`); every status printed is explained
+(:mod:`optroute.cli._status`); an error's fix names the command line's options
+(:mod:`optroute.cli._voice`).
+
 Exit codes
 ----------
 0 success; 2 bad input (a usage error, or any :class:`~optroute.errors.OptrouteError`
@@ -36,7 +43,8 @@ import traceback
 import warnings
 from collections.abc import Sequence
 
-from optroute.cli._common import PROG, Parser, UsageError
+from optroute.cli._parser import PROG, Parser, UsageError, add_version_option
+from optroute.cli._voice import cli_voice
 from optroute.cli.bands import add_bands, cmd_bands
 from optroute.cli.studies import add_study, add_tradeoff, cmd_study, cmd_tradeoff
 from optroute.cli.tools import add_bench, add_demo, cmd_bench, cmd_demo
@@ -82,6 +90,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="exit codes: 0 success, 2 bad input, 3 infeasible (ETA or passage), 4 solver failure",
     )
     parser.add_argument("--debug", action="store_true", default=False, help="show the traceback on errors")
+    add_version_option(parser)
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
     add_demo(sub, common)
     add_plan(sub, common)
@@ -149,7 +158,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         except (UsageError, OptrouteError) as exc:
             if debug:
                 traceback.print_exc(file=sys.stderr)
-            print(f"{PROG}: error: {_one_line(str(exc))}", file=sys.stderr)
+            print(f"{PROG}: error: {_one_line(cli_voice(str(exc)))}", file=sys.stderr)
             return exit_code(exc)
         except KeyboardInterrupt:
             if debug:

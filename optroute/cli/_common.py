@@ -22,62 +22,14 @@ import math
 import os
 import re
 import sys
-import textwrap
 from pathlib import Path
-from typing import Any, NoReturn, TextIO
+from typing import Any, TextIO
 
 import numpy as np
 import xarray as xr
 
 from optroute import units
 from optroute.errors import ConfigError, OnLandError
-
-PROG = "optroute"
-
-
-class UsageError(Exception):
-    """A command-line usage error (argparse's), reported as exit code 2."""
-
-
-class Parser(argparse.ArgumentParser):
-    """ArgumentParser that raises instead of printing the usage and exiting."""
-
-    def error(self, message: str) -> NoReturn:
-        raise UsageError(f"{message} (see '{self.prog} --help')")
-
-
-def add_command(
-    sub: argparse._SubParsersAction,
-    common: argparse.ArgumentParser,
-    name: str,
-    *,
-    help: str,
-    description: str,
-    examples: str,
-) -> argparse.ArgumentParser:
-    """A subcommand parser whose ``--help`` shows defaults and an *examples* epilog."""
-    return sub.add_parser(
-        name,
-        parents=[common],
-        help=help,
-        description=textwrap.fill(description, 88),
-        epilog="examples:\n" + examples.strip("\n"),
-        formatter_class=_HelpFormatter,
-    )
-
-
-class _HelpFormatter(argparse.RawDescriptionHelpFormatter):
-    """Keeps the examples' line breaks; shows an option's default unless it is None/False or the help names one."""
-
-    def _get_help_string(self, action: argparse.Action) -> str:
-        text = action.help or ""
-        default = action.default
-        if "default" in text or default is None or default is False or default is argparse.SUPPRESS:
-            return text
-        if action.option_strings or action.nargs in (argparse.OPTIONAL, argparse.ZERO_OR_MORE):
-            return text + " (default: %(default)s)"
-        return text
-
 
 # --------------------------------------------------------------------------- positions and times
 
@@ -127,26 +79,37 @@ def parse_position(text: str, what: str) -> tuple[float, float]:
     return lat, float(units.wrap_180(lon))
 
 
+#: ``YYYY-MM-DD`` with an optional ``THH``, ``THH:MM``, ``THH:MM:SS`` or ``THH:MM:SS.fff``.
+_ISO_TIME = re.compile(r"^\d{4}-\d{2}-\d{2}(?:[T ]\d{2}(?::\d{2}(?::\d{2}(?:\.\d+)?)?)?)?$")
+#: The span ``datetime64[ns]`` holds (numpy wraps around silently outside it).
+_NS_FIRST, _NS_LAST = np.datetime64("1678-01-01", "s"), np.datetime64("2262-04-11", "s")
+_NEGATIVE_NUMBER = re.compile(r"^-\s*(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?$")
+
+
 def parse_time(text: str, what: str) -> np.datetime64:
-    """An ISO 8601 time as timezone-naive UTC ``datetime64[ns]`` (a trailing ``Z`` is accepted)."""
+    """An ISO 8601 time (``YYYY-MM-DD[THH[:MM[:SS]]]``, a trailing ``Z`` accepted) as UTC ``datetime64[ns]``.
+
+    Raises
+    ------
+    ConfigError
+        Not in that form, with a time-zone offset, not a calendar time, or outside the years
+        1678-2262 that ``datetime64[ns]`` holds (numpy would wrap such a time round silently).
+    """
     raw = str(text).strip()
     if raw.endswith(("Z", "z")):
         raw = raw[:-1]
     if re.search(r"[+-]\d\d:?\d\d$", raw) and "T" in raw:
         raise ConfigError(f"{what} {text!r} has a time-zone offset; give the time in UTC, e.g. 2024-01-10T06:00")
+    example = "give an ISO 8601 UTC time, e.g. 2024-01-10T06:00"
+    if not _ISO_TIME.match(raw):
+        raise ConfigError(f"{what} {text!r} is not a time; {example}")
     try:
-        t = np.datetime64(raw, "ns")
+        t = np.datetime64(raw.replace(" ", "T"), "s")
     except ValueError:
-        t = np.datetime64("NaT")
-    if np.isnat(t):
-        raise ConfigError(f"{what} {text!r} is not a time; give an ISO 8601 UTC time, e.g. 2024-01-10T06:00")
-    return t
-
-
-def fmt_time(t: Any) -> str:
-    """A UTC time as ``YYYY-MM-DD HH:MM UTC``."""
-    rounded = np.datetime64(t, "ns") + np.timedelta64(30, "s")  # to the nearest minute
-    return str(np.datetime64(rounded, "m")).replace("T", " ") + " UTC"
+        raise ConfigError(f"{what} {text!r} is not a calendar time; {example}") from None
+    if not _NS_FIRST <= t < _NS_LAST:
+        raise ConfigError(f"{what} {text!r} is outside the years 1678-2262 that optroute's times hold; {example}")
+    return np.datetime64(t, "ns")
 
 
 def parse_eta(text: str, departure: np.datetime64, what: str = "--eta") -> np.datetime64:
@@ -155,9 +118,17 @@ def parse_eta(text: str, departure: np.datetime64, what: str = "--eta") -> np.da
     Raises
     ------
     ConfigError
-        Not a time, or not after the departure (the message names both).
+        Not a time, a negative or zero offset (``-5``, ``+0``), or not after the departure (the
+        message names the value, the departure and the fix).
     """
     raw = str(text).strip()
+    dep = units.format_utc(departure)
+    later = "give +HOURS after the departure (e.g. +264) or an ISO time after it"
+    if _NEGATIVE_NUMBER.match(raw):
+        raise ConfigError(
+            f"{what} {text!r} would be {raw[1:].strip()} h before the departure {dep}, but an ETA comes after it; "
+            f"{later}"
+        )
     if raw.startswith("+"):
         try:
             hours = float(raw[1:])
@@ -165,27 +136,32 @@ def parse_eta(text: str, departure: np.datetime64, what: str = "--eta") -> np.da
             raise ConfigError(f"{what} {text!r}: {raw[1:]!r} is not a number of hours; e.g. +264") from None
         if not math.isfinite(hours):
             raise ConfigError(f"{what} {text!r} is not a finite number of hours; e.g. +264")
+        if hours <= 0:
+            raise ConfigError(f"{what} {text!r} ({hours:g} h) is not after the departure {dep}; {later}")
+        if hours > units.timedelta_to_h(np.datetime64(_NS_LAST, "ns") - departure):
+            raise ConfigError(
+                f"{what} {text!r} falls after 2262, beyond the times optroute holds; give fewer hours, e.g. +264"
+            )
         eta = departure + units.h_to_timedelta(hours)
     else:
         eta = parse_time(raw, what)
     if eta <= departure:
-        raise ConfigError(
-            f"{what} {text!r} ({fmt_time(eta)}) is not after the departure {fmt_time(departure)}; "
-            "give a later ETA, or +HOURS after the departure"
-        )
+        raise ConfigError(f"{what} {text!r} ({units.format_utc(eta)}) is not after the departure {dep}; {later}")
     return np.datetime64(eta, "ns")
 
 
 def parse_etas(text: str, departure: np.datetime64, what: str = "--etas") -> list[np.datetime64]:
     """A comma-separated list of ETAs (ISO or +HOURS), or ``+A:+B:STEP`` hours after departure."""
     raw = str(text).strip()
-    if ":" in raw and raw.startswith("+") and raw.count(":") == 2 and "T" not in raw:
+    if raw.count(":") == 2 and raw[:1] in "+-" and "T" not in raw:
         try:
             a, b, step = (float(x.strip().lstrip("+")) for x in raw.split(":"))
         except ValueError:
             raise ConfigError(f"{what} {text!r}: write +FIRST:+LAST:STEP in hours, e.g. +240:+300:10") from None
-        if not (math.isfinite(a) and math.isfinite(b) and math.isfinite(step) and step > 0 and b >= a):
-            raise ConfigError(f"{what} {text!r}: need FIRST <= LAST and STEP > 0 [h], e.g. +240:+300:10")
+        if not (math.isfinite(a) and math.isfinite(b) and math.isfinite(step) and step > 0 and 0 < a <= b):
+            raise ConfigError(
+                f"{what} {text!r}: need 0 < FIRST <= LAST and STEP > 0, in hours after the departure, e.g. +240:+300:10"
+            )
         hours = np.arange(a, b + 1e-9 * max(1.0, abs(b)), step)
         return [parse_eta(f"+{float(h)!r}", departure, what) for h in hours]
     items = [x for x in raw.split(",") if x.strip()]
@@ -500,15 +476,6 @@ def progress_enabled(args: argparse.Namespace) -> bool:
     if choice is None:
         return bool(getattr(sys.stderr, "isatty", lambda: False)())
     return bool(choice)
-
-
-def add_progress_option(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--progress",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="show a progress bar on stderr (default: when stderr is a terminal)",
-    )
 
 
 def fmt_duration(hours: float) -> str:

@@ -12,17 +12,9 @@ import math
 import sys
 from typing import TextIO
 
-from optroute import units
-from optroute.cli._common import add_command, load_ship
+from optroute.cli._parser import add_command
 from optroute.errors import ConfigError
-from optroute.physics import seaway
-from optroute.physics.safety import (
-    PERIOD_FORMS,
-    RULE_SETS,
-    BandRules,
-    forbidden_speed_intervals,
-    safe_speed_ranges,
-)
+from optroute.physics.names import PERIOD_FORMS, RULE_SETS
 
 
 def add_bands(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) -> None:
@@ -82,6 +74,11 @@ def _kn(value: float) -> str:
 
 def cmd_bands(args: argparse.Namespace, out: TextIO | None = None) -> int:
     """Run ``optroute bands``: print the band table, optionally write the polar plot."""
+    from optroute import units
+    from optroute.cli._common import load_ship
+    from optroute.physics import seaway
+    from optroute.physics.safety import BandRules, forbidden_speed_intervals, safe_speed_ranges
+
     out = sys.stdout if out is None else out
     ship = load_ship(args.ship)
     rules = BandRules(

@@ -47,7 +47,7 @@ import numpy as np
 import xarray as xr
 
 from optroute import geodesy as geo
-from optroute import scenarios
+from optroute import scenarios, units
 from optroute.errors import ConfigError
 from optroute.optimise.api import optimise_corridor
 from optroute.physics.performance import CalmWaterModel
@@ -350,7 +350,7 @@ def _figures(
     gc_name = "great circle, forced slow-downs"
     storm = storm_point(great_circle, wx, before=None if plan is None else plan.arrival)
     files = []
-    when = str(nearest_time(wx, storm["time"]))[:13].replace("T", " ") + " UTC"
+    when = units.format_utc(nearest_time(wx, storm["time"]))
     if plan is not None:
         fig = plan_map_figure(
             plan,
@@ -386,7 +386,7 @@ def _figures(
         speed_kn=storm["stw_kn"],
         title=f"Danger bands where the great circle is slowed down most: {storm['lat']:.1f}°N "
         f"{abs(storm['lon']):.1f}°{'E' if storm['lon'] >= 0 else 'W'}, "
-        f"{str(storm['time'])[:16].replace('T', ' ')} UTC",
+        f"{units.format_utc(storm['time'])}",
     )
     files.append(save_png(fig, out / "polar_storm.png"))
     return files

@@ -9,29 +9,13 @@ import logging
 import sys
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
-import numpy as np
-import xarray as xr
-
-from optroute import units
-from optroute.cli._common import (
-    SEARCH_METHODS,
-    Progress,
-    add_command,
-    add_progress_option,
-    fmt_time,
-    load_ship,
-    load_weather,
-    output_paths,
-    parse_etas,
-    parse_position,
-    parse_time,
-    progress_enabled,
-    split_list,
-)
-from optroute.cli.voyage import read_corridor
+from optroute.cli._parser import add_command, add_progress_option
 from optroute.errors import ConfigError
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 # --------------------------------------------------------------------------- shared
 
@@ -71,6 +55,11 @@ def _add_cost_options(p: argparse.ArgumentParser) -> None:
 
 def _route(args: argparse.Namespace, weather: Any) -> tuple[Any, dict[str, Any]]:
     """Endpoints or a corridor from the options; and the search options for endpoints."""
+    import numpy as np
+
+    from optroute.cli._common import SEARCH_METHODS, parse_position
+    from optroute.cli.voyage import read_corridor
+
     if args.corridor is not None:
         if args.start is not None or args.end is not None:
             raise ConfigError("give either --from/--to or --corridor, not both")
@@ -89,6 +78,9 @@ def _route(args: argparse.Namespace, weather: Any) -> tuple[Any, dict[str, Any]]
 
 
 def _cost_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """The cost and solver keyword arguments of the options, validated."""
+    import numpy as np
+
     for name in ("fuel_price", "hourly_cost"):
         value = getattr(args, name)
         if not (np.isfinite(value) and value >= 0):
@@ -147,7 +139,9 @@ def front_frame(front: xr.Dataset) -> Any:
     """The front's per-ETA variables as a table: ``eta_utc``, ``eta_h`` then every 1-D variable on ``eta``."""
     import pandas as pd
 
-    table: dict[str, Any] = {"eta_utc": [str(np.datetime64(t, "s")) + "Z" for t in front["eta"].values]}
+    from optroute import units
+
+    table: dict[str, Any] = {"eta_utc": [units.format_utc(t) for t in front["eta"].values]}
     if "eta_h" in front.coords or "eta_h" in front:
         table["eta_h"] = front["eta_h"].values
     for name, var in front.data_vars.items():
@@ -167,13 +161,7 @@ def write_front(front: xr.Dataset, paths: dict[str, Path]) -> list[str]:
         outputs.write_netcdf(front, paths["nc"]),
         outputs.write_bytes(paths["csv"], buf.getvalue().encode()),
     ]
-    fig = front.plot()
-    try:
-        written.append(save_png(fig, paths["png"]))
-    finally:
-        import matplotlib.pyplot as plt
-
-        plt.close(fig)
+    written.append(save_png(front.plot(), paths["png"]))  # a pyplot-free Figure: nothing to close
     return [str(p) for p in written]
 
 
@@ -224,6 +212,19 @@ def add_tradeoff(sub: argparse._SubParsersAction, common: argparse.ArgumentParse
 
 def cmd_tradeoff(args: argparse.Namespace, out: TextIO | None = None) -> int:
     """``optroute tradeoff``."""
+    import numpy as np
+
+    from optroute import units
+    from optroute.cli._common import (
+        Progress,
+        load_ship,
+        load_weather,
+        output_paths,
+        parse_etas,
+        parse_time,
+        progress_enabled,
+    )
+    from optroute.cli._status import status_legend
     from optroute.studies.tradeoff import tradeoff
 
     out = out or sys.stdout
@@ -247,16 +248,21 @@ def cmd_tradeoff(args: argparse.Namespace, out: TextIO | None = None) -> int:
     files = write_front(front, output_paths(args.out, "front"))
     table = front_frame(front)
     lines = [
-        f"front      {len(table)} ETAs, ship {ship.name}, objective {args.objective}, departure {fmt_time(departure)}",
+        f"front      {len(table)} ETAs, ship {ship.name}, objective {args.objective}, "
+        f"departure {units.format_utc(departure)}",
         f"{'eta [UTC]':<22}{'eta [h]':>9}{'fuel [t]':>11}{'t/h saved':>11}  status",
     ]
     for _, row in table.iterrows():
         price = float(row.get("eta_shadow_price_t_per_h", float("nan")))
         price_text = f"{price:11.3f}" if np.isfinite(price) else f"{'-':>11}"
         lines.append(
-            f"{row['eta_utc'][:16].replace('T', ' '):<22}{row.get('eta_h', float('nan')):9.1f}"
+            f"{row['eta_utc']:<22}{row.get('eta_h', float('nan')):9.1f}"
             f"{row.get('fuel_t', float('nan')):11.2f}{price_text}  {row.get('status', '')}"
         )
+    lines.append(
+        "status     "
+        + "\n           ".join(x.strip() for x in status_legend(table["status"], objective=args.objective))
+    )
     knee = front.attrs.get("knee_eta_h")
     if isinstance(knee, int | float):
         lines.append(f"knee       at {knee:.1f} h after departure")
@@ -306,8 +312,13 @@ def add_study(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) 
     p.set_defaults(func=cmd_study)
 
 
-def _study_etas(text: str, departure: np.datetime64 | None, first_time: np.datetime64) -> list[Any]:
+def _study_etas(text: str, departure: Any, first_time: Any) -> list[Any]:
     """``+HOURS`` lists → hours after departure [h] (floats); ISO lists → UTC times, after the departure."""
+    import numpy as np
+
+    from optroute import units
+    from optroute.cli._common import parse_etas
+
     raw = str(text).strip()
     items = [x.strip() for x in raw.split(",") if x.strip()]
     relative = [x.startswith("+") for x in items]
@@ -321,6 +332,10 @@ def _study_etas(text: str, departure: np.datetime64 | None, first_time: np.datet
 
 def cmd_study(args: argparse.Namespace, out: TextIO | None = None) -> int:
     """``optroute study``."""
+    import numpy as np
+
+    from optroute.cli._common import Progress, load_ship, load_weather, parse_time, progress_enabled, split_list
+    from optroute.cli._status import status_legend
     from optroute.studies.voyage_study import study
 
     out = out or sys.stdout
@@ -351,6 +366,8 @@ def cmd_study(args: argparse.Namespace, out: TextIO | None = None) -> int:
     if "plan_status" in table:
         counts = table["plan_status"].astype(str).str.split(":").str[0].value_counts()
         lines.append("outcome    " + ", ".join(f"{n} {k or 'missing'}" for k, n in counts.items()))
+        legend = status_legend(table["plan_status"].astype(str), objective=args.objective)
+        lines.append("status     " + "\n           ".join(x.strip() for x in legend))
     lines.append("")
     lines.append(table.head(50).to_string(float_format=lambda x: f"{x:,.2f}"))
     if len(table) > 50:

@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 from typing import Any, TextIO
 
-from optroute.cli._common import add_command
+from optroute.cli._parser import add_command
 from optroute.errors import ConfigError
 
 # --------------------------------------------------------------------------- demo

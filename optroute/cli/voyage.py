@@ -11,24 +11,7 @@ import argparse
 import sys
 from typing import Any, TextIO
 
-import numpy as np
-
-from optroute.cli._common import (
-    SEARCH_METHODS,
-    Progress,
-    add_command,
-    add_progress_option,
-    fmt_duration,
-    fmt_time,
-    load_ship,
-    load_weather,
-    output_paths,
-    parse_eta,
-    parse_position,
-    parse_time,
-    progress_enabled,
-    read_waypoints,
-)
+from optroute.cli._parser import add_command, add_progress_option
 from optroute.errors import ConfigError
 
 OBJECTIVES = ("fuel", "time", "cost")
@@ -89,6 +72,10 @@ def add_voyage_options(p: argparse.ArgumentParser, *, eta: bool = True) -> None:
 
 def voyage_inputs(args: argparse.Namespace) -> dict[str, Any]:
     """Ship, weather, departure and ETA from the options, all validated."""
+    import numpy as np
+
+    from optroute.cli._common import load_ship, load_weather, parse_eta, parse_time
+
     ship = load_ship(args.ship)
     wx = load_weather(args.weather)
     if args.departure is None:
@@ -130,6 +117,7 @@ def weather_name(wx: Any, spec: str) -> str:
 
 def write_plan(plan: Any, out: str, stem: str) -> list[str]:
     """Write the plan's GeoJSON, CSV and NetCDF next to each other; return the paths."""
+    from optroute.cli._common import output_paths
     from optroute.plan import outputs
 
     paths = output_paths(out, stem)
@@ -143,19 +131,27 @@ def write_plan(plan: Any, out: str, stem: str) -> list[str]:
 
 def plan_summary(plan: Any, inputs: dict[str, Any], args: argparse.Namespace, files: list[str]) -> list[str]:
     """The short summary printed after a plan is written."""
+    import numpy as np
+
+    from optroute import units
+    from optroute.cli._common import fmt_duration
+    from optroute.cli._status import explain_status
+
     ship = inputs["ship"]
     legs = plan.legs
     power = legs["power_kw"].to_numpy(dtype=float)
     wp = plan.waypoints
     sog = plan.distance_nm / plan.duration_h if plan.duration_h > 0 else float("nan")
     eta = inputs["eta"]
-    eta_text = f" (ETA {fmt_time(eta)}, {args.eta_mode})" if eta is not None else ""
+    eta_text = f" (ETA {units.format_utc(eta)}, {args.eta_mode})" if eta is not None else ""
     lines = [
         f"route      ({wp[0, 0]:.4f}, {wp[0, 1]:.4f}) -> ({wp[-1, 0]:.4f}, {wp[-1, 1]:.4f}): "
-        f"{plan.distance_nm:,.1f} nm in {len(legs)} legs, status {plan.status}",
+        f"{plan.distance_nm:,.1f} nm in {len(legs)} legs",
+        f"status     {plan.status}: "
+        + explain_status(plan.status, ipopt_status=plan.solver_stats.get("ipopt_status"), objective=args.objective),
         f"ship       {ship.name}; weather {weather_name(inputs['weather'], args.weather)}; objective {args.objective}",
-        f"departure  {fmt_time(plan.departure)}",
-        f"arrival    {fmt_time(plan.arrival)}{eta_text}",
+        f"departure  {units.format_utc(plan.departure)}",
+        f"arrival    {units.format_utc(plan.arrival)}{eta_text}",
         f"passage    {fmt_duration(plan.duration_h)}, mean SOG {sog:.2f} kn, "
         f"STW {legs['stw_kn'].min():.2f}-{legs['stw_kn'].max():.2f} kn",
         f"fuel       {plan.total_fuel_t:,.2f} t",
@@ -232,7 +228,10 @@ def add_plan(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) -
 
 def cmd_plan(args: argparse.Namespace, out: TextIO | None = None) -> int:
     """``optroute plan``."""
+    import numpy as np
+
     import optroute as orx
+    from optroute.cli._common import SEARCH_METHODS, Progress, output_paths, parse_position, progress_enabled
 
     out = out or sys.stdout
     start = parse_position(args.start, "--from")
@@ -308,7 +307,10 @@ def add_optimise(sub: argparse._SubParsersAction, common: argparse.ArgumentParse
 
 def read_corridor(args: argparse.Namespace, weather: Any) -> Any:
     """The :class:`~optroute.search.route.Corridor` of ``--corridor`` and ``--width-nm``."""
+    import numpy as np
+
     import optroute as orx
+    from optroute.cli._common import read_waypoints
 
     if not (np.isfinite(args.width_nm) and args.width_nm >= 0):
         raise ConfigError(f"--width-nm {args.width_nm!r} must be a finite width >= 0 [nm]")
@@ -319,6 +321,7 @@ def read_corridor(args: argparse.Namespace, weather: Any) -> Any:
 def cmd_optimise(args: argparse.Namespace, out: TextIO | None = None) -> int:
     """``optroute optimise``."""
     import optroute as orx
+    from optroute.cli._common import Progress, output_paths, progress_enabled
 
     out = out or sys.stdout
     inputs = voyage_inputs(args)

@@ -517,6 +517,7 @@ def snap_to_sea(
     use_land_mask: bool | None = None,
     mask: LandMask | str | None = None,
     what: str = "point",
+    fix: str = "give a position at sea or raise max_distance_nm",
 ) -> tuple[float, float]:
     """Move a start or end point (ports lie on land) to the nearest navigable water.
 
@@ -544,6 +545,9 @@ def snap_to_sea(
         As in :func:`navigable`.
     what : str
         What the point is (``"start"``, ``"end"``), for messages.
+    fix : str
+        The fix the error names: the caller's user may have no ``max_distance_nm`` to raise
+        (:func:`optroute.search_route` and the command line pass their own).
 
     Returns
     -------
@@ -583,7 +587,7 @@ def snap_to_sea(
             f"{what} ({lat0:.4f}, {lon0:.4f}) is on land or within {clear:g} nm of it "
             f"(or in a no-passage weather cell), and no navigable point with {clear:g} nm of clear water lies "
             f"within the searched radius of {max_d:g} nm (checked every {step:g} nm); "
-            "give a position at sea or raise max_distance_nm"
+            f"{fix}"
         )
     k = np.flatnonzero(cand.ravel())[np.argmin(dist.ravel()[cand.ravel()])]
     new_lat, new_lon, d = float(glat.ravel()[k]), float(glon.ravel()[k]), float(dist.ravel()[k])

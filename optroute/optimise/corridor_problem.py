@@ -53,6 +53,7 @@ from optroute.physics.ship import Ship
 from optroute.plan.result import Exclusion, Plan, PlanContext, Violation
 from optroute.search.route import Corridor, Route
 from optroute.units import as_utc_time as _as_time
+from optroute.units import format_utc
 from optroute.units import h_to_timedelta as _h_to_td
 from optroute.units import timedelta_to_h as _hours
 from optroute.weather.sample import WeatherSampler
@@ -200,7 +201,9 @@ class PreparedCorridor:
         eta_t = _as_time(latest_eta, "eta") if latest_eta is not None else None
         eta_user_h = _hours(eta_t - t0) if eta_t is not None else None
         if eta_user_h is not None and eta_user_h <= 0:
-            raise ConfigError(f"eta={eta_t} is not after departure={t0}; give an arrival later than the departure")
+            raise ConfigError(
+                f"eta={format_utc(eta_t)} is not after departure={format_utc(t0)}; give an arrival later than the departure"
+            )
         if not (isinstance(samples_per_leg, int | np.integer) and samples_per_leg >= 1):
             raise ConfigError(f"samples_per_leg={samples_per_leg!r} must be an integer >= 1")
         self.fuel_price = float(
@@ -217,6 +220,10 @@ class PreparedCorridor:
             raise ConfigError(
                 f"weather must be a canonical xarray.Dataset or a WeatherSampler, got {type(weather).__name__}"
             )
+        n_wp = len(corridor.waypoints)
+        for k, (lat_k, lon_k) in enumerate(corridor.waypoints):  # named before any grid node is sampled
+            role = "start, " if k == 0 else ("end, " if k == n_wp - 1 else "")
+            sampler.require_area(lat_k, lon_k, what=f"{role}corridor point {k}")
         model = model if model is not None else default_model(ship)
         rules = rules if rules is not None else BandRules()
         if speed_range_kn is None:
@@ -234,16 +241,18 @@ class PreparedCorridor:
         data_end_h = _hours(ext["time"][1] - t0) if sampler.time_policy == "raise" else math.inf
         if sampler.time_policy == "raise" and _hours(ext["time"][0] - t0) > 1e-9:
             raise WeatherCoverageError(
-                f"departure={t0} is before the weather's first time {ext['time'][0]}; depart later or extend the "
+                f"departure={format_utc(t0)} is before the weather's first time {format_utc(ext['time'][0])}; depart later "
+                "or extend the "
                 "forecast"
             )
         if data_end_h <= 0:
             raise WeatherCoverageError(
-                f"departure={t0} is at or after the weather's last time {ext['time'][1]}; extend the forecast"
+                f"departure={format_utc(t0)} is at or after the weather's last time {format_utc(ext['time'][1])}; "
+                "extend the forecast"
             )
         if eta_user_h is not None and eta_user_h > data_end_h + 1e-9:
             raise WeatherCoverageError(
-                f"eta={eta_t} is after the weather's last time {ext['time'][1]}: the passage could not be checked "
+                f"eta={format_utc(eta_t)} is after the weather's last time {format_utc(ext['time'][1])}: the passage could not be checked "
                 "against the weather; extend the forecast, give an earlier eta, or open the weather with "
                 "time_policy='hold'"
             )
@@ -425,7 +434,9 @@ class PreparedCorridor:
         eta_t = _as_time(eta, "eta") if eta is not None else None
         eta_user_h = _hours(eta_t - t0) if eta_t is not None else None
         if eta_user_h is not None and eta_user_h <= 0:
-            raise ConfigError(f"eta={eta_t} is not after departure={t0}; give an arrival later than the departure")
+            raise ConfigError(
+                f"eta={format_utc(eta_t)} is not after departure={format_utc(t0)}; give an arrival later than the departure"
+            )
         data_end_h = self.data_end_h
         if eta_user_h is not None and eta_user_h > data_end_h + 1e-9:
             raise WeatherCoverageError(

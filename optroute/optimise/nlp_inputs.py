@@ -276,8 +276,8 @@ def weather_grid(
         i = np.argwhere(~covered)[0]
         ext = sampler.extent
         raise WeatherCoverageError(
-            f"the corridor's weather grid node at ({la[tuple(i)]:.3f}, {lo[tuple(i)]:.3f}) at {tt[tuple(i)]} lies outside "
-            f"the weather (lat {ext['lat']}, lon {ext['lon']}, time {ext['time'][0]} to {ext['time'][1]}); extend the "
+            f"the corridor's weather grid node at ({la[tuple(i)]:.3f}, {lo[tuple(i)]:.3f}) at {units.format_utc(tt[tuple(i)])} lies outside "
+            f"the weather (lat {ext['lat']}, lon {ext['lon']}, time {units.format_utc(ext['time'][0])} to {units.format_utc(ext['time'][1])}); extend the "
             "forecast in space or time, or narrow the corridor"
         )
     names = [

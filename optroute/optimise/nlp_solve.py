@@ -22,7 +22,6 @@ from scipy.optimize import minimize_scalar
 
 from formulations.common import PowerLawFuel, PowerModel
 from formulations.disjunctive import InnerOutcome, improve_sides, nlp_band_solver, nlp_groups
-from formulations.speed_convex import solve_speed_convex
 from formulations.speed_nlp import NLPResult, SpeedNLP
 from optroute import units
 from optroute.geo.tracks import Exclusion, gc_points, project_to_polyline
@@ -493,6 +492,8 @@ def certificate(
         # a sum of power laws with non-negative coefficients (exponents >= 1): PowerLawFuel's class
         coef = np.where(np.abs(coef) <= 1e-12 * scale, 0.0, coef) if np.all(coef >= -1e-12 * scale) else None
     if coef is not None:
+        from formulations.speed_convex import solve_speed_convex  # CVXPY loads only for this certificate
+
         fuel = PowerLawFuel(coef, ex)
         conv = solve_speed_convex(
             d,

@@ -19,6 +19,7 @@ import numpy as np
 
 from formulations.speed_nlp import NLPResult, SpeedNLP
 from optroute import geodesy as geo
+from optroute import units
 from optroute.errors import InfeasibleETA, OptrouteError, SolverFailure, WeatherCoverageError
 from optroute.optimise.lateral import avoid_point
 from optroute.optimise.min_time import DeadEnd, TimedStart, timed_safe_start
@@ -398,12 +399,12 @@ def _first_failure(
         if eta_user_h is None:
             raise WeatherCoverageError(
                 f"the passage cannot be completed within the weather's time span ({cap_h:.1f} h after departure): "
-                f"the minimum-time solve arrives {fast.res.duration_total_h:.1f} h after departure, at {earliest}; "
+                f"the minimum-time solve arrives {fast.res.duration_total_h:.1f} h after departure, at {units.format_utc(earliest)}; "
                 "extend the forecast or pass an ETA"
             )
         raise InfeasibleETA(
             f"the ETA {cap_h:.2f} h after departure cannot be met: the minimum-time solve of this corridor arrives "
-            f"{fast.res.duration_total_h:.2f} h after departure, at {earliest} (Ipopt: {fast.res.status}); give an "
+            f"{fast.res.duration_total_h:.2f} h after departure, at {units.format_utc(earliest)} (Ipopt: {fast.res.status}); give an "
             "ETA at or after that, or widen the corridor",
             earliest_arrival=earliest,
         )

@@ -91,12 +91,7 @@ from optroute import units
 from optroute._checks import finite
 from optroute.errors import ConfigError, SeaStateError, ShipSpecError
 from optroute.physics import seaway
-
-BANDS: tuple[str, ...] = ("synchronous_roll", "parametric_roll", "surf_riding", "high_wave_attack")
-"""Names of the four bands, in the order tables and plots list them."""
-
-RULE_SETS: tuple[str, ...] = ("boeing", "imo")
-PERIOD_FORMS: tuple[str, ...] = ("exact", "imo")
+from optroute.physics.names import BANDS, PERIOD_FORMS, RULE_SETS
 
 IMO_SURF_RIDING_KN_PER_SQRT_M = 1.8
 """IMO MSC.1/Circ.1228 §4.2.1: surf-riding above V cos(180° − α) = 1.8 √L [kn, L in m]."""

@@ -77,7 +77,7 @@ class Violation:
     def __str__(self) -> str:
         lat, lon = self.position
         return (
-            f"{self.kind} on leg {self.leg} at ({lat:.4f}, {lon:.4f}) {str(self.time)[:19]}: "
+            f"{self.kind} on leg {self.leg} at ({lat:.4f}, {lon:.4f}) {units.format_utc(self.time)}: "
             f"{self.value:.6g} against the limit {self.limit:.6g}"
         )
 

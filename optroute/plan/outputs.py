@@ -233,11 +233,6 @@ def _json_value(x: Any) -> Any:
     return x
 
 
-def _utc(t: Any) -> str:
-    """ISO 8601 UTC text of a timezone-naive UTC time, to the second, with a ``Z``."""
-    return str(np.datetime64(t, "s")) + "Z"
-
-
 def _leg_quantities(plan: Plan, k: int) -> dict[str, Any]:
     row = plan.legs.iloc[k]
     return {col: _json_value(row[col]) for col in plan.legs.columns if col not in ("lat", "lon", "time")}
@@ -261,8 +256,8 @@ def geojson(plan: Plan) -> dict[str, Any]:
         "geometry": _line_geometry(wp),
         "properties": {
             "kind": "track",
-            "departure_utc": _utc(plan.departure),
-            "arrival_utc": _utc(plan.arrival),
+            "departure_utc": units.format_utc(plan.departure),
+            "arrival_utc": units.format_utc(plan.arrival),
             "duration_h": _json_value(plan.duration_h),
             "distance_nm": _json_value(plan.distance_nm),
             "total_fuel_t": _json_value(plan.total_fuel_t),
@@ -275,13 +270,13 @@ def geojson(plan: Plan) -> dict[str, Any]:
         props = {
             "kind": "leg",
             "leg": k,
-            "start_time_utc": _utc(plan.times[k]),
-            "end_time_utc": _utc(plan.times[k + 1]),
+            "start_time_utc": units.format_utc(plan.times[k]),
+            "end_time_utc": units.format_utc(plan.times[k + 1]),
             **_leg_quantities(plan, k),
         }
         features.append({"type": "Feature", "geometry": _line_geometry(wp[k : k + 2]), "properties": props})
     for k in range(wp.shape[0]):
-        props = {"kind": "waypoint", "index": k, "time_utc": _utc(plan.times[k])}
+        props = {"kind": "waypoint", "index": k, "time_utc": units.format_utc(plan.times[k])}
         if k < wp.shape[0] - 1:
             props.update(_leg_quantities(plan, k))
         point = [float(units.wrap_180(wp[k, 1])), float(wp[k, 0])]
@@ -304,8 +299,8 @@ def csv_frame(plan: Plan) -> pd.DataFrame:
     lon = units.wrap_180(wp[:, 1])
     table: dict[str, Any] = {
         "leg": np.arange(wp.shape[0] - 1),
-        "start_time_utc": [_utc(t) for t in plan.times[:-1]],
-        "end_time_utc": [_utc(t) for t in plan.times[1:]],
+        "start_time_utc": [units.format_utc(t) for t in plan.times[:-1]],
+        "end_time_utc": [units.format_utc(t) for t in plan.times[1:]],
         "start_lat_deg": wp[:-1, 0],
         "start_lon_deg": lon[:-1],
         "end_lat_deg": wp[1:, 0],
@@ -411,8 +406,8 @@ def plan_dataset(plan: Plan) -> xr.Dataset:
         "total_fuel_t": float(plan.total_fuel_t),
         "duration_h": float(plan.duration_h),
         "distance_nm": float(plan.distance_nm),
-        "departure": _utc(plan.departure),
-        "arrival": _utc(plan.arrival),
+        "departure": units.format_utc(plan.departure),
+        "arrival": units.format_utc(plan.arrival),
         "status": str(plan.status),
         "eta_shadow_price_t_per_h": float(plan.eta_shadow_price_t_per_h),
         "solver_stats": json.dumps(_jsonable(plan.solver_stats)),

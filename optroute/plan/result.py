@@ -246,7 +246,9 @@ class Plan:
         if times is not None:
             tt = np.asarray(times, dtype="datetime64[ns]")
             if tt.shape != (wp.shape[0],) or tt[0] != t0:
-                raise ConfigError(f"times must hold {wp.shape[0]} UTC times starting at the departure {t0}")
+                raise ConfigError(
+                    f"times must hold {wp.shape[0]} UTC times starting at the departure {units.format_utc(t0)}"
+                )
         return cls.from_context(
             ctx,
             wp,

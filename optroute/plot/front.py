@@ -10,15 +10,16 @@ write it with :func:`optroute.plot.common.save_png`.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import xarray as xr
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 from numpy.typing import ArrayLike
 
 from optroute.errors import ConfigError
+
+if TYPE_CHECKING:  # matplotlib loads when a figure is drawn, not with the tradeoff that imports knee_index
+    from matplotlib.figure import Figure
 
 __all__ = ["front_figure", "knee_index"]
 
@@ -86,6 +87,9 @@ def front_figure(front: xr.Dataset, *, title: str | None = None) -> Figure:
     status = np.asarray(front["status"].values).astype(str)
     ok = np.isfinite(fuel)
     flagged = ok & (np.char.find(status, "the plan of the earlier ETA") >= 0)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(9, 5.5))
     FigureCanvasAgg(fig)
     ax = fig.subplots()

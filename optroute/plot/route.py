@@ -30,6 +30,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from optroute import geodesy as geo
+from optroute import units
 from optroute.errors import ConfigError
 from optroute.geo import land
 from optroute.physics.safety import BANDS
@@ -255,7 +256,7 @@ def hs_map(
         ms=9,
         ls="none",
         zorder=7,
-        label=f"departure {str(first.times[0])[:16]} UTC",
+        label=f"departure {units.format_utc(first.times[0])}",
     )
     ax.plot(
         shifted[0][1][-1],

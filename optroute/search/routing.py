@@ -513,13 +513,16 @@ def search_route(
         eta_t = _as_time(eta, "eta")
         eta_h = float((eta_t - t0) / np.timedelta64(1, "s")) / 3600.0
         if eta_h <= 0:
-            raise ConfigError(f"eta={eta_t} is not after departure={t0}; give an arrival later than the departure")
+            raise ConfigError(
+                f"eta={units.format_utc(eta_t)} is not after departure={units.format_utc(t0)}; give an arrival later than the departure"
+            )
     ds = weather if isinstance(weather, xr.Dataset) else None
     sampler = as_sampler(weather)
     first_t, last_t = sampler.extent["time"]
     if sampler.time_policy == "raise" and not first_t <= t0 <= last_t:
         raise WeatherCoverageError(
-            f"departure={t0} lies outside the weather's time span {first_t} to {last_t}; give a departure inside "
+            f"departure={units.format_utc(t0)} lies outside the weather's time span {units.format_utc(first_t)} to "
+            f"{units.format_utc(last_t)}; give a departure inside "
             "it or a forecast that covers it"
         )
     model = model if model is not None else default_model(ship)
@@ -536,8 +539,19 @@ def search_route(
 
     clearance = 0.5 * cell_nm if method != "dp" else 0.5
     snap_nm = float(snap_max_nm) if snap_max_nm is not None else 20.0 + 2.0 * cell_nm
+    for p, w in ((start, "start"), (end, "end")):  # outside the weather is not "on land": say which it is
+        sampler.require_area(*p, what=w)
     start, end = (
-        land.snap_to_sea(*p, snap_nm, clearance_nm=clearance, weather=ds, time=t0, use_land_mask=use_land_mask, what=w)
+        land.snap_to_sea(
+            *p,
+            snap_nm,
+            clearance_nm=clearance,
+            weather=ds,
+            time=t0,
+            use_land_mask=use_land_mask,
+            what=w,
+            fix="give a position at sea, e.g. a pilot station off the port",
+        )
         for p, w in ((start, "start"), (end, "end"))
     )
     # the fastest any leg can go over ground: the speed ceiling of the objective plus the strongest current
@@ -597,7 +611,9 @@ def _eta_as_time(exc: InfeasibleETA, t0: np.datetime64) -> InfeasibleETA:
     early = exc.earliest_arrival
     if early is None or isinstance(early, np.datetime64):
         return exc
-    out = InfeasibleETA(f"{exc} (at {t0 + _h_to_td(float(early))})", earliest_arrival=t0 + _h_to_td(float(early)))
+    out = InfeasibleETA(
+        f"{exc} (at {units.format_utc(t0 + _h_to_td(float(early)))})", earliest_arrival=t0 + _h_to_td(float(early))
+    )
     out.earliest_arrival_h = float(early)  # type: ignore[attr-defined]
     return out
 
@@ -608,7 +624,7 @@ def _explain(exc: NoSafePassage, physics: PassagePhysics) -> Exception:
         ext = physics.sampler.extent
         return NoSafePassage(
             f"{exc} — {physics.uncovered} sampled points fell outside the weather data "
-            f"(lat {ext['lat']}, lon {ext['lon']}, time {ext['time'][0]} to {ext['time'][1]}) and counted as no "
+            f"(lat {ext['lat']}, lon {ext['lon']}, time {units.format_utc(ext['time'][0])} to {units.format_utc(ext['time'][1])}) and counted as no "
             "passage; extend the forecast in space or time"
         )
     return exc
@@ -835,7 +851,7 @@ def sail_route(
                 ship, model, rules, course[0, j : j + 1], sea, desired, step_kn=speed_step_kn, min_stw_kn=min_speed_kn
             )
             if not choice.feasible[0] or not choice.sog_kn[0] > 0:
-                when = t0 + _h_to_td(t_h)
+                when = units.format_utc(t0 + _h_to_td(t_h))
                 raise NoSafePassage(
                     f"no allowed speed down to {min_speed_kn} kn at ({lat[0, j]:.3f}, {lon[0, j]:.3f}) on leg {k} at "
                     f"{when} (Hs {sea.hs_m[0]:.1f} m): the fixed route cannot be sailed; search a route instead"

@@ -50,6 +50,7 @@ import math
 import numbers
 import pickle
 import socket
+import struct
 import time
 import traceback
 import uuid
@@ -427,9 +428,10 @@ def _probe(address: str, timeout_s: float) -> None:
         ) from exc
     if host is not None:
         try:
-            with socket.create_connection((host, port), timeout=timeout_s):
-                pass
-        except OSError as exc:
+            with socket.create_connection((host, port), timeout=timeout_s) as sock:
+                if scheme == "tcp":
+                    _check_greeting(sock, address, timeout_s)
+        except OSError as exc:  # refused, unreachable, or silent for timeout_s (socket.timeout is an OSError)
             raise _unreachable(address, timeout_s, exc) from exc
     if scheme != "tcp":  # TLS needs the caller's security settings; the Client's own timeout applies
         return
@@ -437,8 +439,12 @@ def _probe(address: str, timeout_s: float) -> None:
         job = pool.submit(asyncio.run, asyncio.wait_for(_scheduler_identity(address, timeout_s), timeout_s))
         try:
             identity = job.result()
-        except (OSError, TimeoutError, ValueError, TypeError, KeyError) as exc:
+        except (OSError, TimeoutError) as exc:
             raise _unreachable(address, timeout_s, exc) from exc
+        except (ValueError, TypeError, KeyError, IndexError, struct.error, MemoryError, OverflowError) as exc:
+            # bytes that are not Dask's, read as its frames (a huge length prefix is a MemoryError)
+            why = f"its answer to Dask's handshake does not decode ({type(exc).__name__}: {str(exc)[:160]})"
+            raise _not_dask(address, b"", why) from exc
     kind = identity.get("type") if isinstance(identity, dict) else None
     if kind != "Scheduler":
         raise SchedulerUnreachable(
@@ -446,6 +452,56 @@ def _probe(address: str, timeout_s: float) -> None:
             "scheduler's address (printed by `dask scheduler`, or client.scheduler.address)",
             address,
         )
+
+
+#: The largest first message a Dask server may greet with [bytes]: its handshake is a few hundred bytes.
+_MAX_GREETING_BYTES = 1 << 20
+
+
+def _check_greeting(sock: socket.socket, address: str, timeout_s: float) -> None:
+    """Read the first 8 bytes a Dask server sends on accepting a connection; refuse what is not Dask's.
+
+    A Dask comm (``distributed.comm.core``: both ends write their handshake first, then read)
+    starts every message with its length as an 8-byte unsigned integer (``distributed.comm.tcp``,
+    ``struct`` format ``"Q"``).  Any other server — HTTP (the dashboard's port), SSH, a database —
+    answers with text or nothing: text read as that length asks for exabytes (``distributed``
+    then fails allocating it), and silence is a timeout.  Both fail here, before any Dask code
+    reads the bytes.
+
+    Raises
+    ------
+    SchedulerUnreachable
+        The server closed the connection, said nothing within ``timeout_s`` (a Dask server greets at
+        once), or its first bytes are not a plausible Dask greeting.
+    """
+    sock.settimeout(timeout_s)
+    head = b""
+    while len(head) < 8:
+        try:
+            chunk = sock.recv(8 - len(head))
+        except TimeoutError:  # accepts connections but does not greet
+            raise _not_dask(address, head, f"it sent nothing within timeout_s={timeout_s:g} s") from None
+        if not chunk:
+            raise _not_dask(address, head, "it closed the connection")
+        head += chunk
+    (nbytes,) = struct.unpack("Q", head)
+    if not 0 < nbytes <= _MAX_GREETING_BYTES:
+        sock.settimeout(min(timeout_s, 0.2))  # a little more of the answer, to name it in the message
+        with contextlib.suppress(OSError):
+            head += sock.recv(56)
+        raise _not_dask(address, head, f"its first 8 bytes give a message length of {nbytes} bytes")
+
+
+def _not_dask(address: str, head: bytes, why: str) -> SchedulerUnreachable:
+    text = head[:64].decode("ascii", "backslashreplace")
+    kind = " (an HTTP server: a Dask dashboard, usually port 8787?)" if head.startswith(b"HTTP/") else ""
+    return SchedulerUnreachable(
+        f"{address!r} answers, but not as a Dask scheduler{kind}: {why}"
+        + (f"; it sent {text!r}" if text else "")
+        + "; give the scheduler's address (printed by `dask scheduler` as 'Scheduler at: tcp://…', port 8786 by "
+        f"default), or pass scheduler_address=None for a local cluster ({SYNCHRONOUS!r} runs in this process)",
+        address,
+    )
 
 
 def _unreachable(address: str, timeout_s: float, exc: BaseException) -> SchedulerUnreachable:

@@ -79,11 +79,10 @@ import uuid
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import xarray as xr
-from matplotlib.figure import Figure
 
 from optroute.errors import (
     ConfigError,
@@ -95,10 +94,13 @@ from optroute.optimise.api import optimise_corridor
 from optroute.optimise.corridor_problem import PreparedCorridor
 from optroute.physics.ship import Ship
 from optroute.plan.result import Plan
-from optroute.plot.front import front_figure, knee_index
+from optroute.plot.front import knee_index
 from optroute.search.route import Corridor
-from optroute.units import as_utc_time, h_to_timedelta, timedelta_to_h
+from optroute.units import as_utc_time, format_utc, h_to_timedelta, timedelta_to_h
 from optroute.weather.sample import WeatherSampler
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["TradeoffFront", "tradeoff"]
 
@@ -140,6 +142,8 @@ class TradeoffFront(xr.Dataset):
         matplotlib.figure.Figure
             See :func:`optroute.plot.front.front_figure`.
         """
+        from optroute.plot.front import front_figure  # matplotlib only when a figure is drawn
+
         return front_figure(self, title=title)
 
     def to_netcdf(self, path: Any = None, **kwargs: Any) -> Any:  # type: ignore[override]
@@ -263,7 +267,7 @@ def _solve_point(spec: _Spec, eta_h: float | None, kind: str, warm: _Point | _Wa
         if exc.earliest_arrival is not None:
             earliest = as_utc_time(exc.earliest_arrival, "earliest_arrival")
             status = (
-                f"infeasible: earliest arrival {str(earliest)[:16]} "
+                f"infeasible: earliest arrival {format_utc(earliest)} "
                 f"({timedelta_to_h(earliest - spec.departure):.2f} h after departure)"
             )
         else:
@@ -380,7 +384,9 @@ def _eta_hours(etas: Any, t0: np.datetime64) -> np.ndarray:
         else:
             h = timedelta_to_h(as_utc_time(e, "etas") - t0)
         if not math.isfinite(h) or h <= 0:
-            raise ConfigError(f"eta {e!r} is {h} h after departure {t0}; every ETA must be a finite time after it")
+            raise ConfigError(
+                f"eta {e!r} is {h} h after departure {format_utc(t0)}; every ETA must be a finite time after it"
+            )
         out.append(h)
     hours = np.array(out, dtype=float)
     if hours.size == 0:

@@ -45,7 +45,7 @@ from optroute.physics.ship import Ship
 from optroute.search.route import Corridor
 from optroute.studies.study import ProgressCallback, run_study
 from optroute.studies.tradeoff import _FORBIDDEN, _solve_point, _Spec
-from optroute.units import as_utc_time, h_to_timedelta, timedelta_to_h
+from optroute.units import as_utc_time, format_utc, h_to_timedelta, timedelta_to_h
 from optroute.weather.catalogue import load_weather, scenario_names
 from optroute.weather.scenarios import member
 
@@ -127,7 +127,7 @@ def voyage_case(
         corridor, route = _corridors[key]
     spec = _Spec(corridor, wx, ship, t0, objective, dict(optimise_kwargs))
     if eta_h <= 0:
-        status = f"infeasible: the ETA is {eta_h:.2f} h after the departure {str(t0)[:16]}"
+        status = f"infeasible: the ETA is {eta_h:.2f} h after the departure {format_utc(t0)}"
         out: dict[str, Any] = {k: math.nan for k in TOTALS}
         return {**out, "plan_status": status, "iterations": 0}
     p = _solve_point(spec, eta_h, "eta", None, route)
@@ -213,9 +213,9 @@ def _eta_axis(etas: Any, departure: np.datetime64 | None) -> tuple[str, list[Any
         return "eta_h", hours
     times = [as_utc_time(e, "etas") for e in values]
     if departure is not None:
-        early = [str(t) for t in times if t <= departure]
+        early = [format_utc(t) for t in times if t <= departure]
         if early:
-            raise ConfigError(f"etas {early} are not after the departure {departure}; give later ETAs")
+            raise ConfigError(f"etas {early} are not after the departure {format_utc(departure)}; give later ETAs")
     return "eta", times
 
 

@@ -636,7 +636,10 @@ def cyclone_exclusion(source: xr.Dataset | str, time: Any, margin_km: float = 30
     x = (tr["time"] - tr["time"][0]) / np.timedelta64(1, "s")
     q = float((t - tr["time"][0]) / np.timedelta64(1, "s"))
     if not x[0] <= q <= x[-1]:
-        raise ConfigError(f"time {t} is outside the cyclone track ({tr['time'][0]} to {tr['time'][-1]})")
+        raise ConfigError(
+            f"time {units.format_utc(t)} is outside the cyclone track ({units.format_utc(tr['time'][0])} to "
+            f"{units.format_utc(tr['time'][-1])})"
+        )
     lon = geo.unwrap_lon_deg(tr["lon"])
     return (
         float(np.interp(q, x, tr["lat"])),

@@ -40,6 +40,7 @@ import xarray as xr
 from numpy.typing import ArrayLike
 
 from optroute.errors import ConfigError, WeatherCoverageError, WeatherSchemaError
+from optroute.units import format_utc
 from optroute.weather import schema
 from optroute.weather.io import TIME_POLICIES, check_required
 
@@ -286,6 +287,40 @@ class WeatherSampler:
         inside_xy, inside_t, _ = self._inside(t, la, lo)
         return (inside_xy & inside_t).reshape(shape)
 
+    def area_text(self) -> str:
+        """The dataset's area in words: ``lat 25 to 37 deg N, lon -155 to -135 deg E``."""
+        lon_lo, lon_hi = self._lon.start, self._lon.stop
+        if self.periodic:
+            lon_txt = "all longitudes (global)"
+        elif lon_hi >= 180.0:
+            lon_txt = f"{lon_lo:.6g} to {lon_hi:.6g} deg E unwrapped (across the antimeridian, to {lon_hi - 360.0:.6g})"
+        else:
+            lon_txt = f"{lon_lo:.6g} to {lon_hi:.6g} deg E"
+        return f"lat {self._lat.start:.6g} to {self._lat.stop:.6g} deg N, lon {lon_txt}"
+
+    def require_area(self, lat_deg: float, lon_deg: float, what: str) -> None:
+        """Raise unless the position lies inside the dataset's area (its time span is not checked).
+
+        Parameters
+        ----------
+        lat_deg, lon_deg : float
+            The position [deg north, deg east, any longitude convention].
+        what : str
+            What the position is (``"start"``, ``"end"``, ``"corridor point 3"``), for the message.
+
+        Raises
+        ------
+        WeatherCoverageError
+            Outside the area; the message names the position, the area and the fix.
+        """
+        inside, _ = self._inside_xy(np.asarray([float(lat_deg)]), np.asarray([float(lon_deg)]))
+        if not bool(inside[0]):
+            raise WeatherCoverageError(
+                f"{what} ({float(lat_deg):.4f}, {float(lon_deg):.4f}) lies outside the weather's area "
+                f"({self.source}: {self.area_text()}); give a position inside that area, or weather that covers "
+                "the whole voyage"
+            )
+
     def sample(
         self, time: ArrayLike, lat: ArrayLike, lon: ArrayLike, variables: Sequence[str] | None = None
     ) -> dict[str, np.ndarray]:
@@ -411,13 +446,17 @@ class WeatherSampler:
         seconds = (t.astype(np.int64) - self._t0) / 1e9
         return shape, seconds, la, lo
 
-    def _inside(self, t: np.ndarray, la: np.ndarray, lo: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _inside_xy(self, la: np.ndarray, lo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         lon0 = self._lon.start
         lonu = lon0 + np.mod(lo - lon0, 360.0)
         lonu = np.where(lonu > lon0 + 360.0 - _EPS_DEG, lonu - 360.0, lonu)
         inside = (la >= self._lat.start - _EPS_DEG) & (la <= self._lat.stop + _EPS_DEG)
         if not self.periodic:
             inside &= lonu <= self._lon.stop + _EPS_DEG
+        return inside, lonu
+
+    def _inside(self, t: np.ndarray, la: np.ndarray, lo: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        inside, lonu = self._inside_xy(la, lo)
         if self.time_policy == "hold":
             inside_t = np.ones(t.shape, dtype=bool)
         else:
@@ -429,23 +468,16 @@ class WeatherSampler:
     ) -> None:
         out = ~(inside_xy & inside_t)
         k = int(np.flatnonzero(out)[0])
-        when = np.int64(self._t0 + round(float(t[k]) * 1e9)).astype("datetime64[ns]").astype("datetime64[s]")
-        lon_lo, lon_hi = self._lon.start, self._lon.stop
-        if self.periodic:
-            lon_txt = "all longitudes (global)"
-        elif lon_hi >= 180.0:
-            lon_txt = f"{lon_lo:.6g} to {lon_hi:.6g} deg E unwrapped (across the antimeridian, to {lon_hi - 360.0:.6g})"
-        else:
-            lon_txt = f"{lon_lo:.6g} to {lon_hi:.6g} deg E"
+        when = format_utc(np.int64(self._t0 + round(float(t[k]) * 1e9)).astype("datetime64[ns]"))
         what = "area" if not inside_xy[k] else "time span"
         fix = "extend the dataset or keep the voyage inside it"
         if inside_xy[k]:
             fix += ", or pass time_policy='hold' to hold the first/last time slice"
-        t0, t1 = (x.astype("datetime64[s]") for x in (self._times[0], self._times[-1]))
+        t0, t1 = (format_utc(x) for x in (self._times[0], self._times[-1]))
         raise WeatherCoverageError(
             f"point (lat={la[k]:.6g}, lon={lo[k]:.6g}) at {when} lies outside the weather dataset's {what} "
-            f"({self.source}: lat {self._lat.start:.6g} to {self._lat.stop:.6g} deg N, lon {lon_txt}, "
-            f"time {t0} to {t1}); {int(out.sum())} of {out.size} points are outside; {fix}"
+            f"({self.source}: {self.area_text()}, time {t0} to {t1}); {int(out.sum())} of {out.size} points are "
+            f"outside; {fix}"
         )
 
     def _read(self, isel: dict[str, Any]) -> dict[str, np.ndarray]:
@@ -478,7 +510,7 @@ class WeatherSampler:
         if missing:
             values = self._read({"time": missing})
             for j, k in enumerate(missing):
-                when = f"{self.source} at {self._times[k].astype('datetime64[s]')}"
+                when = f"{self.source} at {format_utc(self._times[k])}"
                 self._cache[k] = self._derive({v: a[j : j + 1] for v, a in values.items()}, where=when)
         for k in need:
             self._cache.move_to_end(int(k))
