@@ -376,31 +376,98 @@ def _initial_samples(s: _Samples, rate: FuelRateFn | TabulatedFuelRate, per_inte
 # --------------------------------------------------------------------------- primal recovery
 
 
-def _recover_primal(
-    s: _Samples, v_fast: np.ndarray, r_fast: np.ndarray, w: float, c: float, eta_h: float | None, mode: str
+def _greedy(
+    s: _Samples, v: np.ndarray, r: np.ndarray, slack: float, w: float, c: float, tol_h: float, by_rate: bool
 ) -> tuple[np.ndarray, np.ndarray, float]:
-    """A feasible schedule from the dual's fast minimisers plus a greedy use of the slack."""
-    d = s.d
-    n = d.size
-    v, r = v_fast.copy(), r_fast.copy()
-    leg_of = s.leg
+    """Move legs to other samples that fit in the slack and lower the objective, best move first.
+
+    ``by_rate``: best saving per hour of slack used (moves that also save time first); else the
+    largest saving.
+    """
+    d, leg_of = s.d, s.leg
+    v, r = v.copy(), r.copy()
     t_all = d[leg_of] / s.v
     obj_all = t_all * (w * s.r + c)
+    for _ in range(4 * d.size + 10):
+        t_cur = d / v
+        cur = (t_cur * (w * r + c))[leg_of]
+        extra = t_all - t_cur[leg_of]
+        saving = cur - obj_all
+        good = (extra <= slack + tol_h) & (saving > 1e-15 * np.maximum(1.0, np.abs(cur)))
+        if not good.any():
+            break
+        free = good & (extra <= 0)
+        if by_rate and free.any():
+            j = int(np.argmax(np.where(free, saving, -np.inf)))
+        elif by_rate:
+            j = int(np.argmax(np.where(good, saving / np.where(extra > 0, extra, 1.0), -np.inf)))
+        else:
+            j = int(np.argmax(np.where(good, saving, -np.inf)))
+        k = int(leg_of[j])
+        slack -= t_all[j] - t_cur[k]
+        v[k], r[k] = s.v[j], s.r[j]
+    return v, r, slack
+
+
+def _repair(
+    s: _Samples, v: np.ndarray, r: np.ndarray, excess: float, w: float, c: float
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """Speed legs up until ``Σ t`` is back within ``T``: the cheapest single move that does it, else per hour."""
+    d, leg_of = s.d, s.leg
+    v, r = v.copy(), r.copy()
+    t_all = d[leg_of] / s.v
+    obj_all = t_all * (w * s.r + c)
+    for _ in range(4 * d.size + 10):
+        if excess <= 0:
+            break
+        t_cur = d / v
+        saved = t_cur[leg_of] - t_all
+        added = obj_all - (t_cur * (w * r + c))[leg_of]
+        # the cheapest move that alone ends the excess; failing that, the cheapest per hour saved
+        ends = saved >= excess
+        if ends.any():
+            score = np.where(ends, added, np.inf)
+        else:
+            score = np.where(saved > 0, added / np.where(saved > 0, saved, 1.0), np.inf)
+        j = int(np.argmin(score))
+        if not np.isfinite(score[j]):
+            break
+        k = int(leg_of[j])
+        excess -= saved[j]
+        v[k], r[k] = s.v[j], s.r[j]
+    return v, r, -excess
+
+
+def _recover_primal(
+    s: _Samples,
+    fast: tuple[np.ndarray, np.ndarray],
+    slow: tuple[np.ndarray, np.ndarray],
+    w: float,
+    c: float,
+    eta_h: float | None,
+    mode: str,
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """A feasible schedule from the dual's minimisers (speeds and rates, faster and slower ones on ties).
+
+    The best of: the fast ones with the slack handed out greedily (per hour, or by size), and the slow
+    ones sped up where cheapest until ``Σ t ≤ T``, then the same.
+    """
+    (v_fast, r_fast), (v_slow, r_slow) = fast, slow
+    d = s.d
+    n = d.size
+    nan = (np.full(n, np.nan), np.full(n, np.nan), math.nan)
+    v, r = v_fast.copy(), r_fast.copy()
     if eta_h is not None:
-        slack = eta_h - float((d / v).sum())
-        if slack < -1e-9 * eta_h:
-            return np.full(n, np.nan), np.full(n, np.nan), float("nan")
-        # hand the slack to the leg whose objective drops most, until no move helps
-        for _ in range(n):
-            cur = (d / v * (w * r + c))[leg_of]
-            fits = t_all <= (d / v)[leg_of] + slack + 1e-12 * eta_h
-            saving = np.where(fits, cur - obj_all, -np.inf)
-            j = int(np.argmax(saving))
-            if not saving[j] > 1e-15 * max(1.0, abs(cur[j])):
-                break
-            k = int(leg_of[j])
-            slack -= t_all[j] - d[k] / v[k]
-            v[k], r[k] = s.v[j], s.r[j]
+        slack0 = eta_h - float((d / v).sum())
+        if slack0 < -1e-9 * eta_h:
+            return nan
+        tol = 1e-12 * eta_h
+        tries = [_greedy(s, v_fast, r_fast, slack0, w, c, tol, by) for by in (True, False)]
+        # from the slower minimisers (Σ t ≥ T): speed the cheapest legs up, then hand out what is left
+        v_s, r_s, slack_s = _repair(s, v_slow, r_slow, float((d / v_slow).sum()) - eta_h, w, c)
+        if slack_s >= -tol:
+            tries.append(_greedy(s, v_s, r_s, slack_s, w, c, tol, True))
+        v, r, slack = min(tries, key=lambda x: float((d / x[0] * (w * x[1] + c)).sum()))
         if mode == "eq" and slack > 1e-12 * eta_h:
             for k in range(n):  # slow legs inside their own interval until Σ t = T
                 if slack <= 1e-12 * eta_h:
@@ -413,7 +480,7 @@ def _recover_primal(
                 r[k] = float(s.rate(np.array([k]), np.array([v[k]]))[0])
                 s.evaluations += 1
             if slack > 1e-9 * eta_h:
-                return np.full(n, np.nan), np.full(n, np.nan), float("nan")
+                return nan
     t = d / v
     return v, t, float((t * (w * r + c)).sum())
 
@@ -443,6 +510,7 @@ def lagrangian_bound(
     rtol: float = 1e-10,
     lipschitz_factor: float = 2.0,
     max_rounds: int = 60,
+    polish_primal: bool = True,
 ) -> ShipBoundResult:
     """Lower bound on the least objective of a fixed path in static weather (Lagrangian dual).
 
@@ -474,6 +542,9 @@ def lagrangian_bound(
         slope (see the module docstring).
     max_rounds : int
         Refinement rounds at most.
+    polish_primal : bool
+        Improve the recovered schedule by a second dual solve with every leg held to the allowed
+        interval its recovered speed lies in (the bound itself is not changed by it).
 
     Returns
     -------
@@ -516,11 +587,11 @@ def lagrangian_bound(
         if fastest > eta_h * (1 + 1e-12) or (eta_mode == "eq" and slowest < eta_h * (1 - 1e-12)):
             return _no_bound("infeasible", n, s.evaluations, started)
     rounds, converged = 0, tabulated
-    lam, fast, _ = _maximise_lambda(s.hull, w, c, eta_h, eta_mode)
+    lam, fast, slow = _maximise_lambda(s.hull, w, c, eta_h, eta_mode)
     while not tabulated and rounds < max_rounds:
         _, _, converged = _refine(s, c + lam, w, lipschitz_factor, n, rtol, refine_per_cell)
         rounds += 1
-        lam, fast, _ = _maximise_lambda(s.hull, w, c, eta_h, eta_mode)
+        lam, fast, slow = _maximise_lambda(s.hull, w, c, eta_h, eta_mode)
         if converged:
             break
     best, low, _ = _leg_lower(s, c + lam, w, lipschitz_factor, n)
@@ -530,7 +601,22 @@ def lagrangian_bound(
         converged = bool(np.all(best - low <= rtol * np.abs(best) + 1e-300))
     bound = float(low.sum() - (lam * eta_h if eta_h is not None else 0.0))
     v_fast, r_fast = s.hull.v[fast], s.hull.r[fast]
-    v_p, t_p, obj_p = _recover_primal(s, v_fast, r_fast, w, c, eta_h, eta_mode)
+    slow_vr = (s.hull.v[slow], s.hull.r[slow])
+    v_p, t_p, obj_p = _recover_primal(s, (v_fast, r_fast), slow_vr, w, c, eta_h, eta_mode)
+    evaluations = s.evaluations
+    if polish_primal and eta_h is not None and math.isfinite(obj_p) and ivl_leg.size > n:
+        # every leg held to the interval its recovered speed is in: no band left to jump, so for convex
+        # curves this dual has no gap and its recovered schedule is the optimum of that choice of sides
+        held = [[(float(a), float(b)) for a, b in zip(ivl_lo[ivl_leg == k], ivl_hi[ivl_leg == k], strict=True)
+                 if a - 1e-12 <= v_p[k] <= b + 1e-12][:1] for k in range(n)]  # fmt: skip
+        sub = lagrangian_bound(
+            d, held, fuel_rate, eta_h=eta_h, eta_mode=eta_mode, fuel_price=w, hourly_cost=c,
+            samples_per_interval=samples_per_interval, refine_per_cell=refine_per_cell, rtol=rtol,
+            lipschitz_factor=lipschitz_factor, max_rounds=max_rounds, polish_primal=False,
+        )  # fmt: skip
+        evaluations += sub.evaluations
+        if sub.primal_objective < obj_p:
+            v_p, t_p, obj_p = sub.primal_speed_kn, sub.primal_time_h, sub.primal_objective
     gap = (obj_p - bound) / abs(obj_p) if math.isfinite(obj_p) and obj_p != 0 else math.nan
     return ShipBoundResult(
         status="converged" if converged else "refinement_budget",
@@ -543,7 +629,7 @@ def lagrangian_bound(
         primal_objective=obj_p,
         duality_gap=float(gap),
         sampling_margin=float((best - low).sum()),
-        evaluations=s.evaluations,
+        evaluations=evaluations,
         rounds=rounds,
         solve_time_s=time.perf_counter() - started,
     )
