@@ -153,7 +153,8 @@ def _leg_allowed(
             max_speed_kn=hi,
         ):
             if iv.hi_kn - iv.lo_kn > 2 * _BAND_SHRINK_KN:
-                bands.append((iv.lo_kn + _BAND_SHRINK_KN, iv.hi_kn - _BAND_SHRINK_KN))
+                top = iv.hi_kn if iv.hi_kn >= hi else iv.hi_kn - _BAND_SHRINK_KN  # a band cut at hi reaches it
+                bands.append((iv.lo_kn + _BAND_SHRINK_KN, top))
     out = []
     for a, b in safe_speed_ranges(bands, hi):
         a, b = max(a, lo), min(b, hi)
