@@ -37,9 +37,10 @@ from typing import Any
 
 import numpy as np
 
+from formulations.common import FormulationInputError
 from formulations.ship_bound import ShipBoundResult, lagrangian_bound
 from optroute import units
-from optroute.errors import ConfigError
+from optroute.errors import ConfigError, SeaStateError, WeatherCoverageError
 from optroute.physics import seaway
 from optroute.physics.passage import SeaState, evaluate_speeds
 from optroute.physics.performance import max_stw_kn
@@ -413,6 +414,11 @@ def certificate_stats(
     elif objective not in ("fuel", "cost"):
         reason = f"objective {objective!r} (every leg at its top speed)"
     else:
-        stats = ship_certificate(plan, objective=objective, **kw).as_stats()
+        try:
+            stats = ship_certificate(plan, objective=objective, **kw).as_stats()
+        except (SeaStateError, WeatherCoverageError, FormulationInputError) as exc:
+            # a model that cannot be evaluated at some speed of the range (a power table's edge, say): the plan
+            # stands, its certificate says why there is none
+            stats = {"method": "not applicable", "gap": math.nan, "reason": f"{type(exc).__name__}: {exc}"}
         return {**stats, "fitted_model": dict(fitted)}
     return {"method": "not applicable", "gap": math.nan, "reason": reason, "fitted_model": dict(fitted)}
