@@ -42,7 +42,14 @@ def _following_sea(hs0: float = 5.5, slope: float = 0.1, time_slope: float = 0.0
     lon = np.arange(-32.0, -7.99, 1.0)
     hours = np.arange(0, 241, 24.0)
     hs = hs0 + slope * (lon[None, None, :] + 30.0) + time_slope * hours[:, None, None]
-    fields = {"hs_m": hs + 0.0 * lat[None, :, None], "tp_s": 8.0, "wave_from_deg": 270.0}
+    # a 14 m/s westerly with the waves: Kwon's Beaufort number comes from the wind where one is given
+    fields = {
+        "hs_m": hs + 0.0 * lat[None, :, None],
+        "tp_s": 8.0,
+        "wave_from_deg": 270.0,
+        "wind_u_ms": 14.0,
+        "wind_v_ms": 0.0,
+    }
     if current_ms:
         fields.update({"current_u_ms": current_ms, "current_v_ms": 0.0})
     return schema.canonical_dataset(time, lat, lon, fields, {"title": "following sea", "source": "test"})
@@ -128,9 +135,9 @@ def test_bound_never_exceeds_the_referees_brute_force_on_a_three_leg_path(sea):
 
 
 def test_optimiser_plan_with_bands_is_within_the_stated_gap_of_the_bound(sea):
-    # the NLP works on a fitted power model and keeps a margin off the band edges: its plan is 3.5 % above the
-    # bound here (measured); a plan built from the dual's own schedule, moved 0.01 kn inside its speed
-    # intervals, verifies and is better than the NLP's
+    # the NLP works on a fitted power model and keeps a margin off the band edges: its plan is 0.5 % above the
+    # bound here (measured; the stated gap is 1 %); a plan built from the dual's own schedule, moved 0.01 kn
+    # inside its speed intervals, verifies and is better than the NLP's
     corridor = orx.Corridor(np.array([[0.0, -30.0], [0.0, -10.0]]), 0.0)
     eta_h = 100.0
     plan = optimise_corridor(
@@ -150,7 +157,7 @@ def test_optimiser_plan_with_bands_is_within_the_stated_gap_of_the_bound(sea):
     cert = plan.solver_stats["certificate"]
     assert cert["method"] == "lagrangian dual" and cert["status"] == "converged"
     assert cert["bound_t"] <= plan.total_fuel_t
-    assert 0.0 <= cert["gap"] <= 0.05
+    assert 0.0 <= cert["gap"] <= 0.01
     # the dual's schedule with every interval shrunk by 0.01 kn: strictly inside, so the referee accepts it
     prob = fixed_path_problem(
         plan.context, plan.waypoints, departure=T0, window_h=eta_h, v_min_kn=V_RANGE[0], v_max_kn=V_RANGE[1]
