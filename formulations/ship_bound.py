@@ -488,6 +488,57 @@ def _recover_primal(
 # --------------------------------------------------------------------------- the bound
 
 
+def _check_options(
+    d: np.ndarray,
+    fuel_rate: FuelRateFn | TabulatedFuelRate,
+    eta_h: float | None,
+    eta_mode: str,
+    reals: tuple[float, float, float, float],
+    counts: tuple[int, int, int],
+) -> None:
+    """Raise FormulationInputError naming the first bad input of :func:`lagrangian_bound`."""
+    if d.size == 0 or np.any(d <= 0):
+        raise FormulationInputError(f"distance_nm must be non-empty and > 0 [nm], got {d}")
+    if eta_mode not in ("le", "eq"):
+        raise FormulationInputError(f"eta_mode must be 'le' or 'eq', got {eta_mode!r}")
+    if eta_h is not None and not (math.isfinite(eta_h) and eta_h > 0):
+        raise FormulationInputError(f"eta_h must be a positive number of hours or None, got {eta_h}")
+    price, hourly, kappa, rtol = reals
+    if not (price > 0 and hourly >= 0 and kappa >= 1 and rtol > 0):
+        raise FormulationInputError(
+            f"need fuel_price > 0, hourly_cost >= 0, lipschitz_factor >= 1 and rtol > 0; got {price}, {hourly}, "
+            f"{kappa}, {rtol}"
+        )
+    if counts[0] < 2 or counts[1] < 1 or counts[2] < 0:
+        raise FormulationInputError(
+            f"samples_per_interval >= 2, refine_per_cell >= 1 and max_rounds >= 0 are needed, got {counts}"
+        )
+    if isinstance(fuel_rate, TabulatedFuelRate) and fuel_rate.rate_tph.shape[0] != d.size:
+        raise FormulationInputError(f"the fuel-rate table has {fuel_rate.rate_tph.shape[0]} legs, not {d.size}")
+
+
+def _certify(
+    s: _Samples, eta_h: float | None, mode: str, kappa: float, rtol: float, per_cell: int, max_rounds: int
+) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool, int]:
+    """Refine at λ* until every leg's inner minimum is certified; (λ*, fast, slow, best, lower, converged, rounds)."""
+    n, w, c = s.d.size, s.w, s.c
+    tabulated = isinstance(s.rate, TabulatedFuelRate)
+    rounds, converged = 0, tabulated
+    lam, fast, slow = _maximise_lambda(s.hull, w, c, eta_h, mode)
+    while not tabulated and rounds < max_rounds:
+        _, _, converged = _refine(s, c + lam, w, kappa, n, rtol, per_cell)
+        rounds += 1
+        lam, fast, slow = _maximise_lambda(s.hull, w, c, eta_h, mode)
+        if converged:
+            break
+    best, low, _ = _leg_lower(s, c + lam, w, kappa, n)
+    if tabulated:
+        low = best  # exact: the minimum over a linear piece is at its ends, all sampled
+    else:
+        converged = bool(np.all(best - low <= rtol * np.abs(best) + 1e-300))
+    return lam, fast, slow, best, low, converged, rounds
+
+
 def _no_bound(status: str, n: int, evaluations: int, started: float) -> ShipBoundResult:
     nan = np.full(n, np.nan)
     elapsed = time.perf_counter() - started
@@ -558,21 +609,8 @@ def lagrangian_bound(
     started = time.perf_counter()
     d = as_float_array(distance_nm, "distance_nm", ndim=1)
     n = d.size
-    if n == 0 or np.any(d <= 0):
-        raise FormulationInputError(f"distance_nm must be non-empty and > 0 [nm], got {d}")
-    if eta_mode not in ("le", "eq"):
-        raise FormulationInputError(f"eta_mode must be 'le' or 'eq', got {eta_mode!r}")
-    if eta_h is not None and not (math.isfinite(eta_h) and eta_h > 0):
-        raise FormulationInputError(f"eta_h must be a positive number of hours or None, got {eta_h}")
-    if not (fuel_price > 0 and hourly_cost >= 0 and lipschitz_factor >= 1 and rtol > 0):
-        raise FormulationInputError(
-            f"need fuel_price > 0, hourly_cost >= 0, lipschitz_factor >= 1 and rtol > 0; got {fuel_price}, "
-            f"{hourly_cost}, {lipschitz_factor}, {rtol}"
-        )
-    if samples_per_interval < 2 or refine_per_cell < 1 or max_rounds < 0:
-        raise FormulationInputError("samples_per_interval >= 2, refine_per_cell >= 1 and max_rounds >= 0 are needed")
-    if isinstance(fuel_rate, TabulatedFuelRate) and fuel_rate.rate_tph.shape[0] != n:
-        raise FormulationInputError(f"the fuel-rate table has {fuel_rate.rate_tph.shape[0]} legs, not {n}")
+    _check_options(d, fuel_rate, eta_h, eta_mode, (fuel_price, hourly_cost, lipschitz_factor, rtol),
+                   (samples_per_interval, refine_per_cell, max_rounds))  # fmt: skip
     ivl_leg, ivl_lo, ivl_hi = _intervals(allowed_kn, n)
     w, c = float(fuel_price), float(hourly_cost)
     empty = np.setdiff1d(np.arange(n), ivl_leg)
@@ -580,25 +618,14 @@ def lagrangian_bound(
         return _no_bound("empty_leg", n, 0, started)
     s = _Samples(fuel_rate, d, (ivl_leg, ivl_lo, ivl_hi), w, c)
     _initial_samples(s, fuel_rate, samples_per_interval)
-    tabulated = isinstance(fuel_rate, TabulatedFuelRate)
     if eta_h is not None:
         fastest = float(sum(d[k] / ivl_hi[ivl_leg == k].max() for k in range(n)))
         slowest = float(sum(d[k] / ivl_lo[ivl_leg == k].min() for k in range(n)))
         if fastest > eta_h * (1 + 1e-12) or (eta_mode == "eq" and slowest < eta_h * (1 - 1e-12)):
             return _no_bound("infeasible", n, s.evaluations, started)
-    rounds, converged = 0, tabulated
-    lam, fast, slow = _maximise_lambda(s.hull, w, c, eta_h, eta_mode)
-    while not tabulated and rounds < max_rounds:
-        _, _, converged = _refine(s, c + lam, w, lipschitz_factor, n, rtol, refine_per_cell)
-        rounds += 1
-        lam, fast, slow = _maximise_lambda(s.hull, w, c, eta_h, eta_mode)
-        if converged:
-            break
-    best, low, _ = _leg_lower(s, c + lam, w, lipschitz_factor, n)
-    if tabulated:
-        low = best  # exact: the minimum over a linear piece is at its ends, all sampled
-    else:
-        converged = bool(np.all(best - low <= rtol * np.abs(best) + 1e-300))
+    lam, fast, slow, best, low, converged, rounds = _certify(
+        s, eta_h, eta_mode, lipschitz_factor, rtol, refine_per_cell, max_rounds
+    )
     bound = float(low.sum() - (lam * eta_h if eta_h is not None else 0.0))
     v_fast, r_fast = s.hull.v[fast], s.hull.r[fast]
     slow_vr = (s.hull.v[slow], s.hull.r[slow])
