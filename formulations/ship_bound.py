@@ -377,7 +377,7 @@ def _initial_samples(s: _Samples, rate: FuelRateFn | TabulatedFuelRate, per_inte
 
 
 def _greedy(
-    s: _Samples, v: np.ndarray, r: np.ndarray, slack: float, w: float, c: float, tol_h: float, by_rate: bool
+    s: _Points, v: np.ndarray, r: np.ndarray, slack: float, w: float, c: float, tol_h: float, by_rate: bool
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """Move legs to other samples that fit in the slack and lower the objective, best move first.
 
@@ -410,7 +410,7 @@ def _greedy(
 
 
 def _repair(
-    s: _Samples, v: np.ndarray, r: np.ndarray, excess: float, w: float, c: float
+    s: _Points, v: np.ndarray, r: np.ndarray, excess: float, w: float, c: float
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """Speed legs up until ``Σ t`` is back within ``T``: the cheapest single move that does it, else per hour."""
     d, leg_of = s.d, s.leg
@@ -438,8 +438,39 @@ def _repair(
     return v, r, -excess
 
 
+def _candidates(s: _Samples, lam: float) -> _Points:
+    """The moves the greedy steps consider: every sample on small problems, else per allowed interval its
+    ends and its own minimisers at prices about λ*.
+
+    Within an interval the speed is settled afterwards by the re-solve with the intervals held
+    (:func:`lagrangian_bound`'s ``polish_primal``), so the steps need mainly choose the intervals.
+    """
+    ivl = s.ivl
+    starts = np.flatnonzero(np.concatenate([[True], ivl[1:] != ivl[:-1]]))
+    ends = np.concatenate([starts[1:], [ivl.size]]) - 1
+    if s.v.size * (4 * s.d.size + 10) <= 2e7:  # small enough for the steps to scan every sample
+        return _Points(s.d, s.leg, s.v, s.r)
+    # the interval's minimisers at prices about λ*: where a leg would go if time were dearer or cheaper
+    inner = [_group_argmin(s.cost(s.c + f * lam, s.w), ivl, s.t) for f in (0.0, 0.5, 0.8, 0.9, 1.0, 1.1, 1.25, 2.0)]
+    idx = np.unique(np.concatenate([starts, ends, *inner]))
+    return _Points(s.d, s.leg[idx], s.v[idx], s.r[idx])
+
+
+def _group_argmin(cost: np.ndarray, group: np.ndarray, tiebreak: np.ndarray) -> np.ndarray:
+    """Index of the smallest cost per group (sorted by group); ties: smallest ``tiebreak``."""
+    starts = np.flatnonzero(np.concatenate([[True], group[1:] != group[:-1]]))
+    low = np.minimum.reduceat(cost, starts)
+    key = np.where(cost == np.repeat(low, np.diff(np.concatenate([starts, [cost.size]]))), tiebreak, np.inf)
+    best = np.minimum.reduceat(key, starts)
+    pos = np.where(
+        key == np.repeat(best, np.diff(np.concatenate([starts, [cost.size]]))), np.arange(cost.size), cost.size
+    )
+    return np.minimum.reduceat(pos, starts)
+
+
 def _recover_primal(
     s: _Samples,
+    lam: float,
     fast: tuple[np.ndarray, np.ndarray],
     slow: tuple[np.ndarray, np.ndarray],
     w: float,
@@ -462,11 +493,12 @@ def _recover_primal(
         if slack0 < -1e-9 * eta_h:
             return nan
         tol = 1e-12 * eta_h
-        tries = [_greedy(s, v_fast, r_fast, slack0, w, c, tol, by) for by in (True, False)]
+        cand = _candidates(s, lam)
+        tries = [_greedy(cand, v_fast, r_fast, slack0, w, c, tol, by) for by in (True, False)]
         # from the slower minimisers (Σ t ≥ T): speed the cheapest legs up, then hand out what is left
-        v_s, r_s, slack_s = _repair(s, v_slow, r_slow, float((d / v_slow).sum()) - eta_h, w, c)
+        v_s, r_s, slack_s = _repair(cand, v_slow, r_slow, float((d / v_slow).sum()) - eta_h, w, c)
         if slack_s >= -tol:
-            tries.append(_greedy(s, v_s, r_s, slack_s, w, c, tol, True))
+            tries.append(_greedy(cand, v_s, r_s, slack_s, w, c, tol, True))
         v, r, slack = min(tries, key=lambda x: float((d / x[0] * (w * x[1] + c)).sum()))
         if mode == "eq" and slack > 1e-12 * eta_h:
             for k in range(n):  # slow legs inside their own interval until Σ t = T
@@ -629,7 +661,7 @@ def lagrangian_bound(
     bound = float(low.sum() - (lam * eta_h if eta_h is not None else 0.0))
     v_fast, r_fast = s.hull.v[fast], s.hull.r[fast]
     slow_vr = (s.hull.v[slow], s.hull.r[slow])
-    v_p, t_p, obj_p = _recover_primal(s, (v_fast, r_fast), slow_vr, w, c, eta_h, eta_mode)
+    v_p, t_p, obj_p = _recover_primal(s, lam, (v_fast, r_fast), slow_vr, w, c, eta_h, eta_mode)
     evaluations = s.evaluations
     if polish_primal and eta_h is not None and math.isfinite(obj_p) and ivl_leg.size > n:
         # every leg held to the interval its recovered speed is in: no band left to jump, so for convex
