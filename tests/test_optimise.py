@@ -122,9 +122,14 @@ def test_fixed_path_static_weather_equals_the_convex_optimum_and_the_analytic_sp
     t *= eta_h / t.sum()
     np.testing.assert_allclose(plan.legs["duration_h"], t, rtol=1e-5)
     assert plan.duration_h == pytest.approx(eta_h, abs=1e-6)
-    # the optimiser's own certificate is the convex one here (constant SFOC, power laws)
+    # the ship's certificate (Lagrangian dual over the true model) and the fitted model's convex one (constant
+    # SFOC, power laws: CVXPY + Clarabel) agree with each other and with the plan
     cert = plan.solver_stats["certificate"]
-    assert cert["method"].startswith("convex") and abs(cert["gap"]) <= 1e-6
+    assert cert["method"] == "lagrangian dual" and abs(cert["gap"]) <= 1e-6
+    assert cert["bound_t"] == pytest.approx(ref.total_fuel_t, rel=1e-6)
+    fitted = cert["fitted_model"]
+    assert fitted["method"].startswith("convex") and abs(fitted["gap"]) <= 1e-6
+    assert cert["bound_t"] == pytest.approx(fitted["total_fuel_t"], rel=1e-8)
     assert plan.solver_stats["fit_max_rel_error"] < 1e-9
     assert plan.status == "optimal"
     # -dF*/dT = 2 F*/T for the cubic law
@@ -146,7 +151,8 @@ def test_calm_water_constant_speed_matches_the_ship_by_hand():
     assert plan.verify() == []
     # the IMO SFOC curve is outside the convex solver's class: the certificate is the dual bound
     cert = plan.solver_stats["certificate"]
-    assert cert["method"] == "Lagrangian dual bound" and abs(cert["gap"]) <= 1e-6
+    assert cert["method"] == "lagrangian dual" and abs(cert["gap"]) <= 1e-6
+    assert cert["bound_t"] == pytest.approx(by_hand, rel=1e-6)
 
 
 @pytest.mark.parametrize(

@@ -152,7 +152,10 @@ def optimise_corridor(
         ``nlp_fuel_t`` (the fitted model's), ``nlp_max_violation``;
         ``frame_max_rel_distance_error``; ``retries``, ``fit_corrections``, ``tightening`` (log),
         ``max_load``, ``band_margin``, ``band_hs_margin``, ``bands`` (of the returned solve);
-        ``certificate`` (fixed path in static weather: ``method``, ``gap``; else ``reason``);
+        ``certificate`` (fixed path in static weather without current: ``method`` ``"lagrangian dual"``,
+        ``bound_t`` (``bound`` for cost), ``gap`` of the plan to it, see
+        :mod:`optroute.optimise.certificate`; else ``reason``; the fitted model's own certificate under
+        ``fitted_model``);
         ``n_legs``, ``samples_per_leg``, ``weather_grid_shape``, ``weather_nodes_filled``,
         ``eta_h_solved``.
 

@@ -33,6 +33,7 @@ import xarray as xr
 from formulations.speed_nlp import POWER_TERMS, jit_compiler
 from optroute._checks import finite
 from optroute.errors import ConfigError, SolverFailure, WeatherCoverageError
+from optroute.optimise.certificate import certificate_stats
 from optroute.optimise.fit_correction import fit_correction
 from optroute.optimise.min_time import clean_start
 from optroute.optimise.nlp_inputs import build_frame, dataset_spacing, fit_power_model, lateral_bounds, weather_grid
@@ -626,6 +627,20 @@ class PreparedCorridor:
             )
         else:
             cert["reason"] = reason
+        # issue 13 item 5: the certificate of the ship itself (true model, IMO SFOC, bands), kept a separate call
+        cert = certificate_stats(
+            cert,
+            plan,
+            fixed=fixed,
+            objective=objective,
+            eta_h=cap_h,
+            eta_mode=eta_mode,
+            fuel_price=fuel_price,
+            hourly_cost=hourly,
+            v_min_kn=v_min,
+            v_max_kn=v_max,
+            step_nm=step_nm,
+        )
         shadow = float("nan")
         if eta_user_h is not None and objective == "fuel":
             shadow = float(res.eta_multiplier)
