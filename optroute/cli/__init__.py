@@ -38,6 +38,7 @@ from collections.abc import Sequence
 
 from optroute.cli._common import PROG, Parser, UsageError
 from optroute.cli.bands import add_bands, cmd_bands
+from optroute.cli.observe import add_observe
 from optroute.cli.studies import add_study, add_tradeoff, cmd_study, cmd_tradeoff
 from optroute.cli.tools import add_bench, add_demo, cmd_bench, cmd_demo
 from optroute.cli.voyage import add_optimise, add_plan, cmd_optimise, cmd_plan
@@ -90,6 +91,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_study(sub, common)
     add_bands(sub, common)
     add_bench(sub, common)
+    add_observe(sub, common)
     return parser
 
 

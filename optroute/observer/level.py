@@ -187,7 +187,9 @@ class ObserverSettings:
         for name in ("smoothing_s", "heave_deadband_m", "roll_deadband_deg", "warmup_s"):
             finite(name, getattr(self, name), minimum=0.0, error=ConfigError, fix="see ObserverSettings")
         if not (isinstance(self.energy_passages, int) and 1 <= self.energy_passages <= _c.MAX_PASSAGES):
-            raise ConfigError(f"energy_passages={self.energy_passages!r} must be an integer from 1 to {_c.MAX_PASSAGES}")
+            raise ConfigError(
+                f"energy_passages={self.energy_passages!r} must be an integer from 1 to {_c.MAX_PASSAGES}"
+            )
         if not (isinstance(self.energy_lag, int) and 1 <= self.energy_lag <= 4):
             raise ConfigError(f"energy_lag={self.energy_lag!r} must be an integer from 1 to 4 (passages back)")
         if self.combine not in _c.COMBINE_CODES:
@@ -219,8 +221,14 @@ class ObserverSettings:
         field can be overridden by keyword.
         """
         finite("reference_roll_deg", reference_roll_deg, minimum=0.0, strict=True, error=ConfigError)
-        finite("growth_per_period", growth_per_period, minimum=1.0, strict=True, error=ConfigError,
-               fix="the roll amplitude's growth factor per roll period that counts as clear growth, e.g. 1.25")
+        finite(
+            "growth_per_period",
+            growth_per_period,
+            minimum=1.0,
+            strict=True,
+            error=ConfigError,
+            fix="the roll amplitude's growth factor per roll period that counts as clear growth, e.g. 1.25",
+        )
         tr = ship.roll_period_s
         w0 = 2.0 * math.pi / tr
         stiffness = ship.displacement_t * G_MS2 * ship.gm_m  # kN·m / rad
@@ -412,7 +420,9 @@ class ResonanceObserver:
         raw, norm, rl = np.zeros((n, 5)), np.zeros((n, 5)), np.zeros(n)
         bad = _c.advance(z, p, self._prm, self._state, self._zax, self._pax, self._tab, raw, norm, rl)
         if bad >= 0:
-            raise _outside(self.moment, self._state[_c.S_ZF], math.degrees(self._state[_c.S_PF]), self.count + bad, None)
+            raise _outside(
+                self.moment, self._state[_c.S_ZF], math.degrees(self._state[_c.S_PF]), self.count + bad, None
+            )
         self.count += n
         if n:
             self.criteria[0], self.normalised[0], self._rl1[0] = raw[-1], norm[-1], rl[-1]

@@ -250,8 +250,11 @@ def gm_amplitude_ratio(ship: Ship, encounter: Encounter, model: RollModel | None
     """h = ΔGM/GM of the encounter: h_L1 (H / 0.0167 L) R(π L |cos α| / λ) [-] (signed)."""
     model = model or RollModel()
     u = math.pi * ship.length_m * abs(math.cos(math.radians(encounter.alpha_deg))) / encounter.wavelength_m
-    return model.level1_ratio(ship) * encounter.hs_m / (IMO_LEVEL1_STEEPNESS * ship.length_m) * float(
-        grim_effective_wave_ratio(u)
+    return (
+        model.level1_ratio(ship)
+        * encounter.hs_m
+        / (IMO_LEVEL1_STEEPNESS * ship.length_m)
+        * float(grim_effective_wave_ratio(u))
     )
 
 
