@@ -24,6 +24,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.integrate import quad, solve_ivp
 from scipy.optimize import brentq
 
@@ -474,3 +476,30 @@ def test_cli_observe_as_a_subprocess(ship, tmp_path):
     )
     assert bad.returncode == 2
     assert bad.stderr.startswith("optroute: error: ") and "roll_deg" in bad.stderr
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    cuts=st.lists(st.integers(1, 2999), max_size=12),
+    combine=st.sampled_from(["product", "sum", "max"]),
+)
+def test_any_record_any_chunking_gives_the_batch_rl_in_0_1(seed, cuts, combine):
+    """Invariants: RL is NaN exactly in the warm-up and in [0, 1] after it, whatever the motions, and
+    feeding the record in any chunks gives the batch RL bit for bit."""
+    ship = Ship.preset("general_cargo_25k_dwt")
+    rng = np.random.default_rng(seed)
+    n = 3000
+    t = np.arange(n) * DT
+    heave = np.cumsum(rng.normal(0, 0.05, n))
+    roll = 20.0 * np.sin(np.cumsum(rng.normal(0, 0.05, n)))
+    settings_ = ObserverSettings.for_ship(ship, combine=combine)
+    moment = RightingMoment.from_ship(ship, heave_range_m=1e3)
+    batch = observe(t, heave, roll, settings=settings_, moment=moment)
+    warm = np.arange(n) < round(settings_.warmup_s / DT)
+    assert np.isnan(batch.rl[warm]).all()
+    assert ((batch.rl[~warm] >= 0.0) & (batch.rl[~warm] <= 1.0)).all()
+    obs = ResonanceObserver(settings_, moment)
+    parts = np.split(np.arange(n), sorted(set(cuts)))
+    rl = np.concatenate([obs.update_many(heave[p], roll[p])[0] for p in parts])
+    np.testing.assert_array_equal(rl, batch.rl)
