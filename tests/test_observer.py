@@ -375,6 +375,15 @@ def test_bad_inputs_raise_optroute_errors(ship):
         observe(t, np.zeros(t.size), roll, settings=settings, moment=moment)
     with pytest.raises(ObserverInputError, match="outside the righting-moment characteristic"):
         observe(t, np.zeros(t.size), np.full(t.size, 70.0), settings=settings, moment=moment)
+    obs = ResonanceObserver(settings, moment)
+    obs.update_many(np.zeros(50), np.ones(50))
+    kept = obs.update_many(np.zeros(5), np.ones(5))
+    fresh = ResonanceObserver(settings, moment)
+    fresh.update_many(np.zeros(50), np.ones(50))
+    with pytest.raises(ObserverInputError, match="sample 52"):
+        fresh.update_many(np.zeros(5), [1.0, 1.0, 5000.0, 5000.0, 1.0])
+    assert fresh.count == 50  # the bad chunk is refused whole
+    np.testing.assert_array_equal(fresh.update_many(np.zeros(5), np.ones(5))[1], kept[1])
     with pytest.raises(ConfigError, match="combine="):
         ObserverSettings.for_ship(ship, combine="mean")
     with pytest.raises(ConfigError, match="weights="):

@@ -394,35 +394,49 @@ class ResonanceObserver:
         self._rl1[0] = 0.0
 
     def update(self, heave_m: float, roll_deg: float) -> float:
-        """Feed one sample: heave z [m], roll φ [deg]; return RL in [0, 1]."""
+        """Feed one sample: heave z [m], roll φ [deg]; return RL in [0, 1] (NaN in the warm-up).
+
+        A sample outside the righting-moment characteristic raises
+        :class:`ObserverInputError` and leaves the observer as it was.
+        """
         self._z1[0] = heave_m
         self._p1[0] = roll_deg
         if not (math.isfinite(self._z1[0]) and math.isfinite(self._p1[0])):
             raise ObserverInputError(
                 f"sample {self.count}: heave_m={heave_m!r}, roll_deg={roll_deg!r}; both must be finite numbers"
             )
+        before = self._state.copy()
         bad = _c.advance(
             self._z1, self._p1, self._prm, self._state, self._zax, self._pax, self._tab,
             self.criteria, self.normalised, self._rl1,
         )  # fmt: skip
         if bad >= 0:
-            raise _outside(self.moment, self._state[_c.S_ZF], math.degrees(self._state[_c.S_PF]), self.count, None)
+            err = _outside(self.moment, self._state[_c.S_ZF], math.degrees(self._state[_c.S_PF]), self.count, None)
+            self._state = before  # the sample is refused: the observer is as it was before it
+            raise err
         self.count += 1
         return float(self._rl1[0])
 
     def update_many(self, heave_m: Any, roll_deg: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Feed a chunk of samples; return (RL, K1–K5, k1–k5) of each, as :func:`observe`."""
+        """Feed a chunk of samples; return (RL, K1–K5, k1–k5) of each, as :func:`observe`.
+
+        A bad sample raises :class:`ObserverInputError` naming it and refuses the whole
+        chunk: the observer is left as it was before the chunk.
+        """
         z = _samples("heave_m", heave_m, "m")
         p = _samples("roll_deg", roll_deg, "deg")
         if z.shape != p.shape:
             raise ObserverInputError(f"heave_m has {z.size} samples and roll_deg {p.size}; they must pair up")
         n = z.size
         raw, norm, rl = np.zeros((n, 5)), np.zeros((n, 5)), np.zeros(n)
+        before = self._state.copy()
         bad = _c.advance(z, p, self._prm, self._state, self._zax, self._pax, self._tab, raw, norm, rl)
         if bad >= 0:
-            raise _outside(
+            err = _outside(
                 self.moment, self._state[_c.S_ZF], math.degrees(self._state[_c.S_PF]), self.count + bad, None
             )
+            self._state = before  # the chunk is refused whole: the observer is as it was before it
+            raise err
         self.count += n
         if n:
             self.criteria[0], self.normalised[0], self._rl1[0] = raw[-1], norm[-1], rl[-1]
