@@ -46,6 +46,7 @@ from collections.abc import Sequence
 from optroute.cli._parser import PROG, Parser, UsageError, add_version_option
 from optroute.cli._voice import cli_voice
 from optroute.cli.bands import add_bands, cmd_bands
+from optroute.cli.observe import add_observe
 from optroute.cli.studies import add_study, add_tradeoff, cmd_study, cmd_tradeoff
 from optroute.cli.tools import add_bench, add_demo, cmd_bench, cmd_demo
 from optroute.cli.voyage import add_optimise, add_plan, cmd_optimise, cmd_plan
@@ -99,6 +100,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_study(sub, common)
     add_bands(sub, common)
     add_bench(sub, common)
+    add_observe(sub, common)
     return parser
 
 
