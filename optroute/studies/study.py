@@ -66,6 +66,8 @@ import xarray as xr
 from optroute import _store
 from optroute._store import StudyError
 from optroute.errors import ConfigError
+from optroute.studies import fingerprint
+from optroute.studies.fingerprint import CaseInput
 
 __all__ = [
     "SYNCHRONOUS",
@@ -293,7 +295,9 @@ def _encode(ds: xr.Dataset) -> bytes:
         return bytes(ds.to_netcdf(engine="h5netcdf"))
 
 
-def _failure(index: tuple[int, ...], exc: BaseException, runtime_s: float, tb: str | None = None) -> _Outcome:
+def _failure(
+    index: tuple[int, ...], exc: BaseException, runtime_s: float, tb: str | None = None, inputs: str | None = None
+) -> _Outcome:
     status = f"failed: {type(exc).__name__}: {exc}"
     if tb is None:
         tb = "".join(traceback.format_exception(exc))
@@ -303,11 +307,17 @@ def _failure(index: tuple[int, ...], exc: BaseException, runtime_s: float, tb: s
         _store.RUNTIME_ATTR: runtime_s,
         _store.TRACEBACK_ATTR: tb,
     }
+    if inputs is not None:
+        attrs[_store.INPUTS_ATTR] = inputs
     return _Outcome(index, status, _encode(xr.Dataset(attrs=attrs)), runtime_s)
 
 
 def _compute_case(
-    case_fn: CaseFunction, index: tuple[int, ...], params: dict[str, Any], reserved: Sequence[str]
+    case_fn: CaseFunction,
+    index: tuple[int, ...],
+    params: dict[str, Any],
+    reserved: Sequence[str],
+    inputs: str | None = None,
 ) -> _Outcome:
     """Run one case and encode its outcome as NetCDF bytes; never raises for an error of the case.
 
@@ -328,9 +338,11 @@ def _compute_case(
                 _store.RUNTIME_ATTR: runtime,
             }
         )
+        if inputs is not None:
+            ds.attrs[_store.INPUTS_ATTR] = inputs
         return _Outcome(index, "ok", _encode(ds), runtime)
     except Exception as exc:  # noqa: BLE001 - recorded per case, by design
-        return _failure(index, exc, time.perf_counter() - start)
+        return _failure(index, exc, time.perf_counter() - start, inputs=inputs)
 
 
 def _run_case(
@@ -340,6 +352,7 @@ def _run_case(
     reserved: Sequence[str],
     store: str | None = None,
     replace: bool = False,
+    inputs: str | None = None,
 ) -> _Outcome:
     """The task of one case: compute it and, when ``store`` is given, write its file from here.
 
@@ -351,7 +364,7 @@ def _run_case(
     """
     if store is not None and not replace and (_store.cases_dir(Path(store)) / _store.case_name(index)).exists():
         return _Outcome(index, "stored", None, math.nan)
-    outcome = _compute_case(case_fn, index, params, reserved)
+    outcome = _compute_case(case_fn, index, params, reserved, inputs)
     if store is None:
         return outcome
     try:
@@ -506,6 +519,7 @@ def _run_distributed(
     on_outcome: Callable[[_Outcome], None],
     store: str | None,
     replace: set[tuple[int, ...]],
+    inputs_of: Callable[[tuple[int, ...]], str | None],
 ) -> None:
     from distributed import as_completed
 
@@ -525,6 +539,7 @@ def _run_distributed(
             reserved,
             store,
             index in replace,
+            inputs_of(index),
             pure=False,
             key=f"optroute-study-{token}-{name}",
         )
@@ -553,7 +568,7 @@ def _run_distributed(
         elif fut.status == "error":  # the task itself failed: a worker died under it (KilledWorker), SystemExit…
             exc = fut.exception()
             tb = "".join(traceback.format_tb(fut.traceback())) + "".join(traceback.format_exception_only(exc))
-            outcome = _failure(index, exc, math.nan, tb)
+            outcome = _failure(index, exc, math.nan, tb, inputs_of(index))
         else:
             raise StudyError(
                 f"the Dask cluster lost case {index} (its future is {fut.status!r}), most likely because the "
@@ -564,6 +579,28 @@ def _run_distributed(
 
 
 # --------------------------------------------------------------------------- public API
+
+
+@contextlib.contextmanager
+def _writable_store(store: Path) -> Iterator[None]:
+    """Create ``store`` (and its ``cases`` folder) and turn any refusal to write it into a StudyError."""
+    try:
+        _store.cases_dir(store).mkdir(parents=True, exist_ok=True)
+        probe = _store.cases_dir(store) / f"{_store.TMP_PREFIX}probe-{uuid.uuid4().hex[:8]}"
+        probe.touch()
+        probe.unlink()
+    except OSError as exc:
+        raise StudyError(
+            f"study store {str(store)!r} is not writable ({type(exc).__name__}: {exc}); give a store directory "
+            "you can write (or fix its permissions); load_study() reads a finished store without writing it"
+        ) from exc
+    try:
+        yield
+    except PermissionError as exc:  # a file of the store refused after the probe (the lock, the manifest)
+        raise StudyError(
+            f"study store {str(store)!r} is not writable: {exc.filename or store!s} refused ({exc.strerror}); "
+            "fix its permissions or give another store"
+        ) from exc
 
 
 def run_study(
@@ -580,6 +617,8 @@ def run_study(
     retry_failed: bool = False,
     output: str | Path | None = None,
     store_on_workers: bool | None = None,
+    case_inputs: Callable[[dict[str, Any]], Mapping[str, CaseInput]] | None = None,
+    on_changed_inputs: str = "error",
 ) -> xr.Dataset:
     """Run ``case_fn`` on every combination of the axes' values, resumably, and combine the results.
 
@@ -666,9 +705,17 @@ def run_study(
     SchedulerUnreachable
         ``scheduler_address`` refuses or does not answer within ``timeout_s``.
     StudyError
-        The store belongs to a study with other axes, is being written by
-        another run, or the cluster was lost mid-way (the study then resumes
-        when run again).
+        The store belongs to a study with other axes, holds cases computed
+        from other inputs (see ``case_inputs``), is not writable (the message
+        names the path), is being written by another run, or the cluster was
+        lost mid-way (the study then resumes when run again).
+
+    Warns
+    -----
+    UserWarning
+        A stored case file is corrupt or truncated: it is moved aside
+        (``<name>.corrupt``) and computed again; or cases of changed inputs
+        are computed again (``on_changed_inputs="recompute"``).
 
     Notes
     -----
@@ -736,8 +783,18 @@ def run_study(
     def params(index: tuple[int, ...]) -> dict[str, Any]:
         return {a.name: a.values[i] for a, i in zip(study_axes, index, strict=True)}
 
-    _store.cases_dir(store).mkdir(parents=True, exist_ok=True)
-    with _store.locked(store):
+    if on_changed_inputs not in ("error", "recompute"):
+        raise ConfigError(f"on_changed_inputs={on_changed_inputs!r} is not known; use 'error' or 'recompute'")
+    if case_inputs is not None and not callable(case_inputs):
+        raise ConfigError(f"case_inputs={case_inputs!r} is not callable; pass a function of the case's axis values")
+
+    def inputs_of(index: tuple[int, ...]) -> str | None:
+        return None if case_inputs is None else fingerprint.encode(case_inputs(params(index)))
+
+    def label(index: tuple[int, ...]) -> str:
+        return ", ".join(f"{a.name}={a.labels[i]}" for a, i in zip(study_axes, index, strict=True))
+
+    with _writable_store(store), _store.locked(store):
         _store.remove_temporaries(store)
         manifest = _manifest(study_axes, case_fn)
         stored = _store.read_manifest(store)
@@ -761,10 +818,14 @@ def run_study(
                     "free disk space or fix permissions, or choose another store"
                 ) from exc
 
-        existing = _store.list_cases(store, shape)
+        expected = None if case_inputs is None else (lambda index: case_inputs(params(index)))
+        checked = fingerprint.check_stored_cases(
+            store, _store.list_cases(store, shape), expected, label, on_changed_inputs
+        )
+        existing = {i: path for i, (path, _) in checked.ok.items()}
         done = existing
         if retry_failed:
-            done = {i: p for i, p in existing.items() if _store.read_case(p).attrs[_store.STATUS_ATTR] == "ok"}
+            done = {i: path for i, (path, status) in checked.ok.items() if status == "ok"}
         pending = [index for index in np.ndindex(*shape) if index not in done]
         n_done = total - len(pending)
         if progress is not None:
@@ -787,7 +848,7 @@ def run_study(
 
         if pending and synchronous:
             for index in pending:
-                on_outcome(_run_case(case_fn, index, params(index), reserved))
+                on_outcome(_run_case(case_fn, index, params(index), reserved, inputs=inputs_of(index)))
         elif pending:
             import dask.system
 
@@ -796,7 +857,7 @@ def run_study(
                 on_workers = scheduler_address is None if store_on_workers is None else store_on_workers
                 store_arg = str(store.resolve()) if on_workers else None
                 retried = {index for index in pending if index in existing}
-                _run_distributed(client, case_fn, pending, params, reserved, on_outcome, store_arg, retried)
+                _run_distributed(client, case_fn, pending, params, reserved, on_outcome, store_arg, retried, inputs_of)
 
         ds = _store.combine(store, manifest)
         try:
