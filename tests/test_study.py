@@ -649,3 +649,35 @@ def test_read_only_store_is_a_study_error_naming_the_path(tmp_path, monkeypatch)
     finally:
         os.chmod(store, 0o755)
         os.chmod(store / "cases", 0o755)
+
+
+# --------------------------------------------------------------------------- the fingerprints themselves
+
+
+def test_digests_follow_content_not_identity_and_are_the_same_in_another_process(tmp_path):
+    from optroute.physics.ship import Ship
+    from optroute.studies.fingerprint import dataset_digest, digest, file_digest
+
+    assert len({digest(1), digest(1.0), digest("1"), digest(True), digest([1]), digest((1,))}) == 6
+    assert digest({"a": 1, "b": 2}) == digest({"b": 2, "a": 1})  # mappings in key order
+    ship = Ship.preset("container_54k_dwt")
+    assert digest(ship.replace(description="renamed in the notes")) == digest(ship)  # not a compared field
+    assert digest(ship.replace(mcr_kw=36_501.0)) != digest(ship)
+    ds = xr.Dataset(
+        {"hs_m": (("time", "lat"), np.array([[1.0, 2.0], [3.0, 4.0]]))},
+        coords={"time": np.array(["2024-01-10T00", "2024-01-10T06"], dtype="datetime64[ns]"), "lat": [0.0, 1.0]},
+    )
+    ds.to_netcdf(tmp_path / "wx.nc")
+    assert dataset_digest(xr.load_dataset(tmp_path / "wx.nc")) == dataset_digest(ds)  # exact round trip
+    assert dataset_digest(ds.assign(hs_m=ds.hs_m + np.array([[0.0, 0.0], [0.0, 1e-12]]))) != dataset_digest(ds)
+    assert dataset_digest(ds.assign_coords(lat=[0.0, 1.5])) != dataset_digest(ds)
+    before = file_digest(tmp_path / "wx.nc")
+    ds.assign(hs_m=ds.hs_m * 7.0).to_netcdf(tmp_path / "wx.nc")
+    assert file_digest(tmp_path / "wx.nc") != before
+    code = (
+        "from optroute.physics.ship import Ship\n"
+        "from optroute.studies.fingerprint import digest\n"
+        "print(digest(Ship.preset('container_54k_dwt')))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == digest(ship)  # a store resumed by another process recognises its inputs
