@@ -315,7 +315,8 @@ def check_stored_cases(
         raise _store.StudyError(
             f"study store {str(store)!r} holds case {label(index)}{more} computed from other inputs than this "
             f"call's — {'; '.join(diffs)}; its results would be stale: use another store, or pass "
-            "on_changed_inputs='recompute' to compute the changed cases again in this store"
+            "on_changed_inputs='recompute' (optroute study --recompute-changed) to compute the changed cases "
+            "again in this store"
         )
     for index, path, _diffs in changed:
         path.unlink()
