@@ -2,7 +2,9 @@
 
 `Ship` is a frozen dataclass validated on construction: a non-physical value
 raises :class:`~optroute.errors.ShipSpecError` naming the field, the value
-and the allowed range.  Everything weather-dependent (added resistance,
+and the allowed range, and so do propulsion particulars no ship has (an
+admiralty coefficient, power per tonne or share of MCR at the design speed
+out of range), with the likely unit slip named ("36.5 kW looks like MW").  Everything weather-dependent (added resistance,
 involuntary speed loss) lives in :mod:`optroute.physics.performance`; this module is
 the ship in calm water.
 
@@ -64,23 +66,12 @@ _RANGES: dict[str, tuple[float, float, bool]] = {
 # Δ / (ρ Cb L B T) must lie in this band: catches unit slips (kg for t, feet for m).
 _DISPLACEMENT_CONSISTENCY = (0.80, 1.25)
 
-# Plausibility of the propulsion particulars at the design speed (see Ship._check_plausible): the bound,
-# its unit and what it guards against.  The bounds are deliberately wide around the literature's values
-# so that no real merchant ship is refused; a unit slip (kW for MW, m/s or km/h for kn) moves a value by
-# a factor 2 to 1000, out of them.
-#   Admiralty coefficient C_adm = Δ^(2/3) V³ / P [t^(2/3) kn³ / kW]: about 400–600 for ordinary merchant
-#   hulls in its metric form (Barrass 2004, *Ship Design and Performance for Masters and Mates*, ch. 21;
-#   Molland, Turnock & Hudson 2017, §16.1), up to about 850 for fine container ships at service speed (the
-#   presets: 529, 757, 845).
-_ADMIRALTY_RANGE = (150.0, 2500.0)
-#   Calm-water brake power per tonne of displacement at the design speed [kW/t]: 0.05–0.1 for slow full
-#   tankers and bulk carriers, about 0.4 for 24–25 kn container ships (MAN Energy Solutions 2018, *Basic
-#   Principles of Ship Propulsion*, and the presets), a few kW/t for fast ferries.
-_POWER_PER_DISPLACEMENT_RANGE = (0.01, 5.0)
-#   Calm-water power at the design speed as a fraction of MCR [-]: the service point is 85–90 % MCR with
-#   a 15 % sea margin (MAN 2018, "Engine layout"), i.e. about 0.74–0.78 of MCR in calm water; an engine
-#   more than 5 times the power the design speed needs is not a design but a unit slip.
-_DESIGN_LOAD_RANGE = (0.2, 1.0)
+# Plausibility of the propulsion particulars at the design speed; sources and reasoning in the docstring
+# of Ship._check_plausible.  Deliberately wide: no real merchant ship may be refused, while a unit slip
+# (MW or W for kW, m/s or km/h for kn) moves a figure by a factor of 2 to 1000.
+_ADMIRALTY_RANGE = (150.0, 2500.0)  # C_adm = Δ^(2/3) V³ / P [t^(2/3) kn³ / kW]
+_POWER_PER_DISPLACEMENT_RANGE = (0.01, 5.0)  # calm-water P / Δ at the design speed [kW/t]
+_DESIGN_LOAD_RANGE = (0.2, 1.0)  # calm-water P / MCR at the design speed [-]
 
 
 def _range_text(fname: str) -> str:
@@ -277,13 +268,29 @@ class Ship:
         self._check_plausible(p_design)
 
     def _check_plausible(self, p_design: float) -> None:
-        """Refuse propulsion particulars no ship has, naming the likely unit slip (see the ``_*_RANGE`` notes).
+        """Refuse propulsion particulars no ship has, naming the likely unit slip.
 
-        Three figures at the design speed V: the admiralty coefficient Δ^(2/3) V³ / P (Barrass 2004;
-        Molland, Turnock & Hudson 2017 §16.1), the calm-water power per tonne of displacement P / Δ,
-        and P / MCR (MAN Energy Solutions 2018, service point and sea margin).  When one is out of its
-        range, the MCR rescaled by 1000 (MW or W for kW) and the design speed converted from m/s or
-        km/h are tried, and a conversion that brings all three into range is named in the message.
+        Three figures at the design speed V, with P the calm-water brake power there:
+
+        * the admiralty coefficient C_adm = Δ^(2/3) V³ / P [t^(2/3) kn³/kW], the constant of the
+          admiralty law by which power is carried between similar ships (Barrass 2004, *Ship Design
+          and Performance for Masters and Mates*; Molland, Turnock & Hudson 2017, *Ship Resistance
+          and Propulsion*, §16.1).  Merchant hulls in this metric form give a few hundred — the
+          presets 529 (general cargo), 757 and 845 (container ships) — and the accepted range
+          150–2 500 is a factor of about 3 around them;
+        * the power per tonne of displacement P / Δ [kW/t]: about 0.06 for a 350 000 t tanker
+          needing some 20 MW at 15 kn, 0.4 for the 24–25 kn container presets, a few kW/t for fast
+          ferries; accepted 0.01–5;
+        * P / MCR: the service point sits at 85–90 % MCR with a 15 % sea margin (MAN Energy
+          Solutions 2018, *Basic Principles of Ship Propulsion*, "Engine layout"), i.e. 0.74–0.78
+          of MCR in calm water; accepted 0.2–1 (an engine five times the power its design speed
+          needs is not a design; above 1 the design speed is out of the engine's reach, checked
+          before).
+
+        When a figure is out of range, the MCR rescaled by 1000 (MW or W typed as kW; a speed-power
+        table with it) and the design speed converted from m/s or km/h are tried; a conversion that
+        brings all three into range is named in the message ("36.5 kW looks like MW; did you mean
+        36 500 kW?").
         """
         problems = _plausibility_problems(self.displacement_t, self.design_speed_kn, p_design, self.mcr_kw)
         if not problems:
