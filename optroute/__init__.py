@@ -20,6 +20,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
+from optroute import _numba
 from optroute._version import __version__
 from optroute.errors import (
     ConfigError,
@@ -33,6 +34,10 @@ from optroute.errors import (
     WeatherCoverageError,
     WeatherSchemaError,
 )
+
+# Before any kernel module is imported: numba refuses to import a cache=True kernel when it can write
+# no cache folder (issue 14, failure 8); this points it at one of the user's own (optroute._numba).
+_numba.ensure_cache_dir()
 
 #: Public name → the module that defines it (imported when the name is first used).
 _LAZY: dict[str, str] = {

@@ -48,6 +48,10 @@ KEY_ATTR = "optroute_study_key"
 STATUS_ATTR = "optroute_study_status"
 RUNTIME_ATTR = "optroute_study_runtime_s"
 TRACEBACK_ATTR = "optroute_study_traceback"
+#: JSON record of what the case was computed from (see :mod:`optroute.studies.fingerprint`).
+INPUTS_ATTR = "optroute_study_inputs"
+#: Suffix a corrupt case file is renamed with (kept for inspection, never read as a case).
+CORRUPT_SUFFIX = ".corrupt"
 
 #: Variables the study adds to the combined dataset; a case may not return them.
 STATUS_VAR = "status"
@@ -354,7 +358,7 @@ def read_case(path: Path) -> xr.Dataset:
     """
     try:
         ds = xr.load_dataset(path, engine="h5netcdf")
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError, KeyError, RuntimeError, TypeError) as exc:
         raise StudyError(
             f"case file {str(path)!r} cannot be read ({exc}); delete it and run the study again to recompute that case"
         ) from exc
@@ -364,6 +368,25 @@ def read_case(path: Path) -> xr.Dataset:
             "delete it and run the study again"
         )
     return ds
+
+
+def quarantine(path: Path) -> Path:
+    """Move an unreadable case file aside (``<name>.corrupt``, replacing an older one) and return its new path.
+
+    Raises
+    ------
+    StudyError
+        The file cannot be moved (the store is not writable); the message names it.
+    """
+    aside = path.with_name(path.name + CORRUPT_SUFFIX)
+    try:
+        os.replace(path, aside)
+    except OSError as exc:
+        raise StudyError(
+            f"case file {str(path)!r} is unreadable and cannot be moved aside to be recomputed "
+            f"({type(exc).__name__}: {exc}); delete it, or make the store writable"
+        ) from exc
+    return aside
 
 
 def _fill_value(dtype: np.dtype) -> tuple[np.dtype, Any]:

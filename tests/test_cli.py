@@ -303,6 +303,16 @@ def test_study_runs_every_case_into_the_store(capsys, files, tmp_path):
         got = ds["fuel_t"].sel(ship="container_54k_dwt", scenario=str(files["calm"]), eta_h=hours)
         assert float(got) == pytest.approx(fuel, rel=1e-3)
     assert (tmp_path / "store").is_dir()
+    # the same store with another option: the stored cases are not those of this call (issue 14, failure 2)
+    again = ["--ships", "container_54k_dwt", "--scenarios", f"{files['calm']},{files['rough']}", "--corridor"]
+    again += [files["csv"], "--width-nm", "0", "--etas", "+36,+40", "--store", tmp_path / "store", "--workers", "0"]
+    code, out, err = run(capsys, "study", *again, "--max-leg-nm", "25")
+    line = one_error_line(err)
+    assert code == 2 and "computed from other inputs" in line and "max_leg_nm=50.0" in line
+    assert "--recompute-changed" in line
+    code, out, err = run(capsys, "study", *again, "--max-leg-nm", "25", "--recompute-changed")
+    assert "optroute: warning: study store" in err and "computing 4 case(s) again" in err
+    assert code == 0 and "outcome    4 optimal" in out
 
 
 # --------------------------------------------------------------------------- exit 3 and 4

@@ -69,6 +69,20 @@ def test_nan_sea_means_no_passage():
     assert np.isnan(choice.stw_kn[1])
 
 
+def test_outside_the_data_the_current_is_nan_too_and_the_point_is_simply_not_navigable():
+    # what a sampler gives outside the weather's area or time span: every field NaN, the current included
+    # (issue 14 failure 7: this raised SeaStateError "current_u_ms must be finite" as if it were bad input)
+    nan = np.array([np.nan])
+    outside = SeaState(nan, nan, nan, nan, nan, nan, nan)
+    heading, sog, power, fuel, allowed = evaluate_speeds(SHIP, KwonModel(SHIP), RULES, [90.0], outside, [20.0])
+    assert not allowed[0] and np.isnan(power[0]) and np.isnan(sog[0]) and fuel[0] == np.inf
+    assert not best_speed(SHIP, KwonModel(SHIP), RULES, 90.0, outside, 20.0).feasible[0]
+    # inside, the current still counts: 1 m/s (1.944 kn) from astern at 20 kn gives 21.944 kn over ground
+    inside = SeaState.uniform(1, current_u_ms=1.0)
+    sog_in = evaluate_speeds(SHIP, KwonModel(SHIP), RULES, [90.0], inside, [20.0])[1]
+    assert sog_in[0] == pytest.approx(20.0 + 3600.0 / 1852.0, rel=1e-12)
+
+
 def test_min_load_makes_very_slow_speeds_infeasible_in_calm_water():
     # 10 % MCR = 6 864 kW is reached in calm water at 25·(6864/50734)^(1/3) = 12.83 kn.
     sea = SeaState.uniform(1)

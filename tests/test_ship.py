@@ -1,6 +1,8 @@
 """Ship particulars, calm-water power, SFOC and roll period against physics.md."""
 
 import math
+import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -186,3 +188,56 @@ def test_missing_toml_file_lists_the_presets(tmp_path):
     with pytest.raises(ShipSpecError, match="does not exist") as info:
         Ship.from_toml(tmp_path / "nope.toml")
     assert all(name in str(info.value) for name in Ship.presets())
+
+
+# --------------------------------------------------------------------------- plausibility (issue 14, failure 3)
+
+README_TOML = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def _readme_ship() -> Ship:
+    text = README_TOML.read_text()
+    block = text.split("```toml\n", 1)[1].split("```", 1)[0]
+    return Ship.from_mapping(tomllib.loads(block), source="README.md")
+
+
+def test_presets_and_documented_ships_are_plausible():
+    ships = [Ship.preset(n) for n in Ship.presets()]
+    ships.append(_readme_ship())
+    ships.append(Ship.from_mapping({"name": "doc", **tomllib.loads(PANAMAX_TOML)}))
+    ships.append(Ship.preset("container_54k_dwt").replace(name="small_feeder", mcr_kw=20000.0))  # test_voyage_study
+    for ship in ships:  # construction is the check; the figures by hand for the record
+        p = float(ship.calm_power_kw(ship.design_speed_kn))
+        c_adm = ship.displacement_t ** (2 / 3) * ship.design_speed_kn**3 / p
+        assert 150.0 <= c_adm <= 2500.0 and 0.01 <= p / ship.displacement_t <= 5.0, ship.name
+    # the Panamax preset by hand: 67 040^(2/3) = 1650.3, 24³ = 13 824, P = 0.85·36 500/1.15 = 26 978 kW
+    assert Ship.preset("container_54k_dwt").admiralty_coefficient == pytest.approx(1650.3 * 13824 / 26978.3, rel=1e-4)
+
+
+@pytest.mark.parametrize(
+    ("preset", "changes", "needles"),
+    [
+        # the issue's case: MW typed as kW for a 67 000 t, 24 kn ship
+        ("container_54k_dwt", {"mcr_kw": 36.5}, ["36.5 kW looks like MW; did you mean 36 500 kW?", "admiralty"]),
+        ("general_cargo_25k_dwt", {"mcr_kw": 7.0}, ["7 kW looks like MW; did you mean 7 000 kW?"]),
+        ("container_54k_dwt", {"design_speed_kn": 12.35}, ["12.35 looks like m/s; did you mean 24.0 kn?"]),
+        ("general_cargo_25k_dwt", {"design_speed_kn": 25.93}, ["25.93 looks like km/h; did you mean 14.0 kn?"]),
+        (
+            "container_54k_dwt",
+            {"speed_power_table": ((12.0, 4.2), (18.0, 13.0), (24.0, 31.0)), "mcr_kw": 36.5},
+            ["mcr_kw and the speed-power table's powers: 36.5 kW looks like MW"],
+        ),
+    ],
+)
+def test_unit_slips_are_refused_naming_the_likely_slip(preset, changes, needles):
+    with pytest.raises(ShipSpecError) as info:
+        Ship.preset(preset).replace(**changes)
+    for needle in needles:
+        assert needle in str(info.value)
+
+
+def test_an_engine_far_too_big_for_the_design_speed_is_refused():
+    # 24 kn needs 31 MW in calm water by this table; a 200 MW engine is no design
+    table = ((12.0, 4200.0), (18.0, 13000.0), (24.0, 31000.0))
+    with pytest.raises(ShipSpecError, match=r"needs 0.155 of MCR in calm water, outside 0.2–1"):
+        Ship.preset("container_54k_dwt").replace(speed_power_table=table, mcr_kw=200_000.0)

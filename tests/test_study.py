@@ -620,3 +620,133 @@ def test_existing_cluster_through_its_address(tmp_path, monkeypatch):
         assert case_files(tmp_path / "u") == []
     np.testing.assert_allclose(ds.fuel_t.values, analytic_fuel(), rtol=1e-15)
     assert int((ds.status == "ok").sum()) == N_CASES - len(SHIP_K)
+
+
+# --------------------------------------------------------------------------- stale, corrupt and unwritable stores
+
+
+def scaled_fuel_case(case: dict, scale: float, log: str | None = None) -> dict:
+    """:func:`fuel_case` with every ship's coefficient ``k`` multiplied by ``scale`` (an input beyond the labels)."""
+    out = fuel_case(case, log)
+    return {**out, "fuel_t": scale * out["fuel_t"], "cumulative_fuel_t": scale * out["cumulative_fuel_t"]}
+
+
+def _scaled_study(store: Path, scale: float, **kw) -> xr.Dataset:
+    from optroute.studies.fingerprint import CaseInput, digest
+
+    return run_study(
+        AXES,
+        functools.partial(scaled_fuel_case, scale=scale, log=kw.pop("log", None)),
+        store,
+        scheduler_address="synchronous",
+        case_inputs=lambda case: {"scale": CaseInput(digest(scale), f"k scaled by {scale:g}")},
+        **kw,
+    )
+
+
+def test_changed_inputs_are_refused_naming_what_changed_or_recomputed_when_asked(tmp_path):
+    store = tmp_path / "s"
+    first = _scaled_study(store, 1.0)
+    np.testing.assert_allclose(first.fuel_t.values, analytic_fuel(), rtol=1e-15)
+    # same labels, another input: matching on labels alone would return the scale-1 fuel
+    with pytest.raises(
+        StudyError, match=r"computed from other inputs.*scale: k scaled by 1 in the store, now k scaled by 2"
+    ):
+        _scaled_study(store, 2.0)
+    log = tmp_path / "log"
+    with pytest.warns(UserWarning, match="computing 24 case.*inputs changed"):
+        again = _scaled_study(store, 2.0, on_changed_inputs="recompute", log=str(log))
+    np.testing.assert_allclose(again.fuel_t.values, 2.0 * analytic_fuel(), rtol=1e-15)
+    assert sum(log_counts(log).values()) == N_CASES - len(SHIP_K)  # every feasible case computed again
+    calls = []
+    _scaled_study(store, 2.0, progress=lambda *a: calls.append(a))  # now consistent: nothing to do
+    assert calls == [(N_CASES, N_CASES)]
+
+
+def test_cases_stored_without_a_record_of_their_inputs_are_not_reused_silently(tmp_path):
+    store = tmp_path / "s"
+    run_study(AXES, functools.partial(scaled_fuel_case, scale=1.0), store, scheduler_address="synchronous")
+    with pytest.raises(StudyError, match="scale: not recorded in the store"):
+        _scaled_study(store, 1.0)
+
+
+@pytest.mark.parametrize(
+    "damage",
+    [
+        pytest.param(lambda b: b[: len(b) // 2], id="truncated"),
+        pytest.param(lambda b: b"not a netcdf file\n", id="garbage"),
+        pytest.param(lambda b: b"", id="empty"),
+    ],
+)
+def test_corrupt_case_file_is_recomputed_at_open_with_a_warning(tmp_path, damage):
+    store, log = tmp_path / "s", tmp_path / "log"
+    _scaled_study(store, 1.0)
+    victim = store / "cases" / "1-0-2.nc"  # panamax, 1000 nm, 200 h
+    victim.write_bytes(damage(victim.read_bytes()))
+    with pytest.warns(UserWarning, match=r"case ship=panamax, distance_nm=1000.0, eta_h=200.0 .* unreadable"):
+        ds = _scaled_study(store, 1.0, log=str(log))
+    assert log_counts(log) == Counter({"panamax|1000|200": 1})  # only that case, before combining
+    np.testing.assert_allclose(ds.fuel_t.values, analytic_fuel(), rtol=1e-15)
+    assert (store / "cases" / "1-0-2.nc.corrupt").exists() and len(case_files(store)) == N_CASES + 1
+
+
+def test_unwritable_store_is_a_study_error_naming_the_path(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a directory")
+    with pytest.raises(StudyError, match=r"study store '.*a_file/store' is not writable"):
+        run_study(AXES, fuel_case, blocker / "store", scheduler_address="synchronous")
+
+
+def test_read_only_store_is_a_study_error_naming_the_path(tmp_path, monkeypatch):
+    store = tmp_path / "s"
+    run_study(AXES, fuel_case, store, scheduler_address="synchronous")
+    os.chmod(store / "cases", 0o555)
+    os.chmod(store, 0o555)
+    try:
+        if os.geteuid() == 0:  # root writes through permissions: refuse like a read-only mount would
+            real_touch = Path.touch
+
+            def read_only(self, *a, **kw):
+                if str(self).startswith(str(store)):
+                    raise PermissionError(13, "Permission denied", str(self))
+                return real_touch(self, *a, **kw)
+
+            monkeypatch.setattr(Path, "touch", read_only)
+        with pytest.raises(StudyError, match=rf"study store '{store}' is not writable.*Permission denied"):
+            run_study(AXES, fuel_case, store, scheduler_address="synchronous")
+        xr.testing.assert_identical(load_study(store), xr.load_dataset(store / "study.nc"))  # still readable
+    finally:
+        os.chmod(store, 0o755)
+        os.chmod(store / "cases", 0o755)
+
+
+# --------------------------------------------------------------------------- the fingerprints themselves
+
+
+def test_digests_follow_content_not_identity_and_are_the_same_in_another_process(tmp_path):
+    from optroute.physics.ship import Ship
+    from optroute.studies.fingerprint import dataset_digest, digest, file_digest
+
+    assert len({digest(1), digest(1.0), digest("1"), digest(True), digest([1]), digest((1,))}) == 6
+    assert digest({"a": 1, "b": 2}) == digest({"b": 2, "a": 1})  # mappings in key order
+    ship = Ship.preset("container_54k_dwt")
+    assert digest(ship.replace(description="renamed in the notes")) == digest(ship)  # not a compared field
+    assert digest(ship.replace(mcr_kw=36_501.0)) != digest(ship)
+    ds = xr.Dataset(
+        {"hs_m": (("time", "lat"), np.array([[1.0, 2.0], [3.0, 4.0]]))},
+        coords={"time": np.array(["2024-01-10T00", "2024-01-10T06"], dtype="datetime64[ns]"), "lat": [0.0, 1.0]},
+    )
+    ds.to_netcdf(tmp_path / "wx.nc")
+    assert dataset_digest(xr.load_dataset(tmp_path / "wx.nc")) == dataset_digest(ds)  # exact round trip
+    assert dataset_digest(ds.assign(hs_m=ds.hs_m + np.array([[0.0, 0.0], [0.0, 1e-12]]))) != dataset_digest(ds)
+    assert dataset_digest(ds.assign_coords(lat=[0.0, 1.5])) != dataset_digest(ds)
+    before = file_digest(tmp_path / "wx.nc")
+    ds.assign(hs_m=ds.hs_m * 7.0).to_netcdf(tmp_path / "wx.nc")
+    assert file_digest(tmp_path / "wx.nc") != before
+    code = (
+        "from optroute.physics.ship import Ship\n"
+        "from optroute.studies.fingerprint import digest\n"
+        "print(digest(Ship.preset('container_54k_dwt')))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == digest(ship)  # a store resumed by another process recognises its inputs

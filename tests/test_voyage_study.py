@@ -151,3 +151,42 @@ def test_axes_from_names_ensemble_members_and_bad_input():
         orx.study(SHIP, "calm", [30.0], store="unused")
     with pytest.raises(orx.ConfigError, match="objective"):
         orx.study(SHIP, "calm", [30.0], corridor=CORRIDOR, store="unused", objective="time")
+
+
+# --------------------------------------------------------------------------- a store cannot return another input's results
+
+LONG = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -10.0]], width_nm=0.0)  # 1 200 nm, twice CORRIDOR
+
+
+def _one(store: Path, corridor: orx.Corridor, weather, eta_h: float, **kw) -> xr.Dataset:
+    return orx.study(SHIP, weather, [eta_h], corridor=corridor, departure=T0, store=store, n_workers=0, **KW, **kw)
+
+
+def test_same_store_with_another_corridor_is_refused_naming_it_or_recomputed(tmp_path):
+    store = tmp_path / "s"
+    wx = {"sea": _sea(1.0)}
+    short = _one(store, CORRIDOR, wx, 60.0)
+    assert float(short.distance_nm.squeeze()) == pytest.approx(CORRIDOR.length_nm, rel=1e-9)
+    with pytest.raises(
+        orx.studies.study.StudyError, match=r"route: corridor of 600\.\d nm.* in the store, now corridor of 1200\.\d nm"
+    ):
+        _one(store, LONG, wx, 60.0)
+    with pytest.warns(UserWarning, match="inputs changed"):
+        long = _one(store, LONG, wx, 60.0, on_changed_inputs="recompute")
+    assert float(long.distance_nm.squeeze()) == pytest.approx(LONG.length_nm, rel=1e-9)
+    assert str(long.plan_status.squeeze().values) == "optimal"
+
+
+def test_forecast_file_overwritten_in_place_is_refused_or_recomputed(tmp_path):
+    path = tmp_path / "forecast.nc"
+    _sea(1.0).to_netcdf(path)
+    store = tmp_path / "s"
+    calm = _one(store, CORRIDOR, [str(path)], 40.0)
+    _sea(7.0).to_netcdf(path)  # same name, shape and coordinates; other waves
+    with pytest.raises(orx.studies.study.StudyError, match=r"weather: weather file .*forecast\.nc.*in the store, now"):
+        _one(store, CORRIDOR, [str(path)], 40.0)
+    with pytest.warns(UserWarning, match="inputs changed"):
+        rough = _one(store, CORRIDOR, [str(path)], 40.0, on_changed_inputs="recompute")
+    fresh = _one(tmp_path / "fresh", CORRIDOR, [str(path)], 40.0)
+    assert float(rough.fuel_t.squeeze()) == pytest.approx(float(fresh.fuel_t.squeeze()), rel=1e-9)
+    assert float(rough.fuel_t.squeeze()) > 1.05 * float(calm.fuel_t.squeeze())  # Hs 7 m costs fuel at 15 kn

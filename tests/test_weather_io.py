@@ -309,11 +309,54 @@ def test_canonical_round_trip_and_dataset_input(tmp_path):
     reason="the optional 'grib' extra (cfgrib + eccodes) is not installed",
 )
 def test_grib_through_cfgrib(tmp_path):
+    lat = _era5_grib(tmp_path / "era5.grib")
+    ds = open_weather(tmp_path / "era5.grib")
+    _assert_canonical(
+        ds, _expected(lat[::-1], np.arange(-180.0, 180.0, 1.0), ["hs_m", "tp_s", "wave_from_deg"]), atol=2e-3
+    )  # GRIB packing is lossy
+    assert not list(tmp_path.glob("*.idx"))
+
+
+_NEEDS_GRIB = pytest.mark.skipif(
+    importlib.util.find_spec("cfgrib") is None or importlib.util.find_spec("eccodes") is None,
+    reason="the optional 'grib' extra (cfgrib + eccodes) is not installed",
+)
+
+
+@_NEEDS_GRIB
+def test_text_file_named_grib_is_one_clear_error_without_cfgrib_tracebacks(tmp_path, capfd):
+    # issue 14 failure 8: cfgrib logged a traceback per undecodable "message" (361 lines) before the error
+    path = tmp_path / "forecast.grib"
+    path.write_text("GRIB files are binary; this one is a text file\n" * 50)
+    with pytest.raises(WeatherSchemaError, match=r"forecast\.grib: could not be read with the 'cfgrib' engine") as info:
+        open_weather(path)
+    assert "ecCodes said: 50 x skipping corrupted Message" in str(info.value)
+    err = capfd.readouterr().err
+    assert "Traceback" not in err and "skipping corrupted" not in err
+
+
+@_NEEDS_GRIB
+def test_grib_with_a_corrupt_message_is_read_with_one_warning(tmp_path, capfd):
+    path = tmp_path / "era5.grib"
+    lat = _era5_grib(path)
+    with open(path, "ab") as fh:
+        fh.write(b"GRIB" + bytes(60) + b"7777")  # a broken message after the good ones
+    with pytest.warns(UserWarning, match="cfgrib skipped part of the file") as record:
+        ds = open_weather(path)
+    assert len([w for w in record if "cfgrib" in str(w.message)]) == 1
+    assert "Traceback" not in capfd.readouterr().err
+    _assert_canonical(
+        ds, _expected(lat[::-1], np.arange(-180.0, 180.0, 1.0), ["hs_m", "tp_s", "wave_from_deg"]), atol=2e-3
+    )
+
+
+def _era5_grib(path):
+    """ERA5-like GRIB 1 of swh, mwd and pp1d at HOURS on a 3 x 360 grid (ecCodes' own sample); returns lat."""
     import eccodes
 
     lat, lon = np.array([50.0, 49.0, 48.0]), np.arange(0.0, 360.0, 1.0)
     t = _truth(HOURS, lat, lon)
-    with open(tmp_path / "era5.grib", "wb") as fh:
+    with open(path, "wb") as fh:
         for short, canon in (("swh", "hs_m"), ("mwd", "wave_from_deg"), ("pp1d", "tp_s")):
             for k, hour in enumerate(HOURS.astype(int)):
                 h = eccodes.codes_grib_new_from_samples("regular_ll_sfc_grib1")
@@ -335,11 +378,7 @@ def test_grib_through_cfgrib(tmp_path):
                 eccodes.codes_set_values(h, t[canon][k].ravel())
                 eccodes.codes_write(h, fh)
                 eccodes.codes_release(h)
-    ds = open_weather(tmp_path / "era5.grib")
-    _assert_canonical(
-        ds, _expected(lat[::-1], np.arange(-180.0, 180.0, 1.0), ["hs_m", "tp_s", "wave_from_deg"]), atol=2e-3
-    )  # GRIB packing is lossy
-    assert not list(tmp_path.glob("*.idx"))
+    return lat
 
 
 def test_grib_without_the_extra_says_how_to_install(tmp_path, monkeypatch):

@@ -305,6 +305,12 @@ def add_study(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) 
         "--departure", default=None, metavar="ISO", help="departure, UTC (default: the first time of the first weather)"
     )
     p.add_argument("--store", required=True, metavar="DIR", help="study store (created; resumed when it exists)")
+    p.add_argument(
+        "--recompute-changed",
+        action="store_true",
+        help="recompute stored cases whose inputs (ship, weather content, route, departure, options) changed, "
+        "instead of stopping with an error naming the change",
+    )
     _add_route_options(p)
     _add_cost_options(p)
     _add_cluster_options(p, "default: one per core")
@@ -355,7 +361,15 @@ def cmd_study(args: argparse.Namespace, out: TextIO | None = None) -> int:
     kw = {**_cost_kwargs(args), **_workers(args), **where, **route_kw}
     with Progress(progress_enabled(args), "study") as bar, _quiet_dask(args):
         ds = study(
-            ships, specs, etas, departure=departure, store=args.store, objective=args.objective, progress=bar, **kw
+            ships,
+            specs,
+            etas,
+            departure=departure,
+            store=args.store,
+            objective=args.objective,
+            progress=bar,
+            on_changed_inputs="recompute" if args.recompute_changed else "error",
+            **kw,
         )
     lines = [
         f"study      {len(ships)} ship(s) x {len(specs)} weather x {len(etas)} ETA(s) = "

@@ -164,7 +164,9 @@ def evaluate_speeds(
     Returns
     -------
     heading_deg, sog_kn, power_kw, fuel_tph : ndarray, shape of ``stw_kn``
-        NaN where the course cannot be held.
+        NaN where the course cannot be held; SOG and power also NaN (fuel rate inf) where the sea is
+        not navigable (NaN waves: land, ice, outside the weather's area or time span), whatever the
+        current there (NaN too, outside the data).
     allowed : ndarray of bool
         Band-free, power within [min load, MCR], course held, sea navigable.
     """
@@ -177,8 +179,15 @@ def evaluate_speeds(
     hs = np.where(navigable, col(sea.hs_m), 0.0)
     period = np.where(navigable, col(sea.period_s), 1.0)
     wave_from = np.where(navigable, col(sea.wave_from_deg), 0.0)
+    # Where the sea is not navigable (no wave data: land, ice, or a point outside the weather's area or
+    # time span, which samplers give as NaN) the current is NaN too; such a point is never allowed and
+    # gets no power, so its current only has to be a number for the vector arithmetic.
     heading, sog = currents.heading_for_course(
-        course, stw, col(sea.current_u_ms), col(sea.current_v_ms), on_unreachable="nan"
+        course,
+        stw,
+        np.where(navigable, col(sea.current_u_ms), 0.0),
+        np.where(navigable, col(sea.current_v_ms), 0.0),
+        on_unreachable="nan",
     )
     held = np.isfinite(heading)
     heading_ok = np.where(held, heading, course)
@@ -196,6 +205,8 @@ def evaluate_speeds(
     )
     in_power = (power <= model.mcr_kw) & (power >= model.min_power_kw)
     allowed = navigable & held & ~forbidden & in_power
+    power = np.where(navigable, power, np.nan)  # no sea state, no power: never the calm-water figure
+    sog = np.where(navigable, sog, np.nan)
     finite_power = np.where(np.isfinite(power), power, 0.0)
     fuel = np.where(np.isfinite(power), model.fuel_rate_tph(finite_power), np.inf)
     return np.where(held, heading, np.nan), sog, power, fuel, allowed

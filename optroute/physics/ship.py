@@ -2,7 +2,9 @@
 
 `Ship` is a frozen dataclass validated on construction: a non-physical value
 raises :class:`~optroute.errors.ShipSpecError` naming the field, the value
-and the allowed range.  Everything weather-dependent (added resistance,
+and the allowed range, and so do propulsion particulars no ship has (an
+admiralty coefficient, power per tonne or share of MCR at the design speed
+out of range), with the likely unit slip named ("36.5 kW looks like MW").  Everything weather-dependent (added resistance,
 involuntary speed loss) lives in :mod:`optroute.physics.performance`; this module is
 the ship in calm water.
 
@@ -64,6 +66,13 @@ _RANGES: dict[str, tuple[float, float, bool]] = {
 # Δ / (ρ Cb L B T) must lie in this band: catches unit slips (kg for t, feet for m).
 _DISPLACEMENT_CONSISTENCY = (0.80, 1.25)
 
+# Plausibility of the propulsion particulars at the design speed; sources and reasoning in the docstring
+# of Ship._check_plausible.  Deliberately wide: no real merchant ship may be refused, while a unit slip
+# (MW or W for kW, m/s or km/h for kn) moves a figure by a factor of 2 to 1000.
+_ADMIRALTY_RANGE = (150.0, 2500.0)  # C_adm = Δ^(2/3) V³ / P [t^(2/3) kn³ / kW]
+_POWER_PER_DISPLACEMENT_RANGE = (0.01, 5.0)  # calm-water P / Δ at the design speed [kW/t]
+_DESIGN_LOAD_RANGE = (0.2, 1.0)  # calm-water P / MCR at the design speed [-]
+
 
 def _range_text(fname: str) -> str:
     """The allowed range of a field, for messages: ``(0, 15]`` or ``[0.35, 0.95]``."""
@@ -71,6 +80,27 @@ def _range_text(fname: str) -> str:
         return ""
     lo, hi, incl = _RANGES[fname]
     return f"{'[' if incl else '('}{lo:g}, {hi:g}]"
+
+
+def _plausibility_problems(displacement_t: float, speed_kn: float, p_design_kw: float, mcr_kw: float) -> list[str]:
+    """What is out of range among C_adm, P/Δ and P/MCR at the design speed (see ``_ADMIRALTY_RANGE``)."""
+    out = []
+    c_adm = displacement_t ** (2.0 / 3.0) * speed_kn**3 / p_design_kw
+    lo, hi = _ADMIRALTY_RANGE
+    if not lo <= c_adm <= hi:
+        out.append(
+            f"admiralty coefficient Δ^(2/3)·V³/P = {c_adm:.4g} t^(2/3)·kn³/kW at {speed_kn:g} kn and "
+            f"{p_design_kw:.4g} kW in calm water, outside {lo:g}–{hi:g}"
+        )
+    lo, hi = _POWER_PER_DISPLACEMENT_RANGE
+    per_t = p_design_kw / displacement_t
+    if not lo <= per_t <= hi:
+        out.append(f"calm-water power per displacement {per_t:.3g} kW/t at {speed_kn:g} kn, outside {lo:g}–{hi:g}")
+    lo, hi = _DESIGN_LOAD_RANGE
+    load = p_design_kw / mcr_kw
+    if not lo <= load <= hi:
+        out.append(f"the design speed needs {load:.3g} of MCR in calm water, outside {lo:g}–{hi:g}")
+    return out
 
 
 def sfoc_ratio(load_fraction: ArrayLike) -> np.ndarray:
@@ -235,6 +265,53 @@ class Ship:
                 f"water, above mcr_kw={self.mcr_kw:.0f} kW (the MCR reaches {self.max_calm_speed_kn:.2f} kn); "
                 "lower the design speed or fix the speed-power table / MCR"
             )
+        self._check_plausible(p_design)
+
+    def _check_plausible(self, p_design: float) -> None:
+        """Refuse propulsion particulars no ship has, naming the likely unit slip.
+
+        Three figures at the design speed V, with P the calm-water brake power there:
+
+        * the admiralty coefficient C_adm = Δ^(2/3) V³ / P [t^(2/3) kn³/kW], the constant of the
+          admiralty law by which power is carried between similar ships (Barrass 2004, *Ship Design
+          and Performance for Masters and Mates*; Molland, Turnock & Hudson 2017, *Ship Resistance
+          and Propulsion*, §16.1).  Merchant hulls in this metric form give a few hundred — the
+          presets 529 (general cargo), 757 and 845 (container ships) — and the accepted range
+          150–2 500 is a factor of about 3 around them;
+        * the power per tonne of displacement P / Δ [kW/t]: about 0.06 for a 350 000 t tanker
+          needing some 20 MW at 15 kn, 0.4 for the 24–25 kn container presets, a few kW/t for fast
+          ferries; accepted 0.01–5;
+        * P / MCR: the service point sits at 85–90 % MCR with a 15 % sea margin (MAN Energy
+          Solutions 2018, *Basic Principles of Ship Propulsion*, "Engine layout"), i.e. 0.74–0.78
+          of MCR in calm water; accepted 0.2–1 (an engine five times the power its design speed
+          needs is not a design; above 1 the design speed is out of the engine's reach, checked
+          before).
+
+        When a figure is out of range, the MCR rescaled by 1000 (MW or W typed as kW; a speed-power
+        table with it) and the design speed converted from m/s or km/h are tried; a conversion that
+        brings all three into range is named in the message ("36.5 kW looks like MW; did you mean
+        36 500 kW?").
+        """
+        problems = _plausibility_problems(self.displacement_t, self.design_speed_kn, p_design, self.mcr_kw)
+        if not problems:
+            return
+        table = self.speed_power_table is not None
+        guesses = []
+        for factor, unit in ((1000.0, "MW"), (0.001, "W")):
+            p = p_design * factor  # the admiralty law's power is set by the MCR; a table slips with the MCR
+            if not _plausibility_problems(self.displacement_t, self.design_speed_kn, p, self.mcr_kw * factor):
+                what = "mcr_kw and the speed-power table's powers" if table else "mcr_kw"
+                better = f"{self.mcr_kw * factor:,.0f}".replace(",", " ")
+                guesses.append(f"{what}: {self.mcr_kw:g} kW looks like {unit}; did you mean {better} kW")
+        for factor, unit in ((1.0 / 0.514444, "m/s"), (1.0 / 1.852, "km/h")):
+            v = self.design_speed_kn * factor
+            p = float(self.calm_power_kw(v)) if table else p_design  # the admiralty law is calibrated at V
+            if v <= _RANGES["design_speed_kn"][1] and not _plausibility_problems(
+                self.displacement_t, v, p, self.mcr_kw
+            ):
+                guesses.append(f"design_speed_kn: {self.design_speed_kn:g} looks like {unit}; did you mean {v:.1f} kn")
+        hint = ("; " + "; or ".join(guesses) + "?") if guesses else "; check the units (kW, knots, tonnes)"
+        raise ShipSpecError(f"Ship {self.name!r}: implausible propulsion particulars: {'; '.join(problems)}{hint}")
 
     def _check_range(self, fname: str, value: Any, lo: float, hi: float, inclusive_low: bool) -> None:
         try:

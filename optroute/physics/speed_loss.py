@@ -55,12 +55,12 @@ from __future__ import annotations
 
 from typing import Literal
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
 from optroute import units
 from optroute._checks import finite
+from optroute._numba import njit
 from optroute.errors import ConfigError, OptrouteError, SeaStateError, ShipSpecError
 from optroute.physics.seaway import G_MS2
 
@@ -581,7 +581,7 @@ _N_SCAN = 32
 _N_BISECT = 52  # the bracket is at most (v_max - v2) / 32 wide: 52 halvings reach 1e-15 of it
 
 
-@numba.njit(cache=True)
+@njit()
 def _kwon_excess(v1, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn):  # pragma: no cover - compiled
     """Weather speed of the calm speed V1 minus the wanted V2 [kn] (Kwon 2008, loss floored at 0)."""
     fn = v1 * inv_sqrt_gl_kn
@@ -589,7 +589,7 @@ def _kwon_excess(v1, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn):  # pragma: no co
     return v1 * (1.0 - max(loss, 0.0)) - v2
 
 
-@numba.njit(cache=True)
+@njit()
 def _invert_kwon(v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn, v_max, n_scan, n_bisect):  # pragma: no cover - compiled
     """Smallest V1 in [V2, V_max] with V1 (1 - max(k C_U(Fn(V1)), 0)) >= V2, per element; NaN if none.
 

@@ -272,7 +272,9 @@ def legs_table(
     hs = np.where(nav, sea.hs_m, np.nan)
     period = np.where(nav, sea.period_s, np.nan)
     heading = np.where(np.isfinite(ev.heading), ev.heading, ev.course)
-    fuel = np.bincount(ev.leg, weights=w * np.where(np.isfinite(ev.fuel_tph), ev.fuel_tph, np.inf), minlength=n)
+    # a piece with no fuel figure (course not held, no sea state) makes its leg's fuel inf; leg ends weigh 0
+    rate = np.where(np.isfinite(ev.fuel_tph), ev.fuel_tph, np.inf)
+    fuel = np.bincount(ev.leg, weights=np.multiply(w, rate, out=np.zeros(w.shape), where=w > 0), minlength=n)
     power = wmean(ev.power)
     heading_leg = _circular_mean_deg(heading, w, ev.leg, n)
     wave_from = _circular_mean_deg(np.where(nav, sea.wave_from_deg, 0.0), w, ev.leg, n)

@@ -41,16 +41,11 @@ Examples
 
 from __future__ import annotations
 
-import asyncio
-import concurrent.futures
 import contextlib
 import datetime as _dt
 import functools
 import math
 import numbers
-import pickle
-import socket
-import struct
 import time
 import traceback
 import uuid
@@ -67,6 +62,15 @@ import xarray as xr
 from optroute import _store
 from optroute._store import StudyError
 from optroute.errors import ConfigError
+from optroute.studies import fingerprint
+from optroute.studies.cluster import (
+    SYNCHRONOUS,
+    SchedulerUnreachable,
+    check_picklable,
+    dask_client,
+    import_distributed,
+)
+from optroute.studies.fingerprint import CaseInput
 
 __all__ = [
     "SYNCHRONOUS",
@@ -78,30 +82,11 @@ __all__ = [
     "run_study",
 ]
 
-#: ``scheduler_address`` that runs every case in this process, one after the other.
-SYNCHRONOUS = "synchronous"
-
 CaseResult = xr.Dataset | Mapping[str, Any]
 #: A case function: ``{axis name: value}`` → dataset or mapping of name → array.
 CaseFunction = Callable[[dict[str, Any]], CaseResult]
 #: A progress callback: ``(cases done, cases in the study)``.
 ProgressCallback = Callable[[int, int], None]
-
-
-class SchedulerUnreachable(StudyError):
-    """The Dask scheduler at ``scheduler_address`` cannot be reached.
-
-    Parameters
-    ----------
-    message : str
-        What was tried and how to fix it.
-    address : str
-        The address as given.
-    """
-
-    def __init__(self, message: str, address: str) -> None:
-        super().__init__(message)
-        self.address = address
 
 
 # --------------------------------------------------------------------------- axes
@@ -294,7 +279,9 @@ def _encode(ds: xr.Dataset) -> bytes:
         return bytes(ds.to_netcdf(engine="h5netcdf"))
 
 
-def _failure(index: tuple[int, ...], exc: BaseException, runtime_s: float, tb: str | None = None) -> _Outcome:
+def _failure(
+    index: tuple[int, ...], exc: BaseException, runtime_s: float, tb: str | None = None, inputs: str | None = None
+) -> _Outcome:
     status = f"failed: {type(exc).__name__}: {exc}"
     if tb is None:
         tb = "".join(traceback.format_exception(exc))
@@ -304,11 +291,17 @@ def _failure(index: tuple[int, ...], exc: BaseException, runtime_s: float, tb: s
         _store.RUNTIME_ATTR: runtime_s,
         _store.TRACEBACK_ATTR: tb,
     }
+    if inputs is not None:
+        attrs[_store.INPUTS_ATTR] = inputs
     return _Outcome(index, status, _encode(xr.Dataset(attrs=attrs)), runtime_s)
 
 
 def _compute_case(
-    case_fn: CaseFunction, index: tuple[int, ...], params: dict[str, Any], reserved: Sequence[str]
+    case_fn: CaseFunction,
+    index: tuple[int, ...],
+    params: dict[str, Any],
+    reserved: Sequence[str],
+    inputs: str | None = None,
 ) -> _Outcome:
     """Run one case and encode its outcome as NetCDF bytes; never raises for an error of the case.
 
@@ -329,9 +322,11 @@ def _compute_case(
                 _store.RUNTIME_ATTR: runtime,
             }
         )
+        if inputs is not None:
+            ds.attrs[_store.INPUTS_ATTR] = inputs
         return _Outcome(index, "ok", _encode(ds), runtime)
     except Exception as exc:  # noqa: BLE001 - recorded per case, by design
-        return _failure(index, exc, time.perf_counter() - start)
+        return _failure(index, exc, time.perf_counter() - start, inputs=inputs)
 
 
 def _run_case(
@@ -341,6 +336,7 @@ def _run_case(
     reserved: Sequence[str],
     store: str | None = None,
     replace: bool = False,
+    inputs: str | None = None,
 ) -> _Outcome:
     """The task of one case: compute it and, when ``store`` is given, write its file from here.
 
@@ -352,7 +348,7 @@ def _run_case(
     """
     if store is not None and not replace and (_store.cases_dir(Path(store)) / _store.case_name(index)).exists():
         return _Outcome(index, "stored", None, math.nan)
-    outcome = _compute_case(case_fn, index, params, reserved)
+    outcome = _compute_case(case_fn, index, params, reserved, inputs)
     if store is None:
         return outcome
     try:
@@ -367,192 +363,6 @@ def _run_case(
 # --------------------------------------------------------------------------- execution
 
 
-def _import_distributed() -> Any:
-    try:
-        import distributed
-    except ImportError as exc:
-        raise StudyError(
-            "running a study on a Dask cluster needs the 'distributed' package, which is not installed; "
-            "install it (pip install 'optroute[dask]' or pip install distributed), "
-            f"or pass scheduler_address={SYNCHRONOUS!r} to run in this process"
-        ) from exc
-    return distributed
-
-
-def _check_picklable(case_fn: Callable[..., Any]) -> None:
-    try:
-        import cloudpickle
-    except ImportError:  # pragma: no cover - cloudpickle comes with distributed
-        dumps = pickle.dumps
-    else:
-        dumps = cloudpickle.dumps
-    try:
-        dumps(case_fn)
-    except (pickle.PicklingError, TypeError, AttributeError, ValueError, RecursionError) as exc:
-        raise ConfigError(
-            f"case_fn={case_fn!r} cannot be pickled to send it to the Dask workers ({type(exc).__name__}: {exc}); "
-            "define it as a module-level function in an importable module and bind fixed arguments with "
-            f"functools.partial, or pass scheduler_address={SYNCHRONOUS!r} to run in this process"
-        ) from exc
-
-
-async def _scheduler_identity(address: str, timeout_s: float) -> dict[str, Any]:
-    from distributed.core import rpc
-
-    async with rpc(address, timeout=timeout_s) as remote:
-        return await remote.identity()
-
-
-def _probe(address: str, timeout_s: float) -> None:
-    """Fail within ``timeout_s`` unless a Dask scheduler answers at ``address``.
-
-    A refused TCP connection fails at once.  A port that accepts but does not
-    answer like a Dask scheduler (on which :class:`distributed.Client` would
-    wait for ever) fails after ``timeout_s``: the identity request runs on a
-    fresh event loop in a helper thread, so this also works where an event
-    loop is already running (Jupyter).
-    """
-    distributed = _import_distributed()
-    try:
-        scheme, location = distributed.comm.addressing.parse_address(address)
-        host, port = (
-            distributed.comm.addressing.parse_host_port(location, default_port=8786)
-            if scheme in ("tcp", "tls")
-            else (None, None)
-        )
-    except ValueError as exc:
-        raise SchedulerUnreachable(
-            f"scheduler_address={address!r} is not a Dask address ({exc}); give one like 'tcp://127.0.0.1:8786', "
-            f"or None for a local cluster, or {SYNCHRONOUS!r} to run in this process",
-            address,
-        ) from exc
-    if host is not None:
-        try:
-            with socket.create_connection((host, port), timeout=timeout_s) as sock:
-                if scheme == "tcp":
-                    _check_greeting(sock, address, timeout_s)
-        except OSError as exc:  # refused, unreachable, or silent for timeout_s (socket.timeout is an OSError)
-            raise _unreachable(address, timeout_s, exc) from exc
-    if scheme != "tcp":  # TLS needs the caller's security settings; the Client's own timeout applies
-        return
-    with concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="optroute-probe") as pool:
-        job = pool.submit(asyncio.run, asyncio.wait_for(_scheduler_identity(address, timeout_s), timeout_s))
-        try:
-            identity = job.result()
-        except (OSError, TimeoutError) as exc:
-            raise _unreachable(address, timeout_s, exc) from exc
-        except (ValueError, TypeError, KeyError, IndexError, struct.error, MemoryError, OverflowError) as exc:
-            # bytes that are not Dask's, read as its frames (a huge length prefix is a MemoryError)
-            why = f"its answer to Dask's handshake does not decode ({type(exc).__name__}: {str(exc)[:160]})"
-            raise _not_dask(address, b"", why) from exc
-    kind = identity.get("type") if isinstance(identity, dict) else None
-    if kind != "Scheduler":
-        raise SchedulerUnreachable(
-            f"{address!r} answers as a Dask {kind or 'server of unknown kind'}, not a scheduler; give the "
-            "scheduler's address (printed by `dask scheduler`, or client.scheduler.address)",
-            address,
-        )
-
-
-#: The largest first message a Dask server may greet with [bytes]: its handshake is a few hundred bytes.
-_MAX_GREETING_BYTES = 1 << 20
-
-
-def _check_greeting(sock: socket.socket, address: str, timeout_s: float) -> None:
-    """Read the first 8 bytes a Dask server sends on accepting a connection; refuse what is not Dask's.
-
-    A Dask comm (``distributed.comm.core``: both ends write their handshake first, then read)
-    starts every message with its length as an 8-byte unsigned integer (``distributed.comm.tcp``,
-    ``struct`` format ``"Q"``).  Any other server — HTTP (the dashboard's port), SSH, a database —
-    answers with text or nothing: text read as that length asks for exabytes (``distributed``
-    then fails allocating it), and silence is a timeout.  Both fail here, before any Dask code
-    reads the bytes.
-
-    Raises
-    ------
-    SchedulerUnreachable
-        The server closed the connection, said nothing within ``timeout_s`` (a Dask server greets at
-        once), or its first bytes are not a plausible Dask greeting.
-    """
-    sock.settimeout(timeout_s)
-    head = b""
-    while len(head) < 8:
-        try:
-            chunk = sock.recv(8 - len(head))
-        except TimeoutError:  # accepts connections but does not greet
-            raise _not_dask(address, head, f"it sent nothing within timeout_s={timeout_s:g} s") from None
-        if not chunk:
-            raise _not_dask(address, head, "it closed the connection")
-        head += chunk
-    (nbytes,) = struct.unpack("Q", head)
-    if not 0 < nbytes <= _MAX_GREETING_BYTES:
-        sock.settimeout(min(timeout_s, 0.2))  # a little more of the answer, to name it in the message
-        with contextlib.suppress(OSError):
-            head += sock.recv(56)
-        raise _not_dask(address, head, f"its first 8 bytes give a message length of {nbytes} bytes")
-
-
-def _not_dask(address: str, head: bytes, why: str) -> SchedulerUnreachable:
-    text = head[:64].decode("ascii", "backslashreplace")
-    kind = " (an HTTP server: a Dask dashboard, usually port 8787?)" if head.startswith(b"HTTP/") else ""
-    return SchedulerUnreachable(
-        f"{address!r} answers, but not as a Dask scheduler{kind}: {why}"
-        + (f"; it sent {text!r}" if text else "")
-        + "; give the scheduler's address (printed by `dask scheduler` as 'Scheduler at: tcp://…', port 8786 by "
-        f"default), or pass scheduler_address=None for a local cluster ({SYNCHRONOUS!r} runs in this process)",
-        address,
-    )
-
-
-def _unreachable(address: str, timeout_s: float, exc: BaseException) -> SchedulerUnreachable:
-    return SchedulerUnreachable(
-        f"cannot reach the Dask scheduler at {address!r} within timeout_s={timeout_s:g} s "
-        f"({type(exc).__name__}: {exc}); start one there (`dask scheduler`, then `dask worker {address}`), "
-        f"correct the address, or pass scheduler_address=None for a local cluster "
-        f"({SYNCHRONOUS!r} runs in this process)",
-        address,
-    )
-
-
-@contextlib.contextmanager
-def _client(scheduler_address: str | None, n_workers: int, threads_per_worker: int, timeout_s: float) -> Iterator[Any]:
-    distributed = _import_distributed()
-    if scheduler_address is None:
-        cluster = distributed.LocalCluster(
-            n_workers=n_workers,
-            threads_per_worker=threads_per_worker,
-            processes=True,
-            host="127.0.0.1",
-            dashboard_address=None,
-            worker_dashboard_address=None,
-        )
-        try:
-            client = distributed.Client(cluster, timeout=timeout_s, set_as_default=False)
-            try:
-                yield client
-            finally:
-                client.close()
-        finally:
-            cluster.close()
-        return
-    _probe(scheduler_address, timeout_s)
-    try:
-        client = distributed.Client(scheduler_address, timeout=timeout_s, set_as_default=False)
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise _unreachable(scheduler_address, timeout_s, exc) from exc
-    try:
-        try:
-            client.wait_for_workers(1, timeout=timeout_s)
-        except TimeoutError as exc:
-            raise StudyError(
-                f"the Dask scheduler at {scheduler_address!r} has no workers after {timeout_s:g} s; "
-                f"start some (`dask worker {scheduler_address}`) or raise timeout_s"
-            ) from exc
-        yield client
-    finally:
-        client.close()
-
-
 def _run_distributed(
     client: Any,
     case_fn: CaseFunction,
@@ -562,6 +372,7 @@ def _run_distributed(
     on_outcome: Callable[[_Outcome], None],
     store: str | None,
     replace: set[tuple[int, ...]],
+    inputs_of: Callable[[tuple[int, ...]], str | None],
 ) -> None:
     from distributed import as_completed
 
@@ -581,6 +392,7 @@ def _run_distributed(
             reserved,
             store,
             index in replace,
+            inputs_of(index),
             pure=False,
             key=f"optroute-study-{token}-{name}",
         )
@@ -609,7 +421,7 @@ def _run_distributed(
         elif fut.status == "error":  # the task itself failed: a worker died under it (KilledWorker), SystemExit…
             exc = fut.exception()
             tb = "".join(traceback.format_tb(fut.traceback())) + "".join(traceback.format_exception_only(exc))
-            outcome = _failure(index, exc, math.nan, tb)
+            outcome = _failure(index, exc, math.nan, tb, inputs_of(index))
         else:
             raise StudyError(
                 f"the Dask cluster lost case {index} (its future is {fut.status!r}), most likely because the "
@@ -620,6 +432,28 @@ def _run_distributed(
 
 
 # --------------------------------------------------------------------------- public API
+
+
+@contextlib.contextmanager
+def _writable_store(store: Path) -> Iterator[None]:
+    """Create ``store`` (and its ``cases`` folder) and turn any refusal to write it into a StudyError."""
+    try:
+        _store.cases_dir(store).mkdir(parents=True, exist_ok=True)
+        probe = _store.cases_dir(store) / f"{_store.TMP_PREFIX}probe-{uuid.uuid4().hex[:8]}"
+        probe.touch()
+        probe.unlink()
+    except OSError as exc:
+        raise StudyError(
+            f"study store {str(store)!r} is not writable ({type(exc).__name__}: {exc}); give a store directory "
+            "you can write (or fix its permissions); load_study() reads a finished store without writing it"
+        ) from exc
+    try:
+        yield
+    except PermissionError as exc:  # a file of the store refused after the probe (the lock, the manifest)
+        raise StudyError(
+            f"study store {str(store)!r} is not writable: {exc.filename or store!s} refused ({exc.strerror}); "
+            "fix its permissions or give another store"
+        ) from exc
 
 
 def run_study(
@@ -636,6 +470,8 @@ def run_study(
     retry_failed: bool = False,
     output: str | Path | None = None,
     store_on_workers: bool | None = None,
+    case_inputs: Callable[[dict[str, Any]], Mapping[str, CaseInput]] | None = None,
+    on_changed_inputs: str = "error",
 ) -> xr.Dataset:
     """Run ``case_fn`` on every combination of the axes' values, resumably, and combine the results.
 
@@ -722,9 +558,17 @@ def run_study(
     SchedulerUnreachable
         ``scheduler_address`` refuses or does not answer within ``timeout_s``.
     StudyError
-        The store belongs to a study with other axes, is being written by
-        another run, or the cluster was lost mid-way (the study then resumes
-        when run again).
+        The store belongs to a study with other axes, holds cases computed
+        from other inputs (see ``case_inputs``), is not writable (the message
+        names the path), is being written by another run, or the cluster was
+        lost mid-way (the study then resumes when run again).
+
+    Warns
+    -----
+    UserWarning
+        A stored case file is corrupt or truncated: it is moved aside
+        (``<name>.corrupt``) and computed again; or cases of changed inputs
+        are computed again (``on_changed_inputs="recompute"``).
 
     Notes
     -----
@@ -782,8 +626,8 @@ def run_study(
     _store.output_format(out_path)
     study_axes = _make_axes(axes)
     if not synchronous:
-        _import_distributed()
-        _check_picklable(case_fn)
+        import_distributed()
+        check_picklable(case_fn)
     shape = tuple(len(a.values) for a in study_axes)
     total = math.prod(shape)
     names = tuple(a.name for a in study_axes)
@@ -792,8 +636,18 @@ def run_study(
     def params(index: tuple[int, ...]) -> dict[str, Any]:
         return {a.name: a.values[i] for a, i in zip(study_axes, index, strict=True)}
 
-    _store.cases_dir(store).mkdir(parents=True, exist_ok=True)
-    with _store.locked(store):
+    if on_changed_inputs not in ("error", "recompute"):
+        raise ConfigError(f"on_changed_inputs={on_changed_inputs!r} is not known; use 'error' or 'recompute'")
+    if case_inputs is not None and not callable(case_inputs):
+        raise ConfigError(f"case_inputs={case_inputs!r} is not callable; pass a function of the case's axis values")
+
+    def inputs_of(index: tuple[int, ...]) -> str | None:
+        return None if case_inputs is None else fingerprint.encode(case_inputs(params(index)))
+
+    def label(index: tuple[int, ...]) -> str:
+        return ", ".join(f"{a.name}={a.labels[i]}" for a, i in zip(study_axes, index, strict=True))
+
+    with _writable_store(store), _store.locked(store):
         _store.remove_temporaries(store)
         manifest = _manifest(study_axes, case_fn)
         stored = _store.read_manifest(store)
@@ -817,10 +671,14 @@ def run_study(
                     "free disk space or fix permissions, or choose another store"
                 ) from exc
 
-        existing = _store.list_cases(store, shape)
+        expected = None if case_inputs is None else (lambda index: case_inputs(params(index)))
+        checked = fingerprint.check_stored_cases(
+            store, _store.list_cases(store, shape), expected, label, on_changed_inputs
+        )
+        existing = {i: path for i, (path, _) in checked.ok.items()}
         done = existing
         if retry_failed:
-            done = {i: p for i, p in existing.items() if _store.read_case(p).attrs[_store.STATUS_ATTR] == "ok"}
+            done = {i: path for i, (path, status) in checked.ok.items() if status == "ok"}
         pending = [index for index in np.ndindex(*shape) if index not in done]
         n_done = total - len(pending)
         if progress is not None:
@@ -843,16 +701,16 @@ def run_study(
 
         if pending and synchronous:
             for index in pending:
-                on_outcome(_run_case(case_fn, index, params(index), reserved))
+                on_outcome(_run_case(case_fn, index, params(index), reserved, inputs=inputs_of(index)))
         elif pending:
             import dask.system
 
             workers = n_workers if n_workers is not None else max(1, dask.system.CPU_COUNT // threads_per_worker)
-            with _client(scheduler_address, min(workers, len(pending)), threads_per_worker, timeout_s) as client:
+            with dask_client(scheduler_address, min(workers, len(pending)), threads_per_worker, timeout_s) as client:
                 on_workers = scheduler_address is None if store_on_workers is None else store_on_workers
                 store_arg = str(store.resolve()) if on_workers else None
                 retried = {index for index in pending if index in existing}
-                _run_distributed(client, case_fn, pending, params, reserved, on_outcome, store_arg, retried)
+                _run_distributed(client, case_fn, pending, params, reserved, on_outcome, store_arg, retried, inputs_of)
 
         ds = _store.combine(store, manifest)
         try:

@@ -611,9 +611,9 @@ def tradeoff(
     spec = _Spec(corridor, weather, ship, t0, objective, dict(optimise_kwargs), token=uuid.uuid4().hex)
     parallel = scheduler_address is not None or (n_workers or 0) >= 2
     if parallel:
-        from optroute.studies.study import _client
+        from optroute.studies.cluster import dask_client
 
-        with _client(scheduler_address, int(n_workers or 0), 1, timeout_s) as client:
+        with dask_client(scheduler_address, int(n_workers or 0), 1, timeout_s) as client:
             return _front(spec, route, user_h, n, progress, _Distributed(client, spec), warm_start, monotone_rtol)
     return _front(spec, route, user_h, n, progress, _Serial(), warm_start, monotone_rtol)
 

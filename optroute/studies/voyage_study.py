@@ -43,6 +43,7 @@ import xarray as xr
 from optroute.errors import ConfigError
 from optroute.physics.ship import Ship
 from optroute.search.route import Corridor
+from optroute.studies.fingerprint import CaseInput, dataset_digest, digest, file_digest
 from optroute.studies.study import ProgressCallback, run_study
 from optroute.studies.tradeoff import _FORBIDDEN, _solve_point, _Spec
 from optroute.units import as_utc_time, format_utc, h_to_timedelta, timedelta_to_h
@@ -219,6 +220,93 @@ def _eta_axis(etas: Any, departure: np.datetime64 | None) -> tuple[str, list[Any
     return "eta", times
 
 
+# --------------------------------------------------------------------------- what determines a case
+
+
+def _ship_input(ship: Ship) -> CaseInput:
+    return CaseInput(
+        digest(ship),
+        f"ship {ship.name!r} (L {ship.length_m:g} m, displacement {ship.displacement_t:g} t, "
+        f"{ship.design_speed_kn:g} kn, MCR {ship.mcr_kw:g} kW)",
+    )
+
+
+def _weather_input(label: str, ref: xr.Dataset | str) -> CaseInput:
+    """The weather's content: a file's bytes, a dataset's values and coordinates, a built-in scenario as built."""
+    if isinstance(ref, str) and ref in scenario_names() and not Path(ref).exists():
+        ds = load_weather(ref)
+        return CaseInput(dataset_digest(ds), f"built-in scenario {ref!r} ({_span(ds)})")
+    if isinstance(ref, str):
+        stat = Path(ref).stat()
+        when = np.datetime64(int(stat.st_mtime), "s")
+        return CaseInput(file_digest(ref), f"weather file {ref!r} ({stat.st_size} bytes, modified {when} UTC)")
+    return CaseInput(dataset_digest(ref), f"weather dataset {label!r} ({_span(ref)})")
+
+
+def _span(ds: xr.Dataset) -> str:
+    parts = []
+    if "time" in ds.coords and ds.sizes.get("time", 0):
+        t = ds["time"].values
+        parts.append(f"{str(t[0])[:16]} to {str(t[-1])[:16]}")
+    if "hs_m" in ds:
+        parts.append(f"Hs up to {float(ds['hs_m'].max(skipna=True)):.3g} m")
+    return ", ".join(parts) or "no time axis"
+
+
+def _route_input(
+    corridor: Corridor | None,
+    endpoints: Any,
+    corridor_width_nm: float,
+    search_options: Mapping[str, Any],
+) -> CaseInput:
+    if corridor is not None:
+        wp = corridor.waypoints
+        return CaseInput(
+            digest(corridor),
+            f"corridor of {corridor.length_nm:.1f} nm, {wp.shape[0]} waypoints from "
+            f"({wp[0, 0]:.4g}, {wp[0, 1]:.4g}) to ({wp[-1, 0]:.4g}, {wp[-1, 1]:.4g})",
+        )
+    (a, b) = endpoints
+    return CaseInput(
+        digest((endpoints, corridor_width_nm, dict(search_options))),
+        f"route searched from {a} to {b} in a corridor {corridor_width_nm:g} nm wide"
+        + (f" (search options {dict(search_options)})" if search_options else ""),
+    )
+
+
+def _inputs_fn(
+    ships: Mapping[str, Ship],
+    weathers: Mapping[str, xr.Dataset | str],
+    route: CaseInput,
+    departure: np.datetime64 | None,
+    objective: str,
+    optimise_kwargs: Mapping[str, Any],
+) -> Any:
+    """``case → {input name: CaseInput}`` for :func:`run_study`: each input digested once, here."""
+    ship_in = {label: _ship_input(s) for label, s in ships.items()}
+    weather_in = {label: _weather_input(label, ref) for label, ref in weathers.items()}
+    dep = (
+        CaseInput(digest(departure), f"departure {str(departure)[:19]} UTC")
+        if departure is not None
+        else CaseInput(digest(None), "departure at the weather's first time")
+    )
+    opts = {"objective": objective, **optimise_kwargs}
+    opts_in = CaseInput(digest(opts), f"options {', '.join(f'{k}={v!r:.60}' for k, v in sorted(opts.items()))}")
+
+    def inputs(case: Mapping[str, Any]) -> dict[str, CaseInput]:
+        eta_name = "eta_h" if "eta_h" in case else "eta"
+        return {
+            "ship": ship_in[case["ship"]],
+            "weather": weather_in[case["scenario"]],
+            "route": route,
+            "departure": dep,
+            "eta": CaseInput(digest(case[eta_name]), f"{eta_name}={case[eta_name]}"),
+            "options": opts_in,
+        }
+
+    return inputs
+
+
 # --------------------------------------------------------------------------- public API
 
 
@@ -241,6 +329,7 @@ def study(
     resume: bool = True,
     retry_failed: bool = False,
     timeout_s: float = 10.0,
+    on_changed_inputs: str = "error",
     **optimise_kwargs: Any,
 ) -> xr.Dataset:
     """Optimise every ship × weather × ETA combination on Dask, resumably; one stored case at a time.
@@ -272,6 +361,14 @@ def study(
         As in :func:`optroute.studies.study.run_study`: ``None`` starts a local cluster (``n_workers``
         processes on 127.0.0.1), ``"tcp://host:port"`` uses an existing one (module docstring),
         ``n_workers=0`` runs in this process; ``progress(done, total)``.
+    on_changed_inputs : {"error", "recompute"}
+        Every case records what it was computed from: the ship's particulars, the weather's
+        content (a weather file's bytes, a dataset's values and coordinates, a built-in scenario
+        as built), the corridor or the endpoints and search options, the departure, the ETA and
+        the options.  A stored case whose record differs from this call is a
+        :class:`~optroute.studies.study.StudyError` naming what changed (``"error"``, the
+        default), or is computed again and replaced (``"recompute"``).  Corrupt or truncated
+        case files are always moved aside and computed again, with a warning.
     corridor_width_nm, search_options
         With ``start``/``end``: the corridor's total width [nm] and :func:`optroute.search_route` options.
     **optimise_kwargs
@@ -294,7 +391,9 @@ def study(
     SchedulerUnreachable
         ``scheduler_address`` does not answer within ``timeout_s``; the message names the address.
     StudyError
-        The store holds another study, or the cluster was lost (run again to resume).
+        The store holds another study or cases computed from other inputs (the message names
+        what changed), is not writable (the message names it), or the cluster was lost (run
+        again to resume).
     """
     if objective not in ("fuel", "cost"):
         raise ConfigError(f"objective={objective!r} is not a study objective; use 'fuel' or 'cost'")
@@ -340,6 +439,15 @@ def study(
         resume=resume,
         retry_failed=retry_failed,
         timeout_s=timeout_s,
+        case_inputs=_inputs_fn(
+            ship_map,
+            weather_map,
+            _route_input(corridor, endpoints, float(corridor_width_nm), dict(search_options or {})),
+            t0,
+            objective,
+            dict(optimise_kwargs),
+        ),
+        on_changed_inputs=on_changed_inputs,
     )
     if t0 is not None and eta_name == "eta_h":
         ds = ds.assign_coords(eta=("eta_h", [t0 + h_to_timedelta(h) for h in eta_values]))

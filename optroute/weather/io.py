@@ -33,6 +33,8 @@ the variable or file; nothing is filled in silently.
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import os
 import warnings
 from collections.abc import Hashable, Mapping, Sequence
@@ -413,16 +415,73 @@ def _open_path(path: Path, engine: str | None, chunks: Any, backend_kwargs: Mapp
                 f'{path}: reading GRIB needs cfgrib and ecCodes; install them with pip install "optroute[grib]"'
             )
         kwargs.setdefault("indexpath", "")  # never write .idx files beside the data
-    try:
-        if isinstance(chunks, str) and chunks == "auto":
-            raw = xr.open_dataset(path, engine=engine, chunks=None, cache=False, backend_kwargs=kwargs or None)
-            return raw.chunk(_slice_chunks(raw))
-        return xr.open_dataset(path, engine=engine, chunks=chunks, backend_kwargs=kwargs or None)
-    except (OSError, ValueError, RuntimeError, KeyError, TypeError, IndexError, EOFError) as exc:
-        raise WeatherSchemaError(
-            f"{path}: could not be read with the {engine!r} engine ({type(exc).__name__}: {exc}); "
-            "the file is truncated, corrupted or not weather data"
-        ) from exc
+    with _CfgribLog() if engine == "cfgrib" else contextlib.nullcontext() as grib_log:
+        try:
+            if isinstance(chunks, str) and chunks == "auto":
+                raw = xr.open_dataset(path, engine=engine, chunks=None, cache=False, backend_kwargs=kwargs or None)
+                out = raw.chunk(_slice_chunks(raw))
+            else:
+                out = xr.open_dataset(path, engine=engine, chunks=chunks, backend_kwargs=kwargs or None)
+        except (OSError, ValueError, RuntimeError, KeyError, TypeError, IndexError, EOFError) as exc:
+            said = f"; ecCodes said: {grib_log.summary()}" if grib_log is not None and grib_log.records else ""
+            raise WeatherSchemaError(
+                f"{path}: could not be read with the {engine!r} engine ({type(exc).__name__}: {exc}){said}; "
+                "the file is truncated, corrupted or not weather data"
+            ) from exc
+    if grib_log is not None and grib_log.records:
+        warnings.warn(
+            f"{path}: cfgrib skipped part of the file ({grib_log.summary()}); the rest was read — check that "
+            "no time step or variable is missing",
+            stacklevel=3,
+        )
+    return out
+
+
+class _CfgribLog(logging.Handler):
+    """Collects what cfgrib logs while it opens a file, instead of letting it print tracebacks.
+
+    cfgrib logs every message it cannot decode with its traceback (``LOG.exception("skipping
+    corrupted Message")``), hundreds of lines for a text file named ``.grib``; through Python's
+    last-resort handler they reach stderr before the one error that matters.  While the file is
+    opened the ``cfgrib`` logger sends its records here only (and cfgrib's warnings are held);
+    :meth:`summary` turns them into one line for the error or warning raised instead.
+    """
+
+    def __init__(self) -> None:
+        super().__init__(logging.DEBUG)
+        self.records: list[logging.LogRecord] = []
+        self._logger = logging.getLogger("cfgrib")
+        self._saved: tuple[bool, int] = (True, logging.NOTSET)
+        self._warnings = warnings.catch_warnings(record=True)
+        self._caught: list[warnings.WarningMessage] | None = None
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if record.levelno >= logging.WARNING:
+            self.records.append(record)
+
+    def __enter__(self) -> _CfgribLog:
+        self._saved = (self._logger.propagate, self._logger.level)
+        self._logger.addHandler(self)
+        self._logger.propagate = False
+        self._caught = self._warnings.__enter__()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        caught = self._caught or []
+        self._warnings.__exit__(*exc)
+        for w in caught:  # cfgrib's own warnings are dropped; anybody else's pass on
+            if "cfgrib" not in str(w.filename):
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        self._logger.removeHandler(self)
+        self._logger.propagate, level = self._saved
+        self._logger.setLevel(level)
+
+    def summary(self) -> str:
+        """``"<n> undecodable messages: <last error>"`` from the records collected."""
+        last = self.records[-1]
+        cause = f"{type(last.exc_info[1]).__name__}: {last.exc_info[1]}" if last.exc_info and last.exc_info[1] else ""
+        text = last.getMessage() + (f" ({cause})" if cause else "")
+        return f"{len(self.records)} x {text}" if len(self.records) > 1 else text
 
 
 def _slice_chunks(raw: xr.Dataset) -> dict[Hashable, int]:

@@ -127,11 +127,12 @@ except ImportError:
     numba = None
     _trilinear_numba = _trilinear_numba_parallel = _sincos_numba = None
 else:
-    _jit = {"cache": True, "nogil": True}
-    _trilinear_point = numba.njit(inline="always", **_jit)(_trilinear_body)
-    _trilinear_numba = numba.njit(**_jit)(_trilinear_serial)
-    _trilinear_numba_parallel = numba.njit(parallel=True, **_jit)(_trilinear_parallel)
-    _sincos_numba = numba.njit(parallel=True, **_jit)(_sincos_parallel)
+    from optroute._numba import njit
+
+    _trilinear_point = njit(inline="always", nogil=True)(_trilinear_body)
+    _trilinear_numba = njit(nogil=True)(_trilinear_serial)
+    _trilinear_numba_parallel = njit(parallel=True, nogil=True)(_trilinear_parallel)
+    _sincos_numba = njit(parallel=True, nogil=True)(_sincos_parallel)
 
 
 def _unit_vectors(deg: np.ndarray, engine: str) -> tuple[np.ndarray, np.ndarray]:
