@@ -1,4 +1,4 @@
-"""The demo voyage: seed 000's San Diego → Tokyo passage through two winter storms, searched and optimised.
+"""The demo voyage: Boeing EP 2145155's San Diego → Tokyo passage through two winter storms, searched and optimised.
 
 ``optroute demo`` runs the worked example of Boeing's EP 2145155 (Figs.
 23–26) end to end with optroute's own machinery, on built-in weather and a
@@ -61,7 +61,7 @@ SAN_DIEGO = (32.71, -117.17)
 TOKYO = (35.65, 139.77)
 SHIP_PRESET = "container_8000teu"
 SERVICE_SPEED_KN = 25.0  # the worked example's speed, also the optimiser's top speed
-HOURLY_COST_USD = 60_000.0  # seed 000 (EP 2145155 p. 384): "60.000 dólares por hora"
+HOURLY_COST_USD = 60_000.0  # Boeing EP 2145155 p. 384: "60.000 dólares por hora"
 FUEL_PRICE_USD_PER_T = 600.0  # bunker price for the fuel column [USD/t] (optimise_corridor's default)
 SEED_ETA_H = 8 * 24 + 8.0  # EP 2145155: the routed ship arrives after 8 days 8 hours [h]
 CORRIDOR_WIDTH_NM = 100.0  # total width of the optimiser's corridor about the searched route [nm]
@@ -153,7 +153,7 @@ class DemoResult:
         saved_usd = self.cost_usd(gc.total_duration_h, gc.total_fuel_t) - self.cost_usd(best_h, best_fuel)
         lines.append(
             f"{best_name.split(' (')[0]} against the great circle: {_dh(saved_h)} earlier, "
-            f"{saved_usd / 1e3:,.0f} kUSD saved (seed 000 saved 3 d 16 h; its '256 kUSD at 60 kUSD/h' does not "
+            f"{saved_usd / 1e3:,.0f} kUSD saved (EP 2145155 saved 3 d 16 h; its '256 kUSD at 60 kUSD/h' does not "
             "add up: 88 h x 60 kUSD/h = 5.3 MUSD)"
         )
         if self.plan is not None:

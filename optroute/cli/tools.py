@@ -25,7 +25,7 @@ def add_demo(sub: argparse._SubParsersAction, common: argparse.ArgumentParser) -
         sub,
         common,
         "demo",
-        help="San Diego -> Tokyo through two winter storms (seed 000's worked example)",
+        help="San Diego -> Tokyo through two winter storms (the worked example of Boeing EP 2145155)",
         description=(
             "Search the route of a 25 kn 8000 TEU container ship from San Diego to Tokyo through the built-in "
             "north_pacific_storms() forecast and compare it with the great circle sailed with forced slow-downs; "

@@ -172,14 +172,14 @@ class Exclusion:
 
     @classmethod
     def from_cyclone(cls, source: xr.Dataset | str, margin_km: float = 30.0) -> Exclusion:
-        """Seed 004's avoidance circle (radius of Beaufort-7 winds + ``margin_km``) along a cyclone track.
+        """The typhoon-avoidance patent's circle (radius of Beaufort-7 winds + ``margin_km``) along a cyclone track.
 
         Parameters
         ----------
         source : xarray.Dataset or str
             A :func:`optroute.scenarios.tropical_cyclone` dataset or its ``attrs["cyclone"]``.
         margin_km : float
-            Safety margin added to the force-7 radius [km] (seed 004 settles on 30 km).
+            Safety margin added to the force-7 radius [km] (the typhoon-avoidance patent settles on 30 km).
         """
         from optroute.weather.cyclone import cyclone_track
 

@@ -2,7 +2,7 @@
 
 The route search's edge cost (Boeing EP 2145155 Figs. 21–22: within each
 grid square "the speed starts at the desired speed and is reduced until
-every condition holds"), the 3D DP's MCR loop (seed 001, steps 2–4) and the
+every condition holds"), the 3D DP's MCR loop (Shao et al., steps 2–4) and the
 plan verifier all ask the same question at many points at once: given the
 course to make good, the sea state there and a wanted speed, which speed
 through water is allowed?  It is allowed when
@@ -236,7 +236,7 @@ def best_speed(
 
     Candidates run from ``desired_stw_kn`` down to ``min_stw_kn`` in steps of
     ``step_kn`` (EP 2145155 Fig. 22, "reduce VELOCIDAD until every condition
-    holds"; seed 001's MCR loop reduces by Δu the same way).  The desired
+    holds"; Shao et al.'s MCR loop reduces by Δu the same way).  The desired
     speed is tried first at every point; the ladder is evaluated only where
     it is not allowed.
 
@@ -302,7 +302,7 @@ def cheapest_speed(
     d (F(V) + λ) / SOG(V) [t], F the fuel rate; the piece length cancels, so
     the choice is per point.  λ = 0 is the fuel-minimal (slowest economic)
     speed; a large λ approaches the fastest allowed speed.  This is the
-    discrete speed choice of the grid search (seed 001's speed set;
+    discrete speed choice of the grid search (Shao et al.'s speed set;
     the λ weighting is the Lagrangian of an ETA constraint).
 
     Parameters

@@ -559,9 +559,9 @@ class Ship:
 
 
 def container_54k_dwt() -> Ship:
-    """The 54 000 DWT container ship of seed 001's case studies.
+    """The 54 000 DWT container ship of Shao et al.'s (3-D DP) case studies.
 
-    Seed 001 (Tabla 4) names only "buque portacontenedores 54.000 TPM"; the
+    Shao et al. (Tabla 4) name only "buque portacontenedores 54.000 TPM"; the
     particulars are those of a typical Panamax container ship of 4 000–4 500
     TEU and 50–55 kt DWT (physics.md §8, a type, not one ship): L_pp 250 m,
     B 32.2 m (Panamax beam), d 12.5 m, C_b 0.65, Δ = 1.025 C_b L B d ≈ 67 040 t,
@@ -582,14 +582,14 @@ def container_54k_dwt() -> Ship:
         ship_type="container",
         loading="normal",
         dwt_t=54_000.0,
-        description="Panamax container ship, 54 000 DWT (seed 001 case studies); typical particulars, physics.md §8",
+        description="Panamax container ship, 54 000 DWT (Shao et al. 3-D DP case studies); typical particulars, physics.md §8",
     )
 
 
 def container_8000teu() -> Ship:
-    """A 25 kn transpacific container ship like seed 000's worked example.
+    """A 25 kn transpacific container ship like the worked example of Boeing EP 2145155.
 
-    Seed 000 (Boeing EP 2145155, Figs. 23–26) routes "a typical container
+    Boeing EP 2145155 (Figs. 23–26) routes "a typical container
     ship at twenty-five knots" from San Diego to Tokyo without particulars.
     The numbers are typical of the 8 000–8 600 TEU post-Panamax class built
     2003–2010 (a type, not one ship): L_pp 320 m, B 42.8 m, d 14.0 m,
@@ -609,14 +609,14 @@ def container_8000teu() -> Ship:
         ship_type="container",
         loading="normal",
         dwt_t=100_000.0,
-        description="8 000 TEU post-Panamax container ship, 25 kn (seed 000 worked example); typical particulars",
+        description="8 000 TEU post-Panamax container ship, 25 kn (Boeing EP 2145155 worked example); typical particulars",
     )
 
 
 def general_cargo_25k_dwt() -> Ship:
-    """A 20–30 kt general cargo ship like seed 004's typhoon-avoidance test.
+    """A 20–30 kt general cargo ship like the Chinese typhoon-avoidance patent's test ship.
 
-    Seed 004 ([0141]) tests "a fully loaded ship of 20 000–30 000 t" at a mean
+    The typhoon-avoidance patent ([0141]) tests "a fully loaded ship of 20 000–30 000 t" at a mean
     11 kn.  The hull is the one of physics.md §4's third checked roll-period
     row (B 25.4 m, d 9.5 m, L_wl 175 m, GM 1.02 m → T_R 18.07 s), with
     L_pp 170 m, C_b 0.75 (Δ ≈ 31 540 t, DWT 25 000 t), a 14 kn service speed
@@ -637,7 +637,7 @@ def general_cargo_25k_dwt() -> Ship:
         dwt_t=25_000.0,
         waterline_length_m=175.0,
         min_load_fraction=0.15,
-        description="25 000 DWT general cargo ship (seed 004 test ship); typical particulars",
+        description="25 000 DWT general cargo ship (typhoon-avoidance patent's test ship); typical particulars",
     )
 
 

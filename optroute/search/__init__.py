@@ -10,7 +10,7 @@ departure and positions (lat, lon) in degrees.
   directions and Boeing's minimum-angular-resolution set (Fig. 13).
 * :func:`shortest_path` (``method="astar"`` or ``"dijkstra"``) — time-dependent
   label-setting search (Figs. 14–16, 21–22) → :class:`SearchResult`.
-* :func:`solve_dp` — seed 001's stage × lateral × time DP → :class:`DPResult`
+* :func:`solve_dp` — Shao et al.'s stage × lateral × time DP → :class:`DPResult`
   with the fuel-versus-ETA curve.
 """
 

@@ -1,6 +1,6 @@
-"""The 3-D dynamic programme of seed 001: stage × lateral position × arrival time.
+"""The 3-D dynamic programme of Shao et al.: stage × lateral position × arrival time.
 
-Ship routing as a multi-stage decision process (seed 001, after Shao et al.'s
+Ship routing as a multi-stage decision process (Shao et al.'s 3-D DP, after their
 3-D DP): stages every ΔX along the great circle from start to end, lateral
 states every ΔY on the great circle perpendicular to it at each stage (within
 ± a half-width), and the control between two stages is the speed over ground,
@@ -40,7 +40,7 @@ lon_deg, t_h) -> bool array``, checked at the state reached and at points
 along each leg every ``nogo_step_nm`` at the time the ship passes them
 (constant speed along the leg).
 
-Sources: seed 001 (3-D DP vs the IMO MEPC method; ΔX = 360 nm, ΔY = 75 nm,
+Sources: Shao et al. (3-D DP vs the IMO MEPC method; ΔX = 360 nm, ΔY = 75 nm,
 Δt = 1 h, speeds 5–30 kn); Bellman (1957).
 """
 
@@ -305,16 +305,16 @@ def solve_dp(
         Required arrival [h from departure]; arrive at or before it.  Without
         it the path returned is the least-fuel arrival within the horizon.
     dx_nm : float
-        Stage spacing along the great circle [nm] (360 in seed 001); adjusted
+        Stage spacing along the great circle [nm] (360 in Shao et al.); adjusted
         down so that the stages divide the distance evenly.
     dy_nm : float
-        Lateral spacing [nm] (75 in seed 001).
+        Lateral spacing [nm] (75 in Shao et al.).
     half_width_nm : float
         Lateral states span ± this [nm] (``floor(half_width / dy)`` each side).
     speeds_kn : array_like, optional
         Speed set [kn]; default 5, 6, …, 30.
     dt_h : float
-        Arrival-time bin [h] (1 in seed 001).
+        Arrival-time bin [h] (1 in Shao et al.).
     navigable : callable, optional
         ``navigable(lat_deg, lon_deg, t_h) -> bool array``: False inside no-go
         areas at that time.  Default: everywhere navigable.

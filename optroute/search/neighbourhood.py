@@ -2,7 +2,7 @@
 
 Two families:
 
-* :func:`compass` — the 8-, 16- and 32-direction sets of Życkowski (seed 003):
+* :func:`compass` — the 8-, 16- and 32-direction sets of Życkowski:
   transitions ``P(i, j) → P(i + p, j + q)`` with ``p, q ∈ −3..3``; the set of
   ``w_r`` directions is exactly the primitive offsets (gcd 1) of Chebyshev
   length ≤ 1, 2, 3 respectively.
@@ -139,7 +139,7 @@ def _symmetric(octant: list[tuple[int, int]]) -> list[tuple[int, int]]:
 
 
 def compass(n: int) -> Neighbourhood:
-    """The 8-, 16- or 32-direction neighbourhood of Życkowski (seed 003).
+    """The 8-, 16- or 32-direction neighbourhood of Życkowski.
 
     Parameters
     ----------

@@ -3,7 +3,7 @@
 The search machinery (:mod:`optroute.search`) knows nothing of ships or
 weather; this module hands it callbacks that sample the weather at the time
 the ship is at each piece of a leg and choose the speed there with
-:mod:`optroute.physics.passage` (Boeing EP 2145155 Figs. 21–22; seed 001's MCR and
+:mod:`optroute.physics.passage` (Boeing EP 2145155 Figs. 21–22; Shao et al.'s (3-D DP) MCR and
 ship-motion loop), and turns its answer into a :class:`~optroute.search.route.Route`.
 """
 
@@ -265,7 +265,7 @@ class PassagePhysics:
     def dp_leg(self, piece_nm: float) -> Callable:
         """Leg-cost callback of the 3D DP: a commanded speed over ground, checked piece by piece.
 
-        Seed 001 simulates each stage in time steps: here each leg is cut into
+        Shao et al. (3-D DP) simulate each stage in time steps: here each leg is cut into
         pieces of at most ``piece_nm``; at each piece, at the time the ship is
         there, the STW needed to make the SOG good against the current, its
         power (within [min load, MCR]) and the danger bands are checked.  The
@@ -437,11 +437,11 @@ def search_route(
     eta : datetime64 or str, optional
         Required arrival [UTC] (arrive at or before).
     method : {"astar", "dijkstra", "dp"}
-        Time-dependent A* or Dijkstra on a gnomonic grid (seed 000), or the
-        3D dynamic programme along the great circle (seed 001).
+        Time-dependent A* or Dijkstra on a gnomonic grid (Boeing EP 2145155), or the
+        3D dynamic programme along the great circle (Shao et al.).
     angular_resolution_deg, directions, radius_cells
         Grid neighbourhood: Boeing's minimum-angular-resolution set (default
-        5° within 12 cells), or ``directions`` = 8, 16 or 32 (seed 003).
+        5° within 12 cells), or ``directions`` = 8, 16 or 32 (Życkowski).
     cell_nm : float
         Grid cell size [nm].
     margin_nm : float, optional
@@ -792,7 +792,7 @@ def sail_route(
     the time the ship gets there, the speed starts at ``desired_speed_kn`` and
     is reduced until every danger band holds and the power is within
     [minimum load, MCR] (EP 2145155 Fig. 22).  This is the "great circle with
-    forced slow-downs" of seed 000's worked example when the waypoints are a
+    forced slow-downs" of Boeing EP 2145155's worked example when the waypoints are a
     great circle (:func:`optroute.geodesy.great_circle_points`).
 
     Parameters

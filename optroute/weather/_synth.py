@@ -35,9 +35,9 @@ STORM_TP_PER_SQRT_HS = 3.85
 PM_TP_PER_SQRT_HS = 5.0
 
 SAN_DIEGO = (32.71, -117.17)
-"""Seed 000's departure port (lat, lon) [deg]; on land: snap it with :func:`optroute.geo.land.snap_to_sea`."""
+"""Boeing EP 2145155's departure port (lat, lon) [deg]; on land: snap it with :func:`optroute.geo.land.snap_to_sea`."""
 TOKYO = (35.65, 139.77)
-"""Seed 000's arrival port (lat, lon) [deg]."""
+"""Boeing EP 2145155's arrival port (lat, lon) [deg]."""
 
 
 def pm_wind_from_hs(hs_m: ArrayLike) -> np.ndarray:

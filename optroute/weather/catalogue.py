@@ -17,13 +17,13 @@ Names (each with the defaults of its function in
 ``uniform``
     :func:`~optroute.weather.scenarios.uniform` — H_s 2 m from the north, whole globe.
 ``north_pacific_storms``
-    :func:`~optroute.weather.scenarios.north_pacific_storms` — seed 000's
+    :func:`~optroute.weather.scenarios.north_pacific_storms` — Boeing EP 2145155's
     San Diego → Tokyo storms.
 ``shao_case_1``, ``shao_case_2``
     :func:`~optroute.weather.scenarios.shao_case` ``(1)`` and ``(2)`` — seed
     001's case studies with their no-go rectangles.
 ``tropical_cyclone``
-    :func:`~optroute.weather.scenarios.tropical_cyclone` — seed 004's
+    :func:`~optroute.weather.scenarios.tropical_cyclone` — the typhoon-avoidance patent's
     moving typhoon with its default track.
 
 (:func:`~optroute.weather.scenarios.moving_storm` needs a position, course

@@ -1,17 +1,17 @@
-"""Tropical cyclones for the typhoon-avoidance scenarios (seed 004).
+"""Tropical cyclones for the typhoon-avoidance scenarios (the Chinese typhoon-avoidance patent, dynamic artificial potential field).
 
 Wind: the Holland (1980) gradient wind profile, a cyclonic inflow angle, an
 optional translation asymmetry, reduced to 10 m by a constant factor.
 Waves: fetch-limited JONSWAP growth from the local 10 m wind over an
 effective fetch, capped at the fully developed sea.  The force-7 circle of
-seed 004 (the radius inside which the 10 m wind reaches Beaufort 7,
+the typhoon-avoidance patent (the radius inside which the 10 m wind reaches Beaufort 7,
 13.9 m/s) is :func:`cyclone_radius_km`.
 
-:func:`tropical_cyclone` builds the canonical dataset (default: seed 004's
+:func:`tropical_cyclone` builds the canonical dataset (default: the typhoon-avoidance patent's
 test typhoon, :func:`default_cyclone`) and stores the track with the
 force-7 radius at every time step in ``attrs["cyclone"]``;
 :func:`cyclone_track` and :func:`cyclone_exclusion` read it back, for a
-time-dependent exclusion circle (seed 004: R + 30 km).
+time-dependent exclusion circle (the patent: R + 30 km).
 
 Sources
 -------
@@ -95,7 +95,7 @@ EARTH_ROTATION_RADS = 7.2921e-5
 """Earth's angular velocity Ω [rad/s]."""
 
 BEAUFORT_7_MS = 13.9
-"""Lower limit of Beaufort force 7 [m/s] at 10 m (WMO; seed 004's avoidance circle)."""
+"""Lower limit of Beaufort force 7 [m/s] at 10 m (WMO; the typhoon-avoidance patent's circle)."""
 
 INFLOW_DEG = 20.0
 """Cross-isobar inflow angle of the surface wind towards the centre [deg]."""
@@ -413,7 +413,7 @@ def cyclone_radius_km(
     surface_factor: float = 0.8,
     air_density_kgm3: float = AIR_DENSITY_KGM3,
 ) -> float:
-    """Outer radius inside which the symmetric 10 m wind reaches ``wind_ms``: the force-7 circle of seed 004.
+    """Outer radius inside which the symmetric 10 m wind reaches ``wind_ms``: the force-7 circle of the typhoon-avoidance patent.
 
     Parameters
     ----------
@@ -484,7 +484,7 @@ def track_attr(cyclone: Cyclone, start: np.datetime64, hours: Sequence[float]) -
 
 
 def default_cyclone() -> Cyclone:
-    """Seed 004's test typhoon: from (20° N, 130° E) north-west at 10 kn, force-7 radius 280 km.
+    """The typhoon-avoidance patent's test typhoon: from (20° N, 130° E) north-west at 10 kn, force-7 radius 280 km.
 
     The seed ([0141]) moves the typhoon "from (130° E, 20° N) north-west at
     10 kn" with a force-7 circle of 280 km radius, against a ship from
@@ -498,7 +498,7 @@ def default_cyclone() -> Cyclone:
         pressure_deficit_hpa=57.0,
         rmax_km=45.0,
         holland_b=1.3,
-        name="seed 004 test typhoon",
+        name="typhoon-avoidance patent test typhoon",
     )
 
 
@@ -513,7 +513,7 @@ def tropical_cyclone(
     background_hs_m: float = 1.5,
     background_from_deg: float = 45.0,
 ) -> xr.Dataset:
-    """A tropical cyclone on a moving track over a background sea (seed 004).
+    """A tropical cyclone on a moving track over a background sea (the typhoon-avoidance patent).
 
     Wind: :func:`optroute.weather.cyclone.cyclone_wind` (Holland 1980 with
     inflow and translation asymmetry) plus the background wind weighted by
@@ -599,7 +599,7 @@ def cyclone_track(source: xr.Dataset | str) -> dict[str, np.ndarray]:
     -------
     dict of ndarray
         ``time`` [datetime64, UTC], ``lat``, ``lon`` [deg], ``pressure_deficit_hpa``,
-        ``rmax_km``, ``r7_km`` (radius of Beaufort-7 winds, seed 004's circle R;
+        ``rmax_km``, ``r7_km`` (radius of Beaufort-7 winds, the typhoon-avoidance patent's circle R;
         its safe distance is R + 30 km).
     """
     text = source if isinstance(source, str) else source.attrs.get("cyclone")
@@ -616,7 +616,7 @@ def cyclone_track(source: xr.Dataset | str) -> dict[str, np.ndarray]:
 
 
 def cyclone_exclusion(source: xr.Dataset | str, time: Any, margin_km: float = 30.0) -> tuple[float, float, float]:
-    """Centre and radius of seed 004's avoidance circle (force-7 radius R + margin) at a time.
+    """Centre and radius of the typhoon-avoidance patent's circle (force-7 radius R + margin) at a time.
 
     Parameters
     ----------
@@ -625,7 +625,7 @@ def cyclone_exclusion(source: xr.Dataset | str, time: Any, margin_km: float = 30
     time : datetime64 or str
         UTC time, within the track (linear interpolation between steps).
     margin_km : float
-        Safety margin added to R [km]; seed 004 settles on 30 km.
+        Safety margin added to R [km]; the typhoon-avoidance patent settles on 30 km.
 
     Returns
     -------

@@ -30,9 +30,9 @@ sets ``attrs["geography"] = "synthetic"``: its rectangles, not the real
 coastline, are the land (the seed's route from (0°, 0°) to (0°, 90° E)
 would otherwise cross Africa).
 
-Modules: this one (calm, uniform, seed 001's case studies, no-go areas,
-ensembles); :mod:`optroute.weather.storms` (extratropical storms, seed 000);
-:mod:`optroute.weather.cyclone` (tropical cyclones, seed 004);
+Modules: this one (calm, uniform, Shao et al.'s case studies, no-go areas,
+ensembles); :mod:`optroute.weather.storms` (extratropical storms, Boeing EP 2145155);
+:mod:`optroute.weather.cyclone` (tropical cyclones, the typhoon-avoidance patent);
 :mod:`optroute.weather._synth` (grids, times and the wind–wave relations:
 fully developed H_s = 0.21 U_19.5² / g with U_19.5 = 1.083 U_10, T_p =
 5.0 sqrt(H_s); storm seas T_p = 3.85 sqrt(H_s)).
@@ -428,7 +428,7 @@ SHAO_START_END = ((0.0, 0.0), (0.0, 90.0))
 
 def _shao_areas(case: int, start: np.datetime64) -> list[NoGoArea]:
     if case not in _SHAO_WEATHER:
-        raise ConfigError(f"shao_case({case!r}): seed 001 has case 1 and case 2; pass 1 or 2")
+        raise ConfigError(f"shao_case({case!r}): Shao et al. have case 1 and case 2; pass 1 or 2")
     w = _SHAO_WEATHER[case]
     v = SHAO_WEATHER_SPEED_KN / 60.0 * (-1.0 if w["course"] == "south" else 1.0)  # 1 deg lat = 60 nm
     s = str(start)
@@ -449,7 +449,7 @@ def _shao_areas(case: int, start: np.datetime64) -> list[NoGoArea]:
 
 
 def shao_no_go(case: int, time: Any, start: Any = None) -> list[NoGoArea]:
-    """Seed 001's no-go rectangles (islands, bad weather) of a case at a time.
+    """Shao et al.'s no-go rectangles (islands, bad weather) of a case at a time.
 
     Case 1: islands lon 50–70°, lat −1 to 7° (fixed); bad weather lon 50–70°,
     lat −9 to −1° at t = 0, fixed for 60 h, then moving south at 3 kn
@@ -484,7 +484,7 @@ def shao_case(
     background_hs_m: float = SHAO_BACKGROUND["hs_m"],
     background_from_deg: float = SHAO_BACKGROUND["wave_from_deg"],
 ) -> xr.Dataset:
-    """Seed 001's case study I or II: islands and a moving bad-weather rectangle.
+    """Shao et al.'s (3-D DP) case study I or II: islands and a moving bad-weather rectangle.
 
     The voyage runs from (0°, 0°) to (0°, 90° E) on the equator
     (:data:`SHAO_START_END`); the islands and the bad weather are no-go
@@ -551,7 +551,7 @@ def shao_case(
         "shao_case",
         params,
         lon,
-        title=f"Seed 001 (Shao et al. 3D DP) case study {'I' * case}: islands and moving bad weather",
+        title=f"Shao et al. (3-D DP) case study {'I' * case}: islands and moving bad weather",
         no_go_areas=json.dumps([asdict(a) for a in areas]),
         geography="synthetic",
         start_lat_lon=json.dumps(SHAO_START_END[0]),

@@ -1,4 +1,4 @@
-"""Extratropical winter storms: seed 000's San Diego → Tokyo situation.
+"""Extratropical winter storms: Boeing EP 2145155's San Diego → Tokyo situation.
 
 A storm here is its sea: an elliptic, flat-topped H_s field around the
 wave maximum that moves along a track and grows and decays, with waves
@@ -236,7 +236,7 @@ def north_pacific_storms(
     background_hs_m: float = 2.5,
     background_from_deg: float = 280.0,
 ) -> xr.Dataset:
-    """Seed 000's San Diego → Tokyo situation: two winter storms across the great circle.
+    """Boeing EP 2145155's San Diego → Tokyo situation: two winter storms across the great circle.
 
     Designed so that a 25 kn container ship on the great circle must slow
     below 10 kn under the Boeing danger bands inside both storms.  For
@@ -261,7 +261,7 @@ def north_pacific_storms(
     apply on the great circle the fastest band-free speed is below 9 kn, and
     a ship leaving San Diego at t = 0 that keeps to the great circle at the
     fastest band-free speed (at most 25 kn) needs about 12.5 days instead of
-    8.1 — seed 000's "more than 12 days".
+    8.1 — the patent's "more than 12 days".
 
     Parameters
     ----------
@@ -295,7 +295,7 @@ def north_pacific_storms(
         bbox=bbox,
         background_hs_m=background_hs_m,
         background_from_deg=background_from_deg,
-        title="Seed 000 (Boeing EP 2145155) San Diego to Tokyo: two winter storms across the great circle",
+        title="Boeing EP 2145155: San Diego to Tokyo: two winter storms across the great circle",
         start_lat_lon=json.dumps(SAN_DIEGO),
         end_lat_lon=json.dumps(TOKYO),
     )
