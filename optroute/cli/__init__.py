@@ -11,7 +11,7 @@ optimise    a corridor from GeoJSON/CSV → corridor NLP → plan files      :mo
 tradeoff    the fuel-versus-ETA front → NetCDF, CSV, PNG                 :mod:`.studies`
 study       ships × weather × ETAs on Dask, resumable                    :mod:`.studies`
 bands       forbidden speeds of one heading in one sea state             :mod:`.bands`
-demo        San Diego → Tokyo through two storms (seed 000)              :mod:`.tools`
+demo        San Diego → Tokyo through two storms (Boeing EP 2145155)     :mod:`.tools`
 bench       the benchmarks of a source checkout                          :mod:`.tools`
 ==========  ===========================================================  ======================
 

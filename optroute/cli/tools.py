@@ -1,4 +1,4 @@
-"""``optroute demo`` (the worked example of seed 000) and ``optroute bench`` (the benchmarks of a source checkout).
+"""``optroute demo`` (the worked example of Boeing EP 2145155) and ``optroute bench`` (the benchmarks of a source checkout).
 
 ``bench`` runs the ``benchmarks`` package of optroute's *source repository*: it is not
 installed with the package (it measures the code, it is no part of it), so the command
