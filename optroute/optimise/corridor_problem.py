@@ -67,6 +67,7 @@ from optroute.weather.sample import WeatherSampler
 __all__ = ["PreparedCorridor"]
 
 Objective = Literal["time", "fuel", "cost"]
+TIE_REL_TOL = 1e-9  # relative difference of scores below which the NLP's plan and the start's tie [-]
 ProgressFn = Callable[[str, float], None]
 
 
@@ -573,7 +574,9 @@ class PreparedCorridor:
         if best is not None:
             _emit(progress, "certificate", 0.95)
             stats.update(self._solution_stats(ctx, best[1], best[2], eta_user_h, eta_mode, objective))
-        if best is None or nlp_score > start.score:
+        # a tie to the solver's tolerance (the start already optimal, as at a constant speed in calm water) keeps the
+        # NLP's plan, with its multipliers and certificate; "worse" is beyond TIE_REL_TOL of the start's score
+        if best is None or nlp_score > start.score + TIE_REL_TOL * max(1.0, abs(start.score)):
             # the NLP's plan is worse than (or no better than nothing against) the verified start: the start
             why = "its plan failed verification" if best is None else f"its plan scores {nlp_score:.6g}"
             stats["status_reason"] = f"the NLP did not improve on the verified {start.label} ({start.score:.6g}): {why}"
