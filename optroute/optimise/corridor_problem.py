@@ -329,9 +329,14 @@ class PreparedCorridor:
         price, hourly = self.fuel_price, self.hourly
         out: list[Candidate] = []
 
-        def add(label: str, warm: dict[str, np.ndarray], plan: Plan | None) -> None:
+        def add(label: str, warm: dict[str, np.ndarray], plan: Plan | None, own: float = float("inf")) -> None:
             val = score(plan, objective, price, hourly) if plan is not None else float("inf")
-            out.append(Candidate(label, warm, plan, val))
+            out.append(Candidate(label, warm, plan, val, min(val, own)))
+
+        def own(r: Route) -> float:
+            return (
+                float(r.cost) if objective == "cost" else float(r.total_fuel_t) if objective == "fuel" else float("inf")
+            )
 
         if warm_plan is not None:
             from optroute.optimise.rescue import _plan_warm_start
@@ -369,6 +374,7 @@ class PreparedCorridor:
                     "3-D DP",
                     track_warm_start(dp.waypoints, stw, frame),
                     verified_plan(ctx, dp.waypoints, stw, t0, step, "start"),
+                    own(dp),
                 )
         centre = clean_start(
             ctx,
@@ -388,6 +394,13 @@ class PreparedCorridor:
         )
         order = sorted(range(len(out)), key=lambda i: (out[i].score, i))
         return [out[i] for i in order]
+
+    @staticmethod
+    def warm_candidate(cands: list[Candidate]) -> Candidate:
+        """The candidate to start Ipopt from: the best by the referee, or by its own figure where that is lower
+        (an unverified DP route that claims less fuel than every verified candidate: the NLP repairs and
+        improves it, and the verified best remains the floor of the result)."""
+        return min(cands, key=lambda c: (c.estimate, c.plan is None))
 
     # ------------------------------------------------------------------ one ETA
 
@@ -469,13 +482,13 @@ class PreparedCorridor:
         _emit(progress, "start", 0.15)
         t_s = _time.perf_counter()
         cands = self.starts(ctx, cap_h=cap_h, objective=objective, warm_plan=warm_plan, route=route, st=st)
-        start = cands[0]
+        start, first = cands[0], self.warm_candidate(cands)
         stage_s["start"] = _time.perf_counter() - t_s
         st.log.append(
             "starts: "
             + "; ".join(f"{c.label} {c.score:.6g}" if c.plan is not None else f"{c.label} unverified" for c in cands)
         )
-        warm = clear_of_exclusion(dict(start.warm), frame, self.exclusion, t0, self.y_lo, self.y_hi)
+        warm = clear_of_exclusion(dict(first.warm), frame, self.exclusion, t0, self.y_lo, self.y_hi)
         solve_kw = {
             "eta_mode": eta_mode,
             "objective": objective,
@@ -518,8 +531,7 @@ class PreparedCorridor:
                 )
             last = sol
             at_limit = sol.res.status in _LIMIT_STATUSES and not np.any(sol.res.samples.inside)
-            if not sol.ok and (not at_limit or attempt > 0):
-                # a failure, or a tightened re-solve that ran out of iterations: no more re-solves from here
+            if not sol.ok and not at_limit:
                 st.log.append(f"attempt {attempt}: Ipopt {sol.res.status}")
                 break
             plan = _to_plan(ctx, frame, sol.res, t0, step_nm=step_nm)
@@ -559,6 +571,7 @@ class PreparedCorridor:
             **counts,
             "start": start.label,
             "start_score": start.score,
+            "warm_start": first.label,
             "starts": {c.label: c.score for c in cands},
             "nlp_score": nlp_score,
             "stage_time_s": stage_s,

@@ -145,6 +145,9 @@ def _tighten(st: Tightening, violations: list[Violation], plan: Plan, res: NLPRe
     under = [v.limit / max(v.value, 1e-9) for v in violations if v.kind == "power_below_min"]
     if under:
         st.min_load = min(0.99 * st.max_load, st.min_load * max(under) * 1.002)
+    if kinds & {"power_above_mcr", "power_below_min"}:
+        # the engine's range is checked at the NLP's samples and between them by the referee: denser samples
+        st.samples_per_leg = min(st.samples_per_leg + 1, 8)
     if "band" in kinds:
         # back the edges off by what the verification found beyond them, with room to spare
         beyond = max(

@@ -51,12 +51,16 @@ class Candidate:
         The candidate scored by the referee, when it passes :meth:`Plan.verify`.
     score : float
         The plan's objective (fuel [t], time [h] or cost); ``inf`` without a verified plan.
+    estimate : float
+        The candidate's own figure of that objective (a search's or the DP's), used to order the warm
+        starts when it does not verify (the DP's 30 nm pieces can miss a point the referee finds).
     """
 
     label: str
     warm: dict[str, np.ndarray]
     plan: Plan | None
     score: float
+    estimate: float = float("inf")
 
 
 def score(plan: Plan, objective: str, fuel_price: float, hourly: float) -> float:
