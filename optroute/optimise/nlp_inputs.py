@@ -189,7 +189,7 @@ def build_frame(corridor: Corridor) -> CorridorFrame:
 
 @dataclass(frozen=True)
 class GridSamples:
-    """The raw samples behind a :class:`~formulations.common.WeatherGrid`, for the power fit and reports.
+    """The raw samples behind a :class:`~formulations.common.WeatherGrid`, for reports.
 
     Attributes
     ----------
