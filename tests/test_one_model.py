@@ -124,8 +124,8 @@ def test_storm_crossing_nlp_is_within_4_percent_of_the_finest_dp_by_the_referee(
     strict=True,
     reason="not done: the NLP from the centreline ends in a local optimum 2.7 % above the DP (77.3 t against "
     "75.25 t); from the DP's own start (discrete_start=True) its plan trips the referee's minimum-power check where "
-    "the table overestimates the power by 4-6 % along Kwon's following/beam sector edge (alpha = 150 deg), and the "
-    "verified centreline start is returned instead",
+    "the table overestimates the power by 4-6 % along Kwon's following/beam sector edge (alpha = 150 deg), so the "
+    "call solves again from the verified centreline start and returns the same 77.3 t (benchmarks.bench_nlp --crossing)",
 )
 def test_storm_crossing_nlp_is_no_worse_than_the_finest_dp_by_the_referee(crossing: dict) -> None:
     assert crossing["alone"].total_fuel_t <= crossing["dp_plan"].total_fuel_t

@@ -500,54 +500,73 @@ class PreparedCorridor:
         best: tuple[Plan, Solved, float | None] | None = None
         last: Solved | None = None
         last_violations: list[Violation] = []
-        for attempt in range(self.max_retries + 1):
-            _emit(progress, "solve", 0.2 + 0.7 * attempt / (self.max_retries + 1))
-            nlp = prob.build(st)
-            eta_solve = None if cap_h is None else cap_h - st.eta_shift_h
-            if eta_solve is not None and eta_solve <= 0:
-                break
-            sol = prob.solve(nlp, eta_h=eta_solve, warm=warm, budget=self.band_solves, **solve_kw)
-            if not sol.ok and self._usable_iterate(sol, ctx):
-                st.log.append(f"attempt {attempt}: kept Ipopt's last iterate ({sol.res.status}): its plan verifies")
-                sol = replace(sol, ok=True)
-            if not sol.ok and attempt == 0 and start.plan is None:
-                # no verified start: an unreachable ETA (InfeasibleETA / WeatherCoverageError) or a hard problem
-                sol = _first_failure(
-                    prob,
-                    nlp,
-                    sol,
-                    longer=lambda st=st: _longer(prob, st, self.sampler, self.data_end_h, self.horizon_h),
-                    ctx=ctx,
-                    cap_h=cap_h,
-                    eta_user_h=eta_user_h,
-                    t0=t0,
-                    route=route,
-                    budget=self.band_solves,
-                    step_nm=step_nm,
-                    solve_kw=solve_kw,
-                    warm_rules=warm_rules(self.rules, st),
-                    first_warm=warm,
-                    log=st.log,
-                )
-            last = sol
-            at_limit = sol.res.status in _LIMIT_STATUSES and not np.any(sol.res.samples.inside)
-            if not sol.ok and not at_limit:
-                st.log.append(f"attempt {attempt}: Ipopt {sol.res.status}")
-                break
-            plan = _to_plan(ctx, frame, sol.res, t0, step_nm=step_nm)
-            violations = plan.verify(step_nm=step_nm)
-            if not violations and sol.ok:
-                best = (plan, sol, eta_solve)
-                break
-            if not sol.ok:
-                # stopped at a limit at a point the referee rejects: tighten what it found and go on from there
-                st.log.append(f"attempt {attempt}: Ipopt {sol.res.status}; its iterate fails verification")
-            last_violations = violations
-            if st.retries >= self.max_retries:
-                break
-            st.retries += 1
-            _tighten(st, violations, plan, sol.res)
-            warm = {"offset_nm": sol.res.offset_nm, "stw_kn": sol.res.stw_kn}
+        log = st.log
+        # from the warm candidate; when that gives no plan better than the verified start (another candidate), once
+        # more from the verified start itself, so that a discrete start the NLP cannot repair costs time, not fuel
+        tries = [first] + ([start] if first is not start and start.plan is not None else [])
+        for k, cand in enumerate(tries):
+            if k > 0:
+                if best is not None and score(best[0], objective, self.fuel_price, self.hourly) <= start.score:
+                    break
+                st = self._tightening()
+                st.log = log
+                log.append(f"again from the verified {cand.label}")
+                warm = clear_of_exclusion(dict(cand.warm), frame, self.exclusion, t0, self.y_lo, self.y_hi)
+            found: tuple[Plan, Solved, float | None] | None = None
+            for attempt in range(self.max_retries + 1):
+                _emit(progress, "solve", 0.2 + 0.7 * attempt / (self.max_retries + 1))
+                nlp = prob.build(st)
+                eta_solve = None if cap_h is None else cap_h - st.eta_shift_h
+                if eta_solve is not None and eta_solve <= 0:
+                    break
+                sol = prob.solve(nlp, eta_h=eta_solve, warm=warm, budget=self.band_solves, **solve_kw)
+                if not sol.ok and self._usable_iterate(sol, ctx):
+                    st.log.append(f"attempt {attempt}: kept Ipopt's last iterate ({sol.res.status}): its plan verifies")
+                    sol = replace(sol, ok=True)
+                if not sol.ok and attempt == 0 and start.plan is None and k == 0:
+                    # no verified start: an unreachable ETA (InfeasibleETA / WeatherCoverageError) or a hard problem
+                    sol = _first_failure(
+                        prob,
+                        nlp,
+                        sol,
+                        longer=lambda st=st: _longer(prob, st, self.sampler, self.data_end_h, self.horizon_h),
+                        ctx=ctx,
+                        cap_h=cap_h,
+                        eta_user_h=eta_user_h,
+                        t0=t0,
+                        route=route,
+                        budget=self.band_solves,
+                        step_nm=step_nm,
+                        solve_kw=solve_kw,
+                        warm_rules=warm_rules(self.rules, st),
+                        first_warm=warm,
+                        log=st.log,
+                    )
+                last = sol
+                at_limit = sol.res.status in _LIMIT_STATUSES and not np.any(sol.res.samples.inside)
+                if not sol.ok and not at_limit:
+                    st.log.append(f"attempt {attempt}: Ipopt {sol.res.status}")
+                    break
+                plan = _to_plan(ctx, frame, sol.res, t0, step_nm=step_nm)
+                violations = plan.verify(step_nm=step_nm)
+                if not violations and sol.ok:
+                    found = (plan, sol, eta_solve)
+                    break
+                if not sol.ok:
+                    # stopped at a limit at a point the referee rejects: tighten what it found and go on from there
+                    st.log.append(f"attempt {attempt}: Ipopt {sol.res.status}; its iterate fails verification")
+                last_violations = violations
+                if st.retries >= self.max_retries:
+                    break
+                st.retries += 1
+                _tighten(st, violations, plan, sol.res)
+                warm = {"offset_nm": sol.res.offset_nm, "stw_kn": sol.res.stw_kn}
+            if found is not None and (
+                best is None
+                or score(found[0], objective, self.fuel_price, self.hourly)
+                < score(best[0], objective, self.fuel_price, self.hourly)
+            ):
+                best = found
         stage_s["solve and verify"] = _time.perf_counter() - t_s
         # ---- stage: plan --------------------------------------------------------------------------
         counts = {
