@@ -108,7 +108,7 @@ def _case(
         "nlp_status": plan.status,
         "nlp_solve_s": float(st["solve_time_s"]),
         "call_s": call_s,
-        "certificate": {k: v for k, v in cert.items() if k != "fitted_model"},
+        "certificate": {k: v for k, v in cert.items() if k != "nlp_model"},
     }
     if cert.get("method") != "lagrangian dual":
         return row

@@ -35,13 +35,11 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from formulations.common import Band, PowerModel
+from formulations.common import Band, PowerModel, spline_weights
 
 __all__ = [
     "ABS_EPS_KN",
-    "POWER_TERMS",
-    "POWER_TERM_DEFAULTS",
-    "power_multiplier",
+    "power_ratio",
     "sample_physics",
     "structured_derivatives",
 ]
@@ -51,19 +49,26 @@ _N_Z = 5  # y_k, y_{k+1}, V_k, t_k, t_{k+1}
 _TRIU = [(a, b) for b in range(_N_Z) for a in range(b + 1)]  # upper triangle, column-major
 
 
-# the per-leg power multiplier M_k = f_k (V/V_k)^e_k exp(a_k τ tanh((t̄ − T_k)/τ)): parameter order and defaults
-POWER_TERMS = ("factor", "exponent", "ref_kn", "time_slope_per_h", "ref_time_h")
-POWER_TERM_DEFAULTS = {"exponent": 0.0, "ref_kn": 1.0, "time_slope_per_h": 0.0, "ref_time_h": 0.0}
-TIME_SCALE_H = 1.0  # τ [h]: the time term's reach
+def power_ratio(col: dict[str, Any], v: Any, heading_dev_deg: Any, axes: tuple | None, lib: Any) -> Any:
+    """The tabulated ``R = P_ship / P_calm`` [-] at a sample (:class:`formulations.common.WeatherGrid`).
 
-
-def power_multiplier(v: Any, t_mid: Any, cols: list[Any], lib: Any) -> Any:
-    """``M_k`` [-] at the speed ``v`` [kn] and leg mid-time ``t_mid`` [h]; ``cols`` in :data:`POWER_TERMS` order.
-
-    ``lib`` is ``numpy`` or ``casadi`` (both spell ``exp``, ``log`` and ``tanh`` alike).
+    ``col`` holds the table's values ``ratio_j_k`` interpolated to the sample's (t, s, y);
+    ``v`` the speed through water [kn], ``heading_dev_deg`` the heading minus the centreline
+    direction [deg, to port +]; ``axes`` is :attr:`WeatherGrid.ratio_axes` (None: ``R = 1``);
+    ``lib`` is ``numpy`` or ``casadi``. One formula for the NLP and its numeric checks.
     """
-    f, e, vr, a, tr = cols
-    return f * lib.exp(e * lib.log(v / vr) + a * TIME_SCALE_H * lib.tanh((t_mid - tr) / TIME_SCALE_H))
+    if axes is None:
+        return 1.0
+    v0, dv, nv, d0, dd, nd = axes
+    wv = spline_weights(v, v0, dv, nv, lib)
+    wd = spline_weights(heading_dev_deg, d0, dd, nd, lib)
+    total = 0.0
+    for j in range(nv):
+        inner = 0.0
+        for k in range(nd):
+            inner = inner + wd[k] * col[f"ratio_{j}_{k}"]
+        total = total + wv[j] * inner
+    return total
 
 
 def sample_physics(
@@ -77,6 +82,7 @@ def sample_physics(
     power: PowerModel,
     bands: tuple[Band, ...],
     g_over_2pi: float,
+    ratio_axes: tuple | None = None,
 ) -> dict[str, Any]:
     """Symbolic quantities at one sample (see :mod:`formulations.speed_nlp` for the model).
 
@@ -89,13 +95,16 @@ def sample_physics(
     ds : SX
         Length represented by the sample, ``L_k / m`` [nm].
     factor : SX or float
-        Static per-leg power factor ``f_k`` [-].
+        Static per-leg power factor ``f_k`` [-] (1 unless the caller gives one).
     col : dict
         Weather fields at the sample by name (see ``WeatherGrid.field_names``).
     beta : SX
         Band edge used in each band's residual (``lower`` or ``upper`` by side), length B.
     power, bands, g_over_2pi
-        The ship model, the bands and ``A = g/2π`` [kn/s].
+        The engine and calm-water baseline, the bands and ``A = g/2π`` [kn/s].
+    ratio_axes : tuple, optional
+        :attr:`formulations.common.WeatherGrid.ratio_axes`: the tabulated ship power ratio is read from
+        ``col`` (:func:`power_ratio`); None: ``R = 1``.
 
     Returns
     -------
@@ -105,7 +114,7 @@ def sample_physics(
         side and ``≥ 0`` on the upper side when satisfied), ``ratio`` (B band ratios).
     """
     pw = power
-    hs, per = col["hs_m"], col["period_s"]
+    per = col["period_s"]
 
     def to_leg(a_name: str, c_name: str) -> tuple[Any, Any]:
         # (along, across) of the centreline → (along, to port of) the leg
@@ -121,19 +130,10 @@ def sample_physics(
     w_par, w_perp = to_leg("wave_to_along", "wave_to_across")
     w_norm = ca.sqrt(w_par**2 + w_perp**2 + 1e-12)
     cos_chi = (h_par * w_par + h_perp * w_perp) / w_norm
-    cos_alpha = -cos_chi  # IMO encounter angle: 0 = head sea
     p_calm = sum(cj * v**nj for cj, nj in zip(pw.calm_coef, pw.calm_exp, strict=True))
-    hs_pos = ca.fmax(hs, 0.0)
-    w_hs = sum(hm * hs_pos**qm for hm, qm in zip(pw.hs_coef, pw.hs_exp, strict=True)) if pw.hs_coef.size else 0.0
-    b0, b1, b2 = pw.angle_coef
-    d_dir = b0 + b1 * cos_alpha + b2 * cos_alpha**2
-    s_v = sum(ur * v**r for r, ur in enumerate(pw.speed_coef))
-    pwr = factor * p_calm * (1.0 + w_hs * d_dir * s_v)
-    if pw.wind_coef > 0.0 and "wind_along_kn" in col:
-        wd_par, wd_perp = to_leg("wind_along_kn", "wind_across_kn")
-        app = sog * h_par - (wd_par * h_par + wd_perp * h_perp)  # apparent head wind [kn]
-        app0 = sog * h_par  # its still-air value
-        pwr = pwr + pw.wind_coef * v * (app * ca.sqrt(app**2 + 1e-6) - app0**2)
+    # heading relative to the centreline: the leg's course (δ) turned by the crab angle against the current
+    dev_deg = (ca.atan2(sin_d, cos_d) + ca.asin(h_perp)) * (180.0 / np.pi)
+    pwr = factor * p_calm * power_ratio(col, v, dev_deg, ratio_axes, ca)
     load = pwr / pw.mcr_kw
     a2, a1, a0 = pw.sfc_quad
     rate = pwr * pw.sfc_base_gpkwh * (a2 * load**2 + a1 * load + a0) * 1e-6  # t/h
@@ -237,12 +237,11 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
     # ---- per-leg SX function of z_k -------------------------------------------------
     n_theta = 2 + 6 * nf + (18 if has_excl else 0)  # t0, y0, weather Taylor, exclusion Taylor
     z = ca.SX.sym("z", _N_Z)
-    n_pt = len(POWER_TERMS)
-    geo = ca.SX.sym("geo", 10 + n_pt)  # c_k, c_k+1, n_k, n_k+1, tangent, the power multiplier's terms
+    geo = ca.SX.sym("geo", 11)  # c_k, c_k+1, n_k, n_k+1, tangent, the static power factor f_k
     theta = ca.SX.sym("theta", n_theta * m)
     beta = ca.SX.sym("beta", max(nb, 1) * m)
     ya, yb, v, ta, tb = (z[i] for i in range(_N_Z))
-    factor = power_multiplier(v, 0.5 * (ta + tb), [geo[10 + i] for i in range(n_pt)], ca)
+    factor = geo[10]
     pxa, pya = geo[0] + ya * geo[4], geo[1] + ya * geo[5]
     pxb, pyb = geo[2] + yb * geo[6], geo[3] + yb * geo[7]
     dx, dy = pxb - pxa, pyb - pya
@@ -266,7 +265,9 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
         wvals = taylor(th[2 : 2 + 6 * nf], nf)
         col = {name: wvals[i] for i, name in enumerate(names)}
         b_j = [beta[b * m + j] for b in range(nb)]
-        phys = sample_physics(v, cos_d, sin_d, length / m, factor, col, b_j, nlp.power, nlp.bands, nlp.g_over_2pi)
+        phys = sample_physics(
+            v, cos_d, sin_d, length / m, factor, col, b_j, nlp.power, nlp.bands, nlp.g_over_2pi, nlp.weather.ratio_axes
+        )
         dt_sum = dt_sum + phys["dt"]
         fuel_sum = fuel_sum + phys["fuel"]
         loads.append(phys["load"])
@@ -316,8 +317,8 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
     beta_idx = np.array([[2 + b * k_ + k * m + j for k in range(n)] for b in range(nb) for j in range(m)])
     # ---- symbolic inputs of the nlpsol derivative functions ---------------------------
     x = ca.MX.sym("x", nx)
-    p = ca.MX.sym("p", 2 + k_ * nb + n_pt * n)  # weights, band edges, per-leg power-multiplier terms
-    geo_dm = ca.vertcat(geo_fixed, ca.reshape(p[2 + k_ * nb :], n, n_pt).T)
+    p = ca.MX.sym("p", 2 + k_ * nb + n)  # weights, band edges, per-leg static power factors
+    geo_dm = ca.vertcat(geo_fixed, p[2 + k_ * nb :].T)
     lam_f = ca.MX.sym("lam_f")
     lam_g = ca.MX.sym("lam_g", ng)
     zmat = ca.reshape(x[z_idx.T.ravel().tolist()], _N_Z, n)

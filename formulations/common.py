@@ -27,6 +27,7 @@ __all__ = [
     "G_OVER_2PI_KN_S",
     "as_float_array",
     "broadcast_legs",
+    "spline_weights",
 ]
 
 #: Deep-water phase speed per wave period, g/(2π) with g = 9.80665 m/s², in
@@ -412,6 +413,21 @@ class WeatherGrid:
         Surface current [kn] (the vector it flows to).
     wind_along_kn, wind_across_kn : array_like, optional
         Wind at 10 m [kn] (the vector it blows to).
+    power_ratio : array_like, optional
+        The ship's brake power divided by the calm-water baseline of :class:`PowerModel`,
+        ``R = P_ship / P_calm(V)`` [-], tabulated at every grid node for the speeds
+        ``ratio_speed_kn`` and the heading deviations ``ratio_heading_deg``: shape
+        ``(nt, ns, ny, nv, nd)``, finite and positive. The NLP reads it through the weather's cubic
+        B-spline quasi-interpolant in all five directions (the data are the control points, padded
+        linearly at the ends; :func:`spline_weights` in speed and heading): C², exact for data linear
+        along an axis, and variation-diminishing — no overshoot or ringing between nodes where the
+        model steps (Kwon's Beaufort and direction sectors); outside the speed and heading range the
+        value at the nearest edge.
+    ratio_speed_kn : array_like, shape (nv,), optional
+        Speeds through water of the table [kn], uniformly spaced and increasing.
+    ratio_heading_deg : array_like, shape (nd,), optional
+        Heading deviations of the table [deg]: the ship's heading minus the centreline direction
+        at the node, positive to port (counter-clockwise), uniformly spaced and increasing.
     method : {"smooth", "linear", "bspline"}
         ``"smooth"`` (default): cubic B-spline quasi-interpolant (``casadi.Function.bspline`` with the
         data as control points; C², no overshoot inside the grid, built instantly; non-uniform axes are first
@@ -432,11 +448,15 @@ class WeatherGrid:
     current_across_kn: ArrayLike | None = None
     wind_along_kn: ArrayLike | None = None
     wind_across_kn: ArrayLike | None = None
+    power_ratio: ArrayLike | None = None
+    ratio_speed_kn: ArrayLike | None = None
+    ratio_heading_deg: ArrayLike | None = None
     method: str = "smooth"
 
     def __post_init__(self) -> None:
         if self.method not in ("smooth", "linear", "bspline"):
             raise FormulationInputError(f"method must be 'smooth', 'linear' or 'bspline', got {self.method!r}")
+        self._check_table()
         axes = []
         for name in ("t_h", "s_nm", "y_nm"):
             ax = as_float_array(getattr(self, name), name, ndim=1)
@@ -465,21 +485,69 @@ class WeatherGrid:
         if (np.asarray(self.period_s) <= 0).any():
             raise FormulationInputError("period_s must be > 0")
 
+    def _check_table(self) -> None:
+        given = [getattr(self, f) is not None for f in ("power_ratio", "ratio_speed_kn", "ratio_heading_deg")]
+        if not any(given):
+            return
+        if not all(given):
+            raise FormulationInputError("give power_ratio, ratio_speed_kn and ratio_heading_deg together, or none")
+        axes = []
+        for name in ("ratio_speed_kn", "ratio_heading_deg"):
+            ax = as_float_array(getattr(self, name), name, ndim=1)
+            d = np.diff(ax)
+            if ax.size == 0 or (d <= 0).any() or (ax.size > 2 and not np.allclose(d, d[0], rtol=1e-9)):
+                raise FormulationInputError(f"{name} must be non-empty, increasing and uniformly spaced, got {ax}")
+            object.__setattr__(self, name, ax)
+            axes.append(ax)
+        shape = (np.size(self.t_h), np.size(self.s_nm), np.size(self.y_nm), axes[0].size, axes[1].size)
+        r = as_float_array(self.power_ratio, "power_ratio")
+        if r.shape != shape:
+            raise FormulationInputError(f"power_ratio must have shape (nt, ns, ny, nv, nd) = {shape}, got {r.shape}")
+        if (r <= 0).any():
+            k = tuple(int(i) for i in np.argwhere(r <= 0)[0])
+            raise FormulationInputError(f"power_ratio must be > 0; it is {r[k]!r} at index {k}")
+        object.__setattr__(self, "power_ratio", r)
+
+    @property
+    def ratio_axes(self) -> tuple[float, float, int, float, float, int] | None:
+        """``(V_0, ΔV, nv, δ_0, Δδ, nd)`` of the power-ratio table [kn, deg], None without one."""
+        if self.power_ratio is None:
+            return None
+        v, d = np.asarray(self.ratio_speed_kn), np.asarray(self.ratio_heading_deg)
+        dv = float(v[1] - v[0]) if v.size > 1 else 1.0
+        dd = float(d[1] - d[0]) if d.size > 1 else 1.0
+        return float(v[0]), dv, int(v.size), float(d[0]), dd, int(d.size)
+
     @property
     def field_names(self) -> tuple[str, ...]:
-        """Names of the fields present, in the interpolant's output order."""
+        """Names of the fields present, in the interpolant's output order.
+
+        The power-ratio table contributes ``ratio_j_k`` (speed node j, heading node k).
+        """
         names = ["hs_m", "period_s"]
         for pair in (("wave_to_along", "wave_to_across"), ("current_along_kn", "current_across_kn")):
             if getattr(self, pair[0]) is not None:
                 names += list(pair)
         if self.wind_along_kn is not None:
             names += ["wind_along_kn", "wind_across_kn"]
+        if self.power_ratio is not None:
+            r = np.asarray(self.power_ratio)
+            names += [f"ratio_{j}_{k}" for j in range(r.shape[3]) for k in range(r.shape[4])]
         return tuple(names)
+
+    def _field_data(self) -> np.ndarray:
+        """Every field (n_fields, nt, ns, ny) in :attr:`field_names` order."""
+        plain = [f for f in self.field_names if not f.startswith("ratio_")]
+        data = [np.asarray(getattr(self, f)) for f in plain]
+        if self.power_ratio is not None:
+            c = np.asarray(self.power_ratio)
+            data += [c[..., j, k] for j in range(c.shape[3]) for k in range(c.shape[4])]
+        return np.stack(data, axis=0)
 
     def _prepared(self) -> tuple[list[np.ndarray], np.ndarray]:
         """Grid axes and data (n_fields, nt, ns, ny) ready for CasADi: no singleton axis, uniform for "smooth"."""
         grids = [np.asarray(self.t_h), np.asarray(self.s_nm), np.asarray(self.y_nm)]
-        data = np.stack([np.asarray(getattr(self, f)) for f in self.field_names], axis=0)
+        data = self._field_data()
         min_pts = 4 if self.method == "bspline" else 2
         for axis in range(3):
             g = grids[axis]
@@ -567,6 +635,33 @@ class WeatherGrid:
         return ca.Function("weather_taylor", [x], [ca.densify(ca.vertcat(*blocks))])
 
 
+def spline_weights(x: Any, x0: float, h: float, n: int, lib: Any) -> list[Any]:
+    """Weights ``w_i(x)`` of the uniform cubic B-spline quasi-interpolant ``Σ_i w_i(x) f_i`` of nodes ``x0 + i h``.
+
+    Schoenberg's quasi-interpolant with the data ``f_i`` as control points, extended linearly by one
+    node at either end (``f_{-1} = 2f_0 − f_1``), as :class:`WeatherGrid`'s spline along its axes: C²,
+    exact for linear data, within the data's range away from the ends. The centred cubic B-spline
+    is written with truncated powers, ``B(u) = [(u+2)₊³ − 4(u+1)₊³ + 6u₊³ − 4(u−1)₊³]/6`` for
+    ``|u| ≤ 2`` (0 beyond), so that the same expression serves ``numpy`` and CasADi (``lib`` provides
+    ``fmax`` and ``fmin``). ``x`` is held at the nearest node outside ``[x0, x0 + (n−1)h]``.
+    """
+    if n == 1:
+        return [1.0]
+    xc = lib.fmin(lib.fmax(x, x0), x0 + (n - 1) * h)
+    u = (xc - x0) / h
+
+    def b(d: Any) -> Any:
+        d = lib.fmin(lib.fmax(d, -2.0), 2.0)
+        p = [lib.fmax(d + k, 0.0) ** 3 for k in (2.0, 1.0, 0.0, -1.0)]
+        return (p[0] - 4.0 * p[1] + 6.0 * p[2] - 4.0 * p[3]) / 6.0
+
+    basis = [b(u - i) for i in range(-1, n + 1)]  # f_{-1} … f_n
+    w = basis[1 : n + 1]
+    w[0], w[1] = w[0] + 2.0 * basis[0], w[1] - basis[0]
+    w[n - 1], w[n - 2] = w[n - 1] + 2.0 * basis[n + 1], w[n - 2] - basis[n + 1]
+    return w
+
+
 def _is_uniform(g: np.ndarray) -> bool:
     d = np.diff(g)
     return bool(np.allclose(d, d[0], rtol=1e-9, atol=0.0))
@@ -642,7 +737,12 @@ def _bspline_function(name: str, knots: list[np.ndarray], coef: np.ndarray, degr
 
 @dataclass(frozen=True)
 class PowerModel:
-    """Brake power and fuel model in the closed form the NLP supports (see :mod:`formulations.speed_nlp`).
+    """The engine side of the NLP's power and fuel model and its calm-water baseline.
+
+    The NLP's brake power at a sample is ``P = f_k · P_calm(V) · R`` (see :mod:`formulations.speed_nlp`):
+    ``P_calm`` is this closed-form baseline and ``R`` the ratio ``P_ship / P_calm`` tabulated by the
+    caller from the ship's own performance model on the corridor's weather grid
+    (:class:`WeatherGrid`, ``power_ratio``); without a table ``R = 1``.
 
     Parameters
     ----------
@@ -652,15 +752,6 @@ class PowerModel:
         Maximum continuous rating [kW].
     min_load, max_load : float
         Engine load limits as fractions of MCR [-] (``0 ≤ min_load < max_load``).
-    hs_coef, hs_exp : array_like, shape (M,)
-        ``W(Hs) = Σ h_m Hs^{q_m}`` [-], Hs in [m] (``q_m ≥ 0``).
-    angle_coef : array_like, shape (3,)
-        ``(b0, b1, b2)`` of ``D(cos α) = b0 + b1 cos α + b2 cos² α``, α the IMO encounter angle
-        (0 = head sea, 180° = following sea).
-    speed_coef : array_like, shape (R,)
-        ``S(V) = Σ_r u_r V^r`` [-] (polynomial in V [kn], lowest degree first).
-    wind_coef : float
-        ``k_w`` [kW/kn³] of the wind term (0 = none).
     sfc_base_gpkwh : float
         SFC_base [g/kWh] of the IMO GHG curve (physics.md §8; 175 for slow-speed diesels after 2001).
     sfc_quad : array_like, shape (3,)
@@ -673,32 +764,23 @@ class PowerModel:
     mcr_kw: float
     min_load: float = 0.0
     max_load: float = 1.0
-    hs_coef: ArrayLike = ()
-    hs_exp: ArrayLike = ()
-    angle_coef: ArrayLike = (1.0, 0.0, 0.0)
-    speed_coef: ArrayLike = (1.0,)
-    wind_coef: float = 0.0
     sfc_base_gpkwh: float = 175.0
     sfc_quad: ArrayLike = (0.455, -0.710, 1.280)
 
     def __post_init__(self) -> None:
-        for name in ("calm_coef", "calm_exp", "hs_coef", "hs_exp", "angle_coef", "speed_coef", "sfc_quad"):
+        for name in ("calm_coef", "calm_exp", "sfc_quad"):
             object.__setattr__(self, name, as_float_array(getattr(self, name), name, ndim=1))
         cc, ce = np.asarray(self.calm_coef), np.asarray(self.calm_exp)
         if cc.size == 0 or cc.shape != ce.shape:
             raise FormulationInputError("calm_coef and calm_exp must be non-empty and of equal length")
-        if np.asarray(self.hs_coef).shape != np.asarray(self.hs_exp).shape:
-            raise FormulationInputError("hs_coef and hs_exp must have equal length")
-        if (np.asarray(self.hs_exp) < 0).any():
-            raise FormulationInputError("hs_exp must be >= 0")
-        if np.asarray(self.angle_coef).size != 3 or np.asarray(self.sfc_quad).size != 3:
-            raise FormulationInputError("angle_coef and sfc_quad need exactly 3 coefficients")
+        if np.asarray(self.sfc_quad).size != 3:
+            raise FormulationInputError("sfc_quad needs exactly 3 coefficients")
         if not (self.mcr_kw > 0 and 0 <= self.min_load < self.max_load):
             raise FormulationInputError(
                 f"need mcr_kw > 0 and 0 <= min_load < max_load, got {self.mcr_kw}, {self.min_load}, {self.max_load}"
             )
-        if self.wind_coef < 0 or self.sfc_base_gpkwh <= 0:
-            raise FormulationInputError("wind_coef must be >= 0 and sfc_base_gpkwh > 0")
+        if self.sfc_base_gpkwh <= 0:
+            raise FormulationInputError(f"sfc_base_gpkwh must be > 0, got {self.sfc_base_gpkwh}")
 
     def calm_power_kw(self, stw_kn: ArrayLike) -> np.ndarray:
         """``P_calm(V)`` [kW]."""

@@ -27,24 +27,20 @@ Ship kinematics with a current ``u`` (components along ``e_k`` and to its
 port side ``u∥, u⊥``): the ship heads so as to cancel the cross-current,
 ``h⊥ = −u⊥/V``, ``h∥ = √(1 − h⊥²)``, ``SOG = V h∥ + u∥``.
 
-Power model (the supported closed form; the domain layer fits its
-performance model, e.g. Kwon's speed loss (physics.md §6), to it):
+Power model: the ship's own, tabulated. The caller (the domain layer) evaluates its performance
+model — the same one that scores the plan — at every node of the corridor's weather grid for a
+handful of speeds through water and heading deviations from the centreline, and passes the ratio
+to a calm-water baseline (:class:`formulations.common.WeatherGrid`, ``power_ratio``):
 
-    P = M_k · P_calm(V) · (1 + W(Hs) · D(cos α) · S(V)) + P_wind     [kW]
-    P_calm(V) = Σ_j c_j V^{n_j}             calm-water (propeller law, physics.md §8)
-    W(Hs)     = Σ_m h_m Hs^{q_m}            added-power weight of the sea state
-    D(cos α)  = b_0 + b_1 cos α + b_2 cos² α  direction factor, α = 180° − χ (IMO: 0 = head sea)
-    S(V)      = Σ_r u_r V^r                  speed factor (the analogue of Kwon's C_U)
-    P_wind    = k_w V (a |a| − a_0²)          a: apparent head wind [kn], a_0: its still-air value
+    P = f_k · P_calm(V) · R(t, s, y, V, ψ)     [kW]
+    P_calm(V) = Σ_j c_j V^{n_j}                 calm-water baseline (:class:`formulations.common.PowerModel`)
+    R                                          the table: the weather's cubic B-spline quasi-interpolant
+                                               in (t, s, y), V and ψ
 
-``(1 + W D S)`` is the Kwon-type added factor: a speed loss ``δ`` at fixed
-power ``P = c V^n`` is an added power factor ``(1 − δ)^{−n} ≈ 1 + n δ``.
-``M_k = f_k (V/V_k)^{e_k} exp(a_k τ tanh((t̄ − T_k)/τ))`` is an optional
-per-leg multiplier (fouling, a static weather factor on a fixed path, or the
-domain layer's first-order correction of a fitted model: level ``f_k``, speed
-elasticity ``e_k`` at the reference speed ``V_k``, and a logarithmic slope
-``a_k`` [1/h] in the leg's mid-time ``t̄`` about ``T_k``, saturating beyond
-``τ`` = 1 h); default ``M_k = f_k = 1``. Fuel rate ``q = P · SFOC(P/MCR) · 1e-6`` [t/h] with
+with ``ψ`` the ship's heading minus the centreline direction (the leg's course turned by the crab
+angle against the current; positive to port) and ``f_k`` a static per-leg factor (default 1; e.g.
+a hull-fouling factor). Nothing is fitted: the table's error is a grid-resolution choice, measured
+by the caller against its own evaluation of the plan. Fuel rate ``q = P · SFOC(P/MCR) · 1e-6`` [t/h] with
 the Fourth IMO GHG Study curve ``SFOC(L) = SFC_base (0.455 L² − 0.710 L + 1.280)``
 (physics.md §8).
 
@@ -81,10 +77,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from formulations._nlp_model import (
-    POWER_TERM_DEFAULTS,
-    POWER_TERMS,
     jit_compiler,
-    power_multiplier,
     sample_physics,
     structured_derivatives,
 )
@@ -103,7 +96,6 @@ __all__ = [
     "CorridorGeometry",
     "MovingExclusion",
     "NLPResult",
-    "POWER_TERMS",
     "jit_compiler",
     "PowerModel",
     "SampleState",
@@ -277,13 +269,7 @@ class SpeedNLP:
     v_min_kn, v_max_kn : float or array_like, shape (N,)
         Bounds on the speed through water [kn]; ``v_min > 0``.
     leg_power_factor : array_like, shape (N,), optional
-        Multiplier ``f_k`` of the calm and wave power per leg (default 1). A parameter of the
-        built NLP, not part of its graph: :meth:`set_leg_power_factor` changes it between solves
-        without a rebuild.
-    leg_power_correction : mapping of str to array_like, optional
-        The other terms of the per-leg multiplier ``M_k`` (default: none): keys ``exponent``, ``ref_kn``,
-        ``time_slope_per_h``, ``ref_time_h`` as in :meth:`set_leg_power_factor`. Parameters, as
-        ``leg_power_factor``.
+        Static factor ``f_k`` on the power of every leg [-] (default 1), finite and positive.
     g_over_2pi_kn_s : float
         ``A = g/2π`` [kn/s] in the wave relations (default 3.0339; IMO's rounded form is 3.0).
     sog_min_kn : float
@@ -316,7 +302,6 @@ class SpeedNLP:
         v_min_kn: ArrayLike = 1.0,
         v_max_kn: ArrayLike = 30.0,
         leg_power_factor: ArrayLike | None = None,
-        leg_power_correction: dict[str, ArrayLike] | None = None,
         g_over_2pi_kn_s: float = G_OVER_2PI_KN_S,
         sog_min_kn: float = 1.0,
         ipopt_options: dict[str, Any] | None = None,
@@ -341,11 +326,10 @@ class SpeedNLP:
             raise FormulationInputError(
                 f"need 0 < v_min_kn <= v_max_kn, got v_min {self.v_min_kn.min():g}, v_max {self.v_max_kn.min():g}"
             )
-        self.leg_power_factor = np.ones(n)
-        self.leg_power_terms: dict[str, np.ndarray] = {}
-        self.set_leg_power_factor(
-            np.ones(n) if leg_power_factor is None else leg_power_factor, **(leg_power_correction or {})
-        )
+        f = broadcast_legs(1.0 if leg_power_factor is None else leg_power_factor, n, "leg_power_factor")
+        if not (np.isfinite(f).all() and (f > 0).all()):
+            raise FormulationInputError(f"leg_power_factor must be finite and positive, got {f!r}")
+        self.leg_power_factor = f
         self.g_over_2pi = float(g_over_2pi_kn_s)
         self.sog_min_kn = float(sog_min_kn)
         for b in self.bands:
@@ -364,16 +348,28 @@ class SpeedNLP:
     def _sample_function(self) -> Any:
         """Per-sample physics (:func:`formulations._nlp_model.sample_physics`) as an SX function.
 
-        Input (column): ``V, cos δ, sin δ, L/m, f_k``, the interpolated weather fields, ``β`` (B band
-        edges). Output (column): ``dt, fuel, load, power, rate, cos χ, sog, h⊥``, B band residuals,
-        B band ratios.
+        Input (column): ``V, cos δ, sin δ, L/m, f_k``, the interpolated weather fields (and power-ratio
+        coefficients), ``β`` (B band edges). Output (column): ``dt, fuel, load, power, rate, cos χ,
+        sog, h⊥``, B band residuals, B band ratios.
         """
         names = self.weather.field_names
         nb = self.n_bands
         inp = ca.SX.sym("in", 5 + len(names) + nb)
         col = {name: inp[5 + i] for i, name in enumerate(names)}
         beta = [inp[5 + len(names) + i] for i in range(nb)]
-        ph = sample_physics(inp[0], inp[1], inp[2], inp[3], inp[4], col, beta, self.power, self.bands, self.g_over_2pi)
+        ph = sample_physics(
+            inp[0],
+            inp[1],
+            inp[2],
+            inp[3],
+            inp[4],
+            col,
+            beta,
+            self.power,
+            self.bands,
+            self.g_over_2pi,
+            self.weather.ratio_axes,
+        )
         keys = ("dt", "fuel", "load", "power", "rate", "cos_chi", "sog", "h_perp")
         out = ca.vertcat(*[ph[k] for k in keys], *ph["res"], *ph["ratio"])
         return ca.Function("sample", [inp], [out])
@@ -447,11 +443,8 @@ class SpeedNLP:
         y, v, t = x[: n + 1], x[n + 1 : 2 * n + 1], x[2 * n + 1 :]
         beta = ca.MX.sym("beta", k_ * nb)
         weights = ca.MX.sym("w", 2)  # fuel weight, time weight
-        # the per-leg power multiplier M_k: parameters, so that changing them needs no build
-        fac = ca.MX.sym("f", len(POWER_TERMS) * n)
-        cols = [fac[i * n : (i + 1) * n] for i in range(len(POWER_TERMS))]
-        mult = power_multiplier(v, 0.5 * (t[:-1] + t[1:]), cols, ca)
-        mdl = self._model(y, v, t, beta, mult)
+        fac = ca.MX.sym("f", n)  # the static per-leg power factors f_k (a parameter)
+        mdl = self._model(y, v, t, beta, fac)
         objective = weights[0] * ca.sum1(mdl["fuel_leg"]) + weights[1] * (t[n] - t[0])
         rows: dict[str, tuple[int, int]] = {}
         parts: list[Any] = []
@@ -583,54 +576,29 @@ class SpeedNLP:
             outside_grid=outside,
         )
 
-    def set_leg_power_factor(self, leg_power_factor: ArrayLike, **terms: ArrayLike | None) -> None:
-        """Set the per-leg power multiplier ``M_k`` of the next solves (no rebuild).
-
-        ``M_k = f_k (V/V_k)^{e_k} exp(a_k τ tanh((t̄ − T_k)/τ))``, ``t̄`` the leg's mid-time [h],
-        ``τ`` = 1 h: a level, a speed elasticity and a time slope (saturating beyond ``τ``).
-
-        Parameters
-        ----------
-        leg_power_factor : array_like, shape (N,)
-            ``f_k`` [-], finite and positive.
-        exponent : array_like, shape (N,), optional
-            ``e_k`` [-] (default 0).
-        ref_kn : array_like, shape (N,), optional
-            ``V_k`` [kn], positive (default 1).
-        time_slope_per_h, ref_time_h : array_like, shape (N,), optional
-            ``a_k`` [1/h] and ``T_k`` [h since departure] (default 0).
-        """
-        n = self.n_legs
-        f = broadcast_legs(leg_power_factor, n, "leg_power_factor")
-        if not (np.isfinite(f).all() and (f > 0).all()):
-            raise FormulationInputError("leg_power_factor must be finite and positive")
-        unknown = set(terms) - set(POWER_TERMS[1:])
-        if unknown:
-            raise FormulationInputError(f"unknown power-multiplier terms {sorted(unknown)}; use {POWER_TERMS[1:]}")
-        out = {}
-        for name in POWER_TERMS[1:]:
-            given = terms.get(name)
-            a = np.full(n, POWER_TERM_DEFAULTS[name]) if given is None else broadcast_legs(given, n, name)
-            bad = ~np.isfinite(a) | ((a <= 0) if name == "ref_kn" else False)
-            if bad.any():
-                k = int(np.argmax(bad))
-                need = "finite and positive (a speed in kn)" if name == "ref_kn" else "finite"
-                raise FormulationInputError(f"power-multiplier term {name} must be {need}; leg {k} has {a[k]!r}")
-            out[name] = a.copy()
-        self.leg_power_factor, self.leg_power_terms = f.copy(), out
-
-    def leg_power_multiplier(self, v_kn: ArrayLike, time_mid_h: ArrayLike | None = None) -> np.ndarray:
-        """``M_k`` [-] at speeds ``v_kn`` [kn] of shape (N,) or (N, K) (leg on the first axis).
-
-        ``time_mid_h`` [h], the leg's mid-time, defaults to ``T_k``.
-        """
-        v = np.asarray(v_kn, dtype=float)
-        extra = (slice(None),) + (None,) * (v.ndim - 1)
-        cols = [self.leg_power_factor[extra]] + [self.leg_power_terms[k][extra] for k in POWER_TERMS[1:]]
-        return power_multiplier(v, cols[4] if time_mid_h is None else np.asarray(time_mid_h, dtype=float), cols, np)
-
     def _factor_parameter(self) -> np.ndarray:
-        return np.concatenate([self.leg_power_factor] + [self.leg_power_terms[k] for k in POWER_TERMS[1:]])
+        return self.leg_power_factor
+
+    def power_at_speeds(
+        self, offset_nm: ArrayLike, time_h: ArrayLike, stw_kn: ArrayLike
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Brake power [kW] and fuel rate [t/h] of the NLP's model at every sample for other speeds.
+
+        The samples stay where and when they are for the offsets (N+1,) [nm] and times (N+1,) [h];
+        every leg is given each of the speeds ``stw_kn`` (K,) [kn] in turn (the same expressions as
+        the NLP). Returns two arrays of shape (N, m, K).
+        """
+        n, m = self.n_legs, self.samples_per_leg
+        y = broadcast_legs(offset_nm, n + 1, "offset_nm")
+        t = broadcast_legs(time_h, n + 1, "time_h")
+        speeds = np.atleast_1d(np.asarray(stw_kn, dtype=float))
+        power = np.empty((n, m, speeds.size))
+        rate = np.empty((n, m, speeds.size))
+        for i, v in enumerate(speeds):
+            ev = self._eval(self._pack(y, np.full(n, v), t))
+            power[:, :, i] = np.reshape(ev["power"], (n, m))
+            rate[:, :, i] = np.reshape(ev["rate"], (n, m))
+        return power, rate
 
     def consistent_times(self, offset_nm: ArrayLike, stw_kn: ArrayLike, *, iterations: int = 3) -> np.ndarray:
         """Arrival times [h] (N+1,) that satisfy the NLP's time dynamics for given offsets and speeds.

@@ -122,15 +122,16 @@ def test_fixed_path_static_weather_equals_the_convex_optimum_and_the_analytic_sp
     t *= eta_h / t.sum()
     np.testing.assert_allclose(plan.legs["duration_h"], t, rtol=1e-5)
     assert plan.duration_h == pytest.approx(eta_h, abs=1e-6)
-    # the ship's certificate (Lagrangian dual over the true model) and the fitted model's convex one (constant
-    # SFOC, power laws: CVXPY + Clarabel) agree with each other and with the plan
+    # the ship's certificate (Lagrangian dual over the true model) and the NLP model's own dual bound agree with the
+    # plan
     cert = plan.solver_stats["certificate"]
     assert cert["method"] == "lagrangian dual" and abs(cert["gap"]) <= 1e-6
     assert cert["bound_t"] == pytest.approx(ref.total_fuel_t, rel=1e-6)
-    fitted = cert["fitted_model"]
-    assert fitted["method"].startswith("convex") and abs(fitted["gap"]) <= 1e-6
-    assert cert["bound_t"] == pytest.approx(fitted["total_fuel_t"], rel=1e-8)
-    assert plan.solver_stats["fit_max_rel_error"] < 1e-9
+    own = cert["nlp_model"]
+    assert own["method"] == "Lagrangian dual bound" and abs(own["gap"]) <= 1e-6
+    # the model's ratio to calm water is linear in Hs and independent of the speed: the table is exact, and the NLP's
+    # fuel at its solution is the referee's for the same schedule
+    assert abs(plan.solver_stats["tabulation"]["rel_error"]) <= 1e-6
     assert plan.status == "optimal"
     # -dF*/dT = 2 F*/T for the cubic law
     assert plan.eta_shadow_price_t_per_h == pytest.approx(2 * ref.total_fuel_t / eta_h, rel=1e-5)
@@ -142,11 +143,9 @@ def test_calm_water_constant_speed_matches_the_ship_by_hand():
     plan = optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(72, "h"), max_leg_nm=40.0)
     v = corridor.length_nm / 72.0
     by_hand = 72.0 * float(SHIP.fuel_rate_tph(SHIP.calm_power_kw(v)))
-    # Kwon in Hs 0 is the calm-water curve, so the fit is exact (its error is reported) and the
-    # tolerance is that error plus Ipopt's 1e-9 scaled tolerance
-    tol = plan.solver_stats["fit_max_rel_error"] + 1e-6
-    assert plan.solver_stats["fit_max_rel_error"] < 1e-9
-    assert plan.total_fuel_t == pytest.approx(by_hand, rel=tol)
+    # Kwon in Hs 0 is the calm-water curve: the table is exact (its measured error is reported)
+    assert abs(plan.solver_stats["tabulation"]["rel_error"]) <= 1e-9
+    assert plan.total_fuel_t == pytest.approx(by_hand, rel=1e-6)
     np.testing.assert_allclose(plan.legs["stw_kn"], v, rtol=1e-6)
     assert plan.verify() == []
     # the IMO SFOC curve is outside the convex solver's class: the certificate is the dual bound
@@ -155,17 +154,8 @@ def test_calm_water_constant_speed_matches_the_ship_by_hand():
     assert cert["bound_t"] == pytest.approx(by_hand, rel=1e-6)
 
 
-@pytest.mark.parametrize(
-    ("max_iter", "evidence"),
-    [
-        # stopped within Ipopt's constraint tolerance: usable as it is; Ipopt's status kept verbatim
-        (8, "Maximum_Iterations_Exceeded"),
-        # after 3 iterations the scaled rows are ~5e-3 off (the time dynamics, which the plan recomputes from the
-        # speeds): kept only because its plan passes the independent verification
-        (3, "passes verification"),
-    ],
-)
-def test_iteration_limit_returns_a_verified_feasible_plan_not_an_optimal_one(max_iter, evidence):
+@pytest.mark.parametrize("max_iter", [2, 4])
+def test_iteration_limit_returns_a_verified_feasible_plan_not_an_optimal_one(max_iter):
     # Ipopt stopped by max_iter: the iterate goes through verify() and is labelled "feasible"; its fuel can be no
     # lower than the constant-speed optimum worked by hand (calm water, fixed path)
     wx = orx.scenarios.uniform(hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240, resolution_deg=1.0)
@@ -181,9 +171,11 @@ def test_iteration_limit_returns_a_verified_feasible_plan_not_an_optimal_one(max
         use_land_mask=False,
     )
     by_hand = 72.0 * float(SHIP.fuel_rate_tph(SHIP.calm_power_kw(corridor.length_nm / 72.0)))
-    assert plan.status == "feasible" and plan.verify() == []
+    # never "optimal": Ipopt's iterate ("feasible") or, when it is no better, the verified start ("start")
+    assert plan.status in ("feasible", "start") and plan.verify() == []
     assert plan.total_fuel_t >= by_hand * (1 - 1e-9) and plan.duration_h <= 72.0 + 1e-6
-    assert evidence in repr(plan.solver_stats)
+    assert plan.solver_stats["ipopt_status"] == "Maximum_Iterations_Exceeded"
+    assert plan.solver_stats["iterations"] >= max_iter
 
 
 def test_unreachable_eta_raises_with_the_earliest_arrival():
@@ -210,27 +202,25 @@ def test_tight_eta_behind_a_following_storm_with_a_15_percent_minimum_load_raise
     assert "minimum-time solve" in str(err.value)
 
 
-def test_solver_failure_carries_ipopts_status():
+def test_a_failed_solve_returns_the_verified_start_not_a_worse_plan():
+    # Ipopt stopped after one iteration: the verified start (the centreline at the constant speed D/T in calm water,
+    # the optimum here) is returned with status "start", its fuel worked by hand from the Ship
     wx = orx.scenarios.uniform(hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240, resolution_deg=1.0)
     corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -10.0]], width_nm=0.0)
-    with pytest.raises(orx.SolverFailure) as err:
-        optimise_corridor(
-            corridor,
-            wx,
-            SHIP,
-            departure=T0,
-            eta=T0 + np.timedelta64(60, "h"),
-            max_leg_nm=40.0,
-            solver_options={"ipopt.max_iter": 1},
-        )
-    assert err.value.status == "Maximum_Iterations_Exceeded"
-    assert "Maximum_Iterations_Exceeded" in str(err.value)
-    # the best verified plan known travels with the error: here the safe warm start, the constant
-    # speed D/T in calm water, whose fuel is worked by hand from the Ship
-    best = err.value.best_plan
-    assert best is not None and best.verify() == [] and best.duration_h <= 60.0 + 1e-9
+    plan = optimise_corridor(
+        corridor,
+        wx,
+        SHIP,
+        departure=T0,
+        eta=T0 + np.timedelta64(60, "h"),
+        max_leg_nm=40.0,
+        solver_options={"ipopt.max_iter": 1},
+    )
+    assert plan.status == "start" and plan.verify() == [] and plan.duration_h <= 60.0 + 1e-9
+    assert plan.solver_stats["ipopt_status"] == "Maximum_Iterations_Exceeded"
+    assert "did not improve" in plan.solver_stats["status_reason"]
     by_hand = 60.0 * float(SHIP.fuel_rate_tph(SHIP.calm_power_kw(corridor.length_nm / 60.0)))
-    assert best.total_fuel_t == pytest.approx(by_hand, rel=1e-6)
+    assert plan.total_fuel_t == pytest.approx(by_hand, rel=1e-6)
 
 
 def test_storm_with_bands_active_returns_a_verified_plan_off_the_bands(storm):
@@ -256,7 +246,7 @@ def test_storm_with_bands_active_returns_a_verified_plan_off_the_bands(storm):
     assert (margins > 0).all()  # … and the plan keeps clear of every one
     stats = plan.solver_stats
     assert stats["ipopt_status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
-    assert stats["nlp_solves"] >= 2 and stats["fit_max_rel_error"] > 0
+    assert stats["nlp_solves"] >= 2 and stats["iterations"] >= stats["nlp_solves"]
     assert plan.verify(step_nm=2.0) == []  # also on a finer resampling than the optimiser's own
 
 
@@ -280,7 +270,12 @@ def test_moderate_sea_plans_pass_verification_for_every_objective(storm):
         assert plan.verify() == []
     assert fast.duration_h < cost.duration_h <= fuel.duration_h + 1e-6 <= 48.0 + 1e-6
     assert fuel.total_fuel_t < cost.total_fuel_t < fast.total_fuel_t
-    assert fuel.eta_shadow_price_t_per_h > 0 and np.isnan(fast.eta_shadow_price_t_per_h)
+    assert np.isnan(fast.eta_shadow_price_t_per_h)
+    # the NLP's own plan carries its ETA multiplier; in this flat sea the verified centreline start can score as
+    # well (to 0.04 %, within the tabulation error), and then the start is returned, without one
+    assert fuel.eta_shadow_price_t_per_h > 0 if fuel.status != "start" else np.isnan(fuel.eta_shadow_price_t_per_h)
+    for plan in (fuel, cost):
+        assert plan.solver_stats["nlp_score"] >= plan.solver_stats["start_score"] or plan.status != "start"
 
 
 def test_nlp_fuel_is_at_most_the_3d_dp_fuel_at_every_resolution(storm):
@@ -488,12 +483,12 @@ def test_prepared_corridor_solves_several_etas_as_independent_optimise_corridor_
     """One set-up and one build for three ETAs; each plan as optimise_corridor's own (independent set-up).
 
     The weather is static and the lowest speed (9 kn) is above half of every ETA's mean speed, so the
-    set-up for the latest ETA (longer weather grid, power fit from 9 kn) is the one each call makes:
-    the plans must agree to the solver's tolerance although the prepared solves are warm-started from
-    each other and share one CasADi build (power factors and load limits set per solve).
+    set-up for the latest ETA (longer weather grid, power table over 9 kn to the top speed) is the one
+    each call makes: the plans must agree to the solver's tolerance although the prepared solves are
+    warm-started from each other and share one CasADi build (load limits set per solve).
     """
     from optroute.errors import ConfigError
-    from optroute.optimise.corridor_problem import Learnt, PreparedCorridor
+    from optroute.optimise.corridor_problem import PreparedCorridor
 
     wx = _static_linear_sea(1.0, 0.15, wave_from_deg=45.0)
     corridor = orx.Corridor(np.array([[0.0, -30.0], [0.0, -10.0]]), 20.0)
@@ -508,11 +503,8 @@ def test_prepared_corridor_solves_several_etas_as_independent_optimise_corridor_
         assert plan.verify() == [] and ref.verify() == []
         assert plan.total_fuel_t == pytest.approx(ref.total_fuel_t, rel=1e-6)
         assert plan.duration_h <= eta_h + 1e-6
-        assert plan.solver_stats["fit_corrections"] == ref.solver_stats["fit_corrections"]
         previous = plan
-    assert prepared.problem.builds == 1  # fit corrections change a solve parameter, not the build
-    learnt = Learnt.from_plan(previous)
-    assert learnt is not None and learnt.leg_power_factor.shape == (prepared.frame.n_legs,)
+    assert prepared.problem.builds == 1  # the ETA is a solve parameter, not part of the build
     with pytest.raises(ConfigError, match="latest ETA"):
         prepared.solve(T0 + _td(100.0))
 

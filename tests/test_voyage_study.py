@@ -96,8 +96,8 @@ def test_two_worker_front_equals_the_serial_front(cluster):
     ser = tradeoff(CORRIDOR, wx, SHIP, departure=T0, n=5, **KW)
     par = tradeoff(CORRIDOR, wx, SHIP, departure=T0, n=5, scheduler_address=cluster.scheduler_address, **KW)
     np.testing.assert_allclose(par.eta_h.values, ser.eta_h.values, rtol=1e-9)
-    # a point's fit corrections start from its chain neighbour's (optroute.optimise.fit_correction): the serial chain and the
-    # cluster's chains reach the same optimum to the corrections' own tolerance, not bit for bit (seen: fuel 1.2e-6)
+    # a point starts from its chain neighbour's plan (warm_plan): the serial chain and the
+    # cluster's chains reach the same optimum to the solver's tolerance, not bit for bit
     np.testing.assert_allclose(par.fuel_t.values, ser.fuel_t.values, rtol=1e-5)
     np.testing.assert_allclose(par.leg_stw_kn.values, ser.leg_stw_kn.values, rtol=3e-3)  # a flat optimum: seen 1e-3
     assert list(par.status.values) == list(ser.status.values) == ["optimal"] * 5

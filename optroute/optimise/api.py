@@ -1,16 +1,17 @@
 """The corridor optimiser: ``optimise_corridor`` and ``plan_voyage``.
 
-:func:`optimise_corridor` turns a corridor, the weather and a ship into the
-arrays of the corridor NLP (:mod:`optroute.optimise.nlp_inputs` →
-:class:`formulations.speed_nlp.SpeedNLP`), solves it with the disjunctive
-outer loop over the danger-band sides (:func:`formulations.disjunctive.improve_sides`),
-turns the solution into a :class:`~optroute.plan.result.Plan` computed with the
-*true* performance model, and verifies it (:meth:`Plan.verify`). A plan
-that fails verification is never returned: the problem is tightened where
-the verification says (per-leg power factors corrected to the true model's
-power, band edges backed off, the ETA, the exclusion radius, the lateral
-bounds: moved off land or a no-passage cell the verification met, by
-:func:`optroute.optimise.lateral.avoid_point`, else shrunk about their middle) and solved again; when that does not produce a clean plan,
+:func:`optimise_corridor` turns a corridor, the weather and a ship into the arrays of the corridor NLP
+(:mod:`optroute.optimise.nlp_inputs` → :class:`formulations.speed_nlp.SpeedNLP`) with the ship's own
+performance model tabulated on the corridor's weather grid (:mod:`optroute.optimise.power_table`: the
+NLP optimises the model that scores the plan, not a fit of it); starts it from the best verified
+discrete plan on the corridor (:mod:`optroute.optimise.starts`: the search route, the 3-D DP, the
+centreline start); solves it with the disjunctive outer loop over the danger-band sides
+(:func:`formulations.disjunctive.improve_sides`); turns the solution into a
+:class:`~optroute.plan.result.Plan` computed with the *true* performance model, and verifies it
+(:meth:`Plan.verify`). A plan that fails verification is never returned: the problem is tightened where
+the verification says (band edges backed off, the load limits, the ETA, the exclusion radius, the
+lateral bounds) and solved again; the returned plan is never worse than the verified start (which is
+returned, with ``status="start"``, when the NLP does not improve on it); when there is neither,
 :class:`~optroute.errors.SolverFailure` is raised with Ipopt's status.
 
 :func:`plan_voyage` is search → corridor → NLP in one call.
@@ -62,7 +63,6 @@ def optimise_corridor(
     progress: ProgressFn | None = None,
     speed_range_kn: tuple[float, float] | None = None,
     band_solves: int = 12,
-    fit_corrections: int = 6,
     max_retries: int = 4,
     band_margin: float = 0.005,
     band_hs_margin: float = 0.05,
@@ -70,6 +70,8 @@ def optimise_corridor(
     solver_options: Mapping[str, Any] | None = None,
     jit: bool = False,
     use_land_mask: bool | None = None,
+    discrete_start: bool = False,
+    dp_options: Mapping[str, Any] | None = None,
 ) -> Plan:
     """Optimise the waypoints and leg speeds inside a corridor: the corridor NLP, verified.
 
@@ -91,7 +93,8 @@ def optimise_corridor(
         Least fuel [t], least passage time [h], or ``fuel_price_per_t · fuel + hourly_cost_per_h · time``.
     model : PerformanceModel, optional
         The true power and fuel model (default :class:`~optroute.physics.performance.KwonModel`); the NLP
-        uses a least-squares fit of it, the plan is computed and verified with it.
+        optimises it, tabulated on the corridor's weather grid (:mod:`optroute.optimise.power_table`),
+        and the plan is computed and verified with it.
     rules : BandRules, optional
         Danger bands (default Boeing EP 2145155).
     route : Route, optional
@@ -116,12 +119,6 @@ def optimise_corridor(
         Speed-through-water bounds [kn]; default 3 kn to the calm-water speed at MCR (at most 40).
     band_solves : int
         Budget of NLP solves of the band outer loop (side flips, applicability re-checks) per solve.
-    fit_corrections : int
-        Most re-solves after a clean plan with the fit corrected at the solution
-        (:mod:`optroute.optimise.fit_correction`: the per-leg power multiplier matched to the true model's
-        power, its speed elasticity and, relaxed, its time slope); the best clean plan by the true
-        model is kept, and the corrections stop early when they converge or two corrected solves in
-        a row do not improve on it. 0: the fit's optimum.
     max_retries : int
         Tightened re-solves after a failed verification.
     band_margin : float
@@ -140,24 +137,35 @@ def optimise_corridor(
         500 legs 0.87 s against 1.71 s). Worth it for long corridors and fronts, where builds are reused.
     use_land_mask : bool, optional
         Apply the real coastline (default: unless the weather declares synthetic geography).
+    discrete_start : bool
+        Also run the 3-D DP (:mod:`optroute.search.dp`) on the corridor as a start candidate when its
+        centreline is one great circle and there is an ETA (objective fuel or cost); see
+        :mod:`optroute.optimise.starts`. Off by default: on the storm crossing of ``benchmarks.bench_nlp``
+        the DP at its default resolution takes about 4× the rest of the call.
+    dp_options : mapping, optional
+        Resolution of that DP (``dx_nm``, ``dy_nm``, ``dt_h``, ``speed_step_kn``; :func:`optroute.optimise.starts.dp_route`).
 
     Returns
     -------
     Plan
         Verified (``plan.verify() == []``); ``total_fuel_t`` and ``legs`` are the true model's.
-        ``solver_stats`` holds: ``ipopt_status`` (verbatim, of the returned solve), ``iterations``
-        (all solves), ``nlp_solves`` and ``outer_flips`` and ``outer_history`` (band outer loop),
-        ``solve_time_s``, ``build_time_s``, ``total_time_s``; the power fit's ``fit_max_rel_error``,
-        ``fit_rms_rel_error``, ``sfoc_fit_max_rel_error``, ``fit_points``; ``nlp_objective`` and
-        ``nlp_fuel_t`` (the fitted model's), ``nlp_max_violation``;
-        ``frame_max_rel_distance_error``; ``retries``, ``fit_corrections``, ``tightening`` (log),
-        ``max_load``, ``band_margin``, ``band_hs_margin``, ``bands`` (of the returned solve);
-        ``certificate`` (fixed path in static weather without current: ``method`` ``"lagrangian dual"``,
-        ``bound_t`` (``bound`` for cost), ``gap`` of the plan to it, see
-        :mod:`optroute.optimise.certificate`; else ``reason``; the fitted model's own certificate under
-        ``fitted_model``);
-        ``n_legs``, ``samples_per_leg``, ``weather_grid_shape``, ``weather_nodes_filled``,
-        ``eta_h_solved``.
+        ``status``: ``"optimal"`` (Ipopt converged and the band-side search finished), ``"sides_unsettled"``
+        (converged, the side search stopped on ``band_solves``), ``"feasible"`` (Ipopt stopped at a limit; its
+        iterate's plan verifies) or ``"start"`` (the verified start, because the NLP's plan was worse or
+        failed; ``solver_stats["status_reason"]`` says which). ``solver_stats`` holds: ``ipopt_status``
+        (verbatim), ``nlp_solves`` and ``iterations`` (every Ipopt call of the whole call, and all their
+        iterations), ``build_time_s``, ``stage_time_s`` (start, solve and verify), ``total_time_s``;
+        ``start``, ``start_score``, ``starts`` (every candidate's score by the referee, inf unverified),
+        ``nlp_score``; ``power_table`` (its speed and heading nodes, capped share, evaluations, the SFOC
+        curve's error) and, for an NLP plan, ``tabulation`` (the NLP's fuel at its solution against the
+        referee's fuel of the same track and schedule: the measured tabulation error), ``outer_solves``,
+        ``outer_flips``, ``outer_history``, ``sides_settled``, ``nlp_objective``, ``nlp_fuel_t``,
+        ``nlp_max_violation``, ``frame_max_rel_distance_error``, ``bands``, ``certificate`` (fixed path
+        in static weather without current: ``method`` ``"lagrangian dual"``, ``bound_t`` (``bound`` for
+        cost) and the ``gap`` of the returned plan to the ship's own least fuel, bands included, see
+        :mod:`optroute.optimise.certificate`; else ``reason``; the NLP model's dual bound under
+        ``nlp_model``), ``eta_h_solved``; ``retries``, ``tightening`` (log), ``n_legs``, ``samples_per_leg``,
+        ``weather_grid_shape``, ``weather_nodes_filled``.
 
     Raises
     ------
@@ -199,7 +207,8 @@ def optimise_corridor(
         exclusion=exclusion,
         speed_range_kn=speed_range_kn,
         band_solves=band_solves,
-        fit_corrections=fit_corrections,
+        discrete_start=discrete_start,
+        dp_options=dp_options,
         max_retries=max_retries,
         band_margin=band_margin,
         band_hs_margin=band_hs_margin,

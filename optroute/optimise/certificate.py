@@ -406,8 +406,8 @@ def certificate_stats(
 ) -> dict[str, Any]:
     """``solver_stats["certificate"]`` of an optimiser's plan: the ship's certificate where it applies.
 
-    ``fitted`` is the optimiser's own certificate of its fitted model; it is kept under
-    ``"fitted_model"``. Keyword arguments go to :func:`ship_certificate`.
+    ``fitted`` is the optimiser's own certificate of the model inside the NLP; it is kept under
+    ``"nlp_model"``. Keyword arguments go to :func:`ship_certificate`.
     """
     if not fixed:
         reason = "the path is free (half-width > 0)"
@@ -420,5 +420,5 @@ def certificate_stats(
             # a model that cannot be evaluated at some speed of the range (a power table's edge, say): the plan
             # stands, its certificate says why there is none
             stats = {"method": "not applicable", "gap": math.nan, "reason": f"{type(exc).__name__}: {exc}"}
-        return {**stats, "fitted_model": dict(fitted)}
-    return {"method": "not applicable", "gap": math.nan, "reason": reason, "fitted_model": dict(fitted)}
+        return {**stats, "nlp_model": dict(fitted)}
+    return {"method": "not applicable", "gap": math.nan, "reason": reason, "nlp_model": dict(fitted)}

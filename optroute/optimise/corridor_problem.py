@@ -1,21 +1,21 @@
 """A corridor problem prepared once and solved for many ETAs: :class:`PreparedCorridor`.
 
-:func:`optroute.optimise_corridor` is set-up then solves: the NLP's weather grid
-(:func:`~optroute.optimise.nlp_inputs.weather_grid`), the lateral bounds and land mask
-(:func:`~optroute.optimise.nlp_inputs.lateral_bounds`), the power fit
-(:func:`~optroute.optimise.nlp_inputs.fit_power_model`), the :class:`~optroute.optimise.nlp_solve.Problem`, and
-the CasADi builds of :class:`formulations.speed_nlp.SpeedNLP`. Only the last solves depend on the
-ETA (it is a solve parameter of the NLP), so a fuel-versus-ETA front (:func:`optroute.studies.tradeoff`)
+:func:`optroute.optimise_corridor` is set-up then solves. Set-up: the NLP's weather grid with the
+ship's own power tabulated on it (:func:`~optroute.optimise.nlp_inputs.weather_grid`,
+:mod:`optroute.optimise.power_table`: one model, the referee's), the lateral bounds and land mask
+(:func:`~optroute.optimise.nlp_inputs.lateral_bounds`), the :class:`~optroute.optimise.nlp_solve.Problem`
+and the CasADi builds of :class:`formulations.speed_nlp.SpeedNLP`. Only the solves depend on the
+ETA (a solve parameter of the NLP), so a fuel-versus-ETA front (:func:`optroute.studies.tradeoff`)
 prepares the corridor once, for a horizon covering all its ETAs, and solves each ETA with
-:meth:`PreparedCorridor.solve` — the verification loop, tightening, :class:`InfeasibleETA` /
-:class:`SolverFailure` behaviour and ``solver_stats`` of :func:`optimise_corridor`, which is this
-class prepared for its one ETA.
+:meth:`PreparedCorridor.solve`.
 
-Builds are cached by the tightening state that shapes them (band back-offs, samples per leg,
-exclusion radius, lateral bounds); the load limits are solve-time constraint bounds and the per-leg
-power factors a solve parameter, so the fit corrections and power tightenings of the verification
-loop, and every ETA after the first, cost a solve, not a build. :class:`Learnt` carries what the verification loop learnt at one ETA (the
-corrected power factor, the load limit and band back-offs) to the next one's start.
+A solve, in stages: **start** — the best verified discrete plan on the corridor
+(:mod:`optroute.optimise.starts`: a given warm plan or search route, the 3-D DP on the corridor, the
+centreline start; scored by the referee); **solve** — Ipopt from it with the band outer loop
+(:meth:`~optroute.optimise.nlp_solve.Problem.solve`); **verify** — the plan of the solution by the
+referee, re-solved with the rows the verification flagged tightened (band edges, load limit,
+exclusion radius, lateral bounds) when it fails; **plan** — the better of the NLP's verified plan
+and the verified start, never a worse one, with a status that says which and why.
 """
 
 from __future__ import annotations
@@ -24,19 +24,18 @@ import math
 import shutil
 import time as _time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any, Literal
 
 import numpy as np
 import xarray as xr
 
-from formulations.speed_nlp import POWER_TERMS, jit_compiler
+from formulations.speed_nlp import jit_compiler
 from optroute._checks import finite
 from optroute.errors import ConfigError, SolverFailure, WeatherCoverageError
 from optroute.optimise.certificate import certificate_stats
-from optroute.optimise.fit_correction import fit_correction
 from optroute.optimise.min_time import clean_start
-from optroute.optimise.nlp_inputs import build_frame, dataset_spacing, fit_power_model, lateral_bounds, weather_grid
+from optroute.optimise.nlp_inputs import build_frame, dataset_spacing, lateral_bounds, weather_grid
 from optroute.optimise.nlp_solve import (
     Problem,
     Solved,
@@ -44,9 +43,17 @@ from optroute.optimise.nlp_solve import (
     certificate,
     clear_of_exclusion,
     desired_speed,
-    route_warm_start,
-    safe_warm_start,
     warm_rules,
+)
+from optroute.optimise.power_table import PowerTable, baseline_power_model, heading_nodes, speed_nodes
+from optroute.optimise.starts import (
+    Candidate,
+    dp_route,
+    great_circle_corridor,
+    route_stw,
+    score,
+    track_warm_start,
+    verified_plan,
 )
 from optroute.physics.performance import PerformanceModel, default_model
 from optroute.physics.safety import BandRules
@@ -59,71 +66,11 @@ from optroute.units import h_to_timedelta as _h_to_td
 from optroute.units import timedelta_to_h as _hours
 from optroute.weather.sample import WeatherSampler
 
-__all__ = ["Learnt", "PreparedCorridor"]
+__all__ = ["PreparedCorridor"]
 
 Objective = Literal["time", "fuel", "cost"]
+TIE_REL_TOL = 1e-9  # relative difference of scores below which the NLP's plan and the start's tie [-]
 ProgressFn = Callable[[str, float], None]
-
-
-@dataclass(frozen=True)
-class Learnt:
-    """What the verification loop of one solve learnt: a start for a neighbouring ETA's tightening.
-
-    Attributes
-    ----------
-    leg_power_factor : numpy.ndarray
-        Per-leg factor on the fitted power [-], shape (N,), positive (fit corrections, load tightening).
-    leg_power_terms : mapping of str to numpy.ndarray, optional
-        The other terms of the NLP's per-leg power multiplier (speed elasticity, time slope and their
-        reference points; :meth:`formulations.speed_nlp.SpeedNLP.set_leg_power_factor`).
-    max_load : float
-        Upper engine load limit of the NLP [fraction of MCR], in (0, 1].
-    band_margin, band_hs_margin : float
-        Band-edge and Hs-threshold back-offs [-], >= 0.
-    """
-
-    leg_power_factor: np.ndarray
-    max_load: float
-    band_margin: float
-    band_hs_margin: float
-    leg_power_terms: Mapping[str, np.ndarray] | None = None
-
-    def __post_init__(self) -> None:
-        f = np.asarray(self.leg_power_factor, dtype=float)
-        if f.ndim != 1 or not np.all(np.isfinite(f) & (f > 0)):
-            raise ConfigError(f"Learnt.leg_power_factor must be a 1-D array of positive numbers, got {f!r}")
-        object.__setattr__(self, "leg_power_factor", f.copy())
-        if self.leg_power_terms is not None:
-            terms = {}
-            for name, a in self.leg_power_terms.items():
-                a = np.asarray(a, dtype=float)
-                if name not in POWER_TERMS[1:] or a.shape != f.shape or not np.all(np.isfinite(a)):
-                    raise ConfigError(
-                        f"Learnt.leg_power_terms[{name!r}] must be one of {POWER_TERMS[1:]}, a finite array shaped "
-                        f"like leg_power_factor {f.shape}; got {a!r}; pass the learnt state of one plan"
-                    )
-                terms[name] = a.copy()
-            object.__setattr__(self, "leg_power_terms", terms)
-        if not (0.0 < float(self.max_load) <= 1.0):
-            raise ConfigError(f"Learnt.max_load={self.max_load!r} must be in (0, 1] (a fraction of MCR)")
-        for name in ("band_margin", "band_hs_margin"):
-            finite(f"Learnt.{name}", getattr(self, name), minimum=0.0, error=ConfigError)
-
-    @classmethod
-    def from_plan(cls, plan: Plan) -> Learnt | None:
-        """The learnt state of a plan returned by :meth:`PreparedCorridor.solve` (None for another plan)."""
-        s = plan.solver_stats
-        if "leg_power_factor" not in s:
-            return None
-        return cls(
-            np.asarray(s["leg_power_factor"], dtype=float),
-            float(s["max_load"]),
-            float(s["band_margin"]),
-            float(s["band_hs_margin"]),
-            {k: np.asarray(v, dtype=float) for k, v in s["leg_power_terms"].items()}
-            if "leg_power_terms" in s
-            else None,
-        )
 
 
 def _emit(progress: ProgressFn | None, stage: str, fraction: float) -> None:
@@ -149,12 +96,12 @@ class PreparedCorridor:
     Parameters
     ----------
     corridor, weather, ship, departure, model, rules, max_leg_nm, samples_per_leg, fuel_price_per_t,
-    hourly_cost_per_h, exclusion, speed_range_kn, band_solves, fit_corrections, max_retries,
-    band_margin, band_hs_margin, verify_step_nm, solver_options, use_land_mask, jit
+    hourly_cost_per_h, exclusion, speed_range_kn, band_solves, max_retries,
+    band_margin, band_hs_margin, verify_step_nm, solver_options, use_land_mask, jit, discrete_start, dp_options
         As in :func:`optroute.optimise_corridor`.
     latest_eta : datetime64 or str, optional
-        The latest ETA to be solved [UTC]: the weather grid runs to just after it, and the power fit
-        covers the mean speed it needs. Default: the end of the weather's time span when
+        The latest ETA to be solved [UTC]: the weather grid (and the ship's power table on it) runs
+        to just after it. Default: the end of the weather's time span when
         ``objective`` is ``"fuel"`` or ``"cost"``, else a free-arrival horizon (1.3 × the passage at
         half the design speed), as :func:`optimise_corridor` without an ETA.
     objective : {"fuel", "time", "cost"}
@@ -163,7 +110,7 @@ class PreparedCorridor:
     Notes
     -----
     Preparing for the latest ETA ``T`` gives exactly the problem :func:`optimise_corridor` sets up
-    for ``eta=T``; an earlier ETA is solved on the same (longer) weather grid and wider power fit.
+    for ``eta=T``; an earlier ETA is solved on the same (longer) weather grid.
     """
 
     def __init__(
@@ -184,7 +131,6 @@ class PreparedCorridor:
         exclusion: Exclusion | None = None,
         speed_range_kn: tuple[float, float] | None = None,
         band_solves: int = 12,
-        fit_corrections: int = 6,
         max_retries: int = 4,
         band_margin: float = 0.005,
         band_hs_margin: float = 0.05,
@@ -193,6 +139,8 @@ class PreparedCorridor:
         use_land_mask: bool | None = None,
         progress: ProgressFn | None = None,
         jit: bool = False,
+        discrete_start: bool = False,
+        dp_options: Mapping[str, Any] | None = None,
     ) -> None:
         if objective not in ("time", "fuel", "cost"):
             raise ConfigError(f"objective={objective!r} is not known; use 'time', 'fuel' or 'cost'")
@@ -281,8 +229,27 @@ class PreparedCorridor:
         )
         hw_max = float(np.max(cor.half_width_nm))
         dy_nm = float(np.clip(ds_nm / 2.0, 2.0, max(hw_max / 2.0, 2.0)))
-        _emit(progress, "weather grid", 0.05)
-        grid, samples = weather_grid(frame, sampler, departure=t0, t_end_h=horizon, dt_h=dt_h, ds_nm=ds_nm, dy_nm=dy_nm)
+        _emit(progress, "weather grid and power table", 0.05)
+        base, sfoc_err = baseline_power_model(
+            model, v_min_kn=v_min, v_max_kn=v_max, min_load=float(model.min_power_kw) / float(model.mcr_kw)
+        )
+        speeds = speed_nodes(v_min, v_max)
+        fixed_path = bool(np.all(np.asarray(cor.half_width_nm) == 0.0))
+        headings = heading_nodes(fixed_path, any(v.startswith("current") for v in sampler.variables))
+        grid, samples = weather_grid(
+            frame,
+            sampler,
+            departure=t0,
+            t_end_h=horizon,
+            dt_h=dt_h,
+            ds_nm=ds_nm,
+            dy_nm=dy_nm,
+            model=model,
+            base=base,
+            speeds_kn=speeds,
+            headings_deg=headings,
+        )
+        self.table = PowerTable(speeds, headings, samples.power_capped_share, samples.power_evaluations, sfoc_err)
         window = t0 + np.array(
             [_h_to_td(h) for h in np.linspace(0.0, horizon, int(min(25, max(2, horizon / dt_h + 1))))]
         )
@@ -295,33 +262,20 @@ class PreparedCorridor:
             use_land_mask=use_land_mask,
             step_nm=max(1.0, min(5.0, hw_max / 10.0)) if hw_max > 0 else 1.0,
         )
-        _emit(progress, "power fit", 0.15)
-        v_ref = length / cap_h if cap_h else 0.75 * v_max
-        fit = fit_power_model(
-            model,
-            hs_m=samples.hs_m,
-            wind_ms=samples.wind_ms,
-            v_min_kn=max(v_min, 0.5 * v_ref),
-            v_max_kn=v_max,
-            min_load=float(model.min_power_kw) / float(model.mcr_kw),
-        )
         self.corridor, self.ship, self.model, self.rules = corridor, ship, model, rules
         self.sampler, self.dataset, self.exclusion, self.use_land_mask = sampler, ds, exclusion, use_land_mask
         self.departure, self.data_end_h, self.horizon_h, self.prepared_cap_h = t0, data_end_h, horizon, cap_h
-        self.frame, self.grid, self.samples, self.fit = frame, grid, samples, fit
+        self.frame, self.grid, self.samples, self.power = frame, grid, samples, base
         self.y_lo, self.y_hi, self.v_min, self.v_max, self.length_nm = y_lo, y_hi, v_min, v_max, length
         self.samples_per_leg = int(samples_per_leg)
-        self.band_solves, self.fit_corrections, self.max_retries = (
-            int(band_solves),
-            int(fit_corrections),
-            int(max_retries),
-        )
+        self.band_solves, self.max_retries = int(band_solves), int(max_retries)
+        self.discrete_start, self.dp_options = bool(discrete_start), dict(dp_options or {})
         self.verify_step_nm = float(verify_step_nm)
         self.problem = Problem(
             frame=frame,
             grid=grid,
             samples=samples,
-            fit=fit,
+            power=base,
             ship=ship,
             rules=rules,
             y_lo=y_lo,
@@ -351,12 +305,11 @@ class PreparedCorridor:
             use_land_mask=self.use_land_mask,
         )
 
-    def _tightening(self, learnt: Learnt | None) -> Tightening:
+    def _tightening(self) -> Tightening:
         n = self.frame.n_legs
-        st = Tightening(
-            factor=np.ones(n),
+        return Tightening(
             max_load=1.0,
-            min_load=self.fit.power.min_load,
+            min_load=self.power.min_load,
             widen=self.margin0,
             hs_margin=self.hs_margin0,
             samples_per_leg=self.samples_per_leg,
@@ -364,74 +317,106 @@ class PreparedCorridor:
             y_lo=self.y_lo.copy(),
             y_hi=self.y_hi.copy(),
         )
-        if learnt is not None:
-            if learnt.leg_power_factor.shape != (n,):
-                raise ConfigError(
-                    f"learnt.leg_power_factor has {learnt.leg_power_factor.size} legs, this corridor {n}; pass the "
-                    "learnt state of a plan of the same prepared corridor"
-                )
-            st.factor = learnt.leg_power_factor.copy()
-            if learnt.leg_power_terms is not None:
-                st.power_terms = {k: v.copy() for k, v in learnt.leg_power_terms.items()}
-            st.max_load = float(learnt.max_load)
-            st.widen, st.hs_margin = max(st.widen, learnt.band_margin), max(st.hs_margin, learnt.band_hs_margin)
-            st.log.append("started from a neighbouring solve's tightening")
-        return st
 
-    def solve(
+    # ------------------------------------------------------------------ stage: start
+
+    def starts(
         self,
-        eta: Any = None,
+        ctx: PlanContext,
         *,
-        eta_mode: Literal["le", "eq"] = "le",
-        objective: Objective = "fuel",
-        warm_plan: Plan | None = None,
-        route: Route | None = None,
-        learnt: Learnt | None = None,
-        progress: ProgressFn | None = None,
-    ) -> Plan:
-        """Solve one ETA: :func:`optroute.optimise_corridor` on the prepared problem.
+        cap_h: float | None,
+        objective: Objective,
+        warm_plan: Plan | None,
+        route: Route | None,
+        st: Tightening,
+    ) -> list[Candidate]:
+        """The NLP's start candidates (:mod:`optroute.optimise.starts`), each scored by the referee, best first.
 
-        Parameters
-        ----------
-        eta, eta_mode, objective, warm_plan, route, progress
-            As in :func:`optimise_corridor`; ``eta`` at most the prepared ``latest_eta``.
-        learnt : Learnt, optional
-            The tightening to start from (e.g. ``Learnt.from_plan(neighbour)``); default the untightened
-            problem, as :func:`optimise_corridor`.
-
-        Returns
-        -------
-        Plan
-            As :func:`optimise_corridor`'s; ``solver_stats`` also holds ``leg_power_factor`` (the returned
-            solve's, a list) and ``prepared_horizon_h``.
-
-        Raises
-        ------
-        ConfigError
-            An ETA after the prepared horizon (prepare with a later ``latest_eta``), or a free-arrival
-            fuel/cost solve on a corridor prepared for an ETA.
-        InfeasibleETA, SolverFailure, WeatherCoverageError
-            As :func:`optimise_corridor`.
+        Candidates without a verified plan come last, in the order given (a warm plan, a search route,
+        the 3-D DP, the centreline start): the first of them is the warm start when none verifies.
         """
-        from optroute.optimise.rescue import (
-            _certificate_reason,
-            _feasible_iterate,
-            _first_failure,
-            _longer,
-            _plan_warm_start,
-            _route_plan,
-            _score,
-            _tighten,
-            _to_plan,
-            _to_plan_xy,
-        )
+        t0, frame, step = self.departure, self.frame, self.verify_step_nm
+        price, hourly = self.fuel_price, self.hourly
+        out: list[Candidate] = []
 
-        started = _time.perf_counter()
-        if objective not in ("time", "fuel", "cost"):
-            raise ConfigError(f"objective={objective!r} is not known; use 'time', 'fuel' or 'cost'")
-        if eta_mode not in ("le", "eq"):
-            raise ConfigError(f"eta_mode={eta_mode!r} is not known; use 'le' (arrive by) or 'eq' (arrive at)")
-        t0, prob, frame = self.departure, self.problem, self.frame
+        def add(label: str, warm: dict[str, np.ndarray], plan: Plan | None, own: float = float("inf")) -> None:
+            val = score(plan, objective, price, hourly) if plan is not None else float("inf")
+            out.append(Candidate(label, warm, plan, val, min(val, own)))
+
+        def own(r: Route) -> float:
+            return (
+                float(r.cost) if objective == "cost" else float(r.total_fuel_t) if objective == "fuel" else float("inf")
+            )
+
+        if warm_plan is not None:
+            from optroute.optimise.rescue import _plan_warm_start
+
+            stw = np.asarray(warm_plan.stw_kn, dtype=float)
+            add(
+                "warm plan",
+                _plan_warm_start(warm_plan, frame),
+                verified_plan(ctx, warm_plan.waypoints, stw, t0, step, "start"),
+            )
+        if route is not None:
+            stw = route_stw(route)
+            add(
+                "search route",
+                track_warm_start(route.waypoints, stw, frame),
+                verified_plan(ctx, route.waypoints, stw, t0, step, "start"),
+            )
+        eta = ctx.eta
+        if self.discrete_start and eta is not None and objective != "time" and great_circle_corridor(frame):
+            dp = dp_route(
+                ctx,
+                frame,
+                departure=t0,
+                eta=eta,
+                objective=objective,
+                v_min_kn=self.v_min,
+                v_max_kn=self.v_max,
+                fuel_price=price,
+                hourly=hourly,
+                options=self.dp_options,
+            )
+            if dp is not None:
+                stw = route_stw(dp)
+                add(
+                    "3-D DP",
+                    track_warm_start(dp.waypoints, stw, frame),
+                    verified_plan(ctx, dp.waypoints, stw, t0, step, "start"),
+                    own(dp),
+                )
+        centre = clean_start(
+            ctx,
+            frame,
+            t0,
+            desired_kn=desired_speed(self.length_nm, cap_h, self.v_max, objective),
+            v_min_kn=self.v_min,
+            v_max_kn=self.v_max,
+            eta_h=cap_h,
+            rules=warm_rules(self.rules, st),
+            log=st.log,
+        )
+        add(
+            "centreline start",
+            centre,
+            verified_plan(ctx, frame.waypoints(centre["offset_nm"]), centre["stw_kn"], t0, step, "start"),
+        )
+        order = sorted(range(len(out)), key=lambda i: (out[i].score, i))
+        return [out[i] for i in order]
+
+    @staticmethod
+    def warm_candidate(cands: list[Candidate]) -> Candidate:
+        """The candidate to start Ipopt from: the best by the referee, or by its own figure where that is lower
+        (an unverified DP route that claims less fuel than every verified candidate: the NLP repairs and
+        improves it, and the verified best remains the floor of the result)."""
+        return min(cands, key=lambda c: (c.estimate, c.plan is None))
+
+    # ------------------------------------------------------------------ one ETA
+
+    def _window(self, eta: Any, objective: str) -> tuple[np.datetime64 | None, float | None, float | None]:
+        """The ETA [UTC], its hours after departure, and the passage cap [h] of a solve (checked)."""
+        t0 = self.departure
         eta_t = _as_time(eta, "eta") if eta is not None else None
         eta_user_h = _hours(eta_t - t0) if eta_t is not None else None
         if eta_user_h is not None and eta_user_h <= 0:
@@ -460,222 +445,305 @@ class PreparedCorridor:
                 f"eta {cap_h:.3f} h after departure needs a weather grid past the prepared {self.horizon_h:.1f} h; "
                 "prepare the corridor with latest_eta"
             )
-        fuel_price, hourly = self.fuel_price, self.hourly
-        sampler, exclusion, rules, v_min, v_max = self.sampler, self.exclusion, self.rules, self.v_min, self.v_max
-        length, step_nm = self.length_nm, self.verify_step_nm
-        ctx = self.plan_context(eta_t, eta_mode)
-        build_before = prob.build_time_s
-        st = self._tightening(learnt)
-        if warm_plan is not None:
-            warm = _plan_warm_start(warm_plan, frame)
-        elif route is not None:
-            warm = route_warm_start(route, frame)
-        else:
-            warm = clean_start(
-                ctx,
-                frame,
-                t0,
-                desired_kn=desired_speed(length, cap_h, v_max, objective),
-                v_min_kn=v_min,
-                v_max_kn=v_max,
-                eta_h=cap_h,
-                rules=warm_rules(rules, st),
-                log=st.log,
-            )
-        warm = clear_of_exclusion(warm, frame, exclusion, t0, self.y_lo, self.y_hi)
-        fresh_start = False
-        if (warm_plan is not None or route is not None) and learnt is None and self.fit_corrections > 0:
-            # correct the fit where the given start is, so that the first solve sees the true model's power and
-            # slopes there (a start from a global search is not left for the fit's own optimum)
-            nlp0 = prob.build(st)
-            times0 = nlp0.consistent_times(warm["offset_nm"], warm["stw_kn"])
-            start_plan = _to_plan_xy(ctx, frame, warm["offset_nm"], warm["stw_kn"], t0, step_nm=step_nm)
-            corr = fit_correction(ctx, start_plan, nlp0, warm["offset_nm"], warm["stw_kn"], times0, step_nm=step_nm)
-            st.factor, st.power_terms = corr.factor, dict(corr.terms)
-            st.log.append(f"fit corrected at the given start (level off by up to {corr.level_error:.2%})")
-        solve_kw = {"eta_mode": eta_mode, "objective": objective, "fuel_price": fuel_price, "hourly_cost": hourly}
+        return eta_t, eta_user_h, cap_h
 
-        best: tuple[float, Plan, Solved, float | None, dict[str, Any]] | None = None
-        stale = 0  # clean solves since the best one
-        last_violations: list[Violation] = []
+    def solve(
+        self,
+        eta: Any = None,
+        *,
+        eta_mode: Literal["le", "eq"] = "le",
+        objective: Objective = "fuel",
+        warm_plan: Plan | None = None,
+        route: Route | None = None,
+        progress: ProgressFn | None = None,
+    ) -> Plan:
+        """Solve one ETA: :func:`optroute.optimise_corridor` on the prepared problem.
+
+        Parameters
+        ----------
+        eta, eta_mode, objective, warm_plan, route, progress
+            As in :func:`optimise_corridor`; ``eta`` at most the prepared ``latest_eta``.
+
+        Returns
+        -------
+        Plan
+            As :func:`optimise_corridor`'s; ``solver_stats`` also holds ``prepared_horizon_h``.
+
+        Raises
+        ------
+        ConfigError
+            An ETA after the prepared horizon (prepare with a later ``latest_eta``), or a free-arrival
+            fuel/cost solve on a corridor prepared for an ETA.
+        InfeasibleETA, SolverFailure, WeatherCoverageError
+            As :func:`optimise_corridor`.
+        """
+        from optroute.optimise.rescue import _LIMIT_STATUSES, _first_failure, _longer, _route_plan, _tighten, _to_plan
+
+        started = _time.perf_counter()
+        if objective not in ("time", "fuel", "cost"):
+            raise ConfigError(f"objective={objective!r} is not known; use 'time', 'fuel' or 'cost'")
+        if eta_mode not in ("le", "eq"):
+            raise ConfigError(f"eta_mode={eta_mode!r} is not known; use 'le' (arrive by) or 'eq' (arrive at)")
+        eta_t, eta_user_h, cap_h = self._window(eta, objective)
+        t0, prob, frame, step_nm = self.departure, self.problem, self.frame, self.verify_step_nm
+        ctx = self.plan_context(eta_t, eta_mode)
+        build_before, solves_before, iters_before = prob.build_time_s, prob.solves, prob.iterations
+        st = self._tightening()
+        stage_s: dict[str, float] = {}
+        # ---- stage: start -----------------------------------------------------------------
+        _emit(progress, "start", 0.15)
+        t_s = _time.perf_counter()
+        cands = self.starts(ctx, cap_h=cap_h, objective=objective, warm_plan=warm_plan, route=route, st=st)
+        start, first = cands[0], self.warm_candidate(cands)
+        stage_s["start"] = _time.perf_counter() - t_s
+        st.log.append(
+            "starts: "
+            + "; ".join(f"{c.label} {c.score:.6g}" if c.plan is not None else f"{c.label} unverified" for c in cands)
+        )
+        warm = clear_of_exclusion(dict(first.warm), frame, self.exclusion, t0, self.y_lo, self.y_hi)
+        solve_kw = {
+            "eta_mode": eta_mode,
+            "objective": objective,
+            "fuel_price": self.fuel_price,
+            "hourly_cost": self.hourly,
+        }
+        # ---- stages: solve, verify (tighten and re-solve where the referee disagrees) --------------
+        t_s = _time.perf_counter()
+        best: tuple[Plan, Solved, float | None] | None = None
         last: Solved | None = None
-        solve_time = 0.0
-        iterations = 0
-        total_attempts = self.max_retries + self.fit_corrections + 1
-        for attempt in range(total_attempts):
-            _emit(progress, "solve", 0.2 + 0.7 * attempt / total_attempts)
-            nlp = prob.build(st)
-            eta_solve = None if cap_h is None else cap_h - st.eta_shift_h
-            if eta_solve is not None and eta_solve <= 0:
-                break
-            t_s = _time.perf_counter()
-            sol = prob.solve(nlp, eta_h=eta_solve, warm=warm, budget=self.band_solves, **solve_kw)
-            solve_time += _time.perf_counter() - t_s
-            iterations += int(sol.res.iterations)
-            if not sol.ok and attempt > 0 and _feasible_iterate(sol.res, ctx, frame, t0, step_nm):
-                st.log.append(f"attempt {attempt}: kept Ipopt's last iterate ({sol.res.status}): its plan verifies")
-                sol = replace(sol, ok=True)
-            if not sol.ok and attempt > 0 and not fresh_start:
-                # the tightened problem failed from the last solution: once more from a safe warm start
-                fresh_start = True
-                fresh = safe_warm_start(
-                    ctx,
-                    frame,
-                    t0,
-                    desired_speed(length, eta_solve, v_max, objective),
-                    v_min,
-                    rules=warm_rules(rules, st),
-                )
-                fresh = clear_of_exclusion(fresh, frame, exclusion, t0, *prob.bounds(st))
-                sol = prob.solve(nlp, eta_h=eta_solve, warm=fresh, budget=self.band_solves, **solve_kw)
-                iterations += int(sol.res.iterations)
-            if not sol.ok and attempt == 0:
-                # an unreachable ETA (InfeasibleETA / WeatherCoverageError), a hard start, or a solver failure
-                sol = _first_failure(
-                    prob,
-                    nlp,
-                    sol,
-                    longer=lambda st=st: _longer(prob, st, sampler, data_end_h, self.horizon_h),
-                    ctx=ctx,
-                    cap_h=cap_h,
-                    eta_user_h=eta_user_h,
-                    t0=t0,
-                    route=route,
-                    budget=self.band_solves,
-                    step_nm=step_nm,
-                    solve_kw=solve_kw,
-                    warm_rules=warm_rules(rules, st),
-                    first_warm=warm,
-                    log=st.log,
-                )
-                iterations += int(sol.res.iterations)
-            if not sol.ok:
-                st.log.append(
-                    f"attempt {attempt}: Ipopt {sol.res.status} after tightening; keeping the last clean plan"
-                )
-                break
-            last = sol
-            plan = _to_plan(ctx, frame, sol.res, t0, step_nm=step_nm)
-            violations = plan.verify(step_nm=step_nm)
-            warm = {"offset_nm": sol.res.offset_nm, "stw_kn": sol.res.stw_kn}
-            if not violations:
-                score = _score(plan, objective, fuel_price, hourly)
-                if best is None or score < best[0] - 1e-12 * max(1.0, abs(best[0])):
-                    snapshot = {
-                        "max_load": st.max_load,
-                        "band_margin": st.widen,
-                        "band_hs_margin": st.hs_margin,
-                        "bands": list(prob.band_names),
-                        "leg_power_factor": st.factor.tolist(),
-                        "leg_power_terms": {k: v.tolist() for k, v in st.power_terms.items()},
-                        "_min_load": st.min_load,
-                    }
-                    best, stale = (score, plan, sol, eta_solve, snapshot), 0
-                else:
-                    stale += 1
-                if st.corrections >= self.fit_corrections or stale >= 2:
-                    break  # corrections used up, or two corrected solves in a row no better than the best
-                corr = fit_correction(
-                    ctx, plan, sol.nlp, sol.res.offset_nm, sol.res.stw_kn, sol.res.time_h, step_nm=step_nm
-                )
-                if corr.level_error <= 1e-4 and corr.slope_error <= 1e-3 and corr.time_slope_error <= 1e-4:
-                    break  # the corrected fit matches the model's power and its slopes at this solution
-                st.corrections += 1
-                st.factor, st.power_terms = corr.factor, dict(corr.terms)
-                st.log.append(
-                    f"attempt {attempt}: clean ({_score(plan, objective, fuel_price, hourly):.6g}); fit corrected on "
-                    f"every leg (level off by up to {corr.level_error:.2%}, speed elasticity by {corr.slope_error:.3f})"
-                )
-                continue
-            last_violations = violations
-            if st.retries >= self.max_retries:
-                break
-            st.retries += 1
-            _tighten(st, violations, plan, sol.res)
-        if best is None:
+        last_violations: list[Violation] = []
+        log = st.log
+        # from the warm candidate; when that gives no plan better than the verified start (another candidate), once
+        # more from the verified start itself, so that a discrete start the NLP cannot repair costs time, not fuel
+        tries = [first] + ([start] if first is not start and start.plan is not None else [])
+        for k, cand in enumerate(tries):
+            if k > 0:
+                if best is not None and score(best[0], objective, self.fuel_price, self.hourly) <= start.score:
+                    break
+                st = self._tightening()
+                st.log = log
+                log.append(f"again from the verified {cand.label}")
+                warm = clear_of_exclusion(dict(cand.warm), frame, self.exclusion, t0, self.y_lo, self.y_hi)
+            found: tuple[Plan, Solved, float | None] | None = None
+            for attempt in range(self.max_retries + 1):
+                _emit(progress, "solve", 0.2 + 0.7 * attempt / (self.max_retries + 1))
+                nlp = prob.build(st)
+                eta_solve = None if cap_h is None else cap_h - st.eta_shift_h
+                if eta_solve is not None and eta_solve <= 0:
+                    break
+                sol = prob.solve(nlp, eta_h=eta_solve, warm=warm, budget=self.band_solves, **solve_kw)
+                if not sol.ok and self._usable_iterate(sol, ctx):
+                    st.log.append(f"attempt {attempt}: kept Ipopt's last iterate ({sol.res.status}): its plan verifies")
+                    sol = replace(sol, ok=True)
+                if not sol.ok and attempt == 0 and start.plan is None and k == 0:
+                    # no verified start: an unreachable ETA (InfeasibleETA / WeatherCoverageError) or a hard problem
+                    sol = _first_failure(
+                        prob,
+                        nlp,
+                        sol,
+                        longer=lambda st=st: _longer(prob, st, self.sampler, self.data_end_h, self.horizon_h),
+                        ctx=ctx,
+                        cap_h=cap_h,
+                        eta_user_h=eta_user_h,
+                        t0=t0,
+                        route=route,
+                        budget=self.band_solves,
+                        step_nm=step_nm,
+                        solve_kw=solve_kw,
+                        warm_rules=warm_rules(self.rules, st),
+                        first_warm=warm,
+                        log=st.log,
+                    )
+                last = sol
+                at_limit = sol.res.status in _LIMIT_STATUSES and not np.any(sol.res.samples.inside)
+                if not sol.ok and not at_limit:
+                    st.log.append(f"attempt {attempt}: Ipopt {sol.res.status}")
+                    break
+                plan = _to_plan(ctx, frame, sol.res, t0, step_nm=step_nm)
+                violations = plan.verify(step_nm=step_nm)
+                if not violations and sol.ok:
+                    found = (plan, sol, eta_solve)
+                    break
+                if not sol.ok:
+                    # stopped at a limit at a point the referee rejects: tighten what it found and go on from there
+                    st.log.append(f"attempt {attempt}: Ipopt {sol.res.status}; its iterate fails verification")
+                last_violations = violations
+                if st.retries >= self.max_retries:
+                    break
+                st.retries += 1
+                _tighten(st, violations, plan, sol.res)
+                warm = {"offset_nm": sol.res.offset_nm, "stw_kn": sol.res.stw_kn}
+            if found is not None and (
+                best is None
+                or score(found[0], objective, self.fuel_price, self.hourly)
+                < score(best[0], objective, self.fuel_price, self.hourly)
+            ):
+                best = found
+        stage_s["solve and verify"] = _time.perf_counter() - t_s
+        # ---- stage: plan --------------------------------------------------------------------------
+        counts = {
+            "nlp_solves": prob.solves - solves_before,
+            "iterations": prob.iterations - iters_before,
+            "build_time_s": prob.build_time_s - build_before,
+        }
+        if best is None and start.plan is None:
             status = last.res.status if last is not None else "unknown"
             listed = "; ".join(str(v) for v in last_violations[:6])
             raise SolverFailure(
                 f"no plan passing verification after {st.retries} tightened re-solves (Ipopt: {status}); last "
-                f"violations: {listed or 'none (Ipopt failed)'}; try more samples_per_leg, shorter max_leg_nm or a "
-                "wider band_margin",
+                f"violations: {listed or 'none (Ipopt failed)'}; no start candidate verifies either; try more "
+                "samples_per_leg, shorter max_leg_nm or a wider band_margin",
                 status=status,
                 best_plan=_route_plan(route, ctx, step_nm),
             )
-        _, plan, sol, eta_solve, snapshot = best
-        min_load = snapshot.pop("_min_load")
-        _emit(progress, "certificate", 0.95)
+        nlp_score = score(best[0], objective, self.fuel_price, self.hourly) if best is not None else float("inf")
+        stats: dict[str, Any] = {
+            "ipopt_status": last.res.status if last is not None else "not run",
+            **counts,
+            "start": start.label,
+            "start_score": start.score,
+            "warm_start": first.label,
+            "starts": {c.label: c.score for c in cands},
+            "nlp_score": nlp_score,
+            "stage_time_s": stage_s,
+            "retries": st.retries,
+            "tightening": list(st.log),
+            "power_table": self._table_stats(),
+            "n_legs": frame.n_legs,
+            "samples_per_leg": st.samples_per_leg,
+            "weather_grid_shape": list(np.shape(self.grid.hs_m)),
+            "weather_nodes_filled": self.samples.filled,
+            "prepared_horizon_h": self.horizon_h,
+        }
+        if best is not None:
+            _emit(progress, "certificate", 0.95)
+            stats.update(self._solution_stats(ctx, best[1], best[2], eta_user_h, eta_mode, objective))
+        # a tie to the solver's tolerance (the start already optimal, as at a constant speed in calm water) keeps the
+        # NLP's plan, with its multipliers and certificate; "worse" is beyond TIE_REL_TOL of the start's score
+        if best is None or nlp_score > start.score + TIE_REL_TOL * max(1.0, abs(start.score)):
+            # the NLP's plan is worse than (or no better than nothing against) the verified start: the start
+            why = "its plan failed verification" if best is None else f"its plan scores {nlp_score:.6g}"
+            stats["status_reason"] = f"the NLP did not improve on the verified {start.label} ({start.score:.6g}): {why}"
+            stats["total_time_s"] = _time.perf_counter() - started
+            _emit(progress, "done", 1.0)
+            stats["certificate"] = self._ship_certificate(start.plan, stats, cap_h, eta_mode, objective)
+            return replace(start.plan, status="start", solver_stats=stats)  # type: ignore[arg-type]
+        plan, sol, eta_solve = best
         res = sol.res
+        converged = res.status == "Solve_Succeeded"
+        if converged and sol.sides_settled:
+            status = "optimal"
+        elif converged:
+            status = "sides_unsettled"
+            stats["status_reason"] = f"the band-side search stopped on its budget of {self.band_solves} solves"
+        else:
+            status = "feasible"
+            stats["status_reason"] = f"Ipopt stopped with {res.status}; its last iterate's plan passes verification"
+        shadow = float("nan")
+        if eta_user_h is not None and objective == "fuel":
+            shadow = float(res.eta_multiplier)
+        elif eta_user_h is not None and objective == "cost":
+            shadow = float(res.eta_multiplier) / self.fuel_price
+        stats["certificate"] = self._ship_certificate(plan, stats, cap_h, eta_mode, objective)
+        stats["total_time_s"] = _time.perf_counter() - started
+        _emit(progress, "done", 1.0)
+        return replace(plan, status=status, solver_stats=stats, eta_shadow_price_t_per_h=shadow)
+
+    def _ship_certificate(
+        self, plan: Plan, stats: dict[str, Any], cap_h: float | None, eta_mode: str, objective: str
+    ) -> dict[str, Any]:
+        """The certificate of the ship itself for the returned plan (:mod:`optroute.optimise.certificate`).
+
+        The Lagrangian dual bound of the true model, IMO SFOC and danger bands on a fixed path in static
+        weather; the NLP model's own dual bound, where it was computed, is kept under ``"nlp_model"``.
+        """
+        fixed = bool(np.all(self.y_lo == 0.0) and np.all(self.y_hi == 0.0))
+        nlp_model = stats.get("certificate", {"method": "not applicable", "gap": float("nan")})
+        return certificate_stats(
+            nlp_model,
+            plan,
+            fixed=fixed,
+            objective=objective,
+            eta_h=cap_h,
+            eta_mode=eta_mode,
+            fuel_price=self.fuel_price,
+            hourly_cost=self.hourly,
+            v_min_kn=self.v_min,
+            v_max_kn=self.v_max,
+            step_nm=self.verify_step_nm,
+        )
+
+    def _usable_iterate(self, sol: Solved, ctx: PlanContext) -> bool:
+        from optroute.optimise.rescue import _feasible_iterate
+
+        return _feasible_iterate(sol.res, ctx, self.frame, self.departure, self.verify_step_nm)
+
+    def _table_stats(self) -> dict[str, Any]:
+        tb = self.table
+        return {
+            "speeds_kn": tb.speeds_kn.tolist(),
+            "headings_deg": tb.headings_deg.tolist(),
+            "capped_share": tb.capped_share,
+            "evaluations": tb.evaluations,
+            "sfoc_max_rel_error": tb.sfoc_max_rel_error,
+        }
+
+    def _solution_stats(
+        self,
+        ctx: PlanContext,
+        sol: Solved,
+        eta_solve: float | None,
+        eta_user_h: float | None,
+        eta_mode: str,
+        objective: str,
+    ) -> dict[str, Any]:
+        """Statistics of the returned NLP solution: the tabulation error measured by the referee, the certificate."""
+        from optroute.optimise.rescue import _certificate_reason
+
+        res, frame, t0 = sol.res, self.frame, self.departure
+        # the NLP's fuel against the referee's for the very same track and schedule
+        same = Plan.from_context(
+            ctx,
+            frame.waypoints(res.offset_nm),
+            res.stw_kn,
+            departure=t0,
+            times=t0 + _h_to_td(np.asarray(res.time_h, dtype=float)),
+            status="candidate",
+            step_nm=self.verify_step_nm,
+        )
+        referee = float(same.total_fuel_t)
+        tab = {
+            "nlp_fuel_t": float(res.total_fuel_t),
+            "referee_fuel_t": referee,
+            "rel_error": float(res.total_fuel_t) / referee - 1.0 if referee > 0 else float("nan"),
+        }
         cert: dict[str, Any] = {"method": "not applicable", "gap": float("nan")}
         fixed = bool(np.all(self.y_lo == 0.0) and np.all(self.y_hi == 0.0))
-        reason = _certificate_reason(fixed, self.samples, res, exclusion, objective)
+        reason = _certificate_reason(fixed, self.samples, res, self.exclusion, objective)
         if reason is None:
-            # a cached build is shared by states differing in load limits and power factors: the best solve's
-            sol.nlp.power = replace(self.fit.power, max_load=snapshot["max_load"], min_load=min_load)
-            sol.nlp.set_leg_power_factor(
-                np.asarray(snapshot["leg_power_factor"], dtype=float),
-                **{k: np.asarray(v, dtype=float) for k, v in snapshot["leg_power_terms"].items()},
-            )
             cert = certificate(
                 sol.nlp,
                 res,
                 objective=objective,
                 eta_h=eta_solve,
                 eta_mode=eta_mode,
-                fuel_price=fuel_price,
-                hourly_cost=hourly,
+                fuel_price=self.fuel_price,
+                hourly_cost=self.hourly,
             )
         else:
             cert["reason"] = reason
-        # issue 13 item 5: the certificate of the ship itself (true model, IMO SFOC, bands), kept a separate call
-        cert = certificate_stats(
-            cert,
-            plan,
-            fixed=fixed,
-            objective=objective,
-            eta_h=cap_h,
-            eta_mode=eta_mode,
-            fuel_price=fuel_price,
-            hourly_cost=hourly,
-            v_min_kn=v_min,
-            v_max_kn=v_max,
-            step_nm=step_nm,
-        )
-        shadow = float("nan")
-        if eta_user_h is not None and objective == "fuel":
-            shadow = float(res.eta_multiplier)
-        elif eta_user_h is not None and objective == "cost":
-            shadow = float(res.eta_multiplier) / fuel_price
-        fit = self.fit
-        stats = {
+        return {
             "ipopt_status": res.status,
-            "iterations": iterations,
-            "nlp_solves": sol.n_solves,
+            "outer_solves": sol.n_solves,
             "outer_flips": sol.flips,
             "outer_history": sol.history,
-            "solve_time_s": solve_time,
-            "build_time_s": prob.build_time_s - build_before,
-            "total_time_s": _time.perf_counter() - started,
-            "fit_max_rel_error": fit.max_rel_error,
-            "fit_rms_rel_error": fit.rms_rel_error,
-            "sfoc_fit_max_rel_error": fit.sfoc_max_rel_error,
-            "fit_points": fit.n_points,
+            "sides_settled": sol.sides_settled,
             "nlp_objective": float(res.objective),
             "nlp_fuel_t": float(res.total_fuel_t),
             "nlp_max_violation": float(res.max_violation),
+            "tabulation": tab,
             "frame_max_rel_distance_error": frame.distance_error(res.offset_nm),
-            "retries": st.retries,
-            "fit_corrections": st.corrections,
-            "tightening": list(st.log),
-            **snapshot,
+            "bands": list(self.problem.band_names),
             "certificate": cert,
-            "n_legs": frame.n_legs,
-            "samples_per_leg": sol.nlp.samples_per_leg,
-            "weather_grid_shape": list(np.shape(self.grid.hs_m)),
-            "weather_nodes_filled": self.samples.filled,
             "eta_h_solved": eta_solve,
-            "prepared_horizon_h": self.horizon_h,
         }
-        status = "optimal" if res.status == "Solve_Succeeded" else "feasible"
-        _emit(progress, "done", 1.0)
-        return replace(plan, status=status, solver_stats=stats, eta_shadow_price_t_per_h=shadow)

@@ -18,8 +18,8 @@
 * :func:`weather_grid` — the weather on the corridor's (time, along-track,
   across-track) grid, vectors rotated into components along and across the
   centreline.
-* :func:`fit_power_model` — a least-squares fit of the NLP's closed power form
-  to any :class:`~optroute.physics.performance.PerformanceModel`.
+  With a performance model it also tabulates the ship's power on that grid
+  (:mod:`optroute.optimise.power_table`): the NLP's power is the model's own.
 * :func:`formulation_bands` — :class:`~optroute.physics.safety.BandRules` as
   formulation :class:`~formulations.common.Band` objects.
 * :func:`moving_exclusion` — an :class:`~optroute.plan.result.Exclusion` in the frame.
@@ -39,7 +39,6 @@ import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike
 from scipy import ndimage
-from scipy.optimize import least_squares, nnls
 
 from formulations.common import G_OVER_2PI_KN_S, Band, CorridorGeometry, MovingExclusion, PowerModel, WeatherGrid
 from optroute import geodesy as geo
@@ -47,7 +46,9 @@ from optroute import units
 from optroute.errors import NoSafePassage, WeatherCoverageError
 from optroute.geo.tracks import Exclusion, gc_points, project_to_polyline
 from optroute.optimise.lateral import lateral_bounds
+from optroute.optimise.power_table import tabulate_ratio
 from optroute.physics import seaway
+from optroute.physics.passage import SeaState
 from optroute.physics.performance import PerformanceModel
 from optroute.physics.safety import IMO_HIGH_WAVE_TE_OVER_T, IMO_SURF_RIDING_KN_PER_SQRT_M, BandRules
 from optroute.physics.ship import Ship
@@ -58,9 +59,8 @@ from optroute.weather.sample import WeatherSampler
 
 __all__ = [
     "CorridorFrame",
-    "PowerFit",
+    "GridSamples",
     "build_frame",
-    "fit_power_model",
     "formulation_bands",
     "lateral_bounds",
     "moving_exclusion",
@@ -189,25 +189,30 @@ def build_frame(corridor: Corridor) -> CorridorFrame:
 
 @dataclass(frozen=True)
 class GridSamples:
-    """The raw samples behind a :class:`~formulations.common.WeatherGrid`, for the power fit and reports.
+    """The raw samples behind a :class:`~formulations.common.WeatherGrid`, for reports.
 
     Attributes
     ----------
-    hs_m, wind_ms : numpy.ndarray
-        Hs [m] and 10 m wind speed [m/s] at the grid's navigable nodes (1-D).
+    hs_m : numpy.ndarray
+        Hs [m] at the grid's navigable nodes (1-D).
     filled : int
         Nodes whose NaN (no passage) values were filled from the nearest navigable node.
     static : bool
         The fields do not change in time over the window (the grid keeps one time slice).
     has_current : bool
         A non-zero current is present.
+    power_capped_share : float
+        Share of the power table capped (:data:`optroute.optimise.power_table.CAP_MCR`); 0 without a table.
+    power_evaluations : int
+        Performance-model evaluations of the power table (0 without one).
     """
 
     hs_m: np.ndarray
-    wind_ms: np.ndarray
     filled: int
     static: bool
     has_current: bool
+    power_capped_share: float = 0.0
+    power_evaluations: int = 0
 
 
 def _fill_nearest(arr: np.ndarray, bad: np.ndarray) -> np.ndarray:
@@ -233,8 +238,17 @@ def weather_grid(
     dt_h: float,
     ds_nm: float,
     dy_nm: float,
+    model: PerformanceModel | None = None,
+    base: PowerModel | None = None,
+    speeds_kn: np.ndarray | None = None,
+    headings_deg: np.ndarray | None = None,
 ) -> tuple[WeatherGrid, GridSamples]:
-    """The weather on the corridor's (time, along-track, across-track) grid.
+    """The weather on the corridor's (time, along-track, across-track) grid, and the ship's power table on it.
+
+    With ``model``, ``base``, ``speeds_kn`` and ``headings_deg`` the grid also carries the ratio of
+    the model's brake power to the baseline ``base`` at every node, speed and heading relative to the
+    centreline (:func:`optroute.optimise.power_table.tabulate_ratio`, evaluated in the node's sea
+    as sampled here: the NLP's power is the model's own).
 
     Nodes: times ``0, dt, …`` up to ``t_end_h`` [h since departure]; along-track every ``ds_nm`` or
     closer; across-track over ± the largest half-width every ``dy_nm`` or closer (a single node at 0
@@ -295,6 +309,7 @@ def weather_grid(
     cu, cv = got.get("current_u_ms", zero), got.get("current_v_ms", zero)
     wu, wv = got.get("wind_u_ms", zero), got.get("wind_v_ms", zero)
     bad |= ~(np.isfinite(cu) & np.isfinite(cv))
+    raw_wind = (wu, wv)
     hs, period, cu, cv = (_fill_nearest(np.where(bad, np.nan, a), bad) for a in (hs, period, cu, cv))
     c = np.radians(along)[None]
     wto = np.radians(wfrom + 180.0)
@@ -305,10 +320,31 @@ def weather_grid(
     c_ac = -cu_kn * np.cos(c) + cv_kn * np.sin(c)
     has_current = bool(np.max(np.hypot(cu_kn, cv_kn)) > 1e-9)
     fields = [hs, period, w_al, w_ac] + ([c_al, c_ac] if has_current else [])
-    static = t_axis.size > 1 and all(np.ptp(f, axis=0).max() <= 1e-12 * max(1.0, np.abs(f).max()) for f in fields)
+    table: dict[str, object] = {}
+    capped, evaluations = 0.0, 0
+    if model is not None and base is not None and speeds_kn is not None and headings_deg is not None:
+        # the node's own sea (NaN nodes filled from the nearest navigable one, as the weather fields)
+        wfrom_f = _fill_nearest(np.where(bad, np.nan, wfrom), bad)
+        sample = {"hs_m": hs, period_name: period, "wave_from_deg": wfrom_f}
+        for name, raw in zip(("wind_u_ms", "wind_v_ms"), raw_wind, strict=True):
+            if name in got:
+                sample[name] = _fill_nearest(np.where(bad, np.nan, raw), bad)
+        sea = SeaState.from_sample({k: np.ravel(v) for k, v in sample.items()})
+        along_all = np.broadcast_to(along[None], shape).ravel()
+        ratio, capped = tabulate_ratio(model, base, sea, along_all, speeds_kn, headings_deg)
+        evaluations = ratio.size
+        table = {
+            "power_ratio": ratio.reshape(*shape, ratio.shape[1], ratio.shape[2]),
+            "ratio_speed_kn": np.asarray(speeds_kn, dtype=float),
+            "ratio_heading_deg": np.asarray(headings_deg, dtype=float),
+        }
+    varying = fields + ([np.asarray(table["power_ratio"])] if table else [])
+    static = t_axis.size > 1 and all(np.ptp(f, axis=0).max() <= 1e-12 * max(1.0, np.abs(f).max()) for f in varying)
     if static:
         t_axis = np.zeros(1)
         fields = [f[:1] for f in fields]
+        if table:
+            table["power_ratio"] = np.asarray(table["power_ratio"])[:1]
     grid = WeatherGrid(
         t_h=t_axis,
         s_nm=s_axis,
@@ -320,234 +356,18 @@ def weather_grid(
         current_along_kn=fields[4] if has_current else None,
         current_across_kn=fields[5] if has_current else None,
         method="smooth",
+        **table,  # type: ignore[arg-type]
     )
     good = ~bad
-    wind = np.hypot(np.where(np.isfinite(wu), wu, 0.0), np.where(np.isfinite(wv), wv, 0.0))
     samples = GridSamples(
         hs_m=hs[good],
-        wind_ms=wind[good],
         filled=int(bad.sum()),
         static=static or shape[0] == 1,
         has_current=has_current,
+        power_capped_share=float(capped),
+        power_evaluations=int(evaluations),
     )
     return grid, samples
-
-
-# --------------------------------------------------------------------------- power fit
-
-
-@dataclass(frozen=True)
-class PowerFit:
-    """The NLP's power model fitted to a performance model, with the fit's errors.
-
-    Attributes
-    ----------
-    power : PowerModel
-        ``P = P_calm(V) (1 + W(Hs) D(cos α) S(V))`` [kW] and the SFOC curve (see
-        :mod:`formulations.speed_nlp`).
-    max_rel_error, rms_rel_error : float
-        Largest and root-mean-square relative error of the fitted brake power against the model's
-        over the fit points [-].
-    sfoc_max_rel_error : float
-        Largest relative error of the fitted fuel rate per kW [-].
-    n_points : int
-        Fit points (speed × sea state × wave angle).
-    speed_range_kn, hs_range_m : (float, float)
-        Ranges covered.
-    """
-
-    power: PowerModel
-    max_rel_error: float
-    rms_rel_error: float
-    sfoc_max_rel_error: float
-    n_points: int
-    speed_range_kn: tuple[float, float]
-    hs_range_m: tuple[float, float]
-
-
-def _lstsq(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.linalg.lstsq(a, b, rcond=None)[0]
-
-
-def fit_power_model(
-    model: PerformanceModel,
-    *,
-    hs_m: ArrayLike,
-    wind_ms: ArrayLike,
-    v_min_kn: float,
-    v_max_kn: float,
-    min_load: float,
-    max_load: float = 1.0,
-    n_speeds: int = 12,
-    n_seas: int = 12,
-    angles_deg: ArrayLike = tuple(range(0, 181, 15)),
-) -> PowerFit:
-    """Fit the NLP's power form to a performance model by least squares on relative errors.
-
-    The form (:mod:`formulations.speed_nlp`)::
-
-        P = P_calm(V) · (1 + W(Hs) · D(cos α) · S(V)),
-        P_calm(V) = Σ c_j V^{n_j},  W = Σ h_m Hs^{q_m},  D = b0 + b1 cos α + b2 cos² α,  S = Σ u_r V^r
-
-    with ``V`` the speed through water [kn], ``α`` the IMO encounter angle (0 = head sea).
-
-    1. ``P_calm`` on the model's calm-water power at 25 speeds over ``[v_min, v_max]``: a pure cube
-       law when it reproduces the model to 1e-9 (the admiralty law), else non-negative least squares
-       on ``n = 1…5`` (non-negative terms keep the fuel convex in the leg time).
-    2. ``W D S`` on ``P/P_calm − 1`` at ``n_speeds`` speeds × ``n_seas`` sea states × the angles,
-       weighted by ``P_calm/P`` (so that the residual is the relative power error), by alternating
-       least squares over the three factors (each step is linear). The sea states are the voyage's
-       own (Hs, wind) pairs at Hs quantiles, because the model may take the Beaufort number from
-       the wind (Kwon); ``q = 1, 2, 3`` (fewer when the voyage has fewer distinct Hs), ``S``
-       quadratic. Points where the model has no finite power or needs more than 1.5 MCR are left out.
-    3. The SFOC curve ``SFOC/base = a2 L² + a1 L + a0`` on ``fuel_rate_tph(P)/P`` over the load range.
-
-    Kwon's method is piecewise constant in the Beaufort number and the wave sector, which a smooth
-    form cannot follow exactly: the maximum relative error is reported, and the optimiser verifies
-    every plan with the true model and re-solves with a reduced MCR where the fit underestimates.
-
-    Parameters
-    ----------
-    model : PerformanceModel
-        The true model (``brake_power_kw``, ``fuel_rate_tph``, ``mcr_kw``).
-    hs_m, wind_ms : array_like
-        The voyage's sea states: Hs [m] and 10 m wind speed [m/s], paired.
-    v_min_kn, v_max_kn : float
-        Speed range [kn].
-    min_load, max_load : float
-        Engine load limits [-] for the PowerModel.
-    n_speeds, n_seas : int
-        Fit resolution.
-    angles_deg : array_like
-        IMO encounter angles [deg] of the fit.
-
-    Returns
-    -------
-    PowerFit
-    """
-    mcr = float(model.mcr_kw)
-    v_all = np.linspace(v_min_kn, v_max_kn, 25)
-    p0 = np.asarray(
-        model.brake_power_kw(v_all, hs_m=0.0, wave_angle_deg=0.0, wind_speed_ms=0.0, wind_angle_deg=0.0), dtype=float
-    )
-    ok0 = np.isfinite(p0) & (p0 > 0)
-    v0, p0 = v_all[ok0], p0[ok0]
-    c3 = float(np.sum(v0**3 / p0) / np.sum(v0**6 / p0**2))
-    if np.max(np.abs(c3 * v0**3 / p0 - 1.0)) <= 1e-9:
-        calm_coef, calm_exp = np.array([c3]), np.array([3.0])
-    else:
-        exps = np.arange(1.0, 6.0)
-        scale = v_max_kn**exps
-        coef, _ = nnls((v0[:, None] ** exps[None, :] / scale) / p0[:, None], np.ones(v0.size))
-        keep = coef > 0
-        calm_coef, calm_exp = (coef / scale)[keep], exps[keep]
-
-    def calm(v: np.ndarray) -> np.ndarray:
-        return np.sum(calm_coef * np.asarray(v)[..., None] ** calm_exp, axis=-1)
-
-    # sea states: (Hs, wind) pairs at Hs quantiles
-    hs = np.asarray(hs_m, dtype=float).ravel()
-    wind = np.broadcast_to(np.asarray(wind_ms, dtype=float), hs.shape).ravel()
-    keep = np.isfinite(hs) & np.isfinite(wind)
-    hs, wind = hs[keep], wind[keep]
-    order = np.argsort(hs, kind="stable")
-    picks = np.unique(np.round(np.linspace(0, hs.size - 1, n_seas)).astype(int)) if hs.size else np.zeros(0, int)
-    pairs = np.unique(np.column_stack([hs[order][picks], wind[order][picks]]), axis=0) if hs.size else np.zeros((0, 2))
-    levels = np.unique(np.round(pairs[:, 0], 9)) if pairs.size else np.zeros(0)
-    n_levels = int(np.sum(levels > 0))
-    q = np.array([1.0, 2.0, 3.0][: max(0, min(3, n_levels))])
-    v = np.linspace(v_min_kn, v_max_kn, n_speeds)
-    alpha = np.asarray(angles_deg, dtype=float)
-    hs_g = pairs[:, 0][:, None, None] if pairs.size else np.zeros((0, 1, 1))
-    wind_g = pairs[:, 1][:, None, None] if pairs.size else np.zeros((0, 1, 1))
-    a_g = alpha[None, :, None]
-    v_g = v[None, None, :]
-    hs_coef, speed_coef, angle_coef = np.zeros(0), np.array([1.0]), np.array([1.0, 0.0, 0.0])
-    err_max = err_rms = 0.0
-    n_pts = 0
-    if pairs.size:
-        p = np.asarray(
-            model.brake_power_kw(v_g, hs_m=hs_g, wave_angle_deg=a_g, wind_speed_ms=wind_g, wind_angle_deg=a_g),
-            dtype=float,
-        )
-        p = np.broadcast_to(p, (pairs.shape[0], alpha.size, v.size))
-        pc = np.broadcast_to(calm(v)[None, None, :], p.shape)
-        use = np.isfinite(p) & (p > 0) & (p <= 1.5 * mcr)
-        hs_b = np.broadcast_to(hs_g, p.shape)[use]
-        ca = np.broadcast_to(np.cos(np.radians(a_g)), p.shape)[use]
-        vb = np.broadcast_to(v_g, p.shape)[use]
-        wgt = pc[use] / p[use]
-        target = (p[use] / pc[use] - 1.0) * wgt
-        n_pts = int(use.sum())
-        if q.size and n_pts:
-            bw = hs_b[:, None] ** q[None, :]
-            bd = np.column_stack([np.ones_like(ca), ca, ca**2])
-            bs = np.column_stack([np.ones_like(vb), vb, vb**2])
-            h, b, u = np.zeros(q.size), np.array([1.0, 0.0, 0.0]), np.array([1.0, 0.0, 0.0])
-            prev = np.inf
-            for _ in range(100):
-                dd, sv = bd @ b, bs @ u
-                h = _lstsq(bw * (wgt * dd * sv)[:, None], target)
-                ww = bw @ h
-                b = _lstsq(bd * (wgt * ww * sv)[:, None], target)
-                dd = bd @ b
-                u = _lstsq(bs * (wgt * ww * dd)[:, None], target)
-                res = float(np.sum((wgt * ww * dd * (bs @ u) - target) ** 2))
-                if prev - res <= 1e-14 * max(prev, 1e-300):
-                    break
-                prev = res
-            # joint Levenberg–Marquardt polish: ALS crawls along the factors' scale ambiguity
-            nq = q.size
-
-            def resid(x: np.ndarray) -> np.ndarray:
-                return wgt * (bw @ x[:nq]) * (bd @ x[nq : nq + 3]) * (bs @ x[nq + 3 :]) - target
-
-            polished = least_squares(
-                resid, np.concatenate([h, b, u]), method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=2000
-            )
-            if float(np.sum(polished.fun**2)) <= float(np.sum(resid(np.concatenate([h, b, u])) ** 2)):
-                h, b, u = polished.x[:nq], polished.x[nq : nq + 3], polished.x[nq + 3 :]
-            scale_b = float(np.max(np.abs(b))) or 1.0  # normalise D to max |coef| 1, move the scale into W
-            scale_u = float(u[0]) if abs(u[0]) > 1e-12 else 1.0  # S(0) = 1: move the scale into W
-            b, u, h = b / scale_b, u / scale_u, h * scale_b * scale_u
-            scale_b = 1.0
-            hs_coef, angle_coef, speed_coef = h * scale_b, b / scale_b, u
-        w_fit = hs_b[:, None] ** q[None, :] @ hs_coef if hs_coef.size else np.zeros(n_pts)
-        d_fit = angle_coef[0] + angle_coef[1] * ca + angle_coef[2] * ca**2
-        s_fit = sum(ur * vb**r for r, ur in enumerate(speed_coef))
-        fit = pc[use] * (1.0 + w_fit * d_fit * s_fit)
-        rel = fit / p[use] - 1.0
-        calm_rel = calm(v0) / p0 - 1.0
-        allrel = np.concatenate([rel, calm_rel])
-        err_max = float(np.max(np.abs(allrel))) if allrel.size else 0.0
-        err_rms = float(np.sqrt(np.mean(allrel**2))) if allrel.size else 0.0
-    else:
-        calm_rel = calm(v0) / p0 - 1.0
-        err_max = float(np.max(np.abs(calm_rel)))
-        err_rms = float(np.sqrt(np.mean(calm_rel**2)))
-    # SFOC
-    loads = np.linspace(max(min_load, 0.05), 1.0, 20)
-    pk = loads * mcr
-    s = np.asarray(model.fuel_rate_tph(pk), dtype=float) / (pk * 1e-6)  # g/kWh
-    quad = _lstsq(np.column_stack([loads**2, loads, np.ones_like(loads)]), s)
-    quad = np.where(np.abs(quad) <= 1e-12 * np.max(np.abs(quad)), 0.0, quad)  # a constant SFOC stays constant
-    base = float(np.mean(s))
-    sfoc_err = float(np.max(np.abs((np.column_stack([loads**2, loads, np.ones_like(loads)]) @ quad) / s - 1.0)))
-    power = PowerModel(
-        calm_coef=calm_coef,
-        calm_exp=calm_exp,
-        mcr_kw=mcr,
-        min_load=float(min_load),
-        max_load=float(max_load),
-        hs_coef=hs_coef if q.size else (),
-        hs_exp=q if hs_coef.size else (),
-        angle_coef=angle_coef,
-        speed_coef=speed_coef,
-        sfc_base_gpkwh=base,
-        sfc_quad=quad / base,
-    )
-    hs_range = (float(pairs[:, 0].min()), float(pairs[:, 0].max())) if pairs.size else (0.0, 0.0)
-    return PowerFit(power, err_max, err_rms, sfoc_err, n_pts + v0.size, (float(v_min_kn), float(v_max_kn)), hs_range)
 
 
 # --------------------------------------------------------------------------- bands and exclusion

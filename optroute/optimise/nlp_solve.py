@@ -18,14 +18,13 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
-from formulations.common import PowerLawFuel, PowerModel
+from formulations.common import PowerModel
 from formulations.disjunctive import InnerOutcome, improve_sides, nlp_band_solver, nlp_groups
 from formulations.speed_nlp import NLPResult, SpeedNLP
 from optroute import units
 from optroute.geo.tracks import Exclusion, gc_points, project_to_polyline
-from optroute.optimise.nlp_inputs import CorridorFrame, PowerFit, formulation_bands, moving_exclusion
+from optroute.optimise.nlp_inputs import CorridorFrame, formulation_bands, moving_exclusion
 from optroute.physics.passage import best_speed
 from optroute.physics.safety import BandRules
 from optroute.physics.ship import Ship
@@ -57,7 +56,6 @@ VIOLATION_TOL = 1e-6  # largest scaled constraint violation accepted from Ipopt
 class Tightening:
     """What the verification loop changes between solves."""
 
-    factor: np.ndarray  # per-leg power factor f_k (fit correction) [-]
     max_load: float
     min_load: float
     widen: float  # band back-off [-]
@@ -69,19 +67,25 @@ class Tightening:
     y_lo: np.ndarray | None = None  # lateral bounds [nm, port +] moved off land met by the verification
     y_hi: np.ndarray | None = None  # (None: the prepared ones; see optroute.optimise.lateral.avoid_point)
     retries: int = 0
-    corrections: int = 0
     log: list[str] = field(default_factory=list)
-    power_terms: dict[str, np.ndarray] = field(default_factory=dict)  # the other terms of the multiplier M_k
 
 
 @dataclass
 class Solved:
+    """One solve with the band outer loop.
+
+    ``n_solves`` and ``iterations`` count every Ipopt call of the outer loop and all their
+    iterations; ``sides_settled`` is False when the side search stopped on its budget of solves.
+    """
+
     res: NLPResult
     ok: bool
     n_solves: int
     flips: int
     history: list[float]
     nlp: SpeedNLP
+    iterations: int = 0
+    sides_settled: bool = True
 
 
 # --------------------------------------------------------------------------- the problem
@@ -96,7 +100,7 @@ class Problem:
         frame: CorridorFrame,
         grid: Any,
         samples: Any,
-        fit: PowerFit,
+        power: PowerModel,
         ship: Ship,
         rules: BandRules,
         y_lo: np.ndarray,
@@ -108,7 +112,7 @@ class Problem:
         solver_options: Mapping[str, Any] | None,
         jit: bool = False,
     ) -> None:
-        self.frame, self.grid, self.samples, self.fit = frame, grid, samples, fit
+        self.frame, self.grid, self.samples, self.power = frame, grid, samples, power
         self.jit = bool(jit)
         self.ship, self.rules = ship, rules
         self.y_lo, self.y_hi = y_lo, y_hi
@@ -117,6 +121,8 @@ class Problem:
         self.solver_options = dict(solver_options or {})
         self.build_time_s = 0.0
         self.builds = 0
+        self.solves = 0  # every Ipopt call of every solve (outer loop included)
+        self.iterations = 0  # and all their iterations
         self._cache: dict[tuple[Any, ...], tuple[SpeedNLP, tuple[str, ...]]] = {}
 
     trial_max_iter = 150
@@ -131,7 +137,7 @@ class Problem:
     cache_size = 8  # built NLPs kept (a 300-leg build holds some tens of MB)
 
     def _key(self, st: Tightening, max_iter: int | None) -> tuple[Any, ...]:
-        """What shapes a build: the tightening but its load limits and power factors (solve-time data)."""
+        """What shapes a build: the tightening but its load limits (solve-time data)."""
         return (
             float(st.widen),
             float(st.hs_margin),
@@ -143,22 +149,20 @@ class Problem:
         )
 
     def build(self, st: Tightening, *, max_iter: int | None = None) -> SpeedNLP:
-        """The NLP of a tightening state: cached by :meth:`_key`, its load limits and power factors set from ``st``.
+        """The NLP of a tightening state: cached by :meth:`_key`, its load limits set from ``st``.
 
         The load limits enter :meth:`SpeedNLP.solve` only as the bounds of its load rows (read from
-        ``nlp.power`` at each solve) and the per-leg power factors are a solve parameter
-        (:meth:`SpeedNLP.set_leg_power_factor`), so one build serves states that differ in them alone:
-        the verification loop's power tightening and fit corrections cost a solve, not a build.
+        ``nlp.power`` at each solve), so one build serves states that differ in them alone: the
+        verification loop's load tightening costs a solve, not a build.
         """
         self._last_state = st
-        power = replace(self.fit.power, max_load=st.max_load, min_load=st.min_load)
+        power = replace(self.power, max_load=st.max_load, min_load=st.min_load)
         key = self._key(st, max_iter)
         hit = self._cache.pop(key, None)
         if hit is not None:
             self._cache[key] = hit  # most recently used last
             nlp, self.band_names = hit
             nlp.power = power
-            nlp.set_leg_power_factor(st.factor, **st.power_terms)
             return nlp
         nlp = self._build(st, max_iter=max_iter)
         self._cache[key] = (nlp, self.band_names)
@@ -178,7 +182,7 @@ class Problem:
         keep = [i for i, b in enumerate(bands) if hs_top >= b.hs_min_m]
         bands, self.band_names = tuple(bands[i] for i in keep), tuple(names[i] for i in keep)
         geom = self.frame.geometry(*self.bounds(st))
-        power = replace(self.fit.power, max_load=st.max_load, min_load=st.min_load)
+        power = replace(self.power, max_load=st.max_load, min_load=st.min_load)
         excl = None
         if self.exclusion is not None:
             excl = moving_exclusion(self.exclusion, self.frame, self.departure, extra_radius_nm=st.extra_radius_nm)
@@ -191,11 +195,14 @@ class Problem:
             samples_per_leg=st.samples_per_leg,
             v_min_kn=self.v_min,
             v_max_kn=self.v_max,
-            leg_power_factor=st.factor,
-            leg_power_correction=st.power_terms,
             g_over_2pi_kn_s=a,
             ipopt_options=options,
             jit=self.jit,
+            # the ship's power table is a field with real curvature in time and across track (a storm's edge):
+            # with its second derivatives in the Hessian Ipopt converges in a fraction of the iterations
+            # (storm crossing of benchmarks.bench_nlp: 27 against 74, and from the 3-D DP's start 47 against
+            # more than 500)
+            exact_hessian=True,
         )
         self.build_time_s += _time.perf_counter() - started
         return nlp
@@ -234,11 +241,12 @@ class Problem:
         if nlp.n_bands == 0:
             res = nlp.solve(**kwargs)
             ok = bool(res.success and res.max_violation <= VIOLATION_TOL)
-            return Solved(res, ok, 1, 0, [res.objective] if ok else [], nlp)
+            self.solves, self.iterations = self.solves + 1, self.iterations + int(res.iterations)
+            return Solved(res, ok, 1, 0, [res.objective] if ok else [], nlp, iterations=int(res.iterations))
         state = nlp.evaluate(y0, v0, t0)
         sides, applies = nlp.default_sides(state)
         shape = sides.shape
-        flippable = flippable_groups(nlp, state)
+        flippable = flippable_groups(nlp, state, y0, t0)
         trial_nlp: list[SpeedNLP] = []
 
         def trial() -> SpeedNLP:
@@ -246,10 +254,27 @@ class Problem:
                 trial_nlp.append(self.build(self._last_state, max_iter=self.trial_max_iter))
             return trial_nlp[0]
 
-        solve = band_solver(nlp, trial, kwargs)
-        out = improve_sides(solve, sides, applies, flippable=flippable, groups=nlp_groups(shape), max_solves=budget)
+        inner = band_solver(nlp, trial, kwargs)
+        iterations = [0]
+
+        def counted(s: np.ndarray, a: np.ndarray) -> InnerOutcome:
+            out = inner(s, a)
+            iterations[0] += int(out.payload.iterations)  # every solve's iterations, not only the best one's
+            self.solves, self.iterations = self.solves + 1, self.iterations + int(out.payload.iterations)
+            return out
+
+        out = improve_sides(counted, sides, applies, flippable=flippable, groups=nlp_groups(shape), max_solves=budget)
         res = out.outcome.payload
-        return Solved(res, bool(out.feasible), out.n_solves, max(0, len(out.history) - 1), list(out.history), nlp)
+        return Solved(
+            res,
+            bool(out.feasible),
+            out.n_solves,
+            max(0, len(out.history) - 1),
+            list(out.history),
+            nlp,
+            iterations=iterations[0],
+            sides_settled=out.n_solves < budget,
+        )
 
 
 def band_solver(nlp: SpeedNLP, trial: Callable[[], SpeedNLP], kwargs: dict[str, Any]) -> Callable[..., InnerOutcome]:
@@ -261,27 +286,25 @@ def band_solver(nlp: SpeedNLP, trial: Callable[[], SpeedNLP], kwargs: dict[str, 
     return nlp_band_solver(nlp, violation_tol=VIOLATION_TOL, later=trial, **kwargs)
 
 
-def flippable_groups(nlp: SpeedNLP, state: Any, n_speeds: int = 64) -> np.ndarray:
+def flippable_groups(
+    nlp: SpeedNLP, state: Any, offset_nm: np.ndarray, time_h: np.ndarray, n_speeds: int = 24
+) -> np.ndarray:
     """(leg, band) groups whose both sides a ship can reach at every sample (speed and power bounds).
 
-    At the sample's sea state (Hs, wave period and encounter angle of ``state``) each side of a band
-    is tested on ``n_speeds`` speeds in the NLP's speed range with the fitted power within the load
-    limits. A side no allowed speed reaches cannot be flipped to: the flip would only cost a failed
-    solve. Shape (N, m, B), constant over the samples of a group.
+    At the samples of ``state`` (the warm start: offsets (N+1,) [nm], times (N+1,) [h]) each side of a
+    band is tested on ``n_speeds`` speeds in the NLP's speed range, with the NLP's own power
+    (:meth:`SpeedNLP.power_at_speeds`, the tabulated ship model) within the load limits. A side no
+    allowed speed reaches cannot be flipped to: the flip would only cost a failed solve. Shape
+    (N, m, B), constant over the samples of a group.
     """
     pw: PowerModel = nlp.power
     n, m, nb = nlp.n_legs, nlp.samples_per_leg, nlp.n_bands
-    v = np.linspace(float(np.min(nlp.v_min_kn)), float(np.max(nlp.v_max_kn)), n_speeds)[None, None, :]
-    hs = np.maximum(state.hs_m, 0.0)[..., None]
+    speeds = np.linspace(float(np.min(nlp.v_min_kn)), float(np.max(nlp.v_max_kn)), n_speeds)
+    v = speeds[None, None, :]
     per = state.period_s[..., None]
     cos_chi = state.cos_chi[..., None]
-    ca = -cos_chi
-    w = sum((h * hs**q for h, q in zip(pw.hs_coef, pw.hs_exp, strict=True)), np.zeros_like(hs))
-    wd = w * (pw.angle_coef[0] + pw.angle_coef[1] * ca + pw.angle_coef[2] * ca**2)
-    calm = sum(c * v**e for c, e in zip(pw.calm_coef, pw.calm_exp, strict=True))
-    sv = sum(u * v**r for r, u in enumerate(pw.speed_coef))
-    mult = nlp.leg_power_multiplier(np.broadcast_to(v[0, 0], (n, n_speeds)))[:, None, :]  # f_k (V/V_k)^e_k
-    load = mult * calm * (1.0 + wd * sv) / pw.mcr_kw
+    power, _ = nlp.power_at_speeds(offset_nm, time_h, speeds)
+    load = power / pw.mcr_kw
     ok_power = (load <= pw.max_load) & (load >= pw.min_load)
     a = nlp.g_over_2pi
     along = v * cos_chi
@@ -409,41 +432,16 @@ def warm_rules(rules: BandRules, st: Tightening) -> BandRules:
 # --------------------------------------------------------------------------- certificate
 
 
-def leg_functions(nlp: SpeedNLP, res: NLPResult) -> tuple[Callable[[np.ndarray], np.ndarray], np.ndarray, np.ndarray]:
-    """Per-leg power P_ij(V) on a fixed path in static weather without current, and the speed bounds."""
-    pw: PowerModel = nlp.power
-    smp = res.samples
-    hs = np.maximum(smp.hs_m, 0.0)
-    ca = -smp.cos_chi  # cos α (IMO: 0 = head sea); without current it does not depend on V
-    w = sum((h * hs**q for h, q in zip(pw.hs_coef, pw.hs_exp, strict=True)), np.zeros_like(hs))
-    b0, b1, b2 = pw.angle_coef
-    wd = w * (b0 + b1 * ca + b2 * ca**2)  # (n, m)
+def _leg_rates(nlp: SpeedNLP, res: NLPResult, v: np.ndarray) -> np.ndarray:
+    """Mean fuel rate [t/h] of every leg at per-leg speeds ``v`` (N,) [kn]: the NLP's own power at its samples."""
+    n = nlp.n_legs
+    ev = nlp._eval(nlp._pack(res.offset_nm, np.asarray(v, dtype=float), res.time_h))
+    return np.reshape(ev["rate"], (n, nlp.samples_per_leg)).mean(axis=1)
 
-    def power(v: np.ndarray) -> np.ndarray:  # v (n, K) → (n, m, K)
-        vv = np.asarray(v, dtype=float)[:, None, :]
-        calm = sum(c * vv**e for c, e in zip(pw.calm_coef, pw.calm_exp, strict=True))
-        s = sum(u * vv**r for r, u in enumerate(pw.speed_coef))
-        return nlp.leg_power_multiplier(vv[:, 0, :])[:, None, :] * calm * (1.0 + wd[:, :, None] * s)
 
-    lo, hi = nlp.v_min_kn.copy(), nlp.v_max_kn.copy()
-    # load limits per sample → speed interval per leg (power increases with speed): bisection
-    a, b = lo.copy(), hi.copy()
-    for _ in range(80):
-        mid = 0.5 * (a + b)
-        over = np.max(power(mid[:, None])[..., 0], axis=1) / pw.mcr_kw > pw.max_load
-        b = np.where(over, mid, b)
-        a = np.where(over, a, mid)
-    top = np.max(power(hi[:, None])[..., 0], axis=1) / pw.mcr_kw <= pw.max_load
-    hi = np.where(top, hi, a)
-    a, b = lo.copy(), hi.copy()
-    for _ in range(80):
-        mid = 0.5 * (a + b)
-        under = np.min(power(mid[:, None])[..., 0], axis=1) / pw.mcr_kw < pw.min_load
-        a = np.where(under, mid, a)
-        b = np.where(under, b, mid)
-    bottom = np.min(power(lo[:, None])[..., 0], axis=1) / pw.mcr_kw >= pw.min_load
-    lo = np.where(bottom, lo, b)
-    return power, lo, hi
+def _leg_powers(nlp: SpeedNLP, res: NLPResult, v: np.ndarray) -> np.ndarray:
+    ev = nlp._eval(nlp._pack(res.offset_nm, np.asarray(v, dtype=float), res.time_h))
+    return np.reshape(ev["power"], (nlp.n_legs, nlp.samples_per_leg))
 
 
 def certificate(
@@ -456,84 +454,57 @@ def certificate(
     fuel_price: float,
     hourly_cost: float,
 ) -> dict[str, Any]:
-    """Global-optimality certificate of a fixed-path, static-weather solve.
+    """Lagrangian dual bound of a fixed-path, static-weather solve without bands, on the NLP's own model.
 
-    With a constant SFOC and non-negative power terms the fuel rate is a sum of power laws and the
-    problem is :func:`formulations.speed_convex.solve_speed_convex`'s (Clarabel, the global optimum).
-    The IMO SFOC curve has a negative linear term and is outside that class (the fuel rate is still
-    convex in V: for P = cV³ its second derivative is a positive quadratic in the load), so the
-    bound is then weak Lagrangian duality at the NLP's ETA multiplier λ:
-    ``q(λ) = Σ_i min_t (F_i(t) + λ t) − λ T ≤ optimum``, each leg minimised on its speed interval.
+    On a fixed path in static weather the legs couple only through ``Σ t ≤ T``; weak duality at the
+    NLP's ETA multiplier λ gives ``q(λ) = Σ_i min_t (F_i(t) + λ t) − λ T ≤ optimum``, each leg's
+    one-dimensional minimum taken over its speed interval (the load limits, by bisection) on a
+    dense grid of speeds refined by golden-section search around the best node. The model is the
+    NLP's (the tabulated ship model), evaluated at the solution's samples; the bound certifies the
+    NLP's optimum of that model (the tabulation error is reported beside it).
     """
     pw: PowerModel = nlp.power
-    power, lo, hi = leg_functions(nlp, res)
     d = res.distance_nm
     n = d.size
     w_f, w_t = (1.0, 0.0) if objective == "fuel" else (float(fuel_price), float(hourly_cost))
-    a2, a1, a0 = pw.sfc_quad
-    pw_terms = [(c, e, 0) for c, e in zip(pw.calm_coef, pw.calm_exp, strict=True)]
-    smp = res.samples
-    ca = -smp.cos_chi
-    hs = np.maximum(smp.hs_m, 0.0)
-    wd = sum((h * hs**q for h, q in zip(pw.hs_coef, pw.hs_exp, strict=True)), np.zeros_like(hs))
-    wd = wd * (pw.angle_coef[0] + pw.angle_coef[1] * ca + pw.angle_coef[2] * ca**2)
-    wd_mean = wd.mean(axis=1)
-    coef = None
-    if a2 == 0.0 and a1 == 0.0 and a0 > 0 and not np.any(nlp.leg_power_terms["exponent"]):
-        k = pw.sfc_base_gpkwh * a0 * 1e-6 * nlp.leg_power_factor
-        exps: dict[float, np.ndarray] = {}
-        for c, e, _ in pw_terms:
-            exps[float(e)] = exps.get(float(e), np.zeros(n)) + k * c
-            for r, u in enumerate(pw.speed_coef):
-                exps[float(e + r)] = exps.get(float(e + r), np.zeros(n)) + k * c * u * wd_mean
-        ex = np.array(sorted(exps))
-        coef = np.column_stack([exps[x] for x in ex])
-        scale = float(np.max(np.abs(coef))) or 1.0
-        # a sum of power laws with non-negative coefficients (exponents >= 1): PowerLawFuel's class
-        coef = np.where(np.abs(coef) <= 1e-12 * scale, 0.0, coef) if np.all(coef >= -1e-12 * scale) else None
-    if coef is not None:
-        from formulations.speed_convex import solve_speed_convex  # CVXPY loads only for this certificate
-
-        fuel = PowerLawFuel(coef, ex)
-        conv = solve_speed_convex(
-            d,
-            fuel,
-            eta_h=eta_h,
-            eta_mode=eta_mode,
-            v_min_kn=lo,
-            v_max_kn=hi,
-            objective=objective,
-            fuel_price=fuel_price,
-            hourly_cost=hourly_cost,
-        )
-        if not conv.success:
-            return {"method": "convex (CVXPY + Clarabel)", "status": conv.status, "gap": float("nan")}
-        gap = (res.objective - conv.objective) / max(abs(conv.objective), 1e-12)
-        return {
-            "method": "convex (CVXPY + Clarabel)",
-            "status": conv.status,
-            "objective": conv.objective,
-            "total_fuel_t": conv.total_fuel_t,
-            "gap": float(gap),
-        }
+    lo, hi = nlp.v_min_kn.copy(), nlp.v_max_kn.copy()
+    # load limits per sample → speed interval per leg (power increases with speed): bisection
+    a, b = lo.copy(), hi.copy()
+    for _ in range(60):
+        mid = 0.5 * (a + b)
+        over = np.max(_leg_powers(nlp, res, mid), axis=1) / pw.mcr_kw > pw.max_load
+        b, a = np.where(over, mid, b), np.where(over, a, mid)
+    top = np.max(_leg_powers(nlp, res, hi), axis=1) / pw.mcr_kw <= pw.max_load
+    hi = np.where(top, hi, a)
+    a, b = lo.copy(), hi.copy()
+    for _ in range(60):
+        mid = 0.5 * (a + b)
+        under = np.min(_leg_powers(nlp, res, mid), axis=1) / pw.mcr_kw < pw.min_load
+        a, b = np.where(under, mid, a), np.where(under, b, mid)
+    bottom = np.min(_leg_powers(nlp, res, lo), axis=1) / pw.mcr_kw >= pw.min_load
+    lo = np.where(bottom, lo, b)
     lam = float(res.eta_multiplier) if eta_h is not None else 0.0
 
-    def leg_cost(i: int, t: float) -> float:
-        v = d[i] / t
-        p = power(np.full((n, 1), v))[i, :, 0]
-        rate = float(np.mean(pw.fuel_rate_tph(p)))
-        return w_f * t * rate + w_t * t + lam * t
+    def cost(v: np.ndarray) -> np.ndarray:
+        t = d / v
+        return w_f * t * _leg_rates(nlp, res, v) + (w_t + lam) * t
 
-    total = 0.0
-    for i in range(n):
-        t_lo, t_hi = d[i] / hi[i], d[i] / lo[i]
-        cands = [leg_cost(i, t_lo), leg_cost(i, t_hi)]
-        if t_hi > t_lo:
-            r = minimize_scalar(
-                lambda t, i=i: leg_cost(i, t), bounds=(t_lo, t_hi), method="bounded", options={"xatol": 1e-10 * t_hi}
-            )
-            cands.append(float(r.fun))
-        total += min(cands)
-    bound = total - (lam * eta_h if eta_h is not None else 0.0)
+    grid = np.linspace(0.0, 1.0, 65)
+    vals = np.array([cost(lo + f * (hi - lo)) for f in grid])  # (65, N)
+    best = np.argmin(vals, axis=0)
+    step = (hi - lo) / 64.0
+    a = np.maximum(lo, lo + (best - 1) * step)
+    b = np.minimum(hi, lo + (best + 1) * step)
+    g = (np.sqrt(5.0) - 1.0) / 2.0
+    c_, d_ = b - g * (b - a), a + g * (b - a)
+    fc, fd = cost(c_), cost(d_)
+    for _ in range(60):
+        left = fc < fd
+        b = np.where(left, d_, b)
+        a = np.where(left, a, c_)
+        c_, d_ = b - g * (b - a), a + g * (b - a)
+        fc, fd = cost(c_), cost(d_)
+    leg_min = np.minimum(np.min(vals, axis=0), np.minimum(fc, fd))
+    bound = float(np.sum(leg_min)) - (lam * eta_h if eta_h is not None else 0.0)
     gap = (res.objective - bound) / max(abs(res.objective), 1e-12)
-    return {"method": "Lagrangian dual bound", "lambda": lam, "bound": bound, "gap": float(gap)}
+    return {"method": "Lagrangian dual bound", "lambda": lam, "bound": bound, "gap": float(gap), "legs": n}

@@ -103,11 +103,6 @@ def _to_plan_xy(
     )
 
 
-def _nlp_leg_power(res: NLPResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    p = res.samples.power_kw
-    return p.mean(axis=1), p.max(axis=1), p.min(axis=1)
-
-
 def _move_off(st: Tightening, v: Violation, plan: Plan, res: NLPResult) -> bool:
     """Move the lateral bounds of leg ``v.leg`` off the land (no-passage) point the verification met.
 
@@ -136,22 +131,24 @@ def _move_off(st: Tightening, v: Violation, plan: Plan, res: NLPResult) -> bool:
 def _tighten(st: Tightening, violations: list[Violation], plan: Plan, res: NLPResult) -> None:
     """Change the problem where the verification found it wrong (see the module docstring)."""
     kinds = {v.kind.split(":")[0] for v in violations}
-    _, p_max, p_min = _nlp_leg_power(res)
     for v in violations:
         k = v.leg
-        if v.kind == "power_above_mcr":
-            ratio = v.value / max(p_max[k], 1e-9) if np.isfinite(v.value) else 1.2
-            st.factor[k] *= float(np.clip(ratio, 1.0, 2.0)) * 1.003
-        elif v.kind == "power_below_min":
-            ratio = v.value / max(p_min[k], 1e-9)
-            st.factor[k] *= float(np.clip(ratio, 0.5, 1.0)) * 0.997
-        elif v.kind in ("land", "no_passage") and _move_off(st, v, plan, res):
+        if v.kind in ("land", "no_passage") and _move_off(st, v, plan, res):
             pass
         elif v.kind in ("land", "no_passage", "corridor", "course"):
             st.bound_scale[k] *= 0.5
             st.bound_scale[k + 1] *= 0.5
-    if "power_above_mcr" in kinds and st.retries > 1:
-        st.max_load *= 0.99
+    # the table's power is the model's up to the tabulation error: where the referee finds the engine outside its
+    # range, the load limits move inwards by what it found beyond them
+    over = [v.value / v.limit for v in violations if v.kind == "power_above_mcr" and np.isfinite(v.value)]
+    if "power_above_mcr" in kinds:
+        st.max_load *= 1.0 / (max(over, default=1.02) * 1.002)
+    under = [v.limit / max(v.value, 1e-9) for v in violations if v.kind == "power_below_min"]
+    if under:
+        st.min_load = min(0.99 * st.max_load, st.min_load * max(under) * 1.002)
+    if kinds & {"power_above_mcr", "power_below_min"}:
+        # the engine's range is checked at the NLP's samples and between them by the referee: denser samples
+        st.samples_per_leg = min(st.samples_per_leg + 1, 8)
     if "band" in kinds:
         # back the edges off by what the verification found beyond them, with room to spare
         beyond = max(
@@ -291,7 +288,7 @@ def _longer(
         frame=frame,
         grid=g,
         samples=smp,
-        fit=prob.fit,
+        power=prob.power,
         ship=prob.ship,
         rules=prob.rules,
         y_lo=prob.y_lo,
@@ -446,7 +443,7 @@ def _first_failure(
     raise SolverFailure(
         (
             f"the timed search along the centreline found no passage: {dead} (the bands, the engine's load range "
-            f"[{prob.fit.power.min_load:g}, 1] of MCR and speeds of {prob.v_min:g}–{prob.v_max:.1f} kn, on its "
+            f"[{prob.power.min_load:g}, 1] of MCR and speeds of {prob.v_min:g}–{prob.v_max:.1f} kn, on its "
             "speed ladder), and the NLP found none from any start: a wider corridor, another route or another "
             "departure may pass. "
             if dead is not None

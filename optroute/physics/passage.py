@@ -191,14 +191,7 @@ def evaluate_speeds(
     )
     held = np.isfinite(heading)
     heading_ok = np.where(held, heading, course)
-    wind_speed, wind_from = units.wind_uv_to_speed_from_deg(col(sea.wind_u_ms), col(sea.wind_v_ms))
-    power = model.brake_power_kw(
-        stw,
-        hs_m=hs,
-        wave_angle_deg=seaway.relative_wave_angle_deg(heading_ok, wave_from),
-        wind_speed_ms=wind_speed,
-        wind_angle_deg=units.wrap_360(wind_from - heading_ok),
-    )
+    power = power_at_heading(model, stw, heading_ok, hs, wave_from, col(sea.wind_u_ms), col(sea.wind_v_ms))
     power = np.broadcast_to(power, stw.shape)
     forbidden = is_speed_forbidden(
         ship, speed_kn=stw, hs_m=hs, period_s=period, wave_from_deg=wave_from, heading_deg=heading_ok, rules=rules
@@ -210,6 +203,34 @@ def evaluate_speeds(
     finite_power = np.where(np.isfinite(power), power, 0.0)
     fuel = np.where(np.isfinite(power), model.fuel_rate_tph(finite_power), np.inf)
     return np.where(held, heading, np.nan), sog, power, fuel, allowed
+
+
+def power_at_heading(
+    model: PerformanceModel,
+    stw_kn: ArrayLike,
+    heading_deg: ArrayLike,
+    hs_m: ArrayLike,
+    wave_from_deg: ArrayLike,
+    wind_u_ms: ArrayLike,
+    wind_v_ms: ArrayLike,
+) -> np.ndarray:
+    """Brake power [kW] of ``model`` at a speed through water [kn] and heading [deg true, to] in a sea.
+
+    The one place where a sea state becomes the model's arguments: the relative wave angle (IMO
+    MSC.1/Circ.1228, 0 = head sea) from the heading and the direction the waves come from [deg],
+    the 10 m wind speed [m/s] and its angle off the bow from the wind vector (east/north, blowing
+    to, [m/s]). :func:`evaluate_speeds` (the plan's referee) and the corridor NLP's power table
+    (:mod:`optroute.optimise.power_table`) both call it.
+    """
+    heading = np.asarray(heading_deg, dtype=float)
+    wind_speed, wind_from = units.wind_uv_to_speed_from_deg(wind_u_ms, wind_v_ms)
+    return model.brake_power_kw(
+        stw_kn,
+        hs_m=hs_m,
+        wave_angle_deg=seaway.relative_wave_angle_deg(heading, wave_from_deg),
+        wind_speed_ms=wind_speed,
+        wind_angle_deg=units.wrap_360(wind_from - heading),
+    )
 
 
 def _pick(choice_idx: np.ndarray, feasible: np.ndarray, arrays: tuple[np.ndarray, ...]) -> list[np.ndarray]:

@@ -5,7 +5,8 @@
 (:class:`~optroute.weather.WeatherSampler`); crabs the heading against the current and takes the
 true model's power and fuel (:func:`optroute.physics.passage.evaluate_speeds`). :func:`legs_table` turns that
 into the per-leg table of a plan; :meth:`optroute.plan.result.Plan.verify` checks every constraint on it.
-Nothing here uses the NLP or its fitted power model.
+Nothing here uses the NLP or its power table (which is built from the same model through the same
+:func:`optroute.physics.passage.power_at_heading`).
 """
 
 from __future__ import annotations

@@ -35,7 +35,7 @@ the fuel objective the true front never rises with a later ETA.  A point
 whose fuel is above that of an earlier point (relative tolerance
 ``monotone_rtol``), or whose solve failed, is solved again warm-started from
 each neighbour's solution and once from the optimiser's own start, keeping
-the least fuel; if it still rises (the NLP's fit corrections are a local search on a model that is only
+the least fuel; if it still rises (the NLP is a local search on a model that is only
 piecewise smooth), the point takes the earlier point's verified plan, which arrives by this ETA too, and its
 status says so (``"optimal; the plan of the earlier ETA …"``): the front never rises.  With ``objective="cost"``
 (fuel and time both priced) a later ETA may legitimately cost more fuel, so
@@ -60,9 +60,9 @@ Set-up once per front
 The points between the two ends are solved on one
 :class:`~optroute.optimise.corridor_problem.PreparedCorridor` per process (this one
 when serial, each Dask worker's), prepared for the latest of them: the
-weather grid, lateral bounds, power fit and the CasADi build are made once,
-and each point costs only its solves (the ETA, the load limits and the fit's
-per-leg corrections are solve parameters).  Each point starts from the
+weather grid with the ship's power table, lateral bounds and the CasADi build are made once,
+and each point costs only its solves (the ETA and the load limits are solve
+parameters).  Each point starts from the
 untightened problem, as :func:`optroute.optimise_corridor` would, so a point
 does not depend on the chain it was solved in.
 """

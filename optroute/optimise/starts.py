@@ -1,0 +1,190 @@
+"""The corridor NLP's start: the best verified discrete plan on the same corridor.
+
+:meth:`optroute.optimise.corridor_problem.PreparedCorridor.solve` starts Ipopt from the best of these
+candidates *as scored by the referee* (the plan evaluator and :meth:`Plan.verify`, the same that
+scores the NLP's plan), and never returns a plan worse than the best verified one:
+
+* ``"warm plan"`` — a given previous plan (a neighbouring ETA's, :func:`optroute.studies.tradeoff`);
+* ``"search route"`` — a given search route, its waypoints and speeds through water;
+* ``"3-D DP"`` — the 3-D dynamic programme (:mod:`optroute.search.dp`, via
+  :func:`optroute.search_route` with ``method="dp"``) run on the corridor itself, when its
+  centreline is one great circle (the DP's stages are on the great circle from start to end) and
+  there is an ETA: least fuel (or cost) by the ETA, the danger bands and the MCR inside;
+* ``"centreline start"`` — the NLP's own safe start on the centreline
+  (:func:`optroute.optimise.min_time.clean_start`).
+
+Each candidate becomes a warm start on the NLP's legs — its lateral offsets at the corridor's
+waypoints (its track projected on the centreline) and, for every NLP leg, the speed of the leg it
+sails there — so the NLP starts on the band sides the candidate keeps. Its plan is scored on its
+own waypoints: that is the plan a user would get from it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from optroute import geodesy as geo
+from optroute import units
+from optroute.errors import OptrouteError
+from optroute.geo.tracks import project_to_polyline
+from optroute.optimise.nlp_inputs import CorridorFrame
+from optroute.plan.result import Plan, PlanContext
+from optroute.search.route import Route
+
+__all__ = ["Candidate", "dp_route", "great_circle_corridor", "score", "track_warm_start", "verified_plan"]
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A start of the NLP: where it comes from, its warm start and its verified plan (None if it does not verify).
+
+    Attributes
+    ----------
+    label : str
+        ``"warm plan"``, ``"search route"``, ``"3-D DP"`` or ``"centreline start"``.
+    warm : dict of str to numpy.ndarray
+        ``offset_nm`` (N+1,) [nm, port +] and ``stw_kn`` (N,) [kn] on the NLP's legs.
+    plan : Plan or None
+        The candidate scored by the referee, when it passes :meth:`Plan.verify`.
+    score : float
+        The plan's objective (fuel [t], time [h] or cost); ``inf`` without a verified plan.
+    estimate : float
+        The candidate's own figure of that objective (a search's or the DP's), used to order the warm
+        starts when it does not verify (the DP's 30 nm pieces can miss a point the referee finds).
+    """
+
+    label: str
+    warm: dict[str, np.ndarray]
+    plan: Plan | None
+    score: float
+    estimate: float = float("inf")
+
+
+def score(plan: Plan, objective: str, fuel_price: float, hourly: float) -> float:
+    """The objective of a plan by the referee: fuel [t], passage time [h] or cost [currency]."""
+    if objective == "time":
+        return plan.duration_h
+    if objective == "fuel":
+        return plan.total_fuel_t
+    return fuel_price * plan.total_fuel_t + hourly * plan.duration_h
+
+
+def verified_plan(
+    ctx: PlanContext,
+    waypoints: np.ndarray,
+    stw_kn: np.ndarray,
+    departure: np.datetime64,
+    step_nm: float,
+    status: str,
+) -> Plan | None:
+    """The plan of a track and speeds through water scored by the referee, if it passes verification."""
+    stw = np.asarray(stw_kn, dtype=float)
+    if not np.all(np.isfinite(stw) & (stw > 0)):
+        return None
+    try:
+        plan = Plan.from_context(
+            ctx, np.asarray(waypoints, dtype=float), stw, departure=departure, status=status, step_nm=step_nm
+        )
+    except OptrouteError:  # a candidate that cannot even be evaluated is no start
+        return None
+    return plan if not plan.verify(step_nm=step_nm) else None
+
+
+def track_warm_start(waypoints: np.ndarray, stw_kn: np.ndarray, frame: CorridorFrame) -> dict[str, np.ndarray]:
+    """A track and its speeds as a warm start on the NLP's legs: lateral offsets and leg speeds.
+
+    The track's vertices are projected on the centreline; its cross-track offset is interpolated
+    (linearly in along-track distance) at the corridor's waypoints and clipped to the half-width;
+    each NLP leg takes the speed of the track leg nearest its midpoint.
+    """
+    wp = np.asarray(waypoints, dtype=float)
+    stw = np.asarray(stw_kn, dtype=float)
+    centre = frame.corridor.waypoints
+    s_t, xt_t, _, _ = project_to_polyline(centre, wp[:, 0], wp[:, 1])
+    order = np.argsort(s_t, kind="stable")
+    offset = -np.interp(frame.s_nm, s_t[order], xt_t[order])  # port-positive
+    hw = np.asarray(frame.corridor.half_width_nm, dtype=float)
+    offset = np.clip(offset, -hw, hw)
+    offset[0] = offset[-1] = 0.0
+    mid_lat = 0.5 * (centre[:-1, 0] + centre[1:, 0])
+    mid_lon = units.wrap_180(centre[:-1, 1] + 0.5 * units.wrap_180(centre[1:, 1] - centre[:-1, 1]))
+    _, _, _, k = project_to_polyline(wp, mid_lat, mid_lon)
+    speed = stw[np.clip(k, 0, stw.size - 1)]
+    fallback = float(np.nanmean(stw[np.isfinite(stw) & (stw > 0)])) if np.any(np.isfinite(stw) & (stw > 0)) else 10.0
+    speed = np.where(np.isfinite(speed) & (speed > 0), speed, fallback)
+    return {"offset_nm": offset, "stw_kn": speed}
+
+
+def great_circle_corridor(frame: CorridorFrame, tol_nm: float = 0.5) -> bool:
+    """Whether the corridor's centreline is one great circle from its start to its end (the 3-D DP's geometry)."""
+    wp = frame.corridor.waypoints
+    if wp.shape[0] <= 2:
+        return True
+    _, xt, _, _ = project_to_polyline(np.vstack([wp[0], wp[-1]]), wp[:, 0], wp[:, 1])
+    return bool(np.max(np.abs(xt)) <= tol_nm)
+
+
+def dp_route(
+    ctx: PlanContext,
+    frame: CorridorFrame,
+    *,
+    departure: np.datetime64,
+    eta: np.datetime64,
+    objective: str,
+    v_min_kn: float,
+    v_max_kn: float,
+    fuel_price: float,
+    hourly: float,
+    options: dict[str, Any] | None = None,
+) -> Route | None:
+    """The 3-D DP's least-fuel (or cost) route on the corridor by the ETA; None where it finds none.
+
+    Resolution (``options`` overrides, keys of :func:`optroute.search.dp.solve_dp` via ``dp_options``
+    plus ``speed_step_kn``): stages about 1/12 of the corridor apart (at least 20 nm), 5 lateral
+    states per side of the half-width, 1 h time bins, speeds every 1 kn over the NLP's range.
+    """
+    from optroute.search.routing import search_route
+
+    wp = frame.corridor.waypoints
+    length = float(frame.s_nm[-1])
+    half = float(np.max(frame.corridor.half_width_nm))
+    opts = dict(options or {})
+    step = float(opts.pop("speed_step_kn", 1.0))
+    dp_opts = {"dx_nm": max(20.0, length / 12.0), "dy_nm": max(half / 5.0, 1.0), "half_width_nm": half, "dt_h": 1.0}
+    dp_opts.update(opts)
+    speeds = np.arange(max(v_min_kn, 3.0), v_max_kn + 1e-9, step)
+    try:
+        return search_route(
+            (float(wp[0, 0]), float(wp[0, 1])),
+            (float(wp[-1, 0]), float(wp[-1, 1])),
+            ctx.sampler,
+            ctx.ship,
+            departure=departure,
+            objective="cost" if objective == "cost" else "fuel",
+            eta=eta,
+            method="dp",
+            speeds_kn=speeds,
+            fuel_price_per_t=fuel_price,
+            hourly_cost_per_h=hourly,
+            model=ctx.model,
+            rules=ctx.rules,
+            use_land_mask=ctx.use_land_mask,
+            dp_options=dp_opts,
+        )
+    except OptrouteError:  # no passage by the ETA on the DP's grid: the other candidates remain
+        return None
+
+
+def route_stw(route: Route) -> np.ndarray:
+    """A route's speeds through water per leg [kn] (its SOG where the STW is not known)."""
+    stw = np.asarray(route.stw_kn, dtype=float)
+    return np.where(np.isfinite(stw) & (stw > 0), stw, np.asarray(route.sog_kn, dtype=float))
+
+
+def plan_distance_nm(plan: Plan) -> float:
+    """Length of a plan's track [nm]."""
+    wp = np.asarray(plan.waypoints, dtype=float)
+    return float(np.sum(geo.distance_nm(wp[:-1, 0], wp[:-1, 1], wp[1:, 0], wp[1:, 1])))
