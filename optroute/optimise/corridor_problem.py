@@ -33,7 +33,7 @@ import xarray as xr
 from formulations.speed_nlp import jit_compiler
 from optroute._checks import finite
 from optroute.errors import ConfigError, SolverFailure, WeatherCoverageError
-from optroute.optimise.certificate import certificate_stats
+from optroute.optimise.certificate import certificate_stats, dual_schedule
 from optroute.optimise.min_time import clean_start
 from optroute.optimise.nlp_inputs import build_frame, dataset_spacing, lateral_bounds, weather_grid
 from optroute.optimise.nlp_solve import (
@@ -385,6 +385,30 @@ class PreparedCorridor:
                     track_warm_start(dp.waypoints, stw, frame),
                     verified_plan(ctx, dp.waypoints, stw, t0, step, "start"),
                     own(dp),
+                )
+        fixed = bool(np.all(self.y_lo == 0.0) and np.all(self.y_hi == 0.0))
+        if fixed and cap_h is not None and objective in ("fuel", "cost"):
+            # on a fixed path in static weather: the ship's own dual bound's schedule, a near-optimal discrete plan
+            # with its band sides (optroute.optimise.certificate)
+            centre_wp = frame.waypoints(np.zeros(frame.n_legs + 1))
+            stw = dual_schedule(
+                ctx,
+                centre_wp,
+                departure=t0,
+                eta_h=cap_h,
+                eta_mode=ctx.eta_mode,
+                objective=objective,
+                fuel_price=price,
+                hourly_cost=hourly,
+                v_min_kn=self.v_min,
+                v_max_kn=self.v_max,
+                step_nm=step,
+            )
+            if stw is not None:
+                add(
+                    "ship dual",
+                    track_warm_start(centre_wp, stw, frame),
+                    verified_plan(ctx, centre_wp, stw, t0, step, "start"),
                 )
         centre = clean_start(
             ctx,
