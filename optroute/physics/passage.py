@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike
 from optroute import units
 from optroute._checks import finite
 from optroute.errors import ConfigError
-from optroute.physics import currents, seaway
+from optroute.physics import currents, pointwise, seaway
 from optroute.physics.performance import PerformanceModel
 from optroute.physics.safety import BandRules, is_speed_forbidden
 from optroute.physics.ship import Ship
@@ -143,6 +143,8 @@ def evaluate_speeds(
     course_deg: ArrayLike,
     sea: SeaState,
     stw_kn: ArrayLike,
+    *,
+    engine: str = "auto",
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Heading, SOG, power, fuel rate and allowedness of given speeds.
 
@@ -160,6 +162,11 @@ def evaluate_speeds(
         Sea state at the N points.
     stw_kn : array_like, shape (N,) or (N, K)
         Candidate speeds through water [kn], > 0.
+    engine : {"auto", "numpy"}
+        ``"auto"``: for the built-in models (:func:`optroute.physics.pointwise.point_params`)
+        the compiled one-point functions the search kernels share; otherwise, and with
+        ``"numpy"``, the vectorised composition of ``model.brake_power_kw`` and
+        :func:`~optroute.physics.safety.is_speed_forbidden` (the same numbers to rounding).
 
     Returns
     -------
@@ -173,6 +180,13 @@ def evaluate_speeds(
     n = np.asarray(sea.hs_m).shape[0]
     course = np.broadcast_to(finite("course_deg", course_deg), (n,))[extra]
     col = lambda a: np.asarray(a, dtype=float)[extra]  # noqa: E731
+    if engine not in ("auto", "numpy"):
+        raise ConfigError(f"engine={engine!r} is not known; use 'auto' or 'numpy'")
+    params = pointwise.cached_point_params(ship, model, rules) if engine == "auto" else None
+    if params is not None:  # the built-in models: the one-point functions every search kernel uses too
+        fields = (course, *(col(getattr(sea, f)) for f in SeaState.__dataclass_fields__), stw)
+        flat = [np.ascontiguousarray(np.broadcast_to(a, stw.shape), dtype=float).ravel() for a in fields]
+        return tuple(a.reshape(stw.shape) for a in pointwise.evaluate_speeds_flat(params, *flat))  # type: ignore[return-value]
     navigable = sea.navigable[extra]
     hs = np.where(navigable, col(sea.hs_m), 0.0)
     period = np.where(navigable, col(sea.period_s), 1.0)

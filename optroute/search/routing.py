@@ -23,14 +23,17 @@ from optroute import units
 from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, WeatherCoverageError
 from optroute.geo import land
+from optroute.physics import pointwise
 from optroute.physics.passage import SeaState, SpeedChoice, best_speed, cheapest_speed, evaluate_speeds
 from optroute.physics.performance import PerformanceModel, default_model
 from optroute.physics.safety import BANDS, BandRules, band_margins
 from optroute.physics.ship import Ship
+from optroute.search import passage_kernels
 from optroute.search.dijkstra import shortest_path
 from optroute.search.dp import solve_dp
 from optroute.search.grid import RouteGrid
 from optroute.search.neighbourhood import Neighbourhood, angular_resolution, compass
+from optroute.search.passage_kernels import MODE_CHEAPEST, MODE_TIME
 from optroute.search.route import Corridor, Route
 from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
@@ -64,6 +67,10 @@ class PassagePhysics:
     sampler : WeatherSampler
     departure : numpy.datetime64
         Time zero of the search's clock [UTC].
+    compiled : bool
+        Give the search callbacks their compiled batch form
+        (:mod:`optroute.search.passage_kernels`) where it applies; False keeps the
+        numpy callbacks only (the same costs to rounding, much slower).
     """
 
     ship: Ship
@@ -71,6 +78,7 @@ class PassagePhysics:
     rules: BandRules
     sampler: WeatherSampler
     departure: np.datetime64
+    compiled: bool = True
     calls: int = field(default=0, init=False)
     uncovered: int = field(default=0, init=False)
 
@@ -128,16 +136,15 @@ class PassagePhysics:
             )
             return choice, sea
 
+        ladder = desired_stw_kn - step_kn * np.arange(int(np.floor((desired_stw_kn - min_stw_kn) / step_kn + 1e-9)) + 1)
         if check_nm is not None:
-            ladder = desired_stw_kn - step_kn * np.arange(
-                int(np.floor((desired_stw_kn - min_stw_kn) / step_kn + 1e-9)) + 1
-            )
-            return self.segment_checked(first, ladder, None, check_nm)
+            cb = self.segment_checked(first, ladder, None, check_nm)
+        else:
 
-        def cost(lat, lon, course, length_nm, t_h):
-            return self._record(*first(lat, lon, course, t_h), length_nm)
+            def cb(lat, lon, course, length_nm, t_h):
+                return self._record(*first(lat, lon, course, t_h), length_nm)
 
-        return cost
+        return self._with_kernel(cb, MODE_TIME, ladder, 0.0, (desired_stw_kn, step_kn, min_stw_kn), check_nm)
 
     def segment_cheapest(self, speeds_kn: np.ndarray, lambda_t_per_h: float, check_nm: float | None = None) -> Callable:
         """Segment-cost callback: the speed of the set minimising fuel + λ·time.
@@ -149,13 +156,51 @@ class PassagePhysics:
             sea = self.sea(lat, lon, t_h)
             return cheapest_speed(self.ship, self.model, self.rules, course, sea, speeds_kn, lambda_t_per_h), sea
 
+        speeds = np.asarray(speeds_kn, dtype=float).ravel()
         if check_nm is not None:
-            return self.segment_checked(first, np.asarray(speeds_kn, dtype=float), lambda_t_per_h, check_nm)
+            cb = self.segment_checked(first, speeds, lambda_t_per_h, check_nm)
+        else:
 
-        def cost(lat, lon, course, length_nm, t_h):
-            return self._record(*first(lat, lon, course, t_h), length_nm)
+            def cb(lat, lon, course, length_nm, t_h):
+                return self._record(*first(lat, lon, course, t_h), length_nm)
 
-        return cost
+        return self._with_kernel(cb, MODE_CHEAPEST, speeds, float(lambda_t_per_h), (0.0, 1.0, 0.0), check_nm)
+
+    def kernel_inputs(self) -> tuple[np.ndarray, tuple] | None:
+        """(point parameters, weather arrays) of the compiled kernels, or None where they do not apply.
+
+        They apply to the built-in performance models
+        (:func:`optroute.physics.pointwise.point_params`) and an in-memory weather
+        dataset (:meth:`optroute.weather.sample.WeatherSampler.point_weather`).
+        """
+        params = pointwise.cached_point_params(self.ship, self.model, self.rules)
+        if params is None or not self.compiled:
+            return None
+        pw = self.sampler.point_weather(self.departure)
+        return None if pw is None else (params, tuple(pw))
+
+    def _with_kernel(self, cb: Callable, mode: int, speeds: np.ndarray, lam: float, boeing: tuple, check_nm):
+        """``cb`` with its compiled batch form as ``cb.leg_batch`` (see :mod:`optroute.search.costs`) where available."""
+        inputs = self.kernel_inputs()
+        if inputs is None:
+            return cb
+        params, weather = inputs
+        desired, step, vmin = (float(x) for x in boeing)
+        speeds = np.ascontiguousarray(speeds, dtype=float)
+
+        def leg_batch(lat, lon, course, length, n_pieces, t0_h):
+            pts = _check_points(lat, lon, course, length, n_pieces, check_nm)
+            dur, fuel, feas, uncovered = passage_kernels.cost_legs(
+                params, weather, mode, check_nm is not None, speeds, lam, desired, step, vmin,
+                *(np.ascontiguousarray(a, dtype=float) for a in (lat, lon, course, length)),
+                n_pieces, np.ascontiguousarray(t0_h, dtype=float), *pts,
+            )  # fmt: skip
+            self.calls += 1
+            self.uncovered += int(uncovered)
+            return dur, fuel, feas
+
+        cb.leg_batch = leg_batch  # type: ignore[attr-defined]
+        return cb
 
     def segment_checked(
         self, first: Callable, speeds_kn: np.ndarray, lambda_t_per_h: float | None, check_nm: float
@@ -248,8 +293,10 @@ class PassagePhysics:
                     sog_k, fuel_k, ok_k = (a.reshape(bad.size, m, k_n) for a in (sog_k, fuel_k, ok_k))
                     with np.errstate(invalid="ignore", divide="ignore"):
                         ok_k = (ok_k & (sog_k > 0)).all(axis=1) & ~struck[p[bad]]
+                        own = (np.arange(m)[None, :] < n_pts[p[bad], None])[:, :, None]  # the piece's own points
                         rank = (np.broadcast_to(score, ok_k.shape) if score is not None
-                                else ((fuel_k + lambda_t_per_h) / sog_k).mean(axis=1))  # fmt: skip
+                                else np.where(own, (fuel_k + lambda_t_per_h) / sog_k, 0.0).sum(axis=1)
+                                / n_pts[p[bad], None])  # fmt: skip
                     rank = np.where(ok_k, rank, np.inf)
                     k = np.argmin(rank, axis=1)
                     has = np.isfinite(rank[np.arange(bad.size), k])
@@ -300,6 +347,29 @@ class PassagePhysics:
             return dur, np.where(feas, fuel, np.nan), feas, extra
 
         return cost
+
+
+def _check_points(lat, lon, course, length, n_pieces, check_nm):
+    """The check points of every piece of a batch for :func:`passage_kernels.cost_legs`.
+
+    As :meth:`PassagePhysics.segment_checked`: ``1 + 2 max(1, ceil(length / 2 check_nm))``
+    points per piece, evenly spaced, ends included.  Returns (lat, lon, course) of shape
+    (n, kmax, m) and the count per piece (n, kmax); empty arrays without a check.
+    """
+    n, kmax = lat.shape
+    if check_nm is None:
+        return np.zeros((n, kmax, 1)), np.zeros((n, kmax, 1)), np.zeros((n, kmax, 1)), np.zeros((n, kmax), np.int64)
+    real = np.arange(kmax)[None, :] < n_pieces[:, None]
+    n_pts = np.where(real, 1 + 2 * np.maximum(1, np.ceil(length / (2.0 * check_nm))), 0).astype(np.int64)
+    m = int(n_pts.max(initial=3))
+    out = [np.zeros((n, kmax, m)) for _ in range(3)]
+    i, k = np.nonzero(real)
+    if i.size:
+        npk = n_pts[i, k][:, None]
+        frac = np.minimum(np.arange(m)[None, :], npk - 1) / (npk - 1)
+        for o, a in zip(out, _piece_points(lat[i, k], lon[i, k], course[i, k], length[i, k], frac), strict=True):
+            o[i, k] = a
+    return (*out, n_pts)
 
 
 def _cumulative(dt: np.ndarray) -> np.ndarray:
@@ -415,6 +485,7 @@ def search_route(
     snap_max_nm: float | None = None,
     band_check_nm: float | None = 10.0,
     dp_options: dict[str, Any] | None = None,
+    compiled: bool = True,
 ) -> Route:
     """Search the route corridor through forecast weather.
 
@@ -481,6 +552,12 @@ def search_route(
     dp_options : dict, optional
         Passed to :func:`optroute.search.dp.solve_dp` (``dx_nm``, ``dy_nm``,
         ``half_width_nm``, ``dt_h`` …) for ``method="dp"``.
+    compiled : bool
+        Cost the legs with the compiled kernels of
+        :mod:`optroute.search.passage_kernels` where they apply (the built-in
+        performance models and in-memory weather; default), or with the numpy
+        callbacks only (the same route and costs to rounding; slower, kept as
+        the reference the kernels are tested against).
 
     Returns
     -------
@@ -532,7 +609,7 @@ def search_route(
         if speeds_kn is not None
         else np.arange(5.0, np.floor(top * 2) / 2 + 1e-9, 0.5)
     )
-    physics = PassagePhysics(ship, model, rules, sampler, t0)
+    physics = PassagePhysics(ship, model, rules, sampler, t0, compiled=bool(compiled))
 
     clearance = 0.5 * cell_nm if method != "dp" else 0.5
     snap_nm = float(snap_max_nm) if snap_max_nm is not None else 20.0 + 2.0 * cell_nm
