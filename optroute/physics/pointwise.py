@@ -53,6 +53,7 @@ from optroute.physics.speed_loss import (
 
 __all__ = [
     "N_PARAMS",
+    "allowed_speed",
     "band_forbidden",
     "beaufort_from_hs",
     "beaufort_from_wind",
@@ -63,6 +64,7 @@ __all__ = [
     "kwon_direction_coefficient",
     "kwon_form_coefficient",
     "point_params",
+    "stw_for_sog",
     "wrap_360",
 ]
 
@@ -170,6 +172,17 @@ def heading_for_course(course_deg, stw_kn, cu_kn, cv_kn):  # pragma: no cover - 
     if abs(cross) > stw_kn or sog <= 0.0 or not (sog == sog):
         return np.nan, np.nan
     return wrap_360(course_deg + math.degrees(delta)), sog
+
+
+@jit
+def stw_for_sog(course_deg, sog_kn, cur_u_ms, cur_v_ms):  # pragma: no cover - compiled
+    """Speed through the water [kn] making good ``sog_kn`` along ``course_deg`` against a current [m/s].
+
+    Bowditch, "current sailing": the water velocity is SOG (sin c, cos c) − (u, v)
+    (as :func:`optroute.physics.currents.stw_for_sog`).
+    """
+    c = math.radians(course_deg)
+    return math.hypot(sog_kn * math.sin(c) - cur_u_ms / _MS_PER_KN, sog_kn * math.cos(c) - cur_v_ms / _MS_PER_KN)
 
 
 @jit
@@ -296,6 +309,19 @@ def band_forbidden(p, speed_kn, hs_m, period_s, alpha_deg):  # pragma: no cover 
 
 
 @jit
+def _situation(
+    course_deg, hs_m, period_s, wave_from_deg, wind_u_ms, wind_v_ms, cur_u_ms, cur_v_ms, stw_kn
+):  # pragma: no cover - compiled
+    """(navigable, hs, period, heading or NaN, SOG, α, wind speed) of a speed at a point."""
+    nav = math.isfinite(hs_m) and math.isfinite(period_s) and math.isfinite(wave_from_deg)
+    if not nav:
+        hs_m, period_s, wave_from_deg = 0.0, 1.0, 0.0
+    heading, sog = heading_for_course(course_deg, stw_kn, cur_u_ms / _MS_PER_KN, cur_v_ms / _MS_PER_KN)
+    hdg = heading if math.isfinite(heading) else course_deg
+    return nav, hs_m, period_s, heading, sog, wrap_360(wave_from_deg - hdg), math.hypot(wind_u_ms, wind_v_ms)
+
+
+@jit
 def evaluate_speed(
     p, course_deg, hs_m, period_s, wave_from_deg, wind_u_ms, wind_v_ms, cur_u_ms, cur_v_ms, stw_kn
 ):  # pragma: no cover - compiled
@@ -308,20 +334,35 @@ def evaluate_speed(
     Returns ``(heading_deg, sog_kn, power_kw, fuel_tph, allowed)``; heading and
     SOG NaN where the course cannot be held, fuel ``inf`` where the power is.
     """
-    nav = math.isfinite(hs_m) and math.isfinite(period_s) and math.isfinite(wave_from_deg)
-    if not nav:
-        hs_m, period_s, wave_from_deg = 0.0, 1.0, 0.0
-    heading, sog = heading_for_course(course_deg, stw_kn, cur_u_ms / _MS_PER_KN, cur_v_ms / _MS_PER_KN)
-    held = math.isfinite(heading)
-    hdg = heading if held else course_deg
-    wind = math.hypot(wind_u_ms, wind_v_ms)
-    alpha = wrap_360(wave_from_deg - hdg)
-    power = brake_power(p, stw_kn, hs_m, alpha, wind)
-    forbidden = band_forbidden(p, stw_kn, hs_m, period_s, alpha)
+    nav, hs, period, heading, sog, alpha, wind = _situation(
+        course_deg, hs_m, period_s, wave_from_deg, wind_u_ms, wind_v_ms, cur_u_ms, cur_v_ms, stw_kn
+    )
+    power = brake_power(p, stw_kn, hs, alpha, wind)
+    forbidden = band_forbidden(p, stw_kn, hs, period, alpha)
     in_power = p[P_MIN_POWER] <= power <= p[P_MCR]
-    allowed = nav and held and not forbidden and in_power
+    allowed = nav and math.isfinite(heading) and not forbidden and in_power
     fuel = fuel_rate(p, power) if math.isfinite(power) else np.inf
     return heading, sog, power, fuel, allowed
+
+
+@jit
+def allowed_speed(
+    p, course_deg, hs_m, period_s, wave_from_deg, wind_u_ms, wind_v_ms, cur_u_ms, cur_v_ms, stw_kn
+):  # pragma: no cover - compiled
+    """``(sog_kn, fuel_tph, allowed)`` of :func:`evaluate_speed`, skipping the power where a band or the sea already forbids.
+
+    SOG and fuel are NaN where not allowed; where allowed they are
+    :func:`evaluate_speed`'s own.  The search kernels' form.
+    """
+    nav, hs, period, heading, sog, alpha, wind = _situation(
+        course_deg, hs_m, period_s, wave_from_deg, wind_u_ms, wind_v_ms, cur_u_ms, cur_v_ms, stw_kn
+    )
+    if not (nav and math.isfinite(heading)) or band_forbidden(p, stw_kn, hs, period, alpha):
+        return np.nan, np.nan, False
+    power = brake_power(p, stw_kn, hs, alpha, wind)
+    if not p[P_MIN_POWER] <= power <= p[P_MCR]:
+        return np.nan, np.nan, False
+    return sog, fuel_rate(p, power), True
 
 
 @jit

@@ -28,7 +28,7 @@ import math
 import numpy as np
 
 from optroute._jit import jit
-from optroute.physics.pointwise import evaluate_speed
+from optroute.physics.pointwise import allowed_speed, evaluate_speed, stw_for_sog
 from optroute.weather.sample import N_POINT_FIELDS, sample_at
 
 MODE_TIME = 0
@@ -41,7 +41,7 @@ _DONE_TOL_H = 1e-3  # as segment_checked: a speed's own times agree with the tim
 
 @jit
 def _eval_at(p, course, sea, stw):  # pragma: no cover - compiled
-    return evaluate_speed(p, course, sea[0], sea[1], sea[2], sea[3], sea[4], sea[5], sea[6], stw)
+    return allowed_speed(p, course, sea[0], sea[1], sea[2], sea[3], sea[4], sea[5], sea[6], stw)
 
 
 @jit
@@ -53,7 +53,7 @@ def best_speed_at(p, course, sea, desired, step, vmin):  # pragma: no cover - co
     down to ``vmin``.
     """
     if desired >= vmin:
-        _, sog, _, fuel, ok = _eval_at(p, course, sea, desired)
+        sog, fuel, ok = _eval_at(p, course, sea, desired)
         if ok:
             return desired, sog, fuel, True
     k = max(int(math.floor((desired - vmin) / step)) + 1, 1)
@@ -61,7 +61,7 @@ def best_speed_at(p, course, sea, desired, step, vmin):  # pragma: no cover - co
         v = desired - step * j
         if not v >= vmin - 1e-12:
             break
-        _, sog, _, fuel, ok = _eval_at(p, course, sea, v)
+        sog, fuel, ok = _eval_at(p, course, sea, v)
         if ok:
             return v, sog, fuel, True
     return np.nan, np.nan, np.nan, False
@@ -73,7 +73,7 @@ def cheapest_speed_at(p, course, sea, speeds, lam):  # pragma: no cover - compil
     best, k_best = np.inf, -1
     b_sog, b_fuel = np.nan, np.nan
     for k in range(speeds.size):
-        _, sog, _, fuel, ok = _eval_at(p, course, sea, speeds[k])
+        sog, fuel, ok = _eval_at(p, course, sea, speeds[k])
         if ok and sog > 0.0:
             rate = (fuel + lam) / sog
             if rate < best:
@@ -126,7 +126,7 @@ def _checked_piece(
         spd = speeds[guess]
         ok = True
         for j in range(npts):
-            _, sog, _, fuel, allowed = _eval_at(p, crs[j], sea_pts[j], spd)
+            sog, fuel, allowed = _eval_at(p, crs[j], sea_pts[j], spd)
             if not (allowed and sog > 0.0):
                 ok = False
                 break
@@ -153,7 +153,7 @@ def _checked_piece(
             score = 0.0
             good = True
             for j in range(npts):
-                _, sog, _, fuel, allowed = _eval_at(p, crs[j], sea_pts[j], speeds[k])
+                sog, fuel, allowed = _eval_at(p, crs[j], sea_pts[j], speeds[k])
                 if not (allowed and sog > 0.0):
                     good = False
                     break
@@ -167,7 +167,7 @@ def _checked_piece(
             return np.nan, np.nan, False, uncovered
         guess = k_best
         for j in range(npts):
-            _, sog, _, _, _ = _eval_at(p, crs[j], sea_pts[j], speeds[guess])
+            sog, _, _ = _eval_at(p, crs[j], sea_pts[j], speeds[guess])
             inv[j] = 1.0 / sog
     return np.nan, np.nan, False, uncovered
 
@@ -274,3 +274,74 @@ def cost_legs(
             fuel[i] = fu
             feas[i] = True
     return dur, fuel, feas, uncovered
+
+
+@jit
+def cost_dp_legs(p, w, lat, lon, course, frac, n_pieces, leg_of, t0_h, sog_kn, dist_nm):  # pragma: no cover - compiled
+    """The 3-D DP's legs at a commanded SOG, checked at each piece's midpoint (``PassagePhysics.dp_leg``).
+
+    Parameters
+    ----------
+    p, w
+        As :func:`cost_legs`.
+    lat, lon, course, frac : ndarray, shape (n_geometries, m)
+        Each distinct leg's piece midpoints [deg], the course there [deg true]
+        and their fraction of the leg.
+    n_pieces : ndarray of int, shape (n_geometries,)
+    leg_of : ndarray of int, shape (n,)
+        The geometry of each leg costed.
+    t0_h, sog_kn : ndarray, shape (n,)
+        Departure [h] and commanded speed over ground [kn] of each leg.
+    dist_nm : ndarray, shape (n_geometries,)
+        Leg lengths [nm].
+
+    Returns
+    -------
+    duration_h, fuel_t : ndarray
+        dist / SOG, and the pieces' mean fuel rate times it (NaN where infeasible).
+    feasible : ndarray of bool
+        Every piece, at the time the ship passes it: the STW making the SOG
+        good against the current > 0 and allowed.
+    stw_kn, power_kw : ndarray
+        Mean STW [kn] and brake power [kW] over the pieces.
+    uncovered : int
+    """
+    n = sog_kn.size
+    dur = np.empty(n)
+    for i in range(n):
+        dur[i] = dist_nm[leg_of[i]] / sog_kn[i]
+    fuel = np.full(n, np.nan)
+    stw_mean = np.full(n, np.nan)
+    power_mean = np.full(n, np.nan)
+    feas = np.zeros(n, dtype=np.bool_)
+    sea = np.empty(N_POINT_FIELDS)
+    uncovered = 0
+    for i in range(n):
+        g = leg_of[i]
+        npc = n_pieces[g]
+        f_sum, s_sum, p_sum = 0.0, 0.0, 0.0
+        ok = True
+        for j in range(npc):
+            t = t0_h[i] + (frac[g, j] * dist_nm[g]) / sog_kn[i]
+            if not sample_at(w[0], w[1], w[2], w[3], w[4], w[5], t, lat[g, j], lon[g, j], sea):
+                uncovered += 1
+            stw = stw_for_sog(course[g, j], sog_kn[i], sea[5], sea[6])
+            if not (math.isfinite(stw) and stw > 0.0):
+                ok = False
+                break
+            _, _, power, fuel_tph, allowed = evaluate_speed(
+                p, course[g, j], sea[0], sea[1], sea[2], sea[3], sea[4], sea[5], sea[6], stw
+            )
+            if not allowed:
+                ok = False
+                break
+            share = 1.0 / npc
+            f_sum += fuel_tph * share
+            s_sum += stw * share
+            p_sum += power * share
+        if ok:
+            feas[i] = True
+            fuel[i] = f_sum * dur[i]
+            stw_mean[i] = s_sum
+            power_mean[i] = p_sum
+    return dur, fuel, feas, stw_mean, power_mean, uncovered

@@ -322,14 +322,35 @@ class PassagePhysics:
         from optroute.physics.currents import stw_for_sog
         from optroute.physics.passage import evaluate_speeds
 
-        def cost(lat0, lon0, lat1, lon1, t0_h, sog_kn):
-            n = lat0.shape[0]
+        inputs = self.kernel_inputs()
+
+        def pieces(lat0, lon0, lat1, lon1):
             dist = geo.distance_nm(lat0, lon0, lat1, lon1)
             n_pc = np.maximum(1, np.ceil(dist / piece_nm)).astype(int)[:, None]
             m = int(n_pc.max(initial=1))
             f = (np.minimum(np.arange(m)[None, :], n_pc - 1) + 0.5) / n_pc  # padded with the last piece
+            return dist, n_pc, f, *_points_along(lat0, lon0, lat1, lon1, f)
+
+        def compiled(lat0, lon0, lat1, lon1, t0_h, sog_kn):
+            # the DP costs each stage-to-stage leg at many times and speeds: its geometry once per leg
+            legs, leg_of = np.unique(np.stack([lat0, lon0, lat1, lon1], axis=1), axis=0, return_inverse=True)
+            dist, n_pc, f, lat, lon, course = pieces(*legs.T)
+            dur, fuel, feas, stw_m, power_m, uncovered = passage_kernels.cost_dp_legs(
+                *inputs, *(np.ascontiguousarray(a, dtype=float) for a in (lat, lon, course, f)),
+                n_pc[:, 0].astype(np.int64), leg_of.ravel().astype(np.int64), np.ascontiguousarray(t0_h, dtype=float),
+                np.ascontiguousarray(sog_kn, dtype=float), dist,
+            )  # fmt: skip
+            self.calls += 1
+            self.uncovered += int(uncovered)
+            return dur, fuel, feas, {"stw_kn": stw_m, "power_kw": power_m}
+
+        def cost(lat0, lon0, lat1, lon1, t0_h, sog_kn):
+            if inputs is not None:  # compiled: the same pieces, sampled and costed in one call
+                return compiled(lat0, lon0, lat1, lon1, t0_h, sog_kn)
+            n = lat0.shape[0]
+            dist, n_pc, f, lat, lon, course = pieces(lat0, lon0, lat1, lon1)
+            m = f.shape[1]
             w = (np.arange(m)[None, :] < n_pc) / n_pc
-            lat, lon, course = _points_along(lat0, lon0, lat1, lon1, f)
             t = t0_h[:, None] + (f * dist[:, None]) / sog_kn[:, None]
             sea = self.sea(lat.ravel(), lon.ravel(), t.ravel())
             sog = np.repeat(sog_kn, m)
