@@ -234,6 +234,7 @@ def best_speed(
     *,
     step_kn: float = 0.25,
     min_stw_kn: float = 1.0,
+    engine: str = "auto",
 ) -> SpeedChoice:
     """Boeing's speed reduction: the fastest allowed speed at or below the desired one.
 
@@ -253,6 +254,8 @@ def best_speed(
         Speed decrement [kn], > 0.
     min_stw_kn : float
         Slowest speed considered [kn], > 0.
+    engine : {"auto", "numpy"}
+        As in :func:`evaluate_speeds`.
 
     Returns
     -------
@@ -266,7 +269,7 @@ def best_speed(
     course = np.broadcast_to(finite("course_deg", course_deg), (n,))
     out = [np.full(n, np.nan) for _ in range(5)]
     feasible = np.zeros(n, dtype=bool)
-    first = evaluate_speeds(ship, model, rules, course, sea, desired)
+    first = evaluate_speeds(ship, model, rules, course, sea, desired, engine=engine)
     ok = first[4] & (desired >= vmin)
     for o, a in zip(out, (desired,) + first[:4], strict=True):
         o[ok] = a[ok]
@@ -278,7 +281,7 @@ def best_speed(
         valid = ladder >= vmin - 1e-12
         ladder = np.where(valid, ladder, vmin)
         heading, sog, power, fuel, allowed = evaluate_speeds(
-            ship, model, rules, course[rest], _subset(sea, rest), ladder
+            ship, model, rules, course[rest], _subset(sea, rest), ladder, engine=engine
         )
         allowed &= valid
         feas = allowed.any(axis=1)
@@ -298,6 +301,8 @@ def cheapest_speed(
     sea: SeaState,
     speeds_kn: ArrayLike,
     lambda_t_per_h: float,
+    *,
+    engine: str = "auto",
 ) -> SpeedChoice:
     """The allowed speed minimising fuel + λ·time per mile made good.
 
@@ -316,6 +321,8 @@ def cheapest_speed(
         The discrete speed set [kn], > 0.
     lambda_t_per_h : float
         Value of an hour in tonnes of fuel [t/h], >= 0.
+    engine : {"auto", "numpy"}
+        As in :func:`evaluate_speeds`.
 
     Returns
     -------
@@ -325,7 +332,7 @@ def cheapest_speed(
     speeds = finite("speeds_kn", speeds_kn, minimum=0.0, strict=True, error=ConfigError).ravel()
     n = np.asarray(sea.hs_m).shape[0]
     ladder = np.broadcast_to(speeds[None, :], (n, speeds.size))
-    heading, sog, power, fuel, allowed = evaluate_speeds(ship, model, rules, course_deg, sea, ladder)
+    heading, sog, power, fuel, allowed = evaluate_speeds(ship, model, rules, course_deg, sea, ladder, engine=engine)
     with np.errstate(invalid="ignore", divide="ignore"):
         rate = np.where(allowed & (sog > 0), (fuel + lam) / sog, np.inf)
     feasible = np.isfinite(rate).any(axis=1)

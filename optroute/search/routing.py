@@ -70,7 +70,9 @@ class PassagePhysics:
     compiled : bool
         Give the search callbacks their compiled batch form
         (:mod:`optroute.search.passage_kernels`) where it applies; False keeps the
-        numpy callbacks only (the same costs to rounding, much slower).
+        numpy callbacks only, with the vectorised model and band functions
+        (``evaluate_speeds(engine="numpy")``): the search as it was before the
+        kernels, the same costs to rounding, much slower.
     """
 
     ship: Ship
@@ -81,6 +83,11 @@ class PassagePhysics:
     compiled: bool = True
     calls: int = field(default=0, init=False)
     uncovered: int = field(default=0, init=False)
+
+    @property
+    def engine(self) -> str:
+        """``evaluate_speeds``'s engine for the numpy callbacks: the point functions, or (not compiled) numpy."""
+        return "auto" if self.compiled else "numpy"
 
     def sea(self, lat_deg: np.ndarray, lon_deg: np.ndarray, t_h: np.ndarray) -> SeaState:
         """Sea state at positions [deg] and times [h from departure].
@@ -132,8 +139,9 @@ class PassagePhysics:
         def first(lat, lon, course, t_h):
             sea = self.sea(lat, lon, t_h)
             choice = best_speed(
-                self.ship, self.model, self.rules, course, sea, desired_stw_kn, step_kn=step_kn, min_stw_kn=min_stw_kn
-            )
+                self.ship, self.model, self.rules, course, sea, desired_stw_kn, step_kn=step_kn, min_stw_kn=min_stw_kn,
+                engine=self.engine,
+            )  # fmt: skip
             return choice, sea
 
         ladder = desired_stw_kn - step_kn * np.arange(int(np.floor((desired_stw_kn - min_stw_kn) / step_kn + 1e-9)) + 1)
@@ -154,7 +162,10 @@ class PassagePhysics:
 
         def first(lat, lon, course, t_h):
             sea = self.sea(lat, lon, t_h)
-            return cheapest_speed(self.ship, self.model, self.rules, course, sea, speeds_kn, lambda_t_per_h), sea
+            choice = cheapest_speed(
+                self.ship, self.model, self.rules, course, sea, speeds_kn, lambda_t_per_h, engine=self.engine
+            )
+            return choice, sea
 
         speeds = np.asarray(speeds_kn, dtype=float).ravel()
         if check_nm is not None:
@@ -231,7 +242,7 @@ class PassagePhysics:
         1 nm, margins down to -0.005; a planning buffer such as
         ``BandRules(margin=0.205)`` removed them all).
         """
-        ship, model, rules = self.ship, self.model, self.rules
+        ship, model, rules, engine = self.ship, self.model, self.rules, self.engine
         speeds = np.asarray(speeds_kn, dtype=float).ravel()
         score = -speeds if lambda_t_per_h is None else None
 
@@ -261,7 +272,7 @@ class PassagePhysics:
                 spd = speeds[guess[p]]
                 head, sog, power, fuel, ok = (
                     a.reshape(p.size, m)
-                    for a in evaluate_speeds(ship, model, rules, crs[p].ravel(), sea, np.repeat(spd, m))
+                    for a in evaluate_speeds(ship, model, rules, crs[p].ravel(), sea, np.repeat(spd, m), engine=engine)
                 )
                 with np.errstate(invalid="ignore", divide="ignore"):
                     ok = (ok & (sog > 0)).all(axis=1)
@@ -288,8 +299,9 @@ class PassagePhysics:
                     sub = SeaState(*(np.asarray(getattr(sea, f)).reshape(p.size, m)[bad].ravel()
                                      for f in SeaState.__dataclass_fields__))  # fmt: skip
                     _, sog_k, _, fuel_k, ok_k = evaluate_speeds(
-                        ship, model, rules, crs[p[bad]].ravel(), sub, np.broadcast_to(speeds, (bad.size * m, k_n))
-                    )
+                        ship, model, rules, crs[p[bad]].ravel(), sub, np.broadcast_to(speeds, (bad.size * m, k_n)),
+                        engine=engine,
+                    )  # fmt: skip
                     sog_k, fuel_k, ok_k = (a.reshape(bad.size, m, k_n) for a in (sog_k, fuel_k, ok_k))
                     with np.errstate(invalid="ignore", divide="ignore"):
                         ok_k = (ok_k & (sog_k > 0)).all(axis=1) & ~struck[p[bad]]
@@ -358,7 +370,7 @@ class PassagePhysics:
             ok_stw = np.isfinite(stw) & (stw > 0)
             stw_safe = np.where(ok_stw, stw, 1.0)
             _, _, power, fuel_tph, allowed = evaluate_speeds(
-                self.ship, self.model, self.rules, course.ravel(), sea, stw_safe
+                self.ship, self.model, self.rules, course.ravel(), sea, stw_safe, engine=self.engine
             )
             allowed = (allowed & ok_stw).reshape(n, m)
             dur = dist / sog_kn
