@@ -160,7 +160,10 @@ def _checked_piece(
                 score += (fuel + lam) / sog
             if not good:
                 continue
-            rank = -speeds[k] if mode == MODE_TIME else score / npts
+            if mode == MODE_TIME:  # the ladder descends: the first allowed speed is the fastest
+                k_best = k
+                break
+            rank = score / npts
             if rank < best:
                 best, k_best = rank, k
         if k_best < 0:
@@ -207,7 +210,7 @@ def cost_legs(
     checked : bool
         Check each piece's speed at ``pt_*`` (else at its midpoint only).
     speeds : ndarray
-        The speed ladder (time, checked: desired − step·j down to the floor) or set (cheapest) [kn].
+        The speed ladder, descending (time: desired − step·j down to the floor), or the set (cheapest) [kn].
     lam, desired, step, vmin : float
         λ [t/h]; the desired speed, the reduction step and floor [kn].
     mid_lat, mid_lon, mid_course, length : ndarray, shape (n, kmax)
