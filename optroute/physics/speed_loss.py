@@ -528,7 +528,7 @@ def calm_speed_for_weather_kn(
     below by V2.  The interval from V2 to the bound V1_max = ``max_calm_froude``
     · √(g L) is scanned on 32 equally spaced speeds for the first one whose
     weather speed reaches V2, and the root in the preceding sub-interval is
-    refined by vectorised bisection to machine precision.  Where several V1
+    refined to a few ulps (Illinois method with bisection steps, :func:`calm_speed_point`).  Where several V1
     give the same V2 (only possible beyond Kwon's Fn range, for the Cb 0.85
     rows) the smallest V1, the one needing the least power, is returned.  For
     V2 = 0 or a loss of 0 % the answer is V1 = V2.
@@ -595,7 +595,7 @@ def calm_speed_for_weather_kn(
 KWON_SCAN_STEPS = 32
 """Equal steps on which :func:`calm_speed_for_weather_kn` scans for the root's bracket."""
 KWON_BISECTIONS = 52
-"""Bisections of the bracket (at most (V_max - V2) / 32 wide: 52 halvings reach 1e-15 of it)."""
+"""Halvings the bracket needs at most (it is at most (V_max - V2) / 32 wide: 52 halvings reach 1e-15 of it)."""
 _N_SCAN = KWON_SCAN_STEPS
 _N_BISECT = KWON_BISECTIONS
 
@@ -618,8 +618,11 @@ def calm_speed_point(v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn, v_max, n_scan, n_
     (:func:`kwon_cu_coefficients`), ``loss_per_cu`` = C_β C_Form / 100,
     ``inv_sqrt_gl_kn`` = 1 / √(g L) in knots.  The weather speed is scanned on
     ``n_scan`` equal steps from V2 to V_max for the first one reaching V2, then the
-    root in the step before it is bisected ``n_bisect`` times (the upper end is
-    returned, so the result never falls short).
+    root in the step before it is refined by the Illinois method (regula falsi
+    with halving), a bisection following any step that did not halve the
+    bracket (so ``2 n_bisect`` steps reach what ``n_bisect`` bisections would),
+    until the bracket is a few ulps wide; its upper end is returned, so the
+    result never falls short.
     """
     if _kwon_excess(v2, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn) >= 0.0:
         return v2
@@ -633,12 +636,31 @@ def calm_speed_point(v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn, v_max, n_scan, n_
         lo = v
     if np.isnan(hi):
         return np.nan
-    for _ in range(n_bisect):
-        mid = 0.5 * (lo + hi)
-        if _kwon_excess(mid, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn) >= 0.0:
-            hi = mid
+    # Illinois (modified regula falsi) on the bracket, falling back to bisection: the bracket
+    # [lo, hi] always has excess(lo) < 0 <= excess(hi), and shrinks to a few ulps of the root
+    f_lo = _kwon_excess(lo, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn)
+    f_hi = _kwon_excess(hi, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn)
+    side = 0
+    bisect = False
+    for _ in range(2 * n_bisect):  # a step that does not halve the bracket is followed by a bisection
+        width = hi - lo
+        if width <= 4.0 * np.finfo(np.float64).eps * hi:
+            break
+        x = 0.5 * (lo + hi) if bisect else hi - f_hi * (hi - lo) / (f_hi - f_lo)
+        if not lo < x < hi:
+            x = 0.5 * (lo + hi)
+        f_x = _kwon_excess(x, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn)
+        if f_x >= 0.0:
+            hi, f_hi = x, f_x
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
         else:
-            lo = mid
+            lo, f_lo = x, f_x
+            if side == -1:
+                f_hi *= 0.5
+            side = -1
+        bisect = hi - lo > 0.5 * width
     return hi
 
 
