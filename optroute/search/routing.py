@@ -34,6 +34,7 @@ from optroute.search.dp import solve_dp
 from optroute.search.grid import RouteGrid
 from optroute.search.neighbourhood import Neighbourhood, angular_resolution, compass
 from optroute.search.passage_kernels import MODE_CHEAPEST, MODE_TIME
+from optroute.search.piece_geometry import check_points, cumulative, piece_points, points_along
 from optroute.search.route import Corridor, Route
 from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
@@ -200,7 +201,7 @@ class PassagePhysics:
         speeds = np.ascontiguousarray(speeds, dtype=float)
 
         def leg_batch(lat, lon, course, length, n_pieces, t0_h):
-            pts = _check_points(lat, lon, course, length, n_pieces, check_nm)
+            pts = check_points(lat, lon, course, length, n_pieces, check_nm)
             dur, fuel, feas, uncovered = passage_kernels.cost_legs(
                 params, weather, mode, check_nm is not None, speeds, lam, desired, step, vmin,
                 *(np.ascontiguousarray(a, dtype=float) for a in (lat, lon, course, length)),
@@ -251,7 +252,7 @@ class PassagePhysics:
             n_pts = 1 + 2 * np.maximum(1, np.ceil(length_nm / (2.0 * check_nm))).astype(int)  # odd: the midpoint is one
             m = int(n_pts.max(initial=3))
             frac = np.minimum(np.arange(m)[None, :], n_pts[:, None] - 1) / (n_pts[:, None] - 1)  # padded with the end
-            la, lo, crs = _piece_points(lat, lon, course, length_nm, frac)
+            la, lo, crs = piece_points(lat, lon, course, length_nm, frac)
             seg = np.diff(frac, axis=1) * length_nm[:, None]
             mid = ((n_pts - 1) // 2)[:, None]
             choice, _ = first(lat, lon, course, t_h)
@@ -267,7 +268,7 @@ class PassagePhysics:
                 if todo.size == 0:
                     break
                 p = todo
-                tt = t_h[p, None] + _cumulative(0.5 * (inv[p, 1:] + inv[p, :-1]) * seg[p])
+                tt = t_h[p, None] + cumulative(0.5 * (inv[p, 1:] + inv[p, :-1]) * seg[p])
                 sea = self.sea(la[p].ravel(), lo[p].ravel(), tt.ravel())
                 spd = speeds[guess[p]]
                 head, sog, power, fuel, ok = (
@@ -278,7 +279,7 @@ class PassagePhysics:
                     ok = (ok & (sog > 0)).all(axis=1)
                     inv_new = np.where(ok[:, None], 1.0 / sog, 0.0)
                 dt = 0.5 * (inv_new[:, 1:] + inv_new[:, :-1]) * seg[p]
-                done = ok & (np.abs(t_h[p, None] + _cumulative(dt) - tt).max(axis=1) <= 1e-3)
+                done = ok & (np.abs(t_h[p, None] + cumulative(dt) - tt).max(axis=1) <= 1e-3)
                 d, idx = np.flatnonzero(done), p[done]
                 out["dur"][idx] = dt[d].sum(axis=1)
                 out["fuel"][idx] = (0.5 * (fuel[d, 1:] + fuel[d, :-1]) * dt[d]).sum(axis=1)
@@ -341,7 +342,7 @@ class PassagePhysics:
             n_pc = np.maximum(1, np.ceil(dist / piece_nm)).astype(int)[:, None]
             m = int(n_pc.max(initial=1))
             f = (np.minimum(np.arange(m)[None, :], n_pc - 1) + 0.5) / n_pc  # padded with the last piece
-            return dist, n_pc, f, *_points_along(lat0, lon0, lat1, lon1, f)
+            return dist, n_pc, f, *points_along(lat0, lon0, lat1, lon1, f)
 
         def compiled(lat0, lon0, lat1, lon1, t0_h, sog_kn):
             # the DP costs each stage-to-stage leg at many times and speeds: its geometry once per leg
@@ -380,68 +381,6 @@ class PassagePhysics:
             return dur, np.where(feas, fuel, np.nan), feas, extra
 
         return cost
-
-
-def _check_points(lat, lon, course, length, n_pieces, check_nm):
-    """The check points of every piece of a batch for :func:`passage_kernels.cost_legs`.
-
-    As :meth:`PassagePhysics.segment_checked`: ``1 + 2 max(1, ceil(length / 2 check_nm))``
-    points per piece, evenly spaced, ends included.  Returns (lat, lon, course) of shape
-    (n, kmax, m) and the count per piece (n, kmax); empty arrays without a check.
-    """
-    n, kmax = lat.shape
-    if check_nm is None:
-        return np.zeros((n, kmax, 1)), np.zeros((n, kmax, 1)), np.zeros((n, kmax, 1)), np.zeros((n, kmax), np.int64)
-    real = np.arange(kmax)[None, :] < n_pieces[:, None]
-    n_pts = np.where(real, 1 + 2 * np.maximum(1, np.ceil(length / (2.0 * check_nm))), 0).astype(np.int64)
-    m = int(n_pts.max(initial=3))
-    out = [np.zeros((n, kmax, m)) for _ in range(3)]
-    i, k = np.nonzero(real)
-    if i.size:
-        npk = n_pts[i, k][:, None]
-        frac = np.minimum(np.arange(m)[None, :], npk - 1) / (npk - 1)
-        for o, a in zip(out, _piece_points(lat[i, k], lon[i, k], course[i, k], length[i, k], frac), strict=True):
-            o[i, k] = a
-    return (*out, n_pts)
-
-
-def _cumulative(dt: np.ndarray) -> np.ndarray:
-    """Running sums of (n, m - 1) intervals as (n, m) times from 0."""
-    return np.concatenate([np.zeros((dt.shape[0], 1)), np.cumsum(dt, axis=1)], axis=1)
-
-
-def _piece_points(lat, lon, course, length_nm, fractions):
-    """Points at ``fractions`` (n, m) of pieces given by midpoint, course there and length; the course at each."""
-    s = (fractions - 0.5) * length_nm[:, None]
-    shape = s.shape
-    la, lo = geo.destination(np.broadcast_to(lat[:, None], shape), np.broadcast_to(lon[:, None], shape),
-                             np.where(s >= 0, course[:, None], course[:, None] + 180.0), np.abs(s))  # fmt: skip
-    far_lat, far_lon = geo.destination(lat, lon, course, 0.5 * length_nm + 1.0)  # past the end, same great circle
-    crs = geo.initial_course_deg(
-        la, lo, np.broadcast_to(far_lat[:, None], shape), np.broadcast_to(far_lon[:, None], shape)
-    )
-    return la, lo, crs
-
-
-def _points_along(lat0, lon0, lat1, lon1, fractions):
-    """Points at ``fractions`` (shape (m,), or (n, m) per leg) along each great-circle leg, and the course there [deg]."""
-    p0 = np.radians(np.stack([lat0, lon0], axis=-1))
-    p1 = np.radians(np.stack([lat1, lon1], axis=-1))
-    a = np.stack([np.cos(p0[:, 0]) * np.cos(p0[:, 1]), np.cos(p0[:, 0]) * np.sin(p0[:, 1]), np.sin(p0[:, 0])], -1)
-    b = np.stack([np.cos(p1[:, 0]) * np.cos(p1[:, 1]), np.cos(p1[:, 0]) * np.sin(p1[:, 1]), np.sin(p1[:, 0])], -1)
-    omega = np.arccos(np.clip(np.sum(a * b, axis=-1), -1.0, 1.0))[:, None, None]
-    f = np.asarray(fractions, dtype=float)
-    f = (f if f.ndim == 2 else f[None, :])[:, :, None]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        w0 = np.where(omega > 1e-12, np.sin((1 - f) * omega) / np.sin(omega), 1 - f)
-        w1 = np.where(omega > 1e-12, np.sin(f * omega) / np.sin(omega), f)
-    xyz = w0 * a[:, None, :] + w1 * b[:, None, :]
-    lat = np.degrees(np.arctan2(xyz[..., 2], np.hypot(xyz[..., 0], xyz[..., 1])))
-    lon = units.wrap_180(np.degrees(np.arctan2(xyz[..., 1], xyz[..., 0])))
-    lat1b = np.broadcast_to(lat1[:, None], lat.shape)
-    lon1b = np.broadcast_to(lon1[:, None], lat.shape)
-    course = geo.initial_course_deg(lat, lon, lat1b, lon1b)
-    return lat, lon, course
 
 
 def _neighbourhood(angular_resolution_deg: float | None, directions: int | None, radius: int) -> Neighbourhood:
@@ -935,7 +874,7 @@ def sail_route(
         (la0, lo0), (la1, lo1) = wp[k], wp[k + 1]
         dist = float(geo.distance_nm(la0, lo0, la1, lo1))
         m = max(1, int(np.ceil(dist / step)))
-        lat, lon, course = _points_along(
+        lat, lon, course = points_along(
             np.array([la0]), np.array([lo0]), np.array([la1]), np.array([lo1]), (np.arange(m) + 0.5) / m
         )
         dur_k = fuel_k = 0.0
