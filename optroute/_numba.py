@@ -32,7 +32,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["ensure_cache_dir", "njit"]
+__all__ = ["ensure_cache_dir", "jit", "njit"]
 
 #: The subpackages holding ``cache=True`` kernels (their ``__pycache__`` is numba's in-tree cache).
 KERNEL_PACKAGES = ("physics", "weather", "search")
@@ -128,3 +128,12 @@ def njit(**options: Any) -> Callable[[Callable[..., Any]], Any]:
             return numba.njit(cache=False, **options)(func)
 
     return decorate
+
+
+def jit(fn: Callable[..., Any] | None = None, **options: Any) -> Any:
+    """:func:`njit` as ``@jit`` or ``@jit(inline="always")``: numba compiles the function at its first call.
+
+    Cached on disk where a cache folder can be written, else compiled on each run (see :func:`njit`).
+    """
+    decorate = njit(**options)
+    return decorate if fn is None else decorate(fn)

@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike
 from optroute import units
 from optroute._checks import finite
 from optroute.errors import ConfigError
-from optroute.physics import currents, seaway
+from optroute.physics import currents, pointwise, seaway
 from optroute.physics.performance import PerformanceModel
 from optroute.physics.safety import BandRules, is_speed_forbidden
 from optroute.physics.ship import Ship
@@ -143,6 +143,8 @@ def evaluate_speeds(
     course_deg: ArrayLike,
     sea: SeaState,
     stw_kn: ArrayLike,
+    *,
+    engine: str = "auto",
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Heading, SOG, power, fuel rate and allowedness of given speeds.
 
@@ -160,6 +162,11 @@ def evaluate_speeds(
         Sea state at the N points.
     stw_kn : array_like, shape (N,) or (N, K)
         Candidate speeds through water [kn], > 0.
+    engine : {"auto", "numpy"}
+        ``"auto"``: for the built-in models (:func:`optroute.physics.pointwise.point_params`)
+        the compiled one-point functions the search kernels share; otherwise, and with
+        ``"numpy"``, the vectorised composition of ``model.brake_power_kw`` and
+        :func:`~optroute.physics.safety.is_speed_forbidden` (the same numbers to rounding).
 
     Returns
     -------
@@ -175,6 +182,13 @@ def evaluate_speeds(
     n = np.asarray(sea.hs_m).shape[0]
     course = np.broadcast_to(finite("course_deg", course_deg), (n,))[extra]
     col = lambda a: np.asarray(a, dtype=float)[extra]  # noqa: E731
+    if engine not in ("auto", "numpy"):
+        raise ConfigError(f"engine={engine!r} is not known; use 'auto' or 'numpy'")
+    params = pointwise.cached_point_params(ship, model, rules) if engine == "auto" else None
+    if params is not None:  # the built-in models: the one-point functions every search kernel uses too
+        fields = (course, *(col(getattr(sea, f)) for f in SeaState.__dataclass_fields__), stw)
+        flat = [np.ascontiguousarray(np.broadcast_to(a, stw.shape), dtype=float).ravel() for a in fields]
+        return tuple(a.reshape(stw.shape) for a in pointwise.evaluate_speeds_flat(params, *flat))  # type: ignore[return-value]
     navigable = sea.navigable[extra]
     hs = np.where(navigable, col(sea.hs_m), 0.0)
     period = np.where(navigable, col(sea.period_s), 1.0)
@@ -252,6 +266,7 @@ def best_speed(
     *,
     step_kn: float = 0.25,
     min_stw_kn: float = 1.0,
+    engine: str = "auto",
 ) -> SpeedChoice:
     """Boeing's speed reduction: the fastest allowed speed at or below the desired one.
 
@@ -271,6 +286,8 @@ def best_speed(
         Speed decrement [kn], > 0.
     min_stw_kn : float
         Slowest speed considered [kn], > 0.
+    engine : {"auto", "numpy"}
+        As in :func:`evaluate_speeds`.
 
     Returns
     -------
@@ -284,7 +301,7 @@ def best_speed(
     course = np.broadcast_to(finite("course_deg", course_deg), (n,))
     out = [np.full(n, np.nan) for _ in range(5)]
     feasible = np.zeros(n, dtype=bool)
-    first = evaluate_speeds(ship, model, rules, course, sea, desired)
+    first = evaluate_speeds(ship, model, rules, course, sea, desired, engine=engine)
     ok = first[4] & (desired >= vmin)
     for o, a in zip(out, (desired,) + first[:4], strict=True):
         o[ok] = a[ok]
@@ -296,7 +313,7 @@ def best_speed(
         valid = ladder >= vmin - 1e-12
         ladder = np.where(valid, ladder, vmin)
         heading, sog, power, fuel, allowed = evaluate_speeds(
-            ship, model, rules, course[rest], _subset(sea, rest), ladder
+            ship, model, rules, course[rest], _subset(sea, rest), ladder, engine=engine
         )
         allowed &= valid
         feas = allowed.any(axis=1)
@@ -316,6 +333,8 @@ def cheapest_speed(
     sea: SeaState,
     speeds_kn: ArrayLike,
     lambda_t_per_h: float,
+    *,
+    engine: str = "auto",
 ) -> SpeedChoice:
     """The allowed speed minimising fuel + λ·time per mile made good.
 
@@ -334,6 +353,8 @@ def cheapest_speed(
         The discrete speed set [kn], > 0.
     lambda_t_per_h : float
         Value of an hour in tonnes of fuel [t/h], >= 0.
+    engine : {"auto", "numpy"}
+        As in :func:`evaluate_speeds`.
 
     Returns
     -------
@@ -343,7 +364,7 @@ def cheapest_speed(
     speeds = finite("speeds_kn", speeds_kn, minimum=0.0, strict=True, error=ConfigError).ravel()
     n = np.asarray(sea.hs_m).shape[0]
     ladder = np.broadcast_to(speeds[None, :], (n, speeds.size))
-    heading, sog, power, fuel, allowed = evaluate_speeds(ship, model, rules, course_deg, sea, ladder)
+    heading, sog, power, fuel, allowed = evaluate_speeds(ship, model, rules, course_deg, sea, ladder, engine=engine)
     with np.errstate(invalid="ignore", divide="ignore"):
         rate = np.where(allowed & (sog > 0), (fuel + lam) / sog, np.inf)
     feasible = np.isfinite(rate).any(axis=1)

@@ -60,7 +60,7 @@ from numpy.typing import ArrayLike
 
 from optroute import units
 from optroute._checks import finite
-from optroute._numba import njit
+from optroute._numba import jit
 from optroute.errors import ConfigError, OptrouteError, SeaStateError, ShipSpecError
 from optroute.physics.seaway import G_MS2
 
@@ -68,8 +68,10 @@ __all__ = [
     "BLOCK_COEFFICIENT_RANGE",
     "MAX_CALM_FROUDE",
     "calm_speed_for_weather_kn",
+    "calm_speed_point",
     "imo_fw",
     "imo_fw_capacity",
+    "kwon_cu_coefficients",
     "kwon_direction_coefficient",
     "kwon_form_coefficient",
     "kwon_speed_coefficient",
@@ -283,6 +285,19 @@ def kwon_speed_coefficient(froude: ArrayLike, block_coefficient: ArrayLike, load
     fn = finite("froude", froude, minimum=0.0, fix="pass V1 / sqrt(g L) of the calm-water speed, >= 0")
     a, b, c = _cu_coefficients(_block_coefficient(block_coefficient), _loading(loading))
     return a + b * fn + c * fn**2
+
+
+def kwon_cu_coefficients(block_coefficient: ArrayLike, loading: Loading = "normal") -> tuple[np.ndarray, ...]:
+    """Kwon's (2008) C_U coefficients (a, b, c) for a block coefficient, C_U = a + b Fn + c Fn².
+
+    Interpolated linearly in Cb between the table's rows (see :func:`kwon_speed_coefficient`).
+
+    Raises
+    ------
+    ConfigError
+        Cb outside [0.55, 0.85] or an unknown ``loading``.
+    """
+    return _cu_coefficients(_block_coefficient(block_coefficient), _loading(loading))
 
 
 def _cu_coefficients(cb: np.ndarray, loading: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -513,7 +528,7 @@ def calm_speed_for_weather_kn(
     below by V2.  The interval from V2 to the bound V1_max = ``max_calm_froude``
     · √(g L) is scanned on 32 equally spaced speeds for the first one whose
     weather speed reaches V2, and the root in the preceding sub-interval is
-    refined by vectorised bisection to machine precision.  Where several V1
+    refined to a few ulps (Illinois method with bisection steps, :func:`calm_speed_point`).  Where several V1
     give the same V2 (only possible beyond Kwon's Fn range, for the Cb 0.85
     rows) the smallest V1, the one needing the least power, is returned.  For
     V2 = 0 or a loss of 0 % the answer is V1 = V2.
@@ -577,11 +592,15 @@ def calm_speed_for_weather_kn(
     return v1
 
 
-_N_SCAN = 32
-_N_BISECT = 52  # the bracket is at most (v_max - v2) / 32 wide: 52 halvings reach 1e-15 of it
+KWON_SCAN_STEPS = 32
+"""Equal steps on which :func:`calm_speed_for_weather_kn` scans for the root's bracket."""
+KWON_BISECTIONS = 52
+"""Halvings the bracket needs at most (it is at most (V_max - V2) / 32 wide: 52 halvings reach 1e-15 of it)."""
+_N_SCAN = KWON_SCAN_STEPS
+_N_BISECT = KWON_BISECTIONS
 
 
-@njit()
+@jit
 def _kwon_excess(v1, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn):  # pragma: no cover - compiled
     """Weather speed of the calm speed V1 minus the wanted V2 [kn] (Kwon 2008, loss floored at 0)."""
     fn = v1 * inv_sqrt_gl_kn
@@ -589,38 +608,70 @@ def _kwon_excess(v1, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn):  # pragma: no co
     return v1 * (1.0 - max(loss, 0.0)) - v2
 
 
-@njit()
-def _invert_kwon(v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn, v_max, n_scan, n_bisect):  # pragma: no cover - compiled
-    """Smallest V1 in [V2, V_max] with V1 (1 - max(k C_U(Fn(V1)), 0)) >= V2, per element; NaN if none.
+@jit
+def calm_speed_point(v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn, v_max, n_scan, n_bisect):  # pragma: no cover - compiled
+    """Smallest V1 in [V2, V_max] with V1 (1 - max(k C_U(Fn(V1)), 0)) >= V2 [kn]; NaN if none.
 
-    The weather speed is scanned on ``n_scan`` equal steps from V2 to V_max for
-    the first one reaching V2, then the root in the step before it is bisected
-    ``n_bisect`` times (the upper end is returned, so the result never falls short).
+    One point of :func:`calm_speed_for_weather_kn` (Kwon 2008), numba-compilable and
+    shared by the vectorised function, :mod:`optroute.physics.pointwise` and the
+    compiled route-search kernels.  ``a, b, c`` are C_U's coefficients
+    (:func:`kwon_cu_coefficients`), ``loss_per_cu`` = C_β C_Form / 100,
+    ``inv_sqrt_gl_kn`` = 1 / √(g L) in knots.  The weather speed is scanned on
+    ``n_scan`` equal steps from V2 to V_max for the first one reaching V2, then the
+    root in the step before it is refined by the Illinois method (regula falsi
+    with halving), a bisection following any step that did not halve the
+    bracket (so ``2 n_bisect`` steps reach what ``n_bisect`` bisections would),
+    until the bracket is a few ulps wide; its upper end is returned, so the
+    result never falls short.
     """
+    if _kwon_excess(v2, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn) >= 0.0:
+        return v2
+    lo = v2
+    hi = np.nan
+    for k in range(1, n_scan + 1):
+        v = v_max if k == n_scan else v2 + (v_max - v2) * (k / n_scan)
+        if _kwon_excess(v, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn) >= 0.0:
+            hi = v
+            break
+        lo = v
+    if np.isnan(hi):
+        return np.nan
+    # Illinois (modified regula falsi) on the bracket, falling back to bisection: the bracket
+    # [lo, hi] always has excess(lo) < 0 <= excess(hi), and shrinks to a few ulps of the root
+    f_lo = _kwon_excess(lo, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn)
+    f_hi = _kwon_excess(hi, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn)
+    side = 0
+    bisect = False
+    for _ in range(2 * n_bisect):  # a step that does not halve the bracket is followed by a bisection
+        width = hi - lo
+        if width <= 4.0 * np.finfo(np.float64).eps * hi:
+            break
+        x = 0.5 * (lo + hi) if bisect else hi - f_hi * (hi - lo) / (f_hi - f_lo)
+        if not lo < x < hi:
+            x = 0.5 * (lo + hi)
+        f_x = _kwon_excess(x, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn)
+        if f_x >= 0.0:
+            hi, f_hi = x, f_x
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
+        else:
+            lo, f_lo = x, f_x
+            if side == -1:
+                f_hi *= 0.5
+            side = -1
+        bisect = hi - lo > 0.5 * width
+    return hi
+
+
+@jit
+def _invert_kwon(v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn, v_max, n_scan, n_bisect):  # pragma: no cover - compiled
+    """:func:`calm_speed_point` element by element."""
     out = np.empty(v2.size)
     for i in range(v2.size):
-        p = (v2[i], a[i], b[i], c[i], loss_per_cu[i], inv_sqrt_gl_kn[i])
-        if _kwon_excess(v2[i], *p) >= 0.0:
-            out[i] = v2[i]
-            continue
-        lo = v2[i]
-        hi = np.nan
-        for k in range(1, n_scan + 1):
-            v = v_max[i] if k == n_scan else v2[i] + (v_max[i] - v2[i]) * (k / n_scan)
-            if _kwon_excess(v, *p) >= 0.0:
-                hi = v
-                break
-            lo = v
-        if np.isnan(hi):
-            out[i] = np.nan
-            continue
-        for _ in range(n_bisect):
-            mid = 0.5 * (lo + hi)
-            if _kwon_excess(mid, *p) >= 0.0:
-                hi = mid
-            else:
-                lo = mid
-        out[i] = hi
+        out[i] = calm_speed_point(
+            v2[i], a[i], b[i], c[i], loss_per_cu[i], inv_sqrt_gl_kn[i], v_max[i], n_scan, n_bisect
+        )
     return out
 
 

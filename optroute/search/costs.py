@@ -27,6 +27,13 @@ calls ``segment_cost`` once per piece *position* for all legs of a batch, and
 carries the time forward: piece k+1 is entered at the time piece k is left.
 A leg is feasible when every piece is; its duration and fuel are the sums.
 
+A segment callback may carry a compiled equivalent of that walk as its
+attribute ``leg_batch(lat_deg, lon_deg, course_deg, length_nm, n_pieces, t0_h)
+-> (duration_h, fuel_t, feasible)`` over (n, kmax) piece arrays: the search
+then costs a whole batch of legs in one call (the physics callbacks of
+:mod:`optroute.search.routing` do, see :mod:`optroute.search.passage_kernels`),
+and calls the plain callback only to report the legs of the route found.
+
 Moving no-go areas (storms, seas where no speed survives the danger bands)
 are expressed by ``feasible = False``; static ones (land, missing weather)
 by the grid's navigable mask, which the search applies to every cell a leg
@@ -216,6 +223,11 @@ class LegEvaluator:
         lat_all, lon_all = xyz_to_latlon(pm)
         course_all = course_between_deg(pm, pb)
         length_all = chord_distance_nm(pa, pb)
+        batch = getattr(self.segment_cost, "leg_batch", None)
+        if batch is not None and not detail:  # a compiled kernel walks every leg of the batch in one call
+            pieces = npc.astype(np.int64)
+            dur, fuel, feas = batch(lat_all, lon_all, course_all, length_all, pieces, t)
+            return dur, fuel, feas, {}
         for k in range(kmax):
             act = np.nonzero(feas & (npc > k))[0]
             if act.size == 0:

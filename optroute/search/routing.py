@@ -23,14 +23,18 @@ from optroute import units
 from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, WeatherCoverageError
 from optroute.geo import land
+from optroute.physics import pointwise
 from optroute.physics.passage import SeaState, SpeedChoice, best_speed, cheapest_speed, evaluate_speeds
 from optroute.physics.performance import PerformanceModel, default_model
 from optroute.physics.safety import BANDS, BandRules, band_margins
 from optroute.physics.ship import Ship
+from optroute.search import passage_kernels
 from optroute.search.dijkstra import shortest_path
 from optroute.search.dp import solve_dp
 from optroute.search.grid import RouteGrid
 from optroute.search.neighbourhood import Neighbourhood, angular_resolution, compass
+from optroute.search.passage_kernels import MODE_CHEAPEST, MODE_TIME
+from optroute.search.piece_geometry import check_points, cumulative, piece_points, points_along
 from optroute.search.route import Corridor, Route
 from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
@@ -64,6 +68,12 @@ class PassagePhysics:
     sampler : WeatherSampler
     departure : numpy.datetime64
         Time zero of the search's clock [UTC].
+    compiled : bool
+        Give the search callbacks their compiled batch form
+        (:mod:`optroute.search.passage_kernels`) where it applies; False keeps the
+        numpy callbacks only, with the vectorised model and band functions
+        (``evaluate_speeds(engine="numpy")``): the search as it was before the
+        kernels, the same costs to rounding, much slower.
     """
 
     ship: Ship
@@ -71,8 +81,14 @@ class PassagePhysics:
     rules: BandRules
     sampler: WeatherSampler
     departure: np.datetime64
+    compiled: bool = True
     calls: int = field(default=0, init=False)
     uncovered: int = field(default=0, init=False)
+
+    @property
+    def engine(self) -> str:
+        """``evaluate_speeds``'s engine for the numpy callbacks: the point functions, or (not compiled) numpy."""
+        return "auto" if self.compiled else "numpy"
 
     def sea(self, lat_deg: np.ndarray, lon_deg: np.ndarray, t_h: np.ndarray) -> SeaState:
         """Sea state at positions [deg] and times [h from departure].
@@ -124,20 +140,20 @@ class PassagePhysics:
         def first(lat, lon, course, t_h):
             sea = self.sea(lat, lon, t_h)
             choice = best_speed(
-                self.ship, self.model, self.rules, course, sea, desired_stw_kn, step_kn=step_kn, min_stw_kn=min_stw_kn
-            )
+                self.ship, self.model, self.rules, course, sea, desired_stw_kn, step_kn=step_kn, min_stw_kn=min_stw_kn,
+                engine=self.engine,
+            )  # fmt: skip
             return choice, sea
 
+        ladder = desired_stw_kn - step_kn * np.arange(int(np.floor((desired_stw_kn - min_stw_kn) / step_kn + 1e-9)) + 1)
         if check_nm is not None:
-            ladder = desired_stw_kn - step_kn * np.arange(
-                int(np.floor((desired_stw_kn - min_stw_kn) / step_kn + 1e-9)) + 1
-            )
-            return self.segment_checked(first, ladder, None, check_nm)
+            cb = self.segment_checked(first, ladder, None, check_nm)
+        else:
 
-        def cost(lat, lon, course, length_nm, t_h):
-            return self._record(*first(lat, lon, course, t_h), length_nm)
+            def cb(lat, lon, course, length_nm, t_h):
+                return self._record(*first(lat, lon, course, t_h), length_nm)
 
-        return cost
+        return self._with_kernel(cb, MODE_TIME, ladder, 0.0, (desired_stw_kn, step_kn, min_stw_kn), check_nm)
 
     def segment_cheapest(self, speeds_kn: np.ndarray, lambda_t_per_h: float, check_nm: float | None = None) -> Callable:
         """Segment-cost callback: the speed of the set minimising fuel + λ·time.
@@ -147,15 +163,56 @@ class PassagePhysics:
 
         def first(lat, lon, course, t_h):
             sea = self.sea(lat, lon, t_h)
-            return cheapest_speed(self.ship, self.model, self.rules, course, sea, speeds_kn, lambda_t_per_h), sea
+            choice = cheapest_speed(
+                self.ship, self.model, self.rules, course, sea, speeds_kn, lambda_t_per_h, engine=self.engine
+            )
+            return choice, sea
 
+        speeds = np.asarray(speeds_kn, dtype=float).ravel()
         if check_nm is not None:
-            return self.segment_checked(first, np.asarray(speeds_kn, dtype=float), lambda_t_per_h, check_nm)
+            cb = self.segment_checked(first, speeds, lambda_t_per_h, check_nm)
+        else:
 
-        def cost(lat, lon, course, length_nm, t_h):
-            return self._record(*first(lat, lon, course, t_h), length_nm)
+            def cb(lat, lon, course, length_nm, t_h):
+                return self._record(*first(lat, lon, course, t_h), length_nm)
 
-        return cost
+        return self._with_kernel(cb, MODE_CHEAPEST, speeds, float(lambda_t_per_h), (0.0, 1.0, 0.0), check_nm)
+
+    def kernel_inputs(self) -> tuple[np.ndarray, tuple] | None:
+        """(point parameters, weather arrays) of the compiled kernels, or None where they do not apply.
+
+        They apply to the built-in performance models
+        (:func:`optroute.physics.pointwise.point_params`) and an in-memory weather
+        dataset (:meth:`optroute.weather.sample.WeatherSampler.point_weather`).
+        """
+        params = pointwise.cached_point_params(self.ship, self.model, self.rules)
+        if params is None or not self.compiled:
+            return None
+        pw = self.sampler.point_weather(self.departure)
+        return None if pw is None else (params, tuple(pw))
+
+    def _with_kernel(self, cb: Callable, mode: int, speeds: np.ndarray, lam: float, boeing: tuple, check_nm):
+        """``cb`` with its compiled batch form as ``cb.leg_batch`` (see :mod:`optroute.search.costs`) where available."""
+        inputs = self.kernel_inputs()
+        if inputs is None:
+            return cb
+        params, weather = inputs
+        desired, step, vmin = (float(x) for x in boeing)
+        speeds = np.ascontiguousarray(speeds, dtype=float)
+
+        def leg_batch(lat, lon, course, length, n_pieces, t0_h):
+            pts = check_points(lat, lon, course, length, n_pieces, check_nm)
+            dur, fuel, feas, uncovered = passage_kernels.cost_legs(
+                params, weather, mode, check_nm is not None, speeds, lam, desired, step, vmin,
+                *(np.ascontiguousarray(a, dtype=float) for a in (lat, lon, course, length)),
+                n_pieces, np.ascontiguousarray(t0_h, dtype=float), *pts,
+            )  # fmt: skip
+            self.calls += 1
+            self.uncovered += int(uncovered)
+            return dur, fuel, feas
+
+        cb.leg_batch = leg_batch  # type: ignore[attr-defined]
+        return cb
 
     def segment_checked(
         self, first: Callable, speeds_kn: np.ndarray, lambda_t_per_h: float | None, check_nm: float
@@ -186,7 +243,7 @@ class PassagePhysics:
         1 nm, margins down to -0.005; a planning buffer such as
         ``BandRules(margin=0.205)`` removed them all).
         """
-        ship, model, rules = self.ship, self.model, self.rules
+        ship, model, rules, engine = self.ship, self.model, self.rules, self.engine
         speeds = np.asarray(speeds_kn, dtype=float).ravel()
         score = -speeds if lambda_t_per_h is None else None
 
@@ -195,7 +252,7 @@ class PassagePhysics:
             n_pts = 1 + 2 * np.maximum(1, np.ceil(length_nm / (2.0 * check_nm))).astype(int)  # odd: the midpoint is one
             m = int(n_pts.max(initial=3))
             frac = np.minimum(np.arange(m)[None, :], n_pts[:, None] - 1) / (n_pts[:, None] - 1)  # padded with the end
-            la, lo, crs = _piece_points(lat, lon, course, length_nm, frac)
+            la, lo, crs = piece_points(lat, lon, course, length_nm, frac)
             seg = np.diff(frac, axis=1) * length_nm[:, None]
             mid = ((n_pts - 1) // 2)[:, None]
             choice, _ = first(lat, lon, course, t_h)
@@ -211,18 +268,18 @@ class PassagePhysics:
                 if todo.size == 0:
                     break
                 p = todo
-                tt = t_h[p, None] + _cumulative(0.5 * (inv[p, 1:] + inv[p, :-1]) * seg[p])
+                tt = t_h[p, None] + cumulative(0.5 * (inv[p, 1:] + inv[p, :-1]) * seg[p])
                 sea = self.sea(la[p].ravel(), lo[p].ravel(), tt.ravel())
                 spd = speeds[guess[p]]
                 head, sog, power, fuel, ok = (
                     a.reshape(p.size, m)
-                    for a in evaluate_speeds(ship, model, rules, crs[p].ravel(), sea, np.repeat(spd, m))
+                    for a in evaluate_speeds(ship, model, rules, crs[p].ravel(), sea, np.repeat(spd, m), engine=engine)
                 )
                 with np.errstate(invalid="ignore", divide="ignore"):
                     ok = (ok & (sog > 0)).all(axis=1)
                     inv_new = np.where(ok[:, None], 1.0 / sog, 0.0)
                 dt = 0.5 * (inv_new[:, 1:] + inv_new[:, :-1]) * seg[p]
-                done = ok & (np.abs(t_h[p, None] + _cumulative(dt) - tt).max(axis=1) <= 1e-3)
+                done = ok & (np.abs(t_h[p, None] + cumulative(dt) - tt).max(axis=1) <= 1e-3)
                 d, idx = np.flatnonzero(done), p[done]
                 out["dur"][idx] = dt[d].sum(axis=1)
                 out["fuel"][idx] = (0.5 * (fuel[d, 1:] + fuel[d, :-1]) * dt[d]).sum(axis=1)
@@ -243,13 +300,16 @@ class PassagePhysics:
                     sub = SeaState(*(np.asarray(getattr(sea, f)).reshape(p.size, m)[bad].ravel()
                                      for f in SeaState.__dataclass_fields__))  # fmt: skip
                     _, sog_k, _, fuel_k, ok_k = evaluate_speeds(
-                        ship, model, rules, crs[p[bad]].ravel(), sub, np.broadcast_to(speeds, (bad.size * m, k_n))
-                    )
+                        ship, model, rules, crs[p[bad]].ravel(), sub, np.broadcast_to(speeds, (bad.size * m, k_n)),
+                        engine=engine,
+                    )  # fmt: skip
                     sog_k, fuel_k, ok_k = (a.reshape(bad.size, m, k_n) for a in (sog_k, fuel_k, ok_k))
                     with np.errstate(invalid="ignore", divide="ignore"):
                         ok_k = (ok_k & (sog_k > 0)).all(axis=1) & ~struck[p[bad]]
+                        own = (np.arange(m)[None, :] < n_pts[p[bad], None])[:, :, None]  # the piece's own points
                         rank = (np.broadcast_to(score, ok_k.shape) if score is not None
-                                else ((fuel_k + lambda_t_per_h) / sog_k).mean(axis=1))  # fmt: skip
+                                else np.where(own, (fuel_k + lambda_t_per_h) / sog_k, 0.0).sum(axis=1)
+                                / n_pts[p[bad], None])  # fmt: skip
                     rank = np.where(ok_k, rank, np.inf)
                     k = np.argmin(rank, axis=1)
                     has = np.isfinite(rank[np.arange(bad.size), k])
@@ -275,14 +335,35 @@ class PassagePhysics:
         from optroute.physics.currents import stw_for_sog
         from optroute.physics.passage import evaluate_speeds
 
-        def cost(lat0, lon0, lat1, lon1, t0_h, sog_kn):
-            n = lat0.shape[0]
+        inputs = self.kernel_inputs()
+
+        def pieces(lat0, lon0, lat1, lon1):
             dist = geo.distance_nm(lat0, lon0, lat1, lon1)
             n_pc = np.maximum(1, np.ceil(dist / piece_nm)).astype(int)[:, None]
             m = int(n_pc.max(initial=1))
             f = (np.minimum(np.arange(m)[None, :], n_pc - 1) + 0.5) / n_pc  # padded with the last piece
+            return dist, n_pc, f, *points_along(lat0, lon0, lat1, lon1, f)
+
+        def compiled(lat0, lon0, lat1, lon1, t0_h, sog_kn):
+            # the DP costs each stage-to-stage leg at many times and speeds: its geometry once per leg
+            legs, leg_of = np.unique(np.stack([lat0, lon0, lat1, lon1], axis=1), axis=0, return_inverse=True)
+            dist, n_pc, f, lat, lon, course = pieces(*legs.T)
+            dur, fuel, feas, stw_m, power_m, uncovered = passage_kernels.cost_dp_legs(
+                *inputs, *(np.ascontiguousarray(a, dtype=float) for a in (lat, lon, course, f)),
+                n_pc[:, 0].astype(np.int64), leg_of.ravel().astype(np.int64), np.ascontiguousarray(t0_h, dtype=float),
+                np.ascontiguousarray(sog_kn, dtype=float), dist,
+            )  # fmt: skip
+            self.calls += 1
+            self.uncovered += int(uncovered)
+            return dur, fuel, feas, {"stw_kn": stw_m, "power_kw": power_m}
+
+        def cost(lat0, lon0, lat1, lon1, t0_h, sog_kn):
+            if inputs is not None:  # compiled: the same pieces, sampled and costed in one call
+                return compiled(lat0, lon0, lat1, lon1, t0_h, sog_kn)
+            n = lat0.shape[0]
+            dist, n_pc, f, lat, lon, course = pieces(lat0, lon0, lat1, lon1)
+            m = f.shape[1]
             w = (np.arange(m)[None, :] < n_pc) / n_pc
-            lat, lon, course = _points_along(lat0, lon0, lat1, lon1, f)
             t = t0_h[:, None] + (f * dist[:, None]) / sog_kn[:, None]
             sea = self.sea(lat.ravel(), lon.ravel(), t.ravel())
             sog = np.repeat(sog_kn, m)
@@ -290,7 +371,7 @@ class PassagePhysics:
             ok_stw = np.isfinite(stw) & (stw > 0)
             stw_safe = np.where(ok_stw, stw, 1.0)
             _, _, power, fuel_tph, allowed = evaluate_speeds(
-                self.ship, self.model, self.rules, course.ravel(), sea, stw_safe
+                self.ship, self.model, self.rules, course.ravel(), sea, stw_safe, engine=self.engine
             )
             allowed = (allowed & ok_stw).reshape(n, m)
             dur = dist / sog_kn
@@ -300,45 +381,6 @@ class PassagePhysics:
             return dur, np.where(feas, fuel, np.nan), feas, extra
 
         return cost
-
-
-def _cumulative(dt: np.ndarray) -> np.ndarray:
-    """Running sums of (n, m - 1) intervals as (n, m) times from 0."""
-    return np.concatenate([np.zeros((dt.shape[0], 1)), np.cumsum(dt, axis=1)], axis=1)
-
-
-def _piece_points(lat, lon, course, length_nm, fractions):
-    """Points at ``fractions`` (n, m) of pieces given by midpoint, course there and length; the course at each."""
-    s = (fractions - 0.5) * length_nm[:, None]
-    shape = s.shape
-    la, lo = geo.destination(np.broadcast_to(lat[:, None], shape), np.broadcast_to(lon[:, None], shape),
-                             np.where(s >= 0, course[:, None], course[:, None] + 180.0), np.abs(s))  # fmt: skip
-    far_lat, far_lon = geo.destination(lat, lon, course, 0.5 * length_nm + 1.0)  # past the end, same great circle
-    crs = geo.initial_course_deg(
-        la, lo, np.broadcast_to(far_lat[:, None], shape), np.broadcast_to(far_lon[:, None], shape)
-    )
-    return la, lo, crs
-
-
-def _points_along(lat0, lon0, lat1, lon1, fractions):
-    """Points at ``fractions`` (shape (m,), or (n, m) per leg) along each great-circle leg, and the course there [deg]."""
-    p0 = np.radians(np.stack([lat0, lon0], axis=-1))
-    p1 = np.radians(np.stack([lat1, lon1], axis=-1))
-    a = np.stack([np.cos(p0[:, 0]) * np.cos(p0[:, 1]), np.cos(p0[:, 0]) * np.sin(p0[:, 1]), np.sin(p0[:, 0])], -1)
-    b = np.stack([np.cos(p1[:, 0]) * np.cos(p1[:, 1]), np.cos(p1[:, 0]) * np.sin(p1[:, 1]), np.sin(p1[:, 0])], -1)
-    omega = np.arccos(np.clip(np.sum(a * b, axis=-1), -1.0, 1.0))[:, None, None]
-    f = np.asarray(fractions, dtype=float)
-    f = (f if f.ndim == 2 else f[None, :])[:, :, None]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        w0 = np.where(omega > 1e-12, np.sin((1 - f) * omega) / np.sin(omega), 1 - f)
-        w1 = np.where(omega > 1e-12, np.sin(f * omega) / np.sin(omega), f)
-    xyz = w0 * a[:, None, :] + w1 * b[:, None, :]
-    lat = np.degrees(np.arctan2(xyz[..., 2], np.hypot(xyz[..., 0], xyz[..., 1])))
-    lon = units.wrap_180(np.degrees(np.arctan2(xyz[..., 1], xyz[..., 0])))
-    lat1b = np.broadcast_to(lat1[:, None], lat.shape)
-    lon1b = np.broadcast_to(lon1[:, None], lat.shape)
-    course = geo.initial_course_deg(lat, lon, lat1b, lon1b)
-    return lat, lon, course
 
 
 def _neighbourhood(angular_resolution_deg: float | None, directions: int | None, radius: int) -> Neighbourhood:
@@ -415,6 +457,7 @@ def search_route(
     snap_max_nm: float | None = None,
     band_check_nm: float | None = 10.0,
     dp_options: dict[str, Any] | None = None,
+    compiled: bool = True,
 ) -> Route:
     """Search the route corridor through forecast weather.
 
@@ -481,6 +524,12 @@ def search_route(
     dp_options : dict, optional
         Passed to :func:`optroute.search.dp.solve_dp` (``dx_nm``, ``dy_nm``,
         ``half_width_nm``, ``dt_h`` …) for ``method="dp"``.
+    compiled : bool
+        Cost the legs with the compiled kernels of
+        :mod:`optroute.search.passage_kernels` where they apply (the built-in
+        performance models and in-memory weather; default), or with the numpy
+        callbacks only (the same route and costs to rounding; slower, kept as
+        the reference the kernels are tested against).
 
     Returns
     -------
@@ -535,7 +584,7 @@ def search_route(
         if speeds_kn is not None
         else np.arange(5.0, np.floor(top * 2) / 2 + 1e-9, 0.5)
     )
-    physics = PassagePhysics(ship, model, rules, sampler, t0)
+    physics = PassagePhysics(ship, model, rules, sampler, t0, compiled=bool(compiled))
 
     clearance = 0.5 * cell_nm if method != "dp" else 0.5
     snap_nm = float(snap_max_nm) if snap_max_nm is not None else 20.0 + 2.0 * cell_nm
@@ -841,7 +890,7 @@ def sail_route(
         (la0, lo0), (la1, lo1) = wp[k], wp[k + 1]
         dist = float(geo.distance_nm(la0, lo0, la1, lo1))
         m = max(1, int(np.ceil(dist / step)))
-        lat, lon, course = _points_along(
+        lat, lon, course = points_along(
             np.array([la0]), np.array([lo0]), np.array([la1]), np.array([lo1]), (np.arange(m) + 0.5) / m
         )
         dur_k = fuel_k = 0.0

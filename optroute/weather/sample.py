@@ -33,18 +33,19 @@ from __future__ import annotations
 
 from collections import OrderedDict
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike
 
+from optroute._numba import jit
 from optroute.errors import ConfigError, WeatherCoverageError, WeatherSchemaError
 from optroute.units import format_utc
 from optroute.weather import schema
 from optroute.weather.io import TIME_POLICIES, check_required
 
-__all__ = ["WeatherSampler", "sample_weather"]
+__all__ = ["PointWeather", "WeatherSampler", "sample_at", "sample_weather", "trilinear_at"]
 
 _EPS_DEG = 1e-7
 _DIR = "wave_from_deg"
@@ -83,20 +84,28 @@ def _trilinear_numpy(
     return (1.0 - tw) * lo + tw * hi
 
 
-def _trilinear_body(flat, base, xi, xj, nx, dt, tw, yw, xw, out, p):  # pragma: no cover - compiled
-    b, x0, x1 = base[p], xi[p], xj[p]
-    wx, wy, wt = xw[p], yw[p], tw[p]
+@jit
+def trilinear_at(flat, b, x0, x1, nx, dt, wt, wy, wx):  # pragma: no cover - compiled
+    """One trilinear interpolation in a raveled (time, lat, lon) field (NaN if the stencil touches one).
+
+    ``b`` is the flat index of the stencil's lower (time, lat) row, ``x0``/``x1``
+    its lon columns, ``dt`` the flat offset of the next time slice (0: one
+    slice), ``wt``, ``wy``, ``wx`` the weights of the upper neighbours.
+    """
     lo = (1.0 - wy) * ((1.0 - wx) * flat[b + x0] + wx * flat[b + x1]) + wy * (
         (1.0 - wx) * flat[b + nx + x0] + wx * flat[b + nx + x1]
     )
     if dt == 0:
-        out[p] = lo
-    else:
-        c = b + dt
-        hi = (1.0 - wy) * ((1.0 - wx) * flat[c + x0] + wx * flat[c + x1]) + wy * (
-            (1.0 - wx) * flat[c + nx + x0] + wx * flat[c + nx + x1]
-        )
-        out[p] = (1.0 - wt) * lo + wt * hi
+        return lo
+    c = b + dt
+    hi = (1.0 - wy) * ((1.0 - wx) * flat[c + x0] + wx * flat[c + x1]) + wy * (
+        (1.0 - wx) * flat[c + nx + x0] + wx * flat[c + nx + x1]
+    )
+    return (1.0 - wt) * lo + wt * hi
+
+
+def _trilinear_body(flat, base, xi, xj, nx, dt, tw, yw, xw, out, p):  # pragma: no cover - compiled
+    out[p] = trilinear_at(flat, base[p], xi[p], xj[p], nx, dt, tw[p], yw[p], xw[p])
 
 
 def _trilinear_serial(flat, base, xi, xj, nx, dt, tw, yw, xw):  # pragma: no cover - compiled
@@ -133,6 +142,105 @@ else:
     _trilinear_numba = njit(nogil=True)(_trilinear_serial)
     _trilinear_numba_parallel = njit(parallel=True, nogil=True)(_trilinear_parallel)
     _sincos_numba = njit(parallel=True, nogil=True)(_sincos_parallel)
+
+
+# indices of PointWeather.meta
+_M_T_START, _M_T_STEP, _M_T_UNIFORM, _M_T_STOP = 0, 1, 2, 3
+_M_Y_START, _M_Y_STEP, _M_Y_UNIFORM, _M_Y_STOP = 4, 5, 6, 7
+_M_X_START, _M_X_STEP, _M_X_UNIFORM, _M_X_STOP = 8, 9, 10, 11
+_M_PERIODIC, _M_HOLD = 12, 13
+N_POINT_FIELDS = 9
+"""Fields of :class:`PointWeather`: hs, period, wave-from sin and cos, wind u and v, current u and v, and a zero row."""
+
+
+class PointWeather(NamedTuple):
+    """A sampler's arrays for :func:`sample_at` (compiled kernels); see :meth:`WeatherSampler.point_weather`.
+
+    Attributes
+    ----------
+    fields : ndarray, shape (9, n_time * n_lat * n_lon)
+        Raveled fields: Hs [m], the band period [s] (``tp_s``, else ``tm_s``),
+        sin and cos of the wave direction, wind u, v [m/s], current u, v [m/s]
+        (rows of zeros where the dataset has none), and a zero row.
+    time_s, lat_deg, lon_deg : ndarray
+        The axes (time in seconds since the first time).
+    meta : ndarray
+        Axis starts, steps, uniformity and ends, the periodic-longitude and hold flags.
+    offset_ns : int
+        Departure minus the dataset's first time [ns]: search time t_h [h] is
+        ``offset_ns + round(t_h · 3.6e12)`` ns after the first time.
+    """
+
+    fields: np.ndarray
+    time_s: np.ndarray
+    lat_deg: np.ndarray
+    lon_deg: np.ndarray
+    meta: np.ndarray
+    offset_ns: int
+
+
+@jit
+def _locate(values, x, start, step, uniform):  # pragma: no cover - compiled
+    """(lower index, upper weight) of x on an axis, as ``_Axis.locate``."""
+    n = values.size
+    if n == 1:
+        return 0, 0.0
+    if uniform != 0.0:
+        f = (x - start) / step
+        i = min(max(np.floor(f), 0.0), n - 2.0)
+        w = f - i
+        return int(i), min(max(w, 0.0), 1.0)
+    i = min(max(np.searchsorted(values, x, side="right") - 1, 0), n - 2)
+    lo = values[i]
+    w = (x - lo) / (values[i + 1] - lo)
+    return i, min(max(w, 0.0), 1.0)
+
+
+@jit
+def sample_at(fields, time_s, lat_deg, lon_deg, meta, offset_ns, t_h, lat, lon, out):  # pragma: no cover - compiled
+    """The weather at one point, as :meth:`WeatherSampler.sample` (trilinear; directions as unit vectors).
+
+    ``t_h`` is hours after the departure of :attr:`PointWeather.offset_ns`.
+    Writes Hs [m], period [s], wave-from [deg], wind u, v and current u, v
+    [m/s] into ``out[:7]``; returns False, with NaN written, where the point
+    lies outside the dataset's area or (unless held) time span.
+    """
+    seconds = (offset_ns + np.int64(np.round(t_h * 3.6e12))) / 1e9
+    lon0 = meta[_M_X_START]
+    lonu = lon0 + (lon - lon0) % 360.0
+    if lonu > lon0 + 360.0 - _EPS_DEG:
+        lonu -= 360.0
+    inside = meta[_M_Y_START] - _EPS_DEG <= lat <= meta[_M_Y_STOP] + _EPS_DEG
+    if meta[_M_PERIODIC] == 0.0:
+        inside = inside and lonu <= meta[_M_X_STOP] + _EPS_DEG
+    if meta[_M_HOLD] == 0.0:
+        inside = inside and meta[_M_T_START] <= seconds <= meta[_M_T_STOP]
+    if not inside:
+        out[:7] = np.nan
+        return False
+    tc = min(max(seconds, meta[_M_T_START]), meta[_M_T_STOP])
+    ti, tw = _locate(time_s, tc, meta[_M_T_START], meta[_M_T_STEP], meta[_M_T_UNIFORM])
+    yi, yw = _locate(lat_deg, lat, meta[_M_Y_START], meta[_M_Y_STEP], meta[_M_Y_UNIFORM])
+    nx = lon_deg.size
+    if meta[_M_PERIODIC] != 0.0:
+        f = (lonu - lon0) / meta[_M_X_STEP]
+        xi = int(min(max(np.floor(f), 0.0), nx - 1.0))
+        xw = min(max(f - xi, 0.0), 1.0)
+        xj = 0 if xi == nx - 1 else xi + 1
+    else:
+        xi, xw = _locate(lon_deg, lonu, lon0, meta[_M_X_STEP], meta[_M_X_UNIFORM])
+        xj = xi + 1
+    ny = lat_deg.size
+    dt = ny * nx if time_s.size > 1 else 0
+    b = (ti * ny + yi) * nx
+    out[0] = trilinear_at(fields[0], b, xi, xj, nx, dt, tw, yw, xw)
+    out[1] = trilinear_at(fields[1], b, xi, xj, nx, dt, tw, yw, xw)
+    s = trilinear_at(fields[2], b, xi, xj, nx, dt, tw, yw, xw)
+    c = trilinear_at(fields[3], b, xi, xj, nx, dt, tw, yw, xw)
+    out[2] = np.degrees(np.arctan2(s, c)) % 360.0
+    for k in range(4, 8):
+        out[k - 1] = trilinear_at(fields[k], b, xi, xj, nx, dt, tw, yw, xw)
+    return True
 
 
 def _unit_vectors(deg: np.ndarray, engine: str) -> tuple[np.ndarray, np.ndarray]:
@@ -399,6 +507,31 @@ class WeatherSampler:
             else:
                 out[name] = np.asarray(interp(arrays[name].ravel()), dtype=float).reshape(shape)
         return out
+
+    def point_weather(self, departure: np.datetime64) -> PointWeather | None:
+        """The arrays :func:`sample_at` reads, for a clock starting at ``departure`` [UTC].
+
+        ``None`` for a lazy dataset (read slice by slice; use :meth:`sample`) or one
+        without Hs, a wave period or the wave direction.  Built once and kept.
+        """
+        period = "tp_s" if "tp_s" in self.variables else "tm_s"
+        if self.lazy or not {"hs_m", period, _DIR} <= set(self.variables):
+            return None
+        if getattr(self, "_point", None) is None:
+            size = self._time.n * self._lat.n * self._lon.n
+            rows = ["hs_m", period, _DIR + ":sin", _DIR + ":cos", *schema.OPTIONAL_ZERO]
+            fields = np.zeros((N_POINT_FIELDS, size))
+            for k, name in enumerate(rows):
+                if name in self._arrays:
+                    fields[k] = self._arrays[name].ravel()
+            meta = np.zeros(14)
+            for at, ax in ((_M_T_START, self._time), (_M_Y_START, self._lat), (_M_X_START, self._lon)):
+                meta[at : at + 4] = (ax.start, ax.step, 1.0 if ax.uniform else 0.0, ax.stop)
+            meta[_M_PERIODIC] = 1.0 if self.periodic else 0.0
+            meta[_M_HOLD] = 1.0 if self.time_policy == "hold" else 0.0
+            self._point = (fields, self._time.values.copy(), self._lat.values.copy(), self._lon.values.copy(), meta)
+        offset = int(np.datetime64(departure, "ns").astype(np.int64) - self._t0)
+        return PointWeather(*self._point, offset)
 
     # -- internals ----------------------------------------------------------
 

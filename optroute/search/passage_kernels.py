@@ -1,0 +1,350 @@
+"""Compiled edge costing of the route search and the 3-D DP: the passage physics over whole batches of legs.
+
+The Python cost callbacks of :class:`optroute.search.routing.PassagePhysics`
+sample the weather and choose the speed piece by piece with numpy arrays; the
+kernels here do the same for a whole batch of legs in one numba call, with
+the one-point functions the referee uses (:mod:`optroute.physics.pointwise`,
+:func:`optroute.weather.sample.sample_at`), so each formula has one source:
+
+* :func:`cost_legs` — the grid search's legs, cell by cell (Boeing EP 2145155
+  Figs. 14, 21–22): each piece at the time the ship enters it, its speed
+  proposed at its midpoint (Boeing's speed reduction from the desired speed,
+  or the cheapest of a speed set for fuel + λ·time) and, with a band check,
+  checked at points along the piece at the times the ship passes them, a
+  failing speed struck out and the next taken (as
+  :meth:`~optroute.search.routing.PassagePhysics.segment_checked`);
+* :func:`cost_dp_legs` — the DP's legs at a commanded speed over ground,
+  checked piece by piece (as :meth:`~optroute.search.routing.PassagePhysics.dp_leg`).
+
+The piece and check-point geometry (great-circle arithmetic) is computed by
+the callers with :mod:`optroute.geodesy` and :mod:`optroute.search.grid`.
+Everything compiles lazily, at the first search that uses it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from optroute._numba import jit
+from optroute.physics.pointwise import allowed_speed, evaluate_speed, stw_for_sog
+from optroute.weather.sample import N_POINT_FIELDS, sample_at
+
+MODE_TIME = 0
+"""Boeing's speed reduction from the desired speed (objective "time")."""
+MODE_CHEAPEST = 1
+"""The speed of the set minimising fuel + λ·time per mile (objectives "fuel" and "cost")."""
+
+_DONE_TOL_H = 1e-3  # as segment_checked: a speed's own times agree with the times it was checked at
+
+
+@jit
+def _eval_at(p, course, sea, stw):  # pragma: no cover - compiled
+    return allowed_speed(p, course, sea[0], sea[1], sea[2], sea[3], sea[4], sea[5], sea[6], stw)
+
+
+@jit
+def best_speed_at(p, course, sea, desired, step, vmin):  # pragma: no cover - compiled
+    """Boeing's speed reduction at one point, as :func:`optroute.physics.passage.best_speed`.
+
+    Returns ``(stw, sog, fuel_tph, feasible)``: the desired speed if allowed
+    (and >= ``vmin``), else the first allowed of desired − step·j, j = 1, 2, …
+    down to ``vmin``.
+    """
+    if desired >= vmin:
+        sog, fuel, ok = _eval_at(p, course, sea, desired)
+        if ok:
+            return desired, sog, fuel, True
+    k = max(int(math.floor((desired - vmin) / step)) + 1, 1)
+    for j in range(1, k + 1):
+        v = desired - step * j
+        if not v >= vmin - 1e-12:
+            break
+        sog, fuel, ok = _eval_at(p, course, sea, v)
+        if ok:
+            return v, sog, fuel, True
+    return np.nan, np.nan, np.nan, False
+
+
+@jit
+def cheapest_speed_at(p, course, sea, speeds, lam):  # pragma: no cover - compiled
+    """The allowed speed of ``speeds`` minimising (fuel + λ) / SOG, as :func:`~optroute.physics.passage.cheapest_speed`."""
+    best, k_best = np.inf, -1
+    b_sog, b_fuel = np.nan, np.nan
+    for k in range(speeds.size):
+        sog, fuel, ok = _eval_at(p, course, sea, speeds[k])
+        if ok and sog > 0.0:
+            rate = (fuel + lam) / sog
+            if rate < best:
+                best, k_best, b_sog, b_fuel = rate, k, sog, fuel
+    if k_best < 0:
+        return np.nan, np.nan, np.nan, False
+    return speeds[k_best], b_sog, b_fuel, True
+
+
+@jit
+def _first_choice(
+    p, w, mode, speeds, lam, desired, step, vmin, lat, lon, course, t_h, sea
+):  # pragma: no cover - compiled
+    """The speed proposed at a piece's midpoint at its entry time; returns (stw, sog, fuel, ok, covered)."""
+    covered = sample_at(w[0], w[1], w[2], w[3], w[4], w[5], t_h, lat, lon, sea)
+    if mode == MODE_TIME:
+        stw, sog, fuel, ok = best_speed_at(p, course, sea, desired, step, vmin)
+    else:
+        stw, sog, fuel, ok = cheapest_speed_at(p, course, sea, speeds, lam)
+    return stw, sog, fuel, ok and sog > 0.0, covered
+
+
+@jit
+def _checked_piece(
+    p, w, mode, speeds, lam, t_h, la, lo, crs, seg, npts, stw0, sog0, work, sea_pts
+):  # pragma: no cover - compiled
+    """One piece with its speed checked at ``npts`` points (see ``PassagePhysics.segment_checked``).
+
+    Returns ``(duration_h, fuel_t, feasible, uncovered points)``.
+    """
+    k_n = speeds.size
+    inv, tt, inv_new, fuel_pt, struck = work[0], work[1], work[2], work[3], work[4]
+    guess = 0
+    for k in range(1, k_n):
+        if abs(speeds[k] - stw0) < abs(speeds[guess] - stw0):
+            guess = k
+    for j in range(npts):
+        inv[j] = 1.0 / sog0
+    struck[:k_n] = 0.0
+    uncovered = 0
+    for _ in range(k_n + 10):
+        cum = 0.0
+        tt[0] = t_h
+        for j in range(1, npts):
+            cum += 0.5 * (inv[j] + inv[j - 1]) * seg[j - 1]
+            tt[j] = t_h + cum
+        for j in range(npts):
+            if not sample_at(w[0], w[1], w[2], w[3], w[4], w[5], tt[j], la[j], lo[j], sea_pts[j]):
+                uncovered += 1
+        spd = speeds[guess]
+        ok = True
+        for j in range(npts):
+            sog, fuel, allowed = _eval_at(p, crs[j], sea_pts[j], spd)
+            if not (allowed and sog > 0.0):
+                ok = False
+                break
+            inv_new[j] = 1.0 / sog
+            fuel_pt[j] = fuel
+        if ok:
+            cum, dur, fu, worst = 0.0, 0.0, 0.0, 0.0
+            for j in range(1, npts):
+                dt = 0.5 * (inv_new[j] + inv_new[j - 1]) * seg[j - 1]
+                cum += dt
+                worst = max(worst, abs(t_h + cum - tt[j]))
+                dur += dt
+                fu += 0.5 * (fuel_pt[j] + fuel_pt[j - 1]) * dt
+            if worst <= _DONE_TOL_H:
+                return dur, fu, True, uncovered
+            for j in range(npts):
+                inv[j] = inv_new[j]
+            continue
+        struck[guess] = 1.0
+        best, k_best = np.inf, -1
+        for k in range(k_n):
+            if struck[k] != 0.0:
+                continue
+            score = 0.0
+            good = True
+            for j in range(npts):
+                sog, fuel, allowed = _eval_at(p, crs[j], sea_pts[j], speeds[k])
+                if not (allowed and sog > 0.0):
+                    good = False
+                    break
+                score += (fuel + lam) / sog
+            if not good:
+                continue
+            if mode == MODE_TIME:  # the ladder descends: the first allowed speed is the fastest
+                k_best = k
+                break
+            rank = score / npts
+            if rank < best:
+                best, k_best = rank, k
+        if k_best < 0:
+            return np.nan, np.nan, False, uncovered
+        guess = k_best
+        for j in range(npts):
+            sog, _, _ = _eval_at(p, crs[j], sea_pts[j], speeds[guess])
+            inv[j] = 1.0 / sog
+    return np.nan, np.nan, False, uncovered
+
+
+@jit
+def cost_legs(
+    p,
+    w,
+    mode,
+    checked,
+    speeds,
+    lam,
+    desired,
+    step,
+    vmin,
+    mid_lat,
+    mid_lon,
+    mid_course,
+    length,
+    n_pieces,
+    t0_h,
+    pt_lat,
+    pt_lon,
+    pt_course,
+    pt_n,
+):  # pragma: no cover - compiled
+    """Duration [h], fuel [t] and feasibility of a batch of legs, walked piece by piece in time.
+
+    Parameters
+    ----------
+    p : ndarray
+        :func:`optroute.physics.pointwise.point_params`.
+    w : tuple
+        :class:`optroute.weather.sample.PointWeather` fields.
+    mode : int
+        :data:`MODE_TIME` or :data:`MODE_CHEAPEST`.
+    checked : bool
+        Check each piece's speed at ``pt_*`` (else at its midpoint only).
+    speeds : ndarray
+        The speed ladder, descending (time: desired − step·j down to the floor), or the set (cheapest) [kn].
+    lam, desired, step, vmin : float
+        λ [t/h]; the desired speed, the reduction step and floor [kn].
+    mid_lat, mid_lon, mid_course, length : ndarray, shape (n, kmax)
+        Each piece's midpoint [deg], course there [deg true] and length [nm].
+    n_pieces : ndarray of int, shape (n,)
+    t0_h : ndarray, shape (n,)
+        Departure of each leg [h from the clock's start].
+    pt_lat, pt_lon, pt_course : ndarray, shape (n, kmax, m)
+        The check points of each piece [deg] (``checked`` only).
+    pt_n : ndarray of int, shape (n, kmax)
+        How many check points each piece has (odd, >= 3).
+
+    Returns
+    -------
+    duration_h, fuel_t : ndarray
+        NaN where infeasible.
+    feasible : ndarray of bool
+    uncovered : int
+        Points sampled outside the weather's coverage.
+    """
+    n = t0_h.size
+    dur = np.full(n, np.nan)
+    fuel = np.full(n, np.nan)
+    feas = np.zeros(n, dtype=np.bool_)
+    m = pt_lat.shape[2] if checked else 1
+    work = np.zeros((5, max(m, speeds.size)))
+    sea = np.empty(N_POINT_FIELDS)
+    sea_pts = np.empty((m, N_POINT_FIELDS))
+    seg = np.empty(max(m - 1, 1))
+    uncovered = 0
+    for i in range(n):
+        t = t0_h[i]
+        fu = 0.0
+        ok = True
+        for k in range(n_pieces[i]):
+            stw0, sog0, f0, go, cov = _first_choice(
+                p, w, mode, speeds, lam, desired, step, vmin, mid_lat[i, k], mid_lon[i, k], mid_course[i, k], t, sea
+            )
+            if not cov:
+                uncovered += 1
+            if not go:
+                ok = False
+                break
+            if not checked:
+                d = length[i, k] / sog0
+                t += d
+                fu += f0 * d
+                continue
+            npts = pt_n[i, k]
+            for j in range(npts - 1):
+                seg[j] = ((j + 1.0) / (npts - 1.0) - j / (npts - 1.0)) * length[i, k]
+            d, f, good, unc = _checked_piece(
+                p, w, mode, speeds, lam, t, pt_lat[i, k], pt_lon[i, k], pt_course[i, k], seg, npts, stw0, sog0,
+                work, sea_pts,
+            )  # fmt: skip
+            uncovered += unc
+            if not good:
+                ok = False
+                break
+            t += d
+            fu += f
+        if ok:
+            dur[i] = t - t0_h[i]
+            fuel[i] = fu
+            feas[i] = True
+    return dur, fuel, feas, uncovered
+
+
+@jit
+def cost_dp_legs(p, w, lat, lon, course, frac, n_pieces, leg_of, t0_h, sog_kn, dist_nm):  # pragma: no cover - compiled
+    """The 3-D DP's legs at a commanded SOG, checked at each piece's midpoint (``PassagePhysics.dp_leg``).
+
+    Parameters
+    ----------
+    p, w
+        As :func:`cost_legs`.
+    lat, lon, course, frac : ndarray, shape (n_geometries, m)
+        Each distinct leg's piece midpoints [deg], the course there [deg true]
+        and their fraction of the leg.
+    n_pieces : ndarray of int, shape (n_geometries,)
+    leg_of : ndarray of int, shape (n,)
+        The geometry of each leg costed.
+    t0_h, sog_kn : ndarray, shape (n,)
+        Departure [h] and commanded speed over ground [kn] of each leg.
+    dist_nm : ndarray, shape (n_geometries,)
+        Leg lengths [nm].
+
+    Returns
+    -------
+    duration_h, fuel_t : ndarray
+        dist / SOG, and the pieces' mean fuel rate times it (NaN where infeasible).
+    feasible : ndarray of bool
+        Every piece, at the time the ship passes it: the STW making the SOG
+        good against the current > 0 and allowed.
+    stw_kn, power_kw : ndarray
+        Mean STW [kn] and brake power [kW] over the pieces.
+    uncovered : int
+    """
+    n = sog_kn.size
+    dur = np.empty(n)
+    for i in range(n):
+        dur[i] = dist_nm[leg_of[i]] / sog_kn[i]
+    fuel = np.full(n, np.nan)
+    stw_mean = np.full(n, np.nan)
+    power_mean = np.full(n, np.nan)
+    feas = np.zeros(n, dtype=np.bool_)
+    sea = np.empty(N_POINT_FIELDS)
+    uncovered = 0
+    for i in range(n):
+        g = leg_of[i]
+        npc = n_pieces[g]
+        f_sum, s_sum, p_sum = 0.0, 0.0, 0.0
+        ok = True
+        for j in range(npc):
+            t = t0_h[i] + (frac[g, j] * dist_nm[g]) / sog_kn[i]
+            if not sample_at(w[0], w[1], w[2], w[3], w[4], w[5], t, lat[g, j], lon[g, j], sea):
+                uncovered += 1
+            stw = stw_for_sog(course[g, j], sog_kn[i], sea[5], sea[6])
+            if not (math.isfinite(stw) and stw > 0.0):
+                ok = False
+                break
+            _, _, power, fuel_tph, allowed = evaluate_speed(
+                p, course[g, j], sea[0], sea[1], sea[2], sea[3], sea[4], sea[5], sea[6], stw
+            )
+            if not allowed:
+                ok = False
+                break
+            share = 1.0 / npc
+            f_sum += fuel_tph * share
+            s_sum += stw * share
+            p_sum += power * share
+        if ok:
+            feas[i] = True
+            fuel[i] = f_sum * dur[i]
+            stw_mean[i] = s_sum
+            power_mean[i] = p_sum
+    return dur, fuel, feas, stw_mean, power_mean, uncovered
