@@ -314,8 +314,8 @@ def _situation(
 ):  # pragma: no cover - compiled
     """(navigable, hs, period, heading or NaN, SOG, α, wind speed) of a speed at a point."""
     nav = math.isfinite(hs_m) and math.isfinite(period_s) and math.isfinite(wave_from_deg)
-    if not nav:
-        hs_m, period_s, wave_from_deg = 0.0, 1.0, 0.0
+    if not nav:  # no sea state (land, ice, outside the data): the current there is no number either
+        hs_m, period_s, wave_from_deg, cur_u_ms, cur_v_ms = 0.0, 1.0, 0.0, 0.0, 0.0
     heading, sog = heading_for_course(course_deg, stw_kn, cur_u_ms / _MS_PER_KN, cur_v_ms / _MS_PER_KN)
     hdg = heading if math.isfinite(heading) else course_deg
     return nav, hs_m, period_s, heading, sog, wrap_360(wave_from_deg - hdg), math.hypot(wind_u_ms, wind_v_ms)
@@ -341,6 +341,8 @@ def evaluate_speed(
     forbidden = band_forbidden(p, stw_kn, hs, period, alpha)
     in_power = p[P_MIN_POWER] <= power <= p[P_MCR]
     allowed = nav and math.isfinite(heading) and not forbidden and in_power
+    if not nav:  # no sea state, no power (never the calm-water figure) and no speed over ground
+        power, sog = np.nan, np.nan
     fuel = fuel_rate(p, power) if math.isfinite(power) else np.inf
     return heading, sog, power, fuel, allowed
 
