@@ -139,3 +139,126 @@ def test_truth_equal_to_the_forecast_reproduces_the_plan():
     assert o.time_in_band_h == 0.0 and o.time_slowed_h == 0.0
     assert np.allclose(res.log["stw_kn"], res.log["commanded_stw_kn"])
     assert res.log["fuel_t"].sum() == pytest.approx(o.fuel_t)
+
+
+# --------------------------------------------------------------------------- a storm the forecast misplaces
+
+
+def _storm_case():
+    """A 12.5 m storm moving south at 10 kn across the route near 145 W (the truth), forecast 300 nm north.
+
+    The first forecast (issued at departure) carries the whole 300 nm track error; the second,
+    issued 3 h later, has converged on the truth (:func:`optroute.scenarios.converging_forecasts`).
+    """
+    storm = sc.moving_storm_spec(34.0, -145.0, 180.0, 10.0, peak_hs_m=12.5, radius_nm=150.0, duration_h=60.0)
+    kw = {"start": T0, "duration_h": 60.0, "step_h": 3.0, "resolution_deg": 0.5, "bbox": (18, 42, -156, -134)}
+    truth = sc.storm_dataset([storm], background_hs_m=1.5, **kw)
+    forecasts = sc.converging_forecasts(
+        [storm], [0.0, 3.0], converged_h=3.0, displacement_nm=300.0, bearing_deg=0.0, background_hs_m=1.5, **kw
+    )
+    return truth, forecasts
+
+
+STORM_OPTS = {
+    "max_leg_nm": 30.0,
+    "samples_per_leg": 5,
+    "band_margin": 0.05,
+    "band_hs_margin": 0.1,
+    "fit_corrections": 0,
+    "use_land_mask": False,
+}
+
+
+@pytest.fixture(scope="module")
+def storm_voyages():
+    truth, forecasts = _storm_case()
+    eta = T0 + np.timedelta64(42, "h")
+    common = {
+        "forecasts": forecasts,
+        "departure": T0,
+        "eta": eta,
+        "optimise_options": STORM_OPTS,
+        "corridor_width_nm": 400.0,
+        "step_h": 0.5,
+    }
+    blind = orx.simulate_voyage((A, B), truth, SHIP, replan=ReplanPolicy.never(), **common)
+    replanned = orx.simulate_voyage((A, B), truth, SHIP, replan=ReplanPolicy(), **common)
+    return truth, forecasts, blind, replanned
+
+
+def test_the_forecast_places_the_storm_300_nm_off_its_true_track(storm_voyages):
+    truth, forecasts, _, _ = storm_voyages
+    first, last = forecasts[0][1], forecasts[1][1]
+    at = {"time": T0 + np.timedelta64(24, "h")}
+
+    def peak(ds):
+        hs = ds["hs_m"].sel(at, method="nearest")
+        i = np.unravel_index(int(hs.argmax()), hs.shape)
+        return float(hs["lat"][i[0]]), float(hs["lon"][i[1]])
+
+    off = float(geo.distance_nm(*peak(truth), *peak(first)))
+    assert off == pytest.approx(300.0, abs=45.0)  # within one 0.5° grid cell
+    assert float(np.abs(last["hs_m"] - truth["hs_m"]).max()) == 0.0
+
+
+def test_sailing_the_first_plan_blind_meets_a_danger_band(storm_voyages):
+    truth, _, blind, _ = storm_voyages
+    o = blind.outcome
+    assert o.n_replans == 0
+    assert o.time_in_band_h > 1.0 and o.time_band_met_h >= o.time_in_band_h
+    # the first plan verified against its own forecast, but not against the truth
+    first = blind.plans[0]
+    assert first.verify() == []
+    again = orx.Plan.from_schedule(
+        first.waypoints, first.stw_kn, departure=T0, times=first.times, ship=SHIP, weather=truth, use_land_mask=False
+    )
+    assert any(v.kind.startswith("band:") for v in again.verify())
+    # the log marks the steps inside a band, and their margins are <= 0 for some band
+    inside = blind.log["in_band"].values.astype(bool)
+    margins = np.column_stack([blind.log[f"margin_{b}"].values for b in orx.BandRules().enabled_bands])
+    assert inside.any() and np.all(margins[inside].min(axis=1) <= 1e-9)
+
+
+def test_the_replanning_voyage_avoids_the_band_and_keeps_the_eta(storm_voyages):
+    _, forecasts, _, replanned = storm_voyages
+    o = replanned.outcome
+    assert o.n_replans >= 1
+    assert "new forecast" in str(replanned.log["replan_reason"].values[1])
+    assert replanned.log["replan_forecast_index"].values[-1] == 1
+    assert o.time_in_band_h == 0.0
+    assert o.eta_met or (o.earliest_arrival is not None and o.arrival <= o.earliest_arrival + np.timedelta64(1, "h"))
+
+
+# --------------------------------------------------------------------------- the command line and the files
+
+
+def test_cli_simulate_writes_the_log_files_and_the_figure(tmp_path, capsys):
+    import json
+
+    import xarray as xr
+
+    from optroute.cli import main
+
+    wx = _calm()
+    truth, fc = tmp_path / "truth.nc", tmp_path / "fc.nc"
+    wx.to_netcdf(truth)
+    wx.to_netcdf(fc)
+    code = main([
+        "simulate", "--truth", str(truth), "--forecast", f"2024-01-10T00:00={fc}", "--from", "30,-150",
+        "--to", "30,-146", "--depart", "2024-01-10T00:00", "--eta", "+20", "--out", str(tmp_path / "v") + "/",
+        "--plot", str(tmp_path / "v.png"),
+    ])  # fmt: skip
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "ETA 2024-01-10T20:00:00Z met" in out
+    log = xr.open_dataset(tmp_path / "v" / "voyage_log.nc")
+    csv_rows = (tmp_path / "v" / "voyage_log.csv").read_text().splitlines()
+    gj = json.loads((tmp_path / "v" / "voyage_log.geojson").read_text())
+    assert len(csv_rows) == log.sizes["step"] + 1
+    assert [f["properties"]["kind"] for f in gj["features"]] == ["track", "plan"]
+    assert gj["features"][0]["geometry"]["coordinates"][0] == pytest.approx([-150.0, 30.0])
+    assert (tmp_path / "v.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not list(tmp_path.rglob("*.tmp*"))
+    # calm water: the whole passage at the plan's speed, burning what the log's steps add up to
+    assert float(log["fuel_t"].sum()) == pytest.approx(float(log.attrs["fuel_t"]))
+    assert float(log.attrs["time_in_band_h"]) == 0.0

@@ -53,6 +53,7 @@ class StepRecord:
     period_s: float
     wave_from_deg: float
     in_band: bool
+    band_met: bool
     slowed: bool
     margins: dict[str, float]
 
@@ -100,6 +101,11 @@ def voyage_dataset(records: list[StepRecord], replans: list[dict[str, Any]], rul
         data[name] = ("step", np.array(values, dtype=float), {"units": unit, "long_name": long})
     data["leg"] = ("step", np.array([r.leg for r in records], dtype=np.int32))
     data["in_band"] = ("step", np.array([r.in_band for r in records], dtype=np.int8), {"long_name": "inside a band"})
+    data["band_met"] = (
+        "step",
+        np.array([r.band_met for r in records], dtype=np.int8),
+        {"long_name": "the plan's speed lies inside a band of the truth (heading of the course)"},
+    )
     data["slowed"] = ("step", np.array([r.slowed for r in records], dtype=np.int8), {"long_name": "speed reduced"})
     for band in BANDS:
         vals = np.array([r.margins.get(band, np.inf) for r in records], dtype=float)

@@ -215,6 +215,9 @@ class VoyageOutcome:
     earliest_arrival : numpy.datetime64 or None
         When a re-plan found the ETA infeasible: the earliest arrival it could make (the last
         such) [UTC].
+    time_band_met_h : float
+        Time the plan's own speed lay inside a danger band of the truth [h], >= 0: the bands the
+        plan met, whether the ship slowed out of them or not.
     """
 
     departure: np.datetime64
@@ -226,6 +229,7 @@ class VoyageOutcome:
     eta: np.datetime64 | None
     n_replans: int
     earliest_arrival: np.datetime64 | None = None
+    time_band_met_h: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "departure", _as_time(self.departure, "VoyageOutcome.departure"))
@@ -235,7 +239,7 @@ class VoyageOutcome:
                 f"VoyageOutcome.arrival {units.format_utc(self.arrival)} is before the departure "
                 f"{units.format_utc(self.departure)}"
             )
-        for name in ("fuel_t", "distance_nm", "time_in_band_h", "time_slowed_h"):
+        for name in ("fuel_t", "distance_nm", "time_in_band_h", "time_slowed_h", "time_band_met_h"):
             v = getattr(self, name)
             if not math.isfinite(float(v)) or float(v) < 0:
                 raise ConfigError(f"VoyageOutcome.{name}={v!r} must be a finite number >= 0")

@@ -132,6 +132,7 @@ def _speed_at(s: _Setup, when: np.datetime64, lat: float, lon: float, course: fl
         )
     floor = min(s.min_stw_kn, commanded)
     c = np.array([course])
+    met = _forbidden(s, sea, np.array([commanded]), c)
     choice = best_speed(s.ship, s.model, s.rules, c, sea, commanded, step_kn=s.speed_step_kn, min_stw_kn=floor)
     in_band = False
     if not choice.feasible[0]:
@@ -143,17 +144,7 @@ def _speed_at(s: _Setup, when: np.datetime64, lat: float, lon: float, course: fl
                 f"no speed from {floor:.3g} to {commanded:.3g} kn holds the course {course:.1f} deg within the power "
                 f"limits at ({lat:.4f}, {lon:.4f}) {units.format_utc(when)} in the truth; lower min_stw_kn"
             )
-        in_band = bool(
-            is_speed_forbidden(
-                s.ship,
-                speed_kn=choice.stw_kn,
-                hs_m=sea.hs_m,
-                period_s=sea.period_s,
-                wave_from_deg=sea.wave_from_deg,
-                heading_deg=choice.heading_deg,
-                rules=s.rules,
-            )[0]
-        )
+        in_band = _forbidden(s, sea, choice.stw_kn, choice.heading_deg)
     stw = float(choice.stw_kn[0])
     margins = band_margins(
         s.ship,
@@ -174,9 +165,25 @@ def _speed_at(s: _Setup, when: np.datetime64, lat: float, lon: float, course: fl
         "period_s": float(sea.period_s[0]),
         "wave_from_deg": float(sea.wave_from_deg[0]),
         "in_band": in_band,
+        "band_met": met,
         "slowed": stw < commanded - 1e-9,
         "margins": {b: float(np.asarray(m.margin, dtype=float).ravel()[0]) for b, m in margins.items()},
     }
+
+
+def _forbidden(s: _Setup, sea: Any, stw_kn: np.ndarray, heading_deg: np.ndarray) -> bool:
+    """Whether the speed lies inside an enforced danger band of the truth (heading as given)."""
+    return bool(
+        is_speed_forbidden(
+            s.ship,
+            speed_kn=stw_kn,
+            hs_m=sea.hs_m,
+            period_s=sea.period_s,
+            wave_from_deg=sea.wave_from_deg,
+            heading_deg=heading_deg,
+            rules=s.rules,
+        )[0]
+    )
 
 
 def _below_min_load(s: _Setup, course: np.ndarray, sea: Any, commanded: float) -> SpeedChoice | None:
@@ -515,6 +522,7 @@ def simulate_voyage(
         distance_nm=float(sum(r.distance_nm for r in records)),
         time_in_band_h=float(sum(r.duration_h for r in records if r.in_band)),
         time_slowed_h=float(sum(r.duration_h for r in records if r.slowed)),
+        time_band_met_h=float(sum(r.duration_h for r in records if r.band_met)),
         eta=s.eta,
         n_replans=len(plans) - 1,
         earliest_arrival=earliest,
@@ -546,6 +554,7 @@ def _outcome_attrs(o: VoyageOutcome) -> dict[str, Any]:
         "distance_nm": o.distance_nm,
         "time_in_band_h": o.time_in_band_h,
         "time_slowed_h": o.time_slowed_h,
+        "time_band_met_h": o.time_band_met_h,
         "eta": "" if o.eta is None else units.format_utc(o.eta),
         "eta_met": "" if o.eta_met is None else str(o.eta_met),
         "n_replans": o.n_replans,
