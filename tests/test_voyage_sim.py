@@ -262,3 +262,32 @@ def test_cli_simulate_writes_the_log_files_and_the_figure(tmp_path, capsys):
     # calm water: the whole passage at the plan's speed, burning what the log's steps add up to
     assert float(log["fuel_t"].sum()) == pytest.approx(float(log.attrs["fuel_t"]))
     assert float(log.attrs["time_in_band_h"]) == 0.0
+
+
+# --------------------------------------------------------------------------- forecast error (scenarios)
+
+
+def test_displaced_storm_is_moved_delayed_and_scaled_as_stated():
+    truth = sc.moving_storm_spec(30.0, -145.0, 90.0, 10.0, peak_hs_m=10.0, radius_nm=150.0, duration_h=48.0)
+    (fc,) = sc.displaced_storms([truth], displacement_nm=300.0, bearing_deg=0.0, delay_h=6.0, intensity_factor=0.8)
+    # 300 nm due north is 5 degrees of latitude; the forecast storm is where the truth was 6 h before
+    for h in (6.0, 12.0, 30.0):
+        lat_t, lon_t = truth.centre(h - 6.0)
+        lat_f, lon_f = fc.centre(h)
+        assert lat_f - lat_t == pytest.approx(5.0, abs=1e-9)
+        assert lon_f == pytest.approx(lon_t, abs=1e-9)
+    assert fc.peak_hs_m == pytest.approx(8.0)
+    with pytest.raises(ConfigError, match="intensity_factor"):
+        sc.displaced_storms([truth], intensity_factor=0.0)
+
+
+def test_converging_forecasts_shrink_the_error_linearly_to_the_truth():
+    storm = sc.moving_storm_spec(30.0, -145.0, 90.0, 10.0, peak_hs_m=10.0, radius_nm=150.0, duration_h=24.0)
+    kw = {"start": T0, "duration_h": 24.0, "step_h": 6.0, "resolution_deg": 1.0, "bbox": (20, 42, -156, -134)}
+    fcs = sc.converging_forecasts([storm], [0.0, 6.0, 12.0], converged_h=12.0, displacement_nm=240.0, **kw)
+    assert [t for t, _ in fcs] == [T0, T0 + np.timedelta64(6, "h"), T0 + np.timedelta64(12, "h")]
+    truth = sc.storm_dataset([storm], **kw)
+    assert float(np.abs(fcs[2][1]["hs_m"] - truth["hs_m"]).max()) == 0.0
+    # the forecast issued half-way carries half the error: 120 nm = 2 degrees north at t = 0
+    half = sc.storm_dataset(sc.displaced_storms([storm], displacement_nm=120.0), **kw)
+    assert float(np.abs(fcs[1][1]["hs_m"] - half["hs_m"]).max()) == 0.0
