@@ -252,13 +252,16 @@ def _route_plan(s: _Setup, route: Route, weather: xr.Dataset, eta: Any) -> Plan 
     return plan if not plan.verify() else None
 
 
-def _plan(s: _Setup, start: np.ndarray, weather: xr.Dataset, t: np.datetime64) -> tuple[Plan, str, Any]:
+def _plan(
+    s: _Setup, start: np.ndarray, weather: xr.Dataset, t: np.datetime64, warm: Plan | None = None
+) -> tuple[Plan, str, Any]:
     """A plan from ``start`` at ``t`` to the destination on ``weather``: (plan, status, earliest arrival).
 
     With ``search_options``: :func:`optroute.search_route`, then :func:`optroute.optimise_corridor` in
     the corridor about the route, warm-started from it; when the optimiser returns no verified plan
     the route itself is sailed if it verifies. Without: the optimiser in a corridor about the great
-    circle. An infeasible ETA gives a minimum-time plan and the earliest arrival.
+    circle, warm-started from ``warm`` (the plan being sailed; its speeds interpolated along track).
+    An infeasible ETA gives a minimum-time plan and the earliest arrival.
     """
     common = {"model": s.model, "rules": s.rules}
     start_t = (float(start[0]), float(start[1]))
@@ -289,6 +292,7 @@ def _plan(s: _Setup, start: np.ndarray, weather: xr.Dataset, t: np.datetime64) -
                 eta=eta,
                 objective=objective,
                 route=route,
+                warm_plan=warm if route is None and objective == "fuel" else None,
                 **common,
                 **s.optimise_options,
             )
@@ -394,6 +398,7 @@ def simulate_voyage(
     search_options: Mapping[str, Any] | None = None,
     optimise_options: Mapping[str, Any] | None = None,
     min_replan_distance_nm: float = 30.0,
+    warm_start: bool = True,
 ) -> VoyageResult:
     """Sail a voyage through the truth weather, re-planning on new forecasts under a policy.
 
@@ -432,6 +437,9 @@ def simulate_voyage(
         Further keyword arguments of :func:`optroute.optimise_corridor` (``max_leg_nm``, ...).
     min_replan_distance_nm : float
         No re-plan when less than this distance is left [nm], >= 0.
+    warm_start : bool
+        Warm-start every re-plan from the plan being sailed (``warm_plan`` of
+        :func:`optroute.optimise_corridor`; without ``search_options``); False: cold starts.
 
     Returns
     -------
@@ -487,7 +495,43 @@ def simulate_voyage(
         sailing = _Sailing(first, k, t0)
     replans.append(replan_record(first, "initial plan", status, t0, k, fseq, earliest))
     plans = [first]
-    t, pos = t0, np.asarray(start, dtype=float)
+    records, t, earliest = _sail_voyage(
+        s, policy, fseq, sailing, np.asarray(start, dtype=float), step, min_left, warm_start, replans, plans, earliest
+    )
+    log = voyage_dataset(records, replans, rules)
+    outcome = VoyageOutcome(
+        departure=t0,
+        arrival=t,
+        fuel_t=float(sum(r.fuel_tph * r.duration_h for r in records)),
+        distance_nm=float(sum(r.distance_nm for r in records)),
+        time_in_band_h=float(sum(r.duration_h for r in records if r.in_band)),
+        time_slowed_h=float(sum(r.duration_h for r in records if r.slowed)),
+        time_band_met_h=float(sum(r.duration_h for r in records if r.band_met)),
+        eta=s.eta,
+        n_replans=len(plans) - 1,
+        earliest_arrival=earliest,
+    )
+    log.attrs.update(_outcome_attrs(outcome))
+    return VoyageResult(outcome=outcome, log=log, plans=tuple(plans))
+
+
+def _sail_voyage(
+    s: _Setup,
+    policy: ReplanPolicy,
+    fseq: ForecastSequence,
+    sailing: _Sailing,
+    start: np.ndarray,
+    step: float,
+    min_left: float,
+    warm_start: bool,
+    replans: list[dict[str, Any]],
+    plans: list[Plan],
+    earliest: Any,
+) -> tuple[list[StepRecord], np.datetime64, Any]:
+    """The stepping loop: re-plan when the policy says, sail a step, until the destination; appends to the lists."""
+    t0 = t = sailing.made_at
+    pos = start
+    dest = s.destination
     records: list[StepRecord] = []
     while True:
         left = float(geo.distance_nm(pos[0], pos[1], dest[0], dest[1]))
@@ -497,7 +541,7 @@ def simulate_voyage(
         if reason:
             k, ds = fseq.latest(t)
             try:
-                new, status, e = _plan(s, pos, ds, t)
+                new, status, e = _plan(s, pos, ds, t, sailing.plan if warm_start else None)
             except OptrouteError as exc:  # keep sailing the plan we have; the log says why
                 replans.append(replan_record(None, reason, f"failed: {exc}", t, k, fseq, None))
                 sailing.made_at, sailing.forecast_index = t, k  # this forecast is spent; the next trigger tries again
@@ -514,21 +558,7 @@ def simulate_voyage(
             sailing.leg += 1
             if sailing.leg >= sailing.plan.waypoints.shape[0] - 1:
                 break
-    log = voyage_dataset(records, replans, rules)
-    outcome = VoyageOutcome(
-        departure=t0,
-        arrival=t,
-        fuel_t=float(sum(r.fuel_tph * r.duration_h for r in records)),
-        distance_nm=float(sum(r.distance_nm for r in records)),
-        time_in_band_h=float(sum(r.duration_h for r in records if r.in_band)),
-        time_slowed_h=float(sum(r.duration_h for r in records if r.slowed)),
-        time_band_met_h=float(sum(r.duration_h for r in records if r.band_met)),
-        eta=s.eta,
-        n_replans=len(plans) - 1,
-        earliest_arrival=earliest,
-    )
-    log.attrs.update(_outcome_attrs(outcome))
-    return VoyageResult(outcome=outcome, log=log, plans=tuple(plans))
+    return records, t, earliest
 
 
 def _elapsed_in_step(t: np.datetime64, t0: np.datetime64, step: float) -> float:
