@@ -291,3 +291,25 @@ def test_converging_forecasts_shrink_the_error_linearly_to_the_truth():
     # the forecast issued half-way carries half the error: 120 nm = 2 degrees north at t = 0
     half = sc.storm_dataset(sc.displaced_storms([storm], displacement_nm=120.0), **kw)
     assert float(np.abs(fcs[1][1]["hs_m"] - half["hs_m"]).max()) == 0.0
+
+
+def test_a_sea_that_differs_from_the_forecast_beyond_the_threshold_triggers_replans_spaced_by_the_interval():
+    """Forecast calm, truth 3 m head seas: the Hs trigger (1 m) fires once min_interval_h has passed since each plan."""
+    kw = {"start": T0, "duration_h": 60.0, "step_h": 3.0, "resolution_deg": 1.0, "bbox": (20, 40, -160, -130)}
+    truth = sc.uniform(3.0, wave_from_deg=90.0, **kw)
+    policy = ReplanPolicy(on_forecast=False, hs_threshold_m=1.0, min_interval_h=5.0)
+    res = orx.simulate_voyage(
+        (A, (30.0, -146.0)), truth, SHIP, forecasts=[(T0, _calm())], replan=policy, departure=T0,
+        eta=T0 + np.timedelta64(20, "h"), optimise_options={"use_land_mask": False}, step_h=0.5,
+    )  # fmt: skip
+    reasons = [str(r) for r in res.log["replan_reason"].values]
+    assert reasons[0] == "initial plan" and len(reasons) >= 3
+    assert all(r.startswith("weather met: Hs differs from the plan's forecast by 3 m > 1 m") for r in reasons[1:])
+    gaps = np.diff(res.log["replan_time"].values) / np.timedelta64(1, "h")
+    assert np.all(gaps >= 5.0) and np.all(gaps < 5.5)  # the first step at or after the interval
+    # the same voyage without the trigger never re-plans
+    quiet = orx.simulate_voyage(
+        (A, (30.0, -146.0)), truth, SHIP, forecasts=[(T0, _calm())], replan=ReplanPolicy(), departure=T0,
+        eta=T0 + np.timedelta64(20, "h"), optimise_options={"use_land_mask": False}, step_h=0.5,
+    )  # fmt: skip
+    assert quiet.outcome.n_replans == 0
