@@ -193,7 +193,7 @@ def test_the_forecast_places_the_storm_300_nm_off_its_true_track(storm_voyages):
 
     def peak(ds):
         hs = ds["hs_m"].sel(at, method="nearest")
-        i = np.unravel_index(int(hs.argmax()), hs.shape)
+        i = np.unravel_index(int(np.argmax(hs.values)), hs.shape)
         return float(hs["lat"][i[0]]), float(hs["lon"][i[1]])
 
     off = float(geo.distance_nm(*peak(truth), *peak(first)))
