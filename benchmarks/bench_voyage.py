@@ -107,7 +107,8 @@ def run(quick: bool) -> dict[str, Any]:
                 f"{r['wall_s'] / base['wall_s']:.2f} |"
             )
     print(
-        "\n(b) warm-starts every re-plan from the plan being sailed (optimise_corridor's warm_plan), (b') starts cold."
+        "\n(b) warm-starts every re-plan from the plan being sailed (optimise_corridor's warm_plan); (b') starts cold"
+        + (" (full mode only)." if quick else ".")
     )
     return {"cases": rows}
 
