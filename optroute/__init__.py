@@ -8,7 +8,7 @@ IMO MSC.1/Circ.1228 and Boeing's EP 2145155.
 The package follows the pipeline (``docs/design.md`` draws the layers, which
 import-linter enforces): :mod:`optroute.physics` → :mod:`optroute.weather` →
 :mod:`optroute.geo` → :mod:`optroute.search` → :mod:`optroute.plot` /
-:mod:`optroute.plan` → :mod:`optroute.optimise` → :mod:`optroute.studies` →
+:mod:`optroute.plan` → :mod:`optroute.optimise` → :mod:`optroute.voyage` → :mod:`optroute.studies` →
 :mod:`optroute.cli`.
 
 The public names below are loaded on first use (PEP 562), so ``import optroute``
@@ -66,6 +66,9 @@ _LAZY: dict[str, str] = {
     "TradeoffFront": "optroute.studies.tradeoff",
     "tradeoff": "optroute.studies.tradeoff",
     "study": "optroute.studies.voyage_study",
+    "ReplanPolicy": "optroute.voyage",
+    "VoyageOutcome": "optroute.voyage",
+    "simulate_voyage": "optroute.voyage",
     "WeatherSampler": "optroute.weather",
     "load_weather": "optroute.weather",
     "open_weather": "optroute.weather",
@@ -83,6 +86,7 @@ if TYPE_CHECKING:  # what the lazy names resolve to, for type checkers and IDEs
     from optroute.studies.study import SchedulerUnreachable, StudyError, load_study, run_study
     from optroute.studies.tradeoff import TradeoffFront, tradeoff
     from optroute.studies.voyage_study import study
+    from optroute.voyage import ReplanPolicy, VoyageOutcome, simulate_voyage
     from optroute.weather import WeatherSampler, load_weather, open_weather, scenarios
 
 
@@ -137,6 +141,9 @@ __all__ = [
     "TradeoffFront",
     "tradeoff",
     "study",
+    "ReplanPolicy",
+    "VoyageOutcome",
+    "simulate_voyage",
     "WeatherSampler",
     "load_weather",
     "open_weather",

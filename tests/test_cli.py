@@ -40,7 +40,7 @@ from tests.test_outputs import check_rfc7946
 
 T0 = np.datetime64("2024-01-10T00:00", "ns")
 CORRIDOR = [(30.0, -150.0), (31.0, -145.0), (32.0, -140.0)]
-COMMANDS = ("plan", "optimise", "tradeoff", "study", "bands", "demo", "bench")
+COMMANDS = ("plan", "optimise", "tradeoff", "study", "bands", "demo", "bench", "simulate")
 ROOT = Path(__file__).resolve().parents[1]
 #: Python-API parameters that no option of the command line sets: a CLI error's fix must not name them.
 API_ONLY = re.compile(

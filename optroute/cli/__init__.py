@@ -47,6 +47,7 @@ from optroute.cli._parser import PROG, Parser, UsageError, add_version_option
 from optroute.cli._voice import cli_voice
 from optroute.cli.bands import add_bands, cmd_bands
 from optroute.cli.observe import add_observe
+from optroute.cli.simulate import add_simulate
 from optroute.cli.studies import add_study, add_tradeoff, cmd_study, cmd_tradeoff
 from optroute.cli.tools import add_bench, add_demo, cmd_bench, cmd_demo
 from optroute.cli.voyage import add_optimise, add_plan, cmd_optimise, cmd_plan
@@ -101,6 +102,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_bands(sub, common)
     add_bench(sub, common)
     add_observe(sub, common)
+    add_simulate(sub, common)
     return parser
 
 

@@ -45,7 +45,9 @@ Public API
 :func:`tropical_cyclone` (+
 :class:`Cyclone`, :func:`default_cyclone`, :func:`cyclone_track`,
 :func:`cyclone_exclusion`, :func:`cyclone_radius_km`, :func:`straight_track`),
-:func:`ensemble`, :func:`member`.
+:func:`ensemble`, :func:`member`; forecasts that err like real ones (:mod:`optroute.weather.forecast`):
+:func:`storm_forecast`, :func:`displaced_storms`, :func:`converging_forecasts`, with
+:func:`moving_storm_spec`.
 """
 
 from __future__ import annotations
@@ -89,7 +91,15 @@ from optroute.weather.cyclone import (
     track_attr,
     tropical_cyclone,
 )
-from optroute.weather.storms import Storm, moving_storm, north_pacific_storm_specs, north_pacific_storms, storm_dataset
+from optroute.weather.forecast import converging_forecasts, displaced_storms, storm_forecast
+from optroute.weather.storms import (
+    Storm,
+    moving_storm,
+    moving_storm_spec,
+    north_pacific_storm_specs,
+    north_pacific_storms,
+    storm_dataset,
+)
 
 __all__ = [
     "DEFAULT_START",
@@ -101,13 +111,16 @@ __all__ = [
     "NoGoArea",
     "Storm",
     "calm",
+    "converging_forecasts",
     "cyclone_exclusion",
     "cyclone_radius_km",
     "cyclone_track",
     "default_cyclone",
+    "displaced_storms",
     "ensemble",
     "member",
     "moving_storm",
+    "moving_storm_spec",
     "in_no_go_area",
     "no_go_areas",
     "north_pacific_storm_specs",
@@ -116,6 +129,7 @@ __all__ = [
     "shao_case",
     "shao_no_go",
     "storm_dataset",
+    "storm_forecast",
     "straight_track",
     "tropical_cyclone",
     "uniform",

@@ -38,7 +38,14 @@ from optroute.weather._synth import (
     wind_uv_from,
 )
 
-__all__ = ["Storm", "moving_storm", "north_pacific_storm_specs", "north_pacific_storms", "storm_dataset"]
+__all__ = [
+    "Storm",
+    "moving_storm",
+    "moving_storm_spec",
+    "north_pacific_storm_specs",
+    "north_pacific_storms",
+    "storm_dataset",
+]
 
 
 @dataclass(frozen=True)
@@ -372,6 +379,36 @@ def storm_dataset(
     return schema.canonical_dataset(time, lat, lon, out, scenario_attrs(name, params, lon, **extra))
 
 
+def moving_storm_spec(
+    lat_deg: float,
+    lon_deg: float,
+    course_deg: float,
+    speed_kn: float,
+    *,
+    peak_hs_m: float = 8.0,
+    radius_nm: float = 250.0,
+    duration_h: float = 120.0,
+) -> Storm:
+    """The :class:`Storm` of :func:`moving_storm`: round, Gaussian, moving on a great circle at constant speed.
+
+    Parameters are those of :func:`moving_storm` (centre at t = 0 [deg], course [deg true, to],
+    speed [kn], peak H_s [m], radius [nm], track length [h]).
+    """
+    from optroute.weather.cyclone import straight_track
+
+    track = straight_track(lat_deg, lon_deg, course_deg, speed_kn, duration_h=max(float(duration_h), 1.0), step_h=6.0)
+    return Storm(
+        name="moving storm",
+        track=track,
+        peak_hs_m=peak_hs_m,
+        semi_major_nm=radius_nm,
+        semi_minor_nm=radius_nm,
+        major_axis_deg=course_deg,
+        low_offset_nm=0.0,
+        shape_order=1,
+    )
+
+
 def moving_storm(
     lat_deg: float,
     lon_deg: float,
@@ -413,19 +450,10 @@ def moving_storm(
     -------
     xarray.Dataset
     """
-    from optroute.weather.cyclone import straight_track
-
-    track = straight_track(lat_deg, lon_deg, course_deg, speed_kn, duration_h=max(float(duration_h), 1.0), step_h=6.0)
-    storm = Storm(
-        name="moving storm",
-        track=track,
-        peak_hs_m=peak_hs_m,
-        semi_major_nm=radius_nm,
-        semi_minor_nm=radius_nm,
-        major_axis_deg=course_deg,
-        low_offset_nm=0.0,
-        shape_order=1,
+    storm = moving_storm_spec(
+        lat_deg, lon_deg, course_deg, speed_kn, peak_hs_m=peak_hs_m, radius_nm=radius_nm, duration_h=duration_h
     )
+    track = storm.track
     if bbox is None:
         lats = np.array([p[1] for p in track])
         lons = geo.unwrap_lon_deg([p[2] for p in track])

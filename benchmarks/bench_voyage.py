@@ -1,0 +1,121 @@
+"""Voyage simulator: the value of re-planning on each forecast when the forecast misplaces a storm.
+
+Hidden-truth suite: a 12.5 m storm (:func:`optroute.scenarios.moving_storm_spec`) moving south at
+10 kn across a 520 nm passage at 30° N (container_54k_dwt, ETA 42 h); the ship sees only forecasts
+(:func:`optroute.scenarios.converging_forecasts`) that displace, delay or weaken the storm and
+converge on the truth by a stated time. For every case: (a) plan once on the first forecast and
+sail it blind, (b) re-plan on each forecast (:class:`optroute.voyage.ReplanPolicy`) warm-started from the
+plan being sailed, (b') the same from cold starts; the table gives
+the time sailed inside a danger band of the truth, the time the plan's speed met a band, the ETA
+miss, the fuel, the re-plans, and the simulation wall time per simulated day, with (a) as the
+baseline of (b)'s fuel and wall time (same process, same truth).
+
+Run ``python -m benchmarks.bench_voyage [--quick]``.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+import optroute as orx
+from benchmarks._cli import bench_main
+from optroute.voyage import ReplanPolicy
+from optroute.weather import scenarios as sc
+
+SHIP = orx.Ship.preset("container_54k_dwt")
+T0 = np.datetime64("2024-01-10T00:00", "ns")
+A, B = (30.0, -150.0), (30.0, -140.0)
+ETA = T0 + np.timedelta64(42, "h")
+OPTS = {
+    "max_leg_nm": 30.0,
+    "samples_per_leg": 5,
+    "band_margin": 0.05,
+    "band_hs_margin": 0.1,
+    "fit_corrections": 0,
+    "use_land_mask": False,
+}
+KW = {"start": T0, "duration_h": 60.0, "step_h": 3.0, "resolution_deg": 0.5, "bbox": (18, 42, -156, -134)}
+
+#: (name, displacement [nm], bearing [deg], delay [h], intensity factor, issue hours, converged [h])
+CASES = (
+    ("300 nm north", 300.0, 0.0, 0.0, 1.0, (0.0, 3.0), 3.0),
+    ("300 nm south, 6 h early", 300.0, 180.0, -6.0, 1.0, (0.0, 6.0, 12.0), 12.0),
+    ("200 nm east, under-forecast x0.8", 200.0, 90.0, 0.0, 0.8, (0.0, 6.0), 6.0),
+)
+
+
+def _case(spec: tuple) -> tuple[Any, list]:
+    _, dist, brg, delay, fac, hours, conv = spec
+    storm = sc.moving_storm_spec(34.0, -145.0, 180.0, 10.0, peak_hs_m=12.5, radius_nm=150.0, duration_h=60.0)
+    truth = sc.storm_dataset([storm], background_hs_m=1.5, **KW)
+    fcs = sc.converging_forecasts(
+        [storm], list(hours), converged_h=conv, displacement_nm=dist, bearing_deg=brg, delay_h=delay,
+        intensity_factor=fac, background_hs_m=1.5, **KW,
+    )  # fmt: skip
+    return truth, fcs
+
+
+def _sail(truth: Any, fcs: list, policy: ReplanPolicy, warm: bool = True) -> dict[str, Any]:
+    t = time.perf_counter()
+    try:
+        res = orx.simulate_voyage(
+            (A, B), truth, SHIP, forecasts=fcs, replan=policy, departure=T0, eta=ETA, optimise_options=OPTS,
+            corridor_width_nm=400.0, step_h=0.5, warm_start=warm,
+        )  # fmt: skip
+    except orx.OptrouteError as exc:
+        return {"error": f"{type(exc).__name__}: {str(exc)[:200]}", "wall_s": time.perf_counter() - t}
+    wall = time.perf_counter() - t
+    o = res.outcome
+    failed = [str(s) for s in res.log["replan_status"].values if str(s).startswith("failed")]
+    return {
+        "time_in_band_h": o.time_in_band_h,
+        "time_band_met_h": o.time_band_met_h,
+        "eta_miss_h": o.eta_miss_h,
+        "eta_met": bool(o.eta_met),
+        "fuel_t": o.fuel_t,
+        "replans": o.n_replans,
+        "failed_replans": len(failed),
+        "wall_s": wall,
+        "wall_s_per_sim_day": wall / (o.duration_h / 24.0),
+    }
+
+
+def run(quick: bool) -> dict[str, Any]:
+    cases = CASES[:1] if quick else CASES
+    rows = []
+    print("| forecast error | policy | in band [h] | band met [h] | ETA miss [h] | fuel [t] | fuel / (a) | re-plans "
+          "(failed) | wall [s] | wall per sim. day [s] | wall / (a) |")  # fmt: skip
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for spec in cases:
+        truth, fcs = _case(spec)
+        base = _sail(truth, fcs, ReplanPolicy.never())
+        runs = [("(a) plan once", base), ("(b) re-plan on each forecast (warm)", _sail(truth, fcs, ReplanPolicy()))]
+        if not quick:
+            runs.append(("(b') re-plan on each forecast (cold)", _sail(truth, fcs, ReplanPolicy(), warm=False)))
+        for label, r in runs:
+            rows.append({"case": spec[0], "policy": label, **r})
+            if "error" in r or "error" in base:
+                print(f"| {spec[0]} | {label} | {r.get('error', base.get('error'))} |")
+                continue
+            print(
+                f"| {spec[0]} | {label} | {r['time_in_band_h']:.1f} | {r['time_band_met_h']:.1f} | "
+                f"{r['eta_miss_h']:+.2f} | {r['fuel_t']:.1f} | {r['fuel_t'] / base['fuel_t']:.3f} | "
+                f"{r['replans']} ({r['failed_replans']}) | {r['wall_s']:.1f} | {r['wall_s_per_sim_day']:.1f} | "
+                f"{r['wall_s'] / base['wall_s']:.2f} |"
+            )
+    print(
+        "\n(b) warm-starts every re-plan from the plan being sailed (optimise_corridor's warm_plan); (b') starts cold"
+        + (" (full mode only)." if quick else ".")
+    )
+    return {"cases": rows}
+
+
+def main(argv: list[str] | None = None) -> None:
+    bench_main(run, __doc__.splitlines()[0], "one forecast-error case instead of three, no cold re-plans", argv)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,22 @@
+"""Sailing a plan: a voyage simulator that re-plans on each new forecast (issue 16).
+
+:func:`simulate_voyage` sails a ship through a "truth" weather with the true performance model
+and the danger bands, in time steps, receiving forecasts as they are issued and re-planning
+with :func:`optroute.plan_voyage` under a :class:`ReplanPolicy` (Boeing EP 2145155: re-plan
+"periodically, or when a new forecast arrives"; Życkowski: when the weather met differs from the
+forecast used). It returns a :class:`VoyageResult`: the voyage log (an ``xarray.Dataset``) and the
+:class:`VoyageOutcome`.
+"""
+
+from optroute.voyage.policy import ForecastSequence, ForecastTimeError, ReplanPolicy, VoyageOutcome
+from optroute.voyage.simulate import VoyageError, VoyageResult, simulate_voyage
+
+__all__ = [
+    "ForecastSequence",
+    "ForecastTimeError",
+    "ReplanPolicy",
+    "VoyageError",
+    "VoyageOutcome",
+    "VoyageResult",
+    "simulate_voyage",
+]
