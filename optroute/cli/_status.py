@@ -68,6 +68,16 @@ def explain_status(status: str, *, ipopt_status: str | None = None, objective: s
             str(ipopt_status), "Ipopt stopped before converging (an iteration or time limit, or its looser tolerance)"
         )
         return f"{why} at a point that verifies; the plan is safe but not proven {goal}"
+    if key == "sides_unsettled":
+        return (
+            "Ipopt converged and the plan verifies, but the search over the danger-band sides stopped on its "
+            f"solve budget (band_solves): safe, not proven {goal} over every side"
+        )
+    if key == "start":
+        return (
+            "the NLP did not improve on its best verified start (a search route, the 3-D DP, the ship's dual "
+            f"schedule or the centreline start), so that start is returned: safe, not proven {goal}"
+        )
     if key == "minimum time":
         return "the fastest verified passage known, kept because the requested ETA could not be optimised"
     if key == "infeasible":
