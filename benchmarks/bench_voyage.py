@@ -34,7 +34,6 @@ OPTS = {
     "samples_per_leg": 5,
     "band_margin": 0.05,
     "band_hs_margin": 0.1,
-    "fit_corrections": 0,
     "use_land_mask": False,
 }
 KW = {"start": T0, "duration_h": 60.0, "step_h": 3.0, "resolution_deg": 0.5, "bbox": (18, 42, -156, -134)}
