@@ -236,10 +236,17 @@ def points_along(
         Course of the leg at the points, in its direction of travel [deg true, to], in [0, 360)
         (exact at both ends: the initial and the final course).
     """
-    d, c0, _ = inverse(lat0_deg, lon0_deg, lat1_deg, lon1_deg)
+    d, c0, c1 = inverse(lat0_deg, lon0_deg, lat1_deg, lon1_deg)
     f = finite("fraction", fraction, error=ConfigError)
     la0, lo0 = _deg(lat0_deg, lon0_deg)
-    return direct(la0, lo0, c0, f * d)
+    la1, lo1 = _deg(lat1_deg, lon1_deg)
+    lat, lon, course = direct(la0, lo0, c0, f * d)
+    # the ends exactly as given (no round-off: a waypoint is checked where it is)
+    end = np.broadcast_to(f == 1.0, lat.shape)
+    start = np.broadcast_to(f == 0.0, lat.shape)
+    lat = np.where(end, la1, np.where(start, la0, lat))
+    lon = np.where(end, units.wrap_180(lo1), np.where(start, units.wrap_180(lo0), lon))
+    return lat, lon, np.where(end, c1, course)
 
 
 def intermediate_points(
