@@ -117,13 +117,15 @@ class Finding:
 
 @dataclass
 class CaseResult:
-    """What a case gave: each solve's outcome (``plan``, or the error's class name) and the findings."""
+    """What a case gave: each solve's outcome (``plan:<status>``, or the error's class name), the findings of
+    :func:`check_plan`, and the number of violations the plan's own ``verify()`` reports (``referee``)."""
 
     case: Case
     outcomes: dict[str, str] = field(default_factory=dict)
     findings: dict[str, list[Finding]] = field(default_factory=dict)
     grazes: dict[str, int] = field(default_factory=dict)
     messages: dict[str, str] = field(default_factory=dict)
+    referee: dict[str, int] = field(default_factory=dict)
     feasible: bool = False
     cpu_s: float = 0.0
 
@@ -406,6 +408,7 @@ def _solve(
         return None
     res.outcomes[name] = f"plan:{plan.status}"
     res.findings[name], res.grazes[name] = check_plan(plan, wx, ship, eta=eta)
+    res.referee[name] = len(plan.verify())  # the baseline: the plan's own referee at its default 5 nm
     return plan
 
 
@@ -455,6 +458,7 @@ def summarise(results: list[CaseResult]) -> dict[str, Any]:
         "violations": sum(kinds.values()),
         "violations_by_kind": kinds,
         "grazes": sum(sum(r.grazes.values()) for r in results),
+        "referee_violations": sum(sum(r.referee.values()) for r in results),
         "solver_failure_cases": len(failures),
         "solver_failure_share": (len(failures) / len(feasible)) if feasible else float("nan"),
         "solver_failure_seeds": [r.case.seed for r in failures],
