@@ -64,6 +64,11 @@ def run(quick: bool = False) -> dict[str, Any]:
         for line in s["violating"]:
             print(f"- {line}")
         print()
+    if s["undetermined_seeds"]:
+        print(
+            f"Minimum time ended in SolverFailure with no verified plan (feasibility undetermined, not in the share) "
+            f"at seeds {s['undetermined_seeds']}.\n"
+        )
     if s["solver_failure_seeds"]:
         print(f"SolverFailure with a verified plan at seeds {s['solver_failure_seeds']}.\n")
     s["per_case"] = [

@@ -462,6 +462,10 @@ def summarise(results: list[CaseResult]) -> dict[str, Any]:
         "solver_failure_cases": len(failures),
         "solver_failure_share": (len(failures) / len(feasible)) if feasible else float("nan"),
         "solver_failure_seeds": [r.case.seed for r in failures],
+        # minimum time ended in SolverFailure without any verified plan: feasibility undetermined
+        "undetermined_seeds": [
+            r.case.seed for r in results if not r.feasible and r.outcomes.get("time") == "SolverFailure"
+        ],
         "violating": violating,
         "outcomes": outcomes,
         "cpu_s": sum(r.cpu_s for r in results),
