@@ -73,6 +73,7 @@ _LAZY: dict[str, str] = {
     "WeatherSampler": "optroute.weather",
     "load_weather": "optroute.weather",
     "open_weather": "optroute.weather",
+    "open_forecasts": "optroute.weather",
     "scenarios": "optroute.weather",
 }
 
@@ -88,7 +89,7 @@ if TYPE_CHECKING:  # what the lazy names resolve to, for type checkers and IDEs
     from optroute.studies.tradeoff import TradeoffFront, tradeoff
     from optroute.studies.voyage_study import study
     from optroute.voyage import OnboardObserver, ReplanPolicy, VoyageOutcome, simulate_voyage
-    from optroute.weather import WeatherSampler, load_weather, open_weather, scenarios
+    from optroute.weather import WeatherSampler, load_weather, open_forecasts, open_weather, scenarios
 
 
 def __getattr__(name: str) -> Any:
@@ -148,6 +149,7 @@ __all__ = [
     "simulate_voyage",
     "WeatherSampler",
     "load_weather",
+    "open_forecasts",
     "open_weather",
     "scenarios",
 ]

@@ -37,8 +37,9 @@ def add_simulate(sub: argparse._SubParsersAction, common: argparse.ArgumentParse
 """,
     )
     p.add_argument("--truth", required=True, metavar="SCENARIO|FILE", help="the weather the ship really meets")
-    p.add_argument("--forecast", action="append", default=[], metavar="ISSUE=SCENARIO|FILE",
-                   help="a forecast and its issue time (UTC); repeat for each forecast")  # fmt: skip
+    p.add_argument("--forecast", action="append", default=[], metavar="[ISSUE=]SCENARIO|FILE",
+                   help="a forecast and its issue time (UTC), or a file that states its issue time "
+                        "(forecast_reference_time, GRIB time + step); repeat for each forecast")  # fmt: skip
     p.add_argument("--from", dest="start", required=True, metavar="LAT,LON", help="start position [deg]")
     p.add_argument("--to", dest="end", required=True, metavar="LAT,LON", help="end position [deg]")
     p.add_argument("--depart", required=True, metavar="TIME", help="departure, ISO 8601 UTC")
@@ -70,7 +71,12 @@ def _forecasts(specs: list[str]) -> list[tuple[object, object]]:
     out = []
     for spec in specs:
         issue, sep, source = spec.partition("=")
-        if not sep or not source:
+        if not sep:  # a file that states its own issue time (forecast_reference_time, GRIB time + step)
+            from optroute.weather.forecast_files import open_forecasts
+
+            out.extend(open_forecasts([spec]))
+            continue
+        if not source:
             raise ConfigError(f"--forecast {spec!r} is not ISSUE=WEATHER; e.g. --forecast 2024-01-10T06:00=fc06.nc")
         out.append((parse_time(issue, f"--forecast {spec!r} issue time"), load_weather(source)))
     return out
