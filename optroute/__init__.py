@@ -66,6 +66,8 @@ _LAZY: dict[str, str] = {
     "TradeoffFront": "optroute.studies.tradeoff",
     "tradeoff": "optroute.studies.tradeoff",
     "study": "optroute.studies.voyage_study",
+    "apf_avoidance": "optroute.voyage.apf",
+    "read_track": "optroute.weather.cyclone_tracks",
     "ReplanPolicy": "optroute.voyage",
     "VoyageOutcome": "optroute.voyage",
     "simulate_voyage": "optroute.voyage",
@@ -87,6 +89,8 @@ if TYPE_CHECKING:  # what the lazy names resolve to, for type checkers and IDEs
     from optroute.studies.tradeoff import TradeoffFront, tradeoff
     from optroute.studies.voyage_study import study
     from optroute.voyage import ReplanPolicy, VoyageOutcome, simulate_voyage
+    from optroute.voyage.apf import apf_avoidance
+    from optroute.weather.cyclone_tracks import read_track
     from optroute.weather import WeatherSampler, load_weather, open_weather, scenarios
 
 
@@ -144,6 +148,8 @@ __all__ = [
     "ReplanPolicy",
     "VoyageOutcome",
     "simulate_voyage",
+    "apf_avoidance",
+    "read_track",
     "WeatherSampler",
     "load_weather",
     "open_weather",

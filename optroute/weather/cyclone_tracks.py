@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import csv
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -125,6 +125,7 @@ class CycloneTrack:
     lead_h: np.ndarray
     name: str = "cyclone"
     source: str = ""
+    _r7: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         t = np.atleast_1d(np.asarray(self.time, dtype="datetime64[ns]"))
@@ -148,6 +149,7 @@ class CycloneTrack:
             if np.any(v[np.isfinite(v)] < 0) or np.isinf(v).any():
                 raise ConfigError(f"{self._who}: {name} must be >= 0 or NaN (not given), got {v}")
             object.__setattr__(self, name, v)
+        object.__setattr__(self, "_r7", np.array([self._r7_point(k) for k in range(n)]))
 
     @property
     def _who(self) -> str:
@@ -157,10 +159,7 @@ class CycloneTrack:
     @property
     def r7_km(self) -> np.ndarray:
         """Force-7 radius R at every point [km] (see the module docstring for the two ways)."""
-        out = np.empty(self.time.size)
-        for k in range(self.time.size):
-            out[k] = self._r7_point(k)
-        return out
+        return self._r7.copy()
 
     def _r7_point(self, k: int) -> float:
         r34 = self.r34_nm[k]
@@ -212,7 +211,7 @@ class CycloneTrack:
         out = {
             "lat": np.interp(q, x, self.lat_deg),
             "lon": units.wrap_180(np.interp(q, x, lon_u)),
-            "r7_km": np.interp(q, x, self.r7_km),
+            "r7_km": np.interp(q, x, self._r7),
             "lead_h": np.interp(q, x, self.lead_h),
         }
         if x.size > 1:
