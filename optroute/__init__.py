@@ -90,8 +90,8 @@ if TYPE_CHECKING:  # what the lazy names resolve to, for type checkers and IDEs
     from optroute.studies.voyage_study import study
     from optroute.voyage import ReplanPolicy, VoyageOutcome, simulate_voyage
     from optroute.voyage.apf import apf_avoidance
-    from optroute.weather.cyclone_tracks import read_track
     from optroute.weather import WeatherSampler, load_weather, open_weather, scenarios
+    from optroute.weather.cyclone_tracks import read_track
 
 
 def __getattr__(name: str) -> Any:

@@ -256,3 +256,21 @@ def test_search_route_keeps_out_of_r_plus_margin(small_case):
     assert _brute_min_gap_km(
         orx.Plan.from_schedule(free.waypoints, free.stw_kn, departure=T0, ship=ship, weather=ds, times=free.times,
                                use_land_mask=False), track) < 30.0  # fmt: skip
+
+
+def test_cli_cyclone_option_builds_the_circle_and_names_bad_files(bdeck, tmp_path):
+    import argparse
+
+    from optroute.cli.voyage import cyclone_exclusion
+
+    ns = argparse.Namespace(cyclone=str(bdeck), margin_km=30.0, cone_km_per_h=None)
+    excl = cyclone_exclusion(ns)
+    tr = read_atcf(bdeck)
+    _, _, rad_nm = excl.at(tr.time[:1])
+    assert float(rad_nm[0]) * 1.852 == pytest.approx(tr.r7_km[0] + 30.0)
+    bad = tmp_path / "b.dat"
+    bad.write_text("WP, 30, 2022101300,   , BEST,   0, 152N, 1790X,  65,  975, TY,\n")
+    with pytest.raises(TrackFormatError, match=r"line 1: LonE/W '1790X'"):
+        cyclone_exclusion(argparse.Namespace(cyclone=str(bad), margin_km=30.0, cone_km_per_h=None))
+    with pytest.raises(orx.ConfigError, match="--margin-km"):
+        cyclone_exclusion(argparse.Namespace(cyclone=str(bdeck), margin_km=-1.0, cone_km_per_h=None))
