@@ -47,8 +47,12 @@ def piece_hits(
     t_h: np.ndarray,
     duration_h: np.ndarray,
     sample_nm: float = 2.0,
+    centre_kn: float | None = None,
 ) -> np.ndarray:
-    """Whether each piece (midpoint, course, length, entry time, duration) comes within the circle."""
+    """Whether each piece (midpoint, course, length, entry time, duration) comes within the circle.
+
+    ``centre_kn`` is the circle's fastest motion [kn] (default :func:`centre_speed_kn`).
+    """
     n = lat.size
     if n == 0:
         return np.zeros(0, dtype=bool)
@@ -61,7 +65,8 @@ def piece_hits(
     )
     when_h = t_h[:, None] + (f + 0.5) * duration_h[:, None]
     clat, clon, rad = exclusion.at(departure + _h_to_td(when_h))
-    pad = sample_nm + centre_speed_kn(exclusion) * np.max(duration_h) / (m - 1)
+    speed = centre_speed_kn(exclusion) if centre_kn is None else float(centre_kn)
+    pad = sample_nm + speed * np.max(duration_h) / (m - 1)
     return np.any(geo.distance_nm(plat, plon, clat, clon) < rad + pad, axis=1)
 
 
@@ -90,7 +95,7 @@ def avoiding(cb: Callable, exclusion: Exclusion, departure: np.datetime64, sampl
         if go.size:
             hit = piece_hits(
                 exclusion, departure, *(np.asarray(a, dtype=float)[go] for a in (lat, lon, course, length_nm, t_h)),
-                dur[go], sample_nm,
+                dur[go], sample_nm, speed,
             )  # fmt: skip
             if hit.any():
                 feas = feas.copy()
