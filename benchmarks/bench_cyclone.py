@@ -16,7 +16,9 @@ dynamic APF (k_a = 10, η_X = 10, η_V = 12, d_n = 30 km), sailed with the same 
 for least fuel by the APF's arrival, both with the moving exclusion R + 30 km (in the search, the
 NLP and the referee).  The weather is synthetic geography (no coastline is applied to any row).  Fuel and arrival are the referee's (:class:`optroute.Plan`),
 the closest approach is min(distance − R) over the waypoints, the time inside R and inside R + 30
-km are summed over the legs.  The patent's own figures are printed beside them as published: they
+km are summed over the legs; "max risk r" is the largest risk degree
+(:func:`optroute.geo.encounter.risk_degree`, our reconstruction, T_S = 6 h) at the legs' starts and
+"trigger holds" the hours during which the patent's trigger (DCPA ≤ R, distance ≤ R + 30 km) holds.  The patent's own figures are printed beside them as published: they
 are not this case's and are no baseline for its numbers.
 
 Run ``python -m benchmarks.bench_cyclone [--quick]`` or ``python -m benchmarks --only cyclone``.
@@ -34,6 +36,7 @@ import numpy as np
 import optroute as orx
 from benchmarks._cli import bench_main
 from optroute import errors
+from optroute.geo.encounter import encounter, risk_degree
 from optroute.geo.tracks import Exclusion
 from optroute.voyage.apf import apf_avoidance, sail_track
 from optroute.weather.cyclone import Cyclone, holland_vmax_ms, straight_track, tropical_cyclone
@@ -89,6 +92,8 @@ def _row(name: str, plan: Any, track: CycloneTrack, wall: float) -> dict[str, An
     dist = np.asarray(orx.geodesy.distance_nm(wp[:, 0], wp[:, 1], s["lat"], s["lon"])) * 1.852
     gap = dist - s["r7_km"]
     dur = np.diff(plan.times) / np.timedelta64(1, "h")
+    cog = orx.geodesy.initial_course_deg(wp[:-1, 0], wp[:-1, 1], wp[1:, 0], wp[1:, 1])
+    enc = encounter(wp[:-1, 0], wp[:-1, 1], plan.legs["sog_kn"].to_numpy(), cog, plan.times[:-1], track)
     return {
         "name": name,
         "fuel_t": float(plan.total_fuel_t),
@@ -98,6 +103,8 @@ def _row(name: str, plan: Any, track: CycloneTrack, wall: float) -> dict[str, An
         "inside_r_h": float(np.sum(dur * (gap[:-1] < 0))),
         "inside_safe_h": float(np.sum(dur * (gap[:-1] < 30.0))),
         "min_stw_kn": float(np.min(plan.stw_kn)),
+        "max_risk": float(np.max(risk_degree(enc))),
+        "triggered_h": float(np.sum(dur * enc.trigger(30.0))),
         "violations": [str(v) for v in plan.verify()][:3],
         "wall_s": wall,
     }
@@ -147,8 +154,8 @@ def run(quick: bool) -> dict[str, Any]:
         rows.append({"name": "optroute plan_voyage", "error": f"{type(exc).__name__}: {str(exc)[:300]}"})
     base = rows[1]
     print("| route | fuel [t] | fuel / APF | arrival (UTC) | vs APF [h] | closest to R [km] | inside R [h] | "
-          "inside R+30 km [h] | slowest STW [kn] | wall [s] |")  # fmt: skip
-    print("|---|---:|---:|---|---:|---:|---:|---:|---:|---:|")
+          "inside R+30 km [h] | slowest STW [kn] | max risk r | trigger holds [h] | wall [s] |")  # fmt: skip
+    print("|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
         if "error" in r:
             print(f"| {r['name']} | {r['error']} |")
@@ -156,7 +163,8 @@ def run(quick: bool) -> dict[str, Any]:
         print(
             f"| {r['name']} | {r['fuel_t']:.1f} | {r['fuel_t'] / base['fuel_t']:.3f} | {r['arrival']} | "
             f"{r['duration_h'] - base['duration_h']:+.1f} | {r['closest_km']:.0f} | {r['inside_r_h']:.1f} | "
-            f"{r['inside_safe_h']:.1f} | {r['min_stw_kn']:.1f} | {r['wall_s']:.1f} |"
+            f"{r['inside_safe_h']:.1f} | {r['min_stw_kn']:.1f} | {r['max_risk']:.2f} | {r['triggered_h']:.1f} | "
+            f"{r['wall_s']:.1f} |"
         )
     print(
         f"\nThe patent's figures for its real case (not this synthetic one): actual track {PATENT['actual_fuel_t']} t "
