@@ -274,3 +274,20 @@ def test_cli_cyclone_option_builds_the_circle_and_names_bad_files(bdeck, tmp_pat
         cyclone_exclusion(argparse.Namespace(cyclone=str(bad), margin_km=30.0, cone_km_per_h=None))
     with pytest.raises(orx.ConfigError, match="--margin-km"):
         cyclone_exclusion(argparse.Namespace(cyclone=str(bdeck), margin_km=-1.0, cone_km_per_h=None))
+
+
+def test_piece_hits_by_hand():
+    from optroute.search.exclusion import piece_hits
+
+    # a 10 nm circle at (0, 0) for 10 h that then moves east at 60 nm/h to (0, 1) at hour 11
+    t0 = np.datetime64("2022-10-13T00:00", "ns")
+    excl = Exclusion(t0 + np.array([0, 10, 11], dtype="timedelta64[h]"), 0.0, [0.0, 0.0, 1.0], 10.0)
+    one = np.ones(1)
+
+    def hits(lon_mid, t_h):  # a 20 nm piece sailing north, centred on the equator, entered at t_h, 2 h long
+        return bool(piece_hits(excl, t0, 0 * one, lon_mid * one, 0 * one, 20 * one, t_h * one, 2 * one, 1.0)[0])
+
+    assert hits(0.1, 0.0)  # 6 nm abeam of the centre at closest: inside 10 nm
+    assert not hits(0.5, 0.0)  # 30 nm abeam: outside 10 nm + the 1 nm sampling pad
+    assert not hits(0.1, 20.0)  # the circle has moved to 1 E (held there after the track ends)
+    assert hits(1.0, 20.0)
