@@ -69,11 +69,13 @@ _LAZY: dict[str, str] = {
     "apf_avoidance": "optroute.voyage.apf",
     "read_track": "optroute.weather.cyclone_tracks",
     "ReplanPolicy": "optroute.voyage",
+    "OnboardObserver": "optroute.voyage",
     "VoyageOutcome": "optroute.voyage",
     "simulate_voyage": "optroute.voyage",
     "WeatherSampler": "optroute.weather",
     "load_weather": "optroute.weather",
     "open_weather": "optroute.weather",
+    "open_forecasts": "optroute.weather",
     "scenarios": "optroute.weather",
 }
 
@@ -88,9 +90,9 @@ if TYPE_CHECKING:  # what the lazy names resolve to, for type checkers and IDEs
     from optroute.studies.study import SchedulerUnreachable, StudyError, load_study, run_study
     from optroute.studies.tradeoff import TradeoffFront, tradeoff
     from optroute.studies.voyage_study import study
-    from optroute.voyage import ReplanPolicy, VoyageOutcome, simulate_voyage
+    from optroute.voyage import OnboardObserver, ReplanPolicy, VoyageOutcome, simulate_voyage
     from optroute.voyage.apf import apf_avoidance
-    from optroute.weather import WeatherSampler, load_weather, open_weather, scenarios
+    from optroute.weather import WeatherSampler, load_weather, open_forecasts, open_weather, scenarios
     from optroute.weather.cyclone_tracks import read_track
 
 
@@ -145,6 +147,7 @@ __all__ = [
     "TradeoffFront",
     "tradeoff",
     "study",
+    "OnboardObserver",
     "ReplanPolicy",
     "VoyageOutcome",
     "simulate_voyage",
@@ -152,6 +155,7 @@ __all__ = [
     "read_track",
     "WeatherSampler",
     "load_weather",
+    "open_forecasts",
     "open_weather",
     "scenarios",
 ]
