@@ -291,3 +291,18 @@ def test_piece_hits_by_hand():
     assert not hits(0.5, 0.0)  # 30 nm abeam: outside 10 nm + the 1 nm sampling pad
     assert not hits(0.1, 20.0)  # the circle has moved to 1 E (held there after the track ends)
     assert hits(1.0, 20.0)
+
+
+def test_dp_search_keeps_out_of_r_plus_margin(small_case):
+    # without the exclusion this DP route (same options) passes 46 km inside R; with it, outside R + 30 km
+    ds, track, _ = small_case
+    ship = orx.Ship.preset("general_cargo_25k_dwt")
+    excl = Exclusion.from_track(track, margin_km=30.0, cone_km_per_h=0.0)
+    route = orx.search_route(
+        (13.0, 126.0), (18.5, 126.0), ds, ship, departure=T0, objective="fuel", eta=T0 + np.timedelta64(40, "h"),
+        method="dp", exclusion=excl, use_land_mask=False,
+        dp_options={"dx_nm": 60.0, "dy_nm": 30.0, "half_width_nm": 240.0, "dt_h": 1.0},
+    )  # fmt: skip
+    plan = orx.Plan.from_schedule(route.waypoints, route.stw_kn, departure=T0, ship=ship, weather=ds,
+                                  times=route.times, use_land_mask=False)  # fmt: skip
+    assert _brute_min_gap_km(plan, track) >= 30.0

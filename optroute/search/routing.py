@@ -537,7 +537,7 @@ def search_route(
         A moving circle to stay out of (a cyclone's force-7 radius + margin,
         :meth:`optroute.Exclusion.from_track`): a leg is infeasible where any point of it is
         inside the circle at the time the ship is there (:func:`optroute.search.exclusion.avoiding`;
-        for the DP, its navigability test at each point and time).
+        for the DP, its navigability test at each node and piece point, every ``piece_nm``, at its time).
 
     Returns
     -------
