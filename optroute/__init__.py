@@ -66,6 +66,8 @@ _LAZY: dict[str, str] = {
     "TradeoffFront": "optroute.studies.tradeoff",
     "tradeoff": "optroute.studies.tradeoff",
     "study": "optroute.studies.voyage_study",
+    "apf_avoidance": "optroute.voyage.apf",
+    "read_track": "optroute.weather.cyclone_tracks",
     "ReplanPolicy": "optroute.voyage",
     "OnboardObserver": "optroute.voyage",
     "VoyageOutcome": "optroute.voyage",
@@ -89,7 +91,9 @@ if TYPE_CHECKING:  # what the lazy names resolve to, for type checkers and IDEs
     from optroute.studies.tradeoff import TradeoffFront, tradeoff
     from optroute.studies.voyage_study import study
     from optroute.voyage import OnboardObserver, ReplanPolicy, VoyageOutcome, simulate_voyage
+    from optroute.voyage.apf import apf_avoidance
     from optroute.weather import WeatherSampler, load_weather, open_forecasts, open_weather, scenarios
+    from optroute.weather.cyclone_tracks import read_track
 
 
 def __getattr__(name: str) -> Any:
@@ -147,6 +151,8 @@ __all__ = [
     "ReplanPolicy",
     "VoyageOutcome",
     "simulate_voyage",
+    "apf_avoidance",
+    "read_track",
     "WeatherSampler",
     "load_weather",
     "open_forecasts",
