@@ -28,6 +28,7 @@ from optroute.physics.passage import SeaState, SpeedChoice, best_speed, cheapest
 from optroute.physics.performance import PerformanceModel, default_model
 from optroute.physics.safety import BANDS, BandRules, band_margins
 from optroute.physics.ship import Ship
+from optroute.physics.yacht import SailingVessel
 from optroute.search import passage_kernels
 from optroute.search.dijkstra import shortest_path
 from optroute.search.dp import solve_dp
@@ -36,6 +37,7 @@ from optroute.search.neighbourhood import Neighbourhood, angular_resolution, com
 from optroute.search.passage_kernels import MODE_CHEAPEST, MODE_TIME
 from optroute.search.piece_geometry import check_points, cumulative, piece_points, points_along
 from optroute.search.route import Corridor, Route
+from optroute.search.sailing import SailingGrid, SailingRoute, SailObjective, search_sailing_route
 from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
 from optroute.weather.sample import WeatherSampler
@@ -433,10 +435,10 @@ def search_route(
     start: tuple[float, float],
     end: tuple[float, float],
     weather: xr.Dataset | WeatherSampler,
-    ship: Ship,
+    ship: Ship | None = None,
     *,
     departure: Any,
-    objective: Objective = "time",
+    objective: Objective | SailObjective = "time",
     eta: Any = None,
     method: Method = "astar",
     angular_resolution_deg: float | None = 5.0,
@@ -458,7 +460,10 @@ def search_route(
     band_check_nm: float | None = 10.0,
     dp_options: dict[str, Any] | None = None,
     compiled: bool = True,
-) -> Route:
+    vessel: SailingVessel | None = None,
+    manoeuvre_penalty_h: float | None = None,
+    sailing_grid: SailingGrid | None = None,
+) -> Route | SailingRoute:
     """Search the route corridor through forecast weather.
 
     Parameters
@@ -530,10 +535,22 @@ def search_route(
         performance models and in-memory weather; default), or with the numpy
         callbacks only (the same route and costs to rounding; slower, kept as
         the reference the kernels are tested against).
+    vessel : SailingVessel, optional
+        A sailing boat instead of ``ship``: the route is searched by
+        :func:`optroute.search.sailing.search_sailing_route` on a
+        latitude/longitude lattice of ``cell_nm`` spacing (or ``sailing_grid``)
+        with ``directions`` = 8, 16 (default) or 32 headings, ``margin_nm``
+        (default 5 nm), ``objective`` = ``"time"``, ``"manoeuvres"`` or
+        ``"weighted"`` (with ``manoeuvre_penalty_h`` [h]); the weather needs
+        wind only.  The ship-only options are not used.
+    manoeuvre_penalty_h : float, optional
+        Sailing, ``objective="weighted"``: hours one tack or gybe is worth [h].
+    sailing_grid : SailingGrid, optional
+        Sailing: the lattice (default one around start and end).
 
     Returns
     -------
-    Route
+    Route or SailingRoute
         For the grid search, ``stats["pieces"]`` holds the per-piece records
         of the route (``leg``, ``lat_deg``/``lon_deg`` of the midpoint,
         ``course_deg``, ``length_nm``, ``t_h`` entry [h from departure],
@@ -551,6 +568,18 @@ def search_route(
     WeatherCoverageError
         The voyage leaves the weather's area or time span.
     """
+    if vessel is not None:
+        if ship is not None:
+            raise ConfigError("give either ship (engine-driven) or vessel (sailing), not both")
+        if not isinstance(weather, xr.Dataset):
+            raise ConfigError("a sailing search takes the weather as a canonical xarray.Dataset with wind")
+        return search_sailing_route(
+            start, end, weather, vessel, departure=departure, directions=16 if directions is None else directions,
+            grid=sailing_grid, cell_nm=cell_nm, margin_nm=5.0 if margin_nm is None else margin_nm,
+            objective=objective, manoeuvre_penalty_h=manoeuvre_penalty_h,  # type: ignore[arg-type]
+        )  # fmt: skip
+    if ship is None:
+        raise ConfigError("search_route needs a ship (or vessel=SailingVessel for a sailing boat)")
     t_start = _time.perf_counter()
     if objective not in ("time", "fuel", "cost"):
         raise ConfigError(f"objective={objective!r} is not known; use 'time', 'fuel' or 'cost'")
