@@ -34,7 +34,8 @@ def yacht() -> SailingVessel:
 def _wind(u_ms, v_ms, times=(T0,), lat=(-0.2, 0.6), lon=(-0.3, 0.3), **attrs):
     lat_ax, lon_ax = np.linspace(*lat, 9), np.linspace(*lon, 7)
     return canonical_dataset(np.array(times, dtype="datetime64[ns]"), lat_ax, lon_ax,
-                             {"wind_u_ms": u_ms, "wind_v_ms": v_ms}, attrs={"source": "test wind", **attrs})  # fmt: skip
+                             {"wind_u_ms": u_ms, "wind_v_ms": v_ms},
+                             attrs={"source": "test wind", "geography": "synthetic", **attrs})  # fmt: skip
 
 
 @pytest.fixture(scope="module")

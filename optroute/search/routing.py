@@ -37,7 +37,7 @@ from optroute.search.neighbourhood import Neighbourhood, angular_resolution, com
 from optroute.search.passage_kernels import MODE_CHEAPEST, MODE_TIME
 from optroute.search.piece_geometry import check_points, cumulative, piece_points, points_along
 from optroute.search.route import Corridor, Route
-from optroute.search.sailing import SailingGrid, SailingRoute, SailObjective, search_sailing_route
+from optroute.search.sailing import SailingGraph, SailingGrid, SailingRoute, SailObjective, search_sailing_route
 from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
 from optroute.weather.sample import WeatherSampler
@@ -462,7 +462,7 @@ def search_route(
     compiled: bool = True,
     vessel: SailingVessel | None = None,
     manoeuvre_penalty_h: float | None = None,
-    sailing_grid: SailingGrid | None = None,
+    sailing_grid: SailingGrid | SailingGraph | None = None,
 ) -> Route | SailingRoute:
     """Search the route corridor through forecast weather.
 
@@ -545,8 +545,8 @@ def search_route(
         wind only.  The ship-only options are not used.
     manoeuvre_penalty_h : float, optional
         Sailing, ``objective="weighted"``: hours one tack or gybe is worth [h].
-    sailing_grid : SailingGrid, optional
-        Sailing: the lattice (default one around start and end).
+    sailing_grid : SailingGrid or SailingGraph, optional
+        Sailing: the lattice (default one around start and end) or its graph.
 
     Returns
     -------
@@ -574,8 +574,8 @@ def search_route(
         if not isinstance(weather, xr.Dataset):
             raise ConfigError("a sailing search takes the weather as a canonical xarray.Dataset with wind")
         return search_sailing_route(
-            start, end, weather, vessel, departure=departure, directions=16 if directions is None else directions,
-            grid=sailing_grid, cell_nm=cell_nm, margin_nm=5.0 if margin_nm is None else margin_nm,
+            start, end, weather, vessel, departure=departure, directions=directions,
+            grid=sailing_grid, use_land_mask=use_land_mask, cell_nm=cell_nm, margin_nm=5.0 if margin_nm is None else margin_nm,
             objective=objective, manoeuvre_penalty_h=manoeuvre_penalty_h,  # type: ignore[arg-type]
         )  # fmt: skip
     if ship is None:

@@ -35,6 +35,7 @@ import xarray as xr
 from optroute import geodesy as geo
 from optroute import units
 from optroute.errors import ConfigError, NoSafePassage, WeatherCoverageError, WeatherSchemaError
+from optroute.geo import land
 from optroute.physics.yacht import TACK_NAMES, SailingVessel, check_vessel, manoeuvre_kind, wind_kn_from
 from optroute.search import sailing_kernel as sk
 from optroute.search.neighbourhood import Neighbourhood, compass
@@ -124,6 +125,75 @@ class SailingGrid:
     def n_edges(self, nb: Neighbourhood) -> int:
         """Number of directed edges ``|E|`` inside the lattice."""
         return int((self.edges(nb)[0] >= 0).sum())
+
+
+@dataclass(frozen=True, eq=False)
+class SailingGraph:
+    """The lattice's edges for one heading set, without the legs that touch land (the paper's ``G(V, E)``).
+
+    Build it once (:meth:`build`) and pass it as ``grid=`` to search many
+    departures or winds on the same graph.
+
+    Attributes
+    ----------
+    grid : SailingGrid
+    directions : int
+        8, 16 or 32.
+    target : ndarray of int, shape (nodes, directions)
+        Node each heading reaches, −1 where the edge leaves the lattice or touches land.
+    length_nm, course_deg : ndarray, shape (nodes, directions)
+        Great-circle length [nm] and initial course [deg true] of each edge.
+    sea : ndarray of bool, shape (nodes,)
+        Nodes at sea (all of them without the land mask).
+    land_resolution_nm : float or None
+        Spacing of the land checks along each edge [nm]; None: no land mask.
+    """
+
+    grid: SailingGrid
+    directions: int
+    target: np.ndarray = field(repr=False)
+    length_nm: np.ndarray = field(repr=False)
+    course_deg: np.ndarray = field(repr=False)
+    sea: np.ndarray = field(repr=False)
+    land_resolution_nm: float | None = None
+
+    @classmethod
+    def build(cls, grid: SailingGrid, directions: int = 16, *, use_land_mask: bool = True,
+              land_resolution_nm: float = 0.25) -> SailingGraph:  # fmt: skip
+        """The graph of ``grid`` with Życkowski's ``directions``; with the coastline (GLOBE 30") unless told not."""
+        nb = compass(directions)
+        target, length, course = grid.edges(nb)
+        sea = np.ones(grid.n_nodes, dtype=bool)
+        if use_land_mask:
+            la, lo = grid.node_latlon(np.arange(grid.n_nodes))
+            sea = ~land.is_land(la, lo)
+            k, d = np.nonzero(target >= 0)
+            t = target[k, d]
+            ok = sea[k] & sea[t]
+            ok[ok] = ~land.legs_cross_land(la[k[ok]], lo[k[ok]], la[t[ok]], lo[t[ok]], land_resolution_nm,
+                                           use_land_mask=True)  # fmt: skip
+            target = target.copy()
+            target[k[~ok], d[~ok]] = -1
+        for a in (target, length, course, sea):
+            a.setflags(write=False)
+        res = float(land_resolution_nm) if use_land_mask else None
+        return cls(grid, int(directions), target, length, course, sea, res)
+
+    @property
+    def n_vertices(self) -> int:
+        """Nodes at sea ``|V|``."""
+        return int(self.sea.sum())
+
+    @property
+    def n_edges(self) -> int:
+        """Directed edges ``|E|`` (each way counted)."""
+        return int((self.target >= 0).sum())
+
+    def nearest_sea(self, lat: float, lon: float) -> int:
+        """Flat index of the sea node nearest (great circle) to a position."""
+        la, lo = self.grid.node_latlon(np.flatnonzero(self.sea))
+        k = int(np.argmin(geo.distance_nm(lat, lon, la, lo)))
+        return int(np.flatnonzero(self.sea)[k])
 
 
 @dataclass(frozen=True)
@@ -250,7 +320,7 @@ def _manoeuvres(twa, mot, time, t_h, lat, lon) -> list[Manoeuvre]:
     return out
 
 
-def _wind_slices(sampler: WeatherSampler, weather: xr.Dataset, grid: SailingGrid, t0: np.datetime64):
+def _wind_slices(sampler: WeatherSampler, weather: xr.Dataset, graph: SailingGraph, t0: np.datetime64):
     """Wind (u, v) [m/s] at every node at each forecast step from the one at or before departure; step times [h]."""
     times = weather["time"].values.astype("datetime64[ns]")
     first = int(np.searchsorted(times, t0, side="right")) - 1
@@ -258,15 +328,19 @@ def _wind_slices(sampler: WeatherSampler, weather: xr.Dataset, grid: SailingGrid
         raise WeatherCoverageError(f"departure {units.format_utc(t0)} is before the weather's first time "
                                    f"{units.format_utc(times[0])}; depart later or give earlier weather")  # fmt: skip
     steps = times[first:]
-    la, lo = grid.node_latlon(np.arange(grid.n_nodes))
+    nodes = np.flatnonzero(graph.sea)  # land nodes have no edges: their wind is never read (left 0)
+    la, lo = graph.grid.node_latlon(nodes)
     tt = np.repeat(steps, la.size)
     wx = sampler.sample(tt, np.tile(la, steps.size), np.tile(lo, steps.size), variables=["wind_u_ms", "wind_v_ms"])
-    u = wx["wind_u_ms"].reshape(steps.size, la.size)
-    v = wx["wind_v_ms"].reshape(steps.size, la.size)
+    u = np.zeros((steps.size, graph.grid.n_nodes))
+    v = np.zeros_like(u)
+    u[:, nodes] = wx["wind_u_ms"].reshape(steps.size, la.size)
+    v[:, nodes] = wx["wind_v_ms"].reshape(steps.size, la.size)
     if not (np.all(np.isfinite(u)) and np.all(np.isfinite(v))):
-        k = int(np.flatnonzero(~np.isfinite(u + v))[0])
-        raise WeatherCoverageError(f"the wind is missing (NaN) at node ({la[k % la.size]:.4f}, {lo[k % la.size]:.4f}) "
-                                   f"in {sampler.source}; mask that node out of the lattice or fill the wind")  # fmt: skip
+        k = int(np.flatnonzero(~np.isfinite(u + v))[0]) % graph.grid.n_nodes
+        la_k, lo_k = graph.grid.node_latlon(k)
+        raise WeatherCoverageError(f"the wind is missing (NaN) at node ({la_k:.4f}, {lo_k:.4f}) in {sampler.source}; "
+                                   "fill the wind there or keep the lattice off it")  # fmt: skip
     return u, v, (steps - t0) / np.timedelta64(1, "h")
 
 
@@ -301,12 +375,13 @@ def search_sailing_route(
     vessel: SailingVessel,
     *,
     departure: Any,
-    directions: int = 16,
-    grid: SailingGrid | None = None,
+    directions: int | None = None,
+    grid: SailingGrid | SailingGraph | None = None,
     cell_nm: float = 1.0,
     margin_nm: float = 5.0,
     objective: SailObjective = "time",
     manoeuvre_penalty_h: float | None = None,
+    use_land_mask: bool | None = None,
 ) -> SailingRoute:
     """Search a sailing route through the wind.
 
@@ -321,10 +396,15 @@ def search_sailing_route(
     vessel : SailingVessel
     departure : datetime64 or str
         Departure [UTC].
-    directions : {8, 16, 32}
-        Życkowski's heading sets.
-    grid : SailingGrid, optional
-        The lattice; default :meth:`SailingGrid.around` with ``cell_nm`` and ``margin_nm`` [nm].
+    directions : {8, 16, 32}, optional
+        Życkowski's heading sets; default 16, or the graph's.
+    grid : SailingGrid or SailingGraph, optional
+        The lattice (default :meth:`SailingGrid.around` with ``cell_nm`` and
+        ``margin_nm`` [nm]) or a graph built once with :meth:`SailingGraph.build`.
+    use_land_mask : bool, optional
+        Remove the edges that touch land (GLOBE 30" coastline, checked every
+        0.25 nm); default: yes, unless the weather's ``attrs["geography"]`` is
+        ``"synthetic"``.  Ignored when ``grid`` is a graph.
     objective : {"time", "manoeuvres", "weighted"}
     manoeuvre_penalty_h : float
         For ``"weighted"``: hours one manoeuvre is worth [h], ≥ 0.
@@ -350,14 +430,14 @@ def search_sailing_route(
                               f"got {manoeuvre_penalty_h!r}")  # fmt: skip
         pen = float(manoeuvre_penalty_h)
     t0 = as_utc_time(departure, "departure")
-    nb = compass(directions)
-    grid = grid or SailingGrid.around(start, end, cell_nm, margin_nm)
+    graph = _graph(start, end, weather, directions, grid, cell_nm, margin_nm, use_land_mask)
+    grid, directions = graph.grid, graph.directions
+    target, length, course = graph.target, graph.length_nm, graph.course_deg
     sampler = _sampler(weather)
-    target, length, course = grid.edges(nb)
-    u, v, slice_h = _wind_slices(sampler, weather, grid, t0)
+    u, v, slice_h = _wind_slices(sampler, weather, graph, t0)
     cap = _check_wind(vessel, u, v, sampler.source)
     hold = sampler.time_policy == "hold"
-    src, dst = grid.nearest(*start), grid.nearest(*end)
+    src, dst = graph.nearest_sea(*start), graph.nearest_sea(*end)
     if src == dst:
         raise ConfigError(f"start {start} and end {end} fall on the same lattice node; use a finer grid")
     tables = (*vessel.polar.kernel_tables, cap)
@@ -396,7 +476,7 @@ def search_sailing_route(
     man = _manoeuvres(legs["twa"], mot, time, t_h, lat, lon)
     dirs = legs["dirs"]
     run_s = _time.perf_counter() - t_start
-    st = {"vertices": grid.n_nodes, "edges": int((target >= 0).sum()), "directions": int(directions),
+    st = {"vertices": graph.n_vertices, "edges": graph.n_edges, "directions": int(directions),
           "build_s": build_s, "search_s": run_s - build_s, "runtime_s": run_s, "pops": int(stats[0]),
           "relaxations": int(stats[1]), "start_node": (float(lat[0]), float(lon[0])),
           "end_node": (float(lat[-1]), float(lon[-1]))}  # fmt: skip
@@ -407,6 +487,19 @@ def search_sailing_route(
         heading_changes=int(np.count_nonzero(np.diff(dirs))), objective=objective, status="optimal",
         front=front, stats=st,
     )  # fmt: skip
+
+
+def _graph(start, end, weather, directions, grid, cell_nm, margin_nm, use_land_mask) -> SailingGraph:
+    if isinstance(grid, SailingGraph):
+        if directions is not None and int(directions) != grid.directions:
+            raise ConfigError(f"directions={directions} but the graph was built with {grid.directions}; "
+                              "build a graph for those directions or leave directions out")  # fmt: skip
+        return grid
+    if grid is not None and not isinstance(grid, SailingGrid):
+        raise ConfigError(f"grid must be a SailingGrid or SailingGraph, got {type(grid).__name__}")
+    grid = grid or SailingGrid.around(start, end, cell_nm, margin_nm)
+    use = use_land_mask if use_land_mask is not None else weather.attrs.get("geography") != land.SYNTHETIC_GEOGRAPHY
+    return SailingGraph.build(grid, 16 if directions is None else int(directions), use_land_mask=bool(use))
 
 
 def _no_route(cut: float, weather: xr.Dataset, vessel: SailingVessel) -> None:
