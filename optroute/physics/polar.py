@@ -22,7 +22,9 @@ speeds are all positive — give 0 (the table must be zero there, or the reader
 says which entry is not).  Below the smallest table wind speed the speed falls
 to 0 at 0 kn (a zero column is added); above the largest, evaluation raises
 unless ``above_max_tws="hold"`` is chosen (the largest column's speeds).
-Speeds are the model's, never negative.
+The model's speeds stay within 0 and the largest of the cell's four corners
+(the patch's overshoot is cut there), so no speed exceeds the table's largest:
+the search's A* bound relies on it.
 
 hrosailing (0.12.0) was evaluated and not used: its table polar interpolates
 scattered neighbourhoods (inverse-distance / arithmetic-mean interpolators), not
@@ -77,20 +79,22 @@ def _pchip_slopes(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return d
 
 
-@jit
+@jit(inline="always")
 def _cell(x, nodes):  # pragma: no cover - compiled
     """Cell index k (nodes[k] <= x <= nodes[k+1]) and local coordinate t in [0, 1]."""
-    n = nodes.size
-    k = np.searchsorted(nodes, x, side="right") - 1
-    if k < 0:
-        k = 0
-    if k > n - 2:
-        k = n - 2
+    lo, hi = 0, nodes.size - 2  # bisection (numba's searchsorted on a scalar allocates)
+    while lo < hi:
+        mid = (lo + hi + 1) >> 1
+        if nodes[mid] <= x:
+            lo = mid
+        else:
+            hi = mid - 1
+    k = lo
     h = nodes[k + 1] - nodes[k]
     return k, (x - nodes[k]) / h, h
 
 
-@jit
+@jit(inline="always")
 def polar_speed_scalar(abs_twa_deg, tws_kn, twa_nodes, tws_nodes, f, fa, fw, no_go_deg):  # pragma: no cover
     """Boat speed [kn] at one ``|TWA|`` [deg, 0–180] and TWS [kn, within the nodes]; 0 inside the no-go sector.
 
@@ -111,7 +115,8 @@ def polar_speed_scalar(abs_twa_deg, tws_kn, twa_nodes, tws_nodes, f, fa, fw, no_
         + (b0 * c0 * fa[i, j] + b1 * c0 * fa[i + 1, j] + b0 * c1 * fa[i, j + 1] + b1 * c1 * fa[i + 1, j + 1])
         + (a0 * d0 * fw[i, j] + a1 * d0 * fw[i + 1, j] + a0 * d1 * fw[i, j + 1] + a1 * d1 * fw[i + 1, j + 1])
     )  # fmt: skip
-    return s if s > 0.0 else 0.0
+    top = max(max(f[i, j], f[i + 1, j]), max(f[i, j + 1], f[i + 1, j + 1]))
+    return 0.0 if s < 0.0 else (top if s > top else s)
 
 
 @jit
@@ -219,6 +224,11 @@ class Polar:
     def kernel_tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
         """``(twa_nodes, tws_nodes, f, f_twa, f_tws, no_go_deg)`` for :func:`polar_speed_scalar`."""
         return (*self._tables, self.no_go_deg)  # type: ignore[attr-defined]
+
+    @property
+    def max_speed_kn(self) -> float:
+        """Largest boat speed of the table [kn]: no interpolated speed exceeds it."""
+        return float(self.speed_kn.max())
 
     @property
     def max_tws_kn(self) -> float:

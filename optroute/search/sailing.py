@@ -320,34 +320,70 @@ def _manoeuvres(twa, mot, time, t_h, lat, lon) -> list[Manoeuvre]:
     return out
 
 
-def _wind_slices(sampler: WeatherSampler, weather: xr.Dataset, graph: SailingGraph, t0: np.datetime64):
-    """Wind (u, v) [m/s] at every node at each forecast step from the one at or before departure; step times [h]."""
-    times = weather["time"].values.astype("datetime64[ns]")
-    first = int(np.searchsorted(times, t0, side="right")) - 1
-    if first < 0:
-        raise WeatherCoverageError(f"departure {units.format_utc(t0)} is before the weather's first time "
-                                   f"{units.format_utc(times[0])}; depart later or give earlier weather")  # fmt: skip
-    steps = times[first:]
-    nodes = np.flatnonzero(graph.sea)  # land nodes have no edges: their wind is never read (left 0)
-    la, lo = graph.grid.node_latlon(nodes)
-    tt = np.repeat(steps, la.size)
-    wx = sampler.sample(tt, np.tile(la, steps.size), np.tile(lo, steps.size), variables=["wind_u_ms", "wind_v_ms"])
-    u = np.zeros((steps.size, graph.grid.n_nodes))
-    v = np.zeros_like(u)
-    u[:, nodes] = wx["wind_u_ms"].reshape(steps.size, la.size)
-    v[:, nodes] = wx["wind_v_ms"].reshape(steps.size, la.size)
-    if not (np.all(np.isfinite(u)) and np.all(np.isfinite(v))):
-        k = int(np.flatnonzero(~np.isfinite(u + v))[0]) % graph.grid.n_nodes
-        la_k, lo_k = graph.grid.node_latlon(k)
-        raise WeatherCoverageError(f"the wind is missing (NaN) at node ({la_k:.4f}, {lo_k:.4f}) in {sampler.source}; "
-                                   "fill the wind there or keep the lattice off it")  # fmt: skip
-    return u, v, (steps - t0) / np.timedelta64(1, "h")
+@dataclass(frozen=True, eq=False)
+class GraphWind:
+    """A forecast's wind at a graph's sea nodes, every step (the paper's ``State(t)`` for all ``t``).
+
+    Build it once per forecast and graph with :meth:`sample` and pass it as
+    ``weather`` to search many departures; :meth:`SailingRoute.verify` still
+    takes the dataset.
+
+    Attributes
+    ----------
+    graph : SailingGraph
+    times : ndarray of datetime64, shape (k,)
+        The forecast steps [UTC].
+    u_ms, v_ms : ndarray, shape (k, nodes)
+        Wind components [m/s, the vector it blows to] at every node (0 at land
+        nodes, which have no edges and are never read).
+    hold : bool
+        Whether the last step's wind holds after it (``time_policy="hold"`` or a single step).
+    source : str
+    """
+
+    graph: SailingGraph
+    times: np.ndarray = field(repr=False)
+    u_ms: np.ndarray = field(repr=False)
+    v_ms: np.ndarray = field(repr=False)
+    hold: bool = False
+    source: str = "weather"
+
+    @classmethod
+    def sample(cls, graph: SailingGraph, weather: xr.Dataset) -> GraphWind:
+        """Interpolate the weather's wind (:class:`WeatherSampler`) at the graph's sea nodes at every step."""
+        sampler = _sampler(weather)
+        steps = weather["time"].values.astype("datetime64[ns]")
+        nodes = np.flatnonzero(graph.sea)
+        la, lo = graph.grid.node_latlon(nodes)
+        wx = sampler.sample(np.repeat(steps, la.size), np.tile(la, steps.size), np.tile(lo, steps.size),
+                            variables=["wind_u_ms", "wind_v_ms"])  # fmt: skip
+        u = np.zeros((steps.size, graph.grid.n_nodes))
+        v = np.zeros_like(u)
+        u[:, nodes] = wx["wind_u_ms"].reshape(steps.size, la.size)
+        v[:, nodes] = wx["wind_v_ms"].reshape(steps.size, la.size)
+        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(v))):
+            k = int(np.flatnonzero(~np.isfinite(u + v))[0]) % graph.grid.n_nodes
+            la_k, lo_k = graph.grid.node_latlon(k)
+            raise WeatherCoverageError(f"the wind is missing (NaN) at node ({la_k:.4f}, {lo_k:.4f}) in "
+                                       f"{sampler.source}; fill the wind there or keep the lattice off it")  # fmt: skip
+        for a in (steps, u, v):
+            a.setflags(write=False)
+        return cls(graph, steps, u, v, sampler.time_policy == "hold", sampler.source)
+
+    def from_departure(self, t0: np.datetime64) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(u, v, step times [h after departure]) from the step at or before departure on."""
+        first = int(np.searchsorted(self.times, t0, side="right")) - 1
+        if first < 0:
+            raise WeatherCoverageError(f"departure {units.format_utc(t0)} is before the weather's first time "
+                                       f"{units.format_utc(self.times[0])}; depart later or give earlier weather")  # fmt: skip
+        slice_h = (self.times[first:] - t0) / np.timedelta64(1, "h")
+        return np.ascontiguousarray(self.u_ms[first:]), np.ascontiguousarray(self.v_ms[first:]), slice_h
 
 
 def _check_wind(vessel: SailingVessel, u: np.ndarray, v: np.ndarray, source: str) -> float:
-    tws, _ = wind_kn_from(u, v)
-    if vessel.polar.above_max_tws == "raise" and tws.max() > vessel.polar.max_tws_kn:
-        vessel.polar.checked_tws(tws, source=f"{source} (somewhere on the lattice)")
+    top = float(units.ms_to_kn(np.sqrt(np.max(u * u + v * v))))
+    if vessel.polar.above_max_tws == "raise" and top > vessel.polar.max_tws_kn:
+        vessel.polar.checked_tws(top, source=f"{source} (somewhere on the lattice)")
     return float(vessel.polar.max_tws_kn) if vessel.polar.above_max_tws == "hold" else float("inf")
 
 
@@ -371,7 +407,7 @@ def _path(res, grid: SailingGrid, target: np.ndarray, state: int, layers: int, t
 def search_sailing_route(
     start: tuple[float, float],
     end: tuple[float, float],
-    weather: xr.Dataset,
+    weather: xr.Dataset | GraphWind,
     vessel: SailingVessel,
     *,
     departure: Any,
@@ -389,10 +425,12 @@ def search_sailing_route(
     ----------
     start, end : (float, float)
         (lat, lon) [deg]; each is sailed from/to the nearest lattice node.
-    weather : xarray.Dataset
+    weather : xarray.Dataset or GraphWind
         Canonical weather with ``wind_u_ms``/``wind_v_ms`` [m/s]; waves are not
         needed.  ``time_policy="hold"`` in its attrs holds the last step's wind
-        beyond its end; a single time step is a steady wind.
+        beyond its end; a single time step is a steady wind.  Or that wind
+        already sampled on the graph (:meth:`GraphWind.sample`), whose graph
+        is then the search's.
     vessel : SailingVessel
     departure : datetime64 or str
         Departure [UTC].
@@ -433,10 +471,12 @@ def search_sailing_route(
     graph = _graph(start, end, weather, directions, grid, cell_nm, margin_nm, use_land_mask)
     grid, directions = graph.grid, graph.directions
     target, length, course = graph.target, graph.length_nm, graph.course_deg
-    sampler = _sampler(weather)
-    u, v, slice_h = _wind_slices(sampler, weather, graph, t0)
-    cap = _check_wind(vessel, u, v, sampler.source)
-    hold = sampler.time_policy == "hold"
+    gw = weather if isinstance(weather, GraphWind) else GraphWind.sample(graph, weather)
+    if gw.graph is not graph:
+        raise ConfigError("the GraphWind was sampled for another graph; pass grid=wind.graph or the dataset")
+    u, v, slice_h = gw.from_departure(t0)
+    cap = _check_wind(vessel, u, v, gw.source)
+    hold = gw.hold
     src, dst = graph.nearest_sea(*start), graph.nearest_sea(*end)
     if src == dst:
         raise ConfigError(f"start {start} and end {end} fall on the same lattice node; use a finer grid")
@@ -444,9 +484,11 @@ def search_sailing_route(
     lo, motor = vessel.motor_kernel
     build_s = _time.perf_counter() - t_start
 
+    h_node = _bound_h(graph, dst, max(vessel.polar.max_speed_kn, motor))
+
     def run(mode: int, layers: int = 1, stop_h: float = np.inf):
         return sk.sail_search(target, length, course, np.ascontiguousarray(u), np.ascontiguousarray(v), slice_h,
-                              hold, tables, lo, motor, src, dst, 0.0, mode, layers, stop_h)  # fmt: skip
+                              hold, tables, lo, motor, src, dst, 0.0, mode, layers, stop_h, h_node)  # fmt: skip
 
     mode = sk.MODE_FEWEST if objective == "manoeuvres" else sk.MODE_TIME
     res = run(mode)
@@ -489,7 +531,18 @@ def search_sailing_route(
     )  # fmt: skip
 
 
+def _bound_h(graph: SailingGraph, dst: int, v_max_kn: float) -> np.ndarray:
+    """A* bound [h]: great-circle distance to the end over the fastest speed, a hair below (rounding)."""
+    la, lo = graph.grid.node_latlon(np.arange(graph.grid.n_nodes))
+    la1, lo1 = graph.grid.node_latlon(dst)
+    return geo.distance_nm(la, lo, la1, lo1) / v_max_kn * (1.0 - 1e-9)
+
+
 def _graph(start, end, weather, directions, grid, cell_nm, margin_nm, use_land_mask) -> SailingGraph:
+    if isinstance(weather, GraphWind):
+        grid = weather.graph if grid is None else grid
+        if grid is not weather.graph:
+            raise ConfigError("the GraphWind was sampled for another graph; pass grid=wind.graph or the dataset")
     if isinstance(grid, SailingGraph):
         if directions is not None and int(directions) != grid.directions:
             raise ConfigError(f"directions={directions} but the graph was built with {grid.directions}; "
@@ -504,8 +557,9 @@ def _graph(start, end, weather, directions, grid, cell_nm, margin_nm, use_land_m
 
 def _no_route(cut: float, weather: xr.Dataset, vessel: SailingVessel) -> None:
     if cut:
+        last = weather.times[-1] if isinstance(weather, GraphWind) else weather["time"].values[-1]
         raise WeatherCoverageError(f"no route reached the end before the weather's last time "
-                                   f"{units.format_utc(weather['time'].values[-1])}; give weather that lasts longer, "
+                                   f"{units.format_utc(last)}; give weather that lasts longer, "
                                    "or time_policy='hold' in its attrs to hold the last wind")  # fmt: skip
     raise NoSafePassage(f"no sailable route reaches the end with {vessel.name}'s polar (no-go below "
                         f"{vessel.polar.no_go_deg:g} deg, calm wind sails nowhere): give motoring_below_kn and "

@@ -15,6 +15,11 @@ linear in time between the forecast's steps (the trilinear interpolation of
 the boat speed comes from :func:`optroute.physics.polar.polar_speed_scalar`,
 the polar's one implementation.  Departures after the last forecast step are
 not expanded (``hold`` = 0) and counted in ``stats[2]``.
+
+With ``h_node`` the great-circle distance to the end over the fastest speed
+the boat has (the polar's largest, never exceeded, or the engine's), the
+search is A*: the bound is consistent (a leg is never shorter than the great
+circle between its ends), so the answer is the same as Dijkstra's.
 """
 
 from __future__ import annotations
@@ -30,7 +35,7 @@ MODE_TIME, MODE_FEWEST, MODE_LAYERED = 0, 1, 2
 _RUN_TOL = 1e-9
 
 
-@jit
+@jit(inline="always")
 def _less(a1, a2, b1, b2):  # pragma: no cover - compiled
     return a1 < b1 or (a1 == b1 and a2 < b2)
 
@@ -80,7 +85,7 @@ def _grown(a, n):  # pragma: no cover - compiled
     return b
 
 
-@jit
+@jit(inline="always")
 def wind_at(u, v, slice_h, node, t_h, hold):  # pragma: no cover - compiled
     """(TWS [kn], from [deg], ok) at a node and time: linear in time between steps; ok False past the last step."""
     nk = slice_h.size
@@ -91,7 +96,9 @@ def wind_at(u, v, slice_h, node, t_h, hold):  # pragma: no cover - compiled
     elif t_h <= slice_h[0]:
         uu, vv = u[0, node], v[0, node]
     else:
-        k = np.searchsorted(slice_h, t_h, side="right") - 1
+        k = 0
+        while slice_h[k + 1] <= t_h:  # t_h < slice_h[nk - 1] here
+            k += 1
         w = (t_h - slice_h[k]) / (slice_h[k + 1] - slice_h[k])
         uu = u[k, node] + w * (u[k + 1, node] - u[k, node])
         vv = v[k, node] + w * (v[k + 1, node] - v[k, node])
@@ -100,7 +107,7 @@ def wind_at(u, v, slice_h, node, t_h, hold):  # pragma: no cover - compiled
     return tws, frm, True
 
 
-@jit
+@jit(inline="always")
 def _leg(course, tws, frm, tables, motor_below, motor_kn):  # pragma: no cover - compiled
     """(speed [kn], signed TWA [deg], tack code of the leg, motoring)."""
     twa_nodes, tws_nodes, f, fa, fw, no_go, tws_cap = tables
@@ -122,12 +129,14 @@ def _leg(course, tws, frm, tables, motor_below, motor_kn):  # pragma: no cover -
 @jit
 def sail_search(
     target, length_nm, course_deg, u, v, slice_h, hold, tables, motor_below, motor_kn,
-    src, dst, t0_h, mode, layers, stop_h,
+    src, dst, t0_h, mode, layers, stop_h, h_node,
 ):  # fmt: skip  # pragma: no cover - compiled
     """Label-setting search from ``src`` at ``t0_h``; returns per-state arrival, manoeuvres, predecessor, leg data.
 
     ``target[node, d]`` is the node an offset reaches (-1: off the grid);
-    ``stop_h`` ends a layered search once the popped time reaches it.
+    ``stop_h`` ends a layered search once the popped key reaches it; ``h_node``
+    [h] is a lower bound of the time from each node to ``dst`` (A*; zeros for
+    Dijkstra), added to the time in the keys.
     Returns ``(t_h, omega, pred, twa, speed, motoring, settled_dst, stats)``
     with ``stats = [pops, relaxations, cut_past_forecast, max_tws_seen]``.
     """
@@ -146,7 +155,8 @@ def sail_search(
     hs = np.empty(h1.size, dtype=np.int64)
     s0 = src * 3 * L
     t_arr[s0], om[s0] = t0_h, 0
-    n = _push(h1, h2, hs, 0, t0_h if mode != MODE_FEWEST else 0.0, 0.0 if mode != MODE_FEWEST else t0_h, s0)
+    f0 = t0_h + h_node[src]
+    n = _push(h1, h2, hs, 0, f0 if mode != MODE_FEWEST else 0.0, 0.0 if mode != MODE_FEWEST else f0, s0)
     stats = np.zeros(4)
     found = -1
     while n > 0:
@@ -164,7 +174,7 @@ def sail_search(
                 found = s
                 break
             continue
-        if mode == MODE_LAYERED and t >= stop_h:
+        if mode == MODE_LAYERED and k1 >= stop_h:
             break
         tws, frm, ok = wind_at(u, v, slice_h, node, t, hold)
         if not ok:
@@ -199,7 +209,7 @@ def sail_search(
                 t_arr[s2], om[s2], pred[s2] = t2, o2, s
                 twa_in[s2], spd_in[s2], mot_in[s2] = twa, spd, motoring
                 if mode == MODE_FEWEST:
-                    n = _push(h1, h2, hs, n, float(o2), t2, s2)
+                    n = _push(h1, h2, hs, n, float(o2), t2 + h_node[nxt], s2)
                 else:
-                    n = _push(h1, h2, hs, n, t2, float(o2), s2)
+                    n = _push(h1, h2, hs, n, t2 + h_node[nxt], float(o2), s2)
     return t_arr, om, pred, twa_in, spd_in, mot_in, found, stats
