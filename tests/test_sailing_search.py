@@ -159,3 +159,16 @@ def test_calm_is_no_passage_unless_the_boat_motors(yacht, beat_grid):
     r = _beat(motor, calm, beat_grid, directions=8)
     assert r.passage_h == pytest.approx(18 * CELL_NM / 5.0, rel=1e-4) and r.n_manoeuvres == 0
     assert r.motoring.all()
+
+
+def test_refinement_moves_tack_points_and_stays_out_of_the_no_go_sector(yacht, north_wind, beat_grid):
+    """Beating 18 nm dead upwind: refined < graph, ≥ the hand bound distance / best VMG, on the polar's beat angle."""
+    from optroute.search.sailing_refine import refine_sailing_route
+
+    graph = _beat(yacht, north_wind, beat_grid, directions=8, objective="manoeuvres")
+    refined = refine_sailing_route(graph, north_wind, yacht, sub_nm=3.0, max_iter=15)
+    beat_deg, vmg_kn, _, _ = yacht.polar.vmg_angles_deg(10.0)
+    assert refined.stats["refinement"] == "refined" and refined.n_manoeuvres == graph.n_manoeuvres
+    assert 18 * CELL_NM / vmg_kn * (1 - 1e-6) <= refined.passage_h < graph.passage_h
+    assert np.all(np.abs(refined.twa_deg) >= yacht.polar.no_go_deg) and refined.verify(north_wind, yacht)["ok"]
+    np.testing.assert_allclose(np.abs(refined.twa_deg), beat_deg, atol=0.05)  # off the lattice: the polar's own

@@ -281,19 +281,19 @@ class SailingRoute:
             ``no_go_legs`` (indices of sailed legs with speed 0 or ``|TWA|`` below
             the no-go limit); ``manoeuvres`` recounted.
         """
-        sampler = _sampler(weather)
+        sampler = sailing_sampler(weather)
         wx = sampler.sample(self.time[:-1], self.lat_deg[:-1], self.lon_deg[:-1], variables=["wind_u_ms", "wind_v_ms"])
         tws, frm = wind_kn_from(wx["wind_u_ms"], wx["wind_v_ms"])
         spd, twa, mot = vessel.leg_speed_kn(self.course_deg, frm, tws, source=sampler.source)
         t = self.t_h[0] + np.concatenate([[0.0], np.cumsum(self.length_nm / np.where(spd > 0, spd, np.nan))])
         bad = np.flatnonzero(~mot & ((spd <= 0) | (np.abs(twa) < vessel.polar.no_go_deg)))
         err = float(np.nanmax(np.abs(t - self.t_h))) if np.all(np.isfinite(t)) else float("inf")
-        count = len(_manoeuvres(twa, mot, self.time, self.t_h, self.lat_deg, self.lon_deg))
+        count = len(manoeuvres_along(twa, mot, self.time, self.t_h, self.lat_deg, self.lon_deg))
         ok = err < 1e-6 and bad.size == 0 and count == self.n_manoeuvres
         return {"ok": ok, "max_time_error_h": err, "no_go_legs": bad.tolist(), "manoeuvres": count}
 
 
-def _sampler(weather: xr.Dataset) -> WeatherSampler:
+def sailing_sampler(weather: xr.Dataset) -> WeatherSampler:
     if not isinstance(weather, xr.Dataset):
         raise ConfigError(f"weather must be a canonical xarray.Dataset with wind_u_ms/wind_v_ms, "
                           f"got {type(weather).__name__}")  # fmt: skip
@@ -305,7 +305,7 @@ def _sampler(weather: xr.Dataset) -> WeatherSampler:
     return WeatherSampler(weather, required=_WIND, time_policy="hold" if steady else None)
 
 
-def _manoeuvres(twa, mot, time, t_h, lat, lon) -> list[Manoeuvre]:
+def manoeuvres_along(twa, mot, time, t_h, lat, lon) -> list[Manoeuvre]:
     """Tack changes along the legs (a leg dead downwind or under engine keeps the tack)."""
     out, cur, cur_twa = [], 0, 0.0
     for k, (a, m) in enumerate(zip(twa, mot, strict=True)):
@@ -351,7 +351,7 @@ class GraphWind:
     @classmethod
     def sample(cls, graph: SailingGraph, weather: xr.Dataset) -> GraphWind:
         """Interpolate the weather's wind (:class:`WeatherSampler`) at the graph's sea nodes at every step."""
-        sampler = _sampler(weather)
+        sampler = sailing_sampler(weather)
         steps = weather["time"].values.astype("datetime64[ns]")
         nodes = np.flatnonzero(graph.sea)
         la, lo = graph.grid.node_latlon(nodes)
@@ -515,7 +515,7 @@ def search_sailing_route(
         stats = stats + res[7]
     nodes, lat, lon, time, t_h, legs = _path(res, grid, target, state, layers, t0, 0.0)
     mot = legs["mot"]
-    man = _manoeuvres(legs["twa"], mot, time, t_h, lat, lon)
+    man = manoeuvres_along(legs["twa"], mot, time, t_h, lat, lon)
     dirs = legs["dirs"]
     run_s = _time.perf_counter() - t_start
     st = {"vertices": graph.n_vertices, "edges": graph.n_edges, "directions": int(directions),
