@@ -1,4 +1,4 @@
-"""Życkowski's experiment (seed 003): sailing routes across the Gulf of Gdańsk with 8, 16 and 32 headings.
+"""Życkowski's experiment: sailing routes across the Gulf of Gdańsk with 8, 16 and 32 headings.
 
 The paper's Table 1: A = 54.56 N 19.23 E to B = 54.52 N 18.76 E in the box 54.217–54.936 N,
 18.069–19.508 E, six graphs (595–3 222 vertices, 7 514–200 236 edges), reported as graph size,
