@@ -13,7 +13,7 @@ from optroute.geodesy import EARTH_RADIUS_NM
 from optroute.physics.polar import Polar
 from optroute.physics.yacht import SailingVessel
 from optroute.search.routing import search_route
-from optroute.search.sailing import SailingGrid, search_sailing_route
+from optroute.search.sailing import GraphWind, SailingGraph, SailingGrid, search_sailing_route
 from optroute.weather.schema import canonical_dataset
 
 T0 = np.datetime64("2024-06-01T00:00", "ns")
@@ -144,7 +144,7 @@ def test_search_route_takes_a_vessel_and_refuses_bad_input(yacht, north_wind, be
 def test_a_passage_past_the_forecast_says_so(yacht, veering):
     grid = SailingGrid.box(-0.1, 0.5, -0.2, 0.2, 25, 17)
     late = veering.time.values[-1] - np.timedelta64(30, "m")
-    with pytest.raises(WeatherCoverageError, match="before the weather's last time"):
+    with pytest.raises(WeatherCoverageError, match="after the weather's last time"):
         search_sailing_route((0.0, 0.0), (0.3, 0.0), veering, yacht, departure=late, grid=grid)
     held = veering.assign_attrs(time_policy="hold")
     r = search_sailing_route((0.0, 0.0), (0.3, 0.0), held, yacht, departure=late, grid=grid)
@@ -172,3 +172,15 @@ def test_refinement_moves_tack_points_and_stays_out_of_the_no_go_sector(yacht, n
     assert 18 * CELL_NM / vmg_kn * (1 - 1e-6) <= refined.passage_h < graph.passage_h
     assert np.all(np.abs(refined.twa_deg) >= yacht.polar.no_go_deg) and refined.verify(north_wind, yacht)["ok"]
     np.testing.assert_allclose(np.abs(refined.twa_deg), beat_deg, atol=0.05)  # off the lattice: the polar's own
+
+
+def test_wind_sampled_once_on_the_graph_gives_the_same_route(yacht, veering):
+    graph = SailingGraph.build(SailingGrid.box(-0.1, 0.5, -0.2, 0.2, 13, 9), 16, use_land_mask=False)
+    direct = search_sailing_route((0.0, 0.0), (0.3, 0.1), veering, yacht, departure=T0, grid=graph)
+    wind = GraphWind.sample(graph, veering)
+    again = search_sailing_route((0.0, 0.0), (0.3, 0.1), wind, yacht, departure=T0)
+    np.testing.assert_array_equal(again.lat_deg, direct.lat_deg)
+    assert again.passage_h == direct.passage_h
+    other = SailingGraph.build(graph.grid, 8, use_land_mask=False)
+    with pytest.raises(ConfigError, match="another graph"):
+        search_sailing_route((0.0, 0.0), (0.3, 0.1), wind, yacht, departure=T0, grid=other)

@@ -490,29 +490,16 @@ def search_sailing_route(
         return sk.sail_search(target, length, course, np.ascontiguousarray(u), np.ascontiguousarray(v), slice_h,
                               hold, tables, lo, motor, src, dst, 0.0, mode, layers, stop_h, h_node)  # fmt: skip
 
-    mode = sk.MODE_FEWEST if objective == "manoeuvres" else sk.MODE_TIME
-    res = run(mode)
+    res = run(sk.MODE_FEWEST if objective == "manoeuvres" else sk.MODE_TIME)
     found, stats = int(res[6]), res[7]
-    cut = stats[2]
-    if found < 0:
-        _no_route(cut, weather, vessel)
-    if cut and objective == "manoeuvres":  # a popped-later label was never expanded: the order is not by time
-        raise WeatherCoverageError("the fewest-manoeuvre search needed wind past the weather's last time; give "
-                                   "weather that lasts longer or time_policy='hold'")  # fmt: skip
+    if stats[2] or found < 0:  # a label past the forecast's end was not expanded: it might have led somewhere better
+        _no_route(stats[2], weather, vessel)
     layers, front, state = 1, (), found
     if objective == "weighted":
-        w = int(res[1][found])
-        layers = w + 1
-        res = run(sk.MODE_LAYERED, layers, float(res[0][found]) + pen * w)
-        best = []
-        for om_ in range(layers):
-            ts = [(res[0][(dst * 3 + tk) * layers + om_], (dst * 3 + tk) * layers + om_) for tk in range(3)]
-            t_best, s_best = min(ts)
-            if np.isfinite(t_best):
-                best.append((om_, float(t_best), int(s_best)))
-        front = tuple((o, t) for o, t, _ in best)
-        state = min(best, key=lambda x: (x[1] + pen * x[0], x[0]))[2]
+        res, layers, front, state = _weighted(run, res, found, dst, pen)
         stats = stats + res[7]
+        if res[7][2]:
+            _no_route(res[7][2], weather, vessel)
     nodes, lat, lon, time, t_h, legs = _path(res, grid, target, state, layers, t0, 0.0)
     mot = legs["mot"]
     man = manoeuvres_along(legs["twa"], mot, time, t_h, lat, lon)
@@ -529,6 +516,22 @@ def search_sailing_route(
         heading_changes=int(np.count_nonzero(np.diff(dirs))), objective=objective, status="optimal",
         front=front, stats=st,
     )  # fmt: skip
+
+
+def _weighted(run, res, found: int, dst: int, pen: float):
+    """The node x tack x ω search for ω up to the fastest route's count; the front and the weighted optimum."""
+    w = int(res[1][found])
+    layers = w + 1
+    res = run(sk.MODE_LAYERED, layers, float(res[0][found]) + pen * w)
+    best = []
+    for om_ in range(layers):
+        ts = [(res[0][(dst * 3 + tk) * layers + om_], (dst * 3 + tk) * layers + om_) for tk in range(3)]
+        t_best, s_best = min(ts)
+        if np.isfinite(t_best):
+            best.append((om_, float(t_best), int(s_best)))
+    front = tuple((o, t) for o, t, _ in best)
+    state = min(best, key=lambda x: (x[1] + pen * x[0], x[0]))[2]
+    return res, layers, front, state
 
 
 def _bound_h(graph: SailingGraph, dst: int, v_max_kn: float) -> np.ndarray:
@@ -558,8 +561,9 @@ def _graph(start, end, weather, directions, grid, cell_nm, margin_nm, use_land_m
 def _no_route(cut: float, weather: xr.Dataset, vessel: SailingVessel) -> None:
     if cut:
         last = weather.times[-1] if isinstance(weather, GraphWind) else weather["time"].values[-1]
-        raise WeatherCoverageError(f"no route reached the end before the weather's last time "
-                                   f"{units.format_utc(last)}; give weather that lasts longer, "
+        raise WeatherCoverageError(f"the search needed the wind after the weather's last time "
+                                   f"{units.format_utc(last)} (a route still under way then may be the best); "
+                                   "give weather that lasts longer, "
                                    "or time_policy='hold' in its attrs to hold the last wind")  # fmt: skip
     raise NoSafePassage(f"no sailable route reaches the end with {vessel.name}'s polar (no-go below "
                         f"{vessel.polar.no_go_deg:g} deg, calm wind sails nowhere): give motoring_below_kn and "
