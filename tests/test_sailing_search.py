@@ -184,3 +184,17 @@ def test_wind_sampled_once_on_the_graph_gives_the_same_route(yacht, veering):
     other = SailingGraph.build(graph.grid, 8, use_land_mask=False)
     with pytest.raises(ConfigError, match="another graph"):
         search_sailing_route((0.0, 0.0), (0.3, 0.1), wind, yacht, departure=T0, grid=other)
+
+
+def test_the_route_rounds_the_hel_peninsula(yacht):
+    """From the paper's end point B (Gulf of Gdańsk) to open water north of Hel: the straight line crosses the
+    peninsula's tip (GLOBE coastline), the route goes round it and no leg touches land (checked every 0.05 nm)."""
+    from optroute.geo import land
+
+    b, north = (54.52, 18.76), (54.75, 18.85)
+    assert land.leg_crosses_land(*b, *north, 0.05, use_land_mask=True) is not None
+    wind = _wind(units.kn_to_ms(10.0), 0.0, lat=(54.3, 55.0), lon=(18.4, 19.2), geography="real")  # from the west
+    r = search_route(b, north, wind, vessel=yacht, departure=T0, directions=16, cell_nm=1.0, margin_nm=2.0)
+    assert not land.legs_cross_land(r.lat_deg[:-1], r.lon_deg[:-1], r.lat_deg[1:], r.lon_deg[1:], 0.05,
+                                    use_land_mask=True).any()  # fmt: skip
+    assert r.lon_deg.max() > 18.81 and r.verify(wind, yacht)["ok"]

@@ -279,7 +279,9 @@ class SailingRoute:
         dict
             ``ok``; ``max_time_error_h`` (recomputed against reported node times);
             ``no_go_legs`` (indices of sailed legs with speed 0 or ``|TWA|`` below
-            the no-go limit); ``manoeuvres`` recounted.
+            the no-go limit); ``manoeuvres`` recounted; ``land_legs`` (legs that
+            touch the GLOBE coastline, checked every 0.1 nm, unless the weather's
+            geography is synthetic).
         """
         sampler = sailing_sampler(weather)
         wx = sampler.sample(self.time[:-1], self.lat_deg[:-1], self.lon_deg[:-1], variables=["wind_u_ms", "wind_v_ms"])
@@ -289,8 +291,13 @@ class SailingRoute:
         bad = np.flatnonzero(~mot & ((spd <= 0) | (np.abs(twa) < vessel.polar.no_go_deg)))
         err = float(np.nanmax(np.abs(t - self.t_h))) if np.all(np.isfinite(t)) else float("inf")
         count = len(manoeuvres_along(twa, mot, self.time, self.t_h, self.lat_deg, self.lon_deg))
-        ok = err < 1e-6 and bad.size == 0 and count == self.n_manoeuvres
-        return {"ok": ok, "max_time_error_h": err, "no_go_legs": bad.tolist(), "manoeuvres": count}
+        on_land = np.zeros(self.course_deg.size, dtype=bool)
+        if weather.attrs.get("geography") != land.SYNTHETIC_GEOGRAPHY:
+            la, lo = self.lat_deg, self.lon_deg
+            on_land = land.legs_cross_land(la[:-1], lo[:-1], la[1:], lo[1:], 0.1, use_land_mask=True)
+        ok = err < 1e-6 and bad.size == 0 and count == self.n_manoeuvres and not on_land.any()
+        return {"ok": ok, "max_time_error_h": err, "no_go_legs": bad.tolist(), "manoeuvres": count,
+                "land_legs": np.flatnonzero(on_land).tolist()}  # fmt: skip
 
 
 def sailing_sampler(weather: xr.Dataset) -> WeatherSampler:
