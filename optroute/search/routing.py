@@ -538,7 +538,8 @@ def search_route(
     vessel : SailingVessel, optional
         A sailing boat instead of ``ship``: the route is searched by
         :func:`optroute.search.sailing.search_sailing_route` on a
-        latitude/longitude lattice of ``cell_nm`` spacing (or ``sailing_grid``)
+        latitude/longitude lattice of ``cell_nm`` spacing (the 20 nm default is
+        a ship's: give about 1 nm for coastal sailing) or ``sailing_grid``
         with ``directions`` = 8, 16 (default) or 32 headings, ``margin_nm``
         (default 5 nm), ``objective`` = ``"time"``, ``"manoeuvres"`` or
         ``"weighted"`` (with ``manoeuvre_penalty_h`` [h]); the weather needs
