@@ -147,9 +147,12 @@ def run(quick: bool) -> dict[str, Any]:
         t = time.perf_counter()
         graph = SailingGraph.build(SailingGrid.box(*BOX, m, n), wr)
         build_s = time.perf_counter() - t
-        t = time.perf_counter()
-        gw = GraphWind.sample(graph, wind)
-        wind_s = time.perf_counter() - t
+        wind_s, wind_cpu = np.inf, np.inf
+        for _ in range(reps):
+            t, c = time.perf_counter(), time.thread_time()
+            gw = GraphWind.sample(graph, wind)
+            if time.perf_counter() - t < wind_s:
+                wind_s, wind_cpu = time.perf_counter() - t, time.thread_time() - c
         best, cpu, r = np.inf, np.inf, None
         for _ in range(reps):
             t, c = time.perf_counter(), time.thread_time()
@@ -165,6 +168,7 @@ def run(quick: bool) -> dict[str, Any]:
                      "paper_distance_nm": d_p, "distance_nm": r.distance_nm, "paper_T_h": t_p, "T_h": r.passage_h,
                      "paper_s": s_p, "plan_s": best, "plan_cpu_s": cpu, "graph_build_s": build_s, "wind_s": wind_s,
                      "speedup": s_p / best, "speedup_cpu": s_p / cpu, "speedup_with_wind": s_p / (best + wind_s),
+                     "wind_cpu_s": wind_cpu, "speedup_with_wind_cpu": s_p / (cpu + wind_cpu),
                      "scipy_s": sp_s, "scipy_static_T_h": sp_h, "verified": r.verify(wind, boat)["ok"]})  # fmt: skip
     _print_table(rows)
     graph = SailingGraph.build(SailingGrid.box(*BOX, rows[-1]["m"], rows[-1]["n"]), 32)
@@ -216,7 +220,7 @@ def _print_table(rows: list[dict[str, Any]]) -> None:
     print("### Table 1 of the paper beside ours (A 54.56 N 19.23 E → B 54.52 N 18.76 E, synthetic wind)\n")
     print("| w_r | m × n | V paper / ours | E paper / ours (directed) | ω paper / ours (heading changes) | "
           "points paper / ours | D [nm] paper / ours | T [h] paper / ours | plan [s] paper / ours (CPU) | "
-          "paper / ours (CPU) | wind onto graph [s] | paper / (wind + ours) | graph build [s] | "
+          "paper / ours (CPU) | wind onto graph [s] (CPU) | paper / (wind + ours) (CPU) | graph build [s] | "
           "scipy static Dijkstra [s] | verified |")  # fmt: skip
     print("|---:|---|---|---|---|---|---|---|---|---:|---:|---:|---:|---:|---|")
     for r in rows:
@@ -224,14 +228,16 @@ def _print_table(rows: list[dict[str, Any]]) -> None:
               f"{r['paper_edges']:,} / {r['edges']:,} | {r['paper_omega']} / {r['omega']} ({r['heading_changes']}) | "
               f"{r['paper_points']} / {r['points']} | {r['paper_distance_nm']} / {r['distance_nm']:.1f} | "
               f"{r['paper_T_h']:.2f} / {r['T_h']:.2f} | {r['paper_s']:.2f} / {r['plan_s']:.4f} "
-              f"({r['plan_cpu_s']:.4f}) | **{r['speedup']:.0f}×** ({r['speedup_cpu']:.0f}×) | {r['wind_s']:.3f} | "
-              f"{r['speedup_with_wind']:.0f}× | {r['graph_build_s']:.2f} | {r['scipy_s']:.4f} | {r['verified']} |")  # fmt: skip
+              f"({r['plan_cpu_s']:.4f}) | **{r['speedup']:.0f}×** ({r['speedup_cpu']:.0f}×) | {r['wind_s']:.3f} "
+              f"({r['wind_cpu_s']:.3f}) | {r['speedup_with_wind']:.0f}× ({r['speedup_with_wind_cpu']:.0f}×) | "
+              f"{r['graph_build_s']:.2f} | {r['scipy_s']:.4f} | {r['verified']} |")  # fmt: skip
     worst = min(r["speedup"] for r in rows)
     worst_w = min(r["speedup_with_wind"] for r in rows)
     worst_c = min(r["speedup_cpu"] for r in rows)
+    worst_wc = min(r["speedup_with_wind_cpu"] for r in rows)
     print(f"\nPlanning time against the paper's: the search at least **{worst:.0f}×** faster by the wall clock "
           f"(**{worst_c:.0f}×** by its CPU time), wind sampling + "
-          f"search at least **{worst_w:.0f}×** (target ≥ {TARGET_SPEEDUP:.0f}×: "
+          f"search at least **{worst_w:.0f}×** (**{worst_wc:.0f}×** by CPU time) (target ≥ {TARGET_SPEEDUP:.0f}×: "
           f"{'met' if worst >= TARGET_SPEEDUP else 'NOT met'} / {'met' if worst_w >= TARGET_SPEEDUP else 'NOT met'}); "
           "ω counts tacks and gybes (in brackets the paper's heading changes).\n")  # fmt: skip
 
