@@ -29,6 +29,7 @@ from optroute.physics.passage import SeaState, SpeedChoice, best_speed, cheapest
 from optroute.physics.performance import PerformanceModel, default_model
 from optroute.physics.safety import BANDS, BandRules, band_margins
 from optroute.physics.ship import Ship
+from optroute.physics.yacht import SailingVessel
 from optroute.search import passage_kernels
 from optroute.search.dijkstra import shortest_path
 from optroute.search.dp import solve_dp
@@ -38,6 +39,7 @@ from optroute.search.neighbourhood import Neighbourhood, angular_resolution, com
 from optroute.search.passage_kernels import MODE_CHEAPEST, MODE_TIME
 from optroute.search.piece_geometry import check_points, cumulative, piece_points, points_along
 from optroute.search.route import Corridor, Route
+from optroute.search.sailing import SailingGraph, SailingGrid, SailingRoute, SailObjective, search_sailing_route
 from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
 from optroute.weather.sample import WeatherSampler
@@ -435,10 +437,10 @@ def search_route(
     start: tuple[float, float],
     end: tuple[float, float],
     weather: xr.Dataset | WeatherSampler,
-    ship: Ship,
+    ship: Ship | None = None,
     *,
     departure: Any,
-    objective: Objective = "time",
+    objective: Objective | SailObjective = "time",
     eta: Any = None,
     method: Method = "astar",
     angular_resolution_deg: float | None = 5.0,
@@ -461,7 +463,10 @@ def search_route(
     dp_options: dict[str, Any] | None = None,
     compiled: bool = True,
     exclusion: Exclusion | None = None,
-) -> Route:
+    vessel: SailingVessel | None = None,
+    manoeuvre_penalty_h: float | None = None,
+    sailing_grid: SailingGrid | SailingGraph | None = None,
+) -> Route | SailingRoute:
     """Search the route corridor through forecast weather.
 
     Parameters
@@ -538,10 +543,23 @@ def search_route(
         :meth:`optroute.Exclusion.from_track`): a leg is infeasible where any point of it is
         inside the circle at the time the ship is there (:func:`optroute.search.exclusion.avoiding`;
         for the DP, its navigability test at each node and piece point, every ``piece_nm``, at its time).
+    vessel : SailingVessel, optional
+        A sailing boat instead of ``ship``: the route is searched by
+        :func:`optroute.search.sailing.search_sailing_route` on a
+        latitude/longitude lattice of ``cell_nm`` spacing (the 20 nm default is
+        a ship's: give about 1 nm for coastal sailing) or ``sailing_grid``
+        with ``directions`` = 8, 16 (default) or 32 headings, ``margin_nm``
+        (default 5 nm), ``objective`` = ``"time"``, ``"manoeuvres"`` or
+        ``"weighted"`` (with ``manoeuvre_penalty_h`` [h]); the weather needs
+        wind only.  The ship-only options are not used.
+    manoeuvre_penalty_h : float, optional
+        Sailing, ``objective="weighted"``: hours one tack or gybe is worth [h].
+    sailing_grid : SailingGrid or SailingGraph, optional
+        Sailing: the lattice (default one around start and end) or its graph.
 
     Returns
     -------
-    Route
+    Route or SailingRoute
         For the grid search, ``stats["pieces"]`` holds the per-piece records
         of the route (``leg``, ``lat_deg``/``lon_deg`` of the midpoint,
         ``course_deg``, ``length_nm``, ``t_h`` entry [h from departure],
@@ -559,6 +577,18 @@ def search_route(
     WeatherCoverageError
         The voyage leaves the weather's area or time span.
     """
+    if vessel is not None:
+        if ship is not None:
+            raise ConfigError("give either ship (engine-driven) or vessel (sailing), not both")
+        if not isinstance(weather, xr.Dataset):
+            raise ConfigError("a sailing search takes the weather as a canonical xarray.Dataset with wind")
+        return search_sailing_route(
+            start, end, weather, vessel, departure=departure, directions=directions,
+            grid=sailing_grid, use_land_mask=use_land_mask, cell_nm=cell_nm, margin_nm=5.0 if margin_nm is None else margin_nm,
+            objective=objective, manoeuvre_penalty_h=manoeuvre_penalty_h,  # type: ignore[arg-type]
+        )  # fmt: skip
+    if ship is None:
+        raise ConfigError("search_route needs a ship (or vessel=SailingVessel for a sailing boat)")
     t_start = _time.perf_counter()
     if objective not in ("time", "fuel", "cost"):
         raise ConfigError(f"objective={objective!r} is not known; use 'time', 'fuel' or 'cost'")
