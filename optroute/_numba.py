@@ -41,7 +41,7 @@ _warned = False
 
 def _writable(folder: Path) -> bool:
     """Whether a file can be created in ``folder`` (created if missing), tested the way numba tests it."""
-    probe = folder / f".optroute-write-probe-{os.getpid()}-{id(folder):x}"
+    probe = folder / f".optroute-write-probe-{os.getpid()}-{os.urandom(6).hex()}"
     try:
         folder.mkdir(parents=True, exist_ok=True)
         os.close(os.open(probe, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))  # as tempfile.TemporaryFile does,
