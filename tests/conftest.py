@@ -17,7 +17,8 @@ if os.environ.get("CI"):
 # ---------------------------------------------------------------------------
 # CPU time per test: ``python -m pytest --cpu-durations=N`` lists the N tests that cost the most CPU
 # (this process and its waited-for children, setup + call + teardown, so fixtures and subprocesses
-# count). Wall time on a shared machine says little about cost; CPU time is what the budget counts.
+# count). Wall time on a shared machine says little about cost; CPU time is what the budget counts. Serial
+# runs only: under pytest-xdist the times stay in the workers.
 # ---------------------------------------------------------------------------
 import resource  # noqa: E402
 
@@ -38,7 +39,7 @@ def pytest_addoption(parser):
         type=int,
         default=None,
         metavar="N",
-        help="list the N tests with the most CPU time (process + children, fixtures included); 0 for all",
+        help="list the N tests with the most CPU time (process + children, fixtures included); 0 for all; serial runs only (without -n)",
     )
 
 
