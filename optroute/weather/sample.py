@@ -396,6 +396,40 @@ class WeatherSampler:
         inside_xy, inside_t, _ = self._inside(t, la, lo)
         return (inside_xy & inside_t).reshape(shape)
 
+    def cell_index(self, time: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> np.ndarray:
+        """The interpolation cell of each point: (time slice, lat row, lon column) of its stencil's lower corner.
+
+        Inside one cell the sampled fields are one trilinear polynomial of (time, lat, lon); where the
+        index changes along a track the interpolated weather changes regime (the referee checks there,
+        :mod:`optroute.plan.checkpoints`).
+
+        Parameters
+        ----------
+        time : array_like of datetime64
+            Times [UTC].
+        lat, lon : array_like
+            Positions [deg north, deg east, any longitude convention].
+
+        Returns
+        -------
+        ndarray of int64, shape (..., 3)
+            ``[time index, lat index, lon index]``; ``-1`` in every column outside the area or (under
+            ``"raise"``) the time span; a time outside the span under ``"hold"`` is ``-2`` before it and
+            the last index + 1 after it (the held slice is a regime of its own).
+        """
+        shape, t, la, lo = self._inputs(time, lat, lon)
+        inside_xy, inside_t, lonu = self._inside(t, la, lo)
+        ti, _ = self._time.locate(np.clip(t, self._time.start, self._time.stop))
+        ti = np.where(t < self._time.start, -2, np.where(t > self._time.stop, self._time.n, ti))
+        yi, _ = self._lat.locate(np.clip(la, self._lat.start, self._lat.stop))
+        if self.periodic:
+            xi = np.clip(np.floor((lonu - self._lon.start) / self._lon.step), 0, self._lon.n - 1).astype(np.int64)
+        else:
+            xi, _ = self._lon.locate(np.clip(lonu, self._lon.start, self._lon.stop))
+        out = np.stack([ti, yi, xi], axis=-1).astype(np.int64)
+        out[~(inside_xy & inside_t)] = -1
+        return out.reshape((*shape, 3))
+
     def area_text(self) -> str:
         """The dataset's area in words: ``lat 25 to 37 deg N, lon -155 to -135 deg E``."""
         lon_lo, lon_hi = self._lon.start, self._lon.stop
