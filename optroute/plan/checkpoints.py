@@ -11,8 +11,8 @@ for 1–3 nm between two midpoints. :func:`check_points` finds every such stretc
    :data:`INITIAL_SPACING_NM` apart.
 2. **Regime changes**: where the weather's interpolation cell changes along the track (a latitude
    row, a longitude column or a time slice of the data is crossed, at the time the ship is there;
-   :meth:`optroute.weather.sample.WeatherSampler.cell_index`) the crossing is located by bisection
-   to :data:`CROSSING_TOL_NM` and both sides become check points: between them the sampled fields
+   :meth:`optroute.weather.sample.WeatherSampler.grid_coordinates`) the crossing is located (secant on
+   the grid coordinate) to :data:`CROSSING_TOL_NM` and both sides become check points: between them the sampled fields
    are one trilinear polynomial, smooth along the track.
 3. **Adaptive refinement**: an interval between neighbouring check points (longer than the
    tolerance) is halved until it is *certified*: for every enabled band, either the band's ratio
@@ -230,32 +230,48 @@ def _start_nodes(dense_leg: np.ndarray, dense_frac: np.ndarray, d_nm: np.ndarray
 
 
 def _crossings(ctx, waypoints, d_nm, clock, departure, leg, s, tol_nm):
-    """Add both sides of every change of the weather's interpolation cell along the legs (bisection)."""
+    """Add both sides of every change of the weather's interpolation cell along the legs.
 
-    def cells(lg, ss):
+    The crossing of a grid line (or time slice) inside an interval is put where the continuous grid
+    coordinate, linear between the interval's ends, reaches the line; points ``0.45 tol_nm`` either
+    side of it are added; an interval that still changes cell is treated again (a secant search:
+    exact in one pass on a uniform grid, up to the great circle's curvature over the interval).
+    """
+
+    def coords(lg, ss):
         lat, lon, _, t_h = _positions(waypoints, d_nm, clock, lg, ss)
-        return ctx.sampler.cell_index(departure + _h_to_td(t_h), lat, lon)
+        return ctx.sampler.grid_coordinates(departure + _h_to_td(t_h), lat, lon)
 
-    c = cells(leg, s)
-    for _ in range(8):  # each pass finds one crossing per interval; more than one per ~1 nm interval is rare
-        change = (leg[1:] == leg[:-1]) & np.any(c[1:] != c[:-1], axis=1) & (s[1:] - s[:-1] > tol_nm)
+    c = coords(leg, s)
+    for _ in range(12):
+        cell = np.where(np.isfinite(c), np.floor(c), -1.0)
+        h = s[1:] - s[:-1]
+        change = (leg[1:] == leg[:-1]) & np.any(cell[1:] != cell[:-1], axis=1) & (h > tol_nm)
         i = np.flatnonzero(change)
         if i.size == 0:
             break
-        lg, lo, hi, c_lo = leg[i], s[i].copy(), s[i + 1].copy(), c[i]
-        while np.any(hi - lo > tol_nm):
-            mid = 0.5 * (lo + hi)
-            same = np.all(cells(lg, mid) == c_lo, axis=1)
-            lo = np.where(same, mid, lo)
-            hi = np.where(same, hi, mid)
-        leg = np.concatenate([leg, lg, lg])
-        s = np.concatenate([s, lo, hi])
+        ca, cb = c[i], c[i + 1]
+        # per dimension that changes: the grid line just past the lower end, as a fraction of the interval
+        line = np.where(cb > ca, np.floor(ca) + 1.0, np.ceil(ca) - 1.0 + (ca == np.floor(ca)))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            frac = (line - ca) / (cb - ca)
+        frac = np.where(np.isfinite(frac) & (frac > 0.0) & (frac < 1.0) & (cell[i] != cell[i + 1]), frac, np.inf)
+        f = frac.min(axis=1)
+        f = np.where(np.isfinite(f), f, 0.5)  # (leaving the data, or a periodic wrap: halve)
+        mid = s[i] + f * h[i]
+        half = 0.45 * tol_nm
+        lo = np.clip(mid - half, s[i] + 0.25 * half, s[i + 1] - 0.25 * half)
+        hi = np.clip(mid + half, s[i] + 0.25 * half, s[i + 1] - 0.25 * half)
+        new_leg = np.concatenate([leg[i], leg[i]])
+        new_s = np.concatenate([lo, hi])
+        leg = np.concatenate([leg, new_leg])
+        s = np.concatenate([s, new_s])
+        c = np.concatenate([c, coords(new_leg, new_s)])
         order = np.lexsort((s, leg))
-        leg, s = leg[order], s[order]
+        leg, s, c = leg[order], s[order], c[order]
         keep = np.ones(leg.size, dtype=bool)
         keep[1:] = (leg[1:] != leg[:-1]) | (s[1:] != s[:-1])
-        leg, s = leg[keep], s[keep]
-        c = cells(leg, s)
+        leg, s, c = leg[keep], s[keep], c[keep]
     return leg, s
 
 
