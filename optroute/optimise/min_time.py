@@ -43,7 +43,7 @@ from optroute.physics.safety import BandRules
 from optroute.plan.evaluate import PlanContext, sample_sea
 from optroute.units import NS_PER_H as _NS_PER_H
 
-__all__ = ["DeadEnd", "TimedStart", "clean_start", "timed_safe_start"]
+__all__ = ["BlockedSection", "DeadEnd", "TimedStart", "blocked_section", "clean_start", "timed_safe_start"]
 
 
 @dataclass(frozen=True)
@@ -292,3 +292,99 @@ def clean_start(
             )
         )
     return found.warm() if isinstance(found, TimedStart) else safe
+
+
+@dataclass(frozen=True)
+class BlockedSection:
+    """A cross-section of the corridor where no speed is allowed at any time: the passage is closed there.
+
+    Attributes
+    ----------
+    s_nm : float
+        Along the centreline [nm from the start].
+    lat, lon : float
+        Its centreline point [deg].
+    from_h, to_h : float
+        The times checked [h after departure].
+    v_min_kn, v_max_kn : float
+        The speeds checked [kn].
+    """
+
+    s_nm: float
+    lat: float
+    lon: float
+    from_h: float
+    to_h: float
+    v_min_kn: float
+    v_max_kn: float
+
+    def __str__(self) -> str:
+        return (
+            f"no speed through the water from {self.v_min_kn:g} to {self.v_max_kn:.1f} kn is allowed anywhere across "
+            f"the corridor {self.s_nm:.0f} nm along track (near {self.lat:.2f}, {self.lon:.2f}) at any time from "
+            f"{self.from_h:.1f} to {self.to_h:.1f} h after departure (danger bands, the engine's load range, "
+            "the sea state)"
+        )
+
+
+def blocked_section(
+    ctx: PlanContext,
+    frame: CorridorFrame,
+    t0: np.datetime64,
+    *,
+    y_lo_nm: np.ndarray,
+    y_hi_nm: np.ndarray,
+    v_min_kn: float,
+    v_max_kn: float,
+    horizon_h: float,
+    lanes: int = 5,
+    dt_h: float = 1.0,
+    speed_step_kn: float = 0.25,
+) -> BlockedSection | None:
+    """The first corridor node where no speed is allowed at any lateral offset and any time, or None.
+
+    A ship that passes the node must be somewhere across the corridor at some time in
+    ``[0, horizon_h]`` at some speed; when :func:`optroute.physics.passage.evaluate_speeds` (the true
+    model and the bands, the ship on the course of the corridor's leg there) allows none of
+    ``lanes`` offsets × times every ``dt_h`` × speeds every ``speed_step_kn``, there is no passage
+    (up to that sampling): :class:`optroute.errors.NoSafePassage`, not a solver failure.
+
+    Parameters
+    ----------
+    ctx, frame, t0
+        As :func:`timed_safe_start`.
+    y_lo_nm, y_hi_nm : ndarray, shape (N+1,)
+        The corridor's navigable lateral bounds at its nodes [nm, port positive].
+    v_min_kn, v_max_kn : float
+        Speed-through-water range [kn].
+    horizon_h : float
+        Latest time checked [h after departure] (within the weather's span).
+    lanes, dt_h, speed_step_kn
+        The sampling: offsets across the corridor, time step [h], speed step [kn].
+    """
+    n = frame.n_legs
+    speeds = np.unique(np.append(np.arange(v_min_kn, v_max_kn, speed_step_kn), v_max_kn))
+    times = np.arange(0.0, max(horizon_h, 0.0) + 1e-9, dt_h)
+    for k in range(n + 1):
+        ys = np.linspace(float(y_lo_nm[k]), float(y_hi_nm[k]), lanes if y_hi_nm[k] > y_lo_nm[k] else 1)
+        pts = np.array([frame.waypoints(np.full(n + 1, y))[k] for y in ys])
+        j = min(k, n - 1)
+        nxt = np.array([frame.waypoints(np.full(n + 1, y))[j + 1] for y in ys])
+        prv = np.array([frame.waypoints(np.full(n + 1, y))[j] for y in ys])
+        course = gc_points(prv[:, 0], prv[:, 1], nxt[:, 0], nxt[:, 1], np.full(ys.size, 1.0 if k == n else 0.0))[2]
+        shape = (ys.size, times.size, speeds.size)
+        lat = np.broadcast_to(pts[:, 0, None, None], shape).ravel()
+        lon = np.broadcast_to(pts[:, 1, None, None], shape).ravel()
+        crs = np.broadcast_to(course[:, None, None], shape).ravel()
+        t_h = np.broadcast_to(times[None, :, None], shape).ravel()
+        v = np.broadcast_to(speeds[None, None, :], shape).ravel()
+        when = t0 + (t_h * _NS_PER_H).astype("timedelta64[ns]")
+        sea, covered = sample_sea(ctx.sampler, when, lat, lon)
+        allowed = evaluate_speeds(ctx.ship, ctx.model, ctx.rules, crs, sea, v)[4] & covered
+        if not allowed.any() and covered.any():
+            centre = frame.waypoints(np.zeros(n + 1))[k]
+            return BlockedSection(
+                float(frame.s_nm[k]), float(centre[0]), float(centre[1]), 0.0, float(times[-1]), float(speeds[0]),
+                float(speeds[-1]),
+            )  # fmt: skip
+    return None
