@@ -336,7 +336,8 @@ def _solve_honestly(prepared: Any, eta: Any, *, eta_mode: str, objective: str, w
         return prepared.solve(eta, warm_plan=warm_plan, route=route, **kw)
     except InfeasibleETA as exc:
         fast = _minimum_time_plan(prepared, route)
-        if fast is None:
+        if fast is None:  # no verified passage at all: closed, or the NLP's word for it
+            _raise_if_blocked(prepared, exc)
             raise
         if not _meets(fast, prepared, eta, "le"):
             raise _infeasible(prepared, eta, [fast]) from exc
@@ -416,8 +417,9 @@ def _infeasible(prepared: Any, eta: Any, plans: list[Plan]) -> InfeasibleETA:
     eta_t = units.as_utc_time(eta, "eta")
     return InfeasibleETA(
         f"the ETA {units.format_utc(eta_t)} cannot be met: the minimum-time plan of this corridor (verified) arrives "
-        f"at {units.format_utc(first.arrival)}, {units.timedelta_to_h(first.arrival - eta_t):.2f} h later; give an "
-        "ETA at or after that, or widen the corridor",
+        f"{first.duration_h:.2f} h after departure, at {units.format_utc(first.arrival)}, "
+        f"{units.timedelta_to_h(first.arrival - eta_t):.2f} h after the ETA; give an ETA at or after that, or widen "
+        "the corridor",
         earliest_arrival=first.arrival,
     )
 

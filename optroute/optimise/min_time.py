@@ -380,11 +380,49 @@ def blocked_section(
         v = np.broadcast_to(speeds[None, None, :], shape).ravel()
         when = t0 + (t_h * _NS_PER_H).astype("timedelta64[ns]")
         sea, covered = sample_sea(ctx.sampler, when, lat, lon)
-        allowed = evaluate_speeds(ctx.ship, ctx.model, ctx.rules, crs, sea, v)[4] & covered
-        if not allowed.any() and covered.any():
+        heading, _, power, _, allowed = evaluate_speeds(ctx.ship, ctx.model, ctx.rules, crs, sea, v)
+        allowed &= covered
+        heading = np.where(np.isfinite(heading), heading, crs)
+        if not allowed.any() and covered.any() and not _any_window(ctx, sea, heading, v, power, covered, speeds.size):
             centre = frame.waypoints(np.zeros(n + 1))[k]
             return BlockedSection(
                 float(frame.s_nm[k]), float(centre[0]), float(centre[1]), 0.0, float(times[-1]), float(speeds[0]),
                 float(speeds[-1]),
             )  # fmt: skip
     return None
+
+
+def _any_window(ctx: PlanContext, sea, heading, v, power, covered, k: int) -> bool:
+    """Whether some point of a cross-section has an allowed speed between the ladder's rungs.
+
+    Exact per point: the speeds the load range allows (power is increasing in the speed: above the
+    highest rung under the minimum load and below the lowest rung over MCR) less the closed band
+    intervals of :func:`optroute.physics.safety.forbidden_speed_intervals`.
+    """
+    from optroute.physics.safety import forbidden_speed_intervals, merged_intervals
+
+    pw = np.where(np.isfinite(power), power, np.inf).reshape(-1, k)
+    v2 = v.reshape(-1, k)
+    pmin, mcr = float(ctx.model.min_power_kw), float(ctx.model.mcr_kw)
+    for i in np.flatnonzero(covered.reshape(-1, k)[:, 0]):
+        j = i * k
+        if not (np.isfinite(sea.hs_m[j]) and np.isfinite(sea.period_s[j]) and np.isfinite(sea.wave_from_deg[j])):
+            continue
+        low = v2[i][pw[i] < pmin]
+        high = v2[i][pw[i] > mcr]
+        lo = float(low.max()) if low.size else float(v2[i][0])
+        hi = float(high.min()) if high.size else float(v2[i][-1])
+        if hi <= lo:
+            continue
+        bands = merged_intervals(
+            forbidden_speed_intervals(
+                ctx.ship, hs_m=float(sea.hs_m[j]), period_s=float(sea.period_s[j]),
+                wave_from_deg=float(sea.wave_from_deg[j]), heading_deg=float(heading[j]), rules=ctx.rules,
+            )
+        )  # fmt: skip
+        free = [(lo, hi)]
+        for b_lo, b_hi in bands:
+            free = [(a, min(b, b_lo)) for a, b in free if a < b_lo] + [(max(a, b_hi), b) for a, b in free if b > b_hi]
+        if any(b - a > 1e-9 for a, b in free):
+            return True
+    return False
