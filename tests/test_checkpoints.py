@@ -21,7 +21,7 @@ from optroute import geodesy as geo
 from optroute.physics.safety import is_speed_forbidden
 from optroute.plan.checkpoints import BAND_TOL_NM, evaluate_at, track_clock
 from optroute.plan.evaluate import evaluate_track
-from optroute.plan.result import Plan
+from optroute.plan.result import Plan, gc_points
 from optroute.weather.schema import canonical_dataset
 
 SHIP = orx.Ship.preset("general_cargo_25k_dwt")
@@ -54,8 +54,9 @@ def swing_sea():
     return _sea(9.0, 12.0, wave_from, lat, lon)
 
 
-def forbidden_along(plan: Plan, ds_nm: float = 0.01):
-    """Brute force: every ``ds_nm`` along each leg at the plan's schedule, the band test itself."""
+def forbidden_along(plan: Plan, ds_nm: float = 0.01, *, at_midpoints: bool = False):
+    """Brute force: every ``ds_nm`` along each leg (or at the 5 nm piece midpoints) at the plan's schedule,
+    the band test itself; ``[(s, forbidden)]`` per leg and the dense evaluation."""
     ctx, wp = plan.context, plan.waypoints
     d = geo.distance_nm(wp[:-1, 0], wp[:-1, 1], wp[1:, 0], wp[1:, 1])
     sched = (plan.times - plan.departure) / np.timedelta64(1, "h")
@@ -63,7 +64,8 @@ def forbidden_along(plan: Plan, ds_nm: float = 0.01):
     clock = track_clock(ev.leg, ev.frac, ev.time_h, d)
     out = []
     for k in range(d.size):
-        s = np.arange(0.0, d[k] + 1e-9, ds_nm)
+        mid = (ev.leg == k) & (ev.frac > 0) & (ev.frac < 1)
+        s = ev.frac[mid] * d[k] if at_midpoints else np.arange(0.0, d[k] + 1e-9, ds_nm)
         p = evaluate_at(ctx, wp, plan.stw_kn, plan.departure, d, clock, np.full(s.size, k), s)
         f = is_speed_forbidden(
             ctx.ship, speed_kn=p.stw, hs_m=p.sea.hs_m, period_s=p.sea.period_s, wave_from_deg=p.sea.wave_from_deg,
@@ -87,10 +89,8 @@ def _leg(point, course_deg, before_nm, after_nm):
 
 
 def _at_old_points(plan, s, f):
-    """Whether any of the 5 nm piece midpoints (the old referee's check points) of leg 0 lies in the band."""
-    ev = forbidden_along(plan, ds_nm=1.0)[1]
-    mid = ev.frac[(ev.frac > 0) & (ev.frac < 1)] * s[-1]
-    return bool(f[np.clip(np.searchsorted(s, mid), 0, s.size - 1)].any())
+    """Whether any of the 5 nm piece midpoints (the old referee's check points) of leg 0 lies in a band."""
+    return bool(forbidden_along(plan, at_midpoints=True)[0][0][1].any())
 
 
 def _band_legs(violations):
@@ -140,3 +140,24 @@ def test_direction_swing_through_head_seas_is_found_as_brute_force_finds_it():
     assert _longest(s, f) == pytest.approx(half * 30.0, abs=0.03)  # about 1.2 nm
     assert not _at_old_points(plan, s, f)  # the old referee's 5 nm midpoints miss it
     assert _band_legs(plan.verify()) == {("band:parametric_roll", 0)}
+
+
+def test_moving_storm_leg_in_a_band_between_midpoints_is_found_as_brute_force_finds_it():
+    # issue 14 failure 1: a round storm (peak Hs 14 m, radius 120 nm) moving east at 10 kn; a 40 nm leg sailed at
+    # 5.1 kn six hours later passes 2.6 nm in a band between two 5 nm midpoints (found by a seeded scan of legs)
+    from optroute.weather.storms import moving_storm
+
+    wx = moving_storm(40.0, -40.0, 90.0, 10.0, peak_hs_m=14.0, radius_nm=120.0, start=T0, duration_h=48.0,
+                      step_h=3.0, resolution_deg=0.5)  # fmt: skip
+    wp = np.array([[39.8456, -41.1032], [39.9030, -40.2383]])
+    plan = Plan.from_schedule(wp, [5.1], departure=T0 + np.timedelta64(6, "h"), ship=SHIP, weather=wx)
+    (s, f), = forbidden_along(plan)[0]  # fmt: skip
+    assert 2.0 < _longest(s, f) < 3.5
+    assert not _at_old_points(plan, s, f)
+    found = plan.verify()
+    assert {leg for _, leg in _band_legs(found)} == {0}
+    band = next(v for v in found if v.kind.startswith("band:"))
+    # the worst point the referee reports lies where brute force finds the band
+    lat, lon, _ = gc_points(*wp[0], *wp[1], np.clip(s / s[-1], 0, 1))
+    nearest = np.argmin(geo.distance_nm(lat, lon, *band.position))
+    assert f[max(nearest - 1, 0) : nearest + 2].any()
