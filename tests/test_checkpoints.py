@@ -161,3 +161,13 @@ def test_moving_storm_leg_in_a_band_between_midpoints_is_found_as_brute_force_fi
     lat, lon, _ = gc_points(*wp[0], *wp[1], np.clip(s / s[-1], 0, 1))
     nearest = np.argmin(geo.distance_nm(lat, lon, *band.position))
     assert f[max(nearest - 1, 0) : nearest + 2].any()
+
+
+def test_grid_coordinates_are_the_fractional_node_indices_by_hand():
+    wx = ridge_sea(6.85)  # lat -2..2 and lon 148..153 every 0.5°, times T0 and T0 + 240 h
+    sampler = orx.WeatherSampler(wx)
+    when = np.array([T0 + np.timedelta64(60, "h"), T0, T0 + np.timedelta64(300, "h")])
+    c = sampler.grid_coordinates(when, np.array([0.25, -2.0, 0.0]), np.array([150.6, 148.0, 150.0]))
+    np.testing.assert_allclose(c[0], [0.25, 4.5, 5.2], atol=1e-9)  # 60/240; (0.25 + 2) / 0.5; (150.6 - 148) / 0.5
+    np.testing.assert_allclose(c[1], [0.0, 0.0, 0.0], atol=1e-12)
+    assert np.isnan(c[2]).all()  # after the time span (time_policy "raise")
