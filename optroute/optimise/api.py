@@ -244,6 +244,7 @@ def plan_voyage(
     search_options: Mapping[str, Any] | None = None,
     model: PerformanceModel | None = None,
     rules: BandRules | None = None,
+    exclusion: Exclusion | None = None,
     **optimise_kwargs: Any,
 ) -> Plan:
     """Search a route, take the corridor around it, and optimise speeds and waypoints in it.
@@ -267,6 +268,9 @@ def plan_voyage(
         ``objective`` to search for another objective than the plan's, ...).
     model, rules
         Shared by the search and the optimiser.
+    exclusion : Exclusion, optional
+        A moving circle to stay out of (a cyclone's R + margin, :meth:`optroute.Exclusion.from_track`),
+        imposed on the search's legs and by the optimiser, and checked by :meth:`Plan.verify`.
     **optimise_kwargs
         Further keyword arguments of :func:`optimise_corridor`.
 
@@ -282,7 +286,7 @@ def plan_voyage(
     if objective == "cost":
         opts.setdefault("fuel_price_per_t", optimise_kwargs.get("fuel_price_per_t", 600.0))
         opts.setdefault("hourly_cost_per_h", optimise_kwargs.get("hourly_cost_per_h", 0.0))
-    common = {"departure": departure, "model": model, "rules": rules}
+    common = {"departure": departure, "model": model, "rules": rules, "exclusion": exclusion}
     try:
         route = search_route(start, end, weather, ship, objective=search_objective, eta=eta, **common, **opts)
     except InfeasibleETA:
@@ -298,6 +302,7 @@ def plan_voyage(
         model=model,
         rules=rules,
         route=route,
+        exclusion=exclusion,
         **optimise_kwargs,
     )
     stats = dict(plan.solver_stats)

@@ -14,8 +14,9 @@ interpolates any number of points with index arithmetic:
   (sin, cos), so 350 deg and 10 deg meet at 0 deg, not 180 deg;
 * NaN marks land or ice: a point whose 2 x 2 x 2 stencil touches a NaN cell
   gets NaN — "no passage", never zero waves;
-* missing wind and current variables are zero (calm, no current), as
-  ``shared/design.md`` says; every other missing variable is an error.
+* a missing current is zero (no current); a missing wind is NaN (not known: Kwon's Beaufort number
+  then comes from Hs, as it would in a wave-only file — zero wind would make waves without wind
+  cost nothing); every other missing variable is an error.
 
 Coverage: a point outside the dataset's lat/lon box, or a time outside its
 span, raises :class:`~optroute.errors.WeatherCoverageError` naming the point,
@@ -161,7 +162,7 @@ class PointWeather(NamedTuple):
     fields : ndarray, shape (9, n_time * n_lat * n_lon)
         Raveled fields: Hs [m], the band period [s] (``tp_s``, else ``tm_s``),
         sin and cos of the wave direction, wind u, v [m/s], current u, v [m/s]
-        (rows of zeros where the dataset has none), and a zero row.
+        (NaN rows for a wind and zero rows for a current the dataset does not have), and a zero row.
     time_s, lat_deg, lon_deg : ndarray
         The axes (time in seconds since the first time).
     meta : ndarray
@@ -479,8 +480,8 @@ class WeatherSampler:
         lon : array_like
             Longitudes [deg east], any convention (-180–180, 0–360, unwrapped).
         variables : sequence of str, optional
-            Canonical names wanted; default all present plus zeros for missing
-            wind and current.
+            Canonical names wanted; default all present plus NaN for a missing
+            wind (not known) and zeros for a missing current.
 
         Returns
         -------
@@ -534,7 +535,7 @@ class WeatherSampler:
         out: dict[str, np.ndarray] = {}
         for name in wanted:
             if name not in self.variables:
-                out[name] = np.zeros(shape)
+                out[name] = np.full(shape, np.nan) if name in schema.OPTIONAL_UNKNOWN else np.zeros(shape)
             elif name == _DIR:
                 s = interp(arrays[_DIR + ":sin"].ravel())
                 c = interp(arrays[_DIR + ":cos"].ravel())
@@ -554,11 +555,13 @@ class WeatherSampler:
             return None
         if getattr(self, "_point", None) is None:
             size = self._time.n * self._lat.n * self._lon.n
-            rows = ["hs_m", period, _DIR + ":sin", _DIR + ":cos", *schema.OPTIONAL_ZERO]
+            rows = ["hs_m", period, _DIR + ":sin", _DIR + ":cos", *schema.OPTIONAL]
             fields = np.zeros((N_POINT_FIELDS, size))
             for k, name in enumerate(rows):
                 if name in self._arrays:
                     fields[k] = self._arrays[name].ravel()
+                elif name in schema.OPTIONAL_UNKNOWN:
+                    fields[k] = np.nan
             meta = np.zeros(14)
             for at, ax in ((_M_T_START, self._time), (_M_Y_START, self._lat), (_M_X_START, self._lon)):
                 meta[at : at + 4] = (ax.start, ax.step, 1.0 if ax.uniform else 0.0, ax.stop)
@@ -572,17 +575,17 @@ class WeatherSampler:
 
     def _wanted(self, variables: Sequence[str] | None) -> list[str]:
         if variables is None:
-            return list(self.variables) + [v for v in schema.OPTIONAL_ZERO if v not in self.variables]
+            return list(self.variables) + [v for v in schema.OPTIONAL if v not in self.variables]
         wanted = [str(v) for v in variables]
         for v in wanted:
-            if v not in self.variables and v not in schema.OPTIONAL_ZERO:
+            if v not in self.variables and v not in schema.OPTIONAL:
                 if v not in schema.VARIABLES:
                     raise ConfigError(
                         f"{v!r} is not a canonical weather variable; use one of {sorted(schema.VARIABLES)}"
                     )
                 raise WeatherSchemaError(
                     f"{self.source}: variable {v} is not in the dataset (present: {', '.join(self.variables)}); "
-                    "only wind and current default to zero"
+                    "only wind (unknown) and current (zero) may be missing"
                 )
         return wanted
 
