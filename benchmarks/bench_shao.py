@@ -269,6 +269,12 @@ def _f(x: float, fmt: str) -> str:
     return format(x, fmt) if np.isfinite(x) else "–"
 
 
+def _nlp_cell(r: dict[str, Any]) -> str:
+    if not r["nlp_state"]:
+        return "–"
+    return r["nlp_status"] if r["nlp_state"] == FAILED else f"{r['nlp_state']} ({r['nlp_status']})"
+
+
 def _fmt_window(w: tuple[float, float] | None) -> str:
     return "none" if w is None else f"{w[0]:g}–{w[1]:g} h"
 
@@ -297,7 +303,7 @@ def run(quick: bool) -> dict[str, Any]:
             bv = "–" if r["baseline_violations"] is None else r["baseline_violations"]
             print(f"| {r['eta_h']:g} | {_f(b, '.1f')} ({_f(r['baseline_speed_kn'], 'g')}) | {_f(r['dp_t'], '.1f')} | "
                   f"{_f(r['dp_t'] / b, '.3f')} | {_f(bref, '.1f')} ({bv}) | {_f(r['nlp_t'], '.1f')} | "
-                  f"{_f(r['nlp_t'] / bref, '.3f')} | {r['nlp_state'] or '–'} {r['nlp_status']} |")  # fmt: skip
+                  f"{_f(r['nlp_t'] / bref, '.3f')} | {_nlp_cell(r)} |")  # fmt: skip
         print()
         print("\n".join(comparison_lines(res["comparison"])))
         print(f"\nETAs without a DP curve point (DP failures): {res['dp_missing']} of {len(res['rows'])}")

@@ -79,7 +79,14 @@ def test_quick_figures_are_the_runs_own(quick_run):
     nlp = [r for c in compare["cases"] for r in c["rows"] if r["method"] == "NLP"]
     assert nlp and all(math.isfinite(r["fuel_t"]) and r["fuel_t"] > 0 for r in nlp)
     assert all(r["fuel_ratio"] == pytest.approx(1.0) for r in nlp)
+    # every comparison carries its counts of clean, unverified and failed plans (issue 22), one per case and method
+    comparison = compare["comparison"]
+    assert comparison["cases"] == len(compare["cases"])
+    for counts in comparison["methods"].values():
+        assert counts["ok"] + counts["unverified"] + counts["failed"] == comparison["cases"]
     seed = json.loads((out / "seed000.json").read_text())["result"]
     assert seed["seed_time_ratio_min"] == pytest.approx(288.0 / 200.0)  # EP 2145155: > 12 d against 8 d 8 h
     shao = json.loads((out / "shao.json").read_text())["result"]
     assert shao["cases"][0]["paper"]["window_h"] == [233.0, 272.0]  # seed 001, case I
+    for counts in shao["cases"][0]["comparison"]["methods"].values():
+        assert {"ok", "unverified", "failed"} <= set(counts)
