@@ -39,14 +39,16 @@ def _case() -> dict[str, Any]:
     }
 
 
-def whole_call(quick: bool) -> dict[str, Any]:
+def whole_call(
+    quick: bool, sizes: tuple[int, ...] | None = None, jits: tuple[bool, ...] | None = None
+) -> dict[str, Any]:
     """Time ``optimise_corridor`` at a few leg counts (jit off and on alternated in full mode)."""
     import optroute as orx
 
     c = _case()
     length = c.pop("length_nm")
-    sizes = (31, 62) if quick else (124, 248, 496)
-    jits = (False,) if quick else (False, True)
+    sizes = sizes or ((31, 62) if quick else (124, 248, 496))
+    jits = jits or ((False,) if quick else (False, True))
     rows = []
     for n in sizes:
         kw = {**c, "max_leg_nm": length / n * (1 + 1e-9)}
@@ -63,7 +65,8 @@ def whole_call(quick: bool) -> dict[str, Any]:
                 "ratio_to_jit_off": alt.ratio(name, "jit=False"),
             })  # fmt: skip
     off = [r for r in rows if r["variant"] == "jit=False"]
-    exponent = float(np.polyfit(np.log([r["legs"] for r in off]), np.log([r["median_s"] for r in off]), 1)[0])
+    exponent = (float(np.polyfit(np.log([r["legs"] for r in off]), np.log([r["median_s"] for r in off]), 1)[0])
+                if len(off) > 1 else float("nan"))  # fmt: skip
     return {"rows": rows, "exponent": exponent, "repeats": 2 if quick else 3}
 
 

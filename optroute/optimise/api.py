@@ -133,8 +133,10 @@ def optimise_corridor(
         Ipopt/CasADi options for :class:`formulations.speed_nlp.SpeedNLP` (e.g. ``{"ipopt.max_iter": 100}``).
     jit : bool
         Compile the NLP's per-leg derivative functions to C (CasADi's ``"shell"`` plugin; needs a C compiler
-        ``cc`` on the PATH): a few seconds more per build, each solve about twice as fast (``benchmarks.bench_nlp``:
-        500 legs 0.87 s against 1.71 s). Worth it for long corridors and fronts, where builds are reused.
+        ``cc`` on the PATH): a few seconds more per build (every call builds, so every call compiles), each Ipopt
+        solve faster, a whole call only a little: about 1.15× faster on a 500-leg corridor (issue 22's measurement;
+        ``benchmarks.bench_nlp`` §2b times the whole call both ways, alternated). Worth it for long corridors and
+        fronts, where builds are reused.
     use_land_mask : bool, optional
         Apply the real coastline (default: unless the weather declares synthetic geography).
     discrete_start : bool
