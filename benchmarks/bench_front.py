@@ -32,6 +32,8 @@ from benchmarks._measure import alternate, load_line, timing_table
 from optroute.plot.common import save_png
 
 T0 = np.datetime64("2024-01-10T00:00", "ns")
+QUICK, FULL = (16, 4, 2), (300, 30, 3)
+"""(legs, ETAs, timed repetitions of each variant) of the quick and the full mode."""
 
 
 def case(n_legs: int, *, half: bool = False) -> tuple[orx.Corridor, Any, orx.Ship, dict[str, Any]]:
@@ -57,7 +59,7 @@ def case(n_legs: int, *, half: bool = False) -> tuple[orx.Corridor, Any, orx.Shi
 
 def run(quick: bool) -> dict[str, Any]:
     """Compute the front three ways, alternated; print markdown tables; return the figures."""
-    n_legs, n, repeats = (16, 4, 2) if quick else (300, 30, 3)
+    n_legs, n, repeats = QUICK if quick else FULL
     corridor, wx, ship, kw = case(n_legs, half=quick)
     common = {"corridor_or_endpoints": corridor, "weather": wx, "ship": ship, "departure": T0, "n": n, **kw}
     print(load_line("load average at start"))
