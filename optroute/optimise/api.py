@@ -138,8 +138,10 @@ def optimise_corridor(
         Ipopt/CasADi options for :class:`formulations.speed_nlp.SpeedNLP` (e.g. ``{"ipopt.max_iter": 100}``).
     jit : bool
         Compile the NLP's per-leg derivative functions to C (CasADi's ``"shell"`` plugin; needs a C compiler
-        ``cc`` on the PATH): a few seconds more per build, each solve about twice as fast (``benchmarks.bench_nlp``:
-        500 legs 0.87 s against 1.71 s). Worth it for long corridors and fronts, where builds are reused.
+        ``cc`` on the PATH): a few seconds more per build (every call builds, so every call compiles), each Ipopt
+        solve faster, a whole call only a little: about 1.15× faster on a 500-leg corridor (issue 22's measurement;
+        ``benchmarks.bench_nlp`` §2b times the whole call both ways, alternated). Worth it for long corridors and
+        fronts, where builds are reused.
     use_land_mask : bool, optional
         Apply the real coastline (default: unless the weather declares synthetic geography).
     discrete_start : bool
@@ -158,8 +160,8 @@ def optimise_corridor(
         (converged, the side search stopped on ``band_solves``), ``"feasible"`` (Ipopt stopped at a limit; its
         iterate's plan verifies) or ``"start"`` (the verified start, because the NLP's plan was worse or
         failed; ``solver_stats["status_reason"]`` says which). ``solver_stats`` holds: ``ipopt_status``
-        (verbatim), ``nlp_solves`` and ``iterations`` (every Ipopt call of the whole call, and all their
-        iterations), ``build_time_s``, ``stage_time_s`` (start, solve and verify), ``total_time_s``;
+        (verbatim), ``nlp_solves``, ``iterations`` and ``solve_time_s`` (every Ipopt call of the whole call —
+        side flips, re-solves, rescue solves — with all their iterations and wall-clock time [s]), ``build_time_s``, ``stage_time_s`` (start, solve and verify), ``total_time_s``;
         ``start``, ``start_score``, ``starts`` (every candidate's score by the referee, inf unverified),
         ``nlp_score``; ``power_table`` (its speed and heading nodes, capped share, evaluations, the SFOC
         curve's error) and, for an NLP plan, ``tabulation`` (the NLP's fuel at its solution against the

@@ -512,6 +512,7 @@ class PreparedCorridor:
         t0, prob, frame, step_nm = self.departure, self.problem, self.frame, self.verify_step_nm
         ctx = self.plan_context(eta_t, eta_mode)
         build_before, solves_before, iters_before = prob.build_time_s, prob.solves, prob.iterations
+        ipopt_before = prob.solve_time_s
         st = self._tightening()
         stage_s: dict[str, float] = {}
         # ---- stage: start -----------------------------------------------------------------
@@ -609,6 +610,7 @@ class PreparedCorridor:
             "nlp_solves": prob.solves - solves_before,
             "iterations": prob.iterations - iters_before,
             "build_time_s": prob.build_time_s - build_before,
+            "solve_time_s": prob.solve_time_s - ipopt_before,
         }
         if best is None and start.plan is None:
             status = last.res.status if last is not None else "unknown"

@@ -388,6 +388,7 @@ def _first_failure(
                 budget=budget,
                 **{**solve_kw, "objective": "time"},
             )
+            prob.absorb_counts(p_long)  # its build and solve are this call's too (solver_stats counts every solve)
             log.append(f"minimum time on a grid to {float(p_long.grid.t_h[-1]):.1f} h: Ipopt {again.res.status}")
             if again.ok:
                 fast = again
