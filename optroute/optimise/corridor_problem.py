@@ -13,8 +13,10 @@ A solve, in stages: **start** — the best verified discrete plan on the corrido
 (:mod:`optroute.optimise.starts`: a given warm plan or search route, the 3-D DP on the corridor, the
 centreline start; scored by the referee); **solve** — Ipopt from it with the band outer loop
 (:meth:`~optroute.optimise.nlp_solve.Problem.solve`); **verify** — the plan of the solution by the
-referee, re-solved with the rows the verification flagged tightened (band edges, load limit,
-exclusion radius, lateral bounds) when it fails; **plan** — the better of the NLP's verified plan
+referee; where it finds only the engine outside its range (the smooth power table cannot follow the
+model's steps between the NLP's samples) the speeds of those legs move to the limit
+(:func:`~optroute.optimise.starts.repaired_plan`, status ``"mended"``); otherwise re-solved with the rows the
+verification flagged tightened (band edges, load limit, exclusion radius, lateral bounds); **plan** — the better of the NLP's verified plan
 and the verified start, never a worse one, with a status that says which and why.
 """
 
@@ -32,7 +34,7 @@ import xarray as xr
 
 from formulations.speed_nlp import jit_compiler
 from optroute._checks import finite
-from optroute.errors import ConfigError, SolverFailure, WeatherCoverageError
+from optroute.errors import ConfigError, OptrouteError, SolverFailure, WeatherCoverageError
 from optroute.optimise.certificate import certificate_stats, dual_schedule
 from optroute.optimise.min_time import clean_start
 from optroute.optimise.nlp_inputs import build_frame, dataset_spacing, lateral_bounds, weather_grid
@@ -47,9 +49,11 @@ from optroute.optimise.nlp_solve import (
 )
 from optroute.optimise.power_table import PowerTable, baseline_power_model, heading_nodes, speed_nodes
 from optroute.optimise.starts import (
+    ENGINE_KINDS,
     Candidate,
     dp_route,
     great_circle_corridor,
+    repaired_plan,
     route_stw,
     score,
     track_warm_start,
@@ -357,13 +361,17 @@ class PreparedCorridor:
                 _plan_warm_start(warm_plan, frame),
                 verified_plan(ctx, warm_plan.waypoints, stw, t0, step, "start"),
             )
+
+        def mended(label: str, waypoints: np.ndarray, stw: np.ndarray) -> tuple[dict[str, np.ndarray], Plan | None]:
+            # a discrete plan checked at its own points only: its engine range mended where the referee finds it out
+            plan, legs = repaired_plan(ctx, waypoints, stw, t0, step, "start", v_min_kn=self.v_min, v_max_kn=self.v_max)
+            if plan is not None and legs:
+                st.log.append(f"{label}: the referee found the engine outside its range; speeds mended on {legs} legs")
+            speeds = plan.stw_kn if plan is not None else stw
+            return track_warm_start(waypoints, speeds, frame), plan
+
         if route is not None:
-            stw = route_stw(route)
-            add(
-                "search route",
-                track_warm_start(route.waypoints, stw, frame),
-                verified_plan(ctx, route.waypoints, stw, t0, step, "start"),
-            )
+            add("search route", *mended("search route", route.waypoints, route_stw(route)))
         eta = ctx.eta
         if self.discrete_start and eta is not None and objective != "time" and great_circle_corridor(frame):
             dp = dp_route(
@@ -379,13 +387,7 @@ class PreparedCorridor:
                 options=self.dp_options,
             )
             if dp is not None:
-                stw = route_stw(dp)
-                add(
-                    "3-D DP",
-                    track_warm_start(dp.waypoints, stw, frame),
-                    verified_plan(ctx, dp.waypoints, stw, t0, step, "start"),
-                    own(dp),
-                )
+                add("3-D DP", *mended("3-D DP", dp.waypoints, route_stw(dp)), own(dp))
         fixed = bool(np.all(self.y_lo == 0.0) and np.all(self.y_hi == 0.0))
         if fixed and cap_h is not None and objective in ("fuel", "cost"):
             # on a fixed path in static weather: the ship's own dual bound's schedule, a near-optimal discrete plan
@@ -525,6 +527,7 @@ class PreparedCorridor:
             + "; ".join(f"{c.label} {c.score:.6g}" if c.plan is not None else f"{c.label} unverified" for c in cands)
         )
         warm = clear_of_exclusion(dict(first.warm), frame, self.exclusion, t0, self.y_lo, self.y_hi)
+        start_table = self._table_at(ctx, warm, st)
         solve_kw = {
             "eta_mode": eta_mode,
             "objective": objective,
@@ -588,6 +591,27 @@ class PreparedCorridor:
                 if not violations and sol.ok:
                     found = (plan, sol, eta_solve)
                     break
+                if sol.ok and all(v.kind in ENGINE_KINDS for v in violations):
+                    # the smooth table cannot follow the model's steps (Kwon's Beaufort and direction sectors) at
+                    # the referee's points: where only the engine's range is broken there, the speeds of those legs
+                    # move to the limit by the propeller law (no re-solve, no global tightening of the load limit)
+                    mended, legs = repaired_plan(
+                        ctx,
+                        plan.waypoints,
+                        plan.stw_kn,
+                        t0,
+                        step_nm,
+                        "candidate",
+                        v_min_kn=self.v_min,
+                        v_max_kn=self.v_max,
+                    )
+                    if mended is not None:
+                        st.log.append(
+                            f"attempt {attempt}: the referee found the engine outside its range on "
+                            f"{len({v.leg for v in violations})} legs; speeds mended on {legs} legs"
+                        )
+                        found = (mended, replace(sol, mended_legs=legs), eta_solve)
+                        break
                 if not sol.ok:
                     # stopped at a limit at a point the referee rejects: tighten what it found and go on from there
                     st.log.append(f"attempt {attempt}: Ipopt {sol.res.status}; its iterate fails verification")
@@ -628,6 +652,7 @@ class PreparedCorridor:
             "start_score": start.score,
             "warm_start": first.label,
             "starts": {c.label: c.score for c in cands},
+            "start_tabulation": start_table,
             "nlp_score": nlp_score,
             "stage_time_s": stage_s,
             "retries": st.retries,
@@ -655,7 +680,13 @@ class PreparedCorridor:
         plan, sol, eta_solve = best
         res = sol.res
         converged = res.status == "Solve_Succeeded"
-        if converged and sol.sides_settled:
+        if converged and sol.mended_legs:
+            status = "mended"
+            stats["status_reason"] = (
+                f"Ipopt converged; the referee found the engine outside its range between the NLP's samples, and the "
+                f"speeds of {sol.mended_legs} legs were moved to the limit (optroute.optimise.starts.repaired_plan)"
+            )
+        elif converged and sol.sides_settled:
             status = "optimal"
         elif converged:
             status = "sides_unsettled"
@@ -696,6 +727,34 @@ class PreparedCorridor:
             v_max_kn=self.v_max,
             step_nm=self.verify_step_nm,
         )
+
+    def _table_at(self, ctx: PlanContext, warm: Mapping[str, np.ndarray], st: Tightening) -> dict[str, float]:
+        """The NLP's fuel [t] at its warm start against the referee's for the same track and schedule.
+
+        Where the start sits on the cheap side of one of the model's steps (Kwon's Beaufort numbers and
+        direction sectors) the smooth table misjudges it, and Ipopt may leave a start that is better by the
+        referee: this figure says by how much the NLP's model sees the start differently.
+        """
+        nlp = self.problem.build(st)
+        y = np.clip(np.asarray(warm["offset_nm"], dtype=float), *nlp.corridor.offset_bounds())
+        v = np.clip(np.asarray(warm["stw_kn"], dtype=float), nlp.v_min_kn, nlp.v_max_kn)
+        t = nlp.consistent_times(y, v)
+        nlp_fuel = float(np.sum(nlp.leg_fuel_t(y, v, t)))
+        try:
+            same = Plan.from_context(
+                ctx,
+                self.frame.waypoints(y),
+                v,
+                departure=self.departure,
+                times=self.departure + _h_to_td(t),
+                status="candidate",
+                step_nm=self.verify_step_nm,
+            )
+        except OptrouteError:  # a start the referee cannot evaluate (it then has no plan either): no figure
+            return {"nlp_fuel_t": nlp_fuel, "referee_fuel_t": float("nan"), "rel_error": float("nan")}
+        referee = float(same.total_fuel_t)
+        rel = nlp_fuel / referee - 1.0 if referee > 0 else float("nan")
+        return {"nlp_fuel_t": nlp_fuel, "referee_fuel_t": referee, "rel_error": rel}
 
     def _usable_iterate(self, sol: Solved, ctx: PlanContext) -> bool:
         from optroute.optimise.rescue import _feasible_iterate
@@ -762,6 +821,7 @@ class PreparedCorridor:
             "outer_flips": sol.flips,
             "outer_history": sol.history,
             "sides_settled": sol.sides_settled,
+            "mended_legs": sol.mended_legs,
             "nlp_objective": float(res.objective),
             "nlp_fuel_t": float(res.total_fuel_t),
             "nlp_max_violation": float(res.max_violation),
