@@ -170,3 +170,23 @@ def test_nlp_objective_equals_the_referee_within_the_tabulation_bound(crossing: 
     # and the counts are honest: every solve and every iteration
     stats = crossing["alone"].solver_stats
     assert stats["nlp_solves"] >= 1 and stats["iterations"] >= stats["nlp_solves"]
+
+
+def test_repaired_plan_moves_only_the_slow_leg_to_the_minimum_power_speed_found_by_bisection() -> None:
+    # calm water, three legs: the middle one at 3 kn is below the engine's minimum power; the repair moves it to just
+    # above the speed where the model's calm-water power equals the minimum (found here by bisection on the model)
+    wx = orx.scenarios.calm((20.0, 40.0, -160.0, -130.0), start=T0, duration_h=200.0)
+    wp = np.array([[30.0, -150.0], [30.0, -149.0], [30.0, -148.0], [30.0, -147.0]])
+    stw = np.array([14.0, 3.0, 14.0])
+    ctx = orx.Plan.from_schedule(wp, stw, departure=T0, ship=SHIP, weather=wx).context
+    assert {v.kind for v in orx.Plan.from_context(ctx, wp, stw, departure=T0).verify()} == {"power_below_min"}
+    plan, legs = repaired_plan(ctx, wp, stw, T0, 5.0, "start", v_min_kn=3.0, v_max_kn=24.0)
+    assert plan is not None and plan.verify() == [] and legs == 1
+    assert plan.stw_kn[0] == 14.0 and plan.stw_kn[2] == 14.0
+    model = KwonModel(SHIP)
+    lo, hi = 3.0, 24.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        p = float(model.brake_power_kw(mid, hs_m=0.0, wave_angle_deg=0.0, wind_speed_ms=0.0, wind_angle_deg=0.0))
+        lo, hi = (mid, hi) if p < model.min_power_kw else (lo, mid)
+    assert hi <= plan.stw_kn[1] <= hi * 1.01  # at the limit, 0.2 % beyond it in power (about 0.07 % in speed)

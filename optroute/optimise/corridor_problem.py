@@ -373,78 +373,97 @@ class PreparedCorridor:
         """The NLP's start candidates (:mod:`optroute.optimise.starts`), each scored by the referee, best first.
 
         Candidates without a verified plan come last, in the order given (a warm plan, a search route,
-        the 3-D DP, the centreline start): the first of them is the warm start when none verifies.
+        the 3-D DP, the ship's dual schedule, the centreline start): the first of them is the warm start
+        when none verifies.
         """
         t0, frame, step = self.departure, self.frame, self.verify_step_nm
-        price, hourly = self.fuel_price, self.hourly
         out: list[Candidate] = []
-
-        def add(label: str, warm: dict[str, np.ndarray], plan: Plan | None, own: float = float("inf")) -> None:
-            val = score(plan, objective, price, hourly) if plan is not None else float("inf")
-            out.append(Candidate(label, warm, plan, val, min(val, own)))
-
-        def own(r: Route) -> float:
-            return (
-                float(r.cost) if objective == "cost" else float(r.total_fuel_t) if objective == "fuel" else float("inf")
-            )
-
         if warm_plan is not None:
             stw = np.asarray(warm_plan.stw_kn, dtype=float)
-            add(
-                "warm plan",
-                plan_warm_start(warm_plan, frame),
-                verified_plan(ctx, warm_plan.waypoints, stw, t0, step, "start"),
-            )
-
-        def mended(label: str, waypoints: np.ndarray, stw: np.ndarray) -> tuple[dict[str, np.ndarray], Plan | None]:
-            # a discrete plan checked at its own points only: its engine range mended where the referee finds it out
-            plan, legs = repaired_plan(ctx, waypoints, stw, t0, step, "start", v_min_kn=self.v_min, v_max_kn=self.v_max)
-            if plan is not None and legs:
-                st.log.append(f"{label}: the referee found the engine outside its range; speeds mended on {legs} legs")
-            speeds = plan.stw_kn if plan is not None else stw
-            return track_warm_start(waypoints, speeds, frame), plan
-
+            plan = verified_plan(ctx, warm_plan.waypoints, stw, t0, step, "start")
+            out.append(self._candidate("warm plan", plan_warm_start(warm_plan, frame), plan, objective))
         if route is not None:
-            add("search route", *mended("search route", route.waypoints, route_stw(route)))
-        eta = ctx.eta
-        if self.discrete_start and eta is not None and objective != "time" and great_circle_corridor(frame):
+            out.append(self._discrete("search route", ctx, route, objective, st.log, own=False))
+        if self.discrete_start and ctx.eta is not None and objective != "time" and great_circle_corridor(frame):
             dp = dp_route(
                 ctx,
                 frame,
                 departure=t0,
-                eta=eta,
+                eta=ctx.eta,
                 objective=objective,
                 v_min_kn=self.v_min,
                 v_max_kn=self.v_max,
-                fuel_price=price,
-                hourly=hourly,
+                fuel_price=self.fuel_price,
+                hourly=self.hourly,
                 options=self.dp_options,
             )
             if dp is not None:
-                add("3-D DP", *mended("3-D DP", dp.waypoints, route_stw(dp)), own(dp))
+                out.append(self._discrete("3-D DP", ctx, dp, objective, st.log, own=True))
         if self.fixed_path and cap_h is not None and objective in ("fuel", "cost"):
-            # on a fixed path in static weather: the ship's own dual bound's schedule, a near-optimal discrete plan
-            # with its band sides (optroute.optimise.certificate)
-            centre_wp = frame.waypoints(np.zeros(frame.n_legs + 1))
-            stw = dual_schedule(
-                ctx,
-                centre_wp,
-                departure=t0,
-                eta_h=cap_h,
-                eta_mode=ctx.eta_mode,
-                objective=objective,
-                fuel_price=price,
-                hourly_cost=hourly,
-                v_min_kn=self.v_min,
-                v_max_kn=self.v_max,
-                step_nm=step,
-            )
-            if stw is not None:
-                add(
-                    "ship dual",
-                    track_warm_start(centre_wp, stw, frame),
-                    verified_plan(ctx, centre_wp, stw, t0, step, "start"),
-                )
+            dual = self._dual_candidate(ctx, cap_h, objective)
+            out += [dual] if dual is not None else []
+        out.append(self._centre_candidate(ctx, cap_h, objective, st))
+        order = sorted(range(len(out)), key=lambda i: (out[i].score, i))
+        return [out[i] for i in order]
+
+    def _candidate(
+        self, label: str, warm: dict[str, np.ndarray], plan: Plan | None, objective: str, own: float = float("inf")
+    ) -> Candidate:
+        """A start candidate: its score by the referee (inf unverified) and its estimate (the lower of that and ``own``)."""
+        val = score(plan, objective, self.fuel_price, self.hourly) if plan is not None else float("inf")
+        return Candidate(label, warm, plan, val, min(val, own))
+
+    def _discrete(
+        self, label: str, ctx: PlanContext, route: Route, objective: str, log: list[str], *, own: bool
+    ) -> Candidate:
+        """A discrete plan (a search route, the 3-D DP) as a candidate, its engine range mended where the referee
+        finds it out between the search's own points (:func:`~optroute.optimise.starts.repaired_plan`); ``own``:
+        its own figure of the objective orders the warm starts too."""
+        stw = route_stw(route)
+        plan, legs = repaired_plan(
+            ctx,
+            route.waypoints,
+            stw,
+            self.departure,
+            self.verify_step_nm,
+            "start",
+            v_min_kn=self.v_min,
+            v_max_kn=self.v_max,
+        )
+        if plan is not None and legs:
+            log.append(f"{label}: the referee found the engine outside its range; speeds mended on {legs} legs")
+        warm = track_warm_start(route.waypoints, plan.stw_kn if plan is not None else stw, self.frame)
+        figure = float("inf")
+        if own and objective in ("fuel", "cost"):
+            figure = float(route.total_fuel_t) if objective == "fuel" else float(route.cost)
+        return self._candidate(label, warm, plan, objective, figure)
+
+    def _dual_candidate(self, ctx: PlanContext, cap_h: float, objective: str) -> Candidate | None:
+        """On a fixed path in static weather: the ship's own dual bound's schedule, a near-optimal discrete plan
+        with its band sides (:func:`optroute.optimise.certificate.dual_schedule`); None where it has none."""
+        frame, t0, step = self.frame, self.departure, self.verify_step_nm
+        centre_wp = frame.waypoints(np.zeros(frame.n_legs + 1))
+        stw = dual_schedule(
+            ctx,
+            centre_wp,
+            departure=t0,
+            eta_h=cap_h,
+            eta_mode=ctx.eta_mode,
+            objective=objective,
+            fuel_price=self.fuel_price,
+            hourly_cost=self.hourly,
+            v_min_kn=self.v_min,
+            v_max_kn=self.v_max,
+            step_nm=step,
+        )
+        if stw is None:
+            return None
+        plan = verified_plan(ctx, centre_wp, stw, t0, step, "start")
+        return self._candidate("ship dual", track_warm_start(centre_wp, stw, frame), plan, objective)
+
+    def _centre_candidate(self, ctx: PlanContext, cap_h: float | None, objective: str, st: Tightening) -> Candidate:
+        """The NLP's own safe start on the centreline (:func:`optroute.optimise.min_time.clean_start`)."""
+        t0, frame, step = self.departure, self.frame, self.verify_step_nm
         centre = clean_start(
             ctx,
             frame,
@@ -456,13 +475,8 @@ class PreparedCorridor:
             rules=warm_rules(self.rules, st),
             log=st.log,
         )
-        add(
-            "centreline start",
-            centre,
-            verified_plan(ctx, frame.waypoints(centre["offset_nm"]), centre["stw_kn"], t0, step, "start"),
-        )
-        order = sorted(range(len(out)), key=lambda i: (out[i].score, i))
-        return [out[i] for i in order]
+        plan = verified_plan(ctx, frame.waypoints(centre["offset_nm"]), centre["stw_kn"], t0, step, "start")
+        return self._candidate("centreline start", centre, plan, objective)
 
     @staticmethod
     def warm_candidate(cands: list[Candidate]) -> Candidate:
