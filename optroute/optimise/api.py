@@ -158,10 +158,14 @@ def optimise_corridor(
         Verified (``plan.verify() == []``); ``total_fuel_t`` and ``legs`` are the true model's.
         ``status``: ``"optimal"`` (Ipopt converged and the band-side search finished), ``"sides_unsettled"``
         (converged, the side search stopped on ``band_solves``), ``"feasible"`` (Ipopt stopped at a limit; its
-        iterate's plan verifies) or ``"start"`` (the verified start, because the NLP's plan was worse or
-        failed; ``solver_stats["status_reason"]`` says which). ``solver_stats`` holds: ``ipopt_status``
-        (verbatim), ``nlp_solves``, ``iterations`` and ``solve_time_s`` (every Ipopt call of the whole call —
-        side flips, re-solves, rescue solves — with all their iterations and wall-clock time [s]), ``build_time_s``, ``stage_time_s`` (start, solve and verify), ``total_time_s``;
+        iterate's plan verifies), ``"mended"`` (converged; the referee found the engine outside its range
+        between the NLP's samples and the speeds of those legs were moved to the limit,
+        :func:`optroute.optimise.starts.repaired_plan`; ``solver_stats["mended_legs"]``) or ``"start"`` (the
+        verified start, because the NLP's plan was worse or failed; ``solver_stats["status_reason"]`` says
+        which). ``solver_stats`` holds: ``ipopt_status`` (verbatim), ``nlp_solves``, ``iterations`` and
+        ``solve_time_s`` (every Ipopt call of the whole call — side flips, re-solves, rescue solves — with all
+        their iterations and wall-clock time [s]), ``build_time_s``, ``stage_time_s`` (start, solve and verify),
+        ``total_time_s``;
         ``start``, ``start_score``, ``starts`` (every candidate's score by the referee, inf unverified),
         ``nlp_score``; ``power_table`` (its speed and heading nodes, capped share, evaluations, the SFOC
         curve's error) and, for an NLP plan, ``tabulation`` (the NLP's fuel at its solution against the

@@ -75,7 +75,9 @@ class Solved:
     """One solve with the band outer loop.
 
     ``n_solves`` and ``iterations`` count every Ipopt call of the outer loop and all their
-    iterations; ``sides_settled`` is False when the side search stopped on its budget of solves.
+    iterations; ``sides_settled`` is False when the side search stopped on its budget of solves;
+    ``mended_legs`` counts the legs whose speed was moved after the solve to bring the engine back into
+    its range where the referee found it out (:func:`optroute.optimise.starts.repaired_plan`).
     """
 
     res: NLPResult
@@ -86,6 +88,7 @@ class Solved:
     nlp: SpeedNLP
     iterations: int = 0
     sides_settled: bool = True
+    mended_legs: int = 0  # legs whose speed the referee's engine-range check moved (starts.repaired_plan)
 
 
 # --------------------------------------------------------------------------- the problem
