@@ -34,7 +34,7 @@ from optroute.search.dp import solve_dp
 from optroute.search.grid import RouteGrid
 from optroute.search.neighbourhood import Neighbourhood, angular_resolution, compass
 from optroute.search.passage_kernels import MODE_CHEAPEST, MODE_TIME
-from optroute.search.piece_geometry import check_points, cumulative, piece_points, points_along
+from optroute.search.piece_geometry import cumulative, piece_points, points_along
 from optroute.search.route import Corridor, Route
 from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
@@ -201,11 +201,10 @@ class PassagePhysics:
         speeds = np.ascontiguousarray(speeds, dtype=float)
 
         def leg_batch(lat, lon, course, length, n_pieces, t0_h):
-            pts = check_points(lat, lon, course, length, n_pieces, check_nm)
             dur, fuel, feas, uncovered = passage_kernels.cost_legs(
-                params, weather, mode, check_nm is not None, speeds, lam, desired, step, vmin,
-                *(np.ascontiguousarray(a, dtype=float) for a in (lat, lon, course, length)),
-                n_pieces, np.ascontiguousarray(t0_h, dtype=float), *pts,
+                params, weather, mode, -1.0 if check_nm is None else float(check_nm), speeds, lam, desired, step,
+                vmin, *(np.ascontiguousarray(a, dtype=float) for a in (lat, lon, course, length)),
+                n_pieces, np.ascontiguousarray(t0_h, dtype=float),
             )  # fmt: skip
             self.calls += 1
             self.uncovered += int(uncovered)
