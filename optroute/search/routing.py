@@ -29,6 +29,7 @@ from optroute.physics.performance import PerformanceModel, default_model
 from optroute.physics.safety import BANDS, BandRules, band_margins
 from optroute.physics.ship import Ship
 from optroute.search import passage_kernels
+from optroute.search.compiled_search import LegKernel
 from optroute.search.dijkstra import shortest_path
 from optroute.search.dp import solve_dp
 from optroute.search.grid import RouteGrid
@@ -210,7 +211,23 @@ class PassagePhysics:
             self.uncovered += int(uncovered)
             return dur, fuel, feas
 
+        def uncovered(n: int) -> None:
+            self.calls += 1
+            self.uncovered += n
+
         cb.leg_batch = leg_batch  # type: ignore[attr-defined]
+        cb.leg_kernel = LegKernel(  # type: ignore[attr-defined]
+            params,
+            weather,
+            mode,
+            -1.0 if check_nm is None else float(check_nm),
+            speeds,
+            lam,
+            desired,
+            step,
+            vmin,
+            uncovered,
+        )
         return cb
 
     def segment_checked(
