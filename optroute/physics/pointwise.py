@@ -63,6 +63,7 @@ __all__ = [
     "heading_for_course",
     "kwon_direction_coefficient",
     "kwon_form_coefficient",
+    "least_cost_per_nm",
     "point_params",
     "stw_for_sog",
     "wrap_360",
@@ -380,3 +381,34 @@ def evaluate_speeds_flat(
             p, course[i], hs[i], period[i], wave_from[i], wind_u[i], wind_v[i], cur_u[i], cur_v[i], stw[i]
         )
     return heading, sog, power, fuel, allowed
+
+
+def least_cost_per_nm(p: np.ndarray, speeds_kn: np.ndarray, lambda_t_per_h: float, current_kn: float) -> float:
+    """A lower bound on (fuel + λ·time) per nautical mile at any allowed speed of ``speeds_kn``, anywhere [t/nm].
+
+    ``min over v of (fuel_rate(max(P_calm(v), P_min)) + λ) / (v + c)`` with
+    ``c`` [kn] at least the strongest current.  It holds because, at a speed
+    through water v allowed anywhere (:func:`evaluate_speed`):
+
+    * the brake power is at least the calm-water power: Kwon's (2008) loss is
+      floored at 0, so the calm speed :func:`brake_power` inverts for is >= v
+      (and the calm-water model is the calm power itself);
+    * the power is at least the minimum load, or v is not allowed;
+    * the fuel rate (IMO GHG4 SFOC times P) increases with P: its derivative in
+      the load L is SFC_base (1.365 L² − 1.420 L + 1.280) > 0 (negative discriminant);
+    * the speed over ground is at most v + |current| (Bowditch's current triangle).
+
+    Per mile of a leg's integration (:mod:`optroute.search.passage_kernels`:
+    a midpoint rate times the piece, or the trapezoidal rule over check points,
+    where ``(F_a + F_b)(1/s_a + 1/s_b) / 4 >= r`` whenever ``F_a/s_a, F_b/s_b >= r``)
+    the bound holds for the whole leg, so ρ times the great-circle distance to
+    the end is an admissible and consistent A* heuristic for the fuel and cost
+    objectives.  Units: speeds [kn], λ [t/h], result [t/nm].
+    """
+    best = np.inf
+    for v in np.asarray(speeds_kn, dtype=float).ravel():
+        if not v > 0.0:
+            continue
+        power = max(float(calm_power(p, float(v))), float(p[P_MIN_POWER]))
+        best = min(best, (float(fuel_rate(p, power)) + float(lambda_t_per_h)) / (float(v) + float(current_kn)))
+    return float(best) if np.isfinite(best) else 0.0

@@ -179,6 +179,18 @@ class PassagePhysics:
 
         return self._with_kernel(cb, MODE_CHEAPEST, speeds, float(lambda_t_per_h), (0.0, 1.0, 0.0), check_nm)
 
+    def cost_floor_per_nm(self, speeds_kn: np.ndarray, lambda_t_per_h: float, current_kn: float) -> float | None:
+        """A lower bound on (fuel + λ·time) per nm of any leg at the speeds given [t/nm], or None.
+
+        :func:`optroute.physics.pointwise.least_cost_per_nm` for the built-in
+        performance models (``current_kn`` at least the strongest current [kn]);
+        None for a model it does not cover (the search then bounds by λ / v_max).
+        """
+        params = pointwise.cached_point_params(self.ship, self.model, self.rules)
+        if params is None:
+            return None
+        return pointwise.least_cost_per_nm(params, speeds_kn, lambda_t_per_h, current_kn)
+
     def kernel_inputs(self) -> tuple[np.ndarray, tuple] | None:
         """(point parameters, weather arrays) of the compiled kernels, or None where they do not apply.
 
@@ -659,8 +671,9 @@ def search_route(
             )
         cb = physics.segment_cheapest(speeds, lam, check)
         return shortest_path(
-            grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="cost", lambda_t_per_h=lam
-        )
+            grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="cost", lambda_t_per_h=lam,
+            cost_floor_per_nm=physics.cost_floor_per_nm(speeds, lam, v_bound - ceiling),
+        )  # fmt: skip
 
     try:
         res, lam_used = _run_objective(run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t)
