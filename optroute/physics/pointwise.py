@@ -59,6 +59,7 @@ __all__ = [
     "beaufort_from_wind",
     "brake_power",
     "cached_point_params",
+    "cost_rate_floor",
     "evaluate_speed",
     "heading_for_course",
     "kwon_direction_coefficient",
@@ -268,6 +269,19 @@ def fuel_rate(p, power_kw):  # pragma: no cover - compiled
 
 
 @jit
+def cost_rate_floor(p, stw_kn, lam_t_per_h, current_kn):  # pragma: no cover - compiled
+    """A lower bound on (fuel + λ) / SOG [t/nm] of ``stw_kn`` wherever the current is at most ``current_kn`` [kn].
+
+    ``(fuel_rate(max(P_calm(v), P_min)) + λ) / (v + c)``: the brake power of an
+    allowed speed is at least its calm-water power (Kwon's loss is floored at
+    0) and the minimum load, the fuel rate increases with the power, and the
+    SOG is at most v + |current| (see :func:`least_cost_per_nm`).
+    """
+    power = max(calm_power(p, stw_kn), p[P_MIN_POWER])
+    return (fuel_rate(p, power) + lam_t_per_h) / (stw_kn + current_kn)
+
+
+@jit
 def _in_band(r, lo, hi):  # pragma: no cover - compiled
     return lo <= r <= hi
 
@@ -407,8 +421,6 @@ def least_cost_per_nm(p: np.ndarray, speeds_kn: np.ndarray, lambda_t_per_h: floa
     """
     best = np.inf
     for v in np.asarray(speeds_kn, dtype=float).ravel():
-        if not v > 0.0:
-            continue
-        power = max(float(calm_power(p, float(v))), float(p[P_MIN_POWER]))
-        best = min(best, (float(fuel_rate(p, power)) + float(lambda_t_per_h)) / (float(v) + float(current_kn)))
+        if v > 0.0:
+            best = min(best, float(cost_rate_floor(p, float(v), float(lambda_t_per_h), float(current_kn))))
     return float(best) if np.isfinite(best) else 0.0

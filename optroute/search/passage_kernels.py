@@ -27,8 +27,9 @@ import math
 
 import numpy as np
 
+from optroute import units
 from optroute._numba import jit
-from optroute.physics.pointwise import allowed_speed, evaluate_speed, stw_for_sog
+from optroute.physics.pointwise import allowed_speed, cost_rate_floor, evaluate_speed, stw_for_sog
 from optroute.search.edge_geometry import piece_point
 from optroute.weather.sample import N_POINT_FIELDS, sample_at
 
@@ -38,6 +39,8 @@ MODE_CHEAPEST = 1
 """The speed of the set minimising fuel + λ·time per mile (objectives "fuel" and "cost")."""
 
 _DONE_TOL_H = 1e-3  # as segment_checked: a speed's own times agree with the times it was checked at
+_FLOOR_SLACK = 1.0 - 1e-12  # rounding room for skipping speeds by their cost floor (pointwise.cost_rate_floor)
+_MS_PER_KN = units.MS_PER_KN
 
 
 @jit
@@ -73,7 +76,10 @@ def cheapest_speed_at(p, course, sea, speeds, lam):  # pragma: no cover - compil
     """The allowed speed of ``speeds`` minimising (fuel + λ) / SOG, as :func:`~optroute.physics.passage.cheapest_speed`."""
     best, k_best = np.inf, -1
     b_sog, b_fuel = np.nan, np.nan
+    cur = math.hypot(sea[5], sea[6]) / _MS_PER_KN
     for k in range(speeds.size):
+        if cost_rate_floor(p, speeds[k], lam, cur) * _FLOOR_SLACK >= best:
+            continue  # cannot beat the best so far even at its calm-water power: the same choice, found faster
         sog, fuel, ok = _eval_at(p, course, sea, speeds[k])
         if ok and sog > 0.0:
             rate = (fuel + lam) / sog
@@ -151,6 +157,12 @@ def _checked_piece(
         for k in range(k_n):
             if struck[k] != 0.0:
                 continue
+            if mode != MODE_TIME and best < np.inf:
+                floor = 0.0
+                for j in range(npts):
+                    floor += cost_rate_floor(p, speeds[k], lam, math.hypot(sea_pts[j, 5], sea_pts[j, 6]) / _MS_PER_KN)
+                if floor / npts * _FLOOR_SLACK >= best:
+                    continue  # cannot rank better than the best so far (see cheapest_speed_at)
             score = 0.0
             good = True
             for j in range(npts):
