@@ -67,11 +67,13 @@ _LAZY: dict[str, str] = {
     "tradeoff": "optroute.studies.tradeoff",
     "study": "optroute.studies.voyage_study",
     "ReplanPolicy": "optroute.voyage",
+    "OnboardObserver": "optroute.voyage",
     "VoyageOutcome": "optroute.voyage",
     "simulate_voyage": "optroute.voyage",
     "WeatherSampler": "optroute.weather",
     "load_weather": "optroute.weather",
     "open_weather": "optroute.weather",
+    "open_forecasts": "optroute.weather",
     "scenarios": "optroute.weather",
 }
 
@@ -86,8 +88,8 @@ if TYPE_CHECKING:  # what the lazy names resolve to, for type checkers and IDEs
     from optroute.studies.study import SchedulerUnreachable, StudyError, load_study, run_study
     from optroute.studies.tradeoff import TradeoffFront, tradeoff
     from optroute.studies.voyage_study import study
-    from optroute.voyage import ReplanPolicy, VoyageOutcome, simulate_voyage
-    from optroute.weather import WeatherSampler, load_weather, open_weather, scenarios
+    from optroute.voyage import OnboardObserver, ReplanPolicy, VoyageOutcome, simulate_voyage
+    from optroute.weather import WeatherSampler, load_weather, open_forecasts, open_weather, scenarios
 
 
 def __getattr__(name: str) -> Any:
@@ -141,11 +143,13 @@ __all__ = [
     "TradeoffFront",
     "tradeoff",
     "study",
+    "OnboardObserver",
     "ReplanPolicy",
     "VoyageOutcome",
     "simulate_voyage",
     "WeatherSampler",
     "load_weather",
+    "open_forecasts",
     "open_weather",
     "scenarios",
 ]

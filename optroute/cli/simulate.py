@@ -37,8 +37,9 @@ def add_simulate(sub: argparse._SubParsersAction, common: argparse.ArgumentParse
 """,
     )
     p.add_argument("--truth", required=True, metavar="SCENARIO|FILE", help="the weather the ship really meets")
-    p.add_argument("--forecast", action="append", default=[], metavar="ISSUE=SCENARIO|FILE",
-                   help="a forecast and its issue time (UTC); repeat for each forecast")  # fmt: skip
+    p.add_argument("--forecast", action="append", default=[], metavar="[ISSUE=]SCENARIO|FILE",
+                   help="a forecast and its issue time (UTC), or a file that states its issue time "
+                        "(forecast_reference_time, GRIB time + step); repeat for each forecast")  # fmt: skip
     p.add_argument("--from", dest="start", required=True, metavar="LAT,LON", help="start position [deg]")
     p.add_argument("--to", dest="end", required=True, metavar="LAT,LON", help="end position [deg]")
     p.add_argument("--depart", required=True, metavar="TIME", help="departure, ISO 8601 UTC")
@@ -54,6 +55,10 @@ def add_simulate(sub: argparse._SubParsersAction, common: argparse.ArgumentParse
     p.add_argument("--min-stw-kn", type=float, default=8.0, metavar="KN", help="slowest speed of the speed reduction")
     p.add_argument("--corridor-width-nm", type=float, default=300.0, metavar="NM", help="re-planning corridor width")
     p.add_argument("--max-leg-nm", type=float, default=50.0, metavar="NM", help="longest optimiser leg [nm]")
+    p.add_argument(
+        "--observer", type=float, default=None, metavar="RL",
+        help="run the parametric-roll observer (thyssenkrupp EP 2377756) on the simulated motions; act at this RL",
+    )  # fmt: skip
     p.add_argument("--out", default="voyage_log", metavar="PREFIX|DIR/", help="where the log files go")
     p.add_argument("--plot", default=None, metavar="FILE.png", help="write the track and re-plans as a figure")
     p.set_defaults(func=cmd_simulate)
@@ -66,7 +71,12 @@ def _forecasts(specs: list[str]) -> list[tuple[object, object]]:
     out = []
     for spec in specs:
         issue, sep, source = spec.partition("=")
-        if not sep or not source:
+        if not sep:  # a file that states its own issue time (forecast_reference_time, GRIB time + step)
+            from optroute.weather.forecast_files import open_forecasts
+
+            out.extend(open_forecasts([spec]))
+            continue
+        if not source:
             raise ConfigError(f"--forecast {spec!r} is not ISSUE=WEATHER; e.g. --forecast 2024-01-10T06:00=fc06.nc")
         out.append((parse_time(issue, f"--forecast {spec!r} issue time"), load_weather(source)))
     return out
@@ -77,7 +87,7 @@ def cmd_simulate(args: argparse.Namespace, out: TextIO | None = None) -> int:
     from optroute import units
     from optroute.cli._common import load_ship, load_weather, output_paths, parse_eta, parse_position, parse_time
     from optroute.errors import ConfigError
-    from optroute.voyage import ReplanPolicy, simulate_voyage
+    from optroute.voyage import OnboardObserver, ReplanPolicy, simulate_voyage
     from optroute.voyage.outputs import write_log
 
     out = out or sys.stdout
@@ -103,6 +113,7 @@ def cmd_simulate(args: argparse.Namespace, out: TextIO | None = None) -> int:
         min_stw_kn=args.min_stw_kn,
         corridor_width_nm=args.corridor_width_nm,
         optimise_options={"max_leg_nm": args.max_leg_nm},
+        observer=None if args.observer is None else OnboardObserver(threshold=args.observer),
     )
     paths = output_paths(args.out, "voyage_log")
     files = [str(p) for p in write_log(res.log, paths["nc"].with_suffix(""))]
@@ -119,6 +130,12 @@ def cmd_simulate(args: argparse.Namespace, out: TextIO | None = None) -> int:
         f"{o.time_band_met_h:.2f} h; {o.n_replans} re-plan(s)",
         file=out,
     )
+    if args.observer is not None:
+        print(
+            f"parametric-roll observer: {o.n_observer_alarms} alarm(s) at RL >= {args.observer:g}; "
+            f"largest simulated roll {o.max_roll_deg:.1f} deg",
+            file=out,
+        )
     if o.earliest_arrival is not None:
         print(f"the ETA became infeasible; earliest arrival {units.format_utc(o.earliest_arrival)}", file=out)
     for k in range(res.log.sizes["replan"]):

@@ -442,6 +442,23 @@ class ResonanceObserver:
             self.criteria[0], self.normalised[0], self._rl1[0] = raw[-1], norm[-1], rl[-1]
         return rl, raw, norm
 
+    def update_until(self, heave_m: Any, roll_deg: Any, threshold: float) -> np.ndarray:
+        """Feed samples up to and including the first whose RL reaches ``threshold``; return their RL.
+
+        The samples after the alarm are not fed (the observer is as if the record stopped
+        there), so that a caller acting on the alarm can continue with other motions.
+        """
+        before, count = self._state.copy(), self.count
+        crit, norm, last = self.criteria.copy(), self.normalised.copy(), self._rl1.copy()
+        rl, _, _ = self.update_many(heave_m, roll_deg)
+        hit = np.flatnonzero(rl >= threshold)
+        if not hit.size:
+            return rl
+        self._state, self.count = before, count
+        self.criteria[:], self.normalised[:], self._rl1[:] = crit, norm, last
+        k = int(hit[0]) + 1
+        return self.update_many(np.asarray(heave_m, dtype=float)[:k], np.asarray(roll_deg, dtype=float)[:k])[0]
+
 
 def check_time(time_s: Any, sample_interval_s: float | None = None, *, source: str = "time_s") -> float:
     """The uniform sampling interval of ``time_s`` [s]; raises ObserverInputError otherwise.

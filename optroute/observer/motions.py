@@ -265,7 +265,7 @@ class Motions:
     Attributes
     ----------
     time_s : ndarray
-        Sample times [s] from 0, uniform.
+        Sample times [s] from ``start_s`` (0 by default), uniform.
     heave_m : ndarray
         Heave z [m], positive up.
     roll_deg : ndarray
@@ -280,6 +280,8 @@ class Motions:
         Natural roll period T_R [s].
     gm_ratio : float
         h = ΔGM/GM of the encounter [-].
+    final_roll_rate_deg_s : float
+        Roll rate at the last sample, without noise [deg/s] (to continue the record).
     """
 
     time_s: np.ndarray
@@ -290,6 +292,7 @@ class Motions:
     encounter_period_s: float
     roll_period_s: float
     gm_ratio: float
+    final_roll_rate_deg_s: float = math.nan
 
 
 def _rhs(t, phi, rate, p, amp, om, ph):  # noqa: ANN001, ANN202 - numba-friendly scalars
@@ -304,14 +307,16 @@ def _rhs(t, phi, rate, p, amp, om, ph):  # noqa: ANN001, ANN202 - numba-friendly
     return -2.0 * zeta * w0 * rate - beta * rate * abs(rate) - w0 * w0 * (restoring - forcing)
 
 
-def _rk4_roll(n, dt, phi0, rate0, p, amp, om, ph):  # noqa: ANN001, ANN202
-    """Roll angle [rad] at n samples, classical RK4 with step dt from (φ0, φ'0)."""
+def _rk4_roll(n, dt, phi0, rate0, p, amp, om, ph, t0=0.0):  # noqa: ANN001, ANN202
+    """Roll angle [rad] at n samples, classical RK4 with step dt from (φ0, φ'0) at time t0; and the rate at the last."""
     out = np.empty(n)
     phi = phi0
     rate = rate0
+    rate_out = rate0
     for i in range(n):
         out[i] = phi
-        t = i * dt
+        rate_out = rate
+        t = t0 + i * dt
         k1p = rate
         k1r = _rhs(t, phi, rate, p, amp, om, ph)
         k2p = rate + 0.5 * dt * k1r
@@ -325,7 +330,7 @@ def _rk4_roll(n, dt, phi0, rate0, p, amp, om, ph):  # noqa: ANN001, ANN202
         if not abs(phi) < 1.4:  # 80°: beyond the wall-sided model; stop, the caller reports it
             out[i + 1 :] = np.nan
             break
-    return out
+    return out, rate_out
 
 
 if numba is not None:
@@ -347,6 +352,8 @@ def simulate_motions(
     seed: int = 0,
     initial_roll_deg: float = 0.0,
     dt_s: float = SAMPLE_INTERVAL_S,
+    start_s: float = 0.0,
+    initial_roll_rate_deg_s: float | None = None,
 ) -> Motions:
     """Heave, roll and pitch of ``ship`` in ``encounter``, sampled every ``dt_s``.
 
@@ -368,6 +375,13 @@ def simulate_motions(
         on so that an oblique sea shows no start-up build-up.
     dt_s : float
         Sampling and integration step [s] (20 ms, EP 2377756).
+    start_s : float
+        Time of the first sample [s] on the clock of the wave and the random moment, so
+        that a record continued from another one (``initial_roll_deg`` and
+        ``initial_roll_rate_deg_s`` its last state) keeps the wave's phase.
+    initial_roll_rate_deg_s : float, optional
+        Roll rate at the first sample [deg/s]; given, the roll starts exactly at
+        (``initial_roll_deg``, this rate) instead of on the steady response to the wave slope.
 
     Returns
     -------
@@ -409,9 +423,14 @@ def simulate_motions(
     amp = np.full(_N_RANDOM, math.radians(model.random_moment_deg) / math.sqrt(_N_RANDOM))
     n = int(round(duration_s / dt_s)) + 1
     # start on the linear steady response to the wave slope, so that beam seas start without a build-up
-    steady = _second_order(w0, model.damping_ratio, we) * slope
-    phi0 = math.radians(initial_roll_deg) + steady.imag
-    roll = _rk4_roll(n, float(dt_s), phi0, we * steady.real, p, amp, om, ph)
+    finite("start_s", start_s, error=ConfigError, fix="give the time of the first sample [s]")
+    if initial_roll_rate_deg_s is None:
+        steady = _second_order(w0, model.damping_ratio, we) * slope
+        phi0, rate0 = math.radians(initial_roll_deg) + steady.imag, we * steady.real
+    else:
+        finite("initial_roll_rate_deg_s", initial_roll_rate_deg_s, error=ConfigError, fix="give a roll rate [deg/s]")
+        phi0, rate0 = math.radians(initial_roll_deg), math.radians(initial_roll_rate_deg_s)
+    roll, last_rate = _rk4_roll(n, float(dt_s), phi0, rate0, p, amp, om, ph, float(start_s))
     if np.isnan(roll).any():
         t_bad = float(np.argmax(np.isnan(roll)) * dt_s)
         raise SeaStateError(
@@ -419,7 +438,7 @@ def simulate_motions(
             f"alpha {encounter.alpha_deg}°, {encounter.speed_kn} kn, h = {h:.2f}): beyond the wall-sided model; "
             "lower the wave height or raise the damping"
         )
-    t = np.arange(n) * dt_s
+    t = float(start_s) + np.arange(n) * dt_s
     u = math.pi * ship.length_m * abs(math.cos(alpha)) / lam
     cb, d = ship.block_coefficient, ship.draught_m
     cwp = (1.0 + 2.0 * cb) / 3.0
@@ -438,4 +457,68 @@ def simulate_motions(
         encounter_period_s=te,
         roll_period_s=tr,
         gm_ratio=h,
+        final_roll_rate_deg_s=math.degrees(last_rate),
     )
+
+
+def parametric_growth_rate_per_s(ship: Ship, encounter: Encounter, model: RollModel | None = None) -> float:
+    """Floquet growth rate of small roll in ``encounter`` [1/s]: > 0 parametric roll builds up, < 0 it dies out.
+
+    The largest Floquet exponent ln|μ| / T_E of the linear damped Mathieu equation
+    φ'' + 2ζω0 φ' + ω0² (1 − h cos ω_e t) φ = 0 (the model of :func:`simulate_motions` at small
+    angles, without the quadratic damping, the hardening and the direct excitation, which do not
+    decide whether the upright ship is stable), μ the eigenvalues of its monodromy matrix over
+    one encounter period, integrated by RK4 with 400 steps (Nayfeh & Mook 1979, *Nonlinear
+    Oscillations*, ch. 5: the transition curves of the damped Mathieu equation).
+
+    Parameters
+    ----------
+    ship : Ship
+        The ship (T_R and the hull figures of h are used).
+    encounter : Encounter
+        Wave height, period, IMO relative heading (0 = head seas) and speed.
+    model : RollModel, optional
+        Damping and GM-variation constants.
+
+    Returns
+    -------
+    float
+        The growth rate [1/s]; riding with the waves (infinite T_E) gives the damping's own
+        decay rate −ζω0.
+    """
+    model = model or RollModel()
+    w0 = 2.0 * math.pi / ship.roll_period_s
+    zeta = model.damping_ratio
+    te = encounter.encounter_period_s
+    if not math.isfinite(te):
+        return -zeta * w0
+    h = gm_amplitude_ratio(ship, encounter, model)
+    mono = _monodromy(w0, zeta, h, 2.0 * math.pi / te, 400)
+    return float(math.log(max(abs(np.linalg.eigvals(mono)))) / te)
+
+
+def _monodromy(w0, zeta, h, we, n):  # noqa: ANN001, ANN202 - numba-friendly scalars
+    """Monodromy matrix of φ'' + 2ζω0 φ' + ω0² (1 − h cos ω_e t) φ = 0 over 2π/ω_e, RK4 with n steps."""
+    dt = 2.0 * math.pi / we / n
+    out = np.empty((2, 2))
+    for col in range(2):
+        x, v = (1.0, 0.0) if col == 0 else (0.0, 1.0)
+        for i in range(n):
+            t = i * dt
+            a1 = -2.0 * zeta * w0 * v - w0 * w0 * (1.0 - h * math.cos(we * t)) * x
+            x2, v2 = x + 0.5 * dt * v, v + 0.5 * dt * a1
+            c = 1.0 - h * math.cos(we * (t + 0.5 * dt))
+            a2 = -2.0 * zeta * w0 * v2 - w0 * w0 * c * x2
+            x3, v3 = x + 0.5 * dt * v2, v + 0.5 * dt * a2
+            a3 = -2.0 * zeta * w0 * v3 - w0 * w0 * c * x3
+            x4, v4 = x + dt * v3, v + dt * a3
+            a4 = -2.0 * zeta * w0 * v4 - w0 * w0 * (1.0 - h * math.cos(we * (t + dt))) * x4
+            x = x + dt / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4)
+            v = v + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+        out[0, col] = x
+        out[1, col] = v
+    return out
+
+
+if numba is not None:
+    _monodromy = numba.njit(cache=True)(_monodromy)

@@ -56,6 +56,10 @@ class StepRecord:
     band_met: bool
     slowed: bool
     margins: dict[str, float]
+    rl_max: float = float("nan")
+    roll_max_deg: float = float("nan")
+    observer_alarm: bool = False
+    intervention: bool = False
 
 
 def replan_record(
@@ -84,8 +88,15 @@ def replan_record(
     }
 
 
-def voyage_dataset(records: list[StepRecord], replans: list[dict[str, Any]], rules: BandRules) -> xr.Dataset:
+def voyage_dataset(
+    records: list[StepRecord], replans: list[dict[str, Any]], rules: BandRules, *, observed: bool = False
+) -> xr.Dataset:
     """The log: ``step`` variables (track, speeds, power, fuel, sea and band margins met) and ``replan`` variables.
+
+    With ``observed`` (the onboard parametric-roll observer ran, :mod:`optroute.voyage.onboard`)
+    the steps also carry ``rl_max`` (the highest resonance level RL observed), ``roll_max_deg``
+    (the largest simulated roll), ``observer_alarm`` (RL reached the threshold; the step ends at
+    the alarm) and ``intervention`` (sailed at the intervention's speed).
 
     Band margins are :func:`optroute.physics.safety.band_margins` at the speed sailed (> 0 outside
     the band, in the band's ratio units, ``inf`` where it does not apply); ``in_band`` marks steps
@@ -107,6 +118,18 @@ def voyage_dataset(records: list[StepRecord], replans: list[dict[str, Any]], rul
         {"long_name": "the plan's speed lies inside a band of the truth (heading of the course)"},
     )
     data["slowed"] = ("step", np.array([r.slowed for r in records], dtype=np.int8), {"long_name": "speed reduced"})
+    if observed:
+        data["rl_max"] = ("step", np.array([r.rl_max for r in records]), {"units": "1", "long_name": "highest RL"})
+        data["roll_max_deg"] = (
+            "step",
+            np.array([r.roll_max_deg for r in records]),
+            {"units": "degree", "long_name": "largest roll angle of the simulated motions (no noise)"},
+        )
+        for name, long in (
+            ("observer_alarm", "RL reached the observer's threshold (the step ends at the alarm)"),
+            ("intervention", "sailed at the speed of the observer's intervention"),
+        ):
+            data[name] = ("step", np.array([getattr(r, name) for r in records], dtype=np.int8), {"long_name": long})
     for band in BANDS:
         vals = np.array([r.margins.get(band, np.inf) for r in records], dtype=float)
         data[f"margin_{band}"] = ("step", vals, {"units": "1", "long_name": f"margin to the {band} band"})

@@ -218,6 +218,10 @@ class VoyageOutcome:
     time_band_met_h : float
         Time the plan's own speed lay inside a danger band of the truth [h], >= 0: the bands the
         plan met, whether the ship slowed out of them or not.
+    n_observer_alarms : int
+        Alarms of the onboard parametric-roll observer (0 without it), >= 0.
+    max_roll_deg : float
+        Largest roll angle of the simulated motions [deg] (NaN without the observer).
     """
 
     departure: np.datetime64
@@ -230,6 +234,8 @@ class VoyageOutcome:
     n_replans: int
     earliest_arrival: np.datetime64 | None = None
     time_band_met_h: float = 0.0
+    n_observer_alarms: int = 0
+    max_roll_deg: float = math.nan
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "departure", _as_time(self.departure, "VoyageOutcome.departure"))
@@ -244,8 +250,12 @@ class VoyageOutcome:
             if not math.isfinite(float(v)) or float(v) < 0:
                 raise ConfigError(f"VoyageOutcome.{name}={v!r} must be a finite number >= 0")
             object.__setattr__(self, name, float(v))
-        if int(self.n_replans) != self.n_replans or self.n_replans < 0:
-            raise ConfigError(f"VoyageOutcome.n_replans={self.n_replans!r} must be an integer >= 0")
+        for name in ("n_replans", "n_observer_alarms"):
+            v = getattr(self, name)
+            if int(v) != v or v < 0:
+                raise ConfigError(f"VoyageOutcome.{name}={v!r} must be an integer >= 0")
+        if not (math.isnan(float(self.max_roll_deg)) or 0.0 <= float(self.max_roll_deg) < 90.0):
+            raise ConfigError(f"VoyageOutcome.max_roll_deg={self.max_roll_deg!r} must be in [0, 90) deg or NaN")
         for name in ("eta", "earliest_arrival"):
             if getattr(self, name) is not None:
                 object.__setattr__(self, name, _as_time(getattr(self, name), f"VoyageOutcome.{name}"))

@@ -25,7 +25,7 @@ re-plan is a minimum-time plan and its arrival is reported as the earliest arriv
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -48,6 +48,7 @@ from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
 from optroute.units import timedelta_to_h as _td_to_h
 from optroute.voyage.log import StepRecord, replan_record, voyage_dataset
+from optroute.voyage.onboard import ObserverWatch, OnboardObserver, intervention_speed_kn, unstable
 from optroute.voyage.policy import ForecastSequence, ReplanPolicy, VoyageOutcome
 from optroute.weather.sample import WeatherSampler
 
@@ -112,6 +113,7 @@ class _Setup:
     corridor_width_nm: float
     search_options: Mapping[str, Any] | None
     optimise_options: Mapping[str, Any]
+    master_rules: BandRules  # the bands the master's speed reduction applies (the observer may take one over)
 
 
 # --------------------------------------------------------------------------- one step in the truth
@@ -133,7 +135,7 @@ def _speed_at(s: _Setup, when: np.datetime64, lat: float, lon: float, course: fl
     floor = min(s.min_stw_kn, commanded)
     c = np.array([course])
     met = _forbidden(s, sea, np.array([commanded]), c)
-    choice = best_speed(s.ship, s.model, s.rules, c, sea, commanded, step_kn=s.speed_step_kn, min_stw_kn=floor)
+    choice = best_speed(s.ship, s.model, s.master_rules, c, sea, commanded, step_kn=s.speed_step_kn, min_stw_kn=floor)
     in_band = False
     if not choice.feasible[0]:
         choice = best_speed(s.ship, s.model, _NO_BANDS, c, sea, commanded, step_kn=s.speed_step_kn, min_stw_kn=floor)
@@ -194,11 +196,16 @@ def _below_min_load(s: _Setup, course: np.ndarray, sea: Any, commanded: float) -
     return SpeedChoice(np.array([commanded]), sog, heading, power, fuel, np.array([True]))
 
 
-def _sail_piece(s: _Setup, sailing: _Sailing, t: np.datetime64, pos: np.ndarray, budget_h: float) -> StepRecord:
-    """Sail at most ``budget_h`` along the current leg (stopping at its end), speed and sea at the midpoint."""
+def _sail_piece(
+    s: _Setup, sailing: _Sailing, t: np.datetime64, pos: np.ndarray, budget_h: float, commanded: float | None = None
+) -> StepRecord:
+    """Sail at most ``budget_h`` along the current leg (stopping at its end), speed and sea at the midpoint.
+
+    ``commanded`` overrides the plan's speed [kn] (the observer's intervention).
+    """
     target = sailing.target
     d = float(geo.distance_nm(pos[0], pos[1], target[0], target[1]))
-    commanded = sailing.commanded_kn
+    commanded = sailing.commanded_kn if commanded is None else commanded
     course0 = float(geo.initial_course_deg(pos[0], pos[1], target[0], target[1]))
     first = _speed_at(s, t, float(pos[0]), float(pos[1]), course0, commanded)
     h = min(budget_h, d / first["sog_kn"]) if first["sog_kn"] > 0 else budget_h
@@ -399,6 +406,7 @@ def simulate_voyage(
     optimise_options: Mapping[str, Any] | None = None,
     min_replan_distance_nm: float = 30.0,
     warm_start: bool = True,
+    observer: OnboardObserver | None = None,
 ) -> VoyageResult:
     """Sail a voyage through the truth weather, re-planning on new forecasts under a policy.
 
@@ -440,8 +448,11 @@ def simulate_voyage(
     warm_start : bool
         Warm-start every re-plan from the plan being sailed (``warm_plan`` of
         :func:`optroute.optimise_corridor`, its speeds interpolated along the new corridor; without
-        ``search_options``); False: cold starts. ``benchmarks.bench_voyage`` (quick, one storm case,
-        one measurement on a shared machine): the same plan, 59 s warm against 71 s cold.
+        ``search_options``); False: cold starts.
+    observer : OnboardObserver, optional
+        Run the onboard parametric-roll observer of thyssenkrupp EP 2377756 on the simulated
+        motions, with its short intervention and a re-plan after it
+        (:mod:`optroute.voyage.onboard`); the log then carries RL, the roll and the alarms.
 
     Returns
     -------
@@ -461,6 +472,8 @@ def simulate_voyage(
         raise ConfigError(f"replan must be a ReplanPolicy, got {type(policy).__name__}")
     if not isinstance(truth, xr.Dataset):
         raise ConfigError(f"truth must be a canonical xarray.Dataset, got {type(truth).__name__}")
+    if observer is not None and not isinstance(observer, OnboardObserver):
+        raise ConfigError(f"observer must be an OnboardObserver or None, got {type(observer).__name__}")
     fseq = forecasts if isinstance(forecasts, ForecastSequence) else ForecastSequence(forecasts)
     step = float(finite("step_h", step_h, minimum=0.0, strict=True, error=ConfigError, fix="pass a step > 0 h"))
     floor = float(finite("min_stw_kn", min_stw_kn, minimum=0.0, strict=True, error=ConfigError))
@@ -484,7 +497,9 @@ def simulate_voyage(
         width,
         search_options,
         dict(optimise_options or {}),
+        rules if observer is None or observer.master_sees_parametric_band else replace(rules, parametric_roll=False),
     )
+    watch = None if observer is None else ObserverWatch(observer, ship)
     replans: list[dict[str, Any]] = []
     earliest = None
     if first is None:
@@ -498,9 +513,10 @@ def simulate_voyage(
     replans.append(replan_record(first, "initial plan", status, t0, k, fseq, earliest))
     plans = [first]
     records, t, earliest = _sail_voyage(
-        s, policy, fseq, sailing, np.asarray(start, dtype=float), step, min_left, warm_start, replans, plans, earliest
-    )
-    log = voyage_dataset(records, replans, rules)
+        s, policy, fseq, sailing, np.asarray(start, dtype=float), step, min_left, warm_start, replans, plans, earliest,
+        watch,
+    )  # fmt: skip
+    log = voyage_dataset(records, replans, rules, observed=watch is not None)
     outcome = VoyageOutcome(
         departure=t0,
         arrival=t,
@@ -512,6 +528,8 @@ def simulate_voyage(
         eta=s.eta,
         n_replans=len(plans) - 1,
         earliest_arrival=earliest,
+        n_observer_alarms=0 if watch is None else watch.alarms,
+        max_roll_deg=float(max((r.roll_max_deg for r in records), default=np.nan)) if watch is not None else np.nan,
     )
     log.attrs.update(_outcome_attrs(outcome))
     return VoyageResult(outcome=outcome, log=log, plans=tuple(plans))
@@ -529,6 +547,7 @@ def _sail_voyage(
     replans: list[dict[str, Any]],
     plans: list[Plan],
     earliest: Any,
+    watch: ObserverWatch | None = None,
 ) -> tuple[list[StepRecord], np.datetime64, Any]:
     """The stepping loop: re-plan when the policy says, sail a step, until the destination; appends to the lists."""
     t0 = t = sailing.made_at
@@ -540,8 +559,10 @@ def _sail_voyage(
         if left <= _ARRIVED_NM and sailing.leg >= sailing.plan.waypoints.shape[0] - 1:
             break
         reason = _replan_reason(policy, s, sailing, fseq, t, pos) if left >= max(min_left, _ARRIVED_NM) else ""
+        if watch is not None and watch.pending_reason:
+            reason, watch.pending_reason = (watch.pending_reason if left >= max(min_left, _ARRIVED_NM) else ""), ""
         if reason:
-            k, ds = fseq.latest(t)
+            k, ds = fseq.latest(t) if len(fseq) else (None, sailing.plan.context.dataset)
             try:
                 new, status, e = _plan(s, pos, ds, t, sailing.plan if warm_start else None)
             except OptrouteError as exc:  # keep sailing the plan we have; the log says why
@@ -552,7 +573,10 @@ def _sail_voyage(
                 sailing = _Sailing(new, k, t)
                 plans.append(new)
                 replans.append(replan_record(new, reason, status, t, k, fseq, e))
-        rec = _sail_piece(s, sailing, t, pos, step - _elapsed_in_step(t, t0, step))
+        budget = step - _elapsed_in_step(t, t0, step)
+        rec = _sail_piece(s, sailing, t, pos, budget, None if watch is None else watch.intervention_kn)
+        if watch is not None:
+            rec = _observe(s, watch, sailing, t, pos, rec, float(_td_to_h(t - t0)))
         records.append(rec)
         t = t + _h_to_td(rec.duration_h)
         pos = rec.end
@@ -561,6 +585,49 @@ def _sail_voyage(
             if sailing.leg >= sailing.plan.waypoints.shape[0] - 1:
                 break
     return records, t, earliest
+
+
+def _observe(
+    s: _Setup, watch: ObserverWatch, sailing: _Sailing, t: np.datetime64, pos: np.ndarray, rec: StepRecord, at_h: float
+) -> StepRecord:
+    """Run the observer on a sailed piece; at an alarm cut the piece there and start the intervention.
+
+    ``at_h`` is the piece's start in hours since departure.
+    """
+    cfg = watch.config
+    sea = {"hs_m": rec.hs_m, "period_s": rec.period_s, "wave_from_deg": rec.wave_from_deg}
+    acting = watch.intervention_kn is not None
+    seen = watch.watch(sea, rec.heading_deg, rec.stw_kn, rec.duration_h * 3600.0)
+    plan_kn = sailing.commanded_kn
+    if seen["alarm_s"] is not None:
+        cut_h = seen["alarm_s"] / 3600.0
+        if cut_h < rec.duration_h:
+            rec = _sail_piece(s, sailing, t, pos, cut_h)
+        v = intervention_speed_kn(
+            s.ship, watch.roll_model, sea, rec.heading_deg, rec.stw_kn,
+            lowest_kn=min(s.min_stw_kn, rec.stw_kn), highest_kn=rec.stw_kn, step_kn=cfg.speed_step_kn,
+        )  # fmt: skip
+        watch.intervention_kn = v if v is not None else min(s.min_stw_kn, rec.stw_kn)
+        watch.until_h = at_h + rec.duration_h + cfg.hold_h
+        watch.alarms += 1
+        found = "" if v is not None else " (no speed down to the slowest damps the roll: the slowest)"
+        watch.note = (
+            f"observer: RL reached {cfg.threshold:g} at {units.format_utc(t + _h_to_td(rec.duration_h))} at "
+            f"{rec.stw_kn:.3g} kn; held {watch.intervention_kn:.3g} kn{found}"
+        )
+        return replace(rec, rl_max=seen["rl_max"], roll_max_deg=seen["roll_max_deg"], observer_alarm=True)
+    rec = replace(
+        rec, rl_max=seen["rl_max"], roll_max_deg=seen["roll_max_deg"], intervention=acting, commanded_stw_kn=plan_kn
+    )
+    if (
+        acting
+        and at_h + rec.duration_h >= watch.until_h - 1e-9
+        and not unstable(s.ship, watch.roll_model, sea, rec.heading_deg, plan_kn)
+    ):
+        watch.intervention_kn = None
+        if cfg.replan:
+            watch.pending_reason = watch.note
+    return rec
 
 
 def _elapsed_in_step(t: np.datetime64, t0: np.datetime64, step: float) -> float:

@@ -47,6 +47,8 @@ import xarray as xr
 from optroute import units
 from optroute.errors import ConfigError, WeatherSchemaError
 from optroute.weather import schema
+from optroute.weather.reftime import ATTR as REFTIME_ATTR
+from optroute.weather.reftime import reference_time
 
 __all__ = ["PROVIDER_NAMES", "TIME_POLICIES", "accepted_names", "check_required", "open_weather"]
 
@@ -314,7 +316,9 @@ def open_weather(
         crosses the antimeridian; ``attrs["lon_convention"]`` says which),
         directions in [0, 360) deg true coming from.  ``attrs`` record the
         source, the provider names used (``source_variables``) and the levels
-        selected.  Lazy (dask-backed) when opened from a file with chunks.
+        selected, and a forecast's issue time (``forecast_reference_time``, ISO 8601 UTC) when
+        the file states it (:func:`optroute.weather.reftime.reference_time`).  Lazy (dask-backed)
+        when opened from a file with chunks.
 
     Raises
     ------
@@ -334,6 +338,7 @@ def open_weather(
         raw, where = _open_path(Path(source), engine, chunks, backend_kwargs), os.fspath(source)
     else:
         raise ConfigError(f"open_weather takes a path or an xarray.Dataset, got {type(source).__name__}")
+    issued = reference_time(raw, where)
     try:
         ds, notes = _normalise(raw, where)
     except (OSError, RuntimeError) as exc:  # a lazily read coordinate failed: a damaged file
@@ -343,6 +348,8 @@ def open_weather(
     check_required(ds, required, where, notes)
     _check_fields(ds, where)
     ds.attrs["time_policy"] = time_policy
+    if issued is not None:
+        ds.attrs[REFTIME_ATTR] = units.format_utc(issued)
     return ds
 
 
