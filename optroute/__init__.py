@@ -59,6 +59,12 @@ _LAZY: dict[str, str] = {
     "band_margins": "optroute.physics.safety",
     "forbidden_speed_intervals": "optroute.physics.safety",
     "Ship": "optroute.physics.ship",
+    "Polar": "optroute.physics.polar",
+    "read_polar": "optroute.physics.polar",
+    "write_polar": "optroute.physics.polar",
+    "SailingVessel": "optroute.physics.yacht",
+    "SailingGrid": "optroute.search.sailing",
+    "SailingRoute": "optroute.search.sailing",
     "StudyError": "optroute.studies.study",
     "SchedulerUnreachable": "optroute.studies.study",
     "load_study": "optroute.studies.study",
@@ -66,6 +72,8 @@ _LAZY: dict[str, str] = {
     "TradeoffFront": "optroute.studies.tradeoff",
     "tradeoff": "optroute.studies.tradeoff",
     "study": "optroute.studies.voyage_study",
+    "apf_avoidance": "optroute.voyage.apf",
+    "read_track": "optroute.weather.cyclone_tracks",
     "ReplanPolicy": "optroute.voyage",
     "OnboardObserver": "optroute.voyage",
     "VoyageOutcome": "optroute.voyage",
@@ -80,16 +88,21 @@ _LAZY: dict[str, str] = {
 if TYPE_CHECKING:  # what the lazy names resolve to, for type checkers and IDEs
     from optroute.optimise.api import optimise_corridor, plan_voyage
     from optroute.physics.performance import CalmWaterModel, KwonModel, PerformanceModel, PowerTableModel
+    from optroute.physics.polar import Polar, read_polar, write_polar
     from optroute.physics.safety import BandRules, ForbiddenInterval, band_margins, forbidden_speed_intervals
     from optroute.physics.ship import Ship
+    from optroute.physics.yacht import SailingVessel
     from optroute.plan.result import Exclusion, Plan, PlanContext, Violation
     from optroute.search.route import Corridor, Route
     from optroute.search.routing import search_route
+    from optroute.search.sailing import SailingGrid, SailingRoute
     from optroute.studies.study import SchedulerUnreachable, StudyError, load_study, run_study
     from optroute.studies.tradeoff import TradeoffFront, tradeoff
     from optroute.studies.voyage_study import study
     from optroute.voyage import OnboardObserver, ReplanPolicy, VoyageOutcome, simulate_voyage
+    from optroute.voyage.apf import apf_avoidance
     from optroute.weather import WeatherSampler, load_weather, open_forecasts, open_weather, scenarios
+    from optroute.weather.cyclone_tracks import read_track
 
 
 def __getattr__(name: str) -> Any:
@@ -136,6 +149,12 @@ __all__ = [
     "band_margins",
     "forbidden_speed_intervals",
     "Ship",
+    "Polar",
+    "read_polar",
+    "write_polar",
+    "SailingVessel",
+    "SailingGrid",
+    "SailingRoute",
     "StudyError",
     "SchedulerUnreachable",
     "load_study",
@@ -147,6 +166,8 @@ __all__ = [
     "ReplanPolicy",
     "VoyageOutcome",
     "simulate_voyage",
+    "apf_avoidance",
+    "read_track",
     "WeatherSampler",
     "load_weather",
     "open_forecasts",

@@ -43,6 +43,11 @@ def _blocked_sea(window_h: tuple[float, float] = WINDOW_H) -> xr.Dataset:
             "hs_m": hs,
             "tp_s": np.full(hs.shape, SHIP.roll_period_s),
             "wave_from_deg": np.zeros(hs.shape),
+            # still air stated (a swell without wind): Kwon's Beaufort number is 0, so the 1 m sea is
+            # calm for the speed loss and the hand-worked top-speed passages below hold; a missing wind
+            # would be "not known" and take the Beaufort number from Hs
+            "wind_u_ms": np.zeros(hs.shape),
+            "wind_v_ms": np.zeros(hs.shape),
         },
         {"title": "planted beam-sea window", "geography": "synthetic"},
     )

@@ -143,13 +143,15 @@ def test_nan_cells_mean_no_passage_never_zero():
     assert np.all(np.isfinite(got["tp_s"]))  # only the variable with the hole is NaN
 
 
-def test_missing_wind_and_current_are_zero_but_nothing_else():
+def test_missing_current_is_zero_missing_wind_is_unknown_and_nothing_else_may_be_missing():
     ds = canonical_dataset([T0], [0.0, 1.0], [0.0, 1.0], {"hs_m": 2.0, "tm_s": 8.0, "wave_from_deg": 90.0})
     s = WeatherSampler(ds, time_policy="hold")
     got = s.sample(T0, [[0.2, 0.4]], [0.5])
     assert got["hs_m"].shape == (1, 2)
-    for name in ("wind_u_ms", "wind_v_ms", "current_u_ms", "current_v_ms"):
+    for name in ("current_u_ms", "current_v_ms"):
         np.testing.assert_array_equal(got[name], 0.0)
+    for name in ("wind_u_ms", "wind_v_ms"):  # a wave file says nothing of the wind: not calm air
+        assert np.isnan(got[name]).all()
     assert "tp_s" not in got and got["tm_s"] == pytest.approx(8.0)
     with pytest.raises(WeatherSchemaError, match="tp_s is not in the dataset"):
         s.sample(T0, 0.5, 0.5, variables=["tp_s"])
@@ -266,3 +268,29 @@ def test_numba_and_numpy_kernels_agree(monkeypatch, parallel_from):
         np.testing.assert_allclose(a[name], b[name], rtol=1e-12, atol=1e-12, equal_nan=True, err_msg=name)
     with pytest.raises(ConfigError, match="engine='fast'"):
         WeatherSampler(ds, engine="fast")
+
+
+def test_waves_without_a_wind_variable_cost_what_kwon_gives_for_the_beaufort_number_of_their_hs():
+    """Kwon's method with the wind unknown takes BN from Hs (Met Office probable wave heights): a wave-only
+    file must not plan as if the air were calm (the power at BN 0 is the calm-water power)."""
+    import optroute as orx
+    from optroute.physics import seaway
+    from optroute.physics.performance import KwonModel
+
+    ship = orx.Ship.preset("container_54k_dwt")
+    ds = canonical_dataset([T0], [29.0, 31.0], [-151.0, -147.0], {"hs_m": 5.0, "tp_s": 10.0, "wave_from_deg": 90.0})
+    plan = orx.Plan.from_schedule(
+        np.array([[30.0, -150.0], [30.0, -148.0]]),
+        np.array([16.0]),
+        departure=T0,
+        ship=ship,
+        weather=ds.assign_attrs(time_policy="hold"),
+    )
+    model = KwonModel(ship)
+    alpha = 0.0  # due east into waves from the east: head seas
+    bn = float(seaway.beaufort_from_hs(5.0))
+    assert bn >= 6
+    expected = float(model.brake_power_kw(16.0, hs_m=5.0, wave_angle_deg=alpha, wind_speed_ms=None))
+    calm = float(ship.calm_power_kw(16.0))
+    assert float(plan.legs["power_kw"].iloc[0]) == pytest.approx(expected, rel=2e-3)  # the course swings < 1 deg
+    assert expected > 1.3 * calm

@@ -66,6 +66,22 @@ def add_voyage_options(p: argparse.ArgumentParser, *, eta: bool = True) -> None:
     )
     p.add_argument("--max-leg-nm", type=float, default=50.0, metavar="NM", help="longest optimiser leg [nm]")
     p.add_argument(
+        "--cyclone",
+        default=None,
+        metavar="TRACK",
+        help="cyclone track to keep out of (ATCF b-deck/a-deck or IBTrACS CSV): its force-7 circle R + --margin-km",
+    )
+    p.add_argument(
+        "--margin-km", type=float, default=30.0, metavar="KM", help="safety margin beyond R [km] (the patent: 30)"
+    )
+    p.add_argument(
+        "--cone-km-per-h",
+        type=float,
+        default=None,
+        metavar="KM_PER_H",
+        help="growth of the circle with the forecast's lead time [km/h] (default 3; a best track has lead 0)",
+    )
+    p.add_argument(
         "--max-iter", type=int, default=None, metavar="N", help="Ipopt iteration limit per solve (default: Ipopt's)"
     )
 
@@ -108,7 +124,24 @@ def optimise_kwargs(args: argparse.Namespace) -> dict[str, Any]:
         kw["eta_mode"] = args.eta_mode
     if args.max_iter is not None:
         kw["solver_options"] = {"ipopt.max_iter": int(args.max_iter)}
+    if getattr(args, "cyclone", None) is not None:
+        kw["exclusion"] = cyclone_exclusion(args)
     return kw
+
+
+def cyclone_exclusion(args: argparse.Namespace) -> Any:
+    """The moving circle R + ``--margin-km`` (+ the cone) of the ``--cyclone`` track."""
+    import numpy as np
+
+    from optroute.geo.tracks import Exclusion
+    from optroute.weather.cyclone_tracks import read_track
+
+    for name in ("margin_km", "cone_km_per_h"):
+        value = getattr(args, name)
+        if value is not None and not (np.isfinite(value) and value >= 0):
+            raise ConfigError(f"--{name.replace('_', '-')} {value!r} must be a finite number >= 0 [km, km/h]")
+    track = read_track(args.cyclone)
+    return Exclusion.from_track(track, margin_km=args.margin_km, cone_km_per_h=args.cone_km_per_h)
 
 
 def weather_name(wx: Any, spec: str) -> str:

@@ -8,6 +8,7 @@ the direction the ship goes **to**; the sphere of :data:`optroute.geodesy.EARTH_
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import xarray as xr
@@ -17,7 +18,11 @@ from optroute import geodesy as geo
 from optroute import units
 from optroute._checks import finite
 from optroute.errors import ConfigError
+from optroute.units import h_to_timedelta as _h_to_td
 from optroute.units import timedelta_to_h as _td_to_h
+
+if TYPE_CHECKING:
+    from optroute.weather.cyclone_tracks import CycloneTrack
 
 __all__ = ["Exclusion", "gc_points", "project_to_polyline"]
 
@@ -187,6 +192,39 @@ class Exclusion:
         margin = float(finite("margin_km", margin_km, minimum=0.0, error=ConfigError))
         radius_nm = (tr["r7_km"] + margin) * 1000.0 / units.M_PER_NM
         return cls(tr["time"], tr["lat"], tr["lon"], radius_nm)
+
+    @classmethod
+    def from_track(
+        cls, track: CycloneTrack, margin_km: float = 30.0, cone_km_per_h: float | None = None, step_h: float = 1.0
+    ) -> Exclusion:
+        """The circle R + ``margin_km`` (+ the forecast cone) along a read cyclone track.
+
+        Parameters
+        ----------
+        track : CycloneTrack
+            From :func:`optroute.weather.cyclone_tracks.read_track` (ATCF or IBTrACS).
+        margin_km : float
+            Safety margin added to the force-7 radius R [km] (the typhoon-avoidance patent: 30 km).
+        cone_km_per_h : float, optional
+            Growth of the radius with the forecast lead time [km/h]; default
+            :data:`~optroute.weather.cyclone_tracks.DEFAULT_CONE_KM_PER_H` (0 adds nothing; a best
+            track has lead 0 everywhere).
+        step_h : float
+            Spacing of the circle's time samples [h] (the centre is interpolated linearly in time
+            between the track's points; the radius too).
+        """
+        from optroute.weather.cyclone_tracks import DEFAULT_CONE_KM_PER_H
+
+        margin = float(finite("margin_km", margin_km, minimum=0.0, error=ConfigError))
+        cone = DEFAULT_CONE_KM_PER_H if cone_km_per_h is None else cone_km_per_h
+        cone = float(finite("cone_km_per_h", cone, minimum=0.0, error=ConfigError))
+        step = float(finite("step_h", step_h, minimum=0.0, strict=True, error=ConfigError))
+        span_h = float((track.time[-1] - track.time[0]) / np.timedelta64(1, "h"))
+        hours = np.unique(np.concatenate([np.arange(0.0, span_h, step), _td_to_h(track.time - track.time[0])]))
+        t = track.time[0] + _h_to_td(hours)
+        s = track.at(t)
+        radius_km = s["r7_km"] + margin + cone * s["lead_h"]
+        return cls(t, s["lat"], s["lon"], radius_km * 1000.0 / units.M_PER_NM)
 
     def at(self, time: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Centre (lat, lon) [deg] and radius [nm] at the given UTC times."""

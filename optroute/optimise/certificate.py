@@ -182,7 +182,7 @@ def _static_reason(
             return f"the weather does not cover the path {h:.1f} h after departure"
         for name in SeaState.__dataclass_fields__:
             a, b = np.asarray(getattr(ref, name)), np.asarray(getattr(sea, name))
-            if not np.allclose(a, b, rtol=1e-12, atol=1e-12):
+            if not np.allclose(a, b, rtol=1e-12, atol=1e-12, equal_nan=True):  # NaN: a wind not known, throughout
                 return f"the weather changes in time along the path ({name} at {h:.1f} h after departure)"
     return None
 

@@ -48,7 +48,8 @@ class SeaState:
     wave_from_deg : ndarray
         Mean wave direction, coming from [deg true].
     wind_u_ms, wind_v_ms : ndarray
-        10 m wind, the vector it blows to, east/north [m/s].
+        10 m wind, the vector it blows to, east/north [m/s]; NaN where not known (the
+        performance model then takes the Beaufort number from Hs).
     current_u_ms, current_v_ms : ndarray
         Surface current, the vector it flows to, east/north [m/s].
     """
@@ -63,7 +64,7 @@ class SeaState:
 
     @classmethod
     def from_sample(cls, sample: Mapping[str, ArrayLike]) -> SeaState:
-        """Build from a sampler's output (canonical names); missing wind/current mean zero.
+        """Build from a sampler's output (canonical names); a missing wind is NaN (not known), a missing current zero.
 
         The band period is ``tp_s`` where present, else ``tm_s``.
         """
@@ -73,14 +74,14 @@ class SeaState:
         if period_name not in sample:
             raise ConfigError(f"a sea-state sample needs tp_s or tm_s; it has {sorted(sample)}")
         hs = np.asarray(sample["hs_m"], dtype=float)
-        zero = np.zeros_like(hs)
-        get = lambda k: np.broadcast_to(np.asarray(sample.get(k, zero), dtype=float), hs.shape)  # noqa: E731
+        zero, unknown = np.zeros_like(hs), np.full_like(hs, np.nan)
+        get = lambda k, d=zero: np.broadcast_to(np.asarray(sample.get(k, d), dtype=float), hs.shape)  # noqa: E731
         return cls(
             hs_m=hs,
             period_s=get(period_name),
             wave_from_deg=get("wave_from_deg"),
-            wind_u_ms=get("wind_u_ms"),
-            wind_v_ms=get("wind_v_ms"),
+            wind_u_ms=get("wind_u_ms", unknown),
+            wind_v_ms=get("wind_v_ms", unknown),
             current_u_ms=get("current_u_ms"),
             current_v_ms=get("current_v_ms"),
         )

@@ -52,8 +52,9 @@ class PerformanceModel(Protocol):
     brake_power_kw(stw_kn, *, hs_m, wave_angle_deg, wind_speed_ms, wind_angle_deg)
         Brake power [kW] to make good ``stw_kn`` [kn] through the water in
         that sea (Hs [m], relative wave angle [deg, 0 = head]) and wind
-        (speed at 10 m [m/s] or None, relative angle [deg, 0 = head]).
-        Vectorised and broadcasting over all arguments; non-decreasing in
+        (speed at 10 m [m/s] or None, relative angle [deg, 0 = head]; NaN
+        where the weather has no wind: not known, to be estimated from the
+        sea, never read as calm air). Vectorised and broadcasting over all arguments; non-decreasing in
         ``stw_kn``.
     fuel_rate_tph(power_kw)
         Main-engine fuel consumption [t/h] at a brake power [kW].

@@ -23,20 +23,24 @@ from optroute import units
 from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, WeatherCoverageError
 from optroute.geo import land
+from optroute.geo.tracks import Exclusion
 from optroute.physics import pointwise
 from optroute.physics.passage import SeaState, SpeedChoice, best_speed, cheapest_speed, evaluate_speeds
 from optroute.physics.performance import PerformanceModel, default_model
 from optroute.physics.safety import BANDS, BandRules, band_margins
 from optroute.physics.ship import Ship
+from optroute.physics.yacht import SailingVessel
 from optroute.search import passage_kernels
 from optroute.search.compiled_search import LegKernel
 from optroute.search.dijkstra import shortest_path
 from optroute.search.dp import solve_dp
+from optroute.search.exclusion import avoiding
 from optroute.search.grid import RouteGrid
 from optroute.search.neighbourhood import Neighbourhood, angular_resolution, compass
 from optroute.search.passage_kernels import MODE_CHEAPEST, MODE_TIME
 from optroute.search.piece_geometry import cumulative, piece_points, points_along
 from optroute.search.route import Corridor, Route
+from optroute.search.sailing import SailingGraph, SailingGrid, SailingRoute, SailObjective, search_sailing_route
 from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
 from optroute.weather.sample import WeatherSampler
@@ -461,10 +465,10 @@ def search_route(
     start: tuple[float, float],
     end: tuple[float, float],
     weather: xr.Dataset | WeatherSampler,
-    ship: Ship,
+    ship: Ship | None = None,
     *,
     departure: Any,
-    objective: Objective = "time",
+    objective: Objective | SailObjective = "time",
     eta: Any = None,
     method: Method = "astar",
     angular_resolution_deg: float | None = 5.0,
@@ -486,7 +490,11 @@ def search_route(
     band_check_nm: float | None = 10.0,
     dp_options: dict[str, Any] | None = None,
     compiled: bool = True,
-) -> Route:
+    exclusion: Exclusion | None = None,
+    vessel: SailingVessel | None = None,
+    manoeuvre_penalty_h: float | None = None,
+    sailing_grid: SailingGrid | SailingGraph | None = None,
+) -> Route | SailingRoute:
     """Search the route corridor through forecast weather.
 
     Parameters
@@ -558,10 +566,28 @@ def search_route(
         performance models and in-memory weather; default), or with the numpy
         callbacks only (the same route and costs to rounding; slower, kept as
         the reference the kernels are tested against).
+    exclusion : Exclusion, optional
+        A moving circle to stay out of (a cyclone's force-7 radius + margin,
+        :meth:`optroute.Exclusion.from_track`): a leg is infeasible where any point of it is
+        inside the circle at the time the ship is there (:func:`optroute.search.exclusion.avoiding`;
+        for the DP, its navigability test at each node and piece point, every ``piece_nm``, at its time).
+    vessel : SailingVessel, optional
+        A sailing boat instead of ``ship``: the route is searched by
+        :func:`optroute.search.sailing.search_sailing_route` on a
+        latitude/longitude lattice of ``cell_nm`` spacing (the 20 nm default is
+        a ship's: give about 1 nm for coastal sailing) or ``sailing_grid``
+        with ``directions`` = 8, 16 (default) or 32 headings, ``margin_nm``
+        (default 5 nm), ``objective`` = ``"time"``, ``"manoeuvres"`` or
+        ``"weighted"`` (with ``manoeuvre_penalty_h`` [h]); the weather needs
+        wind only.  The ship-only options are not used.
+    manoeuvre_penalty_h : float, optional
+        Sailing, ``objective="weighted"``: hours one tack or gybe is worth [h].
+    sailing_grid : SailingGrid or SailingGraph, optional
+        Sailing: the lattice (default one around start and end) or its graph.
 
     Returns
     -------
-    Route
+    Route or SailingRoute
         For the grid search, ``stats["pieces"]`` holds the per-piece records
         of the route (``leg``, ``lat_deg``/``lon_deg`` of the midpoint,
         ``course_deg``, ``length_nm``, ``t_h`` entry [h from departure],
@@ -579,6 +605,18 @@ def search_route(
     WeatherCoverageError
         The voyage leaves the weather's area or time span.
     """
+    if vessel is not None:
+        if ship is not None:
+            raise ConfigError("give either ship (engine-driven) or vessel (sailing), not both")
+        if not isinstance(weather, xr.Dataset):
+            raise ConfigError("a sailing search takes the weather as a canonical xarray.Dataset with wind")
+        return search_sailing_route(
+            start, end, weather, vessel, departure=departure, directions=directions,
+            grid=sailing_grid, use_land_mask=use_land_mask, cell_nm=cell_nm, margin_nm=5.0 if margin_nm is None else margin_nm,
+            objective=objective, manoeuvre_penalty_h=manoeuvre_penalty_h,  # type: ignore[arg-type]
+        )  # fmt: skip
+    if ship is None:
+        raise ConfigError("search_route needs a ship (or vessel=SailingVessel for a sailing boat)")
     t_start = _time.perf_counter()
     if objective not in ("time", "fuel", "cost"):
         raise ConfigError(f"objective={objective!r} is not known; use 'time', 'fuel' or 'cost'")
@@ -641,7 +679,9 @@ def search_route(
             if use_land_mask is not None
             else not (ds is not None and ds.attrs.get("geography") == land.SYNTHETIC_GEOGRAPHY)
         )
-        return _search_dp(physics, start, end, eta_h, speeds, dict(dp_options or {}), objective, t_start, bool(coast))
+        return _search_dp(
+            physics, start, end, eta_h, speeds, dict(dp_options or {}), objective, t_start, bool(coast), exclusion
+        )
 
     def nav(lat, lon):
         covered = sampler.covers(np.full(np.shape(lat), t0), lat, lon)
@@ -665,11 +705,11 @@ def search_route(
 
     def run(lam: float | None):
         if objective == "time" and lam is None:
-            cb = physics.segment_time(desired, speed_step_kn, min_speed_kn, check)
+            cb = _avoid(physics.segment_time(desired, speed_step_kn, min_speed_kn, check), exclusion, t0)
             return shortest_path(
                 grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="time", eta_h=eta_h
             )
-        cb = physics.segment_cheapest(speeds, lam, check)
+        cb = _avoid(physics.segment_cheapest(speeds, lam, check), exclusion, t0)
         return shortest_path(
             grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="cost", lambda_t_per_h=lam,
             cost_floor_per_nm=physics.cost_floor_per_nm(speeds, lam, v_bound - ceiling),
@@ -682,6 +722,11 @@ def search_route(
     except InfeasibleETA as exc:
         raise _eta_as_time(exc, t0) from None
     return _route_from_search(res, physics, t0, objective, method, lam_used, t_start)
+
+
+def _avoid(cb: Callable, exclusion: Exclusion | None, t0: np.datetime64) -> Callable:
+    """``cb`` with the moving exclusion's edge-feasibility check (:mod:`optroute.search.exclusion`), if any."""
+    return cb if exclusion is None else avoiding(cb, exclusion, t0)
 
 
 def _eta_as_time(exc: InfeasibleETA, t0: np.datetime64) -> InfeasibleETA:
@@ -806,14 +851,20 @@ def _route_from_search(res, physics: PassagePhysics, t0, objective, method, lam,
     )
 
 
-def _search_dp(physics: PassagePhysics, start, end, eta_h, speeds, opts, objective, t_start, coast: bool) -> Route:
+def _search_dp(
+    physics: PassagePhysics, start, end, eta_h, speeds, opts, objective, t_start, coast: bool, exclusion=None
+) -> Route:
     if objective == "time" and eta_h is not None:
         raise ConfigError("the DP minimises fuel for an ETA; use objective='fuel' with method='dp'")
     piece_nm = float(opts.pop("piece_nm", 30.0))
     sampler = physics.sampler
 
     def navigable(lat, lon, t_h):  # the weather's no-passage cells, and the coastline as in the grid search
-        ok = physics.sea(lat, lon, np.broadcast_to(t_h, np.shape(lat))).navigable
+        when = np.broadcast_to(t_h, np.shape(lat))
+        ok = physics.sea(lat, lon, when).navigable
+        if exclusion is not None:
+            clat, clon, rad = exclusion.at(physics.departure + _h_to_td(when))
+            ok = ok & (geo.distance_nm(lat, lon, clat, clon) >= rad)
         return ok & ~land.is_land(lat, lon) if coast else ok
 
     t_last = (sampler.extent["time"][1] - physics.departure) / np.timedelta64(1, "s") / 3600.0

@@ -14,8 +14,9 @@ interpolates any number of points with index arithmetic:
   (sin, cos), so 350 deg and 10 deg meet at 0 deg, not 180 deg;
 * NaN marks land or ice: a point whose 2 x 2 x 2 stencil touches a NaN cell
   gets NaN — "no passage", never zero waves;
-* missing wind and current variables are zero (calm, no current), as
-  ``shared/design.md`` says; every other missing variable is an error.
+* a missing current is zero (no current); a missing wind is NaN (not known: Kwon's Beaufort number
+  then comes from Hs, as it would in a wave-only file — zero wind would make waves without wind
+  cost nothing); every other missing variable is an error.
 
 Coverage: a point outside the dataset's lat/lon box, or a time outside its
 span, raises :class:`~optroute.errors.WeatherCoverageError` naming the point,
@@ -161,7 +162,7 @@ class PointWeather(NamedTuple):
     fields : ndarray, shape (9, n_time * n_lat * n_lon)
         Raveled fields: Hs [m], the band period [s] (``tp_s``, else ``tm_s``),
         sin and cos of the wave direction, wind u, v [m/s], current u, v [m/s]
-        (rows of zeros where the dataset has none), and a zero row.
+        (NaN rows for a wind and zero rows for a current the dataset does not have), and a zero row.
     time_s, lat_deg, lon_deg : ndarray
         The axes (time in seconds since the first time).
     meta : ndarray
@@ -396,6 +397,41 @@ class WeatherSampler:
         inside_xy, inside_t, _ = self._inside(t, la, lo)
         return (inside_xy & inside_t).reshape(shape)
 
+    def grid_coordinates(self, time: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> np.ndarray:
+        """Continuous grid coordinates of points: (time, lat, lon) index of the stencil's lower corner plus its weight.
+
+        The integer part is the interpolation cell: inside one cell the sampled fields are one
+        trilinear polynomial of (time, lat, lon); where it changes along a track the interpolated
+        weather changes regime (the referee checks there, :mod:`optroute.plan.checkpoints`).
+
+        Parameters
+        ----------
+        time : array_like of datetime64
+            Times [UTC].
+        lat, lon : array_like
+            Positions [deg north, deg east, any longitude convention].
+
+        Returns
+        -------
+        ndarray of float, shape (..., 3)
+            ``[time, lat, lon]`` coordinates (0 at the first node, 1 at the second...); NaN in every
+            column outside the area or (under ``"raise"``) the time span; under ``"hold"`` a time
+            before the span is −0.5 and after it ``n_time − 0.5`` (the held slice is a regime of its own).
+        """
+        shape, t, la, lo = self._inputs(time, lat, lon)
+        inside_xy, inside_t, lonu = self._inside(t, la, lo)
+        ti, tw = self._time.locate(np.clip(t, self._time.start, self._time.stop))
+        ft = np.where(t < self._time.start, -0.5, np.where(t > self._time.stop, self._time.n - 0.5, ti + tw))
+        yi, yw = self._lat.locate(np.clip(la, self._lat.start, self._lat.stop))
+        if self.periodic:
+            fx = np.clip((lonu - self._lon.start) / self._lon.step, 0.0, float(self._lon.n))
+        else:
+            xi, xw = self._lon.locate(np.clip(lonu, self._lon.start, self._lon.stop))
+            fx = xi + xw
+        out = np.stack([ft, yi + yw, fx], axis=-1).astype(float)
+        out[~(inside_xy & inside_t)] = np.nan
+        return out.reshape((*shape, 3))
+
     def area_text(self) -> str:
         """The dataset's area in words: ``lat 25 to 37 deg N, lon -155 to -135 deg E``."""
         lon_lo, lon_hi = self._lon.start, self._lon.stop
@@ -444,8 +480,8 @@ class WeatherSampler:
         lon : array_like
             Longitudes [deg east], any convention (-180–180, 0–360, unwrapped).
         variables : sequence of str, optional
-            Canonical names wanted; default all present plus zeros for missing
-            wind and current.
+            Canonical names wanted; default all present plus NaN for a missing
+            wind (not known) and zeros for a missing current.
 
         Returns
         -------
@@ -499,7 +535,7 @@ class WeatherSampler:
         out: dict[str, np.ndarray] = {}
         for name in wanted:
             if name not in self.variables:
-                out[name] = np.zeros(shape)
+                out[name] = np.full(shape, np.nan) if name in schema.OPTIONAL_UNKNOWN else np.zeros(shape)
             elif name == _DIR:
                 s = interp(arrays[_DIR + ":sin"].ravel())
                 c = interp(arrays[_DIR + ":cos"].ravel())
@@ -519,11 +555,13 @@ class WeatherSampler:
             return None
         if getattr(self, "_point", None) is None:
             size = self._time.n * self._lat.n * self._lon.n
-            rows = ["hs_m", period, _DIR + ":sin", _DIR + ":cos", *schema.OPTIONAL_ZERO]
+            rows = ["hs_m", period, _DIR + ":sin", _DIR + ":cos", *schema.OPTIONAL]
             fields = np.zeros((N_POINT_FIELDS, size))
             for k, name in enumerate(rows):
                 if name in self._arrays:
                     fields[k] = self._arrays[name].ravel()
+                elif name in schema.OPTIONAL_UNKNOWN:
+                    fields[k] = np.nan
             meta = np.zeros(14)
             for at, ax in ((_M_T_START, self._time), (_M_Y_START, self._lat), (_M_X_START, self._lon)):
                 meta[at : at + 4] = (ax.start, ax.step, 1.0 if ax.uniform else 0.0, ax.stop)
@@ -537,17 +575,17 @@ class WeatherSampler:
 
     def _wanted(self, variables: Sequence[str] | None) -> list[str]:
         if variables is None:
-            return list(self.variables) + [v for v in schema.OPTIONAL_ZERO if v not in self.variables]
+            return list(self.variables) + [v for v in schema.OPTIONAL if v not in self.variables]
         wanted = [str(v) for v in variables]
         for v in wanted:
-            if v not in self.variables and v not in schema.OPTIONAL_ZERO:
+            if v not in self.variables and v not in schema.OPTIONAL:
                 if v not in schema.VARIABLES:
                     raise ConfigError(
                         f"{v!r} is not a canonical weather variable; use one of {sorted(schema.VARIABLES)}"
                     )
                 raise WeatherSchemaError(
                     f"{self.source}: variable {v} is not in the dataset (present: {', '.join(self.variables)}); "
-                    "only wind and current default to zero"
+                    "only wind (unknown) and current (zero) may be missing"
                 )
         return wanted
 

@@ -68,7 +68,13 @@ VARIABLES: dict[str, dict[str, str]] = {
 
 REQUIRED = ("hs_m",)
 PERIOD_VARIABLES = ("tp_s", "tm_s")
-OPTIONAL_ZERO = ("wind_u_ms", "wind_v_ms", "current_u_ms", "current_v_ms")
+OPTIONAL_ZERO = ("current_u_ms", "current_v_ms")
+"""Variables a dataset may leave out, meaning zero: no current."""
+OPTIONAL_UNKNOWN = ("wind_u_ms", "wind_v_ms")
+"""Variables a dataset may leave out, meaning *not known* (NaN when sampled): a wave file without wind
+says nothing about the wind, and Kwon's method then takes the Beaufort number from Hs
+(:meth:`optroute.physics.performance.KwonModel.beaufort`), not calm air."""
+OPTIONAL = OPTIONAL_UNKNOWN + OPTIONAL_ZERO
 
 COORD_ATTRS: dict[str, dict[str, str]] = {
     "lat": {"units": "degrees_north", "standard_name": "latitude", "long_name": "latitude"},
