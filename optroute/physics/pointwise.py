@@ -59,10 +59,12 @@ __all__ = [
     "beaufort_from_wind",
     "brake_power",
     "cached_point_params",
+    "cost_rate_floor",
     "evaluate_speed",
     "heading_for_course",
     "kwon_direction_coefficient",
     "kwon_form_coefficient",
+    "least_cost_per_nm",
     "point_params",
     "stw_for_sog",
     "wrap_360",
@@ -267,6 +269,19 @@ def fuel_rate(p, power_kw):  # pragma: no cover - compiled
 
 
 @jit
+def cost_rate_floor(p, stw_kn, lam_t_per_h, current_kn):  # pragma: no cover - compiled
+    """A lower bound on (fuel + λ) / SOG [t/nm] of ``stw_kn`` wherever the current is at most ``current_kn`` [kn].
+
+    ``(fuel_rate(max(P_calm(v), P_min)) + λ) / (v + c)``: the brake power of an
+    allowed speed is at least its calm-water power (Kwon's loss is floored at
+    0) and the minimum load, the fuel rate increases with the power, and the
+    SOG is at most v + |current| (see :func:`least_cost_per_nm`).
+    """
+    power = max(calm_power(p, stw_kn), p[P_MIN_POWER])
+    return (fuel_rate(p, power) + lam_t_per_h) / (stw_kn + current_kn)
+
+
+@jit
 def _in_band(r, lo, hi):  # pragma: no cover - compiled
     return lo <= r <= hi
 
@@ -380,3 +395,32 @@ def evaluate_speeds_flat(
             p, course[i], hs[i], period[i], wave_from[i], wind_u[i], wind_v[i], cur_u[i], cur_v[i], stw[i]
         )
     return heading, sog, power, fuel, allowed
+
+
+def least_cost_per_nm(p: np.ndarray, speeds_kn: np.ndarray, lambda_t_per_h: float, current_kn: float) -> float:
+    """A lower bound on (fuel + λ·time) per nautical mile at any allowed speed of ``speeds_kn``, anywhere [t/nm].
+
+    ``min over v of (fuel_rate(max(P_calm(v), P_min)) + λ) / (v + c)`` with
+    ``c`` [kn] at least the strongest current.  It holds because, at a speed
+    through water v allowed anywhere (:func:`evaluate_speed`):
+
+    * the brake power is at least the calm-water power: Kwon's (2008) loss is
+      floored at 0, so the calm speed :func:`brake_power` inverts for is >= v
+      (and the calm-water model is the calm power itself);
+    * the power is at least the minimum load, or v is not allowed;
+    * the fuel rate (IMO GHG4 SFOC times P) increases with P: its derivative in
+      the load L is SFC_base (1.365 L² − 1.420 L + 1.280) > 0 (negative discriminant);
+    * the speed over ground is at most v + |current| (Bowditch's current triangle).
+
+    Per mile of a leg's integration (:mod:`optroute.search.passage_kernels`:
+    a midpoint rate times the piece, or the trapezoidal rule over check points,
+    where ``(F_a + F_b)(1/s_a + 1/s_b) / 4 >= r`` whenever ``F_a/s_a, F_b/s_b >= r``)
+    the bound holds for the whole leg, so ρ times the great-circle distance to
+    the end is an admissible and consistent A* heuristic for the fuel and cost
+    objectives.  Units: speeds [kn], λ [t/h], result [t/nm].
+    """
+    best = np.inf
+    for v in np.asarray(speeds_kn, dtype=float).ravel():
+        if v > 0.0:
+            best = min(best, float(cost_rate_floor(p, float(v), float(lambda_t_per_h), float(current_kn))))
+    return float(best) if np.isfinite(best) else 0.0

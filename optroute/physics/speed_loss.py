@@ -609,6 +609,24 @@ def _kwon_excess(v1, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn):  # pragma: no co
 
 
 @jit
+def _kwon_slope_positive(v2, v_max, a, b, c, loss_per_cu, inv_sqrt_gl_kn):  # pragma: no cover - compiled
+    """Whether the weather speed V1 (1 − max(k C_U, 0)) strictly increases in V1 on [V2, V_max].
+
+    Its slope is 1 where the loss is floored at 0 and 1 − k (a + 2b Fn + 3c Fn²)
+    elsewhere: positive on the whole interval when k times the largest value of
+    that quadratic over [Fn(V2), Fn(V_max)] (at an end, or at its vertex
+    −b / 3c when c < 0) is below 1.
+    """
+    f_lo, f_hi = v2 * inv_sqrt_gl_kn, v_max * inv_sqrt_gl_kn
+    q = max(a + f_lo * (2.0 * b + 3.0 * c * f_lo), a + f_hi * (2.0 * b + 3.0 * c * f_hi))
+    if c < 0.0:
+        f_v = -b / (3.0 * c)
+        if f_lo < f_v < f_hi:
+            q = max(q, a + f_v * (2.0 * b + 3.0 * c * f_v))
+    return loss_per_cu * q < 1.0
+
+
+@jit
 def calm_speed_point(v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn, v_max, n_scan, n_bisect):  # pragma: no cover - compiled
     """Smallest V1 in [V2, V_max] with V1 (1 - max(k C_U(Fn(V1)), 0)) >= V2 [kn]; NaN if none.
 
@@ -616,16 +634,26 @@ def calm_speed_point(v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn, v_max, n_scan, n_
     shared by the vectorised function, :mod:`optroute.physics.pointwise` and the
     compiled route-search kernels.  ``a, b, c`` are C_U's coefficients
     (:func:`kwon_cu_coefficients`), ``loss_per_cu`` = C_β C_Form / 100,
-    ``inv_sqrt_gl_kn`` = 1 / √(g L) in knots.  The weather speed is scanned on
-    ``n_scan`` equal steps from V2 to V_max for the first one reaching V2, then the
-    root in the step before it is refined by the Illinois method (regula falsi
-    with halving), a bisection following any step that did not halve the
-    bracket (so ``2 n_bisect`` steps reach what ``n_bisect`` bisections would),
-    until the bracket is a few ulps wide; its upper end is returned, so the
-    result never falls short.
+    ``inv_sqrt_gl_kn`` = 1 / √(g L) in knots.
+
+    Where the weather speed increases with V1 on the whole interval
+    (:func:`_kwon_slope_positive`: every tabulated C_U at Kwon's Froude numbers
+    and ordinary losses) the root is unique and found by Newton's method on the
+    cubic, kept inside a shrinking bracket (a bisection whenever a step leaves
+    it), from V2 / (1 − k C_U(V2)).  Elsewhere the weather speed is scanned on
+    ``n_scan`` equal steps from V2 to V_max for the first one reaching V2, and
+    the root in the step before it refined by the Illinois method (regula falsi
+    with halving, a bisection following any step that did not halve the
+    bracket, at most ``2 n_bisect`` steps).  Either way the bracket ends a few
+    ulps wide and its upper end is returned, so the result never falls short.
     """
     if _kwon_excess(v2, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn) >= 0.0:
         return v2
+    if _kwon_slope_positive(v2, v_max, a, b, c, loss_per_cu, inv_sqrt_gl_kn):
+        f_top = _kwon_excess(v_max, v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn)
+        if f_top < 0.0:
+            return np.nan
+        return _kwon_newton(v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn, v_max, f_top, n_bisect)
     lo = v2
     hi = np.nan
     for k in range(1, n_scan + 1):
@@ -661,6 +689,37 @@ def calm_speed_point(v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn, v_max, n_scan, n_
                 f_hi *= 0.5
             side = -1
         bisect = hi - lo > 0.5 * width
+    return hi
+
+
+@jit
+def _kwon_newton(v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn, v_max, f_top, n_bisect):  # pragma: no cover - compiled
+    """The root of the increasing excess in (V2, V_max] by bracketed Newton; the bracket's upper end."""
+    lo, hi = v2, v_max
+    fn = v2 * inv_sqrt_gl_kn
+    x = v2 / (1.0 - loss_per_cu * (a + fn * (b + c * fn)))
+    if not lo < x < hi:
+        x = 0.5 * (lo + hi)
+    for _ in range(2 * n_bisect):
+        fn = x * inv_sqrt_gl_kn
+        cu = a + fn * (b + c * fn)
+        loss = loss_per_cu * cu
+        f_x = x * (1.0 - max(loss, 0.0)) - v2
+        if f_x >= 0.0:
+            hi = x
+        else:
+            lo = x
+        if hi - lo <= 4.0 * np.finfo(np.float64).eps * hi:
+            break
+        slope = 1.0 - loss_per_cu * (a + fn * (2.0 * b + 3.0 * c * fn)) if loss > 0.0 else 1.0
+        step = f_x / slope
+        if abs(step) <= 2.0 * np.finfo(np.float64).eps * x:  # converged: step just past the root to close the bracket
+            nx = x + (-2.0 if f_x >= 0.0 else 2.0) * np.finfo(np.float64).eps * x
+        else:
+            nx = x - step
+        if not lo < nx < hi:
+            nx = 0.5 * (lo + hi)
+        x = nx
     return hi
 
 

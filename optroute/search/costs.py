@@ -58,7 +58,8 @@ import numpy as np
 
 from optroute import geodesy as geo
 from optroute.errors import ConfigError
-from optroute.search.grid import RouteGrid, chord_distance_nm, course_between_deg, segment_cells, xyz_to_latlon
+from optroute.search.edge_geometry import edge_piece_arrays
+from optroute.search.grid import RouteGrid, segment_cells
 from optroute.search.neighbourhood import Neighbourhood
 
 
@@ -205,28 +206,13 @@ class LegEvaluator:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
         n = len(u)
         f0, f1, npc = self.piece_f0[o], self.piece_f1[o], self.piece_n[o]
-        tu, tv = self.tangent[u], self.tangent[v]
         t = np.array(t0_h, dtype=float, copy=True)
         fuel = np.zeros(n)
         feas = np.ones(n, dtype=bool)
         rec: list[dict[str, np.ndarray]] = []
         kmax = int(npc.max()) if n else 0
-        # the geometry of every piece at once, (n, kmax): on the tangent plane a straight segment is the
-        # great circle, so the piece ends are normalised linear mixes of the two nodes' plane points
-        f0, f1 = f0[:, :kmax, None], f1[:, :kmax, None]
-        tu, tv = tu[:, None, :], tv[:, None, :]
-        pa = (1 - f0) * tu + f0 * tv
-        pb = (1 - f1) * tu + f1 * tv
-        pm = pa + pb
-        pa /= np.sqrt(np.sum(pa * pa, axis=-1, keepdims=True))
-        pb /= np.sqrt(np.sum(pb * pb, axis=-1, keepdims=True))
-        pm /= np.sqrt(np.sum(pm * pm, axis=-1, keepdims=True))
-        lat_all, lon_all = xyz_to_latlon(pm)
-        # the pieces are laid on the gnomonic sphere; each piece's length and course are taken to
-        # WGS84 by the local factor at its midpoint (geodesy.sphere_to_wgs84: second order in the
-        # piece's length, and the pieces of a leg sum to its geodesic length within 1e-6)
-        scale, course_all = geo.sphere_to_wgs84(lat_all, course_between_deg(pm, pb))
-        length_all = chord_distance_nm(pa, pb) * scale
+        # the geometry of every piece at once, (n, kmax), from the one source of it
+        lat_all, lon_all, course_all, length_all = edge_piece_arrays(self.tangent, u, v, f0, f1, npc)
         batch = getattr(self.segment_cost, "leg_batch", None)
         if batch is not None and not detail:  # a compiled kernel walks every leg of the batch in one call
             pieces = npc.astype(np.int64)

@@ -67,7 +67,8 @@ import numpy as np
 from optroute import geodesy as geo
 from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
-from optroute.search import _kernels
+from optroute.search import _kernels, compiled_search
+from optroute.search.compiled_search import LegKernel
 from optroute.search.costs import EdgeCostFn, LegEvaluator, SegmentCostFn
 from optroute.search.grid import RouteGrid, course_between_deg, segment_cells
 from optroute.search.neighbourhood import Neighbourhood
@@ -216,6 +217,7 @@ def shortest_path(
     eta_h: float | None = None,
     batched: bool = True,
     engine: Literal["auto", "numba", "numpy"] = "auto",
+    cost_floor_per_nm: float | None = None,
 ) -> SearchResult:
     """Time-dependent shortest path from ``grid.start`` to ``grid.end``.
 
@@ -251,7 +253,18 @@ def shortest_path(
     engine : {"auto", "numba", "numpy"}
         The search's own bookkeeping (which edges to cost, label updates):
         compiled with numba when it is installed ("auto"), or numpy; the same
-        labels either way.  The callbacks are plain Python in both.
+        labels either way.  With numba, a segment callback carrying a
+        compiled leg cost (``segment_cost.leg_kernel``, a
+        :class:`~optroute.search.compiled_search.LegKernel`, as the physics
+        callbacks of :mod:`optroute.search.routing` do) runs the whole search
+        loop compiled (:func:`optroute.search.compiled_search.run`), with the
+        same labels.
+    cost_floor_per_nm : float, optional
+        Objectives "cost" and "fuel": a lower bound ρ on (fuel + λ·time) per
+        nautical mile of any feasible leg [t/nm] (default λ / ``v_max_kn``).  It
+        is the A* heuristic's weight (ρ times the great-circle distance to the
+        end) and the batches' edge floor, so with a positive ρ the fuel
+        objective gets both; checked on every costed edge like ``v_max_kn``.
 
     Returns
     -------
@@ -267,7 +280,7 @@ def shortest_path(
         ``earliest_arrival_h`` hold it [h from departure].
     ConfigError
         Bad options, or a callback that breaks its contract (including sailing
-        faster than ``v_max_kn``).
+        faster than ``v_max_kn`` or cheaper than ``cost_floor_per_nm``).
     """
     if method not in ("astar", "dijkstra"):
         raise ConfigError(f"method={method!r} is not known; use 'astar' or 'dijkstra'")
@@ -285,7 +298,11 @@ def shortest_path(
     if engine == "numba" and not _kernels.AVAILABLE:
         raise ConfigError("engine='numba' needs the numba package; install it or use engine='numpy'")
     eng = "numba" if engine == "auto" and _kernels.AVAILABLE else ("numpy" if engine == "auto" else engine)
-    return _Search(grid, neighbourhood, ev, vmax, method, objective, lam, batched, eng).run(eta_h)
+    weight = 1.0 if objective == "time" else lam  # the bound per nm is weight / v_max
+    if cost_floor_per_nm is not None and objective != "time":
+        floor = float(finite("cost_floor_per_nm", cost_floor_per_nm, minimum=0.0, error=ConfigError))
+        weight = max(weight, floor * vmax)
+    return _Search(grid, neighbourhood, ev, vmax, method, objective, lam, batched, eng, weight).run(eta_h)
 
 
 def dijkstra(grid: RouteGrid, neighbourhood: Neighbourhood, **kwargs: object) -> SearchResult:
@@ -310,6 +327,7 @@ class _Search:
         lam: float,
         batched: bool,
         engine: str,
+        weight: float,
     ) -> None:
         self.grid, self.nb, self.ev = grid, nb, ev
         self.vmax, self.method, self.objective, self.lam = vmax, method, objective, lam
@@ -350,7 +368,7 @@ class _Search:
         self.expanded = 0
         self.evaluated = 0
         self.batches = 0
-        self.weight = 1.0 if self.time_obj else lam
+        self.weight = weight  # weight / v_max: a lower bound on the objective per nm of any leg [h/nm or t/nm]
 
     # ------------------------------------------------------------ relax
     def _edges_ok(self, batch: np.ndarray) -> np.ndarray:
@@ -363,15 +381,30 @@ class _Search:
             ok &= self.nav_pad[cells].all(axis=2)
         return ok
 
-    def _check_speed(self, dist: np.ndarray, dur: np.ndarray, feas: np.ndarray) -> None:
+    def _check_speed(self, dist: np.ndarray, dur: np.ndarray, feas: np.ndarray, fu: np.ndarray) -> None:
         fast = feas & (dur * self.vmax < dist * (1.0 - _SPEED_TOL))
         if fast.any():
             k = int(np.argmax(fast))
-            raise ConfigError(
-                f"the cost callback sailed a {dist[k]:.1f} nm leg in {dur[k]:.4g} h, i.e. at "
-                f"{dist[k] / dur[k]:.2f} kn > v_max_kn={self.vmax}; raise v_max_kn to a true upper bound "
-                "on the speed over ground (it keeps the search exact)"
-            )
+            self._too_fast(dist[k], dur[k])
+        if not self.time_obj:
+            cost = fu + self.lam * dur
+            cheap = feas & (cost < self.weight / self.vmax * dist * (1.0 - _SPEED_TOL))
+            if cheap.any():
+                k = int(np.argmax(cheap))
+                self._too_cheap(dist[k], cost[k])
+
+    def _too_fast(self, dist: float, dur: float) -> None:
+        raise ConfigError(
+            f"the cost callback sailed a {dist:.1f} nm leg in {dur:.4g} h, i.e. at "
+            f"{dist / dur:.2f} kn > v_max_kn={self.vmax}; raise v_max_kn to a true upper bound "
+            "on the speed over ground (it keeps the search exact)"
+        )
+
+    def _too_cheap(self, dist: float, cost: float) -> None:
+        raise ConfigError(
+            f"the cost callback costed a {dist:.1f} nm leg at {cost:.6g} t, {cost / dist:.6g} t/nm, below the "
+            f"cost floor {self.weight / self.vmax:.6g} t/nm; pass a true lower bound as cost_floor_per_nm (or none)"
+        )
 
     def _candidates(self, batch: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Edges out of ``batch`` that exist and could still improve a label: (u, v, offset, length [nm])."""
@@ -405,7 +438,7 @@ class _Search:
         t0 = self.tarr[u]
         dur, fu, feas, _ = self.ev.evaluate(u, v, o, t0)
         self.evaluated += u.size
-        self._check_speed(dist, dur, feas)
+        self._check_speed(dist, dur, feas, fu)
         new = self.label[u] + (dur if self.time_obj else fu + self.lam * dur)
         if self.compiled:
             self.batches_relaxed += 1
@@ -486,6 +519,10 @@ class _Search:
         delta = _edge_length_floor_nm(self.grid) / self.vmax * (1.0 - 1e-9) * self.weight
         open_nodes = np.array([self.s], dtype=np.int64)
         mode = 0 if not self.batched else (1 if self.method == "dijkstra" else 2)
+        kernel = getattr(self.ev.segment_cost, "leg_kernel", None)
+        if self.compiled and kernel is not None:
+            self._run_compiled(kernel, delta, mode)
+            return
         while open_nodes.size:
             if self.compiled:
                 batch, open_nodes = _kernels.select(open_nodes, self.label, h, delta, self.f_slack, mode)
@@ -531,6 +568,28 @@ class _Search:
             opened = self._relax(batch)
             if opened.size:
                 open_nodes = np.concatenate([open_nodes, opened])
+
+    def _run_compiled(self, kernel: LegKernel, delta: np.ndarray, mode: int) -> None:
+        """The loop of :meth:`_loop`, compiled whole with the leg costing (:func:`compiled_search.run`)."""
+        ev, (ny, nx) = self.ev, self.grid.shape
+        graph = (self.ii, self.jj, self.di, self.dj, self.off, ny, nx, self.nav_pad, self.base_pad, self.cell_off,
+                 self.cell_n, self.all_navigable, ev.xyz, ev.tangent, ev.piece_f0, ev.piece_f1,
+                 ev.piece_n.astype(np.int64))  # fmt: skip
+        search = (self.s, self.g, self.h, delta, self.f_slack, mode, self.weight / self.vmax,
+                  _TWO_R_FLOOR_NM, self.time_obj, self.lam, self.vmax, _SPEED_TOL)  # fmt: skip
+        k = (kernel.params, kernel.weather, kernel.mode, kernel.check_nm, kernel.speeds, kernel.lam,
+             kernel.desired, kernel.step, kernel.vmin)  # fmt: skip
+        counts, bad = compiled_search.run(graph, search, k, self.label, self.tarr, self.fuel, self.parent,
+                                          self.poff, self.state, self.touched)  # fmt: skip
+        self.expanded += int(counts[0])
+        self.evaluated += int(counts[1])
+        self.batches += int(counts[2])
+        ev.calls += 1
+        kernel.on_uncovered(int(counts[3]))
+        if counts[4] == compiled_search.ERR_TOO_FAST:
+            self._too_fast(float(bad[0]), float(bad[1]))
+        if counts[4] == compiled_search.ERR_TOO_CHEAP:
+            self._too_cheap(float(bad[0]), float(bad[2]))
 
     # ---------------------------------------------------------- output
     def _fail(self) -> None:

@@ -16,8 +16,8 @@ the one-point functions the referee uses (:mod:`optroute.physics.pointwise`,
 * :func:`cost_dp_legs` — the DP's legs at a commanded speed over ground,
   checked piece by piece (as :meth:`~optroute.search.routing.PassagePhysics.dp_leg`).
 
-The piece and check-point geometry (great-circle arithmetic) is computed by
-the callers with :mod:`optroute.geodesy` and :mod:`optroute.search.grid`.
+The piece and check-point geometry comes from :mod:`optroute.search.edge_geometry`
+(the DP's leg points from :mod:`optroute.search.piece_geometry`).
 Everything compiles lazily, at the first search that uses it.
 """
 
@@ -27,8 +27,10 @@ import math
 
 import numpy as np
 
+from optroute import units
 from optroute._numba import jit
-from optroute.physics.pointwise import allowed_speed, evaluate_speed, stw_for_sog
+from optroute.physics.pointwise import allowed_speed, cost_rate_floor, evaluate_speed, stw_for_sog
+from optroute.search.edge_geometry import piece_point
 from optroute.weather.sample import N_POINT_FIELDS, sample_at
 
 MODE_TIME = 0
@@ -37,6 +39,8 @@ MODE_CHEAPEST = 1
 """The speed of the set minimising fuel + λ·time per mile (objectives "fuel" and "cost")."""
 
 _DONE_TOL_H = 1e-3  # as segment_checked: a speed's own times agree with the times it was checked at
+_FLOOR_SLACK = 1.0 - 1e-12  # rounding room for skipping speeds by their cost floor (pointwise.cost_rate_floor)
+_MS_PER_KN = units.MS_PER_KN
 
 
 @jit
@@ -72,7 +76,10 @@ def cheapest_speed_at(p, course, sea, speeds, lam):  # pragma: no cover - compil
     """The allowed speed of ``speeds`` minimising (fuel + λ) / SOG, as :func:`~optroute.physics.passage.cheapest_speed`."""
     best, k_best = np.inf, -1
     b_sog, b_fuel = np.nan, np.nan
+    cur = math.hypot(sea[5], sea[6]) / _MS_PER_KN
     for k in range(speeds.size):
+        if cost_rate_floor(p, speeds[k], lam, cur) * _FLOOR_SLACK >= best:
+            continue  # cannot beat the best so far even at its calm-water power: the same choice, found faster
         sog, fuel, ok = _eval_at(p, course, sea, speeds[k])
         if ok and sog > 0.0:
             rate = (fuel + lam) / sog
@@ -150,6 +157,12 @@ def _checked_piece(
         for k in range(k_n):
             if struck[k] != 0.0:
                 continue
+            if mode != MODE_TIME and best < np.inf:
+                floor = 0.0
+                for j in range(npts):
+                    floor += cost_rate_floor(p, speeds[k], lam, math.hypot(sea_pts[j, 5], sea_pts[j, 6]) / _MS_PER_KN)
+                if floor / npts * _FLOOR_SLACK >= best:
+                    continue  # cannot rank better than the best so far (see cheapest_speed_at)
             score = 0.0
             good = True
             for j in range(npts):
@@ -176,26 +189,66 @@ def _checked_piece(
 
 
 @jit
+def check_count(length_nm, check_nm):  # pragma: no cover - compiled
+    """Check points of a piece: ``1 + 2 max(1, ceil(length / 2 check_nm))``, evenly spaced, ends included (odd)."""
+    return int(1.0 + 2.0 * max(1.0, math.ceil(length_nm / (2.0 * check_nm))))
+
+
+@jit
+def cost_leg(
+    p, w, mode, check_nm, speeds, lam, desired, step, vmin, lat, lon, course, length, n_pieces, t0_h
+):  # pragma: no cover - compiled
+    """Duration [h], fuel [t], feasibility and uncovered points of one leg, walked piece by piece in time.
+
+    The leg's pieces are given by their midpoints ``lat, lon`` [deg], the course
+    there [deg true] and ``length`` [nm] (:func:`optroute.search.edge_geometry.edge_pieces`);
+    ``check_nm`` <= 0 proposes and keeps each piece's speed at its midpoint
+    only, else the speed is checked at :func:`check_count` points along the
+    piece (:func:`optroute.search.edge_geometry.piece_point`).  See :func:`cost_legs`.
+    """
+    checked = check_nm > 0.0
+    m = 1
+    if checked:
+        for k in range(n_pieces):
+            m = max(m, check_count(length[k], check_nm))
+    work = np.zeros((5, max(m, speeds.size)))
+    sea = np.empty(N_POINT_FIELDS)
+    sea_pts = np.empty((m, N_POINT_FIELDS))
+    seg = np.empty(max(m - 1, 1))
+    la, lo, crs = np.empty(m), np.empty(m), np.empty(m)
+    t = t0_h
+    fu = 0.0
+    uncovered = 0
+    for k in range(n_pieces):
+        stw0, sog0, f0, go, cov = _first_choice(
+            p, w, mode, speeds, lam, desired, step, vmin, lat[k], lon[k], course[k], t, sea
+        )
+        if not cov:
+            uncovered += 1
+        if not go:
+            return np.nan, np.nan, False, uncovered
+        if not checked:
+            d = length[k] / sog0
+            t += d
+            fu += f0 * d
+            continue
+        npts = check_count(length[k], check_nm)
+        for j in range(npts):
+            la[j], lo[j], crs[j] = piece_point(lat[k], lon[k], course[k], (j / (npts - 1.0) - 0.5) * length[k])
+        for j in range(npts - 1):
+            seg[j] = ((j + 1.0) / (npts - 1.0) - j / (npts - 1.0)) * length[k]
+        d, f, good, unc = _checked_piece(p, w, mode, speeds, lam, t, la, lo, crs, seg, npts, stw0, sog0, work, sea_pts)
+        uncovered += unc
+        if not good:
+            return np.nan, np.nan, False, uncovered
+        t += d
+        fu += f
+    return t - t0_h, fu, True, uncovered
+
+
+@jit
 def cost_legs(
-    p,
-    w,
-    mode,
-    checked,
-    speeds,
-    lam,
-    desired,
-    step,
-    vmin,
-    mid_lat,
-    mid_lon,
-    mid_course,
-    length,
-    n_pieces,
-    t0_h,
-    pt_lat,
-    pt_lon,
-    pt_course,
-    pt_n,
+    p, w, mode, check_nm, speeds, lam, desired, step, vmin, mid_lat, mid_lon, mid_course, length, n_pieces, t0_h
 ):  # pragma: no cover - compiled
     """Duration [h], fuel [t] and feasibility of a batch of legs, walked piece by piece in time.
 
@@ -207,8 +260,8 @@ def cost_legs(
         :class:`optroute.weather.sample.PointWeather` fields.
     mode : int
         :data:`MODE_TIME` or :data:`MODE_CHEAPEST`.
-    checked : bool
-        Check each piece's speed at ``pt_*`` (else at its midpoint only).
+    check_nm : float
+        Check each piece's speed at points at most this far apart [nm]; <= 0: at its midpoint only.
     speeds : ndarray
         The speed ladder, descending (time: desired − step·j down to the floor), or the set (cheapest) [kn].
     lam, desired, step, vmin : float
@@ -218,10 +271,6 @@ def cost_legs(
     n_pieces : ndarray of int, shape (n,)
     t0_h : ndarray, shape (n,)
         Departure of each leg [h from the clock's start].
-    pt_lat, pt_lon, pt_course : ndarray, shape (n, kmax, m)
-        The check points of each piece [deg] (``checked`` only).
-    pt_n : ndarray of int, shape (n, kmax)
-        How many check points each piece has (odd, >= 3).
 
     Returns
     -------
@@ -235,47 +284,15 @@ def cost_legs(
     dur = np.full(n, np.nan)
     fuel = np.full(n, np.nan)
     feas = np.zeros(n, dtype=np.bool_)
-    m = pt_lat.shape[2] if checked else 1
-    work = np.zeros((5, max(m, speeds.size)))
-    sea = np.empty(N_POINT_FIELDS)
-    sea_pts = np.empty((m, N_POINT_FIELDS))
-    seg = np.empty(max(m - 1, 1))
     uncovered = 0
     for i in range(n):
-        t = t0_h[i]
-        fu = 0.0
-        ok = True
-        for k in range(n_pieces[i]):
-            stw0, sog0, f0, go, cov = _first_choice(
-                p, w, mode, speeds, lam, desired, step, vmin, mid_lat[i, k], mid_lon[i, k], mid_course[i, k], t, sea
-            )
-            if not cov:
-                uncovered += 1
-            if not go:
-                ok = False
-                break
-            if not checked:
-                d = length[i, k] / sog0
-                t += d
-                fu += f0 * d
-                continue
-            npts = pt_n[i, k]
-            for j in range(npts - 1):
-                seg[j] = ((j + 1.0) / (npts - 1.0) - j / (npts - 1.0)) * length[i, k]
-            d, f, good, unc = _checked_piece(
-                p, w, mode, speeds, lam, t, pt_lat[i, k], pt_lon[i, k], pt_course[i, k], seg, npts, stw0, sog0,
-                work, sea_pts,
-            )  # fmt: skip
-            uncovered += unc
-            if not good:
-                ok = False
-                break
-            t += d
-            fu += f
+        d, f, ok, unc = cost_leg(
+            p, w, mode, check_nm, speeds, lam, desired, step, vmin, mid_lat[i], mid_lon[i], mid_course[i],
+            length[i], n_pieces[i], t0_h[i],
+        )  # fmt: skip
+        uncovered += unc
         if ok:
-            dur[i] = t - t0_h[i]
-            fuel[i] = fu
-            feas[i] = True
+            dur[i], fuel[i], feas[i] = d, f, True
     return dur, fuel, feas, uncovered
 
 

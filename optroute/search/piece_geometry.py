@@ -1,8 +1,8 @@
 """Geodesic (WGS84) geometry of the pieces of a leg: the points the passage physics is evaluated at.
 
-Used by the search callbacks of :mod:`optroute.search.routing` and, for the
-compiled kernels (:mod:`optroute.search.passage_kernels`), to lay out each
-piece's check points before the kernel samples the weather there.  Positions
+Used by the numpy search callbacks of :mod:`optroute.search.routing`; the
+points of a piece come from :mod:`optroute.search.edge_geometry`, as in the
+compiled kernels.  Positions
 [deg], courses [deg true, to], lengths [nm].
 """
 
@@ -11,31 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 from optroute import geodesy as geo
+from optroute.search.edge_geometry import piece_points_flat
 
-__all__ = ["check_points", "cumulative", "piece_points", "points_along"]
-
-
-def check_points(lat, lon, course, length, n_pieces, check_nm):
-    """The check points of every piece of a batch for :func:`~optroute.search.passage_kernels.cost_legs`.
-
-    As :meth:`optroute.search.routing.PassagePhysics.segment_checked`: ``1 + 2 max(1, ceil(length / 2 check_nm))``
-    points per piece, evenly spaced, ends included.  Returns (lat, lon, course) of shape
-    (n, kmax, m) and the count per piece (n, kmax); empty arrays without a check.
-    """
-    n, kmax = lat.shape
-    if check_nm is None:
-        return np.zeros((n, kmax, 1)), np.zeros((n, kmax, 1)), np.zeros((n, kmax, 1)), np.zeros((n, kmax), np.int64)
-    real = np.arange(kmax)[None, :] < n_pieces[:, None]
-    n_pts = np.where(real, 1 + 2 * np.maximum(1, np.ceil(length / (2.0 * check_nm))), 0).astype(np.int64)
-    m = int(n_pts.max(initial=3))
-    out = [np.zeros((n, kmax, m)) for _ in range(3)]
-    i, k = np.nonzero(real)
-    if i.size:
-        npk = n_pts[i, k][:, None]
-        frac = np.minimum(np.arange(m)[None, :], npk - 1) / (npk - 1)
-        for o, a in zip(out, piece_points(lat[i, k], lon[i, k], course[i, k], length[i, k], frac), strict=True):
-            o[i, k] = a
-    return (*out, n_pts)
+__all__ = ["cumulative", "piece_points", "points_along"]
 
 
 def cumulative(dt: np.ndarray) -> np.ndarray:
@@ -44,9 +22,19 @@ def cumulative(dt: np.ndarray) -> np.ndarray:
 
 
 def piece_points(lat, lon, course, length_nm, fractions):
-    """Points at ``fractions`` (n, m) of pieces given by midpoint, course there and length; the course at each."""
-    s = (fractions - 0.5) * length_nm[:, None]
-    return geo.direct(lat[:, None], lon[:, None], course[:, None], s)  # backwards along the geodesic for s < 0
+    """Points at ``fractions`` (n, m) of pieces given by midpoint, course there and length; the course at each.
+
+    The points lie ``(fraction - 0.5) · length`` along the piece's great circle from its midpoint
+    (:func:`optroute.search.edge_geometry.piece_point`, the compiled kernels' own function).
+    """
+    s = (np.asarray(fractions, dtype=float) - 0.5) * np.asarray(length_nm, dtype=float)[:, None]
+    shape = s.shape
+    args = [np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=float)[:, None], shape)).ravel()
+            for a in (lat, lon, course)]  # fmt: skip
+    out = [np.empty(s.size) for _ in range(3)]
+    if s.size:
+        piece_points_flat(*args, np.ascontiguousarray(s).ravel(), *out)
+    return tuple(o.reshape(shape) for o in out)
 
 
 def points_along(lat0, lon0, lat1, lon1, fractions):

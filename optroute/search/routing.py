@@ -31,13 +31,14 @@ from optroute.physics.safety import BANDS, BandRules, band_margins
 from optroute.physics.ship import Ship
 from optroute.physics.yacht import SailingVessel
 from optroute.search import passage_kernels
+from optroute.search.compiled_search import LegKernel
 from optroute.search.dijkstra import shortest_path
 from optroute.search.dp import solve_dp
 from optroute.search.exclusion import avoiding
 from optroute.search.grid import RouteGrid
 from optroute.search.neighbourhood import Neighbourhood, angular_resolution, compass
 from optroute.search.passage_kernels import MODE_CHEAPEST, MODE_TIME
-from optroute.search.piece_geometry import check_points, cumulative, piece_points, points_along
+from optroute.search.piece_geometry import cumulative, piece_points, points_along
 from optroute.search.route import Corridor, Route
 from optroute.search.sailing import SailingGraph, SailingGrid, SailingRoute, SailObjective, search_sailing_route
 from optroute.units import as_utc_time as _as_time
@@ -182,6 +183,18 @@ class PassagePhysics:
 
         return self._with_kernel(cb, MODE_CHEAPEST, speeds, float(lambda_t_per_h), (0.0, 1.0, 0.0), check_nm)
 
+    def cost_floor_per_nm(self, speeds_kn: np.ndarray, lambda_t_per_h: float, current_kn: float) -> float | None:
+        """A lower bound on (fuel + λ·time) per nm of any leg at the speeds given [t/nm], or None.
+
+        :func:`optroute.physics.pointwise.least_cost_per_nm` for the built-in
+        performance models (``current_kn`` at least the strongest current [kn]);
+        None for a model it does not cover (the search then bounds by λ / v_max).
+        """
+        params = pointwise.cached_point_params(self.ship, self.model, self.rules)
+        if params is None:
+            return None
+        return pointwise.least_cost_per_nm(params, speeds_kn, lambda_t_per_h, current_kn)
+
     def kernel_inputs(self) -> tuple[np.ndarray, tuple] | None:
         """(point parameters, weather arrays) of the compiled kernels, or None where they do not apply.
 
@@ -205,17 +218,32 @@ class PassagePhysics:
         speeds = np.ascontiguousarray(speeds, dtype=float)
 
         def leg_batch(lat, lon, course, length, n_pieces, t0_h):
-            pts = check_points(lat, lon, course, length, n_pieces, check_nm)
             dur, fuel, feas, uncovered = passage_kernels.cost_legs(
-                params, weather, mode, check_nm is not None, speeds, lam, desired, step, vmin,
-                *(np.ascontiguousarray(a, dtype=float) for a in (lat, lon, course, length)),
-                n_pieces, np.ascontiguousarray(t0_h, dtype=float), *pts,
+                params, weather, mode, -1.0 if check_nm is None else float(check_nm), speeds, lam, desired, step,
+                vmin, *(np.ascontiguousarray(a, dtype=float) for a in (lat, lon, course, length)),
+                n_pieces, np.ascontiguousarray(t0_h, dtype=float),
             )  # fmt: skip
             self.calls += 1
             self.uncovered += int(uncovered)
             return dur, fuel, feas
 
+        def uncovered(n: int) -> None:
+            self.calls += 1
+            self.uncovered += n
+
         cb.leg_batch = leg_batch  # type: ignore[attr-defined]
+        cb.leg_kernel = LegKernel(  # type: ignore[attr-defined]
+            params,
+            weather,
+            mode,
+            -1.0 if check_nm is None else float(check_nm),
+            speeds,
+            lam,
+            desired,
+            step,
+            vmin,
+            uncovered,
+        )
         return cb
 
     def segment_checked(
@@ -683,8 +711,9 @@ def search_route(
             )
         cb = _avoid(physics.segment_cheapest(speeds, lam, check), exclusion, t0)
         return shortest_path(
-            grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="cost", lambda_t_per_h=lam
-        )
+            grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="cost", lambda_t_per_h=lam,
+            cost_floor_per_nm=physics.cost_floor_per_nm(speeds, lam, v_bound - ceiling),
+        )  # fmt: skip
 
     try:
         res, lam_used = _run_objective(run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t)
