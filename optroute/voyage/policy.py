@@ -222,6 +222,13 @@ class VoyageOutcome:
         Alarms of the onboard parametric-roll observer (0 without it), >= 0.
     max_roll_deg : float
         Largest roll angle of the simulated motions [deg] (NaN without the observer).
+    cyclone_closest_km : float
+        Closest approach to the TRUE cyclone centre [km] (NaN without a cyclone).
+    cyclone_least_gap_km : float
+        Least distance to the true centre minus the true force-7 radius R [km]: < 0 the ship
+        entered R (NaN without a cyclone).
+    time_inside_r_h, time_inside_margin_h : float
+        Time sailed inside the true R and inside the true R + margin [h], >= 0.
     """
 
     departure: np.datetime64
@@ -236,6 +243,10 @@ class VoyageOutcome:
     time_band_met_h: float = 0.0
     n_observer_alarms: int = 0
     max_roll_deg: float = math.nan
+    cyclone_closest_km: float = math.nan
+    cyclone_least_gap_km: float = math.nan
+    time_inside_r_h: float = 0.0
+    time_inside_margin_h: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "departure", _as_time(self.departure, "VoyageOutcome.departure"))
@@ -245,7 +256,10 @@ class VoyageOutcome:
                 f"VoyageOutcome.arrival {units.format_utc(self.arrival)} is before the departure "
                 f"{units.format_utc(self.departure)}"
             )
-        for name in ("fuel_t", "distance_nm", "time_in_band_h", "time_slowed_h", "time_band_met_h"):
+        for name in (
+            "fuel_t", "distance_nm", "time_in_band_h", "time_slowed_h", "time_band_met_h", "time_inside_r_h",
+            "time_inside_margin_h",
+        ):  # fmt: skip
             v = getattr(self, name)
             if not math.isfinite(float(v)) or float(v) < 0:
                 raise ConfigError(f"VoyageOutcome.{name}={v!r} must be a finite number >= 0")
@@ -254,6 +268,12 @@ class VoyageOutcome:
             v = getattr(self, name)
             if int(v) != v or v < 0:
                 raise ConfigError(f"VoyageOutcome.{name}={v!r} must be an integer >= 0")
+        c = float(self.cyclone_closest_km)
+        if not (math.isnan(c) or 0.0 <= c < math.inf) or math.isinf(float(self.cyclone_least_gap_km)):
+            raise ConfigError(
+                f"VoyageOutcome.cyclone_closest_km={self.cyclone_closest_km!r} / cyclone_least_gap_km="
+                f"{self.cyclone_least_gap_km!r} must be finite (>= 0 for the distance) or NaN (no cyclone)"
+            )
         if not (math.isnan(float(self.max_roll_deg)) or 0.0 <= float(self.max_roll_deg) < 90.0):
             raise ConfigError(f"VoyageOutcome.max_roll_deg={self.max_roll_deg!r} must be in [0, 90) deg or NaN")
         for name in ("eta", "earliest_arrival"):
