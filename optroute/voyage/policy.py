@@ -61,6 +61,13 @@ class ReplanPolicy:
         The same for the wave period (the band period: T_p, else T_m) [s], > 0 (None: off).
     min_interval_h : float
         Least time between two re-plans [h], >= 0.
+    wind_speed_threshold_kn : float or None
+        Re-plan when the true wind speed met differs from the route's forecast at the boat's
+        position and time by more than this [kn], > 0 (None: off). The sailing simulator's
+        trigger (:func:`optroute.voyage.sailing_sim.simulate_sailing`, Życkowski).
+    wind_direction_threshold_deg : float or None
+        The same for the wind direction (smallest angle between the two "from" directions)
+        [deg], in (0, 180] (None: off).
     """
 
     every_h: float | None = None
@@ -69,15 +76,22 @@ class ReplanPolicy:
     direction_threshold_deg: float | None = None
     period_threshold_s: float | None = None
     min_interval_h: float = 0.0
+    wind_speed_threshold_kn: float | None = None
+    wind_direction_threshold_deg: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("every_h", "hs_threshold_m", "direction_threshold_deg", "period_threshold_s"):
+        for name in (
+            "every_h", "hs_threshold_m", "direction_threshold_deg", "period_threshold_s", "wind_speed_threshold_kn",
+            "wind_direction_threshold_deg",
+        ):  # fmt: skip
             object.__setattr__(self, name, _positive_or_none("ReplanPolicy", name, getattr(self, name)))
-        if self.direction_threshold_deg is not None and self.direction_threshold_deg > 180.0:
-            raise ConfigError(
-                f"ReplanPolicy.direction_threshold_deg={self.direction_threshold_deg!r} exceeds 180 deg, "
-                "the largest difference of two directions; pass a value in (0, 180]"
-            )
+        for name in ("direction_threshold_deg", "wind_direction_threshold_deg"):
+            value = getattr(self, name)
+            if value is not None and value > 180.0:
+                raise ConfigError(
+                    f"ReplanPolicy.{name}={value!r} exceeds 180 deg, the largest difference of two directions; "
+                    "pass a value in (0, 180]"
+                )
         if not isinstance(self.on_forecast, bool):
             raise ConfigError(f"ReplanPolicy.on_forecast={self.on_forecast!r} must be True or False")
         mi = self.min_interval_h
@@ -93,7 +107,10 @@ class ReplanPolicy:
     @property
     def replans(self) -> bool:
         """Whether any trigger is on."""
-        thresholds = (self.hs_threshold_m, self.direction_threshold_deg, self.period_threshold_s)
+        thresholds = (
+            self.hs_threshold_m, self.direction_threshold_deg, self.period_threshold_s, self.wind_speed_threshold_kn,
+            self.wind_direction_threshold_deg,
+        )  # fmt: skip
         return self.on_forecast or self.every_h is not None or any(t is not None for t in thresholds)
 
 

@@ -487,6 +487,11 @@ def simulate_voyage(
         raise ConfigError(f"replan must be a ReplanPolicy, got {type(policy).__name__}")
     if not isinstance(truth, xr.Dataset):
         raise ConfigError(f"truth must be a canonical xarray.Dataset, got {type(truth).__name__}")
+    if policy.wind_speed_threshold_kn is not None or policy.wind_direction_threshold_deg is not None:
+        raise ConfigError(
+            "ReplanPolicy wind thresholds are the sailing simulator's trigger (optroute.voyage.sailing_sim); the ship "
+            "simulator re-plans on the sea met: use hs_threshold_m, direction_threshold_deg or period_threshold_s"
+        )
     if cyclone is not None and not isinstance(cyclone, CycloneWatch):
         raise ConfigError(f"cyclone must be a CycloneWatch or None, got {type(cyclone).__name__}")
     if observer is not None and not isinstance(observer, OnboardObserver):
