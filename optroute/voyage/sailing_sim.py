@@ -229,22 +229,29 @@ def simulate_sailing(
             state = _replan(state, reason, search, fseq, t, pos, met, routes, replans, must=not speed > 0)
             if len(routes) > n_routes:
                 continue  # sail the new route from here (its first leg's wind evaluated afresh)
-        d = float(geo.distance_nm(pos[0], pos[1], target[0], target[1]))
         budget = step - _elapsed_in_step(t, t0, step)
-        h = min(budget, d / speed)
-        reached = d / speed <= budget
-        if reached:
-            end = np.array(target, dtype=float)
-        else:
-            elat, elon = geo.destination(pos[0], pos[1], course, speed * h)
-            end = np.array([float(elat), float(units.wrap_180(elon))])
-        steps.append({"time": t, "lat": float(pos[0]), "lon": float(pos[1]), "duration_h": h, "distance_nm": speed * h,
-                      "heading_deg": course, "speed_kn": speed, "twa_deg": twa, "tws_kn": met[0],
-                      "wind_from_deg": met[1], "motoring": bool(motoring), "node": state.node})  # fmt: skip
-        t, pos = t + _h_to_td(h), end
+        rec, end, reached = _advance(t, pos, target, course, speed, budget)
+        steps.append({**rec, "twa_deg": twa, "tws_kn": met[0], "wind_from_deg": met[1], "motoring": bool(motoring),
+                      "node": state.node})  # fmt: skip
+        t, pos = t + _h_to_td(rec["duration_h"]), end
         if reached:
             state.node += 1
     return _result(steps, replans, routes, t0, t)
+
+
+def _advance(t, pos, target, course: float, speed: float, budget_h: float) -> tuple[dict[str, Any], np.ndarray, bool]:
+    """Sail ``speed`` kn on ``course`` toward ``target`` for at most ``budget_h`` (stopping there): the step, its end."""
+    d = float(geo.distance_nm(pos[0], pos[1], target[0], target[1]))
+    h = min(budget_h, d / speed)
+    reached = d / speed <= budget_h
+    if reached:
+        end = np.array(target, dtype=float)
+    else:
+        elat, elon = geo.destination(pos[0], pos[1], course, speed * h)
+        end = np.array([float(elat), float(units.wrap_180(elon))])
+    rec = {"time": t, "lat": float(pos[0]), "lon": float(pos[1]), "duration_h": h, "distance_nm": speed * h,
+           "heading_deg": course, "speed_kn": speed}  # fmt: skip
+    return rec, end, reached
 
 
 def _target(route: SailingRoute, node: int, dest: tuple[float, float]) -> tuple[float, float]:
