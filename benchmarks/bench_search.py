@@ -111,10 +111,9 @@ def _synthetic_storm_speed() -> Callable[[np.ndarray, np.ndarray, np.ndarray], n
     return speed
 
 
-def _haversine_nm(lat0: np.ndarray, lon0: np.ndarray, lat1: np.ndarray, lon1: np.ndarray) -> np.ndarray:
-    p0, p1 = np.radians(lat0), np.radians(lat1)
-    h = np.sin((p1 - p0) / 2) ** 2 + np.cos(p0) * np.cos(p1) * np.sin(np.radians(lon1 - lon0) / 2) ** 2
-    return 2.0 * geo.EARTH_RADIUS_NM * np.arcsin(np.sqrt(np.clip(h, 0.0, 1.0)))
+def _geodesic_nm(lat0: np.ndarray, lon0: np.ndarray, lat1: np.ndarray, lon1: np.ndarray) -> np.ndarray:
+    """WGS84 leg length [nm], as the search measures its legs (a sphere would sail up to 0.56 % too fast)."""
+    return geo.distance_nm(lat0, lon0, lat1, lon1)
 
 
 def pacific_edge_cost() -> tuple[Callable[..., Any], Callable[..., Any]]:
@@ -122,7 +121,7 @@ def pacific_edge_cost() -> tuple[Callable[..., Any], Callable[..., Any]]:
     speed = _synthetic_storm_speed()  # SWAP: speed = <physics speed field of> scenarios.north_pacific_storms()
 
     def edge_cost(lat0: Arr, lon0: Arr, lat1: Arr, lon1: Arr, t0: Arr) -> tuple[Arr, Arr, Arr]:
-        d = _haversine_nm(lat0, lon0, lat1, lon1)
+        d = _geodesic_nm(lat0, lon0, lat1, lon1)
         mid_lon = lon0 + 0.5 * (np.mod(lon1 - lon0 + 180.0, 360.0) - 180.0)
         v = speed(0.5 * (lat0 + lat1), mid_lon, t0 + 0.5 * d / V_SHIP_KN)
         return d / v, 2.0e-4 * d * v**2, np.ones(d.shape, dtype=bool)
@@ -313,7 +312,7 @@ def _sailing_edge_cost() -> tuple[Callable[..., Any], float]:
     vmax = 9.5
 
     def edge_cost(lat0: Arr, lon0: Arr, lat1: Arr, lon1: Arr, t0: Arr) -> tuple[Arr, Arr, Arr]:
-        d = _haversine_nm(lat0, lon0, lat1, lon1)
+        d = _geodesic_nm(lat0, lon0, lat1, lon1)
         y = np.sin(np.radians(lon1 - lon0)) * np.cos(np.radians(lat1))
         x = np.cos(np.radians(lat0)) * np.sin(np.radians(lat1)) - np.sin(np.radians(lat0)) * np.cos(
             np.radians(lat1)
@@ -360,7 +359,7 @@ def bench_dp(quick: bool) -> dict[str, Any]:
     k = 1e-4
 
     def cubic(lat0: Arr, lon0: Arr, lat1: Arr, lon1: Arr, t0: Arr, sog: Arr) -> tuple[Arr, Arr, Arr]:
-        d = _haversine_nm(lat0, lon0, lat1, lon1)
+        d = _geodesic_nm(lat0, lon0, lat1, lon1)
         t = d / sog
         return t, k * d**3 / t**2, np.ones(d.shape, dtype=bool)
 

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from pyproj import Geod
 
 from optroute import units
 from optroute.errors import ConfigError, NoSafePassage, WeatherCoverageError, WeatherSchemaError
-from optroute.geodesy import EARTH_RADIUS_NM
 from optroute.physics.polar import Polar
 from optroute.physics.yacht import SailingVessel
 from optroute.search.routing import search_route
@@ -18,7 +18,12 @@ from optroute.weather.schema import canonical_dataset
 
 T0 = np.datetime64("2024-06-01T00:00", "ns")
 CELL_DEG = 1.0 / 60.0  # 1 arc-minute cells on the equator: lattice diagonals head 045/315 to 1e-3 deg
-CELL_NM = EARTH_RADIUS_NM * np.radians(CELL_DEG)  # the sphere optroute sails on
+# optroute sails on WGS84: one cell north and one lattice diagonal at the equator, by pyproj's Geod directly
+# (Karney 2013); the diagonal heads 45.19 deg, not 45, since the meridian radius there is 0.67 % below the
+# prime vertical's
+_AZ, _, _DIAG_M = Geod(ellps="WGS84").inv(0.0, 0.0, CELL_DEG, CELL_DEG)
+DIAG_NM, DIAG_DEG = _DIAG_M / 1852.0, float(_AZ)
+NORTH_NM = Geod(ellps="WGS84").inv(0.0, 0.0, 0.0, CELL_DEG)[2] / 1852.0
 # Beating polar (hand-made, kn): no-go below 40 deg; v(60) < 1.275 v(45), so no lattice heading beats 45 deg's VMG
 BEAT_TWA = [0.0, 40.0, 45.0, 60.0, 90.0, 135.0, 180.0]
 BEAT_TWS = [5.0, 10.0, 20.0]
@@ -58,9 +63,8 @@ def _beat(yacht, wind, grid, **kw):
 def test_dead_upwind_route_tacks_on_the_best_vmg_heading(yacht, north_wind, beat_grid, directions):
     """Hand-worked: every leg at |TWA| = 45 deg and T = 18 diagonal legs / v(45 deg, 10 kn) = 18·√2·1 nm / 6 kn."""
     r = _beat(yacht, north_wind, beat_grid, directions=directions)
-    np.testing.assert_allclose(np.abs(r.twa_deg), 45.0, atol=1e-3)  # cos(lat) to 0.3 deg N
-    leg_nm = CELL_NM * np.sqrt(2.0)
-    assert r.passage_h == pytest.approx(18 * leg_nm / 6.0, rel=1e-4)
+    np.testing.assert_allclose(np.abs(r.twa_deg), DIAG_DEG, atol=1e-3)  # cos(lat) to 0.3 deg N
+    assert r.passage_h == pytest.approx(18 * DIAG_NM / float(yacht.polar.speed_kn_at(DIAG_DEG, 10.0)), rel=1e-4)
     assert r.verify(north_wind, yacht)["ok"]
     assert all(m.kind == "tack" for m in r.manoeuvres)
 
@@ -130,7 +134,7 @@ def test_more_headings_never_give_a_longer_passage(yacht, wind_from, tws):
 def test_search_route_takes_a_vessel_and_refuses_bad_input(yacht, north_wind, beat_grid):
     r = search_route((0.0, 0.0), (18 * CELL_DEG, 0.0), north_wind, vessel=yacht, departure=T0, directions=8,
                      sailing_grid=beat_grid)  # fmt: skip
-    assert r.passage_h == pytest.approx(18 * CELL_NM * np.sqrt(2.0) / 6.0, rel=1e-4)
+    assert r.passage_h == pytest.approx(18 * DIAG_NM / float(yacht.polar.speed_kn_at(DIAG_DEG, 10.0)), rel=1e-4)
     with pytest.raises(WeatherSchemaError, match="no wind_u_ms"):
         search_route((0.0, 0.0), (0.3, 0.0), north_wind.drop_vars("wind_u_ms"), vessel=yacht, departure=T0,
                      cell_nm=1.0, margin_nm=3.0)  # fmt: skip
@@ -157,7 +161,7 @@ def test_calm_is_no_passage_unless_the_boat_motors(yacht, beat_grid):
         _beat(yacht, calm, beat_grid)
     motor = SailingVessel(yacht.polar, motoring_below_kn=2.0, motor_speed_kn=5.0)
     r = _beat(motor, calm, beat_grid, directions=8)
-    assert r.passage_h == pytest.approx(18 * CELL_NM / 5.0, rel=1e-4) and r.n_manoeuvres == 0
+    assert r.passage_h == pytest.approx(18 * NORTH_NM / 5.0, rel=1e-4) and r.n_manoeuvres == 0
     assert r.motoring.all()
 
 
@@ -169,7 +173,7 @@ def test_refinement_moves_tack_points_and_stays_out_of_the_no_go_sector(yacht, n
     refined = refine_sailing_route(graph, north_wind, yacht, sub_nm=3.0, max_iter=15)
     beat_deg, vmg_kn, _, _ = yacht.polar.vmg_angles_deg(10.0)
     assert refined.stats["refinement"] == "refined" and refined.n_manoeuvres == graph.n_manoeuvres
-    assert 18 * CELL_NM / vmg_kn * (1 - 1e-6) <= refined.passage_h < graph.passage_h
+    assert 18 * NORTH_NM / vmg_kn * (1 - 1e-6) <= refined.passage_h < graph.passage_h
     assert np.all(np.abs(refined.twa_deg) >= yacht.polar.no_go_deg) and refined.verify(north_wind, yacht)["ok"]
     np.testing.assert_allclose(np.abs(refined.twa_deg), beat_deg, atol=0.05)  # off the lattice: the polar's own
 

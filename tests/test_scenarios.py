@@ -258,7 +258,7 @@ def test_great_circle_at_band_free_speed_takes_more_than_12_days(npac):
     # seed 000: 8 days in calm water, more than 12 days on the great circle through the storms
     s = WeatherSampler(npac)
     d = float(geo.distance_nm(*sc.SAN_DIEGO, *sc.TOKYO))
-    assert d / 25.0 / 24.0 == pytest.approx(8.08, abs=0.01)
+    assert d / 25.0 / 24.0 == pytest.approx(8.10, abs=0.01)  # WGS84 geodesic (8.08 d on the R1 sphere): "about 8 days"
     sailed, t, dt = 0.0, 0.0, 0.5
     while sailed < d:
         f = min(sailed / d, 1.0 - 2e-4)

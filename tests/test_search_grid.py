@@ -12,10 +12,10 @@ TOKYO = (35.6, 139.8)
 
 
 def _cross_track_nm(lat, lon, a, b):
-    """Cross-track distance of points from the great circle a→b (aviation formulary, independent of the grid)."""
-    d13 = geo.distance_nm(a[0], a[1], lat, lon) / geo.EARTH_RADIUS_NM
-    t13 = np.radians(geo.initial_course_deg(a[0], a[1], lat, lon))
-    t12 = np.radians(geo.initial_course_deg(a[0], a[1], b[0], b[1]))
+    """Cross-track distance from the sphere's great circle a→b, on which the gnomonic grid is laid (aviation formulary)."""
+    d13 = geo.sphere_distance_nm(a[0], a[1], lat, lon) / geo.EARTH_RADIUS_NM
+    t13 = np.radians(geo.sphere_initial_course_deg(a[0], a[1], lat, lon))
+    t12 = np.radians(geo.sphere_initial_course_deg(a[0], a[1], b[0], b[1]))
     return geo.EARTH_RADIUS_NM * np.arcsin(np.sin(d13) * np.sin(t13 - t12))
 
 

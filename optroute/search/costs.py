@@ -9,7 +9,7 @@ Edge form (one call per batch of edges)::
     edge_cost(lat0_deg, lon0_deg, lat1_deg, lon1_deg, t0_h)
         -> (duration_h, fuel_t, feasible[, extra])
 
-the cost of sailing the great-circle leg from (lat0, lon0) to (lat1, lon1)
+the cost of sailing the geodesic leg from (lat0, lon0) to (lat1, lon1)
 leaving at ``t0_h``.
 
 Segment form (Boeing EP 2145155 Figs. 14, 21–22: the leg crosses a sequence of
@@ -20,8 +20,8 @@ in it)::
         -> (duration_h, fuel_t, feasible[, extra])
 
 the cost of one straight piece: the part of a leg inside one cell, given by
-its midpoint [deg], its great-circle course there [deg true, to], its true
-length [nm] and the time the ship enters it [h].  The search walks every leg
+its midpoint [deg], its course there [deg true, to] and its length [nm] on the
+WGS84 ellipsoid, and the time the ship enters it [h].  The search walks every leg
 cell by cell (supercover walk of :func:`~optroute.search.grid.segment_cells`),
 calls ``segment_cost`` once per piece *position* for all legs of a batch, and
 carries the time forward: piece k+1 is entered at the time piece k is left.
@@ -56,6 +56,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from optroute import geodesy as geo
 from optroute.errors import ConfigError
 from optroute.search.grid import RouteGrid, chord_distance_nm, course_between_deg, segment_cells, xyz_to_latlon
 from optroute.search.neighbourhood import Neighbourhood
@@ -173,8 +174,8 @@ class LegEvaluator:
             self.piece_f1[o, : len(f1)] = f1
 
     def distance_nm(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Great-circle length of edges between flat nodes [nm]."""
-        return chord_distance_nm(self.xyz[u], self.xyz[v])
+        """WGS84 geodesic length of edges between flat nodes [nm] (:func:`optroute.geodesy.distance_nm`)."""
+        return geo.distance_nm(self.lat[u], self.lon[u], self.lat[v], self.lon[v])
 
     def evaluate(
         self, u: np.ndarray, v: np.ndarray, o: np.ndarray, t0_h: np.ndarray, detail: bool = False
@@ -221,8 +222,11 @@ class LegEvaluator:
         pb /= np.sqrt(np.sum(pb * pb, axis=-1, keepdims=True))
         pm /= np.sqrt(np.sum(pm * pm, axis=-1, keepdims=True))
         lat_all, lon_all = xyz_to_latlon(pm)
-        course_all = course_between_deg(pm, pb)
-        length_all = chord_distance_nm(pa, pb)
+        # the pieces are laid on the gnomonic sphere; each piece's length and course are taken to
+        # WGS84 by the local factor at its midpoint (geodesy.sphere_to_wgs84: second order in the
+        # piece's length, and the pieces of a leg sum to its geodesic length within 1e-6)
+        scale, course_all = geo.sphere_to_wgs84(lat_all, course_between_deg(pm, pb))
+        length_all = chord_distance_nm(pa, pb) * scale
         batch = getattr(self.segment_cost, "leg_batch", None)
         if batch is not None and not detail:  # a compiled kernel walks every leg of the batch in one call
             pieces = npc.astype(np.int64)

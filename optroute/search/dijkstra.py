@@ -34,9 +34,10 @@ Methods
     is therefore exact, and lets the callback cost the edges of many nodes in
     one vectorised call.
 ``"astar"``
-    A* with the great-circle heuristic ``E(N) = w · distance_nm(N, end) /
-    v_max_kn`` (``w`` = 1 for time, λ for cost), consistent because every leg
-    is a great-circle arc sailed at most at ``v_max_kn``.  It settles the same
+    A* with the geodesic heuristic ``E(N) = w · distance_nm(N, end) /
+    v_max_kn`` (``w`` = 1 for time, λ for cost; WGS84, shrunk by 1e-5 for the
+    pieces' length approximation), consistent because every leg is at least
+    as long as the geodesic and is sailed at most at ``v_max_kn``.  It settles the same
     labels as Dijkstra (same cost), batched by the same argument refined by
     the heuristic (see ``_Search._loop``), and expands fewer nodes.
 
@@ -71,7 +72,13 @@ from optroute.search.costs import EdgeCostFn, LegEvaluator, SegmentCostFn
 from optroute.search.grid import RouteGrid, course_between_deg, segment_cells
 from optroute.search.neighbourhood import Neighbourhood
 
-_SPEED_TOL = 1e-9
+_SPEED_TOL = 1e-5  # the pieces of a leg sum to its geodesic length within 1e-6 (costs.LegEvaluator)
+# The compiled pruning measures an edge on the gnomonic sphere (chord of unit vectors); times the least
+# WGS84/sphere length ratio that is a lower bound of its geodesic length, so the pruning stays exact.
+_TWO_R_FLOOR_NM = 2.0 * geo.EARTH_RADIUS_NM * geo.SPHERE_TO_WGS84_MIN
+# The A* heuristic is the WGS84 geodesic distance to the end, shrunk by the error bound of the pieces'
+# local sphere-to-ellipsoid lengths (geodesy.sphere_to_wgs84, < 1e-6) so that it stays consistent.
+_HEURISTIC_SHRINK = 1.0 - 1e-5
 _EMPTY = np.zeros(0, dtype=np.int64)
 
 
@@ -192,7 +199,7 @@ def _edge_length_floor_nm(grid: RouteGrid) -> np.ndarray:
     jj, ii = np.meshgrid(np.arange(grid.nx), np.arange(grid.ny))
     x, y = grid.node_xy_nm(ii, jj)
     rho = np.hypot(x, y).ravel() + np.sqrt(2.0) * grid.cell_nm
-    return grid.cell_nm * np.cos(np.arctan(rho / geo.EARTH_RADIUS_NM)) ** 2
+    return grid.cell_nm * np.cos(np.arctan(rho / geo.EARTH_RADIUS_NM)) ** 2 * geo.SPHERE_TO_WGS84_MIN
 
 
 # ----------------------------------------------------------------- search
@@ -373,7 +380,7 @@ class _Search:
             return _kernels.candidates(
                 batch, self.ii, self.jj, self.di, self.dj, self.off, ny, nx, self.nav_pad, self.base_pad,
                 self.cell_off, self.cell_n, self.all_navigable, self.state, self.label, self.h,
-                float(self.label[self.g]), self.ev.xyz, self.weight / self.vmax, 2.0 * geo.EARTH_RADIUS_NM,
+                float(self.label[self.g]), self.ev.xyz, self.weight / self.vmax, _TWO_R_FLOOR_NM,
             )  # fmt: skip
         nbr = batch[:, None] + self.off[None, :]
         ok = self._edges_ok(batch)
@@ -438,7 +445,8 @@ class _Search:
                 )
         n = grid.n_nodes
         if self.method == "astar":
-            self.h = self.weight * self.ev.distance_nm(np.arange(n), np.full(n, self.g)) / self.vmax
+            d_goal = self.ev.distance_nm(np.arange(n), np.full(n, self.g))
+            self.h = self.weight * _HEURISTIC_SHRINK * d_goal / self.vmax
         else:
             self.h = np.zeros(n)
         self.label[self.s] = 0.0

@@ -57,7 +57,6 @@ from optroute import geodesy as geo
 from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
 from optroute.search.costs import unpack_cost
-from optroute.search.grid import _unit_xyz, chord_distance_nm, xyz_to_latlon
 
 LegCostFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], Any]
 NoGoFn = Callable[[np.ndarray, np.ndarray, np.ndarray], ArrayLike]
@@ -373,9 +372,7 @@ def solve_dp(
     lat, lon, lateral, n_stages = _stage_geometry(s, e, dx, dy, n_half)
     n_lat = lateral.size
     c = n_half
-    xyz = _unit_xyz(lat, lon)
-    end_xyz = _unit_xyz(np.array(e[0]), np.array(e[1]))
-    rem_nm = chord_distance_nm(xyz, end_xyz[None, None, :])
+    rem_nm = geo.distance_nm(lat, lon, e[0], e[1])  # WGS84, as the legs
     vmax, vmin = float(speeds.max()), float(speeds.min())
     dist_total = float(geo.distance_nm(*s, *e))
     horizon = (
@@ -400,7 +397,10 @@ def solve_dp(
     early_t = np.full((n_stages + 1, n_lat), np.inf)
     early_f = np.full((n_stages + 1, n_lat), np.inf)
     early_back = np.full((n_stages + 1, n_lat, 2), -1, dtype=np.int64)
-    dists = [chord_distance_nm(xyz[k][:, None, :], xyz[k + 1][None, :, :]) for k in range(n_stages)]
+    dists = [
+        geo.distance_nm(lat[k][:, None], lon[k][:, None], lat[k + 1][None, :], lon[k + 1][None, :])
+        for k in range(n_stages)
+    ]
     b0 = int(np.floor((0.0 - t_ref) / dt))
     fuel_t[0][c, b0], time_t[0][c, b0] = 0.0, 0.0
     early_t[0, c], early_f[0, c] = 0.0, 0.0
@@ -581,13 +581,14 @@ class _Transition:
         self.rem_nm, self.vmax, self.horizon = rem_nm, vmax, horizon
         self.count = 0
         self._samples: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-        self._xyz = _unit_xyz(lat, lon)
 
     def _samples_for(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if k not in self._samples:
             n = max(0, int(np.ceil(float(self.dists[k].max()) / self.nogo_step)) - 1)
             fr = (np.arange(n) + 1.0) / (n + 1.0)
-            plat, plon = _leg_samples(self._xyz[k], self._xyz[k + 1], n) if n else (None, None)
+            plat, plon = (
+                _leg_samples(self.lat[k], self.lon[k], self.lat[k + 1], self.lon[k + 1], n) if n else (None, None)
+            )
             self._samples[k] = (fr, plat, plon)
         return self._samples[k]
 
@@ -644,13 +645,10 @@ def _nav(fn: NoGoFn, lat: np.ndarray, lon: np.ndarray, t: np.ndarray) -> np.ndar
     return out
 
 
-def _leg_samples(xa: np.ndarray, xb: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Points at fractions (1..n)/(n+1) of the great circle between every pair of states, (La, Lb, n)."""
-    a = xa[:, None, None, :]
-    b = xb[None, :, None, :]
-    f = ((np.arange(n) + 1.0) / (n + 1.0))[None, None, :, None]
-    omega = np.arccos(np.clip(np.sum(a * b, axis=-1, keepdims=True), -1.0, 1.0))
-    so = np.sin(omega)
-    safe = np.where(so > 1e-12, so, 1.0)
-    p = np.where(so > 1e-12, (np.sin((1 - f) * omega) * a + np.sin(f * omega) * b) / safe, a + 0 * f)
-    return xyz_to_latlon(p)
+def _leg_samples(
+    la: np.ndarray, lo_a: np.ndarray, lb: np.ndarray, lo_b: np.ndarray, n: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Points at fractions (1..n)/(n+1) of the WGS84 geodesic between every pair of states, (La, Lb, n)."""
+    f = ((np.arange(n) + 1.0) / (n + 1.0))[None, None, :]
+    lat, lon, _ = geo.points_along(la[:, None, None], lo_a[:, None, None], lb[None, :, None], lo_b[None, :, None], f)
+    return lat, lon

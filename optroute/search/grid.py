@@ -17,7 +17,7 @@ Frame and index conventions
   plane's scale is 1 at the centre and grows outward (radially by sec² c,
   tangentially by sec c at an angular distance c from the centre, Snyder 1987
   §22), so a cell far from the centre covers less sea than ``cell_nm``; all
-  distances handed to cost callbacks are true great-circle distances.
+  distances handed to cost callbacks are true distances on the WGS84 ellipsoid.
 * Node ``(i, j)``: row ``i`` along grid y, column ``j`` along grid x;
   ``x_nm = x_min_nm + j * cell_nm``, ``y_nm = y_min_nm + i * cell_nm``.
   Arrays over nodes have shape ``(ny, nx)``; the flat index is ``i * nx + j``.
@@ -91,7 +91,7 @@ class RouteGrid:
     Attributes
     ----------
     centre_lat_deg, centre_lon_deg : float
-        Projection centre, the great-circle midpoint of start and end [deg].
+        Projection centre, the midpoint of start and end on the sphere [deg].
     axis_course_deg : float
         Course of the grid's +x axis at the centre [deg true, to].
     cell_nm : float
@@ -194,8 +194,11 @@ class RouteGrid:
                 f"start and end are {dist:.0f} nm ({dist / 60:.0f} deg of arc) apart: too far for one "
                 "gnomonic grid; split the voyage at an intermediate waypoint"
             )
-        lat0, lon0 = geo.midpoint(lat_s, lon_s, lat_e, lon_e)
-        gamma = float(geo.initial_course_deg(lat0, lon0, lat_e, lon_e))
+        # the plane is the gnomonic projection of the sphere: its centre and axis are spherical too,
+        # so that the start->end line is exactly a grid row (true lengths are measured on WGS84)
+        mid = _unit_xyz(np.array(lat_s), np.array(lon_s)) + _unit_xyz(np.array(lat_e), np.array(lon_e))
+        lat0, lon0 = (float(v) for v in xyz_to_latlon(mid))
+        gamma = float(geo.sphere_initial_course_deg(lat0, lon0, lat_e, lon_e))
         es, ns = geo.gnomonic_forward(lat_s, lon_s, lat0, lon0)
         ee, ne = geo.gnomonic_forward(lat_e, lon_e, lat0, lon0)
         length = float(np.hypot(ee - es, ne - ns))

@@ -1,4 +1,4 @@
-"""Great-circle geometry of the pieces of a leg: the points the passage physics is evaluated at.
+"""Geodesic (WGS84) geometry of the pieces of a leg: the points the passage physics is evaluated at.
 
 Used by the search callbacks of :mod:`optroute.search.routing` and, for the
 compiled kernels (:mod:`optroute.search.passage_kernels`), to lay out each
@@ -11,7 +11,6 @@ from __future__ import annotations
 import numpy as np
 
 from optroute import geodesy as geo
-from optroute import units
 
 __all__ = ["check_points", "cumulative", "piece_points", "points_along"]
 
@@ -47,32 +46,12 @@ def cumulative(dt: np.ndarray) -> np.ndarray:
 def piece_points(lat, lon, course, length_nm, fractions):
     """Points at ``fractions`` (n, m) of pieces given by midpoint, course there and length; the course at each."""
     s = (fractions - 0.5) * length_nm[:, None]
-    shape = s.shape
-    la, lo = geo.destination(np.broadcast_to(lat[:, None], shape), np.broadcast_to(lon[:, None], shape),
-                             np.where(s >= 0, course[:, None], course[:, None] + 180.0), np.abs(s))  # fmt: skip
-    far_lat, far_lon = geo.destination(lat, lon, course, 0.5 * length_nm + 1.0)  # past the end, same great circle
-    crs = geo.initial_course_deg(
-        la, lo, np.broadcast_to(far_lat[:, None], shape), np.broadcast_to(far_lon[:, None], shape)
-    )
-    return la, lo, crs
+    return geo.direct(lat[:, None], lon[:, None], course[:, None], s)  # backwards along the geodesic for s < 0
 
 
 def points_along(lat0, lon0, lat1, lon1, fractions):
-    """Points at ``fractions`` (shape (m,), or (n, m) per leg) along each great-circle leg, and the course there [deg]."""
-    p0 = np.radians(np.stack([lat0, lon0], axis=-1))
-    p1 = np.radians(np.stack([lat1, lon1], axis=-1))
-    a = np.stack([np.cos(p0[:, 0]) * np.cos(p0[:, 1]), np.cos(p0[:, 0]) * np.sin(p0[:, 1]), np.sin(p0[:, 0])], -1)
-    b = np.stack([np.cos(p1[:, 0]) * np.cos(p1[:, 1]), np.cos(p1[:, 0]) * np.sin(p1[:, 1]), np.sin(p1[:, 0])], -1)
-    omega = np.arccos(np.clip(np.sum(a * b, axis=-1), -1.0, 1.0))[:, None, None]
+    """Points at ``fractions`` (shape (m,), or (n, m) per leg) along each WGS84 geodesic leg, and the course there [deg]."""
     f = np.asarray(fractions, dtype=float)
-    f = (f if f.ndim == 2 else f[None, :])[:, :, None]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        w0 = np.where(omega > 1e-12, np.sin((1 - f) * omega) / np.sin(omega), 1 - f)
-        w1 = np.where(omega > 1e-12, np.sin(f * omega) / np.sin(omega), f)
-    xyz = w0 * a[:, None, :] + w1 * b[:, None, :]
-    lat = np.degrees(np.arctan2(xyz[..., 2], np.hypot(xyz[..., 0], xyz[..., 1])))
-    lon = units.wrap_180(np.degrees(np.arctan2(xyz[..., 1], xyz[..., 0])))
-    lat1b = np.broadcast_to(lat1[:, None], lat.shape)
-    lon1b = np.broadcast_to(lon1[:, None], lat.shape)
-    course = geo.initial_course_deg(lat, lon, lat1b, lon1b)
-    return lat, lon, course
+    f = f if f.ndim == 2 else f[None, :]
+    col = (np.asarray(a, dtype=float)[:, None] for a in (lat0, lon0, lat1, lon1))
+    return geo.points_along(*col, f)

@@ -1,0 +1,472 @@
+"""Random-scenario harness (issue 14 item 7): seeded cases, and an independent check of every plan.
+
+A *case* is drawn from its seed alone (:func:`make_case`): a short corridor (200–360 nm, 0–40 nm
+wide) in the North Atlantic under one moving storm (:func:`optroute.scenarios.moving_storm`: waves
+turning through 180° across its centre, peak Hs 7–14 m) or in the Philippine Sea under a tropical
+cyclone (:func:`optroute.weather.cyclone.tropical_cyclone`, Holland 1980 winds, fetch-limited
+waves), one of the built-in ships, and an ETA 5–50 % above the minimum time.  :func:`run_case`
+solves it as a user would — minimum time, then least fuel with that ETA — and checks every plan
+returned with :func:`check_plan`.
+
+:func:`check_plan` is written independently of the plan's referee (``optroute/plan/evaluate.py``):
+
+* the track is walked by brute force every ``step_nm`` (0.1 nm) along each leg's WGS84 geodesic
+  (pyproj's ``Geod`` directly), at the time the plan's speed over ground puts the ship there;
+* the weather is sampled directly from the dataset with xarray's own multilinear ``interp``
+  (wave direction as unit vectors), not through :class:`optroute.weather.WeatherSampler`;
+* the four danger bands are recomputed from their definitions (Boeing EP 2145155, ±20 % bands
+  on T_E/T_R about 1 and 0.5, on V cos χ / c and V cos χ / c_g about 1, applied where
+  Hs >= 0.04 L; encounter period of IMO MSC.1/Circ.1228 with g/2π exact); a band entered for
+  0.1 nm or more (two consecutive samples) is a violation, a single sample inside a *graze*;
+* power and fuel rate come from the ship's own performance model (one model, stated once) by its
+  vectorised numpy path, and the fuel is integrated over the 0.1 nm samples (trapezoids in time);
+* MCR (power above it for 0.1 nm or more), the ETA (the arrival sailed on the ellipsoid at the
+  plan's speeds), the schedule (leg duration = geodesic length / SOG) and the fuel accounting
+  (legs sum to the total; the total within 1 % of the brute-force integral — per leg the referee's
+  5 nm midpoint rule can be 1–2 % off, Kwon's power being a step function of the Beaufort number)
+  are checked too.
+
+The harness lives in ``tests/`` (not in the installed package): it is verification code whose
+value is its independence from the referee, and ``benchmarks/bench_harness.py`` runs its large
+sample from here.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from pyproj import Geod
+
+import optroute as orx
+from optroute.errors import InfeasibleETA, NoSafePassage, OptrouteError, SolverFailure
+from optroute.physics.passage import SeaState, evaluate_speeds
+from optroute.physics.performance import KwonModel
+from optroute.physics.safety import DEFAULT_RULES
+
+__all__ = [
+    "Case",
+    "CaseResult",
+    "Finding",
+    "band_ratios",
+    "case_weather",
+    "check_plan",
+    "make_case",
+    "run_case",
+    "summarise",
+]
+
+WGS84 = Geod(ellps="WGS84")
+G_MS2 = 9.80665
+KN = 1852.0 / 3600.0  # m/s per knot
+K_KN_S = G_MS2 / (2.0 * math.pi) / KN  # g/2π in kn/s (3.0339)
+SHIPS = ("container_54k_dwt", "container_8000teu", "general_cargo_25k_dwt")
+T0 = np.datetime64("2024-01-10T00:00", "ns")
+
+
+@dataclass(frozen=True)
+class Case:
+    """One random case; everything follows from ``seed``.
+
+    Attributes
+    ----------
+    seed : int
+    kind : {"storm", "cyclone"}
+    ship : str
+        A :meth:`optroute.Ship.preset` name.
+    waypoints : tuple of (lat, lon)
+        The corridor's centreline [deg].
+    width_nm : float
+        Corridor width [nm] (0: a fixed path).
+    eta_factor : float
+        ETA of the fuel solve = departure + factor × the minimum time [-].
+    weather : dict
+        Keyword arguments of the scenario function.
+    """
+
+    seed: int
+    kind: str
+    ship: str
+    waypoints: tuple[tuple[float, float], ...]
+    width_nm: float
+    eta_factor: float
+    weather: dict[str, Any] = field(hash=False)
+
+
+@dataclass(frozen=True)
+class Finding:
+    """A constraint the independent check found broken: ``kind`` on ``leg`` at ``position``, ``value`` vs ``limit``."""
+
+    kind: str
+    leg: int
+    position: tuple[float, float]
+    value: float
+    limit: float
+    length_nm: float = 0.0
+
+    def __str__(self) -> str:
+        return (
+            f"{self.kind} on leg {self.leg} at ({self.position[0]:.3f}, {self.position[1]:.3f}): {self.value:.6g} "
+            f"against {self.limit:.6g}" + (f" over {self.length_nm:.2f} nm" if self.length_nm else "")
+        )
+
+
+@dataclass
+class CaseResult:
+    """What a case gave: each solve's outcome (``plan:<status>``, or the error's class name), the findings of
+    :func:`check_plan`, and the number of violations the plan's own ``verify()`` reports (``referee``)."""
+
+    case: Case
+    outcomes: dict[str, str] = field(default_factory=dict)
+    findings: dict[str, list[Finding]] = field(default_factory=dict)
+    grazes: dict[str, int] = field(default_factory=dict)
+    messages: dict[str, str] = field(default_factory=dict)
+    referee: dict[str, int] = field(default_factory=dict)
+    feasible: bool = False
+    cpu_s: float = 0.0
+
+
+# --------------------------------------------------------------------------- the generator
+
+
+def _geodesic_end(lat: float, lon: float, course: float, dist_nm: float) -> tuple[float, float]:
+    lon2, lat2, _ = WGS84.fwd(lon, lat, course, dist_nm * 1852.0)
+    return float(lat2), float(lon2)
+
+
+def _open_water_leg(rng, length, width, lat_range, lon_range, draw_course):
+    """A corridor start, course and end whose whole width (plus 15 nm) is at sea (GLOBE land mask), redrawn until so."""
+    from optroute.geo.land import is_land
+
+    for _ in range(200):
+        a = (float(rng.uniform(*lat_range)), float(rng.uniform(*lon_range)))
+        course = float(draw_course())
+        b = _geodesic_end(*a, course, length)
+        n = int(length / 5.0) + 2
+        s = np.linspace(0.0, length, n) * 1852.0
+        lon, lat, back = WGS84.fwd(np.full(n, a[1]), np.full(n, a[0]), np.full(n, course), s)
+        ok = True
+        for off in (-(0.5 * width + 15.0), 0.0, 0.5 * width + 15.0):
+            lo2, la2, _ = WGS84.fwd(lon, lat, (np.asarray(back) + 180.0 + 90.0) % 360.0, np.full(n, off * 1852.0))
+            ok &= not bool(np.any(is_land(np.asarray(la2), np.asarray(lo2))))
+        if ok:
+            return a, course, b
+    raise RuntimeError("no open-water corridor drawn in 200 tries")
+
+
+def make_case(seed: int) -> Case:
+    """The case of ``seed`` (even seeds: a moving storm, odd: a tropical cyclone)."""
+    rng = np.random.default_rng(seed)
+    kind = "storm" if seed % 2 == 0 else "cyclone"
+    ship = str(rng.choice(SHIPS))
+    length = float(rng.uniform(200.0, 360.0))
+    width = float(rng.choice([0.0, 20.0, 40.0]))
+    eta_factor = float(rng.uniform(1.05, 1.5))
+    if kind == "storm":
+        a, course, b = _open_water_leg(
+            rng,
+            length,
+            width,
+            (36.0, 48.0),
+            (-45.0, -25.0),
+            lambda: rng.choice([rng.uniform(50.0, 130.0), rng.uniform(230.0, 310.0)]),
+        )
+        mid = _geodesic_end(*a, course, 0.5 * length)
+        t_mid = 0.5 * length / 18.0  # the storm meets the corridor's middle about when a ship would
+        off = float(rng.uniform(-120.0, 120.0))
+        centre_mid = _geodesic_end(*mid, course + 90.0, off)
+        s_course, s_speed = float(rng.uniform(0.0, 360.0)), float(rng.uniform(8.0, 30.0))
+        c0 = _geodesic_end(*centre_mid, s_course + 180.0, s_speed * t_mid)
+        lats, lons = [a[0], b[0]], [a[1], b[1]]
+        bbox = (min(lats) - 3.0, max(lats) + 3.0, min(lons) - 4.0, max(lons) + 4.0)
+        weather = {
+            "lat_deg": c0[0],
+            "lon_deg": c0[1],
+            "course_deg": s_course,
+            "speed_kn": s_speed,
+            "peak_hs_m": float(rng.uniform(7.0, 14.0)),
+            "radius_nm": float(rng.uniform(80.0, 200.0)),
+            "start": str(T0),
+            "duration_h": 60.0,
+            "step_h": 3.0,
+            "resolution_deg": 0.5,
+            "bbox": bbox,
+            "background_hs_m": float(rng.uniform(1.0, 3.0)),
+            "background_from_deg": float(rng.uniform(0.0, 360.0)),
+        }
+    else:
+        a, course, b = _open_water_leg(
+            rng, length, width, (12.0, 24.0), (126.0, 134.0), lambda: rng.uniform(20.0, 100.0)
+        )
+        mid = _geodesic_end(*a, course, 0.5 * length)
+        off = float(rng.uniform(-150.0, 150.0))
+        centre_mid = _geodesic_end(*mid, course + 90.0, off)
+        c_course, c_speed = float(rng.uniform(270.0, 360.0)), float(rng.uniform(6.0, 16.0))
+        t_mid = 0.5 * length / 18.0
+        c0 = _geodesic_end(*centre_mid, c_course + 180.0, c_speed * t_mid)
+        weather = {
+            "track": (c0[0], c0[1], c_course, c_speed),
+            "pressure_deficit_hpa": float(rng.uniform(30.0, 70.0)),
+            "rmax_km": float(rng.uniform(30.0, 60.0)),
+            "holland_b": float(rng.uniform(1.2, 1.5)),
+            "start": str(T0),
+            "duration_h": 60.0,
+            "step_h": 3.0,
+            "resolution_deg": 0.25,
+            "bbox": (min(a[0], b[0]) - 3.0, max(a[0], b[0]) + 3.0, min(a[1], b[1]) - 3.0, max(a[1], b[1]) + 3.0),
+        }
+    return Case(seed, kind, ship, (a, b), width, eta_factor, weather)
+
+
+def case_weather(case: Case) -> xr.Dataset:
+    """The case's weather dataset (in memory)."""
+    w = dict(case.weather)
+    if case.kind == "storm":
+        return orx.scenarios.moving_storm(**w)
+    from optroute.weather.cyclone import Cyclone, straight_track, tropical_cyclone
+
+    lat, lon, course, speed = w.pop("track")
+    cyc = Cyclone(
+        track=straight_track(lat, lon, course, speed, duration_h=w["duration_h"], step_h=6.0),
+        pressure_deficit_hpa=w.pop("pressure_deficit_hpa"),
+        rmax_km=w.pop("rmax_km"),
+        holland_b=w.pop("holland_b"),
+        name=f"harness cyclone {case.seed}",
+    )
+    return tropical_cyclone(cyc, **w)
+
+
+# --------------------------------------------------------------------------- the independent check
+
+
+def _sample(ds: xr.Dataset, t: np.ndarray, lat: np.ndarray, lon: np.ndarray) -> dict[str, np.ndarray]:
+    """Multilinear interpolation in (time, lat, lon) by xarray; the wave direction as unit vectors."""
+    rad = np.radians(ds["wave_from_deg"])
+    fields = xr.Dataset(
+        {
+            "hs_m": ds["hs_m"],
+            "tp_s": ds["tp_s"] if "tp_s" in ds else ds["tm_s"],
+            "dir_s": np.sin(rad),
+            "dir_c": np.cos(rad),
+            **{k: ds[k] for k in ("wind_u_ms", "wind_v_ms") if k in ds},
+        }
+    )
+    p = "points"
+    out = fields.interp(
+        time=xr.DataArray(t, dims=p), lat=xr.DataArray(lat, dims=p), lon=xr.DataArray(lon, dims=p), method="linear"
+    )
+    res = {k: np.asarray(out[k].values, dtype=float) for k in out.data_vars}
+    res["wave_from_deg"] = np.degrees(np.arctan2(res.pop("dir_s"), res.pop("dir_c"))) % 360.0
+    return res
+
+
+def band_ratios(ship: orx.Ship, stw_kn, hs_m, period_s, wave_from_deg, heading_deg) -> dict[str, np.ndarray]:
+    """The four Boeing EP 2145155 ratios from their definitions; NaN where Hs < 0.04 L (the band does not apply).
+
+    α = wave_from − heading (0 head seas, IMO MSC.1/Circ.1228); u = −V cos α, the ship's speed along the
+    waves' propagation [kn]; c = (g/2π) T the deep-water phase speed [kn], c_g = c/2;
+    T_E = T² (g/2π) / |(g/2π) T + V cos α| [s].
+    """
+    cos_a = np.cos(np.radians(np.asarray(wave_from_deg) - np.asarray(heading_deg)))
+    v = np.asarray(stw_kn, dtype=float)
+    t = np.asarray(period_s, dtype=float)
+    c = K_KN_S * t
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_e = t * c / np.abs(c + v * cos_a)
+    u = -v * cos_a
+    on = np.asarray(hs_m) >= 0.04 * ship.length_m
+    nan = np.full(np.broadcast(v, t, cos_a).shape, np.nan)
+    return {
+        "synchronous_roll": np.where(on, t_e / ship.roll_period_s, nan),
+        "parametric_roll": np.where(on, t_e / ship.roll_period_s, nan),
+        "surf_riding": np.where(on, u / c, nan),
+        "high_wave_attack": np.where(on, u / (0.5 * c), nan),
+    }
+
+
+BAND_RANGES = {
+    "synchronous_roll": (0.8, 1.2),
+    "parametric_roll": (0.4, 0.6),
+    "surf_riding": (0.8, 1.2),
+    "high_wave_attack": (0.8, 1.2),
+}
+
+
+def _runs(flag: np.ndarray) -> list[tuple[int, int]]:
+    """Maximal runs [i, j] (inclusive) of True."""
+    if not flag.any():
+        return []
+    d = np.diff(np.concatenate([[0], flag.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1, strict=True))
+
+
+def check_plan(
+    plan: orx.Plan,
+    weather: xr.Dataset,
+    ship: orx.Ship,
+    *,
+    eta: np.datetime64 | None = None,
+    step_nm: float = 0.1,
+    fuel_rtol: float = 0.01,
+) -> tuple[list[Finding], int]:
+    """Check a plan by brute force, independently of its referee (module docstring).
+
+    Returns
+    -------
+    findings : list of Finding
+        Violations: ``band:<name>`` and ``mcr`` held for ``step_nm`` or more, ``eta``, ``schedule``,
+        ``fuel`` (accounting).
+    grazes : int
+        Single samples inside a band (entered for less than ``step_nm``).
+    """
+    legs = plan.legs
+    wp = np.asarray(plan.waypoints, dtype=float)
+    stw = legs["stw_kn"].to_numpy(dtype=float)
+    sog = legs["sog_kn"].to_numpy(dtype=float)
+    t_leg = np.asarray(legs["time"].to_numpy(), dtype="datetime64[ns]")
+    dur_h = legs["duration_h"].to_numpy(dtype=float)
+    fuel_leg = legs["fuel_t"].to_numpy(dtype=float)
+    model = KwonModel(ship)
+    findings: list[Finding] = []
+    grazes = 0
+    sailed_h = brute_total = 0.0
+    for k in range(len(stw)):
+        az, _, d_m = WGS84.inv(wp[k, 1], wp[k, 0], wp[k + 1, 1], wp[k + 1, 0])
+        d_nm = d_m / 1852.0
+        if abs(d_nm / sog[k] - dur_h[k]) > 1e-6 * max(1.0, dur_h[k]):
+            findings.append(Finding("schedule", k, tuple(wp[k]), d_nm / sog[k], dur_h[k]))
+        sailed_h += d_nm / sog[k]
+        n = max(2, int(math.ceil(d_nm / step_nm)) + 1)
+        s_nm = np.linspace(0.0, d_nm, n)
+        lon, lat, back = WGS84.fwd(np.full(n, wp[k, 1]), np.full(n, wp[k, 0]), np.full(n, az), s_nm * 1852.0)
+        course = (np.asarray(back) + 180.0) % 360.0
+        t_h = s_nm / sog[k]
+        when = t_leg[k] + (t_h * 3.6e12).astype("timedelta64[ns]")
+        w = _sample(weather, when, np.asarray(lat), np.asarray(lon))
+        ratios = band_ratios(ship, stw[k], w["hs_m"], w["tp_s"], w["wave_from_deg"], course)
+        for band, (lo, hi) in BAND_RANGES.items():
+            r = ratios[band]
+            inside = (r > lo) & (r < hi)
+            for i, j in _runs(inside):
+                if j > i:  # inside for step_nm or more
+                    seg = r[i : j + 1]
+                    q = i + int(np.argmax(np.minimum(seg - lo, hi - seg)))  # the deepest sample
+                    edge = lo if r[q] - lo < hi - r[q] else hi
+                    pos = (float(lat[q]), float(lon[q]))
+                    findings.append(Finding(f"band:{band}", k, pos, float(r[q]), edge, float(s_nm[j] - s_nm[i])))
+                else:
+                    grazes += 1
+        sea = SeaState.from_sample(w)
+        _, _, power, fuel_tph, _ = evaluate_speeds(
+            ship, model, DEFAULT_RULES, course, sea, np.full(n, stw[k]), engine="numpy"
+        )
+        over = power > ship.mcr_kw * (1.0 + 1e-6)
+        for i, j in _runs(over):
+            if j > i:
+                pos = (float(lat[i]), float(lon[i]))
+                findings.append(Finding("mcr", k, pos, float(power[i : j + 1].max()), ship.mcr_kw, s_nm[j] - s_nm[i]))
+        brute_total += float(np.sum(0.5 * (fuel_tph[1:] + fuel_tph[:-1]) * np.diff(t_h)))
+    if not abs(brute_total - plan.total_fuel_t) <= fuel_rtol * max(brute_total, 1e-3):
+        findings.append(Finding("fuel", -1, tuple(wp[-1]), plan.total_fuel_t, brute_total))
+    if abs(float(np.sum(fuel_leg)) - plan.total_fuel_t) > 1e-9 * max(1.0, plan.total_fuel_t):
+        findings.append(Finding("fuel_total", -1, tuple(wp[-1]), float(np.sum(fuel_leg)), plan.total_fuel_t))
+    if eta is not None:
+        arrival_h = float((plan.departure - np.datetime64(eta, "ns")) / np.timedelta64(1, "h")) + sailed_h
+        if arrival_h > 1.0 / 3600.0:
+            findings.append(Finding("eta", len(stw) - 1, tuple(wp[-1]), arrival_h, 0.0))
+    return findings, grazes
+
+
+# --------------------------------------------------------------------------- running a case
+
+
+def _solve(
+    res: CaseResult, name: str, corridor, wx, ship, *, eta=None, objective="fuel", max_leg_nm=50.0
+) -> orx.Plan | None:
+    try:
+        plan = orx.optimise_corridor(
+            corridor, wx, ship, departure=T0, eta=eta, objective=objective, max_leg_nm=max_leg_nm
+        )
+    except SolverFailure as exc:
+        res.outcomes[name] = "SolverFailure"
+        res.messages[name] = str(exc)[:300]
+        best = getattr(exc, "best_plan", None)
+        if best is not None:
+            res.findings[name + ":best_plan"], res.grazes[name + ":best_plan"] = check_plan(best, wx, ship, eta=eta)
+        return best
+    except (InfeasibleETA, NoSafePassage) as exc:
+        res.outcomes[name] = type(exc).__name__
+        res.messages[name] = str(exc)[:300]
+        return None
+    except OptrouteError as exc:
+        res.outcomes[name] = type(exc).__name__
+        res.messages[name] = str(exc)[:300]
+        return None
+    res.outcomes[name] = f"plan:{plan.status}"
+    res.findings[name], res.grazes[name] = check_plan(plan, wx, ship, eta=eta)
+    res.referee[name] = len(plan.verify())  # the baseline: the plan's own referee at its default 5 nm
+    return plan
+
+
+def run_case(case: Case, *, max_leg_nm: float = 50.0) -> CaseResult:
+    """Minimum time, then least fuel with the case's ETA; every plan checked (:func:`check_plan`).
+
+    A case is *feasible* when a verified plan exists: the minimum-time plan, or a SolverFailure's
+    ``best_plan``.  An :class:`InfeasibleETA` of the fuel solve is then itself a finding
+    (``honest_eta``): the minimum-time plan meets that ETA.
+    """
+    start = time.process_time()
+    res = CaseResult(case)
+    ship = orx.Ship.preset(case.ship)
+    wx = case_weather(case)
+    corridor = orx.Corridor.from_waypoints(np.array(case.waypoints), width_nm=case.width_nm)
+    fastest = _solve(res, "time", corridor, wx, ship, objective="time", max_leg_nm=max_leg_nm)
+    if fastest is not None:
+        res.feasible = True
+        eta = T0 + np.timedelta64(int(round(fastest.duration_h * case.eta_factor * 3600.0)), "s")
+        _solve(res, "fuel", corridor, wx, ship, eta=eta, objective="fuel", max_leg_nm=max_leg_nm)
+        if res.outcomes.get("fuel") == "InfeasibleETA":
+            res.findings["fuel"] = [Finding("honest_eta", -1, case.waypoints[-1], fastest.duration_h, 0.0)]
+    res.cpu_s = time.process_time() - start
+    return res
+
+
+def summarise(results: list[CaseResult]) -> dict[str, Any]:
+    """Counts over cases: plans, violations by kind, SolverFailure share of the feasible cases, outcomes."""
+    kinds: dict[str, int] = {}
+    violating: list[str] = []
+    for r in results:
+        for name, fs in r.findings.items():
+            for f in fs:
+                kinds[f.kind] = kinds.get(f.kind, 0) + 1
+            if fs:
+                violating.append(f"seed {r.case.seed} {name}: " + "; ".join(str(f) for f in fs[:3]))
+    feasible = [r for r in results if r.feasible]
+    failures = [r for r in feasible if "SolverFailure" in r.outcomes.values()]
+    outcomes: dict[str, int] = {}
+    for r in results:
+        for name, o in r.outcomes.items():
+            outcomes[f"{name}:{o}"] = outcomes.get(f"{name}:{o}", 0) + 1
+    return {
+        "cases": len(results),
+        "feasible_cases": len(feasible),
+        "plans_checked": sum(len(r.findings) for r in results),
+        "violations": sum(kinds.values()),
+        "violations_by_kind": kinds,
+        "grazes": sum(sum(r.grazes.values()) for r in results),
+        "referee_violations": sum(sum(r.referee.values()) for r in results),
+        "solver_failure_cases": len(failures),
+        "solver_failure_share": (len(failures) / len(feasible)) if feasible else float("nan"),
+        "solver_failure_seeds": [r.case.seed for r in failures],
+        # minimum time ended in SolverFailure without any verified plan: feasibility undetermined
+        "undetermined_seeds": [
+            r.case.seed for r in results if not r.feasible and r.outcomes.get("time") == "SolverFailure"
+        ],
+        "violating": violating,
+        "outcomes": outcomes,
+        "cpu_s": sum(r.cpu_s for r in results),
+    }

@@ -1,0 +1,85 @@
+"""The random-scenario harness (issue 14 item 7): its independent check, and a small sample of cases.
+
+The check (:func:`tests.harness.check_plan`) is first shown to find what it must — a plan planted
+inside the synchronous-roll band (speed from the band's definition worked by hand), above MCR, late
+for its ETA — and to agree with the plan's own referee on them. Then one seeded case is solved as a
+user would (minimum time, then least fuel with an ETA) and every plan is checked: no violation.
+The large sample is ``python -m benchmarks --only harness``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import optroute as orx
+from tests.harness import K_KN_S, band_ratios, check_plan, make_case, run_case, summarise
+
+T0 = np.datetime64("2024-01-10T00:00", "ns")
+SHIP = orx.Ship.preset("general_cargo_25k_dwt")  # L = 170 m (bands apply from Hs 6.8 m), T_R = 18.07 s
+WP = np.array([[0.0, -30.0], [0.0, -29.6]])  # due east along the equator, 24 nm
+
+
+def _following_sea(tp_s: float = 12.0) -> object:
+    return orx.scenarios.uniform(
+        hs_m=8.0, tp_s=tp_s, wave_from_deg=270.0, bbox=(-5.0, 5.0, -35.0, -25.0), start=T0, duration_h=48.0
+    )
+
+
+def _sync_roll_speed_kn(tp_s: float) -> float:
+    # following seas (cos α = -1): T_E = k T² / (k T - V) = T_R  =>  V = k T - k T² / T_R (k = g/2π in kn/s)
+    return K_KN_S * tp_s - K_KN_S * tp_s**2 / SHIP.roll_period_s
+
+
+def test_band_ratios_by_hand():
+    v = _sync_roll_speed_kn(12.0)
+    assert v == pytest.approx(3.0339 * 12 - 3.0339 * 144 / SHIP.roll_period_s, rel=1e-4)  # 12.2 kn
+    r = band_ratios(SHIP, v, 8.0, 12.0, 270.0, 90.0)
+    assert float(r["synchronous_roll"]) == pytest.approx(1.0, rel=1e-12)
+    assert float(r["surf_riding"]) == pytest.approx(v / (K_KN_S * 12.0), rel=1e-12)
+    assert math.isnan(float(band_ratios(SHIP, v, 6.7, 12.0, 270.0, 90.0)["synchronous_roll"]))  # Hs < 0.04 L
+
+
+def test_the_check_finds_a_plan_planted_in_a_band_as_the_referee_does():
+    wx = _following_sea()
+    plan = orx.Plan.from_schedule(WP, [_sync_roll_speed_kn(12.0)], departure=T0, ship=SHIP, weather=wx)
+    found, _ = check_plan(plan, wx, SHIP)
+    bands = [f for f in found if f.kind == "band:synchronous_roll"]
+    assert len(bands) == 1 and bands[0].length_nm == pytest.approx(plan.distance_nm, abs=0.11)
+    assert "band:synchronous_roll" in {v.kind for v in plan.verify()}
+    # at 0.3 of that speed T_E/T_R = 0.74, u/c = 0.1, u/c_g = 0.2: outside every band by the definitions
+    away = orx.Plan.from_schedule(WP, [0.3 * _sync_roll_speed_kn(12.0)], departure=T0, ship=SHIP, weather=wx)
+    assert [f for f in check_plan(away, wx, SHIP)[0] if f.kind.startswith("band")] == []
+
+
+def test_the_check_finds_power_above_mcr_and_a_missed_eta():
+    wx = orx.scenarios.calm((-5.0, 5.0, -35.0, -25.0), start=T0, duration_h=48.0, resolution_deg=1.0)
+    fast = orx.Plan.from_schedule(WP, [SHIP.design_speed_kn * 1.3], departure=T0, ship=SHIP, weather=wx)
+    found, _ = check_plan(fast, wx, SHIP, eta=T0 + np.timedelta64(1, "h"))
+    kinds = {f.kind for f in found}
+    assert "mcr" in kinds and "power_above_mcr" in {v.kind for v in fast.verify()}
+    assert "eta" in kinds  # 24 nm at 18 kn is 1.3 h
+    ok = orx.Plan.from_schedule(WP, [12.0], departure=T0, ship=SHIP, weather=wx)
+    assert check_plan(ok, wx, SHIP, eta=T0 + np.timedelta64(3, "h"))[0] == []
+
+
+def test_the_generator_is_seeded():
+    a, b = make_case(7), make_case(7)
+    assert a == b and a.weather == b.weather
+    assert make_case(8).kind == "storm" and make_case(7).kind == "cyclone"
+
+
+@pytest.fixture(scope="module")
+def sample():
+    # one cyclone case (seed 1: the 8000 TEU ship through a Philippine Sea cyclone, a 20 nm corridor);
+    # about 8 CPU-seconds. The large sample is the benchmark's.
+    return [run_case(make_case(1))]
+
+
+def test_a_small_sample_of_cases_has_no_violation(sample):
+    s = summarise(sample)
+    assert s["plans_checked"] >= 2 and s["feasible_cases"] == 1
+    assert s["violations"] == 0, s["violating"]
+    assert s["solver_failure_cases"] == 0, sample[0].messages
