@@ -59,6 +59,18 @@ def add_simulate(sub: argparse._SubParsersAction, common: argparse.ArgumentParse
         "--observer", type=float, default=None, metavar="RL",
         help="run the parametric-roll observer (thyssenkrupp EP 2377756) on the simulated motions; act at this RL",
     )  # fmt: skip
+    p.add_argument("--cell-nm", type=float, default=None, metavar="NM",
+                   help="plan with the route search on this grid cell, then the optimiser about the route "
+                        "(default: the optimiser about the great circle)")  # fmt: skip
+    p.add_argument("--cyclone", default=None, metavar="TRACK",
+                   help="the cyclone's TRUE track (ATCF b-deck or IBTrACS CSV): every plan keeps out of R + "
+                        "--margin-km of the track known then; the outcome reports the closest approach")  # fmt: skip
+    p.add_argument("--cyclone-forecast", action="append", default=[], metavar="[ISSUE=]TRACK",
+                   help="a forecast track and its issue time (UTC); an a-deck without ISSUE= is issued at its "
+                        "DTG; repeat for each (default: the plans know the true track)")  # fmt: skip
+    p.add_argument("--margin-km", type=float, default=30.0, metavar="KM", help="safety margin beyond R [km]")
+    p.add_argument("--cone-km-per-h", type=float, default=None, metavar="KM_PER_H",
+                   help="growth of the circle with the hours past a track's issue [km/h] (default 3)")  # fmt: skip
     p.add_argument("--out", default="voyage_log", metavar="PREFIX|DIR/", help="where the log files go")
     p.add_argument("--plot", default=None, metavar="FILE.png", help="write the track and re-plans as a figure")
     p.set_defaults(func=cmd_simulate)
@@ -82,6 +94,29 @@ def _forecasts(specs: list[str]) -> list[tuple[object, object]]:
     return out
 
 
+def _cyclone(args: argparse.Namespace) -> object:
+    """The :class:`~optroute.voyage.cyclone.CycloneWatch` of ``--cyclone`` and ``--cyclone-forecast``, or None."""
+    from optroute.cli._common import parse_time
+    from optroute.errors import ConfigError
+    from optroute.voyage.cyclone import CycloneWatch
+    from optroute.weather.cyclone_tracks import read_track
+
+    if args.cyclone is None:
+        if args.cyclone_forecast:
+            raise ConfigError("--cyclone-forecast needs --cyclone TRACK, the true track the voyage is judged against")
+        return None
+    tracks: list[object] = []
+    for spec in args.cyclone_forecast:
+        issue, sep, source = spec.partition("=")
+        if not sep:
+            tracks.append(read_track(spec))
+        elif not source:
+            raise ConfigError(f"--cyclone-forecast {spec!r} is not ISSUE=TRACK; e.g. 2022-10-13T06:00=aal01.dat")
+        else:
+            tracks.append((parse_time(issue, f"--cyclone-forecast {spec!r} issue time"), read_track(source)))
+    return CycloneWatch(read_track(args.cyclone), tracks, margin_km=args.margin_km, cone_km_per_h=args.cone_km_per_h)
+
+
 def cmd_simulate(args: argparse.Namespace, out: TextIO | None = None) -> int:
     """``optroute simulate``: load, sail, write the log and the figure, print the outcome."""
     from optroute import units
@@ -94,6 +129,9 @@ def cmd_simulate(args: argparse.Namespace, out: TextIO | None = None) -> int:
     if not args.forecast:
         raise ConfigError("no --forecast given; pass at least one, e.g. --forecast 2024-01-10T00:00=fc00.nc")
     paths = output_paths(args.out, "voyage_log", create=False)
+    if args.cell_nm is not None and not (args.cell_nm > 0 and args.cell_nm < float("inf")):
+        raise ConfigError(f"--cell-nm {args.cell_nm!r} must be a finite length > 0 [nm]")
+    cyclone = _cyclone(args)
     departure = parse_time(args.depart, "--depart")
     eta = parse_eta(args.eta, departure) if args.eta else None
     policy = (
@@ -113,7 +151,9 @@ def cmd_simulate(args: argparse.Namespace, out: TextIO | None = None) -> int:
         min_stw_kn=args.min_stw_kn,
         corridor_width_nm=args.corridor_width_nm,
         optimise_options={"max_leg_nm": args.max_leg_nm},
+        search_options=None if args.cell_nm is None else {"cell_nm": args.cell_nm},
         observer=None if args.observer is None else OnboardObserver(threshold=args.observer),
+        cyclone=cyclone,
     )
     paths = output_paths(args.out, "voyage_log")
     files = [str(p) for p in write_log(res.log, paths["nc"].with_suffix(""))]
@@ -134,6 +174,13 @@ def cmd_simulate(args: argparse.Namespace, out: TextIO | None = None) -> int:
         print(
             f"parametric-roll observer: {o.n_observer_alarms} alarm(s) at RL >= {args.observer:g}; "
             f"largest simulated roll {o.max_roll_deg:.1f} deg",
+            file=out,
+        )
+    if cyclone is not None:
+        print(
+            f"cyclone {res.log.attrs['cyclone_name']}: closest approach {o.cyclone_closest_km:.1f} km from the true "
+            f"centre at {res.log.attrs['cyclone_closest_time']} (distance - R {o.cyclone_least_gap_km:.1f} km); "
+            f"inside R {o.time_inside_r_h:.2f} h, inside R + {args.margin_km:g} km {o.time_inside_margin_h:.2f} h",
             file=out,
         )
     if o.earliest_arrival is not None:

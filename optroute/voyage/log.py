@@ -154,6 +154,12 @@ def voyage_dataset(
     data["replan_waypoint_lat"] = (("replan", "replan_waypoint"), wlat, {"units": "degrees_north"})
     data["replan_waypoint_lon"] = (("replan", "replan_waypoint"), wlon, {"units": "degrees_east"})
     data["replan_waypoint_time"] = (("replan", "replan_waypoint"), wtime)
+    if any("cyclone_track" in rp for rp in replans):
+        data["replan_cyclone_track"] = (
+            "replan",
+            np.array([rp.get("cyclone_track", -1) for rp in replans], dtype=np.int32),
+            {"long_name": "index of the cyclone forecast track the plan kept out of (-1: the true track)"},
+        )
     ds = xr.Dataset(data)
     ds.attrs["title"] = "optroute simulated voyage log"
     ds.attrs["band_rules"] = rules.rule_set

@@ -61,6 +61,13 @@ class ReplanPolicy:
         The same for the wave period (the band period: T_p, else T_m) [s], > 0 (None: off).
     min_interval_h : float
         Least time between two re-plans [h], >= 0.
+    wind_speed_threshold_kn : float or None
+        Re-plan when the true wind speed met differs from the route's forecast at the boat's
+        position and time by more than this [kn], > 0 (None: off). The sailing simulator's
+        trigger (:func:`optroute.voyage.sailing_sim.simulate_sailing`, Życkowski).
+    wind_direction_threshold_deg : float or None
+        The same for the wind direction (smallest angle between the two "from" directions)
+        [deg], in (0, 180] (None: off).
     """
 
     every_h: float | None = None
@@ -69,15 +76,22 @@ class ReplanPolicy:
     direction_threshold_deg: float | None = None
     period_threshold_s: float | None = None
     min_interval_h: float = 0.0
+    wind_speed_threshold_kn: float | None = None
+    wind_direction_threshold_deg: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("every_h", "hs_threshold_m", "direction_threshold_deg", "period_threshold_s"):
+        for name in (
+            "every_h", "hs_threshold_m", "direction_threshold_deg", "period_threshold_s", "wind_speed_threshold_kn",
+            "wind_direction_threshold_deg",
+        ):  # fmt: skip
             object.__setattr__(self, name, _positive_or_none("ReplanPolicy", name, getattr(self, name)))
-        if self.direction_threshold_deg is not None and self.direction_threshold_deg > 180.0:
-            raise ConfigError(
-                f"ReplanPolicy.direction_threshold_deg={self.direction_threshold_deg!r} exceeds 180 deg, "
-                "the largest difference of two directions; pass a value in (0, 180]"
-            )
+        for name in ("direction_threshold_deg", "wind_direction_threshold_deg"):
+            value = getattr(self, name)
+            if value is not None and value > 180.0:
+                raise ConfigError(
+                    f"ReplanPolicy.{name}={value!r} exceeds 180 deg, the largest difference of two directions; "
+                    "pass a value in (0, 180]"
+                )
         if not isinstance(self.on_forecast, bool):
             raise ConfigError(f"ReplanPolicy.on_forecast={self.on_forecast!r} must be True or False")
         mi = self.min_interval_h
@@ -93,7 +107,10 @@ class ReplanPolicy:
     @property
     def replans(self) -> bool:
         """Whether any trigger is on."""
-        thresholds = (self.hs_threshold_m, self.direction_threshold_deg, self.period_threshold_s)
+        thresholds = (
+            self.hs_threshold_m, self.direction_threshold_deg, self.period_threshold_s, self.wind_speed_threshold_kn,
+            self.wind_direction_threshold_deg,
+        )  # fmt: skip
         return self.on_forecast or self.every_h is not None or any(t is not None for t in thresholds)
 
 
@@ -222,6 +239,13 @@ class VoyageOutcome:
         Alarms of the onboard parametric-roll observer (0 without it), >= 0.
     max_roll_deg : float
         Largest roll angle of the simulated motions [deg] (NaN without the observer).
+    cyclone_closest_km : float
+        Closest approach to the TRUE cyclone centre [km] (NaN without a cyclone).
+    cyclone_least_gap_km : float
+        Least distance to the true centre minus the true force-7 radius R [km]: < 0 the ship
+        entered R (NaN without a cyclone).
+    time_inside_r_h, time_inside_margin_h : float
+        Time sailed inside the true R and inside the true R + margin [h], >= 0.
     """
 
     departure: np.datetime64
@@ -236,6 +260,10 @@ class VoyageOutcome:
     time_band_met_h: float = 0.0
     n_observer_alarms: int = 0
     max_roll_deg: float = math.nan
+    cyclone_closest_km: float = math.nan
+    cyclone_least_gap_km: float = math.nan
+    time_inside_r_h: float = 0.0
+    time_inside_margin_h: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "departure", _as_time(self.departure, "VoyageOutcome.departure"))
@@ -245,7 +273,10 @@ class VoyageOutcome:
                 f"VoyageOutcome.arrival {units.format_utc(self.arrival)} is before the departure "
                 f"{units.format_utc(self.departure)}"
             )
-        for name in ("fuel_t", "distance_nm", "time_in_band_h", "time_slowed_h", "time_band_met_h"):
+        for name in (
+            "fuel_t", "distance_nm", "time_in_band_h", "time_slowed_h", "time_band_met_h", "time_inside_r_h",
+            "time_inside_margin_h",
+        ):  # fmt: skip
             v = getattr(self, name)
             if not math.isfinite(float(v)) or float(v) < 0:
                 raise ConfigError(f"VoyageOutcome.{name}={v!r} must be a finite number >= 0")
@@ -254,6 +285,12 @@ class VoyageOutcome:
             v = getattr(self, name)
             if int(v) != v or v < 0:
                 raise ConfigError(f"VoyageOutcome.{name}={v!r} must be an integer >= 0")
+        c = float(self.cyclone_closest_km)
+        if not (math.isnan(c) or 0.0 <= c < math.inf) or math.isinf(float(self.cyclone_least_gap_km)):
+            raise ConfigError(
+                f"VoyageOutcome.cyclone_closest_km={self.cyclone_closest_km!r} / cyclone_least_gap_km="
+                f"{self.cyclone_least_gap_km!r} must be finite (>= 0 for the distance) or NaN (no cyclone)"
+            )
         if not (math.isnan(float(self.max_roll_deg)) or 0.0 <= float(self.max_roll_deg) < 90.0):
             raise ConfigError(f"VoyageOutcome.max_roll_deg={self.max_roll_deg!r} must be in [0, 90) deg or NaN")
         for name in ("eta", "earliest_arrival"):

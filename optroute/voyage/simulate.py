@@ -47,6 +47,7 @@ from optroute.search.routing import search_route
 from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
 from optroute.units import timedelta_to_h as _td_to_h
+from optroute.voyage.cyclone import CycloneWatch, cyclone_encounter
 from optroute.voyage.log import StepRecord, replan_record, voyage_dataset
 from optroute.voyage.onboard import ObserverWatch, OnboardObserver, intervention_speed_kn, unstable
 from optroute.voyage.policy import ForecastSequence, ReplanPolicy, VoyageOutcome
@@ -90,6 +91,7 @@ class _Sailing:
     forecast_index: int | None
     made_at: np.datetime64
     leg: int = 0
+    track_index: int | None = None  # the cyclone forecast track the plan kept out of (None: the truth or none)
 
     @property
     def target(self) -> np.ndarray:
@@ -114,6 +116,7 @@ class _Setup:
     search_options: Mapping[str, Any] | None
     optimise_options: Mapping[str, Any]
     master_rules: BandRules  # the bands the master's speed reduction applies (the observer may take one over)
+    cyclone: CycloneWatch | None = None
 
 
 # --------------------------------------------------------------------------- one step in the truth
@@ -242,7 +245,7 @@ def _sail_piece(
 # --------------------------------------------------------------------------- planning
 
 
-def _route_plan(s: _Setup, route: Route, weather: xr.Dataset, eta: Any) -> Plan | None:
+def _route_plan(s: _Setup, route: Route, weather: xr.Dataset, eta: Any, exclusion: Any) -> Plan | None:
     """The search route itself as a plan (its leg speeds, sailed through the forecast), if it verifies."""
     plan = Plan.from_schedule(
         route.waypoints,
@@ -253,6 +256,7 @@ def _route_plan(s: _Setup, route: Route, weather: xr.Dataset, eta: Any) -> Plan 
         model=s.model,
         rules=s.rules,
         eta=eta,
+        exclusion=exclusion,
         use_land_mask=s.optimise_options.get("use_land_mask"),
         status="search route (the optimiser found no verified plan)",
     )
@@ -268,9 +272,11 @@ def _plan(
     the corridor about the route, warm-started from it; when the optimiser returns no verified plan
     the route itself is sailed if it verifies. Without: the optimiser in a corridor about the great
     circle, warm-started from ``warm`` (the plan being sailed; its speeds interpolated along track).
-    An infeasible ETA gives a minimum-time plan and the earliest arrival.
+    An infeasible ETA gives a minimum-time plan and the earliest arrival. With a cyclone, the search,
+    the optimiser and the plan's check keep out of the circle of the track known at ``t``.
     """
-    common = {"model": s.model, "rules": s.rules}
+    exclusion = None if s.cyclone is None else s.cyclone.exclusion(t)[0]
+    common = {"model": s.model, "rules": s.rules, "exclusion": exclusion}
     start_t = (float(start[0]), float(start[1]))
 
     def solve(eta: Any, objective: str) -> Plan:
@@ -306,7 +312,7 @@ def _plan(
         except SolverFailure as exc:
             fallback = exc.best_plan if exc.best_plan is not None else None
             if fallback is None and route is not None:
-                fallback = _route_plan(s, route, weather, eta)
+                fallback = _route_plan(s, route, weather, eta, exclusion)
             if fallback is None:
                 raise
             return fallback
@@ -354,6 +360,9 @@ def _replan_reason(
     k = forecasts.latest_index(t) if len(forecasts) else None
     if policy.on_forecast and k is not None and (sailing.forecast_index is None or k > sailing.forecast_index):
         return f"new forecast issued {units.format_utc(forecasts.issue_times[k])}"
+    kt = None if s.cyclone is None else s.cyclone.latest_index(t)
+    if policy.on_forecast and kt is not None and (sailing.track_index is None or kt > sailing.track_index):
+        return f"new cyclone track issued {units.format_utc(s.cyclone.issue_times[kt])}"  # type: ignore[union-attr]
     if policy.every_h is not None and since >= policy.every_h - 1e-9:
         return f"periodic: {since:.3g} h since the last plan"
     return _weather_trigger(policy, s, sailing, t, pos)
@@ -407,6 +416,7 @@ def simulate_voyage(
     min_replan_distance_nm: float = 30.0,
     warm_start: bool = True,
     observer: OnboardObserver | None = None,
+    cyclone: CycloneWatch | None = None,
 ) -> VoyageResult:
     """Sail a voyage through the truth weather, re-planning on new forecasts under a policy.
 
@@ -453,6 +463,11 @@ def simulate_voyage(
         Run the onboard parametric-roll observer of thyssenkrupp EP 2377756 on the simulated
         motions, with its short intervention and a re-plan after it
         (:mod:`optroute.voyage.onboard`); the log then carries RL, the roll and the alarms.
+    cyclone : CycloneWatch, optional
+        A tropical cyclone: every plan keeps out of R + margin (+ the cone) of the track known when
+        it is made (:mod:`optroute.voyage.cyclone`), a new forecast track triggers a re-plan under
+        ``on_forecast``, and the outcome and the log report the closest approach to the TRUE centre
+        and the time inside R and inside R + margin (brute force along the track sailed).
 
     Returns
     -------
@@ -472,6 +487,13 @@ def simulate_voyage(
         raise ConfigError(f"replan must be a ReplanPolicy, got {type(policy).__name__}")
     if not isinstance(truth, xr.Dataset):
         raise ConfigError(f"truth must be a canonical xarray.Dataset, got {type(truth).__name__}")
+    if policy.wind_speed_threshold_kn is not None or policy.wind_direction_threshold_deg is not None:
+        raise ConfigError(
+            "ReplanPolicy wind thresholds are the sailing simulator's trigger (optroute.voyage.sailing_sim); the ship "
+            "simulator re-plans on the sea met: use hs_threshold_m, direction_threshold_deg or period_threshold_s"
+        )
+    if cyclone is not None and not isinstance(cyclone, CycloneWatch):
+        raise ConfigError(f"cyclone must be a CycloneWatch or None, got {type(cyclone).__name__}")
     if observer is not None and not isinstance(observer, OnboardObserver):
         raise ConfigError(f"observer must be an OnboardObserver or None, got {type(observer).__name__}")
     fseq = forecasts if isinstance(forecasts, ForecastSequence) else ForecastSequence(forecasts)
@@ -498,6 +520,7 @@ def simulate_voyage(
         search_options,
         dict(optimise_options or {}),
         rules if observer is None or observer.master_sees_parametric_band else replace(rules, parametric_roll=False),
+        cyclone,
     )
     watch = None if observer is None else ObserverWatch(observer, ship)
     replans: list[dict[str, Any]] = []
@@ -505,18 +528,20 @@ def simulate_voyage(
     if first is None:
         k, ds = fseq.latest(t0)
         first, status, earliest = _plan(s, np.asarray(start), ds, t0)
-        sailing = _Sailing(first, k, t0)
+        sailing = _Sailing(first, k, t0, track_index=_track_index(s, t0))
     else:
         k = _plan_forecast_index(first, fseq)
         status = first.status
-        sailing = _Sailing(first, k, t0)
+        sailing = _Sailing(first, k, t0, track_index=_track_index(s, t0))
     replans.append(replan_record(first, "initial plan", status, t0, k, fseq, earliest))
+    _note_track(s, replans[-1], t0)
     plans = [first]
     records, t, earliest = _sail_voyage(
         s, policy, fseq, sailing, np.asarray(start, dtype=float), step, min_left, warm_start, replans, plans, earliest,
         watch,
     )  # fmt: skip
     log = voyage_dataset(records, replans, rules, observed=watch is not None)
+    met = None if cyclone is None else cyclone_encounter(records, cyclone.truth, cyclone.margin_km)
     outcome = VoyageOutcome(
         departure=t0,
         arrival=t,
@@ -530,7 +555,10 @@ def simulate_voyage(
         earliest_arrival=earliest,
         n_observer_alarms=0 if watch is None else watch.alarms,
         max_roll_deg=float(max((r.roll_max_deg for r in records), default=np.nan)) if watch is not None else np.nan,
+        **({} if met is None else met.outcome_fields()),
     )
+    if met is not None:
+        log = met.into_log(log, cyclone)
     log.attrs.update(_outcome_attrs(outcome))
     return VoyageResult(outcome=outcome, log=log, plans=tuple(plans))
 
@@ -567,12 +595,15 @@ def _sail_voyage(
                 new, status, e = _plan(s, pos, ds, t, sailing.plan if warm_start else None)
             except OptrouteError as exc:  # keep sailing the plan we have; the log says why
                 replans.append(replan_record(None, reason, f"failed: {exc}", t, k, fseq, None))
+                _note_track(s, replans[-1], t)
                 sailing.made_at, sailing.forecast_index = t, k  # this forecast is spent; the next trigger tries again
+                sailing.track_index = _track_index(s, t)
             else:
                 earliest = e if e is not None else earliest
-                sailing = _Sailing(new, k, t)
+                sailing = _Sailing(new, k, t, track_index=_track_index(s, t))
                 plans.append(new)
                 replans.append(replan_record(new, reason, status, t, k, fseq, e))
+                _note_track(s, replans[-1], t)
         budget = step - _elapsed_in_step(t, t0, step)
         rec = _sail_piece(s, sailing, t, pos, budget, None if watch is None else watch.intervention_kn)
         if watch is not None:
@@ -628,6 +659,18 @@ def _observe(
         if cfg.replan:
             watch.pending_reason = watch.note
     return rec
+
+
+def _note_track(s: _Setup, row: dict[str, Any], t: np.datetime64) -> None:
+    """Mark a ``replan`` row with the cyclone track its plan kept out of (-1 the true track), with a cyclone."""
+    if s.cyclone is not None:
+        k = s.cyclone.latest_index(t)
+        row["cyclone_track"] = -1 if k is None else k
+
+
+def _track_index(s: _Setup, t: np.datetime64) -> int | None:
+    """The cyclone forecast track known at ``t`` (None: no cyclone, or the planner knows the true track)."""
+    return None if s.cyclone is None else s.cyclone.latest_index(t)
 
 
 def _elapsed_in_step(t: np.datetime64, t0: np.datetime64, step: float) -> float:
