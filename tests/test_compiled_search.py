@@ -24,7 +24,7 @@ from optroute.physics.pointwise import least_cost_per_nm, point_params
 from optroute.physics.safety import BandRules
 from optroute.physics.speed_loss import KWON_BISECTIONS, KWON_SCAN_STEPS, calm_speed_point, kwon_cu_coefficients
 from optroute.search import RouteGrid, compass, shortest_path
-from optroute.search.edge_geometry import piece_point, wgs84_scale
+from optroute.search.edge_geometry import piece_point, sphere_course, wgs84_scale
 from optroute.search.routing import PassagePhysics
 from optroute.weather import WeatherSampler
 from tests.test_search_kernels import BOX, CARGO, T0, sea_fields
@@ -183,20 +183,23 @@ def test_kwon_inversion_is_the_smallest_root(cb, loading, fn2, k, length):
 
 # ------------------------------------------------------------------ geometry
 def test_piece_points_are_the_great_circle_destination_and_course():
-    """A piece point ``s`` [nm, WGS84] from the midpoint lies on the gnomonic sphere's great circle at the arc
-    ``s / scale``, ``scale`` the local sphere-to-WGS84 factor of :func:`optroute.geodesy.sphere_to_wgs84`."""
+    """A piece point ``s`` [nm, WGS84] from the midpoint on the ellipsoid's course ``crs`` lies on the gnomonic
+    sphere's great circle at the arc ``s / scale`` on the sphere's course, both from the local factor of
+    :func:`optroute.geodesy.sphere_to_wgs84`; the course returned is the ellipsoid's there."""
     rng = np.random.default_rng(5)
     for _ in range(200):
         lat, lon, crs, s = rng.uniform(-70, 70), rng.uniform(-180, 180), rng.uniform(0, 360), rng.uniform(-40, 40)
         la, lo, c = piece_point(lat, lon, crs, s)
-        scale = float(geo.sphere_to_wgs84(lat, crs)[0])
-        assert float(wgs84_scale(lat, crs)) == pytest.approx(scale, rel=1e-14)
+        c_sphere = float(sphere_course(lat, crs))
+        scale, back = (float(x) for x in geo.sphere_to_wgs84(lat, c_sphere))
+        assert (back - crs + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=1e-9)  # the inverse of sphere_to_wgs84
+        assert float(wgs84_scale(lat, c_sphere)) == pytest.approx(scale, rel=1e-14)
         arc = abs(s) / scale
-        ref_la, ref_lo = geo.sphere_destination(lat, lon, crs if s >= 0 else crs + 180.0, arc)
-        far = geo.sphere_destination(lat, lon, crs, arc + 1.0)
+        ref_la, ref_lo = geo.sphere_destination(lat, lon, c_sphere if s >= 0 else c_sphere + 180.0, arc)
+        far = geo.sphere_destination(lat, lon, c_sphere, arc + 1.0)
         assert la == pytest.approx(float(ref_la), abs=1e-10)
         assert (lo - float(ref_lo) + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=1e-10)
-        course = float(geo.sphere_initial_course_deg(la, lo, *far))
+        course = float(geo.sphere_to_wgs84(la, geo.sphere_initial_course_deg(la, lo, *far))[1])
         assert (c - course + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=1e-8)
 
 

@@ -28,25 +28,55 @@ import numpy as np
 from optroute import geodesy as geo
 from optroute._numba import jit
 
-__all__ = ["edge_piece_arrays", "edge_pieces", "latlon_of", "piece_point", "piece_points_flat", "wgs84_scale"]
+__all__ = [
+    "edge_piece_arrays",
+    "edge_pieces",
+    "latlon_of",
+    "piece_point",
+    "piece_points_flat",
+    "sphere_course",
+    "wgs84_course",
+    "wgs84_scale",
+]
 
 _R_NM = geo.EARTH_RADIUS_NM
 _A_M, _E2, _R_M = geo.WGS84_A_M, geo.WGS84_F * (2.0 - geo.WGS84_F), geo.EARTH_RADIUS_M
 
 
 @jit
+def _radii(lat_deg):  # pragma: no cover - compiled
+    """WGS84's meridian and prime-vertical radii of curvature M, N at a latitude [m]."""
+    s = math.sin(math.radians(lat_deg))
+    w = 1.0 - _E2 * s * s
+    return _A_M * (1.0 - _E2) / (w * math.sqrt(w)), _A_M / math.sqrt(w)
+
+
+@jit
 def wgs84_scale(lat_deg, course_deg):  # pragma: no cover - compiled
-    """Ellipsoidal / spherical length of a short piece at ``lat_deg`` on ``course_deg`` (sphere) [-].
+    """Ellipsoidal / spherical length of a short piece at ``lat_deg`` on the sphere's ``course_deg`` [-].
 
     The scale of :func:`optroute.geodesy.sphere_to_wgs84` (the principal radii of curvature M and
     N of WGS84), one point at a time for the kernels.
     """
-    s = math.sin(math.radians(lat_deg))
-    w = 1.0 - _E2 * s * s
-    n = _A_M / math.sqrt(w)
-    m = _A_M * (1.0 - _E2) / (w * math.sqrt(w))
+    m, n = _radii(lat_deg)
     a = math.radians(course_deg)
     return math.hypot(m * math.cos(a), n * math.sin(a)) / _R_M
+
+
+@jit
+def wgs84_course(lat_deg, course_deg):  # pragma: no cover - compiled
+    """The ellipsoid's course [deg true, [0, 360)] of a piece sailed on the sphere's ``course_deg`` (as sphere_to_wgs84)."""
+    m, n = _radii(lat_deg)
+    a = math.radians(course_deg)
+    return math.degrees(math.atan2(n * math.sin(a), m * math.cos(a))) % 360.0
+
+
+@jit
+def sphere_course(lat_deg, course_deg):  # pragma: no cover - compiled
+    """The inverse of :func:`wgs84_course`: the sphere's course [deg] of a piece on the ellipsoid's ``course_deg``."""
+    m, n = _radii(lat_deg)
+    a = math.radians(course_deg)
+    return math.degrees(math.atan2(m * math.sin(a), n * math.cos(a))) % 360.0
 
 
 @jit
@@ -75,10 +105,9 @@ def edge_pieces(tu, tv, f0, f1, n_pieces, lat, lon, course, length):  # pragma: 
     Writes each piece's midpoint (lat, lon) [deg], the great-circle course at it
     towards the piece's end [deg true] and its length [nm] into the output rows.  The pieces
     lie on the gnomonic sphere (a straight segment of the grid's plane is a great circle); the
-    length is taken to WGS84 by the local factor at the midpoint (:func:`wgs84_scale`, second
-    order in the piece's length: the pieces of a leg sum to its geodesic length within 1e-6),
-    the course is the sphere's (within 0.193° of the ellipsoid's, the bound of
-    :func:`optroute.geodesy.sphere_to_wgs84`).
+    length and course are taken to WGS84 by the local factor at the midpoint (:func:`wgs84_scale`,
+    :func:`wgs84_course`: :func:`optroute.geodesy.sphere_to_wgs84`, second order in the piece's
+    length: the pieces of a leg sum to its geodesic length within 1e-6).
     """
     for k in range(n_pieces):
         a0, b0 = 1.0 - f0[k], f0[k]
@@ -93,9 +122,10 @@ def edge_pieces(tu, tv, f0, f1, n_pieces, lat, lon, course, length):  # pragma: 
         pbx, pby, pbz = pbx / nb, pby / nb, pbz / nb
         mx, my, mz = mx / nm, my / nm, mz / nm
         lat[k], lon[k] = latlon_of(mx, my, mz)
-        course[k] = _course(mx, my, mz, pbx, pby, pbz)
+        c_sphere = _course(mx, my, mz, pbx, pby, pbz)
+        course[k] = wgs84_course(lat[k], c_sphere)
         ch = math.sqrt((pax - pbx) ** 2 + (pay - pby) ** 2 + (paz - pbz) ** 2)
-        length[k] = 2.0 * _R_NM * math.asin(min(max(ch / 2.0, 0.0), 1.0)) * wgs84_scale(lat[k], course[k])
+        length[k] = 2.0 * _R_NM * math.asin(min(max(ch / 2.0, 0.0), 1.0)) * wgs84_scale(lat[k], c_sphere)
 
 
 @jit
@@ -104,23 +134,25 @@ def piece_point(lat_deg, lon_deg, course_deg, s_nm):  # pragma: no cover - compi
 
     The rotation of the unit vector in the plane of the great circle, equal to
     :func:`optroute.geodesy.sphere_destination` with the course at the point reached.
-    ``s_nm`` is a WGS84 length, as the pieces' lengths of :func:`edge_pieces`: it is turned into the
-    sphere's arc by the same local factor, so that ``±length / 2`` from a piece's midpoint reaches its ends.
+    ``s_nm`` is a WGS84 length and the courses are the ellipsoid's, as the pieces' of :func:`edge_pieces`:
+    they are turned into the sphere's arc and course by the same local factor (:func:`sphere_course`),
+    so that ``±length / 2`` from a piece's midpoint reaches its ends on the grid's great circle.
     Returns ``(lat, lon, course)`` [deg, deg, deg true].
     """
-    phi, lam, c = math.radians(lat_deg), math.radians(lon_deg), math.radians(course_deg)
+    c_sphere = sphere_course(lat_deg, course_deg)
+    phi, lam, c = math.radians(lat_deg), math.radians(lon_deg), math.radians(c_sphere)
     sp, cp, sl, cl = math.sin(phi), math.cos(phi), math.sin(lam), math.cos(lam)
     mx, my, mz = cp * cl, cp * sl, sp
     sc, cc = math.sin(c), math.cos(c)
     tx = sc * -sl + cc * -sp * cl  # east sin c + north cos c
     ty = sc * cl + cc * -sp * sl
     tz = cc * cp
-    a = s_nm / (_R_NM * wgs84_scale(lat_deg, course_deg))
+    a = s_nm / (_R_NM * wgs84_scale(lat_deg, c_sphere))
     sa, ca = math.sin(a), math.cos(a)
     px, py, pz = ca * mx + sa * tx, ca * my + sa * ty, ca * mz + sa * tz
     dx, dy, dz = -sa * mx + ca * tx, -sa * my + ca * ty, -sa * mz + ca * tz
     la, lo = latlon_of(px, py, pz)
-    return la, lo, _course(px, py, pz, dx, dy, dz)
+    return la, lo, wgs84_course(la, _course(px, py, pz, dx, dy, dz))
 
 
 @jit
