@@ -16,7 +16,14 @@ Serial and parallel are alternated (serial, parallel, serial, parallel in the fu
 each prepares the corridor in its processes, the second reuses it (the set-up kept per process by the
 inputs' fingerprint), so both are reported.  The corridor is open ocean with synthetic weather, so the
 coastline is not applied (``use_land_mask=False``).  Timings on a shared 2-core machine are noisy: the
-ratios, measured in one run, are the figures, with the load average printed.  ``--quick``: the first
+ratios, measured in one run, are the figures, with the load average printed.
+
+Then a study of 1 200 cases (3 ships × 4 distances × 100 ETAs; quick: 240) through
+:func:`optroute.studies.study.run_study` with its resumable store and text progress bar: serial
+(``"synchronous"``) against a 2-worker local cluster (start-up included), each run again on its
+full store (resumed: nothing computed), in cases per minute.  The case is the calm-water fuel from
+the ship's own curves, cheap on purpose: the figure is the engine's (scheduling and atomic case
+files), an optimiser case adds its solve time on top.  ``--quick``: the first
 half of the corridor in 16 legs, 6 ETAs, one repetition (for CI). The front's figure goes to
 ``front.png`` in the results folder. Run ``python -m benchmarks.bench_front [--quick]``.
 """
@@ -24,7 +31,10 @@ half of the corridor in 16 legs, 6 ETAs, one repetition (for CI). The front's fi
 from __future__ import annotations
 
 import os
+import shutil
+import tempfile
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -174,11 +184,67 @@ def run(quick: bool) -> dict[str, Any]:
         f"statuses: {', '.join(out['statuses'])}"
     )
     save_png(warm.plot(), results_dir() / ("front_quick.png" if quick else "front.png"))
+    with tempfile.TemporaryDirectory(prefix="optroute-bench-study-") as folder:
+        out["study"] = study_throughput(quick, Path(folder))
+    return out
+
+
+def calm_case(case: dict[str, Any]) -> dict[str, Any]:
+    """One study case: least fuel [t] at constant speed D/T in calm water from the ship's own curves.
+
+    Module-level, so that Dask workers import it by name; cheap, so that the study's throughput
+    measures the engine (scheduling, the store's atomic writes), not the optimiser.
+    """
+    ship = orx.Ship.preset(case["ship"])
+    d_nm, eta_h = float(case["distance_nm"]), float(case["eta_h"])
+    v = d_nm / eta_h
+    if v > ship.max_calm_speed_kn:
+        return {"fuel_t": float("nan"), "stw_kn": v}
+    return {"fuel_t": eta_h * float(ship.fuel_rate_tph(ship.calm_power_kw(v))), "stw_kn": v}
+
+
+def study_throughput(quick: bool, folder: Path) -> dict[str, Any]:
+    """A study of 1 200 cases (quick: 240): serial against a 2-worker local cluster, then resumed; cases per minute."""
+    from optroute.studies.study import run_study
+
+    n_eta = 40 if quick else 100
+    axes = {
+        "ship": list(orx.Ship.presets()),
+        "distance_nm": [1500.0, 3000.0, 4500.0, 6000.0][: 2 if quick else 4],
+        "eta_h": [150.0 + 5.0 * i for i in range(n_eta)],
+    }
+    n_cases = int(np.prod([len(v) for v in axes.values()]))
+    times = {}
+    for name, kw in (("serial", {"scheduler_address": "synchronous"}), ("2 workers", {"n_workers": 2})):
+        store = folder / f"study_{name.replace(' ', '_')}"
+        shutil.rmtree(store, ignore_errors=True)
+        started = time.perf_counter()
+        ds = run_study(axes, calm_case, store, progress=True, **kw)
+        times[name] = time.perf_counter() - started
+        started = time.perf_counter()
+        again = run_study(axes, calm_case, store, progress=True, **kw)  # all stored: nothing computed
+        times[f"{name}, resumed"] = time.perf_counter() - started
+        if name == "serial":
+            reference = ds
+        elif not (np.array_equal(ds.fuel_t.values, reference.fuel_t.values, equal_nan=True) and again.equals(ds)):
+            raise RuntimeError("the 2-worker study differs from the serial one")
+    out = {"cases": n_cases, **{f"{k}_s": v for k, v in times.items()}}
+    out["serial_cases_per_min"] = n_cases / times["serial"] * 60.0
+    out["two_workers_cases_per_min"] = n_cases / times["2 workers"] * 60.0
+    print(f"\n### Study throughput: {n_cases} cases (calm-water fuel from the ship's curves), atomic case files\n")
+    print("| run | total [s] | cases per minute | ratio to serial |")
+    print("|---|---:|---:|---:|")
+    for k, v in times.items():
+        rate = f"{n_cases / v * 60.0:.0f}" if "resumed" not in k else "(nothing computed)"
+        base = " (baseline)" if k == "serial" else ""
+        print(f"| {k}{base} | {v:.1f} | {rate} | {v / times['serial']:.2f} |")
     return out
 
 
 def main(argv: list[str] | None = None) -> None:
-    bench_main(run, __doc__.splitlines()[0], "half the corridor, 16 legs, 6 ETAs, one repetition", argv)
+    bench_main(
+        run, __doc__.splitlines()[0], "half the corridor, 16 legs, 6 ETAs, one repetition; 240 study cases", argv
+    )
 
 
 if __name__ == "__main__":
