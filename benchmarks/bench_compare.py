@@ -22,11 +22,15 @@ switches the bands on. For every scenario and ETA, side by side in one process:
   corridor (half-width 20 nm) with (dx, dy, dt, speed step) = (120 nm, 20 nm, 2 h, 1 kn),
   (60 nm, 10 nm, 1 h, 0.5 kn), (30 nm, 5 nm, 0.5 h, 0.25 kn).
 
-Every result is turned into a :class:`optroute.Plan` (``Plan.from_schedule`` with its waypoints
-and leg speeds, sailed through the same weather with the same performance model) and checked with
-``Plan.verify()`` against the corridor, the ETA, the MCR and the bands; the table says whether that
-is clean. Fuel is each method's own figure; the ratios are to the NLP's. The figure
-``compare.png`` plots fuel ratio against runtime ratio.
+Every result is scored by the referee: turned into a :class:`optroute.Plan` (``Plan.from_schedule``
+with its waypoints and leg speeds, sailed through the same weather with the same performance model)
+and checked with ``Plan.verify()`` against the corridor, the ETA, the MCR and the bands. Fuel is the
+referee's (the plan evaluator's) for every method, the method's own figure kept beside it
+(``own_fuel_t``); the ratios are to the NLP's. A method that raises is *failed*, a plan that fails
+``verify()`` *unverified*: both are counted in the summary (:func:`benchmarks._measure.compare`),
+whose means are over the cases where every method gave a clean plan, with that count beside them.
+Each method runs once untimed on a short piece of the corridor first (its exact code path: numba
+kernels, CasADi plugins). The figure ``compare.png`` plots fuel ratio against runtime ratio.
 
 Run ``python -m benchmarks.bench_compare [--quick]`` (quick: the head storm at one ETA, 54 h, the DP
 at its coarse and medium resolutions only).
@@ -44,6 +48,7 @@ import xarray as xr
 
 import optroute as orx
 from benchmarks._cli import bench_main, results_dir
+from benchmarks._measure import FAILED, OK, UNVERIFIED, Outcome, compare, comparison_lines, load_line
 from optroute import geodesy as geo
 from optroute.search.routing import sail_route
 from optroute.weather import schema
@@ -94,10 +99,11 @@ class Scenario:
     etas_h: tuple[float, ...]
     ship: orx.Ship = field(default_factory=lambda: orx.Ship.preset("container_54k_dwt").replace(gm_m=4.5))
     rules: orx.BandRules = field(default_factory=lambda: orx.BandRules(hs_threshold_fraction=0.02))
+    end: tuple[float, float] = END
 
     @property
     def corridor(self) -> orx.Corridor:
-        return orx.Corridor.from_waypoints([START, END], width_nm=WIDTH_NM)
+        return orx.Corridor.from_waypoints([START, self.end], width_nm=WIDTH_NM)
 
 
 def scenarios(quick: bool) -> list[Scenario]:
@@ -111,31 +117,54 @@ def scenarios(quick: bool) -> list[Scenario]:
     ]
 
 
+def warm_up(levels: tuple[str, ...]) -> None:
+    """Run every method once, untimed, on the first 180 nm of the head storm's corridor (the same code paths)."""
+    short = Scenario("warm-up", storm_sea(-5.0, -140.0, 90.0), (14.0,), end=(START[0], START[1] + 3.0))
+    run_nlp(short, 14.0)
+    run_stepping(short, 14.0)
+    for lv in levels:
+        run_dp(short, 14.0, lv)
+
+
 # --------------------------------------------------------------------------- one method, one row
-def _check(waypoints: np.ndarray, stw_kn: np.ndarray, sc: Scenario, eta: np.datetime64) -> tuple[bool, str]:
-    """Sail the waypoints at the leg speeds through the weather as a Plan and verify it (clean?, summary)."""
+def _check(
+    waypoints: np.ndarray, stw_kn: np.ndarray, sc: Scenario, eta: np.datetime64
+) -> tuple[float, int | None, str]:
+    """Sail the waypoints at the leg speeds through the weather as a Plan: (referee's fuel [t], violations, summary).
+
+    ``violations`` is None (fuel NaN) when the schedule cannot be sailed as a plan at all.
+    """
     try:
         plan = orx.Plan.from_schedule(waypoints, stw_kn, departure=T0, ship=sc.ship, weather=sc.weather,
                                       rules=sc.rules, corridor=sc.corridor, eta=eta)  # fmt: skip
     except orx.OptrouteError as exc:
-        return False, f"not sailable as a plan ({type(exc).__name__})"
+        return float("nan"), None, f"not sailable as a plan ({type(exc).__name__})"
     bad = plan.verify()
     if not bad:
-        return True, "clean"
+        return plan.total_fuel_t, 0, "clean"
     kinds = sorted({v.kind for v in bad})
-    return False, f"{len(bad)} violations ({', '.join(kinds)})"
+    return plan.total_fuel_t, len(bad), f"{len(bad)} violations ({', '.join(kinds)})"
 
 
-def _row(method: str, fuel_t: float, arrival_h: float, eta_h: float, runtime_s: float, clean: bool, note: str,
-         **extra: Any) -> dict[str, Any]:  # fmt: skip
-    return {"method": method, "fuel_t": fuel_t, "arrival_h": arrival_h, "eta_met": bool(arrival_h <= eta_h + 1 / 60),
-            "runtime_s": runtime_s, "verify_clean": clean, "verify": note, **extra}  # fmt: skip
+def _row(method: str, fuel_t: float, arrival_h: float, eta_h: float, runtime_s: float, violations: int | None,
+         note: str, **extra: Any) -> dict[str, Any]:  # fmt: skip
+    """One method's row; ``fuel_t`` is the referee's, ``state`` ok (clean plan), unverified or failed."""
+    state = OK if violations == 0 and np.isfinite(fuel_t) else UNVERIFIED
+    return {"method": method, "state": state, "fuel_t": fuel_t, "arrival_h": arrival_h,
+            "eta_met": bool(arrival_h <= eta_h + 1 / 60), "runtime_s": runtime_s, "verify_clean": state == OK,
+            "violations": violations, "verify": note, **extra}  # fmt: skip
 
 
 def _failed(method: str, runtime_s: float, exc: Exception) -> dict[str, Any]:
-    return {"method": method, "fuel_t": float("nan"), "arrival_h": float("nan"), "eta_met": False,
-            "runtime_s": runtime_s, "verify_clean": False, "verify": f"failed: {type(exc).__name__}",
-            "error": str(exc)[:300]}  # fmt: skip
+    return {"method": method, "state": FAILED, "fuel_t": float("nan"), "arrival_h": float("nan"), "eta_met": False,
+            "runtime_s": runtime_s, "verify_clean": False, "violations": None,
+            "verify": f"failed: {type(exc).__name__}", "error": str(exc)[:300]}  # fmt: skip
+
+
+def outcome(row: dict[str, Any]) -> Outcome:
+    """A row as the comparison's :class:`~benchmarks._measure.Outcome`."""
+    return Outcome(row["method"], row["state"], float(row["fuel_t"]), float(row["runtime_s"]), row["violations"],
+                   row["verify"])  # fmt: skip
 
 
 def run_nlp(sc: Scenario, eta_h: float) -> dict[str, Any]:
@@ -148,8 +177,10 @@ def run_nlp(sc: Scenario, eta_h: float) -> dict[str, Any]:
         return _failed("NLP", time.perf_counter() - t, exc)
     sec = time.perf_counter() - t
     bad = plan.verify()
-    return _row("NLP", plan.total_fuel_t, plan.duration_h, eta_h, sec, not bad, "clean" if not bad else f"{len(bad)}",
-                legs=int(plan.legs.shape[0]), status=plan.status, nlp_solves=plan.solver_stats.get("nlp_solves"))  # fmt: skip
+    st = plan.solver_stats
+    return _row("NLP", plan.total_fuel_t, plan.duration_h, eta_h, sec, len(bad), "clean" if not bad else f"{len(bad)}",
+                own_fuel_t=plan.total_fuel_t, legs=int(plan.legs.shape[0]), status=plan.status,
+                nlp_solves=st.get("nlp_solves"), ipopt_s=st.get("solve_time_s"))  # fmt: skip
 
 
 def run_stepping(sc: Scenario, eta_h: float) -> dict[str, Any]:
@@ -179,28 +210,30 @@ def run_stepping(sc: Scenario, eta_h: float) -> dict[str, Any]:
     sec = time.perf_counter() - t
     if route is None:
         return _failed("speed stepping", sec, last_exc or orx.NoSafePassage("no desired speed could sail the route"))
-    clean, note = _check(route.waypoints, route.stw_kn, sc, eta)
-    return _row("speed stepping", route.total_fuel_t, route.total_duration_h, eta_h, sec, clean, note,
-                desired_kn=float(min(v, top)), speeds_tried=tried, min_stw_kn=route.stats["min_stw_kn"])  # fmt: skip
+    fuel, violations, note = _check(route.waypoints, route.stw_kn, sc, eta)
+    return _row("speed stepping", fuel, route.total_duration_h, eta_h, sec, violations, note,
+                own_fuel_t=route.total_fuel_t, desired_kn=float(min(v, top)), speeds_tried=tried,
+                min_stw_kn=route.stats["min_stw_kn"])  # fmt: skip
 
 
 def run_dp(sc: Scenario, eta_h: float, level: str) -> dict[str, Any]:
     dx, dy, dt, step = DP_RESOLUTIONS[level]
     eta = T0 + np.timedelta64(int(round(eta_h * 3600)), "s")
     speeds = np.arange(DP_SPEEDS_KN[0], DP_SPEEDS_KN[1] + 1e-9, step)
+    start, end = (np.asarray(w, float) for w in sc.corridor.waypoints[[0, -1]])
     t = time.perf_counter()
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)
-            r = orx.search_route(START, END, sc.weather, sc.ship, departure=T0, method="dp", objective="fuel",
-                                 eta=eta, rules=sc.rules, speeds_kn=speeds,
+            r = orx.search_route(tuple(start), tuple(end), sc.weather, sc.ship, departure=T0, method="dp",
+                                 objective="fuel", eta=eta, rules=sc.rules, speeds_kn=speeds,
                                  dp_options={"dx_nm": dx, "dy_nm": dy, "half_width_nm": WIDTH_NM / 2, "dt_h": dt})  # fmt: skip
     except orx.OptrouteError as exc:
         return _failed(f"DP {level}", time.perf_counter() - t, exc)
     sec = time.perf_counter() - t
     stw = np.where(np.isfinite(r.stw_kn) & (r.stw_kn > 0), r.stw_kn, r.sog_kn)
-    clean, note = _check(r.waypoints, stw, sc, eta)
-    return _row(f"DP {level}", r.total_fuel_t, r.total_duration_h, eta_h, sec, clean, note,
+    fuel, violations, note = _check(r.waypoints, stw, sc, eta)
+    return _row(f"DP {level}", fuel, r.total_duration_h, eta_h, sec, violations, note, own_fuel_t=r.total_fuel_t,
                 resolution=f"{dx:g} nm, {dy:g} nm, {dt:g} h, {step:g} kn", transitions=r.stats["n_transitions"])  # fmt: skip
 
 
@@ -222,30 +255,26 @@ def _yes(flag: bool) -> str:
 
 def print_table(cases: list[dict[str, Any]]) -> None:
     print("| scenario | ETA [h] | method | fuel [t] | fuel / NLP | ETA met (arrival [h]) | runtime [s] | "
-          "runtime / NLP | verify |")  # fmt: skip
+          "runtime / NLP | referee |")  # fmt: skip
     print("|---|---:|---|---:|---:|---|---:|---:|---|")
     for c in cases:
         for r in c["rows"]:
             met = f"{_yes(r['eta_met'])} ({r['arrival_h']:.2f})" if np.isfinite(r["arrival_h"]) else "–"
             print(f"| {c['scenario']} | {c['eta_h']:g} | {r['method']} | {_f(r['fuel_t'], '.2f')} | "
                   f"{_f(r['fuel_ratio'], '.3f')} | {met} | {r['runtime_s']:.2f} | {r['runtime_ratio']:.2f} | "
-                  f"{r['verify']} |")  # fmt: skip
+                  f"{r['state']} ({r['verify']}) |")  # fmt: skip
 
 
-def summary(cases: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
-    """Per method: geometric-mean fuel and runtime ratios to the NLP, ETAs met and clean plans (of the cases)."""
-    out: dict[str, dict[str, float]] = {}
-    for m in METHODS:
-        rows = [r for c in cases for r in c["rows"] if r["method"] == m]
-        if not rows:
-            continue
-        fr = np.array([r["fuel_ratio"] for r in rows])
-        rr = np.array([r["runtime_ratio"] for r in rows])
-        ok = np.isfinite(fr)
-        out[m] = {"cases": len(rows), "fuel_ratio_gmean": float(np.exp(np.mean(np.log(fr[ok])))) if ok.any() else
-                  float("nan"), "runtime_ratio_gmean": float(np.exp(np.mean(np.log(rr)))),
-                  "eta_met": int(sum(r["eta_met"] for r in rows)), "clean": int(sum(r["verify_clean"] for r in rows))}  # fmt: skip
-    return out
+WHAT = (
+    "Each method's plan scored by the referee (plan evaluator and `Plan.verify()`) on the same corridor, ETA, "
+    "ship model and band rules; runtime is each method's whole call (the stepping: its scan of desired speeds)"
+)
+
+
+def summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
+    """The comparison over the cases: per method clean, unverified and failed plans, means over the common cases."""
+    methods = [m for m in METHODS if any(r["method"] == m for c in cases for r in c["rows"])]
+    return compare([{r["method"]: outcome(r) for r in c["rows"]} for c in cases], methods, "NLP", WHAT)
 
 
 def figure(cases: list[dict[str, Any]], path: Any) -> Any:
@@ -283,29 +312,25 @@ def figure(cases: list[dict[str, Any]], path: Any) -> Any:
 def run(quick: bool) -> dict[str, Any]:
     """Run every scenario, ETA and method; print the table; write ``compare.png``; return the figures."""
     levels = ("coarse", "medium") if quick else tuple(DP_RESOLUTIONS)
-    # warm-up: numba kernels and CasADi load outside the timings
-    warm = scenarios(True)[0]
-    run_dp(warm, warm.etas_h[0], "coarse")
+    warm_up(levels)  # numba kernels, CasADi plugins and caches loaded outside the timings
+    print(load_line("load average after the warm-up"))
     cases = []
     for sc in scenarios(quick):
         for eta_h in sc.etas_h:
             rows = [run_nlp(sc, eta_h), run_stepping(sc, eta_h), *(run_dp(sc, eta_h, lv) for lv in levels)]
             _ratios(rows)
             cases.append({"scenario": sc.name, "eta_h": eta_h, "rows": rows})
+    print(load_line("load average at the end"))
     print(f"\n### NLP vs speed stepping vs 3-D DP — {START} → {END}, corridor {WIDTH_NM:g} nm wide, "
           "`container_54k_dwt` with GM 4.5 m, bands from Hs ≥ 0.02 L\n")  # fmt: skip
+    print(f"_{WHAT}; fuel [t] is the referee's, the method's own figure in the JSON (`own_fuel_t`)._\n")
     print_table(cases)
     summ = summary(cases)
-    print(
-        "\n| method | cases | fuel / NLP (geometric mean) | runtime / NLP (geometric mean) | ETA met | verify clean |"
-    )
-    print("|---|---:|---:|---:|---:|---:|")
-    for m, s in summ.items():
-        print(f"| {m} | {s['cases']} | {s['fuel_ratio_gmean']:.3f} | {s['runtime_ratio_gmean']:.2f} | "
-              f"{s['eta_met']}/{s['cases']} | {s['clean']}/{s['cases']} |")  # fmt: skip
+    print()
+    print("\n".join(comparison_lines(summ)))
     png = figure(cases, results_dir() / "compare.png")
     print(f"\nfigure: `{png.name}`\n")
-    return {"cases": cases, "summary": summ, "figures": [str(png)]}
+    return {"cases": cases, "comparison": summ, "figures": [str(png)]}
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -2,35 +2,35 @@
 
 One front (:func:`optroute.studies.tradeoff`) of 30 ETAs on a 300-leg, ~3 300 nm corridor (±20 nm lateral
 freedom) through time-varying weather — a storm of 6 m peak H_s moving east at 8 kn across the
-track — for ``container_54k_dwt``, computed side by side in the same process:
+track — for ``container_54k_dwt``, three ways, alternated in the same process after one untimed run of
+each (:func:`benchmarks._measure.alternate`, issue 22):
 
-1. serial, the continuation (the default): solves per point (optimiser calls and Ipopt calls), the
-   share of points whose Ipopt start was the neighbour's plan, the points that rose;
-2. serial, each point from the optimiser's own start (``warm_start=False``): warm/cold ratio of the
-   time and of the Ipopt iterations;
-3. on a 2-worker :class:`distributed.LocalCluster` on 127.0.0.1 started once (its start-up timed apart),
+1. serial, the continuation (the default, the baseline): solves per point (optimiser calls and Ipopt
+   calls), the share of points whose Ipopt start was the neighbour's plan, the points that rose;
+2. on a 2-worker :class:`distributed.LocalCluster` on 127.0.0.1 started once (its start-up timed apart),
    reached through ``scheduler_address`` as an existing cluster is: the speed-up over (1), target
-   >= 1.6×, and whether the front is bit-identical to (1).
+   >= 1.6×, and whether the front is bit-identical to (1);
+3. serial, each point from the optimiser's own start (``warm_start=False``).
 
-Serial and parallel are alternated (serial, parallel, serial, parallel in the full run): the first of
-each prepares the corridor in its processes, the second reuses it (the set-up kept per process by the
-inputs' fingerprint), so both are reported.  The corridor is open ocean with synthetic weather, so the
-coastline is not applied (``use_land_mask=False``).  Timings on a shared 2-core machine are noisy: the
-ratios, measured in one run, are the figures, with the load average printed.
+The warm-up runs are the first of each: there each process prepares the corridor (weather grid, power
+table, CasADi functions); in the timed runs it keeps it (keyed by the fingerprint of the inputs), as a
+worker does across the chains and fronts of a study.  Both are reported.  The corridor is open ocean with
+synthetic weather, so the coastline is not applied (``use_land_mask=False``).  Min and median of each
+over the repetitions, with the load average before and after.  ``--quick``: the first half of the corridor
+in 16 legs, 6 ETAs, one repetition.
 
 Then a study of 1 200 cases (3 ships × 4 distances × 100 ETAs; quick: 240) through
 :func:`optroute.studies.study.run_study` with its resumable store and text progress bar: serial
 (``"synchronous"``) against a 2-worker local cluster (start-up included), each run again on its
 full store (resumed: nothing computed), in cases per minute.  The case is the calm-water fuel from
 the ship's own curves, cheap on purpose: the figure is the engine's (scheduling and atomic case
-files), an optimiser case adds its solve time on top.  ``--quick``: the first
-half of the corridor in 16 legs, 6 ETAs, one repetition (for CI). The front's figure goes to
-``front.png`` in the results folder. Run ``python -m benchmarks.bench_front [--quick]``.
+files); an optimiser case adds its solve time on top.  The front's figure goes to
+``<results>/front.png`` (``front_quick.png`` in quick mode).  Run
+``python -m benchmarks.bench_front [--quick] [--results DIR]``.
 """
 
 from __future__ import annotations
 
-import os
 import shutil
 import tempfile
 import time
@@ -41,9 +41,12 @@ import numpy as np
 
 import optroute as orx
 from benchmarks._cli import bench_main, results_dir
+from benchmarks._measure import alternate, load_line, timed_once, timing_table
 from optroute.plot.common import save_png
 
 T0 = np.datetime64("2024-01-10T00:00", "ns")
+QUICK, FULL = (16, 6, 1), (300, 30, 2)
+"""(legs, ETAs, timed repetitions of each variant after its warm-up) of the quick and the full mode."""
 
 
 def case(n_legs: int, *, half: bool = False) -> tuple[orx.Corridor, Any, orx.Ship, dict[str, Any]]:
@@ -65,12 +68,6 @@ def case(n_legs: int, *, half: bool = False) -> tuple[orx.Corridor, Any, orx.Shi
     corridor = orx.Corridor.from_waypoints(points[:2] if half else points, width_nm=40.0)
     kw = {"max_leg_nm": corridor.length_nm / n_legs * (1 + 1e-9), "use_land_mask": False}
     return corridor, wx, orx.Ship.preset("container_54k_dwt"), kw
-
-
-def _timed(**kw: Any) -> tuple[Any, float]:
-    started = time.perf_counter()
-    front = orx.tradeoff(**kw)
-    return front, time.perf_counter() - started
 
 
 def _identical(a: Any, b: Any) -> bool:
@@ -101,33 +98,36 @@ def _continuation(front: Any) -> dict[str, Any]:
 
 
 def run(quick: bool) -> dict[str, Any]:
-    """Compute the front the three ways, print markdown tables, return the figures."""
+    """Compute the front the three ways, alternated; print markdown tables; return the figures."""
     import distributed
 
-    n_legs, n, reps = (16, 6, 1) if quick else (300, 30, 2)
+    n_legs, n, repeats = QUICK if quick else FULL
     corridor, wx, ship, kw = case(n_legs, half=quick)
     common = {"corridor_or_endpoints": corridor, "weather": wx, "ship": ship, "departure": T0, "n": n, **kw}
-    print(f"load average at start: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
-    started = time.perf_counter()
-    cluster = distributed.LocalCluster(
-        n_workers=2,
-        threads_per_worker=1,
-        processes=True,
-        host="127.0.0.1",
-        dashboard_address=None,
-        worker_dashboard_address=None,
+    print(load_line("load average at start"))
+    cluster, t_cluster = timed_once(
+        lambda: distributed.LocalCluster(
+            n_workers=2,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address=None,
+            worker_dashboard_address=None,
+        )
     )
-    t_cluster = time.perf_counter() - started
-    serial_s, par_s = [], []
     try:
-        for _ in range(reps):  # alternated: serial, parallel, serial, parallel
-            warm, t = _timed(**common)
-            serial_s.append(t)
-            par, t = _timed(**common, scheduler_address=cluster.scheduler_address)
-            par_s.append(t)
+        address = cluster.scheduler_address
+        alt = alternate(
+            {
+                "serial": lambda: orx.tradeoff(**common),
+                "parallel": lambda: orx.tradeoff(**common, scheduler_address=address),
+                "cold": lambda: orx.tradeoff(**common, warm_start=False),
+            },
+            repeats=repeats,
+        )
     finally:
         cluster.close()
-    cold, t_cold = _timed(**common, warm_start=False)
+    warm, par, cold = (alt.results[k] for k in ("serial", "parallel", "cold"))
     ok = np.isfinite(warm.fuel_t.values)
     cont, cont_cold = _continuation(warm), _continuation(cold)
     out = {
@@ -137,13 +137,16 @@ def run(quick: bool) -> dict[str, Any]:
         "earliest_arrival_h": float(warm.attrs["earliest_arrival_h"]),
         "slow_steaming_limit_h": float(warm.attrs["slow_steaming_limit_h"]),
         "chains": int(warm.attrs["chains"]),
-        "serial_s": serial_s,
-        "parallel_2_workers_s": par_s,
+        "alternated": alt.as_dict(),
         "cluster_start_s": t_cluster,
-        "speedup_2_workers_first": serial_s[0] / par_s[0],
-        "speedup_2_workers_last": serial_s[-1] / par_s[-1],
-        "serial_cold_s": t_cold,
-        "warm_over_cold": serial_s[-1] / t_cold,
+        "serial_first_s": alt.warmup_s["serial"],
+        "parallel_first_s": alt.warmup_s["parallel"],
+        "serial_s": alt.timings["serial"].median_s,
+        "parallel_2_workers_s": alt.timings["parallel"].median_s,
+        "speedup_2_workers": 1.0 / alt.ratio("parallel", "serial"),
+        "speedup_2_workers_min": 1.0 / alt.ratio("parallel", "serial", "min_s"),
+        "speedup_2_workers_first": alt.warmup_s["serial"] / alt.warmup_s["parallel"],
+        "warm_over_cold": alt.ratio("serial", "cold"),
         "continuation": cont,
         "cold": cont_cold,
         "bit_identical_parallel": _identical(warm, par),
@@ -157,14 +160,21 @@ def run(quick: bool) -> dict[str, Any]:
         f"\n### Fuel-versus-ETA front: {out['n_points']} ETAs, {out['n_legs']} legs, "
         f"{out['earliest_arrival_h']:.1f}–{out['slow_steaming_limit_h']:.1f} h, {out['chains']} chains\n"
     )
-    print("| run | total [s] | ratio to serial |")
-    print("|---|---:|---:|")
-    for r in range(reps):
-        label = "prepares the corridor" if r == 0 else "set-up kept from the last front"
-        print(f"| serial, rep {r + 1} ({label}) (baseline) | {serial_s[r]:.1f} | 1.00 |")
-        print(f"| 2 workers, rep {r + 1} ({label}) | {par_s[r]:.1f} | {par_s[r] / serial_s[r]:.2f} |")
-    print(f"| serial, cold-started | {t_cold:.1f} | {t_cold / serial_s[-1]:.2f} |")
-    print(f"\nthe 2-worker cluster's start-up, apart: {t_cluster:.1f} s\n")
+    labels = {
+        "serial": "serial, the continuation",
+        "parallel": "2 workers (a cluster started once, by address)",
+        "cold": "serial, cold-started",
+    }
+    what = (
+        "The same front (corridor, ETAs, ship, weather) three ways, each run's whole `tradeoff` call; after the "
+        "warm-up each process keeps the prepared corridor (the fingerprint of the inputs is the key)"
+    )
+    print("\n".join(timing_table(alt, "serial", what, labels)))
+    print(
+        f"\nfirst runs (the warm-up: each process prepares the corridor): serial {out['serial_first_s']:.1f} s, "
+        f"2 workers {out['parallel_first_s']:.1f} s (speed-up {out['speedup_2_workers_first']:.2f}×); the cluster's "
+        f"start-up apart: {t_cluster:.1f} s\n"
+    )
     print(
         "| points between the ends | solves per point | Ipopt calls per point | iterations per point | "
         "Ipopt started from the neighbour | risen points | their solves [s] |"
@@ -177,10 +187,10 @@ def run(quick: bool) -> dict[str, Any]:
             f"{c['interior_s']:.1f} |"
         )
     print(
-        f"\nspeed-up on 2 workers {out['speedup_2_workers_first']:.2f}× (first) and {out['speedup_2_workers_last']:.2f}× "
-        f"(last repetition) (target 1.6×); bit-identical to serial: {out['bit_identical_parallel']}; warm/cold "
+        f"\nspeed-up on 2 workers {out['speedup_2_workers']:.2f}× (medians; minima {out['speedup_2_workers_min']:.2f}×; "
+        f"target 1.6×); bit-identical to serial: {out['bit_identical_parallel']}; warm/cold "
         f"{out['warm_over_cold']:.2f}; max rel. fuel diff cold vs warm {out['max_rel_fuel_diff_cold']:.1e}; "
-        f"end solves {cont['end_solves_s']:.1f} s of the serial run; monotone: {out['monotone']}; "
+        f"end solves {cont['end_solves_s']:.1f} s of the last serial run; monotone: {out['monotone']}; "
         f"statuses: {', '.join(out['statuses'])}"
     )
     save_png(warm.plot(), results_dir() / ("front_quick.png" if quick else "front.png"))

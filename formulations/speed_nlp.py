@@ -527,6 +527,15 @@ class SpeedNLP:
         t = broadcast_legs(time_h, n + 1, "time_h")
         return self._state(self._eval(self._pack(y, v, t)))
 
+    def leg_fuel_t(self, offset_nm: ArrayLike, stw_kn: ArrayLike, time_h: ArrayLike) -> np.ndarray:
+        """Fuel of every leg [t] by the NLP's own model (the objective's terms) at offsets (N+1,) [nm], speeds (N,)
+        [kn] and times (N+1,) [h]: to compare the model with another evaluation of the same track and schedule."""
+        n = self.n_legs
+        y = broadcast_legs(offset_nm, n + 1, "offset_nm")
+        v = broadcast_legs(stw_kn, n, "stw_kn")
+        t = broadcast_legs(time_h, n + 1, "time_h")
+        return np.ravel(self._eval(self._pack(y, v, t))["fuel_leg"])
+
     def _state(self, ev: dict[str, np.ndarray]) -> SampleState:
         n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
 

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import os
 import sys
-import tempfile
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -42,9 +41,11 @@ _warned = False
 
 def _writable(folder: Path) -> bool:
     """Whether a file can be created in ``folder`` (created if missing), tested the way numba tests it."""
+    probe = folder / f".optroute-write-probe-{os.getpid()}-{os.urandom(6).hex()}"
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        tempfile.TemporaryFile(dir=folder).close()
+        os.close(os.open(probe, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))  # as tempfile.TemporaryFile does,
+        os.unlink(probe)  # without importing tempfile (random, shutil, bz2, lzma) at every ``import optroute``
     except OSError:
         return False
     return True
@@ -57,6 +58,8 @@ def _user_wide() -> Path:
 
 def fallback_dir() -> Path:
     """``<temp dir>/optroute-numba-<uid>``: the cache folder used when numba has none."""
+    import tempfile
+
     uid = getattr(os, "getuid", lambda: "user")()
     return Path(tempfile.gettempdir()) / f"optroute-numba-{uid}"
 

@@ -12,3 +12,53 @@ from hypothesis import settings
 settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)
 if os.environ.get("CI"):
     settings.load_profile("ci")
+
+
+# ---------------------------------------------------------------------------
+# CPU time per test: ``python -m pytest --cpu-durations=N`` lists the N tests that cost the most CPU
+# (this process and its waited-for children, setup + call + teardown, so fixtures and subprocesses
+# count). Wall time on a shared machine says little about cost; CPU time is what the budget counts. Serial
+# runs only: under pytest-xdist the times stay in the workers.
+# ---------------------------------------------------------------------------
+import resource  # noqa: E402
+
+import pytest  # noqa: E402
+
+_CPU_S: dict[str, float] = {}
+
+
+def _cpu_now_s() -> float:
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def pytest_addoption(parser):
+    parser.addoption(
+        "--cpu-durations",
+        type=int,
+        default=None,
+        metavar="N",
+        help="list the N tests with the most CPU time (process + children, fixtures included); 0 for all; serial runs only (without -n)",
+    )
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    if item.config.getoption("--cpu-durations") is None:
+        yield
+        return
+    start_s = _cpu_now_s()
+    yield
+    _CPU_S[item.nodeid] = _cpu_now_s() - start_s
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    n = config.getoption("--cpu-durations")
+    if n is None or not _CPU_S:
+        return
+    ranked = sorted(_CPU_S.items(), key=lambda kv: kv[1], reverse=True)
+    shown = ranked if n == 0 else ranked[:n]
+    terminalreporter.write_sep("=", f"CPU time per test (total {sum(_CPU_S.values()):.1f} CPU-s)")
+    for nodeid, cpu_s in shown:
+        terminalreporter.write_line(f"{cpu_s:8.2f} CPU-s  {nodeid}")

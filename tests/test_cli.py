@@ -818,6 +818,7 @@ def test_every_status_has_an_explanation():
         "minimum time": "fastest verified passage",
         "sides_unsettled": "solve budget",
         "start": "best verified start",
+        "mended": "speeds of those legs were moved",
         "infeasible: earliest arrival 2024-01-11T07:23:47Z (31.40 h after departure)": "no verified passage",
         "solver failure: Restoration_Failed": "no verified plan",
         "ok": "stored",

@@ -37,6 +37,61 @@ LAND = [
 ]  # ... Lake Michigan
 
 
+@pytest.fixture(scope="module")
+def globe_source():
+    """The installed ``global-land-mask`` data file and its mask streamed whole (about 3 CPU-s, once)."""
+    from optroute.geo import _globe_bits
+
+    source = land._package_dir("global_land_mask") / _globe_bits.SOURCE_NAME
+    axes = _globe_bits.read_axes(source)
+    return source, axes, _globe_bits.stream_packed(source, (int(axes[8]), int(axes[9])))
+
+
+def test_packaged_bands_equal_the_installed_globe_file_bit_for_bit(globe_source):
+    from optroute.geo import _globe_bits
+
+    source, axes, streamed = globe_source
+    banded = _globe_bits.BandedBits()
+    assert banded.source_sha256 == _globe_bits.sha256_of(source), (
+        "the packaged GLOBE bands were built from another global-land-mask file; "
+        "regenerate them with python -m optroute.geo._globe_bits"
+    )
+    np.testing.assert_array_equal(banded.axes, axes)
+    assert not banded._loaded.any()
+    banded.ensure_rows(np.arange(streamed.shape[0]))
+    assert banded._loaded.all()
+    np.testing.assert_array_equal(banded.bits, streamed)
+
+
+def test_a_look_up_inflates_only_the_bands_it_needs():
+    mask = land.GlobeLandMask()
+    assert mask._banded is not None  # the packaged copy matches the installed file
+    # Kansas (38.5 N) and Paris (48.85 N): rows (90 - lat) * 120, bands of 120 rows (1 degree)
+    assert mask.is_land(np.array([38.5, 48.85]), np.array([-98.0, 2.35])).tolist() == [True, True]
+    assert np.flatnonzero(mask._banded._loaded).tolist() == [41, 51]
+    # the box look-up of the lateral bounds inflates the rows of its box: 30-32 N
+    assert not mask.any_land_in_box(30.0, 31.9, -150.0, -140.0)
+    assert np.flatnonzero(mask._banded._loaded).tolist() == [41, 51, 58, 59, 60]
+
+
+def test_globe_mask_streams_the_installed_file_when_the_packaged_copy_does_not_match(globe_source, monkeypatch):
+    from optroute.geo import _globe_bits
+
+    source, _, streamed = globe_source
+    calls = []
+
+    def stream(path, shape):
+        calls.append((path, shape))
+        return streamed
+
+    monkeypatch.setattr(_globe_bits, "sha256_of", lambda path: "a newer global-land-mask release")
+    monkeypatch.setattr(_globe_bits, "stream_packed", stream)
+    mask = land.GlobeLandMask()
+    assert mask._banded is None and calls == [(source, (21600, 43200))]
+    lat, lon = np.array(LAND + OPEN_OCEAN).T
+    assert mask.is_land(lat, lon).tolist() == [True] * len(LAND) + [False] * len(OPEN_OCEAN)
+
+
 def test_known_points():
     lat, lon = np.array(OPEN_OCEAN).T
     assert not land.is_land(lat, lon).any()

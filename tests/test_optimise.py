@@ -22,6 +22,7 @@ import xarray as xr
 import optroute as orx
 from formulations.common import PowerLawFuel
 from formulations.speed_convex import solve_speed_convex
+from formulations.speed_nlp import SpeedNLP
 from optroute import geodesy as orx_geodesy
 from optroute.optimise.api import optimise_corridor, plan_voyage
 from optroute.physics import safety as orx_safety
@@ -223,9 +224,17 @@ def test_a_failed_solve_returns_the_verified_start_not_a_worse_plan():
     assert plan.total_fuel_t == pytest.approx(by_hand, rel=1e-6)
 
 
-def test_storm_with_bands_active_returns_a_verified_plan_off_the_bands(storm):
+def test_storm_with_bands_active_returns_a_verified_plan_off_the_bands(storm, monkeypatch):
     # a stiff ship (T_R ≈ 9.9 s) with bands from Hs ≥ 0.02 L = 5 m: in the following storm sea the
     # high-wave-attack band V ∈ [0.8, 1.2] c_g sits across the ETA's mean speed
+    ipopt_calls = []  # every Ipopt call, seen from outside the optimiser (issue 22, item 7)
+    solve = SpeedNLP.solve
+
+    def spy(self, *args, **kwargs):
+        ipopt_calls.append(solve(self, *args, **kwargs))
+        return ipopt_calls[-1]
+
+    monkeypatch.setattr(SpeedNLP, "solve", spy)
     ship = SHIP.replace(gm_m=4.5)
     rules = orx.BandRules(hs_threshold_fraction=0.02)
     corridor = orx.Corridor.from_waypoints([[5.0, -150.0], [5.0, -135.0]], width_nm=40.0)
@@ -247,6 +256,10 @@ def test_storm_with_bands_active_returns_a_verified_plan_off_the_bands(storm):
     stats = plan.solver_stats
     assert stats["ipopt_status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
     assert stats["nlp_solves"] >= 2 and stats["iterations"] >= stats["nlp_solves"]
+    # the counts are every call's: as many solves, iterations and Ipopt seconds as the spy saw
+    assert stats["nlp_solves"] == len(ipopt_calls)
+    assert stats["iterations"] == sum(r.iterations for r in ipopt_calls)
+    assert stats["solve_time_s"] == pytest.approx(sum(r.solve_time_s for r in ipopt_calls), rel=1e-12)
     assert plan.verify(step_nm=2.0) == []  # also on a finer resampling than the optimiser's own
 
 

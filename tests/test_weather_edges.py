@@ -63,11 +63,6 @@ def test_departing_before_the_data_is_a_coverage_error_naming_the_span():
         _plan(T0 - HOUR, 30.0)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="optimise/ (not this branch's) turns the referee's weather_coverage violations into SolverFailure "
-    "('try more samples_per_leg'); issue 14 item 5 asks for a WeatherCoverageError naming the span needed",
-)
 def test_a_voyage_running_past_the_forecast_is_a_coverage_error_not_a_solver_failure():
     # the fastest passage takes 21.6 h; ten hours before the forecast ends it cannot be covered
     with pytest.raises(orx.WeatherCoverageError, match="2024-01-12T12:00"):

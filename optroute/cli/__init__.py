@@ -39,7 +39,6 @@ from __future__ import annotations
 import argparse
 import re
 import sys
-import traceback
 import warnings
 from collections.abc import Sequence
 
@@ -161,11 +160,15 @@ def main(argv: Sequence[str] | None = None) -> int:
             return exc.code if isinstance(exc.code, int) else 0
         except (UsageError, OptrouteError) as exc:
             if debug:
+                import traceback
+
                 traceback.print_exc(file=sys.stderr)
             print(f"{PROG}: error: {_one_line(cli_voice(str(exc)))}", file=sys.stderr)
             return exit_code(exc)
         except KeyboardInterrupt:
             if debug:
+                import traceback
+
                 traceback.print_exc(file=sys.stderr)
             print(
                 f"{PROG}: interrupted; files already written are complete, a study resumes when run again",

@@ -73,6 +73,12 @@ def explain_status(status: str, *, ipopt_status: str | None = None, objective: s
             "Ipopt converged and the plan verifies, but the search over the danger-band sides stopped on its "
             f"solve budget (band_solves): safe, not proven {goal} over every side"
         )
+    if key == "mended":
+        return (
+            "Ipopt converged, but between its check points the referee found the engine just outside its range "
+            "(the smooth power table cannot follow the model's steps), so the speeds of those legs were moved to "
+            f"the limit by the propeller law; the plan verifies: safe, not proven {goal}"
+        )
     if key == "start":
         return (
             "the NLP did not improve on its best verified start (a search route, the 3-D DP, the ship's dual "

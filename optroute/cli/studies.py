@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
-import logging
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -114,6 +113,8 @@ def _quiet_dask(args: argparse.Namespace) -> Iterator[None]:
     if getattr(args, "debug", False):
         yield
         return
+    import logging  # here, not at the top: ``optroute --help`` does not need it
+
     loggers = [logging.getLogger(name) for name in ("distributed", "dask")]
     levels = [lg.level for lg in loggers]
     for lg in loggers:

@@ -186,7 +186,9 @@ def risk_degree(
     u_d = np.where(d <= lo, 1.0, np.where(d >= hi, 0.0, 0.5 - 0.5 * np.sin(np.pi * (d - mid) / width)))
     closing_kmh = enc.closing_kn * KM_PER_NM
     approaching = (enc.tcpa_h >= 0) & (closing_kmh > 0)
-    with np.errstate(invalid="ignore", divide="ignore"):
+    with np.errstate(
+        invalid="ignore", divide="ignore", over="ignore"
+    ):  # a closing speed of ~1e-300 km/h: never reached
         t_s = np.maximum(enc.distance_km - a3 * safe, 0.0) / np.where(approaching, closing_kmh, 1.0)
         u_t = np.where(approaching, np.where(t_s > 0, np.minimum(1.0, a2 * reaction_h / t_s), 1.0), 0.0)
     return u_d * u_t

@@ -6,9 +6,11 @@ https://github.com/toddkarin/global-land-mask; data: GLOBE Task Team, 1999,
 *The Global Land One-kilometer Base Elevation (GLOBE) Digital Elevation
 Model, Version 1.0*, NOAA NGDC).  Lakes count as land.  The package itself
 decompresses the whole mask into a 933 MB boolean array when it is imported;
-optroute never imports it but streams the same file into a bit-packed array
-(117 MB, built once per process on first use, about 3 s) and looks points up
-in it, so the answers are those of ``global_land_mask.globe.is_land``.
+optroute never imports it: it reads the same cells bit-packed in 1° latitude
+bands from a copy packaged with it (:mod:`optroute.geo._globe_bits`, checked
+against the installed file's SHA-256), inflating a band the first time a
+look-up needs it (a few milliseconds), so the answers are those of
+``global_land_mask.globe.is_land``.
 
 ``roaring-landmask`` (GSHHG full-resolution shoreline, Wessel & Smith 1996)
 is the second backend, ``land_mask("gshhg")``: it is closer to
@@ -50,7 +52,6 @@ import math
 import os
 import threading
 import warnings
-import zipfile
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -61,6 +62,7 @@ from optroute import geodesy as geo
 from optroute import units
 from optroute._checks import finite
 from optroute.errors import ConfigError, OnLandError, WeatherSchemaError
+from optroute.geo import _globe_bits
 
 __all__ = [
     "DEFAULT_CLEARANCE_NM",
@@ -135,6 +137,11 @@ class GlobeLandMask:
     the cell whose index is the truncated ``(x − x0) / dx``, exactly as in
     ``global_land_mask.globe``.
 
+    By default the cells come from the copy packaged with optroute in 1° latitude bands
+    (:mod:`optroute.geo._globe_bits`), each inflated when a look-up first needs it, provided the
+    installed file has the SHA-256 the copy was built from; otherwise, or with an explicit ``path``,
+    the whole file is streamed into memory once (about 3 s).
+
     Parameters
     ----------
     path : path-like, optional
@@ -145,40 +152,31 @@ class GlobeLandMask:
     resolution_nm = 0.5
 
     def __init__(self, path: str | Path | None = None) -> None:
+        banded = None
         if path is None:
-            path = _package_dir("global_land_mask") / "globe_combined_mask_compressed.npz"
+            path = _package_dir("global_land_mask") / _globe_bits.SOURCE_NAME
+            if _globe_bits.PACKED_PATH.is_file():
+                candidate = _globe_bits.BandedBits()
+                if candidate.source_sha256 == _globe_bits.sha256_of(path):
+                    banded = candidate
         self.path = Path(path)
-        with np.load(self.path) as f:
-            lat = np.asarray(f["lat"], dtype=float)
-            lon = np.asarray(f["lon"], dtype=float)
-        self._lat0, self._dlat, self._nlat = lat[0], (lat[-1] - lat[0]) / (lat.size - 1), lat.size
-        self._lon0, self._dlon, self._nlon = lon[0], (lon[-1] - lon[0]) / (lon.size - 1), lon.size
-        self._lat_range = (float(lat.min()), float(lat.max()))
-        self._lon_range = (float(lon.min()), float(lon.max()))
-        self._land_bits = self._read_packed()
+        axes = banded.axes if banded is not None else _globe_bits.read_axes(self.path)
+        lat0, lat_last, lat_min, lat_max, lon0, lon_last, lon_min, lon_max = (float(a) for a in axes[:8])
+        self._nlat, self._nlon = int(axes[8]), int(axes[9])
+        self._lat0, self._dlat = lat0, (lat_last - lat0) / (self._nlat - 1)
+        self._lon0, self._dlon = lon0, (lon_last - lon0) / (self._nlon - 1)
+        self._lat_range = (lat_min, lat_max)
+        self._lon_range = (lon_min, lon_max)
+        self._banded = banded
+        if banded is not None:
+            self._land_bits = banded.bits
+        else:
+            self._land_bits = _globe_bits.stream_packed(self.path, (self._nlat, self._nlon))
 
-    def _read_packed(self) -> np.ndarray:
-        from numpy.lib import format as npy_format
-
-        with zipfile.ZipFile(self.path) as zf, zf.open("mask.npy") as fp:
-            version = npy_format.read_magic(fp)
-            if version == (1, 0):
-                shape, fortran, dtype = npy_format.read_array_header_1_0(fp)
-            else:
-                shape, fortran, dtype = npy_format.read_array_header_2_0(fp)
-            if fortran or dtype != np.dtype(bool) or shape != (self._nlat, self._nlon):
-                raise ConfigError(
-                    f"{self.path} does not hold the expected C-ordered boolean {self._nlat}x{self._nlon} mask "
-                    f"(found {dtype}, shape {shape}); reinstall global-land-mask"
-                )
-            ny, nx = shape
-            packed = np.empty((ny, (nx + 7) // 8), dtype=np.uint8)
-            rows = 720
-            for i in range(0, ny, rows):
-                k = min(rows, ny - i)
-                block = np.frombuffer(fp.read(k * nx), dtype=np.uint8).reshape(k, nx)
-                packed[i : i + k] = np.packbits(block == 0, axis=1)  # 1 = land
-        return packed
+    def _need_rows(self, rows: np.ndarray) -> None:
+        """Inflate the packaged bands holding ``rows`` (nothing to do for a streamed mask)."""
+        if self._banded is not None:
+            self._banded.ensure_rows(rows)
 
     def any_land_in_box(self, lat_min: float, lat_max: float, lon_min: float, lon_max: float) -> bool:
         """Whether any cell touching the box [deg] is land (conservative by up to 8 cells in longitude).
@@ -190,6 +188,7 @@ class GlobeLandMask:
         i1 = int(np.clip((lat_min - self._lat0) / self._dlat, 0, self._nlat - 1))
         j0 = int(np.clip((lon_min - self._lon0) / self._dlon, 0, self._nlon - 1))
         j1 = int(np.clip((lon_max - self._lon0) / self._dlon, 0, self._nlon - 1))
+        self._need_rows(np.arange(min(i0, i1), max(i0, i1) + 1))
         return bool(self._land_bits[min(i0, i1) : max(i0, i1) + 1, j0 >> 3 : (j1 >> 3) + 1].any())
 
     def is_land(self, lat_deg: np.ndarray, lon_deg: np.ndarray) -> np.ndarray:
@@ -198,6 +197,7 @@ class GlobeLandMask:
         lon = np.clip(np.asarray(lon_deg, dtype=float), *self._lon_range)
         i = np.clip(((lat - self._lat0) / self._dlat).astype(np.int64), 0, self._nlat - 1)
         j = np.clip(((lon - self._lon0) / self._dlon).astype(np.int64), 0, self._nlon - 1)
+        self._need_rows(i)
         byte = self._land_bits[i, j >> 3]
         return ((byte >> (7 - (j & 7)).astype(np.uint8)) & 1).astype(bool)
 

@@ -27,7 +27,9 @@ from typing import Any, Literal
 import numpy as np
 import xarray as xr
 
-from optroute.errors import ConfigError, InfeasibleETA
+from optroute import geodesy as geo
+from optroute import units
+from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, SolverFailure, WeatherCoverageError
 from optroute.optimise.corridor_problem import Objective, ProgressFn
 from optroute.physics.performance import PerformanceModel
 from optroute.physics.safety import BandRules
@@ -37,6 +39,9 @@ from optroute.search.route import Corridor, Route
 from optroute.weather.sample import WeatherSampler
 
 __all__ = ["optimise_corridor", "plan_voyage"]
+
+#: Tolerance of "meets the ETA" for the plans compared here [h] (Plan.verify's default).
+_ETA_TOL_H = 1.0 / 60.0
 
 
 # --------------------------------------------------------------------------- main entry points
@@ -133,8 +138,10 @@ def optimise_corridor(
         Ipopt/CasADi options for :class:`formulations.speed_nlp.SpeedNLP` (e.g. ``{"ipopt.max_iter": 100}``).
     jit : bool
         Compile the NLP's per-leg derivative functions to C (CasADi's ``"shell"`` plugin; needs a C compiler
-        ``cc`` on the PATH): a few seconds more per build, each solve about twice as fast (``benchmarks.bench_nlp``:
-        500 legs 0.87 s against 1.71 s). Worth it for long corridors and fronts, where builds are reused.
+        ``cc`` on the PATH): a few seconds more per build (every call builds, so every call compiles), each Ipopt
+        solve faster, a whole call only a little: about 1.15× faster on a 500-leg corridor (issue 22's measurement;
+        ``benchmarks.bench_nlp`` §2b times the whole call both ways, alternated). Worth it for long corridors and
+        fronts, where builds are reused.
     use_land_mask : bool, optional
         Apply the real coastline (default: unless the weather declares synthetic geography).
     discrete_start : bool
@@ -151,10 +158,14 @@ def optimise_corridor(
         Verified (``plan.verify() == []``); ``total_fuel_t`` and ``legs`` are the true model's.
         ``status``: ``"optimal"`` (Ipopt converged and the band-side search finished), ``"sides_unsettled"``
         (converged, the side search stopped on ``band_solves``), ``"feasible"`` (Ipopt stopped at a limit; its
-        iterate's plan verifies) or ``"start"`` (the verified start, because the NLP's plan was worse or
-        failed; ``solver_stats["status_reason"]`` says which). ``solver_stats`` holds: ``ipopt_status``
-        (verbatim), ``nlp_solves`` and ``iterations`` (every Ipopt call of the whole call, and all their
-        iterations), ``build_time_s``, ``stage_time_s`` (start, solve and verify), ``total_time_s``;
+        iterate's plan verifies), ``"mended"`` (converged; the referee found the engine outside its range
+        between the NLP's samples and the speeds of those legs were moved to the limit,
+        :func:`optroute.optimise.starts.repaired_plan`; ``solver_stats["mended_legs"]``) or ``"start"`` (the
+        verified start, because the NLP's plan was worse or failed; ``solver_stats["status_reason"]`` says
+        which). ``solver_stats`` holds: ``ipopt_status`` (verbatim), ``nlp_solves``, ``iterations`` and
+        ``solve_time_s`` (every Ipopt call of the whole call — side flips, re-solves, rescue solves — with all
+        their iterations and wall-clock time [s]), ``build_time_s``, ``stage_time_s`` (start, solve and verify),
+        ``total_time_s``;
         ``start``, ``start_score``, ``starts`` (every candidate's score by the referee, inf unverified),
         ``nlp_score``; ``power_table`` (its speed and heading nodes, capped share, evaluations, the SFOC
         curve's error) and, for an NLP plan, ``tabulation`` (the NLP's fuel at its solution against the
@@ -218,8 +229,8 @@ def optimise_corridor(
         progress=progress,
         jit=jit,
     )
-    plan = prepared.solve(
-        eta, eta_mode=eta_mode, objective=objective, warm_plan=warm_plan, route=route, progress=progress
+    plan = _solve_honestly(
+        prepared, eta, eta_mode=eta_mode, objective=objective, warm_plan=warm_plan, route=route, progress=progress
     )
     stats = dict(plan.solver_stats)
     stats["total_time_s"] = _time.perf_counter() - started
@@ -310,3 +321,183 @@ def plan_voyage(
         "stats": {k: v for k, v in route.stats.items() if np.isscalar(v)},
     }
     return replace(plan, solver_stats=stats)
+
+
+# --------------------------------------------------------------------------- honest outcomes (issue 14 items 4, 5)
+
+
+def _solve_honestly(prepared: Any, eta: Any, *, eta_mode: str, objective: str, warm_plan, route, progress) -> Plan:
+    """``prepared.solve`` with outcomes that tell the truth about the plans the call found.
+
+    * A free-arrival minimum-time passage that cannot end inside the weather's time span is a
+      :class:`WeatherCoverageError` naming the span needed (before any solve: the fastest conceivable
+      passage, the corridor's end-to-end great circle at the top speed plus the strongest current).
+    * :class:`InfeasibleETA`: its ``earliest_arrival`` is the arrival of the minimum-time *plan*
+      (verified); when that plan meets the ETA after all, the ETA is solved again from it and the
+      better of the two is returned (never the error).
+    * :class:`SolverFailure`: a verified plan that meets the ETA (the error's best plan, the
+      minimum-time plan) is returned with ``status="start"`` and the failure in
+      ``solver_stats["status_reason"]``; when the minimum-time plan arrives after the ETA it is
+      :class:`InfeasibleETA`; a cross-section where no speed is allowed at any time is
+      :class:`NoSafePassage`; weather-coverage violations are :class:`WeatherCoverageError`.
+    """
+    _check_time_span(prepared, eta, objective)
+    kw = {"eta_mode": eta_mode, "objective": objective, "progress": progress}
+    try:
+        return prepared.solve(eta, warm_plan=warm_plan, route=route, **kw)
+    except InfeasibleETA as exc:
+        fast = _minimum_time_plan(prepared, route)
+        if fast is None:  # no verified passage at all: closed, or the NLP's word for it
+            _raise_if_blocked(prepared, exc)
+            raise
+        if not _meets(fast, prepared, eta, "le"):
+            raise _infeasible(prepared, eta, [fast]) from exc
+        return _from_minimum_time(prepared, eta, fast, route, kw, f"InfeasibleETA ({exc})")
+    except SolverFailure as exc:
+        return _after_failure(prepared, eta, exc, route, kw)
+
+
+def _check_time_span(prepared: Any, eta: Any, objective: str) -> None:
+    """WeatherCoverageError when even the fastest conceivable free-arrival passage ends after the weather."""
+    if eta is not None or objective != "time" or not np.isfinite(prepared.data_end_h):
+        return
+    wp = np.asarray(prepared.corridor.waypoints, dtype=float)
+    gc_nm = float(geo.distance_nm(wp[0, 0], wp[0, 1], wp[-1, 0], wp[-1, 1]))
+    current_kn = _strongest_current_kn(prepared)
+    if current_kn is None:
+        return
+    fastest_h = gc_nm / (prepared.v_max + current_kn)
+    if fastest_h <= prepared.data_end_h:
+        return
+    t0 = prepared.departure
+    end = prepared.sampler.extent["time"][1]
+    needed = t0 + units.h_to_timedelta(fastest_h)
+    raise WeatherCoverageError(
+        f"the passage cannot end inside the weather's time span: it ends at {units.format_utc(end)}, and the fastest "
+        f"conceivable passage ({gc_nm:.0f} nm end to end at {prepared.v_max:.1f} kn plus a current of "
+        f"{current_kn:.1f} kn) departing {units.format_utc(t0)} arrives {units.format_utc(needed)} at the earliest; "
+        f"give weather from {units.format_utc(t0)} to at least {units.format_utc(needed)}, depart earlier, or open "
+        "the weather with time_policy='hold'"
+    )
+
+
+def _strongest_current_kn(prepared: Any) -> float | None:
+    """The strongest current of the weather [kn] (0 without one); None when it cannot be read (a lazy sampler)."""
+    names = [v for v in ("current_u_ms", "current_v_ms") if v in prepared.sampler.variables]
+    if not names:
+        return 0.0
+    ds = prepared.dataset
+    if ds is None:
+        return None
+    u = np.asarray(ds["current_u_ms"].values, dtype=float) if "current_u_ms" in names else 0.0
+    v = np.asarray(ds["current_v_ms"].values, dtype=float) if "current_v_ms" in names else 0.0
+    speed = np.hypot(u, v)
+    return float(units.ms_to_kn(np.nanmax(speed))) if np.isfinite(speed).any() else 0.0
+
+
+def _meets(plan: Plan, prepared: Any, eta: Any, eta_mode: str) -> bool:
+    """Whether ``plan`` passes verification with the ETA (none: any arrival)."""
+    return not plan.verify(step_nm=prepared.verify_step_nm, eta=eta, eta_mode=eta_mode if eta is not None else None)
+
+
+def _restamp(prepared: Any, plan: Plan, eta: Any, eta_mode: str, reason: str) -> Plan:
+    """``plan`` in the call's context (its ETA), with status ``"start"`` and why."""
+    ctx = prepared.plan_context(None if eta is None else units.as_utc_time(eta, "eta"), eta_mode)
+    stats = dict(plan.solver_stats)
+    stats["status_reason"] = reason
+    stats["returned_plan"] = plan.status
+    return replace(plan, status="start", solver_stats=stats, context=ctx)
+
+
+def _minimum_time_plan(prepared: Any, route: Route | None) -> Plan | None:
+    """The minimum-time plan of the prepared corridor (verified), or the verified best plan of its failure."""
+    try:
+        plan = prepared.solve(None, objective="time", route=route)
+    except SolverFailure as exc:
+        plan = exc.best_plan
+    except (InfeasibleETA, WeatherCoverageError, NoSafePassage, ConfigError):
+        return None
+    if plan is None or not _meets(plan, prepared, None, "le"):
+        return None
+    return plan
+
+
+def _infeasible(prepared: Any, eta: Any, plans: list[Plan]) -> InfeasibleETA:
+    """InfeasibleETA whose earliest arrival is the earliest verified plan's."""
+    first = min(plans, key=lambda p: p.arrival)
+    eta_t = units.as_utc_time(eta, "eta")
+    return InfeasibleETA(
+        f"the ETA {units.format_utc(eta_t)} cannot be met: the minimum-time plan of this corridor (verified) arrives "
+        f"{first.duration_h:.2f} h after departure, at {units.format_utc(first.arrival)}, "
+        f"{units.timedelta_to_h(first.arrival - eta_t):.2f} h after the ETA; give an ETA at or after that, or widen "
+        "the corridor",
+        earliest_arrival=first.arrival,
+    )
+
+
+def _from_minimum_time(prepared: Any, eta: Any, fast: Plan, route, kw: dict[str, Any], why: str) -> Plan:
+    """The ETA solved again from a minimum-time plan that meets it; never worse than that plan."""
+    from optroute.optimise.starts import score
+
+    try:
+        plan = prepared.solve(eta, warm_plan=fast, route=route, **kw)
+    except (InfeasibleETA, SolverFailure):
+        if not _meets(fast, prepared, eta, kw["eta_mode"]):  # arriving before an ETA that is to be met exactly
+            raise
+        plan = None
+    objective = kw["objective"]
+    if plan is not None and (
+        not _meets(fast, prepared, eta, kw["eta_mode"])
+        or score(plan, objective, prepared.fuel_price, prepared.hourly)
+        <= score(fast, objective, prepared.fuel_price, prepared.hourly)
+    ):
+        return plan
+    return _restamp(prepared, fast, eta, kw["eta_mode"], f"the minimum-time plan, which meets the ETA: {why}")
+
+
+def _after_failure(prepared: Any, eta: Any, exc: SolverFailure, route, kw: dict[str, Any]) -> Plan:
+    """A SolverFailure turned into the truth: a verified plan, InfeasibleETA, NoSafePassage or coverage."""
+    from optroute.optimise.starts import score
+
+    eta_mode, objective = kw["eta_mode"], kw["objective"]
+    verified = [p for p in (exc.best_plan,) if p is not None and _meets(p, prepared, None, "le")]
+    if objective != "time":
+        fast = _minimum_time_plan(prepared, route)
+        verified += [fast] if fast is not None else []
+    meeting = [p for p in verified if eta is None or _meets(p, prepared, eta, eta_mode)]
+    if meeting:
+        best = min(meeting, key=lambda p: score(p, objective, prepared.fuel_price, prepared.hourly))
+        return _restamp(prepared, best, eta, eta_mode, f"the best verified plan the call found; SolverFailure: {exc}")
+    if eta is not None and verified and eta_mode == "le":
+        raise _infeasible(prepared, eta, verified) from exc
+    if "weather_coverage" in str(exc):
+        end = prepared.sampler.extent["time"][1]
+        raise WeatherCoverageError(
+            f"the passages tried run past the weather's last time {units.format_utc(end)}: give weather that covers "
+            "the whole passage (an ETA inside the span, or a later forecast end), or open the weather with "
+            "time_policy='hold'"
+        ) from exc
+    _raise_if_blocked(prepared, exc)
+    raise exc
+
+
+def _raise_if_blocked(prepared: Any, exc: SolverFailure) -> None:
+    """NoSafePassage when a cross-section of the corridor allows no speed at any time (:func:`blocked_section`)."""
+    from optroute.optimise.min_time import blocked_section
+
+    end_h = min(prepared.horizon_h, prepared.data_end_h)
+    blocked = blocked_section(
+        prepared.plan_context(),
+        prepared.frame,
+        prepared.departure,
+        y_lo_nm=prepared.y_lo,
+        y_hi_nm=prepared.y_hi,
+        v_min_kn=prepared.v_min,
+        v_max_kn=prepared.v_max,
+        horizon_h=end_h,
+    )
+    if blocked is not None:
+        raise NoSafePassage(
+            f"{blocked}: there is no safe passage through this corridor in this weather; take another route or "
+            "another departure"
+        ) from exc

@@ -13,8 +13,10 @@ A solve, in stages: **start** — the best verified discrete plan on the corrido
 (:mod:`optroute.optimise.starts`: a given warm plan or search route, the 3-D DP on the corridor, the
 centreline start; scored by the referee); **solve** — Ipopt from it with the band outer loop
 (:meth:`~optroute.optimise.nlp_solve.Problem.solve`); **verify** — the plan of the solution by the
-referee, re-solved with the rows the verification flagged tightened (band edges, load limit,
-exclusion radius, lateral bounds) when it fails; **plan** — the better of the NLP's verified plan
+referee; where it finds only the engine outside its range (the smooth power table cannot follow the
+model's steps between the NLP's samples) the speeds of those legs move to the limit
+(:func:`~optroute.optimise.starts.repaired_plan`, status ``"mended"``); otherwise re-solved with the rows the
+verification flagged tightened (band edges, load limit, exclusion radius, lateral bounds); **plan** — the better of the NLP's verified plan
 and the verified start, never a worse one, with a status that says which and why.
 """
 
@@ -24,7 +26,7 @@ import math
 import shutil
 import time as _time
 from collections.abc import Callable, Mapping
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -34,22 +36,34 @@ from formulations.speed_nlp import jit_compiler
 from optroute._checks import finite
 from optroute.errors import ConfigError, SolverFailure, WeatherCoverageError
 from optroute.optimise.certificate import certificate_stats, dual_schedule
+from optroute.optimise.corridor_stats import solution_stats, table_error
 from optroute.optimise.min_time import clean_start
 from optroute.optimise.nlp_inputs import build_frame, dataset_spacing, lateral_bounds, weather_grid
 from optroute.optimise.nlp_solve import (
     Problem,
     Solved,
     Tightening,
-    certificate,
     clear_of_exclusion,
     desired_speed,
     warm_rules,
 )
 from optroute.optimise.power_table import PowerTable, baseline_power_model, heading_nodes, speed_nodes
+from optroute.optimise.rescue import (
+    LIMIT_STATUSES,
+    feasible_iterate,
+    first_failure,
+    longer_horizon,
+    plan_warm_start,
+    route_plan,
+    tighten,
+    to_plan,
+)
 from optroute.optimise.starts import (
+    ENGINE_KINDS,
     Candidate,
     dp_route,
     great_circle_corridor,
+    repaired_plan,
     route_stw,
     score,
     track_warm_start,
@@ -88,6 +102,32 @@ def _check_jit(jit: bool) -> bool:
             "install gcc or name another compiler in the CC environment variable, or use jit=False"
         )
     return bool(jit)
+
+
+_Found = tuple[Plan, Solved, float | None]  # a verified plan, its solve and the ETA solved [h]
+
+
+@dataclass
+class _Call:
+    """One :meth:`PreparedCorridor.solve`: its checked inputs and its running record (solves, log, stage times)."""
+
+    ctx: PlanContext
+    eta_user_h: float | None
+    cap_h: float | None
+    eta_mode: str
+    objective: str
+    route: Route | None
+    solve_kw: dict[str, Any]
+    progress: ProgressFn | None
+    started: float
+    counts0: tuple[float, int, int, float]  # the problem's build time, solves, iterations and Ipopt time before
+    samples_per_leg: int
+    log: list[str] = field(default_factory=list)
+    stage_s: dict[str, float] = field(default_factory=dict)
+    start_table: dict[str, float] = field(default_factory=dict)
+    last: Solved | None = None
+    last_violations: list[Violation] = field(default_factory=list)
+    retries: int = 0
 
 
 class PreparedCorridor:
@@ -333,83 +373,97 @@ class PreparedCorridor:
         """The NLP's start candidates (:mod:`optroute.optimise.starts`), each scored by the referee, best first.
 
         Candidates without a verified plan come last, in the order given (a warm plan, a search route,
-        the 3-D DP, the centreline start): the first of them is the warm start when none verifies.
+        the 3-D DP, the ship's dual schedule, the centreline start): the first of them is the warm start
+        when none verifies.
         """
         t0, frame, step = self.departure, self.frame, self.verify_step_nm
-        price, hourly = self.fuel_price, self.hourly
         out: list[Candidate] = []
-
-        def add(label: str, warm: dict[str, np.ndarray], plan: Plan | None, own: float = float("inf")) -> None:
-            val = score(plan, objective, price, hourly) if plan is not None else float("inf")
-            out.append(Candidate(label, warm, plan, val, min(val, own)))
-
-        def own(r: Route) -> float:
-            return (
-                float(r.cost) if objective == "cost" else float(r.total_fuel_t) if objective == "fuel" else float("inf")
-            )
-
         if warm_plan is not None:
-            from optroute.optimise.rescue import _plan_warm_start
-
             stw = np.asarray(warm_plan.stw_kn, dtype=float)
-            add(
-                "warm plan",
-                _plan_warm_start(warm_plan, frame),
-                verified_plan(ctx, warm_plan.waypoints, stw, t0, step, "start"),
-            )
+            plan = verified_plan(ctx, warm_plan.waypoints, stw, t0, step, "start")
+            out.append(self._candidate("warm plan", plan_warm_start(warm_plan, frame), plan, objective))
         if route is not None:
-            stw = route_stw(route)
-            add(
-                "search route",
-                track_warm_start(route.waypoints, stw, frame),
-                verified_plan(ctx, route.waypoints, stw, t0, step, "start"),
-            )
-        eta = ctx.eta
-        if self.discrete_start and eta is not None and objective != "time" and great_circle_corridor(frame):
+            out.append(self._discrete("search route", ctx, route, objective, st.log, own=False))
+        if self.discrete_start and ctx.eta is not None and objective != "time" and great_circle_corridor(frame):
             dp = dp_route(
                 ctx,
                 frame,
                 departure=t0,
-                eta=eta,
+                eta=ctx.eta,
                 objective=objective,
                 v_min_kn=self.v_min,
                 v_max_kn=self.v_max,
-                fuel_price=price,
-                hourly=hourly,
+                fuel_price=self.fuel_price,
+                hourly=self.hourly,
                 options=self.dp_options,
             )
             if dp is not None:
-                stw = route_stw(dp)
-                add(
-                    "3-D DP",
-                    track_warm_start(dp.waypoints, stw, frame),
-                    verified_plan(ctx, dp.waypoints, stw, t0, step, "start"),
-                    own(dp),
-                )
-        fixed = bool(np.all(self.y_lo == 0.0) and np.all(self.y_hi == 0.0))
-        if fixed and cap_h is not None and objective in ("fuel", "cost"):
-            # on a fixed path in static weather: the ship's own dual bound's schedule, a near-optimal discrete plan
-            # with its band sides (optroute.optimise.certificate)
-            centre_wp = frame.waypoints(np.zeros(frame.n_legs + 1))
-            stw = dual_schedule(
-                ctx,
-                centre_wp,
-                departure=t0,
-                eta_h=cap_h,
-                eta_mode=ctx.eta_mode,
-                objective=objective,
-                fuel_price=price,
-                hourly_cost=hourly,
-                v_min_kn=self.v_min,
-                v_max_kn=self.v_max,
-                step_nm=step,
-            )
-            if stw is not None:
-                add(
-                    "ship dual",
-                    track_warm_start(centre_wp, stw, frame),
-                    verified_plan(ctx, centre_wp, stw, t0, step, "start"),
-                )
+                out.append(self._discrete("3-D DP", ctx, dp, objective, st.log, own=True))
+        if self.fixed_path and cap_h is not None and objective in ("fuel", "cost"):
+            dual = self._dual_candidate(ctx, cap_h, objective)
+            out += [dual] if dual is not None else []
+        out.append(self._centre_candidate(ctx, cap_h, objective, st))
+        order = sorted(range(len(out)), key=lambda i: (out[i].score, i))
+        return [out[i] for i in order]
+
+    def _candidate(
+        self, label: str, warm: dict[str, np.ndarray], plan: Plan | None, objective: str, own: float = float("inf")
+    ) -> Candidate:
+        """A start candidate: its score by the referee (inf unverified) and its estimate (the lower of that and ``own``)."""
+        val = score(plan, objective, self.fuel_price, self.hourly) if plan is not None else float("inf")
+        return Candidate(label, warm, plan, val, min(val, own))
+
+    def _discrete(
+        self, label: str, ctx: PlanContext, route: Route, objective: str, log: list[str], *, own: bool
+    ) -> Candidate:
+        """A discrete plan (a search route, the 3-D DP) as a candidate, its engine range mended where the referee
+        finds it out between the search's own points (:func:`~optroute.optimise.starts.repaired_plan`); ``own``:
+        its own figure of the objective orders the warm starts too."""
+        stw = route_stw(route)
+        plan, legs = repaired_plan(
+            ctx,
+            route.waypoints,
+            stw,
+            self.departure,
+            self.verify_step_nm,
+            "start",
+            v_min_kn=self.v_min,
+            v_max_kn=self.v_max,
+        )
+        if plan is not None and legs:
+            log.append(f"{label}: the referee found the engine outside its range; speeds mended on {legs} legs")
+        warm = track_warm_start(route.waypoints, plan.stw_kn if plan is not None else stw, self.frame)
+        figure = float("inf")
+        if own and objective in ("fuel", "cost"):
+            figure = float(route.total_fuel_t) if objective == "fuel" else float(route.cost)
+        return self._candidate(label, warm, plan, objective, figure)
+
+    def _dual_candidate(self, ctx: PlanContext, cap_h: float, objective: str) -> Candidate | None:
+        """On a fixed path in static weather: the ship's own dual bound's schedule, a near-optimal discrete plan
+        with its band sides (:func:`optroute.optimise.certificate.dual_schedule`); None where it has none."""
+        frame, t0, step = self.frame, self.departure, self.verify_step_nm
+        centre_wp = frame.waypoints(np.zeros(frame.n_legs + 1))
+        stw = dual_schedule(
+            ctx,
+            centre_wp,
+            departure=t0,
+            eta_h=cap_h,
+            eta_mode=ctx.eta_mode,
+            objective=objective,
+            fuel_price=self.fuel_price,
+            hourly_cost=self.hourly,
+            v_min_kn=self.v_min,
+            v_max_kn=self.v_max,
+            step_nm=step,
+        )
+        if stw is None:
+            return None
+        plan = verified_plan(ctx, centre_wp, stw, t0, step, "start")
+        return self._candidate("ship dual", track_warm_start(centre_wp, stw, frame), plan, objective)
+
+    def _centre_candidate(self, ctx: PlanContext, cap_h: float | None, objective: str, st: Tightening) -> Candidate:
+        """The NLP's own safe start on the centreline (:func:`optroute.optimise.min_time.clean_start`)."""
+        t0, frame, step = self.departure, self.frame, self.verify_step_nm
         centre = clean_start(
             ctx,
             frame,
@@ -421,13 +475,8 @@ class PreparedCorridor:
             rules=warm_rules(self.rules, st),
             log=st.log,
         )
-        add(
-            "centreline start",
-            centre,
-            verified_plan(ctx, frame.waypoints(centre["offset_nm"]), centre["stw_kn"], t0, step, "start"),
-        )
-        order = sorted(range(len(out)), key=lambda i: (out[i].score, i))
-        return [out[i] for i in order]
+        plan = verified_plan(ctx, frame.waypoints(centre["offset_nm"]), centre["stw_kn"], t0, step, "start")
+        return self._candidate("centreline start", centre, plan, objective)
 
     @staticmethod
     def warm_candidate(cands: list[Candidate]) -> Candidate:
@@ -501,177 +550,267 @@ class PreparedCorridor:
         InfeasibleETA, SolverFailure, WeatherCoverageError
             As :func:`optimise_corridor`.
         """
-        from optroute.optimise.rescue import _LIMIT_STATUSES, _first_failure, _longer, _route_plan, _tighten, _to_plan
+        call = self._inputs(eta, eta_mode, objective, route, progress)  # stage: inputs
+        _emit(progress, "start", 0.15)  # stage: start
+        t_s = _time.perf_counter()
+        st = self._tightening()
+        st.log = call.log
+        cands = self.starts(call.ctx, cap_h=call.cap_h, objective=objective, warm_plan=warm_plan, route=route, st=st)
+        start, first = cands[0], self.warm_candidate(cands)
+        call.log.append(
+            "starts: "
+            + "; ".join(f"{c.label} {c.score:.6g}" if c.plan is not None else f"{c.label} unverified" for c in cands)
+        )
+        call.stage_s["start"] = _time.perf_counter() - t_s
+        t_s = _time.perf_counter()  # stages: solve (with the band sides), verify
+        best = self._solve_stage(call, start, first)
+        call.stage_s["solve and verify"] = _time.perf_counter() - t_s
+        return self._plan_stage(call, cands, start, first, best)  # stage: plan
 
-        started = _time.perf_counter()
+    # ------------------------------------------------------------------ the stages of a solve
+
+    def _inputs(
+        self, eta: Any, eta_mode: str, objective: str, route: Route | None, progress: ProgressFn | None
+    ) -> _Call:
+        """Stage inputs: the checked ETA, mode and objective, and the record of this solve."""
         if objective not in ("time", "fuel", "cost"):
             raise ConfigError(f"objective={objective!r} is not known; use 'time', 'fuel' or 'cost'")
         if eta_mode not in ("le", "eq"):
             raise ConfigError(f"eta_mode={eta_mode!r} is not known; use 'le' (arrive by) or 'eq' (arrive at)")
+        started = _time.perf_counter()
         eta_t, eta_user_h, cap_h = self._window(eta, objective)
-        t0, prob, frame, step_nm = self.departure, self.problem, self.frame, self.verify_step_nm
-        ctx = self.plan_context(eta_t, eta_mode)
-        build_before, solves_before, iters_before = prob.build_time_s, prob.solves, prob.iterations
-        st = self._tightening()
-        stage_s: dict[str, float] = {}
-        # ---- stage: start -----------------------------------------------------------------
-        _emit(progress, "start", 0.15)
-        t_s = _time.perf_counter()
-        cands = self.starts(ctx, cap_h=cap_h, objective=objective, warm_plan=warm_plan, route=route, st=st)
-        start, first = cands[0], self.warm_candidate(cands)
-        stage_s["start"] = _time.perf_counter() - t_s
-        st.log.append(
-            "starts: "
-            + "; ".join(f"{c.label} {c.score:.6g}" if c.plan is not None else f"{c.label} unverified" for c in cands)
+        prob = self.problem
+        return _Call(
+            ctx=self.plan_context(eta_t, eta_mode),  # type: ignore[arg-type]
+            eta_user_h=eta_user_h,
+            cap_h=cap_h,
+            eta_mode=eta_mode,
+            objective=objective,
+            route=route,
+            solve_kw={
+                "eta_mode": eta_mode,
+                "objective": objective,
+                "fuel_price": self.fuel_price,
+                "hourly_cost": self.hourly,
+            },
+            progress=progress,
+            started=started,
+            counts0=(prob.build_time_s, prob.solves, prob.iterations, prob.solve_time_s),
+            samples_per_leg=self.samples_per_leg,
         )
-        warm = clear_of_exclusion(dict(first.warm), frame, self.exclusion, t0, self.y_lo, self.y_hi)
-        solve_kw = {
-            "eta_mode": eta_mode,
-            "objective": objective,
-            "fuel_price": self.fuel_price,
-            "hourly_cost": self.hourly,
-        }
-        # ---- stages: solve, verify (tighten and re-solve where the referee disagrees) --------------
-        t_s = _time.perf_counter()
-        best: tuple[Plan, Solved, float | None] | None = None
-        last: Solved | None = None
-        last_violations: list[Violation] = []
-        log = st.log
-        # from the warm candidate; when that gives no plan better than the verified start (another candidate), once
-        # more from the verified start itself, so that a discrete start the NLP cannot repair costs time, not fuel
+
+    def _score(self, plan: Plan, call: _Call) -> float:
+        return score(plan, call.objective, self.fuel_price, self.hourly)
+
+    def _solve_stage(self, call: _Call, start: Candidate, first: Candidate) -> _Found | None:
+        """Stages solve and verify: from the warm candidate, and once more from the verified start when that is better.
+
+        A discrete start the NLP cannot improve on costs time, not fuel: the plan stage keeps the start.
+        """
+        call.start_table = self._table_at(call.ctx, first.warm)
+        best: _Found | None = None
         tries = [first] + ([start] if first is not start and start.plan is not None else [])
         for k, cand in enumerate(tries):
             if k > 0:
-                if best is not None and score(best[0], objective, self.fuel_price, self.hourly) <= start.score:
+                if best is not None and self._score(best[0], call) <= start.score:
                     break
-                st = self._tightening()
-                st.log = log
-                log.append(f"again from the verified {cand.label}")
-                warm = clear_of_exclusion(dict(cand.warm), frame, self.exclusion, t0, self.y_lo, self.y_hi)
-            found: tuple[Plan, Solved, float | None] | None = None
-            for attempt in range(self.max_retries + 1):
-                _emit(progress, "solve", 0.2 + 0.7 * attempt / (self.max_retries + 1))
-                nlp = prob.build(st)
-                eta_solve = None if cap_h is None else cap_h - st.eta_shift_h
-                if eta_solve is not None and eta_solve <= 0:
-                    break
-                sol = prob.solve(nlp, eta_h=eta_solve, warm=warm, budget=self.band_solves, **solve_kw)
-                if not sol.ok and self._usable_iterate(sol, ctx):
-                    st.log.append(f"attempt {attempt}: kept Ipopt's last iterate ({sol.res.status}): its plan verifies")
-                    sol = replace(sol, ok=True)
-                if not sol.ok and attempt == 0 and start.plan is None and k == 0:
-                    # no verified start: an unreachable ETA (InfeasibleETA / WeatherCoverageError) or a hard problem
-                    sol = _first_failure(
-                        prob,
-                        nlp,
-                        sol,
-                        longer=lambda st=st: _longer(prob, st, self.sampler, self.data_end_h, self.horizon_h),
-                        ctx=ctx,
-                        cap_h=cap_h,
-                        eta_user_h=eta_user_h,
-                        t0=t0,
-                        route=route,
-                        budget=self.band_solves,
-                        step_nm=step_nm,
-                        solve_kw=solve_kw,
-                        warm_rules=warm_rules(self.rules, st),
-                        first_warm=warm,
-                        log=st.log,
-                    )
-                last = sol
-                at_limit = sol.res.status in _LIMIT_STATUSES and not np.any(sol.res.samples.inside)
-                if not sol.ok and not at_limit:
-                    st.log.append(f"attempt {attempt}: Ipopt {sol.res.status}")
-                    break
-                plan = _to_plan(ctx, frame, sol.res, t0, step_nm=step_nm)
-                violations = plan.verify(step_nm=step_nm)
-                if not violations and sol.ok:
-                    found = (plan, sol, eta_solve)
-                    break
-                if not sol.ok:
-                    # stopped at a limit at a point the referee rejects: tighten what it found and go on from there
-                    st.log.append(f"attempt {attempt}: Ipopt {sol.res.status}; its iterate fails verification")
-                last_violations = violations
-                if st.retries >= self.max_retries:
-                    break
-                st.retries += 1
-                _tighten(st, violations, plan, sol.res)
-                warm = {"offset_nm": sol.res.offset_nm, "stw_kn": sol.res.stw_kn}
-            if found is not None and (
-                best is None
-                or score(found[0], objective, self.fuel_price, self.hourly)
-                < score(best[0], objective, self.fuel_price, self.hourly)
-            ):
+                call.log.append(f"again from the verified {cand.label}")
+            found = self._solve_from(call, cand, diagnose=k == 0 and start.plan is None)
+            if found is not None and (best is None or self._score(found[0], call) < self._score(best[0], call)):
                 best = found
-        stage_s["solve and verify"] = _time.perf_counter() - t_s
-        # ---- stage: plan --------------------------------------------------------------------------
-        counts = {
-            "nlp_solves": prob.solves - solves_before,
-            "iterations": prob.iterations - iters_before,
-            "build_time_s": prob.build_time_s - build_before,
-        }
-        if best is None and start.plan is None:
-            status = last.res.status if last is not None else "unknown"
-            listed = "; ".join(str(v) for v in last_violations[:6])
-            raise SolverFailure(
-                f"no plan passing verification after {st.retries} tightened re-solves (Ipopt: {status}); last "
-                f"violations: {listed or 'none (Ipopt failed)'}; no start candidate verifies either; try more "
-                "samples_per_leg, shorter max_leg_nm or a wider band_margin",
-                status=status,
-                best_plan=_route_plan(route, ctx, step_nm),
+        return best
+
+    def _solve_from(self, call: _Call, cand: Candidate, *, diagnose: bool) -> _Found | None:
+        """Solve from one candidate; where the referee rejects the plan, tighten the rows it flagged and solve again.
+
+        ``diagnose``: no candidate verifies, so a failed first solve is diagnosed (:func:`first_failure`:
+        an unreachable ETA raises :class:`~optroute.errors.InfeasibleETA`).
+        """
+        prob, st = self.problem, self._tightening()
+        st.log = call.log
+        warm = clear_of_exclusion(dict(cand.warm), self.frame, self.exclusion, self.departure, self.y_lo, self.y_hi)
+        for attempt in range(self.max_retries + 1):
+            _emit(call.progress, "solve", 0.2 + 0.7 * attempt / (self.max_retries + 1))
+            nlp = prob.build(st)
+            eta_solve = None if call.cap_h is None else call.cap_h - st.eta_shift_h
+            if eta_solve is not None and eta_solve <= 0:
+                break
+            sol = prob.solve(nlp, eta_h=eta_solve, warm=warm, budget=self.band_solves, **call.solve_kw)
+            if not sol.ok and self._usable_iterate(sol, call.ctx):
+                call.log.append(f"attempt {attempt}: kept Ipopt's last iterate ({sol.res.status}): its plan verifies")
+                sol = replace(sol, ok=True)
+            if not sol.ok and attempt == 0 and diagnose:
+                sol = self._first_failure(call, nlp, sol, st, warm)
+            call.last = sol
+            at_limit = sol.res.status in LIMIT_STATUSES and not np.any(sol.res.samples.inside)
+            if not sol.ok and not at_limit:
+                call.log.append(f"attempt {attempt}: Ipopt {sol.res.status}")
+                break
+            found, plan, violations = self._verified(call, sol, attempt)
+            if found is not None:
+                return found[0], found[1], eta_solve
+            call.last_violations = violations
+            if st.retries >= self.max_retries:
+                break
+            st.retries += 1
+            tighten(st, violations, plan, sol.res)
+            call.retries, call.samples_per_leg = st.retries, st.samples_per_leg
+            warm = {"offset_nm": sol.res.offset_nm, "stw_kn": sol.res.stw_kn}
+        return None
+
+    def _first_failure(
+        self, call: _Call, nlp: Any, sol: Solved, st: Tightening, warm: Mapping[str, np.ndarray]
+    ) -> Solved:
+        """A failed first solve without a verified start: an unreachable ETA, or a hard problem (:func:`first_failure`)."""
+        prob = self.problem
+        return first_failure(
+            prob,
+            nlp,
+            sol,
+            longer=lambda st=st: longer_horizon(prob, st, self.sampler, self.data_end_h, self.horizon_h),
+            ctx=call.ctx,
+            cap_h=call.cap_h,
+            eta_user_h=call.eta_user_h,
+            t0=self.departure,
+            route=call.route,
+            budget=self.band_solves,
+            step_nm=self.verify_step_nm,
+            solve_kw=call.solve_kw,
+            warm_rules=warm_rules(self.rules, st),
+            first_warm=warm,
+            log=call.log,
+        )
+
+    def _verified(
+        self, call: _Call, sol: Solved, attempt: int
+    ) -> tuple[tuple[Plan, Solved] | None, Plan, list[Violation]]:
+        """Stage verify: the solution's plan by the referee; mended by speed where only the engine's range breaks.
+
+        The smooth table cannot follow the model's steps (Kwon's Beaufort and direction sectors) at the
+        referee's points: where only the engine's range is broken there, the speeds of those legs move to the
+        limit by the propeller law (:func:`~optroute.optimise.starts.repaired_plan`; no re-solve, no global
+        tightening of the load limit). Returns the verified plan and its solve (or None), the plan of the
+        solution and the referee's violations.
+        """
+        step = self.verify_step_nm
+        plan = to_plan(call.ctx, self.frame, sol.res, self.departure, step_nm=step)
+        violations = plan.verify(step_nm=step)
+        if not violations and sol.ok:
+            return (plan, sol), plan, violations
+        if sol.ok and all(v.kind in ENGINE_KINDS for v in violations):
+            mended, legs = repaired_plan(
+                call.ctx,
+                plan.waypoints,
+                plan.stw_kn,
+                self.departure,
+                step,
+                "candidate",
+                v_min_kn=self.v_min,
+                v_max_kn=self.v_max,
             )
-        nlp_score = score(best[0], objective, self.fuel_price, self.hourly) if best is not None else float("inf")
-        stats: dict[str, Any] = {
-            "ipopt_status": last.res.status if last is not None else "not run",
-            **counts,
+            if mended is not None:
+                call.log.append(
+                    f"attempt {attempt}: the referee found the engine outside its range on "
+                    f"{len({v.leg for v in violations})} legs; speeds mended on {legs} legs"
+                )
+                return (mended, replace(sol, mended_legs=legs)), plan, violations
+        if not sol.ok:  # stopped at a limit at a point the referee rejects: tighten what it found and go on
+            call.log.append(f"attempt {attempt}: Ipopt {sol.res.status}; its iterate fails verification")
+        return None, plan, violations
+
+    def _plan_stage(
+        self, call: _Call, cands: list[Candidate], start: Candidate, first: Candidate, best: _Found | None
+    ) -> Plan:
+        """Stage plan: the NLP's verified plan, or the verified start where the NLP did not improve on it."""
+        if best is None and start.plan is None:
+            self._no_plan(call)
+        nlp_score = self._score(best[0], call) if best is not None else float("inf")
+        stats = self._stats(call, cands, start, first, nlp_score)
+        if best is not None:
+            _emit(call.progress, "certificate", 0.95)
+            stats.update(self._solution_stats(call, best[1], best[2]))
+        cap_h, mode, objective = call.cap_h, call.eta_mode, call.objective
+        # a tie to the solver's tolerance (the start already optimal, as at a constant speed in calm water) keeps the
+        # NLP's plan, with its multipliers and certificate; "worse" is beyond TIE_REL_TOL of the start's score
+        if best is None or nlp_score > start.score + TIE_REL_TOL * max(1.0, abs(start.score)):
+            why = "its plan failed verification" if best is None else f"its plan scores {nlp_score:.6g}"
+            stats["status_reason"] = f"the NLP did not improve on the verified {start.label} ({start.score:.6g}): {why}"
+            stats["certificate"] = self._ship_certificate(start.plan, stats, cap_h, mode, objective)  # type: ignore[arg-type]
+            stats["total_time_s"] = _time.perf_counter() - call.started
+            _emit(call.progress, "done", 1.0)
+            return replace(start.plan, status="start", solver_stats=stats)  # type: ignore[arg-type]
+        plan, sol, _ = best
+        status, reason = self._status(sol)
+        if reason:
+            stats["status_reason"] = reason
+        shadow = float("nan")
+        if call.eta_user_h is not None and objective in ("fuel", "cost"):
+            shadow = float(sol.res.eta_multiplier) / (1.0 if objective == "fuel" else self.fuel_price)
+        stats["certificate"] = self._ship_certificate(plan, stats, cap_h, mode, objective)
+        stats["total_time_s"] = _time.perf_counter() - call.started
+        _emit(call.progress, "done", 1.0)
+        return replace(plan, status=status, solver_stats=stats, eta_shadow_price_t_per_h=shadow)
+
+    def _no_plan(self, call: _Call) -> None:
+        """Neither the NLP nor any start gives a verified plan: :class:`SolverFailure` with Ipopt's status."""
+        status = call.last.res.status if call.last is not None else "unknown"
+        listed = "; ".join(str(v) for v in call.last_violations[:6])
+        raise SolverFailure(
+            f"no plan passing verification after {call.retries} tightened re-solves (Ipopt: {status}); last "
+            f"violations: {listed or 'none (Ipopt failed)'}; no start candidate verifies either; try more "
+            "samples_per_leg, shorter max_leg_nm or a wider band_margin",
+            status=status,
+            best_plan=route_plan(call.route, call.ctx, self.verify_step_nm),
+        )
+
+    def _status(self, sol: Solved) -> tuple[str, str | None]:
+        """The returned NLP plan's status and why it is not ``"optimal"`` (None when it is)."""
+        res = sol.res
+        converged = res.status == "Solve_Succeeded"
+        if converged and sol.mended_legs:
+            return "mended", (
+                "Ipopt converged; the referee found the engine outside its range between the NLP's samples, and the "
+                f"speeds of {sol.mended_legs} legs were moved to the limit (optroute.optimise.starts.repaired_plan)"
+            )
+        if converged and sol.sides_settled:
+            return "optimal", None
+        if converged:
+            return "sides_unsettled", f"the band-side search stopped on its budget of {self.band_solves} solves"
+        return "feasible", f"Ipopt stopped with {res.status}; its last iterate's plan passes verification"
+
+    def _stats(
+        self, call: _Call, cands: list[Candidate], start: Candidate, first: Candidate, nlp_score: float
+    ) -> dict[str, Any]:
+        """Every solve, every Ipopt iteration, time per stage, the starts and the power table of this solve."""
+        prob = self.problem
+        b0, s0, i0, t0 = call.counts0
+        return {
+            "ipopt_status": call.last.res.status if call.last is not None else "not run",
+            "nlp_solves": prob.solves - s0,
+            "iterations": prob.iterations - i0,
+            "build_time_s": prob.build_time_s - b0,
+            "solve_time_s": prob.solve_time_s - t0,
             "start": start.label,
             "start_score": start.score,
             "warm_start": first.label,
             "starts": {c.label: c.score for c in cands},
+            "start_tabulation": call.start_table,
             "nlp_score": nlp_score,
-            "stage_time_s": stage_s,
-            "retries": st.retries,
-            "tightening": list(st.log),
+            "stage_time_s": call.stage_s,
+            "retries": call.retries,
+            "tightening": list(call.log),
             "power_table": self._table_stats(),
-            "n_legs": frame.n_legs,
-            "samples_per_leg": st.samples_per_leg,
+            "n_legs": self.frame.n_legs,
+            "samples_per_leg": call.samples_per_leg,
             "weather_grid_shape": list(np.shape(self.grid.hs_m)),
             "weather_nodes_filled": self.samples.filled,
             "prepared_horizon_h": self.horizon_h,
         }
-        if best is not None:
-            _emit(progress, "certificate", 0.95)
-            stats.update(self._solution_stats(ctx, best[1], best[2], eta_user_h, eta_mode, objective))
-        # a tie to the solver's tolerance (the start already optimal, as at a constant speed in calm water) keeps the
-        # NLP's plan, with its multipliers and certificate; "worse" is beyond TIE_REL_TOL of the start's score
-        if best is None or nlp_score > start.score + TIE_REL_TOL * max(1.0, abs(start.score)):
-            # the NLP's plan is worse than (or no better than nothing against) the verified start: the start
-            why = "its plan failed verification" if best is None else f"its plan scores {nlp_score:.6g}"
-            stats["status_reason"] = f"the NLP did not improve on the verified {start.label} ({start.score:.6g}): {why}"
-            stats["total_time_s"] = _time.perf_counter() - started
-            _emit(progress, "done", 1.0)
-            stats["certificate"] = self._ship_certificate(start.plan, stats, cap_h, eta_mode, objective)
-            return replace(start.plan, status="start", solver_stats=stats)  # type: ignore[arg-type]
-        plan, sol, eta_solve = best
-        res = sol.res
-        converged = res.status == "Solve_Succeeded"
-        if converged and sol.sides_settled:
-            status = "optimal"
-        elif converged:
-            status = "sides_unsettled"
-            stats["status_reason"] = f"the band-side search stopped on its budget of {self.band_solves} solves"
-        else:
-            status = "feasible"
-            stats["status_reason"] = f"Ipopt stopped with {res.status}; its last iterate's plan passes verification"
-        shadow = float("nan")
-        if eta_user_h is not None and objective == "fuel":
-            shadow = float(res.eta_multiplier)
-        elif eta_user_h is not None and objective == "cost":
-            shadow = float(res.eta_multiplier) / self.fuel_price
-        stats["certificate"] = self._ship_certificate(plan, stats, cap_h, eta_mode, objective)
-        stats["total_time_s"] = _time.perf_counter() - started
-        _emit(progress, "done", 1.0)
-        return replace(plan, status=status, solver_stats=stats, eta_shadow_price_t_per_h=shadow)
+
+    @property
+    def fixed_path(self) -> bool:
+        """Whether the corridor has no lateral freedom (every waypoint's bounds at the centreline)."""
+        return bool(np.all(self.y_lo == 0.0) and np.all(self.y_hi == 0.0))
 
     def _ship_certificate(
         self, plan: Plan, stats: dict[str, Any], cap_h: float | None, eta_mode: str, objective: str
@@ -681,12 +820,11 @@ class PreparedCorridor:
         The Lagrangian dual bound of the true model, IMO SFOC and danger bands on a fixed path in static
         weather; the NLP model's own dual bound, where it was computed, is kept under ``"nlp_model"``.
         """
-        fixed = bool(np.all(self.y_lo == 0.0) and np.all(self.y_hi == 0.0))
         nlp_model = stats.get("certificate", {"method": "not applicable", "gap": float("nan")})
         return certificate_stats(
             nlp_model,
             plan,
-            fixed=fixed,
+            fixed=self.fixed_path,
             objective=objective,
             eta_h=cap_h,
             eta_mode=eta_mode,
@@ -697,10 +835,31 @@ class PreparedCorridor:
             step_nm=self.verify_step_nm,
         )
 
-    def _usable_iterate(self, sol: Solved, ctx: PlanContext) -> bool:
-        from optroute.optimise.rescue import _feasible_iterate
+    def _table_at(self, ctx: PlanContext, warm: Mapping[str, np.ndarray]) -> dict[str, float]:
+        """The NLP's fuel [t] at its warm start against the referee's for the same track and schedule.
 
-        return _feasible_iterate(sol.res, ctx, self.frame, self.departure, self.verify_step_nm)
+        Where the start sits on the cheap side of one of the model's steps (Kwon's Beaufort numbers and
+        direction sectors) the smooth table misjudges it, and Ipopt may leave a start that is better by the
+        referee: this figure says by how much the NLP's model sees the start differently.
+        """
+        nlp = self.problem.build(self._tightening())
+        y = np.clip(np.asarray(warm["offset_nm"], dtype=float), *nlp.corridor.offset_bounds())
+        v = np.clip(np.asarray(warm["stw_kn"], dtype=float), nlp.v_min_kn, nlp.v_max_kn)
+        t = nlp.consistent_times(y, v)
+        fuel = float(np.sum(nlp.leg_fuel_t(y, v, t)))
+        return table_error(
+            ctx,
+            self.frame,
+            offset_nm=y,
+            stw_kn=v,
+            time_h=t,
+            nlp_fuel_t=fuel,
+            departure=self.departure,
+            step_nm=self.verify_step_nm,
+        )
+
+    def _usable_iterate(self, sol: Solved, ctx: PlanContext) -> bool:
+        return feasible_iterate(sol.res, ctx, self.frame, self.departure, self.verify_step_nm)
 
     def _table_stats(self) -> dict[str, Any]:
         tb = self.table
@@ -712,62 +871,21 @@ class PreparedCorridor:
             "sfoc_max_rel_error": tb.sfoc_max_rel_error,
         }
 
-    def _solution_stats(
-        self,
-        ctx: PlanContext,
-        sol: Solved,
-        eta_solve: float | None,
-        eta_user_h: float | None,
-        eta_mode: str,
-        objective: str,
-    ) -> dict[str, Any]:
-        """Statistics of the returned NLP solution: the tabulation error measured by the referee, the certificate."""
-        from optroute.optimise.rescue import _certificate_reason
-
-        res, frame, t0 = sol.res, self.frame, self.departure
-        # the NLP's fuel against the referee's for the very same track and schedule
-        same = Plan.from_context(
-            ctx,
-            frame.waypoints(res.offset_nm),
-            res.stw_kn,
-            departure=t0,
-            times=t0 + _h_to_td(np.asarray(res.time_h, dtype=float)),
-            status="candidate",
+    def _solution_stats(self, call: _Call, sol: Solved, eta_solve: float | None) -> dict[str, Any]:
+        """Statistics of the returned NLP solution (:func:`optroute.optimise.corridor_stats.solution_stats`)."""
+        return solution_stats(
+            call.ctx,
+            self.frame,
+            sol,
+            eta_solve=eta_solve,
+            eta_mode=call.eta_mode,
+            objective=call.objective,
+            fixed=self.fixed_path,
+            samples=self.samples,
+            exclusion=self.exclusion,
+            fuel_price=self.fuel_price,
+            hourly_cost=self.hourly,
+            band_names=tuple(self.problem.band_names),
+            departure=self.departure,
             step_nm=self.verify_step_nm,
         )
-        referee = float(same.total_fuel_t)
-        tab = {
-            "nlp_fuel_t": float(res.total_fuel_t),
-            "referee_fuel_t": referee,
-            "rel_error": float(res.total_fuel_t) / referee - 1.0 if referee > 0 else float("nan"),
-        }
-        cert: dict[str, Any] = {"method": "not applicable", "gap": float("nan")}
-        fixed = bool(np.all(self.y_lo == 0.0) and np.all(self.y_hi == 0.0))
-        reason = _certificate_reason(fixed, self.samples, res, self.exclusion, objective)
-        if reason is None:
-            cert = certificate(
-                sol.nlp,
-                res,
-                objective=objective,
-                eta_h=eta_solve,
-                eta_mode=eta_mode,
-                fuel_price=self.fuel_price,
-                hourly_cost=self.hourly,
-            )
-        else:
-            cert["reason"] = reason
-        return {
-            "ipopt_status": res.status,
-            "outer_solves": sol.n_solves,
-            "outer_flips": sol.flips,
-            "outer_history": sol.history,
-            "sides_settled": sol.sides_settled,
-            "nlp_objective": float(res.objective),
-            "nlp_fuel_t": float(res.total_fuel_t),
-            "nlp_max_violation": float(res.max_violation),
-            "tabulation": tab,
-            "frame_max_rel_distance_error": frame.distance_error(res.offset_nm),
-            "bands": list(self.problem.band_names),
-            "certificate": cert,
-            "eta_h_solved": eta_solve,
-        }

@@ -43,7 +43,7 @@ from optroute.physics.safety import BandRules
 from optroute.plan.evaluate import PlanContext, sample_sea
 from optroute.units import NS_PER_H as _NS_PER_H
 
-__all__ = ["DeadEnd", "TimedStart", "clean_start", "timed_safe_start"]
+__all__ = ["BlockedSection", "DeadEnd", "TimedStart", "blocked_section", "clean_start", "timed_safe_start"]
 
 
 @dataclass(frozen=True)
@@ -292,3 +292,137 @@ def clean_start(
             )
         )
     return found.warm() if isinstance(found, TimedStart) else safe
+
+
+@dataclass(frozen=True)
+class BlockedSection:
+    """A cross-section of the corridor where no speed is allowed at any time: the passage is closed there.
+
+    Attributes
+    ----------
+    s_nm : float
+        Along the centreline [nm from the start].
+    lat, lon : float
+        Its centreline point [deg].
+    from_h, to_h : float
+        The times checked [h after departure].
+    v_min_kn, v_max_kn : float
+        The speeds checked [kn].
+    """
+
+    s_nm: float
+    lat: float
+    lon: float
+    from_h: float
+    to_h: float
+    v_min_kn: float
+    v_max_kn: float
+
+    def __str__(self) -> str:
+        return (
+            f"no speed through the water from {self.v_min_kn:g} to {self.v_max_kn:.1f} kn is allowed anywhere across "
+            f"the corridor {self.s_nm:.0f} nm along track (near {self.lat:.2f}, {self.lon:.2f}) at any time from "
+            f"{self.from_h:.1f} to {self.to_h:.1f} h after departure (danger bands, the engine's load range, "
+            "the sea state)"
+        )
+
+
+def blocked_section(
+    ctx: PlanContext,
+    frame: CorridorFrame,
+    t0: np.datetime64,
+    *,
+    y_lo_nm: np.ndarray,
+    y_hi_nm: np.ndarray,
+    v_min_kn: float,
+    v_max_kn: float,
+    horizon_h: float,
+    lanes: int = 5,
+    dt_h: float = 1.0,
+    speed_step_kn: float = 0.25,
+) -> BlockedSection | None:
+    """The first corridor node where no speed is allowed at any lateral offset and any time, or None.
+
+    A ship that passes the node must be somewhere across the corridor at some time in
+    ``[0, horizon_h]`` at some speed; when :func:`optroute.physics.passage.evaluate_speeds` (the true
+    model and the bands, the ship on the course of the corridor's leg there) allows none of
+    ``lanes`` offsets × times every ``dt_h`` × speeds every ``speed_step_kn``, there is no passage
+    (up to that sampling): :class:`optroute.errors.NoSafePassage`, not a solver failure.
+
+    Parameters
+    ----------
+    ctx, frame, t0
+        As :func:`timed_safe_start`.
+    y_lo_nm, y_hi_nm : ndarray, shape (N+1,)
+        The corridor's navigable lateral bounds at its nodes [nm, port positive].
+    v_min_kn, v_max_kn : float
+        Speed-through-water range [kn].
+    horizon_h : float
+        Latest time checked [h after departure] (within the weather's span).
+    lanes, dt_h, speed_step_kn
+        The sampling: offsets across the corridor, time step [h], speed step [kn].
+    """
+    n = frame.n_legs
+    speeds = np.unique(np.append(np.arange(v_min_kn, v_max_kn, speed_step_kn), v_max_kn))
+    times = np.arange(0.0, max(horizon_h, 0.0) + 1e-9, dt_h)
+    for k in range(n + 1):
+        ys = np.linspace(float(y_lo_nm[k]), float(y_hi_nm[k]), lanes if y_hi_nm[k] > y_lo_nm[k] else 1)
+        pts = np.array([frame.waypoints(np.full(n + 1, y))[k] for y in ys])
+        j = min(k, n - 1)
+        nxt = np.array([frame.waypoints(np.full(n + 1, y))[j + 1] for y in ys])
+        prv = np.array([frame.waypoints(np.full(n + 1, y))[j] for y in ys])
+        course = gc_points(prv[:, 0], prv[:, 1], nxt[:, 0], nxt[:, 1], np.full(ys.size, 1.0 if k == n else 0.0))[2]
+        shape = (ys.size, times.size, speeds.size)
+        lat = np.broadcast_to(pts[:, 0, None, None], shape).ravel()
+        lon = np.broadcast_to(pts[:, 1, None, None], shape).ravel()
+        crs = np.broadcast_to(course[:, None, None], shape).ravel()
+        t_h = np.broadcast_to(times[None, :, None], shape).ravel()
+        v = np.broadcast_to(speeds[None, None, :], shape).ravel()
+        when = t0 + (t_h * _NS_PER_H).astype("timedelta64[ns]")
+        sea, covered = sample_sea(ctx.sampler, when, lat, lon)
+        heading, _, power, _, allowed = evaluate_speeds(ctx.ship, ctx.model, ctx.rules, crs, sea, v)
+        allowed &= covered
+        heading = np.where(np.isfinite(heading), heading, crs)
+        if not allowed.any() and covered.any() and not _any_window(ctx, sea, heading, v, power, covered, speeds.size):
+            centre = frame.waypoints(np.zeros(n + 1))[k]
+            return BlockedSection(
+                float(frame.s_nm[k]), float(centre[0]), float(centre[1]), 0.0, float(times[-1]), float(speeds[0]),
+                float(speeds[-1]),
+            )  # fmt: skip
+    return None
+
+
+def _any_window(ctx: PlanContext, sea, heading, v, power, covered, k: int) -> bool:
+    """Whether some point of a cross-section has an allowed speed between the ladder's rungs.
+
+    Exact per point: the speeds the load range allows (power is increasing in the speed: above the
+    highest rung under the minimum load and below the lowest rung over MCR) less the closed band
+    intervals of :func:`optroute.physics.safety.forbidden_speed_intervals`.
+    """
+    from optroute.physics.safety import forbidden_speed_intervals, merged_intervals
+
+    pw = np.where(np.isfinite(power), power, np.inf).reshape(-1, k)
+    v2 = v.reshape(-1, k)
+    pmin, mcr = float(ctx.model.min_power_kw), float(ctx.model.mcr_kw)
+    for i in np.flatnonzero(covered.reshape(-1, k)[:, 0]):
+        j = i * k
+        if not (np.isfinite(sea.hs_m[j]) and np.isfinite(sea.period_s[j]) and np.isfinite(sea.wave_from_deg[j])):
+            continue
+        low = v2[i][pw[i] < pmin]
+        high = v2[i][pw[i] > mcr]
+        lo = float(low.max()) if low.size else float(v2[i][0])
+        hi = float(high.min()) if high.size else float(v2[i][-1])
+        if hi <= lo:
+            continue
+        bands = merged_intervals(
+            forbidden_speed_intervals(
+                ctx.ship, hs_m=float(sea.hs_m[j]), period_s=float(sea.period_s[j]),
+                wave_from_deg=float(sea.wave_from_deg[j]), heading_deg=float(heading[j]), rules=ctx.rules,
+            )
+        )  # fmt: skip
+        free = [(lo, hi)]
+        for b_lo, b_hi in bands:
+            free = [(a, min(b, b_lo)) for a, b in free if a < b_lo] + [(max(a, b_hi), b) for a, b in free if b > b_hi]
+        if any(b - a > 1e-9 for a, b in free):
+            return True
+    return False

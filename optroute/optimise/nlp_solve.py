@@ -75,7 +75,9 @@ class Solved:
     """One solve with the band outer loop.
 
     ``n_solves`` and ``iterations`` count every Ipopt call of the outer loop and all their
-    iterations; ``sides_settled`` is False when the side search stopped on its budget of solves.
+    iterations; ``sides_settled`` is False when the side search stopped on its budget of solves;
+    ``mended_legs`` counts the legs whose speed was moved after the solve to bring the engine back into
+    its range where the referee found it out (:func:`optroute.optimise.starts.repaired_plan`).
     """
 
     res: NLPResult
@@ -86,6 +88,7 @@ class Solved:
     nlp: SpeedNLP
     iterations: int = 0
     sides_settled: bool = True
+    mended_legs: int = 0  # legs whose speed the referee's engine-range check moved (starts.repaired_plan)
 
 
 # --------------------------------------------------------------------------- the problem
@@ -123,9 +126,26 @@ class Problem:
         self.builds = 0
         self.solves = 0  # every Ipopt call of every solve (outer loop included)
         self.iterations = 0  # and all their iterations
+        self.solve_time_s = 0.0  # and all their Ipopt time [s]
         self._cache: dict[tuple[Any, ...], tuple[SpeedNLP, tuple[str, ...]]] = {}
 
     trial_max_iter = 150
+
+    def _count(self, res: NLPResult) -> None:
+        """Count one Ipopt call: its iterations and its wall-clock time [s] (every solve, the side flips' too)."""
+        self.solves += 1
+        self.iterations += int(res.iterations)
+        self.solve_time_s += float(res.solve_time_s)
+
+    def absorb_counts(self, other: Problem) -> None:
+        """Add the builds and solves of ``other`` (a problem made for this one, e.g. on a longer grid) to these."""
+        if other is self:
+            return
+        self.builds += other.builds
+        self.build_time_s += other.build_time_s
+        self.solves += other.solves
+        self.iterations += other.iterations
+        self.solve_time_s += other.solve_time_s
 
     def bounds(self, st: Tightening) -> tuple[np.ndarray, np.ndarray]:
         """Lateral bounds [nm]: the tightening's (moved off land) or the prepared ones, shrunk about their middle."""
@@ -241,7 +261,7 @@ class Problem:
         if nlp.n_bands == 0:
             res = nlp.solve(**kwargs)
             ok = bool(res.success and res.max_violation <= VIOLATION_TOL)
-            self.solves, self.iterations = self.solves + 1, self.iterations + int(res.iterations)
+            self._count(res)
             return Solved(res, ok, 1, 0, [res.objective] if ok else [], nlp, iterations=int(res.iterations))
         state = nlp.evaluate(y0, v0, t0)
         sides, applies = nlp.default_sides(state)
@@ -260,7 +280,7 @@ class Problem:
         def counted(s: np.ndarray, a: np.ndarray) -> InnerOutcome:
             out = inner(s, a)
             iterations[0] += int(out.payload.iterations)  # every solve's iterations, not only the best one's
-            self.solves, self.iterations = self.solves + 1, self.iterations + int(out.payload.iterations)
+            self._count(out.payload)
             return out
 
         out = improve_sides(counted, sides, applies, flippable=flippable, groups=nlp_groups(shape), max_solves=budget)

@@ -42,8 +42,20 @@ from optroute.search.route import Route
 from optroute.units import h_to_timedelta as _h_to_td
 from optroute.weather.sample import WeatherSampler
 
+__all__ = [
+    "LIMIT_STATUSES",
+    "certificate_reason",
+    "feasible_iterate",
+    "first_failure",
+    "longer_horizon",
+    "plan_warm_start",
+    "route_plan",
+    "tighten",
+    "to_plan",
+]
 
-def _plan_warm_start(plan: Plan, frame: CorridorFrame) -> dict[str, np.ndarray]:
+
+def plan_warm_start(plan: Plan, frame: CorridorFrame) -> dict[str, np.ndarray]:
     """Warm start from a previous plan: its offsets across the centreline [nm, port +] and leg speeds [kn]."""
     wp, stw = np.asarray(plan.waypoints, dtype=float), np.asarray(plan.stw_kn, dtype=float)
     centre = frame.corridor.waypoints
@@ -58,9 +70,14 @@ def _plan_warm_start(plan: Plan, frame: CorridorFrame) -> dict[str, np.ndarray]:
     return {"offset_nm": np.where(dist > 1e-9, -starboard, 0.0), "stw_kn": stw}
 
 
-def _certificate_reason(
+def certificate_reason(
     fixed: bool, samples: Any, res: NLPResult, exclusion: Exclusion | None, objective: str
 ) -> str | None:
+    """Why the NLP model's own dual bound (:func:`optroute.optimise.nlp_solve.certificate`) does not apply, or None.
+
+    It applies on a fixed path (``fixed``) in static weather without current, bands, exclusion circle, for
+    the fuel or cost objective; ``samples`` is the weather grid's summary, ``res`` the solve.
+    """
     if not fixed:
         return "the path is free (half-width > 0)"
     if not samples.static:
@@ -84,7 +101,8 @@ def _score(plan: Plan, objective: str, fuel_price: float, hourly: float) -> floa
     return fuel_price * plan.total_fuel_t + hourly * plan.duration_h
 
 
-def _to_plan(ctx: PlanContext, frame: CorridorFrame, res: NLPResult, t0: np.datetime64, *, step_nm: float) -> Plan:
+def to_plan(ctx: PlanContext, frame: CorridorFrame, res: NLPResult, t0: np.datetime64, *, step_nm: float) -> Plan:
+    """The plan of an NLP solution: its waypoints and leg speeds [kn] sailed from ``t0`` [UTC], scored by the referee."""
     return _to_plan_xy(ctx, frame, res.offset_nm, res.stw_kn, t0, step_nm=step_nm)
 
 
@@ -128,7 +146,7 @@ def _move_off(st: Tightening, v: Violation, plan: Plan, res: NLPResult) -> bool:
     return True
 
 
-def _tighten(st: Tightening, violations: list[Violation], plan: Plan, res: NLPResult) -> None:
+def tighten(st: Tightening, violations: list[Violation], plan: Plan, res: NLPResult) -> None:
     """Change the problem where the verification found it wrong (see the module docstring)."""
     kinds = {v.kind.split(":")[0] for v in violations}
     for v in violations:
@@ -169,7 +187,7 @@ def _tighten(st: Tightening, violations: list[Violation], plan: Plan, res: NLPRe
     st.log.append(f"retry {st.retries}: " + ", ".join(sorted({v.kind for v in violations})))
 
 
-def _route_plan(route: Route | None, ctx: PlanContext, step_nm: float) -> Plan | None:
+def route_plan(route: Route | None, ctx: PlanContext, step_nm: float) -> Plan | None:
     """The search route as a plan (one speed per leg), when it passes verification."""
     if route is None:
         return None
@@ -265,7 +283,7 @@ def _minimum_time(
     return None
 
 
-def _longer(
+def longer_horizon(
     prob: Problem, st: Tightening, sampler: WeatherSampler, data_end_h: float, horizon_h: float
 ) -> tuple[Problem, SpeedNLP]:
     """The problem on a weather grid long enough for a minimum-time passage that misses the ETA.
@@ -304,12 +322,10 @@ def _longer(
 
 
 #: Ipopt statuses that stop at a limit rather than at a verdict: the last iterate may still be feasible.
-_LIMIT_STATUSES = frozenset({"Maximum_Iterations_Exceeded", "Maximum_CpuTime_Exceeded", "Maximum_WallTime_Exceeded"})
+LIMIT_STATUSES = frozenset({"Maximum_Iterations_Exceeded", "Maximum_CpuTime_Exceeded", "Maximum_WallTime_Exceeded"})
 
 
-def _feasible_iterate(
-    res: NLPResult, ctx: PlanContext, frame: CorridorFrame, t0: np.datetime64, step_nm: float
-) -> bool:
+def feasible_iterate(res: NLPResult, ctx: PlanContext, frame: CorridorFrame, t0: np.datetime64, step_nm: float) -> bool:
     """Ipopt hit a limit at an iterate clear of every band whose plan is usable.
 
     Usable: within Ipopt's constraint tolerance, or else its plan — recomputed with the true model, times
@@ -318,14 +334,14 @@ def _feasible_iterate(
     does not use) until its iteration limit; the independent verification, not Ipopt's tolerance, is what a
     returned plan must pass.
     """
-    if res.status not in _LIMIT_STATUSES or np.any(res.samples.inside):
+    if res.status not in LIMIT_STATUSES or np.any(res.samples.inside):
         return False
     if res.max_violation <= VIOLATION_TOL:
         return True
-    return not _to_plan(ctx, frame, res, t0, step_nm=step_nm).verify(step_nm=step_nm)
+    return not to_plan(ctx, frame, res, t0, step_nm=step_nm).verify(step_nm=step_nm)
 
 
-def _first_failure(
+def first_failure(
     prob: Problem,
     nlp: SpeedNLP,
     sol: Solved,
@@ -356,7 +372,7 @@ def _first_failure(
     * it fails from every start: :class:`SolverFailure` with the first solve's Ipopt status and the
       best verified plan known (the search route's, the safe warm start's, the timed passage's).
     """
-    if _feasible_iterate(sol.res, ctx, prob.frame, t0, step_nm):
+    if feasible_iterate(sol.res, ctx, prob.frame, t0, step_nm):
         log.append(
             f"kept Ipopt's last iterate ({sol.res.status}, largest violation {sol.res.max_violation:.2g}): "
             "its plan passes verification; a feasible, not optimal, solution"
@@ -388,6 +404,7 @@ def _first_failure(
                 budget=budget,
                 **{**solve_kw, "objective": "time"},
             )
+            prob.absorb_counts(p_long)  # its build and solve are this call's too (solver_stats counts every solve)
             log.append(f"minimum time on a grid to {float(p_long.grid.t_h[-1]):.1f} h: Ipopt {again.res.status}")
             if again.ok:
                 fast = again
@@ -423,7 +440,7 @@ def _first_failure(
         status = again.res.status
         candidates.insert(0, again)
     for cand in candidates:
-        if _feasible_iterate(cand.res, ctx, prob.frame, t0, step_nm):
+        if feasible_iterate(cand.res, ctx, prob.frame, t0, step_nm):
             # Ipopt stopped on its iteration or time limit at a point that satisfies every constraint: a
             # usable, not an optimal, solution. It goes through verify() like any other; the plan's status
             # is "feasible" and solver_stats keeps Ipopt's status verbatim.
@@ -488,13 +505,13 @@ def _best_known_plan(
 
     if fast is not None:
         try:
-            plan = _to_plan(ctx, frame, fast.res, t0, step_nm=step_nm)
+            plan = to_plan(ctx, frame, fast.res, t0, step_nm=step_nm)
             if not plan.verify(step_nm=step_nm):
                 return replace(plan, status="minimum time")
         except OptrouteError:  # a fallback plan is optional; the failure being reported is what matters
             pass
     candidates: list[Callable[[], Plan | None]] = [
-        lambda: _route_plan(route, ctx, step_nm),
+        lambda: route_plan(route, ctx, step_nm),
         lambda: own(safe["stw_kn"], safe["offset_nm"], "safe warm start"),
     ]
     candidates += [lambda p=p: own(p.stw_kn, p.offset_nm, "timed safe start") for p in (passages or [])]

@@ -13,7 +13,9 @@ scores the NLP's plan), and never returns a plan worse than the best verified on
 * ``"centreline start"`` — the NLP's own safe start on the centreline
   (:func:`optroute.optimise.min_time.clean_start`).
 
-Each candidate becomes a warm start on the NLP's legs — its lateral offsets at the corridor's
+A discrete candidate (a search route, the 3-D DP) is checked by its search at its own points only; where
+the referee finds the engine outside its range between them, its speeds are mended leg by leg
+(:func:`repaired_plan`) before it is scored. Each candidate becomes a warm start on the NLP's legs — its lateral offsets at the corridor's
 waypoints (its track projected on the centreline) and, for every NLP leg, the speed of the leg it
 sails there — so the NLP starts on the band sides the candidate keeps. Its plan is scored on its
 own waypoints: that is the plan a user would get from it.
@@ -34,7 +36,23 @@ from optroute.optimise.nlp_inputs import CorridorFrame
 from optroute.plan.result import Plan, PlanContext
 from optroute.search.route import Route
 
-__all__ = ["Candidate", "dp_route", "great_circle_corridor", "score", "track_warm_start", "verified_plan"]
+__all__ = [
+    "ENGINE_KINDS",
+    "Candidate",
+    "dp_route",
+    "great_circle_corridor",
+    "repaired_plan",
+    "score",
+    "track_warm_start",
+    "verified_plan",
+]
+
+#: The violations :func:`repaired_plan` mends: the engine's range, by the leg's speed alone.
+ENGINE_KINDS = ("power_below_min", "power_above_mcr")
+#: Rounds of :func:`repaired_plan` (each one evaluation and verification by the referee).
+REPAIR_ROUNDS = 12
+#: Smallest speed move of a repair round [kn].
+REPAIR_STEP_KN = 0.05
 
 
 @dataclass(frozen=True)
@@ -91,6 +109,66 @@ def verified_plan(
     except OptrouteError:  # a candidate that cannot even be evaluated is no start
         return None
     return plan if not plan.verify(step_nm=step_nm) else None
+
+
+def repaired_plan(
+    ctx: PlanContext,
+    waypoints: np.ndarray,
+    stw_kn: np.ndarray,
+    departure: np.datetime64,
+    step_nm: float,
+    status: str,
+    *,
+    v_min_kn: float,
+    v_max_kn: float,
+) -> tuple[Plan | None, int]:
+    """The plan of a track and speeds, its engine-range violations mended leg by leg; None if it cannot be.
+
+    A discrete plan (the 3-D DP's, a search route's) is checked by its own search at its own points;
+    the referee (:meth:`Plan.verify`) checks every ``step_nm`` and at both ends of every leg, and can
+    find the engine below its minimum power (or above the MCR) at a point the search never looked at
+    (the storm crossing of ``benchmarks/bench_nlp.py``: the 3-D DP's plan is 2 % under the minimum power
+    at the start of one leg and 14 % under it at the end of another, in following seas). Where the
+    referee finds only such violations, the leg's speed through water moves by the propeller law
+    toward the limit it broke, ``V ← V (P_limit / P_found)^{1/3}`` (at least :data:`REPAIR_STEP_KN`,
+    0.2 % beyond the limit; brake power rises with speed, physics.md §8), and the plan is evaluated
+    and verified again, at most :data:`REPAIR_ROUNDS` times. Any other violation (a band, the ETA, the
+    schedule, land) is not mended here: None. Speeds stay within ``[v_min_kn, v_max_kn]``.
+
+    Returns
+    -------
+    plan : Plan or None
+        The verified plan (the given one when it verifies as it is), else None.
+    legs_changed : int
+        Legs whose speed was moved.
+    """
+    stw = np.asarray(stw_kn, dtype=float).copy()
+    if not np.all(np.isfinite(stw) & (stw > 0)):
+        return None, 0
+    moved: set[int] = set()
+    for _ in range(REPAIR_ROUNDS + 1):
+        try:
+            plan = Plan.from_context(
+                ctx, np.asarray(waypoints, dtype=float), stw, departure=departure, status=status, step_nm=step_nm
+            )
+        except OptrouteError:  # a candidate that cannot even be evaluated is no start
+            return None, len(moved)
+        found = plan.verify(step_nm=step_nm)
+        if not found:
+            return plan, len(moved)
+        if any(v.kind not in ENGINE_KINDS for v in found):
+            return None, len(moved)
+        before = stw.copy()
+        for v in found:
+            ratio = (v.limit / max(v.value, 1e-9)) ** (1.0 / 3.0) if np.isfinite(v.value) else 0.9
+            up = v.kind == "power_below_min"
+            target = stw[v.leg] * ratio * (1.002 if up else 0.998)
+            step = max(abs(target - stw[v.leg]), REPAIR_STEP_KN)
+            stw[v.leg] = float(np.clip(stw[v.leg] + (step if up else -step), v_min_kn, v_max_kn))
+            moved.add(int(v.leg))
+        if np.array_equal(stw, before):  # held at a speed bound: nothing left to move
+            return None, len(moved)
+    return None, len(moved)
 
 
 def track_warm_start(waypoints: np.ndarray, stw_kn: np.ndarray, frame: CorridorFrame) -> dict[str, np.ndarray]:

@@ -52,6 +52,7 @@ from optroute.geo.tracks import Exclusion, gc_points, project_to_polyline
 from optroute.physics.performance import PerformanceModel, default_model
 from optroute.physics.safety import BandRules, band_margins, is_speed_forbidden
 from optroute.physics.ship import Ship
+from optroute.plan.checkpoints import BAND_TOL_NM, CheckPoints, check_points
 from optroute.plan.evaluate import PlanContext, Violation, evaluate_track, legs_table
 from optroute.search.route import Corridor
 from optroute.units import as_utc_time as _as_time
@@ -60,7 +61,16 @@ from optroute.units import timedelta_to_h as _td_to_h
 from optroute.weather.sample import WeatherSampler
 from optroute.weather.schema import VARIABLES
 
-__all__ = ["LEG_COLUMNS", "Exclusion", "Plan", "PlanContext", "Violation", "gc_points", "project_to_polyline"]
+__all__ = [
+    "LEG_COLUMNS",
+    "Exclusion",
+    "Plan",
+    "PlanContext",
+    "Verification",
+    "Violation",
+    "gc_points",
+    "project_to_polyline",
+]
 
 #: Columns of :attr:`Plan.legs`, in order (followed by ``margin_<band>`` for every band of
 #: :data:`optroute.physics.safety.BANDS`).
@@ -93,6 +103,23 @@ def _as_sampler(weather: xr.Dataset | WeatherSampler) -> tuple[WeatherSampler, x
 
 
 # --------------------------------------------------------------------------- the plan
+
+
+class Verification(list):
+    """What :meth:`Plan.verify` found: a list of :class:`Violation` (empty when the plan is clean).
+
+    Attributes
+    ----------
+    tol_nm : float
+        Every stretch of a leg longer than this [nm] inside a danger band was found.
+    points : CheckPoints
+        The points checked (:func:`optroute.plan.checkpoints.check_points`).
+    """
+
+    def __init__(self, violations: list[Violation], *, tol_nm: float, points: CheckPoints) -> None:
+        super().__init__(violations)
+        self.tol_nm = float(tol_nm)
+        self.points = points
 
 
 @dataclass(frozen=True, eq=False)
@@ -343,14 +370,22 @@ class Plan:
         corridor_tol_nm: float = 0.01,
         eta: Any = None,
         eta_mode: str | None = None,
-    ) -> list[Violation]:
+        tol_nm: float = BAND_TOL_NM,
+    ) -> Verification:
         """Re-check every constraint on a dense resampling, independently of the optimiser.
+
+        The checks are made at the referee's check points (:func:`optroute.plan.checkpoints.check_points`):
+        both ends of every leg, every piece midpoint of the dense evaluation, points at most 1 nm
+        apart, both sides of every change of the weather's interpolation cell (grid row, column, time
+        slice) and, halved adaptively, wherever a band's ratio or Hs nears the band's edge or
+        threshold or the wave direction turns fast: **every stretch of a leg longer than**
+        ``tol_nm`` **(0.1 nm by default) inside a danger band is found**; a shorter one may be.
 
         Parameters
         ----------
         step_nm : float
-            Longest piece of the resampling [nm]; the checks are made at every piece midpoint and
-            at both ends of every leg. Land is also checked every
+            Longest piece of the dense evaluation [nm] (the schedule's timing inside each leg; its
+            midpoints are check points too). Land is also checked every
             :data:`optroute.geo.land.DEFAULT_LEG_RESOLUTION_NM` (0.5 nm, about one GLOBE cell) along the legs.
         time_tol_h : float
             Tolerance of the ETA and of the schedule [h] (default one minute).
@@ -360,15 +395,19 @@ class Plan:
             Tolerance of the corridor's half-width [nm].
         eta, eta_mode : optional
             Override the plan's ETA requirement (default: the context's).
+        tol_nm : float
+            Band stretches longer than this are found [nm] (:data:`optroute.plan.checkpoints.BAND_TOL_NM`).
 
         Returns
         -------
-        list of Violation
-            The worst point of every (kind, leg) that breaks a constraint; empty when the plan is clean.
+        Verification
+            A list of :class:`Violation`, the worst point of every (kind, leg) that breaks a constraint;
+            empty (``== []``) when the plan is clean; ``tol_nm`` and ``points`` say where it looked.
         """
         ctx = self.context
         step = float(finite("step_nm", step_nm, minimum=0.0, strict=True, error=ConfigError))
         tol_h = float(finite("time_tol_h", time_tol_h, minimum=0.0, error=ConfigError))
+        tol_nm = float(finite("tol_nm", tol_nm, minimum=0.0, strict=True, error=ConfigError))
         eta_t = _as_time(eta, "eta") if eta is not None else ctx.eta
         mode = eta_mode or ctx.eta_mode
         if mode not in ("le", "eq"):
@@ -377,48 +416,51 @@ class Plan:
         sched = _td_to_h(self.times - t0)
         stw = self.stw_kn
         ev = evaluate_track(ctx, self.waypoints, stw, t0, sched, step)
+        wp = np.asarray(self.waypoints, dtype=float)
+        d = geo.distance_nm(wp[:-1, 0], wp[:-1, 1], wp[1:, 0], wp[1:, 1])
+        pts = check_points(ctx, wp, stw, t0, d, ev, tol_nm=tol_nm)
         found: dict[tuple[str, int], tuple[float, Violation]] = {}
 
         def report(kind: str, mask: np.ndarray, value: np.ndarray, limit: Any, badness: np.ndarray) -> None:
             limit = np.broadcast_to(np.asarray(limit, dtype=float), mask.shape)
             for i in np.flatnonzero(mask):
-                key = (kind, int(ev.leg[i]))
+                key = (kind, int(pts.leg[i]))
                 if key not in found or badness[i] > found[key][0]:
-                    when = t0 + _h_to_td(ev.time_h[i])
+                    when = t0 + _h_to_td(pts.time_h[i])
                     v = Violation(
-                        kind, key[1], (float(ev.lat[i]), float(ev.lon[i])), when, float(value[i]), float(limit[i])
+                        kind, key[1], (float(pts.lat[i]), float(pts.lon[i])), when, float(value[i]), float(limit[i])
                     )
                     found[key] = (float(badness[i]), v)
 
-        sea = ev.sea
-        nav = sea.navigable & ev.covered
-        ones = np.ones(ev.leg.shape)
-        report("weather_coverage", ~ev.covered, ones, 0.0, ones)
-        report("no_passage", ev.covered & ~sea.navigable, ones, 0.0, ones)
+        sea = pts.sea
+        nav = sea.navigable & pts.covered
+        ones = np.ones(pts.leg.shape)
+        report("weather_coverage", ~pts.covered, ones, 0.0, ones)
+        report("no_passage", pts.covered & ~sea.navigable, ones, 0.0, ones)
         if ctx.land_mask_applies:
-            on_land = land.is_land(ev.lat, ev.lon)
+            on_land = land.is_land(pts.lat, pts.lon)
             report("land", on_land, ones, 0.0, ones)
             self._land_between(found, step, sched)
-        held = np.isfinite(ev.heading)
+        held = np.isfinite(pts.heading)
         report("course", nav & ~held, ones, 0.0, ones)
         ok = nav & held
         mcr, pmin = float(ctx.model.mcr_kw), float(ctx.model.min_power_kw)
-        p = np.where(np.isfinite(ev.power), ev.power, np.inf)
+        p = np.where(np.isfinite(pts.power), pts.power, np.inf)
         high = ok & (p > mcr * (1.0 + power_rtol))
         report("power_above_mcr", high, p, mcr, np.where(np.isfinite(p), p, 1e300))
         low = ok & (p < pmin * (1.0 - power_rtol))
         report("power_below_min", low, p, pmin, pmin - p)
-        heading = np.where(held, ev.heading, ev.course)
+        heading = np.where(held, pts.heading, pts.course)
         hs = np.where(nav, sea.hs_m, 0.0)
         per = np.where(nav, sea.period_s, 1.0)
         wfrom = np.where(nav, sea.wave_from_deg, 0.0)
         margins = band_margins(
-            ctx.ship, speed_kn=ev.stw, hs_m=hs, period_s=per, wave_from_deg=wfrom, heading_deg=heading, rules=ctx.rules
+            ctx.ship, speed_kn=pts.stw, hs_m=hs, period_s=per, wave_from_deg=wfrom, heading_deg=heading, rules=ctx.rules
         )
         for band in ctx.rules.enabled_bands:
             hit = ok & is_speed_forbidden(
                 ctx.ship,
-                speed_kn=ev.stw,
+                speed_kn=pts.stw,
                 hs_m=hs,
                 period_s=per,
                 wave_from_deg=wfrom,
@@ -432,14 +474,14 @@ class Plan:
             report(f"band:{band}", hit, bm.ratio, edge, -np.asarray(bm.margin, dtype=float))
         if ctx.corridor is not None:
             cw = ctx.corridor.waypoints
-            s, _, dist, _ = project_to_polyline(cw, ev.lat, ev.lon)
+            s, _, dist, _ = project_to_polyline(cw, pts.lat, pts.lon)
             hw = np.interp(s, ctx.corridor.along_track_nm, ctx.corridor.half_width_nm)
             out = dist > hw + corridor_tol_nm
             report("corridor", out, dist, hw, dist - hw)
         if ctx.exclusion is not None:
-            when = t0 + _h_to_td(ev.time_h)
+            when = t0 + _h_to_td(pts.time_h)
             clat, clon, rad = ctx.exclusion.at(when)
-            dist = geo.distance_nm(ev.lat, ev.lon, clat, clon)
+            dist = geo.distance_nm(pts.lat, pts.lon, clat, clon)
             inside = dist < rad
             report("exclusion", inside, dist, rad, rad - dist)
         # schedule: the planned times against the times the planned speeds give
@@ -461,7 +503,8 @@ class Plan:
                 leg = self.waypoints.shape[0] - 2
                 v = Violation("eta", leg, tuple(float(x) for x in self.waypoints[-1]), self.arrival, late, tol_h)
                 found[("eta", leg)] = (abs(late), v)
-        return [v for _, v in sorted(found.values(), key=lambda item: (item[1].leg, item[1].kind))]
+        listed = [v for _, v in sorted(found.values(), key=lambda item: (item[1].leg, item[1].kind))]
+        return Verification(listed, tol_nm=pts.tol_nm, points=pts)
 
     # ------------------------------------------------------------------ export
     def to_geojson(self) -> dict[str, Any]:

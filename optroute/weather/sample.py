@@ -397,6 +397,41 @@ class WeatherSampler:
         inside_xy, inside_t, _ = self._inside(t, la, lo)
         return (inside_xy & inside_t).reshape(shape)
 
+    def grid_coordinates(self, time: ArrayLike, lat: ArrayLike, lon: ArrayLike) -> np.ndarray:
+        """Continuous grid coordinates of points: (time, lat, lon) index of the stencil's lower corner plus its weight.
+
+        The integer part is the interpolation cell: inside one cell the sampled fields are one
+        trilinear polynomial of (time, lat, lon); where it changes along a track the interpolated
+        weather changes regime (the referee checks there, :mod:`optroute.plan.checkpoints`).
+
+        Parameters
+        ----------
+        time : array_like of datetime64
+            Times [UTC].
+        lat, lon : array_like
+            Positions [deg north, deg east, any longitude convention].
+
+        Returns
+        -------
+        ndarray of float, shape (..., 3)
+            ``[time, lat, lon]`` coordinates (0 at the first node, 1 at the second...); NaN in every
+            column outside the area or (under ``"raise"``) the time span; under ``"hold"`` a time
+            before the span is −0.5 and after it ``n_time − 0.5`` (the held slice is a regime of its own).
+        """
+        shape, t, la, lo = self._inputs(time, lat, lon)
+        inside_xy, inside_t, lonu = self._inside(t, la, lo)
+        ti, tw = self._time.locate(np.clip(t, self._time.start, self._time.stop))
+        ft = np.where(t < self._time.start, -0.5, np.where(t > self._time.stop, self._time.n - 0.5, ti + tw))
+        yi, yw = self._lat.locate(np.clip(la, self._lat.start, self._lat.stop))
+        if self.periodic:
+            fx = np.clip((lonu - self._lon.start) / self._lon.step, 0.0, float(self._lon.n))
+        else:
+            xi, xw = self._lon.locate(np.clip(lonu, self._lon.start, self._lon.stop))
+            fx = xi + xw
+        out = np.stack([ft, yi + yw, fx], axis=-1).astype(float)
+        out[~(inside_xy & inside_t)] = np.nan
+        return out.reshape((*shape, 3))
+
     def area_text(self) -> str:
         """The dataset's area in words: ``lat 25 to 37 deg N, lon -155 to -135 deg E``."""
         lon_lo, lon_hi = self._lon.start, self._lon.stop
