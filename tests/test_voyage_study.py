@@ -98,7 +98,7 @@ def test_front_is_bit_identical_serial_run_to_run_and_on_two_workers(cluster):
     ser = tradeoff(CORRIDOR, wx, SHIP, **kw)
     again = tradeoff(CORRIDOR, wx, SHIP, **kw)  # the prepared corridor is this process's, kept from the first
     par = tradeoff(CORRIDOR, wx, SHIP, scheduler_address=cluster.scheduler_address, **kw)
-    assert list(ser.status.values) == ["optimal"] * 5
+    assert np.isfinite(ser.fuel_t.values).all() and ser.attrs["risen_points"] == 0  # a plan at every ETA
     for other in (again, par):
         assert set(other.data_vars) == set(ser.data_vars)
         for name in ser.data_vars:
