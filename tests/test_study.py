@@ -11,6 +11,7 @@ workers can import them.  Every address used is on 127.0.0.1.
 from __future__ import annotations
 
 import functools
+import io
 import json
 import os
 import signal
@@ -750,3 +751,52 @@ def test_digests_follow_content_not_identity_and_are_the_same_in_another_process
     )
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == digest(ship)  # a store resumed by another process recognises its inputs
+
+
+# --------------------------------------------------------------------------- scale: a loopback scheduler, a progress bar
+
+
+def test_text_progress_bar_by_hand():
+    from optroute.studies.progress import TextProgress
+
+    out = io.StringIO()  # not a terminal: one line per call with every_s=0
+    bar = TextProgress("study", stream=out, width=10, every_s=0.0)
+    for done in (0, 2, 4):
+        bar(done, 4)
+    lines = out.getvalue().splitlines()
+    assert lines[0] == "study 0/4 [..........]   0%"
+    assert lines[1].startswith("study 2/4 [#####.....]  50% ") and "cases/min" in lines[1] and "left" in lines[1]
+    assert lines[2].startswith("study 4/4 [##########] 100% ") and "left" not in lines[2]
+    quiet = io.StringIO()
+    bar = TextProgress(stream=quiet, every_s=3600.0)
+    for done in range(5):
+        bar(done, 4)
+    assert bar.lines == 2  # the first and the last line only, within the hour
+    with pytest.raises(ConfigError, match="width=0"):
+        TextProgress(width=0)
+
+
+def test_study_on_a_loopback_scheduler_with_a_progress_bar_resumes_without_recomputing(tmp_path, capsys):
+    distributed = pytest.importorskip("distributed")
+    axes = {"ship": list(SHIP_K), "distance_nm": DISTANCE_NM, "eta_h": [150.0 + 10.0 * i for i in range(10)]}
+    total = 3 * 2 * 10
+    log = tmp_path / "log.txt"
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=None
+    ) as cluster:
+        assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
+        fn = functools.partial(fuel_case, log=str(log))
+        ds = run_study(axes, fn, tmp_path / "s", scheduler_address=cluster.scheduler_address, progress=True)
+        err = capsys.readouterr().err
+        assert f"study {total}/{total} [" in err and "100%" in err
+        again = run_study(axes, fn, tmp_path / "s", scheduler_address=cluster.scheduler_address, progress=True)
+        err = capsys.readouterr().err
+    assert f"study {total}/{total} [" in err  # all stored: the bar starts full
+    assert sum(log_counts(log).values()) == total  # every case computed once, none again on resume
+    k = np.array(list(SHIP_K.values()))[:, None, None]
+    d = np.array(DISTANCE_NM)[None, :, None]
+    eta = np.array(axes["eta_h"])[None, None, :]
+    np.testing.assert_allclose(
+        ds.fuel_t.values, np.where(d / eta > MAX_SPEED_KN, np.nan, k * d**3 / eta**2), rtol=1e-15
+    )
+    xr.testing.assert_identical(again, ds)

@@ -34,6 +34,7 @@ from tests.test_optimise import LinearSeaModel, _static_linear_sea
 # the module, not the function orx.tradeoff that shadows it as an attribute of the package
 tradeoff_mod = importlib.import_module("optroute.studies.tradeoff")
 SHIP = orx.Ship.preset("container_54k_dwt")
+SMALL_SHIP = SHIP.replace(name="small_feeder", mcr_kw=20000.0)
 T0 = np.datetime64("2024-01-10T00:00", "ns")
 KW = {"max_leg_nm": 150.0, "use_land_mask": False}
 
@@ -128,31 +129,58 @@ def test_infeasible_etas_are_reported_per_point_not_dropped(calm_front):
     assert np.isnan(front.fuel_t.values[0]) and np.isnan(front.leg_fuel_t.values[0]).all()
 
 
-def test_a_rising_point_is_resolved_from_its_neighbours_else_flagged(monkeypatch):
+def test_a_rising_point_keeps_the_earlier_plan_beside_its_own_solve_and_is_counted(monkeypatch):
     real = tradeoff_mod._solve_point
-    calls = {"spoil": 0}
+    solved = []
 
-    def spoiled(spec, eta_h, kind, warm, route=None, *, always=False):
+    def spoiled(spec, eta_h, kind, warm, route=None):
         p = real(spec, eta_h, kind, warm, route)
-        if kind == "eta" and eta_h == 35.0 and (always or calls["spoil"] == 0):
-            calls["spoil"] += 1
+        solved.append((kind, eta_h))
+        if kind == "eta" and eta_h == 35.0:  # planted: the 35 h solve ends above the 30 h point's fuel
             p = tradeoff_mod._replace(p, totals={**p.totals, "fuel_t": 1e6})
         return p
 
     monkeypatch.setattr(tradeoff_mod, "_solve_point", spoiled)
     front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, etas=[30.0, 35.0, 40.0], **KW)
-    assert front.attrs["monotonicity_resolves"] >= 1
-    assert list(front.status.values) == ["optimal"] * 3
-    assert front.fuel_t.values[1] == pytest.approx(_by_hand_fuel(35.0), rel=1e-5)
-
-    monkeypatch.setattr(tradeoff_mod, "_solve_point", lambda *a, **k: spoiled(*a, **k, always=True))
-    front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, etas=[30.0, 35.0, 40.0], **KW)
-    # every solve at 35 h rises: arriving by 35 h may arrive at 30 h, so the 30 h plan serves it
+    # one solve per point: nothing is solved again
+    assert sorted(h for k, h in solved if k == "eta") == [30.0, 35.0, 40.0]
+    assert front.attrs["risen_points"] == front.risen_points == 1
+    assert front.attrs["monotonicity_resolves"] == 0
+    # arriving by 35 h may arrive at 30 h, so the 30 h plan serves it; its own solve is reported beside it
     assert "the plan of the earlier ETA 30 h" in str(front.status.values[1])
+    assert "ended 1e+06 t" in str(front.status.values[1])
+    assert front.own_fuel_t.values[1] == 1e6
     assert front.fuel_t.values[1] == front.fuel_t.values[0] == pytest.approx(_by_hand_fuel(30.0), rel=1e-5)
     assert front.duration_h.values[1] == front.duration_h.values[0] <= 30.0 + 1e-6
     assert front.eta_h.values[1] == 35.0
-    assert front.attrs["monotonicity_resolves"] == 3  # from the left and the right neighbour, and cold
+    np.testing.assert_array_equal(front.own_fuel_t.values[[0, 2]], front.fuel_t.values[[0, 2]])
+    assert front.fuel_t.values[2] == pytest.approx(_by_hand_fuel(40.0), rel=1e-5)
+
+
+def test_one_solve_per_point_and_the_slow_neighbour_sped_up_to_arrive_by_the_next_eta(calm_front):
+    interior = calm_front.solve.values == "eta"
+    assert calm_front.attrs["risen_points"] == 0 and calm_front.attrs["monotonicity_resolves"] == 0
+    assert (calm_front.nlp_solves.values[interior] >= 1).all()
+    # the warm start of the next (earlier) ETA: the 40 h plan's speeds times 40/35, arriving by 35 h on the
+    # same path in calm water, where the time of a leg is its distance over its speed (by hand)
+    legs = CORRIDOR.resample(150.0)
+    stw = np.array([14.0, 16.0, 15.0, 15.5, 14.5])
+    stw = stw * (legs.leg_distance_nm / stw).sum() / 40.0  # arrives at 40 h
+    later = tradeoff_mod._Point(
+        40.0, "eta", "optimal", totals={"duration_h": 40.0}, carry=tradeoff_mod._Warm(legs.waypoints, stw)
+    )
+    sped = tradeoff_mod._retimed(later, 35.0)
+    np.testing.assert_allclose(sped.stw_kn, stw * 40.0 / 35.0 * (1 + 1e-6), rtol=1e-15)
+    arrival = float((legs.leg_distance_nm / sped.stw_kn).sum())
+    assert 35.0 * (1 - 2e-6) < arrival <= 35.0
+    assert tradeoff_mod._retimed(later, 45.0) is later.carry  # a later ETA: the plan arrives by it as it is
+
+
+def test_chains_split_by_eta_alone_descending_from_the_slow_end():
+    split = tradeoff_mod._split
+    assert split([1.0, 2.0, 3.0, 4.0, 5.0], 2, True) == [[3.0, 2.0, 1.0], [5.0, 4.0]]
+    assert split([1.0, 2.0, 3.0], 2, False) == [[1.0, 2.0], [3.0]]
+    assert split([1.0, 2.0], 4, True) == [[1.0], [2.0]]  # never an empty chain
 
 
 def test_a_failed_minimum_time_solve_starts_the_front_from_the_fastest_verified_plan(monkeypatch):
@@ -264,6 +292,9 @@ def test_a_front_on_a_prepared_corridor_is_monotone_and_prepares_once(monkeypatc
     interior = front.eta_h.values[front.solve.values == "eta"]
     assert interior.size >= 2
     assert made == [T0 + np.timedelta64(int(interior.max()), "h")]  # prepared once, for the latest ETA solved
-    assert tradeoff_mod._PREPARED == {}  # the front's prepared corridor is not kept after it
+    # kept for the next front of the same inputs (a study's): keyed by their fingerprint, which another ship changes
+    token = tradeoff_mod._token(corridor, wx, SHIP, T0, "fuel", kw)
+    assert (token, float(interior.max())) in tradeoff_mod._PREPARED
+    assert tradeoff_mod._token(corridor, wx, SMALL_SHIP, T0, "fuel", kw) != token
     ref = optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(80, "h"), **kw)
     assert fuel[1] == pytest.approx(ref.total_fuel_t, rel=1e-6)

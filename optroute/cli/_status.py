@@ -51,8 +51,8 @@ def explain_status(status: str, *, ipopt_status: str | None = None, objective: s
     if key == "optimal":
         if "earlier ETA" in str(status):
             return (
-                "this ETA's own solves burnt more fuel than an earlier ETA's plan, which also arrives in time, "
-                "so that verified plan is kept: the front never rises"
+                "this ETA's own solve burnt more fuel than an earlier ETA's plan, which also arrives in time, "
+                "so that verified plan is kept (the own solve's fuel is own_fuel_t): the front never rises"
             )
         return (
             "Ipopt converged to a local optimum for the chosen side of each danger band, and the plan verifies "

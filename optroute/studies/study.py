@@ -71,6 +71,7 @@ from optroute.studies.cluster import (
     import_distributed,
 )
 from optroute.studies.fingerprint import CaseInput
+from optroute.studies.progress import TextProgress
 
 __all__ = [
     "SYNCHRONOUS",
@@ -464,7 +465,7 @@ def run_study(
     scheduler_address: str | None = None,
     n_workers: int | None = None,
     threads_per_worker: int = 1,
-    progress: ProgressCallback | None = None,
+    progress: ProgressCallback | bool | str | None = None,
     resume: bool = True,
     timeout_s: float = 10,
     retry_failed: bool = False,
@@ -514,7 +515,9 @@ def run_study(
     progress : callable, optional
         ``progress(done, total)``, called in this process once at the start
         (``done`` counting the cases already stored) and after each case is
-        stored, failed cases included.  ``None`` is silent.
+        stored, failed cases included.  ``True`` (or ``"bar"``) draws a text bar with the rate
+        and the time left on standard error (:class:`optroute.studies.progress.TextProgress`).
+        ``None`` is silent.
     resume : bool
         ``True`` (default): keep the cases already in ``store`` and compute
         only the others; the axes must match the store's manifest.
@@ -592,8 +595,13 @@ def run_study(
     store = Path(store)
     if not callable(case_fn):
         raise ConfigError(f"case_fn={case_fn!r} is not callable; pass a function taking a dict of axis values")
+    if progress is True or progress == "bar":
+        progress = TextProgress("study")
     if progress is not None and not callable(progress):
-        raise ConfigError(f"progress={progress!r} is not callable; pass a function (done, total) -> None, or None")
+        raise ConfigError(
+            f"progress={progress!r} is not callable; pass a function (done, total) -> None, True (a text bar on "
+            "standard error) or None"
+        )
     if (
         isinstance(timeout_s, bool)
         or not isinstance(timeout_s, numbers.Real)

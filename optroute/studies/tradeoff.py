@@ -28,43 +28,50 @@ a solve, one at the earliest arrival or at or after the slow-steaming limit
 solved (past the weather, Ipopt failing) gets its reason as its status.  No
 ETA is ever dropped.
 
+The continuation
+----------------
+The ETAs between the two ends are swept from the slow-steaming end, where the problem is
+easiest (loads far from the engine's limits), towards the fast one: each point's
+:meth:`~optroute.optimise.corridor_problem.PreparedCorridor.solve` starts from its later
+neighbour's plan sped up to arrive by its own ETA (speeds through the water times
+``arrival / ETA``), which the optimiser takes as Ipopt's start when the referee accepts it (the
+optimiser's own start otherwise).  One solve per point; only a point whose solve failed is
+solved once more, from the optimiser's own start (``attrs["monotonicity_resolves"]``).  The
+primal solution only: the optimiser's public interface (``warm_plan``) carries no multipliers.
+
 Monotonicity
 ------------
-Arriving by an ETA is allowed to arrive earlier (``eta_mode="le"``), so with
-the fuel objective the true front never rises with a later ETA.  A point
-whose fuel is above that of an earlier point (relative tolerance
-``monotone_rtol``), or whose solve failed, is solved again warm-started from
-each neighbour's solution and once from the optimiser's own start, keeping
-the least fuel; if it still rises (the NLP is a local search on a model that is only
-piecewise smooth), the point takes the earlier point's verified plan, which arrives by this ETA too, and its
-status says so (``"optimal; the plan of the earlier ETA …"``): the front never rises.  With ``objective="cost"``
-(fuel and time both priced) a later ETA may legitimately cost more fuel, so
-nothing is re-solved.
+Arriving by an ETA is allowed to arrive earlier (``eta_mode="le"``), so with the fuel objective
+the true front never rises with a later ETA.  A point whose own solve ends above the fuel of an
+earlier ETA's point (relative tolerance ``monotone_rtol``; the NLP is a local search on a model
+that is only piecewise smooth) takes that earlier point's verified plan, which arrives by its ETA
+too; its own solve's fuel stays beside it (``own_fuel_t``), its status says so (``"optimal; the
+plan of the earlier ETA …"``), and the number of such points is ``front.risen_points``
+(``attrs["risen_points"]``).  Nothing is solved again for it.  With ``objective="cost"`` (fuel
+and time both priced) a later ETA may legitimately cost more fuel, so no point is replaced.
 
-Parallel fronts
----------------
-With ``n_workers >= 2`` (a :class:`distributed.LocalCluster` on the loopback
-interface, for this call) or ``scheduler_address=`` (an existing Dask
-cluster: the address its ``dask scheduler`` printed, e.g.
-``"tcp://10.0.0.5:8786"``; the workers need optroute installed), the two
-end solves run side by side, then the ETAs between them are split into one
-contiguous chain per worker, each chain warm-started along itself — the
-first from the minimum-time plan (ascending), the last from the
-slow-steaming plan (descending), any middle ones from the minimum-time plan.
-Each point is a Dask task depending on its predecessor in the chain, pinned
-to the chain's worker.  The results equal the serial ones within the
-solver's tolerance (the warm starts differ, not the problems).
+Chains, workers and determinism
+-------------------------------
+The ETAs between the ends are cut into ``chains`` contiguous chains (default 4), by ETA alone:
+serial, the chains run one after the other; with ``n_workers >= 2`` (a
+:class:`distributed.LocalCluster` on the loopback interface, for this call) or
+``scheduler_address=`` (an existing Dask cluster: the address its ``dask scheduler`` printed,
+e.g. ``"tcp://10.0.0.5:8786"``; the workers need optroute installed) the two end solves run side
+by side and each chain is one Dask task, its points streamed back as it finishes.  Every chain
+starts from the slow-steaming plan whatever ran it, and Ipopt's BLAS runs one thread in every
+process (:mod:`optroute.studies.threads`), so the front is the same to the last bit serial, on
+a cluster and run to run (``runtime_s`` aside).
 
-Set-up once per front
----------------------
-The points between the two ends are solved on one
-:class:`~optroute.optimise.corridor_problem.PreparedCorridor` per process (this one
-when serial, each Dask worker's), prepared for the latest of them: the
-weather grid with the ship's power table, lateral bounds and the CasADi build are made once,
-and each point costs only its solves (the ETA and the load limits are solve
-parameters).  Each point starts from the
-untightened problem, as :func:`optroute.optimise_corridor` would, so a point
-does not depend on the chain it was solved in.
+Set-up once per process
+-----------------------
+The points between the ends are solved on one
+:class:`~optroute.optimise.corridor_problem.PreparedCorridor` per process (this one when serial,
+each Dask worker's), prepared for the latest of them: the weather grid with the ship's power
+table, lateral bounds and the CasADi build are made once.  It is kept in the process, keyed by
+the fingerprint of the front's inputs (:mod:`optroute.studies.fingerprint`) and that ETA, for
+the next chain and the next front of the same inputs (the two most recent are kept).  Each point
+starts from the untightened problem, as :func:`optroute.optimise_corridor` would, so a point does
+not depend on what was solved before it in the process.
 """
 
 from __future__ import annotations
@@ -96,6 +103,8 @@ from optroute.physics.ship import Ship
 from optroute.plan.result import Plan
 from optroute.plot.front import knee_index
 from optroute.search.route import Corridor
+from optroute.studies import fingerprint
+from optroute.studies.threads import pin_solver_threads
 from optroute.units import as_utc_time, format_utc, h_to_timedelta, timedelta_to_h
 from optroute.weather.sample import WeatherSampler
 
@@ -133,6 +142,11 @@ class TradeoffFront(xr.Dataset):
             raise ConfigError(f"TradeoffFront.from_dataset takes an xarray.Dataset, got {type(ds).__name__}")
         out = cls(data_vars=ds.data_vars, coords=ds.coords, attrs=ds.attrs)
         return out
+
+    @property
+    def risen_points(self) -> int:
+        """Points whose own solve ended above an earlier ETA's fuel and which took that ETA's plan (target 0)."""
+        return int(self.attrs.get("risen_points", 0))
 
     def plot(self, *, title: str | None = None) -> Figure:  # type: ignore[override]
         """Fuel [t] against ETA [h after departure], the knee and the ETA shadow price marked.
@@ -200,6 +214,9 @@ class _Point:
     times_h: np.ndarray | None = None
     legs: Mapping[str, np.ndarray] | None = None
     carry: _Warm | None = None  # the warm start for the next point of a chain
+    nlp_solves: int = 0  # Ipopt calls of the point's solve (band outer loop and verification re-solves included)
+    warm_start: str = ""  # the candidate Ipopt started from ("warm plan", "centreline start", ...)
+    own_fuel_t: float | None = None  # a risen point's own solve's fuel [t] (its plan is an earlier ETA's)
 
     @property
     def ok(self) -> bool:
@@ -230,6 +247,8 @@ def _from_plan(plan: Plan, eta_h: float, kind: str, runtime_s: float) -> _Point:
         status=plan.status,
         runtime_s=runtime_s,
         iterations=int(plan.solver_stats.get("iterations", 0)),
+        nlp_solves=int(plan.solver_stats.get("nlp_solves", 0)),
+        warm_start=str(plan.solver_stats.get("warm_start", "")),
         totals=totals,
         waypoints=wp,
         times_h=times_h,
@@ -240,8 +259,9 @@ def _from_plan(plan: Plan, eta_h: float, kind: str, runtime_s: float) -> _Point:
 
 def _solve_point(spec: _Spec, eta_h: float | None, kind: str, warm: _Point | _Warm | None, route: Any = None) -> _Point:
     """One solve; an unreachable ETA or a solver failure becomes the point's status, not an exception."""
+    pin_solver_threads()  # one BLAS thread for Ipopt, in this process as on a Dask worker: the same rounding
     started = _time.perf_counter()
-    carry = warm.carry if isinstance(warm, _Point) else warm
+    carry = _retimed(warm, eta_h) if kind == "eta" else warm.carry if isinstance(warm, _Point) else warm
     objective = "time" if kind == "minimum_time" else spec.objective if kind == "eta" else "fuel"
     eta = None if eta_h is None else spec.departure + h_to_timedelta(eta_h)
     try:
@@ -303,7 +323,36 @@ def _solve_point(spec: _Spec, eta_h: float | None, kind: str, warm: _Point | _Wa
     return _from_plan(plan, arrival_h if eta_h is None else eta_h, kind, _time.perf_counter() - started)
 
 
-#: Prepared corridors of this process (a Dask worker's too), by front and latest ETA; the oldest is dropped.
+def _retimed(warm: _Point | _Warm | None, eta_h: float | None) -> _Warm | None:
+    """A later ETA's plan sped up to arrive by ``eta_h``: the continuation's start from the slow side.
+
+    The optimiser starts Ipopt from a warm plan only when the referee accepts that plan for the new
+    ETA; a neighbour that arrives later never is.  Its speeds through the water scaled by
+    ``arrival / eta_h`` (plus 1e-6) arrive by ``eta_h`` wherever the speed over ground is the speed
+    through the water (no current); where the faster plan breaks the engine's limits or a danger
+    band, the referee refuses it and the optimiser starts from its own candidates, as cold.
+    """
+    if not isinstance(warm, _Point):
+        return warm
+    carry = warm.carry
+    arrival_h = warm.totals.get("duration_h", math.nan)
+    if carry is None or eta_h is None or not math.isfinite(arrival_h) or arrival_h <= eta_h:
+        return carry
+    return _Warm(carry.waypoints, np.asarray(carry.stw_kn, dtype=float) * (arrival_h / eta_h * (1.0 + 1e-6)))
+
+
+def _solve_chain(spec: _Spec, etas: Sequence[float], warm: _Point | None, cold: bool) -> list[_Point]:
+    """One chain of ETAs, each point started from the one before (the chain's first from ``warm``)."""
+    out = []
+    for eta_h in etas:
+        p = _solve_point(spec, eta_h, "eta", None if cold else warm)
+        warm = p if p.ok else warm
+        out.append(p)
+    return out
+
+
+#: Prepared corridors of this process (a Dask worker's too), by the inputs' fingerprint and latest ETA, least
+#: recently used first: a worker keeps them between chains and between fronts of the same inputs (a study's).
 _PREPARED: dict[tuple[str, float], tuple[PreparedCorridor, threading.Lock]] = {}
 _PREPARED_KEEP = 2
 _PREPARING = threading.Lock()
@@ -314,7 +363,7 @@ def _prepared(spec: _Spec) -> tuple[PreparedCorridor, threading.Lock]:
     latest = float(spec.latest_eta_h)  # type: ignore[arg-type]
     key = (spec.token, latest)
     with _PREPARING:
-        hit = _PREPARED.get(key)
+        hit = _PREPARED.pop(key, None)
         if hit is None:
             prepared = PreparedCorridor(
                 spec.corridor,
@@ -325,16 +374,23 @@ def _prepared(spec: _Spec) -> tuple[PreparedCorridor, threading.Lock]:
                 objective=spec.objective,  # type: ignore[arg-type]
                 **spec.kwargs,
             )
-            hit = _PREPARED[key] = (prepared, threading.Lock())
-            while len(_PREPARED) > _PREPARED_KEEP:
-                _PREPARED.pop(next(iter(_PREPARED)))
+            hit = (prepared, threading.Lock())
+        _PREPARED[key] = hit  # most recently used last
+        while len(_PREPARED) > _PREPARED_KEEP:
+            _PREPARED.pop(next(iter(_PREPARED)))
     return hit
 
 
-def _forget(spec: _Spec) -> None:
-    """Drop this front's prepared corridors from this process's cache."""
-    for key in [k for k in _PREPARED if k[0] == spec.token]:
-        _PREPARED.pop(key, None)
+def _token(corridor: Corridor, weather: Any, ship: Ship, t0: np.datetime64, objective: str, kwargs: Any) -> str:
+    """The fingerprint of a front's inputs (:mod:`optroute.studies.fingerprint`): the key of its prepared corridor.
+
+    Inputs without a canonical form (an object that does not pickle) get a fresh random key: their front
+    prepares its corridor again rather than risk another front's.
+    """
+    try:
+        return fingerprint.digest(("front", corridor, weather, ship, str(t0), objective, dict(kwargs)))
+    except ConfigError:
+        return uuid.uuid4().hex
 
 
 def _failure_text(exc: SolverFailure) -> str:
@@ -407,21 +463,22 @@ class _Serial:
         slow = _solve_point(spec, None, "slow_steaming", None) if need_slow else None
         return fast, slow
 
+    def resolve(self, spec: _Spec, eta_h: float, starts: list[_Point | None]) -> list[_Point]:
+        return [_solve_point(spec, eta_h, "eta", w) for w in starts]
+
     def chains(
         self, spec: _Spec, chains: list[tuple[list[float], _Point | None]], cold: bool, report: Callable[[_Point], None]
     ) -> list[_Point]:
         out = []
         for etas, warm in chains:
-            for eta_h in etas:
-                p = _solve_point(spec, eta_h, "eta", None if cold else warm)
-                warm = p if p.ok else warm
+            for p in _solve_chain(spec, etas, warm, cold):
                 out.append(p)
                 report(p)
         return out
 
 
 class _Distributed:
-    """Runs the end solves side by side and one chain per worker on a Dask cluster."""
+    """Runs the end solves side by side and each chain as one task on a Dask cluster."""
 
     def __init__(self, client: Any, spec: _Spec) -> None:
         self.client = client
@@ -447,44 +504,28 @@ class _Distributed:
     ) -> list[_Point]:
         from distributed import as_completed
 
-        # the spec now names the chains' latest ETA: each worker prepares the corridor once for it
+        # the spec now names the chains' latest ETA: each worker prepares the corridor once for it (and keeps it)
         shipped = self._shipped = self.client.scatter(spec, broadcast=True, hash=False)
-        futures = []
-        for c, (etas, warm) in enumerate(chains):
-            where = [self.workers[c % len(self.workers)]]
-            prev: Any = None if cold else warm
-            for eta_h in etas:
-                fut = self.client.submit(
-                    _solve_point,
-                    shipped,
-                    eta_h,
-                    "eta",
-                    None if cold else prev,
-                    pure=False,
-                    workers=where,
-                    allow_other_workers=True,
-                )
-                futures.append(fut)
-                prev = fut
+        # one task per chain (a chain's points run one after the other anyway): few, long tasks, streamed back
+        futures = [self.client.submit(_solve_chain, shipped, etas, warm, cold, pure=False) for etas, warm in chains]
         out = []
         for fut in as_completed(futures, loop=self.client.loop):
-            p = fut.result()
-            out.append(p)
-            report(p)
+            for p in fut.result():
+                out.append(p)
+                report(p)
+            fut.release()
         return out
 
 
-def _split(etas: list[float], k: int, has_slow: bool) -> list[tuple[list[float], str]]:
-    """Contiguous chains: the first ascending from the fast end, the last descending from the slow end."""
+def _split(etas: list[float], k: int, from_slow: bool) -> list[list[float]]:
+    """``k`` contiguous chains of the ETAs, each in solving order: descending from the slow end with ``from_slow``.
+
+    The chains depend on the ETAs and ``k`` alone, never on the workers: the front is the same serial and
+    on any cluster.
+    """
     k = max(1, min(k, len(etas)))
-    parts = [list(a) for a in np.array_split(np.asarray(etas), k)]
-    out = []
-    for c, part in enumerate(parts):
-        if c == k - 1 and k > 1 and has_slow:
-            out.append((part[::-1], "slow"))
-        else:
-            out.append((part, "fast"))
-    return out
+    parts = [[float(h) for h in a] for a in np.array_split(np.asarray(etas, dtype=float), k)]
+    return [part[::-1] if from_slow else part for part in parts]
 
 
 # --------------------------------------------------------------------------- public API
@@ -503,6 +544,7 @@ def tradeoff(
     n_workers: int | None = None,
     scheduler_address: str | None = None,
     warm_start: bool = True,
+    chains: int = 4,
     monotone_rtol: float = 1e-6,
     corridor_width_nm: float = 60.0,
     search_options: Mapping[str, Any] | None = None,
@@ -542,6 +584,11 @@ def tradeoff(
     warm_start : bool
         Warm-start each point from its neighbour (default).  ``False`` solves every ETA from the
         optimiser's own start (for benchmarks).
+    chains : int
+        The warm-start chains the ETAs between the two ends are split into (contiguous, each swept from
+        its slow end).  The front depends on this number and never on the workers: it is the same,
+        to the last bit, serial and on any cluster.  A cluster runs the chains side by side, so give at
+        least as many as workers.
     monotone_rtol : float
         Relative tolerance of the monotonicity check [-].
     corridor_width_nm, search_options
@@ -562,14 +609,17 @@ def tradeoff(
         ``eta_shadow_price_t_per_h`` (−dF/dETA of the solve's ETA constraint [t/h]; NaN at the two
         end solves, which have none), ``status`` (``"optimal"``/``"feasible"``, ``"infeasible:
         earliest arrival …"``, ``"infeasible: <reason>"``, ``"solver failure: <Ipopt status>"``,
-        with ``"; the plan of the earlier ETA …"`` appended when its own solves rose above an earlier point
-        and that point's plan, arriving earlier, serves it), ``solve``
-        (``"minimum_time"``, ``"slow_steaming"`` or ``"eta"``), ``runtime_s`` [s] and
-        ``iterations`` (Ipopt) of the point; the plans on ``(eta, waypoint)`` —
+        with ``"; the plan of the earlier ETA …"`` appended when its own solve rose above an earlier point
+        and that point's plan, arriving earlier, serves it), ``own_fuel_t`` [t] (the point's own
+        solve's fuel: above ``fuel_t`` where it rose), ``solve`` (``"minimum_time"``,
+        ``"slow_steaming"`` or ``"eta"``), ``runtime_s`` [s], ``iterations`` (Ipopt),
+        ``nlp_solves`` (Ipopt calls of the point's solve: band outer loop and verification re-solves)
+        and ``warm_start`` (the candidate Ipopt started from, e.g. ``"warm plan"``) of the point; the plans on ``(eta, waypoint)`` —
         ``waypoint_lat_deg``, ``waypoint_lon_deg``, ``waypoint_time_h`` [h after departure] — and
         on ``(eta, leg)`` — ``leg_<v>`` for ``v`` in :data:`LEG_VARIABLES` — NaN where a point has
         no plan.  ``attrs``: departure, objective, ship, earliest arrival and slow-steaming limit
-        [h], the knee's ETA [h], the monotonicity re-solves.  Writes with ``front.to_netcdf(path)``.
+        [h], the knee's ETA [h], ``monotonicity_resolves`` (failed points solved again),
+        ``risen_points`` (also ``front.risen_points``), ``chains``.  Writes with ``front.to_netcdf(path)``.
 
     Raises
     ------
@@ -600,6 +650,8 @@ def tradeoff(
             f"n_workers={n_workers} applies to a local cluster; with scheduler_address="
             f"{scheduler_address!r} the cluster's own workers are used: drop n_workers"
         )
+    if isinstance(chains, bool) or not isinstance(chains, numbers.Integral) or chains < 1:
+        raise ConfigError(f"chains={chains!r} must be an integer >= 1 (the warm-start chains the ETAs are split into)")
     if not (isinstance(monotone_rtol, numbers.Real) and 0.0 <= monotone_rtol < 1.0):
         raise ConfigError(f"monotone_rtol={monotone_rtol!r} must be a number in [0, 1)")
     if not isinstance(ship, Ship):
@@ -608,14 +660,23 @@ def tradeoff(
         corridor_or_endpoints, weather, ship, departure, optimise_kwargs, corridor_width_nm, search_options
     )
     user_h = _eta_hours(etas, t0) if etas is not None else None
-    spec = _Spec(corridor, weather, ship, t0, objective, dict(optimise_kwargs), token=uuid.uuid4().hex)
+    spec = _Spec(
+        corridor,
+        weather,
+        ship,
+        t0,
+        objective,
+        dict(optimise_kwargs),
+        token=_token(corridor, weather, ship, t0, objective, optimise_kwargs),
+    )
     parallel = scheduler_address is not None or (n_workers or 0) >= 2
     if parallel:
         from optroute.studies.cluster import dask_client
 
         with dask_client(scheduler_address, int(n_workers or 0), 1, timeout_s) as client:
-            return _front(spec, route, user_h, n, progress, _Distributed(client, spec), warm_start, monotone_rtol)
-    return _front(spec, route, user_h, n, progress, _Serial(), warm_start, monotone_rtol)
+            runner: _Serial | _Distributed = _Distributed(client, spec)
+            return _front(spec, route, user_h, n, progress, runner, warm_start, monotone_rtol, int(chains))
+    return _front(spec, route, user_h, n, progress, _Serial(), warm_start, monotone_rtol, int(chains))
 
 
 def _front(
@@ -627,6 +688,7 @@ def _front(
     runner: _Serial | _Distributed,
     warm_start: bool,
     rtol: float,
+    n_chains: int,
 ) -> TradeoffFront:
     need_slow = user_h is None or spec.objective == "fuel"
     fast, slow = runner.ends(spec, route, need_slow)
@@ -666,10 +728,7 @@ def _front(
             todo.append(h)
     if todo:  # the points between the ends are solved on one corridor prepared per process for the latest
         spec = _replace(spec, latest_eta_h=max(todo))
-    try:
-        return _rest(spec, grid, done, todo, t_min, t_slow, slow, fast, progress, runner, warm_start, rtol)
-    finally:
-        _forget(spec)
+    return _rest(spec, grid, done, todo, t_min, t_slow, slow, fast, progress, runner, warm_start, rtol, n_chains)
 
 
 def _rest(
@@ -685,6 +744,7 @@ def _rest(
     runner: _Serial | _Distributed,
     warm_start: bool,
     rtol: float,
+    n_chains: int,
 ) -> TradeoffFront:
     """The chains between the ends, the monotonicity re-solves and the dataset."""
     total = grid.size
@@ -698,16 +758,15 @@ def _rest(
         if progress is not None:
             progress(count, total)
 
-    n_chains = len(runner.workers) if isinstance(runner, _Distributed) else 1
-    chains = [
-        (etas, slow if end == "slow" else fast)
-        for etas, end in _split(todo, n_chains, slow is not None and spec.objective == "fuel")
-    ]
+    # the continuation: from the slow-steaming end (its plan, sped up, starts each chain) towards the fast one
+    from_slow = slow is not None and spec.objective == "fuel"
+    chains = [(etas, slow if from_slow else fast) for etas in _split(todo, n_chains, from_slow)]
     for p in runner.chains(spec, chains, not warm_start, report):
         done[p.eta_h] = p
     points = [done[h] for h in grid.tolist()]
-    resolves = _monotone(spec, points, rtol, runner) if spec.objective == "fuel" else 0
-    return _dataset(spec, points, t_min, t_slow, resolves)
+    resolves = _resolve_failed(spec, points, runner)
+    risen = _monotone(points, rtol) if spec.objective == "fuel" else 0
+    return _dataset(spec, points, t_min, t_slow, resolves, risen, n_chains)
 
 
 def _replace(p: Any, **changes: Any) -> Any:
@@ -716,46 +775,53 @@ def _replace(p: Any, **changes: Any) -> Any:
     return replace(p, **changes)
 
 
-def _monotone(spec: _Spec, points: list[_Point], rtol: float, runner: _Serial | _Distributed | None = None) -> int:
-    """Re-solve rising or failed points from each neighbour's solution; flag those that still rise."""
-    resolves = 0
+def _resolve_failed(spec: _Spec, points: list[_Point], runner: _Serial | _Distributed) -> int:
+    """Solve each point whose chain solve failed once more, from the optimiser's own start; the re-solves made."""
+    failed = [
+        i
+        for i, p in enumerate(points)
+        if p.kind == "eta" and not p.ok and not p.status.startswith("infeasible: earliest")
+    ]
+    for i in failed:
+        (q,) = runner.resolve(spec, points[i].eta_h, [None])
+        points[i] = _replace(q, runtime_s=points[i].runtime_s + q.runtime_s) if q.ok else points[i]
+    return len(failed)
+
+
+def _monotone(points: list[_Point], rtol: float) -> int:
+    """Points whose own solve ended above an earlier ETA's fuel take that plan; their number.
+
+    Arriving by an ETA may arrive earlier (``eta_mode="le"``), so the earlier ETA's verified plan serves
+    the later one with less fuel.  The point's own solve stays beside it: its fuel in ``own_fuel_t``, its
+    status saying so.  Nothing is solved again.
+    """
+    risen = 0
     best_before = math.inf
     best_point: _Point | None = None
     for i, p in enumerate(points):
-        eligible = p.kind == "eta" and not p.status.startswith("infeasible: earliest")
-        rises = p.ok and p.fuel_t > best_before * (1.0 + rtol)
-        if eligible and (rises or not p.ok):
-            left = next((q for q in reversed(points[:i]) if q.ok), None)
-            right = next((q for q in points[i + 1 :] if q.ok), None)
-            # each neighbour's solution, then the optimiser's own start (side by side on a cluster)
-            starts = [None if nb == "cold" else nb for nb in (left, right, "cold") if nb is not None]
-            resolves += len(starts)
-            if isinstance(runner, _Distributed):
-                tried = runner.resolve(spec, p.eta_h, starts)
-            else:
-                tried = [_solve_point(spec, p.eta_h, "eta", w) for w in starts]
-            for q in tried:
-                if q.ok and (not p.ok or q.fuel_t < p.fuel_t):
-                    p = _replace(q, runtime_s=p.runtime_s + q.runtime_s)
-            points[i] = p
         if p.ok and p.fuel_t > best_before * (1.0 + rtol) and best_point is not None:
-            # arriving by this ETA may arrive earlier: the earlier ETA's verified plan serves it with less fuel
+            risen += 1
             points[i] = p = _replace(
                 best_point,
                 eta_h=p.eta_h,
                 kind=p.kind,
                 runtime_s=p.runtime_s,
+                iterations=p.iterations,
+                nlp_solves=p.nlp_solves,
+                warm_start=p.warm_start,
                 carry=p.carry,
+                own_fuel_t=p.fuel_t,
                 status=f"{best_point.status}; the plan of the earlier ETA {best_point.eta_h:.6g} h (arrives earlier): "
-                f"this ETA's own solves, from both neighbours and cold, ended {p.fuel_t:.6g} t, above its "
-                f"{best_before:.6g} t",
+                f"this ETA's own solve ({p.status}) ended {p.fuel_t:.6g} t, above its {best_before:.6g} t",
             )
         if p.ok and p.fuel_t < best_before:
             best_before, best_point = p.fuel_t, p
-    return resolves
+    return risen
 
 
-def _dataset(spec: _Spec, points: list[_Point], t_min: float, t_slow: float, resolves: int) -> TradeoffFront:
+def _dataset(
+    spec: _Spec, points: list[_Point], t_min: float, t_slow: float, resolves: int, risen: int, n_chains: int
+) -> TradeoffFront:
     eta_h = np.array([p.eta_h for p in points], dtype=float)
     n_wp = max((p.waypoints.shape[0] for p in points if p.waypoints is not None), default=0)
     n_leg = max(n_wp - 1, 0)
@@ -786,6 +852,17 @@ def _dataset(spec: _Spec, points: list[_Point], t_min: float, t_slow: float, res
         "solve": ("eta", np.array([p.kind for p in points], dtype=str)),
         "runtime_s": ("eta", np.array([p.runtime_s for p in points], dtype=float), {"units": "s"}),
         "iterations": ("eta", np.array([p.iterations for p in points], dtype=np.int64)),
+        "nlp_solves": (
+            "eta",
+            np.array([p.nlp_solves for p in points], dtype=np.int64),
+            {"long_name": "Ipopt calls of the point's solve (band outer loop and verification re-solves)"},
+        ),
+        "warm_start": ("eta", np.array([p.warm_start for p in points], dtype=str)),
+        "own_fuel_t": (
+            "eta",
+            np.array([p.fuel_t if p.own_fuel_t is None else p.own_fuel_t for p in points], dtype=float),
+            {"units": "t", "long_name": "fuel of the point's own solve (above fuel_t where it rose)"},
+        ),
         "waypoint_lat_deg": (
             ("eta", "waypoint"),
             padded(lambda p: None if p.waypoints is None else p.waypoints[:, 0], n_wp),
@@ -819,6 +896,8 @@ def _dataset(spec: _Spec, points: list[_Point], t_min: float, t_slow: float, res
         "the end of the weather, whichever binds first",
         "knee_eta_h": float(eta_h[ok][knee]) if knee is not None else "none",
         "monotonicity_resolves": int(resolves),
+        "risen_points": int(risen),
+        "chains": int(n_chains),
         "conventions": "eta UTC; eta_h, waypoint_time_h hours after departure; lat/lon deg; heading deg true (to)",
     }
     return TradeoffFront(data, coords={"eta": etas, "eta_h": ("eta", eta_h, {"units": "h"})}, attrs=attrs)

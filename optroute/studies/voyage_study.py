@@ -323,7 +323,7 @@ def study(
     objective: str = "fuel",
     scheduler_address: str | None = None,
     n_workers: int | None = None,
-    progress: ProgressCallback | None = None,
+    progress: ProgressCallback | bool | str | None = None,
     corridor_width_nm: float = 60.0,
     search_options: Mapping[str, Any] | None = None,
     resume: bool = True,
