@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 import optroute as orx
 from optroute import geodesy as geo
-from optroute.errors import ConfigError
+from optroute.errors import ConfigError, NoSafePassage
 from optroute.physics.passage import SeaState, evaluate_speeds
 from optroute.physics.performance import KwonModel
 from optroute.physics.pointwise import least_cost_per_nm, point_params
@@ -98,7 +98,12 @@ def test_fuel_bound_keeps_astar_at_dijkstras_label(grid, seed, lam, method):
     cb = ph.segment_cheapest(SPEEDS, lam, None)
     nb = compass(16)
     kw = dict(segment_cost=cb, objective="cost", lambda_t_per_h=lam, v_max_kn=17.0)
-    bare = shortest_path(grid, nb, method="dijkstra", **kw)  # weight λ / v_max only (0 for fuel)
+    try:
+        bare = shortest_path(grid, nb, method="dijkstra", **kw)  # weight λ / v_max only (0 for fuel)
+    except NoSafePassage:  # a sea that closes the grid: the floor must not open a route either
+        with pytest.raises(NoSafePassage):
+            shortest_path(grid, nb, method=method, cost_floor_per_nm=_floor(lam, 1.0), **kw)
+        return
     fast = shortest_path(grid, nb, method=method, cost_floor_per_nm=_floor(lam, 1.0), **kw)
     assert fast.cost <= bare.cost + 1e-9 * bare.cost
     assert fast.cost == pytest.approx(bare.cost, rel=1e-12)
