@@ -26,6 +26,8 @@ Run ``python -m benchmarks.bench_cyclone [--quick]`` or ``python -m benchmarks -
 
 from __future__ import annotations
 
+import math
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -35,12 +37,17 @@ import numpy as np
 
 import optroute as orx
 from benchmarks._cli import bench_main
+from benchmarks._cyclone_suite import KINDS, CrossingCase, brute_force, suite
+from benchmarks._cyclone_suite import SEED as SUITE_SEED
+from benchmarks._cyclone_suite import b_deck as suite_b_deck
+from benchmarks._cyclone_suite import weather as suite_weather
+from benchmarks._measure import FAILED, UNVERIFIED, Outcome, compare, comparison_lines
 from optroute import errors
 from optroute.geo.encounter import encounter, risk_degree
 from optroute.geo.tracks import Exclusion
 from optroute.voyage.apf import apf_avoidance, sail_track
-from optroute.weather.cyclone import Cyclone, holland_vmax_ms, straight_track, tropical_cyclone
-from optroute.weather.cyclone_tracks import CycloneTrack, read_atcf, write_atcf
+from optroute.weather.cyclone import Cyclone, straight_track, tropical_cyclone
+from optroute.weather.cyclone_tracks import CycloneTrack
 
 SHIP = orx.Ship.preset("general_cargo_25k_dwt")
 T0 = np.datetime64("2022-10-12T18:00", "ns")
@@ -73,17 +80,7 @@ def nesat_like(quick: bool) -> tuple[Any, Cyclone]:
 
 def b_deck(cyc: Cyclone, path: Path) -> CycloneTrack:
     """The typhoon as an ATCF b-deck (pressure, VMAX, RMW, POCI 1010 hPa; no radii) and read back."""
-    tr = np.asarray(cyc.track)
-    n = tr.shape[0]
-    vmax_kn = 0.8 * holland_vmax_ms(DP_HPA, HOLLAND_B) * 3600.0 / 1852.0
-    track = CycloneTrack(
-        time=T0 + (tr[:, 0] * 3600).astype("timedelta64[s]"),
-        lat_deg=tr[:, 1], lon_deg=tr[:, 2], vmax_kn=np.full(n, vmax_kn), pressure_hpa=np.full(n, 1010.0 - DP_HPA),
-        r34_nm=np.full((n, 4), np.nan), r50_nm=np.full((n, 4), np.nan), r64_nm=np.full((n, 4), np.nan),
-        rmax_nm=np.full(n, RMAX_KM / 1.852), env_pressure_hpa=np.full(n, 1010.0), lead_h=np.zeros(n), name="NESAT-LIKE",
-    )  # fmt: skip
-    write_atcf(track, path)
-    return read_atcf(path)
+    return suite_b_deck(cyc, T0, path)
 
 
 def _row(name: str, plan: Any, track: CycloneTrack, wall: float) -> dict[str, Any]:
@@ -175,11 +172,164 @@ def run(quick: bool) -> dict[str, Any]:
         if r.get("violations"):
             print(f"\n{r['name']}: the referee finds {r['violations']}")
     return {"r_km": r_km, "rows": rows, "patent": PATENT, "apf_trigger": str(apf.trigger_time),
-            "apf_resume": str(apf.resume_time)}  # fmt: skip
+            "apf_resume": str(apf.resume_time), "suite": run_suite(quick)}  # fmt: skip
+
+
+# --------------------------------------------------------------------------- the suite of synthetic crossings
+SUITE_WHAT = (
+    "The patent's APF (its gains, d_n 30 km, trigger at R + 30 km) against optroute's plan_voyage (least fuel "
+    "by the APF's arrival, moving exclusion R + 30 km) on the same weather, ship and track; fuel and verify() "
+    "by the referee (Plan), the APF's plan checked against R, optroute's against R + 30 km"
+)
+
+
+def _suite_settings(quick: bool) -> dict[str, Any]:
+    return {
+        "cases": 4 if quick else len(KINDS),
+        "resolution_deg": 1.0 if quick else 0.5,
+        "search": {"cell_nm": 60.0, "angular_resolution_deg": None, "directions": 16, "band_check_nm": None,
+                   "use_land_mask": False},
+        "max_leg_nm": 60.0,
+    }  # fmt: skip
+
+
+def _apf_case(case: CrossingCase, track: CycloneTrack, ds: Any, ship: orx.Ship) -> tuple[Any, Outcome, dict]:
+    t = time.perf_counter()
+    try:
+        run = apf_avoidance(case.start, case.end, ds, ship, track, departure=case.departure, speed_kn=case.speed_kn,
+                            use_land_mask=False)  # fmt: skip
+    except errors.OptrouteError as exc:
+        return None, Outcome.failed("APF", runtime_s=time.perf_counter() - t, error=f"{type(exc).__name__}: {exc}"), {}
+    wall = time.perf_counter() - t
+    out = Outcome.scored("APF", fuel_t=float(run.plan.total_fuel_t), runtime_s=wall, violations=len(run.plan.verify()))
+    return run.plan, out, {"triggered": run.trigger_time is not None, "trigger": str(run.trigger_time)}
+
+
+def _optroute_case(case: CrossingCase, track: CycloneTrack, ds: Any, ship: orx.Ship, eta: Any, settings: dict):
+    excl = Exclusion.from_track(track, margin_km=30.0, cone_km_per_h=0.0)
+    t = time.perf_counter()
+    try:
+        plan = orx.plan_voyage(case.start, case.end, ds, ship, departure=case.departure, eta=eta, objective="fuel",
+                               exclusion=excl, search_options=settings["search"], max_leg_nm=settings["max_leg_nm"],
+                               use_land_mask=False)  # fmt: skip
+    except errors.OptrouteError as exc:
+        return None, Outcome.failed("optroute", runtime_s=time.perf_counter() - t, error=f"{type(exc).__name__}: {exc}")
+    wall = time.perf_counter() - t
+    return plan, Outcome.scored("optroute", fuel_t=float(plan.total_fuel_t), runtime_s=wall,
+                                violations=len(plan.verify()), note=plan.status)  # fmt: skip
+
+
+def _misses(row: dict[str, Any]) -> list[str]:
+    """Why a case misses issue 19's target (optroute ≤ APF's fuel, arrival no later, never inside R + 30 km)."""
+    apf, opt = row["APF"], row["optroute"]
+    why = []
+    if apf.state == FAILED:
+        why.append(f"no APF baseline ({apf.note[:160]})")
+    if opt.state == FAILED:
+        return [*why, f"optroute gave no plan ({opt.note[:240]})"]
+    if opt.state == UNVERIFIED:
+        why.append(f"optroute's plan fails verify(): {row['opt_violations'][:2]}")
+    if row["opt_brute"]["closest_safe_km"] < 0.0:
+        b = row["opt_brute"]
+        why.append(
+            f"optroute inside R + 30 km by {-b['closest_safe_km']:.1f} km ({b['inside_safe_h']:.2f} h, brute force)"
+        )
+    if apf.state != FAILED:
+        if opt.fuel_t > apf.fuel_t:
+            why.append(f"optroute burns {opt.fuel_t:.1f} t > APF {apf.fuel_t:.1f} t" + (
+                "" if row["apf"]["triggered"] else " (the APF never triggered: it sailed the great circle)"))  # fmt: skip
+        if row["opt_minus_apf_h"] > 1.0 / 60.0:
+            why.append(f"optroute arrives {row['opt_minus_apf_h']:.2f} h after the APF")
+    return why
+
+
+def run_case(case: CrossingCase, track: CycloneTrack, settings: dict[str, Any]) -> dict[str, Any]:
+    """The APF and optroute on one crossing, scored by the referee and by the brute force."""
+    ship = orx.Ship.preset(case.ship)
+    ds = suite_weather(case, settings["resolution_deg"])
+    apf_plan, apf_out, apf_info = _apf_case(case, track, ds, ship)
+    eta = apf_plan.arrival if apf_plan is not None else case.departure + np.timedelta64(
+        int(3600 * 1.2 * case.length_nm / case.speed_kn), "s")  # fmt: skip
+    opt_plan, opt_out = _optroute_case(case, track, ds, ship, eta, settings)
+    row: dict[str, Any] = {"case": case.name, "kind": case.kind, "ship": case.ship, "speed_kn": case.speed_kn,
+                           "advance_kn": case.advance_kn, "r7_km": case.r7_km, "length_nm": case.length_nm,
+                           "lag_h": case.lag_h, "offset_nm": case.offset_nm, "turn_deg": case.turn_deg,
+                           "APF": apf_out, "optroute": opt_out, "apf": apf_info}  # fmt: skip
+    for key, plan in (("apf", apf_plan), ("opt", opt_plan)):
+        row[f"{key}_brute"] = brute_force(plan, track) if plan is not None else None
+        row[f"{key}_duration_h"] = float(plan.duration_h) if plan is not None else math.nan
+        row[f"{key}_violations"] = [str(v) for v in plan.verify()][:3] if plan is not None else []
+    row["opt_minus_apf_h"] = row["opt_duration_h"] - row["apf_duration_h"]
+    row["misses"] = _misses(row)
+    return row
+
+
+def _f(x: float, fmt: str) -> str:
+    return format(x, fmt) if math.isfinite(x) else "–"
+
+
+def _b(row: dict[str, Any], key: str, field: str, fmt: str) -> str:
+    b = row[f"{key}_brute"]
+    return "–" if b is None else format(b[field], fmt)
+
+
+def print_suite(rows: list[dict[str, Any]], summary: dict[str, Any], settings: dict[str, Any]) -> None:
+    print(f"\n### Suite of synthetic crossings ({len(rows)} cases, seed {SUITE_SEED}, {settings['resolution_deg']}° "
+          "weather)\n")  # fmt: skip
+    print("_Per case: closest approaches and hours inside R by brute force (points every 1 nm along each plan, the "
+          "centre and R interpolated in time from the track); target (issue 19): optroute ≤ the APF's fuel, arrival no "
+          "later, never inside R + 30 km. The comparison's scope is the next table's first line._\n")  # fmt: skip
+    print("| case | ship, speed [kn] | advance [kn] | R [km] | APF fuel [t] | optroute fuel [t] | fuel / APF | "
+          "APF passage [h] | optroute − APF [h] | closest to centre APF / opt [km] | to R + 30 km APF / opt [km] | "
+          "inside R APF / opt [h] | wall APF / opt [s] | target |")  # fmt: skip
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---|---|---|---|---|")
+    for r in rows:
+        a, o = r["APF"], r["optroute"]
+        ratio = o.fuel_t / a.fuel_t if math.isfinite(o.fuel_t) and math.isfinite(a.fuel_t) else math.nan
+        print(
+            f"| {r['case']} | {r['ship'].split('_')[0]} {r['speed_kn']:.1f} | {r['advance_kn']:.1f} | {r['r7_km']:.0f} | "
+            f"{_f(a.fuel_t, '.1f')} | {_f(o.fuel_t, '.1f')} | {_f(ratio, '.3f')} | {_f(r['apf_duration_h'], '.1f')} | "
+            f"{_f(r['opt_minus_apf_h'], '+.2f')} | {_b(r, 'apf', 'closest_centre_km', '.0f')} / "
+            f"{_b(r, 'opt', 'closest_centre_km', '.0f')} | {_b(r, 'apf', 'closest_safe_km', '.0f')} / "
+            f"{_b(r, 'opt', 'closest_safe_km', '.1f')} | {_b(r, 'apf', 'inside_r_h', '.1f')} / "
+            f"{_b(r, 'opt', 'inside_r_h', '.1f')} | {a.runtime_s:.1f} / {o.runtime_s:.1f} | "
+            f"{'met' if not r['misses'] else 'MISSED'} |"
+        )
+    print()
+    print("\n".join(comparison_lines(summary)))
+    missed = [r for r in rows if r["misses"]]
+    print(f"\ntarget met in {len(rows) - len(missed)} of {len(rows)} cases")
+    for r in missed:
+        print(f"- {r['case']}: " + "; ".join(r["misses"]))
+
+
+def run_suite(quick: bool) -> dict[str, Any]:
+    settings = _suite_settings(quick)
+    rows = []
+    for case, track in suite(settings["cases"]):
+        rows.append(run_case(case, track, settings))
+        r = rows[-1]
+        print(f"  ({r['case']}: APF {r['APF'].note}, optroute {r['optroute'].note[:120]}; "
+              f"{r['APF'].runtime_s + r['optroute'].runtime_s:.0f} s)", flush=True)  # fmt: skip
+    summary = compare([{"APF": r["APF"], "optroute": r["optroute"]} for r in rows], ["APF", "optroute"], "APF",
+                      SUITE_WHAT)  # fmt: skip
+    print_suite(rows, summary, settings)
+    out_rows = [{**r, "APF": r["APF"].as_dict(), "optroute": r["optroute"].as_dict()} for r in rows]
+    return {"settings": settings, "seed": SUITE_SEED, "summary": summary, "rows": out_rows,
+            "target_met": sum(not r["misses"] for r in rows), "cases": len(rows),
+            "failed": {m: summary["methods"][m]["failed"] for m in ("APF", "optroute")},
+            "unverified": {m: summary["methods"][m]["unverified"] for m in ("APF", "optroute")}}  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> None:
-    bench_main(run, __doc__.splitlines()[0], "0.5° weather, 60 nm search cells (16 directions), 60 nm NLP legs", argv)
+    args = list(sys.argv[1:] if argv is None else argv)
+    quick_help = ("Nesat-like case: 0.5° weather, 60 nm search cells (16 directions), 60 nm NLP legs; suite: the first 4 "
+                  "cases on 1° weather")  # fmt: skip
+    if "--suite" in args:  # the suite of synthetic crossings alone
+        args.remove("--suite")
+        bench_main(run_suite, "The suite of synthetic cyclone crossings alone", quick_help, args)
+        return
+    bench_main(run, __doc__.splitlines()[0], quick_help, args)
 
 
 if __name__ == "__main__":
