@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks._cli import bench_main
-from benchmarks._nlp_call import print_whole_call, whole_call
+from benchmarks._nlp_call import jit_whole_call, print_whole_call, whole_call
 from formulations.common import (
     G_OVER_2PI_KN_S,
     Band,
@@ -688,6 +688,9 @@ def run(quick: bool) -> dict[str, Any]:
 def main(argv: list[str] | None = None) -> None:
     if argv is not None and "--crossing" in argv or argv is None and "--crossing" in __import__("sys").argv:
         print_crossing(bench_crossing_storm())  # section 4's storm crossing alone
+        return
+    if argv is not None and "--jit" in argv or argv is None and "--jit" in __import__("sys").argv:
+        jit_whole_call()  # §2b's whole call at ~100 and ~300 legs, jit off and on alternated
         return
     bench_main(run, __doc__.splitlines()[0], "smaller cases, fewer repetitions (about 30 s)", argv)
 
