@@ -70,7 +70,7 @@ KINDS = (
     "on the route",
     "recurving",
 )
-"""Encounter kinds in suite order: quick mode takes the first four, full mode all fourteen."""
+"""Encounter kinds in suite order: quick mode takes the first four, full mode the first twelve (``--suite`` too)."""
 
 
 @dataclass(frozen=True)
