@@ -49,8 +49,8 @@ import numpy as np
 
 import optroute as orx
 from benchmarks._cli import bench_main
-from benchmarks._cyclone_suite import KINDS, CrossingCase, brute_force, suite
 from benchmarks._cyclone_suite import SEED as SUITE_SEED
+from benchmarks._cyclone_suite import CrossingCase, brute_force, suite
 from benchmarks._cyclone_suite import b_deck as suite_b_deck
 from benchmarks._cyclone_suite import weather as suite_weather
 from benchmarks._measure import FAILED, UNVERIFIED, Outcome, compare, comparison_lines, load_line
