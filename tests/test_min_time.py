@@ -121,12 +121,6 @@ def test_timed_safe_start_sails_calm_water_at_top_speed_and_waits_for_the_blocke
     assert dead.from_nm <= _nm(LON0, ZONE[1]) and dead.to_nm >= _nm(LON0, ZONE[0]) - 30.0
 
 
-@pytest.mark.xfail(
-    reason="regressed when the WGS84, adaptive-referee and staged-solver branches met (passes on each alone): the "
-    "centreline start no longer verifies and the call ends in SolverFailure (Infeasible_Problem_Detected from every "
-    "warm start) although the timed safe start (11.3 h) exists; to be diagnosed",
-    strict=False,
-)
 def test_minimum_time_through_a_blocked_window_returns_the_verified_timed_passage_honestly(sea):
     # the NLP imposes a band where it applies at its start's timing and cannot leave a band by timing alone
     # (Hs below the threshold is not one of its sides): its solve fails. The call returns the verified start —

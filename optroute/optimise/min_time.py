@@ -33,6 +33,7 @@ plan.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -43,7 +44,19 @@ from optroute.physics.safety import BandRules
 from optroute.plan.evaluate import PlanContext, sample_sea
 from optroute.units import NS_PER_H as _NS_PER_H
 
-__all__ = ["BlockedSection", "DeadEnd", "TimedStart", "blocked_section", "clean_start", "timed_safe_start"]
+__all__ = [
+    "CROSSING_STEP_NM",
+    "BlockedSection",
+    "DeadEnd",
+    "TimedStart",
+    "block_fractions",
+    "blocked_section",
+    "clean_start",
+    "timed_safe_start",
+]
+
+CROSSING_STEP_NM = 0.1
+"""Spacing [nm] of the ladder on which the timed search locates the weather grid's row and column crossings."""
 
 
 @dataclass(frozen=True)
@@ -112,6 +125,30 @@ def _centreline_points(frame: CorridorFrame, s_nm: np.ndarray) -> tuple[np.ndarr
     d = np.diff(s)
     frac = np.clip((s_nm - s[leg]) / np.where(d[leg] > 0, d[leg], 1.0), 0.0, 1.0)
     return gc_points(wp[leg, 0], wp[leg, 1], wp[leg + 1, 0], wp[leg + 1, 1], frac)
+
+
+def block_fractions(
+    frame: CorridorFrame, sampler: Any, t0: np.datetime64, from_nm: float, to_nm: float, step_nm: float
+) -> np.ndarray:
+    """Fractions [0, 1] of a centreline block to check: its ends, points ``step_nm`` apart and both sides of
+    every crossing of the weather's grid rows and columns (where the referee looks too,
+    :mod:`optroute.plan.checkpoints`).
+
+    Between two crossings the interpolated sea at one time is a bilinear function of position, largest
+    at the ends of the stretch; sampled ``step_nm`` apart only, a cell's edge (the top of a storm's
+    plateau) can be missed. The crossings are found on a :data:`CROSSING_STEP_NM` ladder, so each pair
+    of sides is at most that far apart.
+    """
+    d = float(to_nm - from_nm)
+    m = max(2, int(np.ceil(d / step_nm)))
+    base = np.linspace(0.0, 1.0, m + 1)
+    n_fine = max(2, int(np.ceil(d / CROSSING_STEP_NM)))
+    fine = np.linspace(0.0, 1.0, n_fine + 1)
+    lat, lon, _ = _centreline_points(frame, from_nm + fine * d)
+    cell = sampler.grid_coordinates(np.full(fine.shape, t0), lat, lon)[:, 1:]
+    cell = np.where(np.isfinite(cell), np.floor(cell), -1.0)
+    change = np.flatnonzero(np.any(cell[1:] != cell[:-1], axis=1))
+    return np.unique(np.concatenate([base, fine[change], fine[change + 1]]))
 
 
 def timed_safe_start(
@@ -186,8 +223,7 @@ def timed_safe_start(
     evaluations = 0
     for b in range(n_blocks):
         d = edges[b + 1] - edges[b]
-        m = max(2, int(np.ceil(d / step_nm)))
-        frac = np.linspace(0.0, 1.0, m + 1)  # both ends of the block too
+        frac = block_fractions(frame, ctx.sampler, t0, edges[b], edges[b + 1], step_nm)  # both ends too
         lat, lon, course = _centreline_points(frame, edges[b] + frac * d)
         dt = d / speeds  # (K,)
         t_pts = times[:, None, None] + frac[None, None, :] * dt[None, :, None]  # (B, K, m)
