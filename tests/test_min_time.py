@@ -132,3 +132,29 @@ def test_minimum_time_through_a_blocked_window_returns_the_verified_timed_passag
     v_max = float(min(SHIP.max_calm_speed_kn, 40.0))
     low, high = _earliest_by_hand(v_max)
     assert low <= best.duration_h <= high
+
+
+def test_the_centreline_start_is_a_passage_the_referee_accepts_where_the_speed_reduction_is_not(sea):
+    # harness seeds 3, 4, 5 (general_cargo_25k_dwt, minimum time): Boeing's reduction found an allowed speed at
+    # each of its own points, so it was kept as the start, but the referee (grid-cell and time-slice crossings,
+    # adaptive refinement) finds it in a band between them; Ipopt then starts on sides no plan keeps. Here at
+    # 20 kn the reduction is clean (no leg at the lowest speed) and enters the window's edge between its points
+    from optroute.optimise.corridor_problem import PreparedCorridor
+    from optroute.optimise.min_time import clean_start
+    from optroute.optimise.nlp_solve import safe_warm_start, warm_rules
+    from optroute.optimise.starts import verified_plan
+
+    pc = PreparedCorridor(_corridor(), sea, SHIP, departure=T0, objective="time", **KW)
+    ctx, frame = pc.plan_context(), pc.frame
+    rules = warm_rules(pc.rules, pc._tightening())
+
+    def verify(warm):
+        return verified_plan(ctx, frame.waypoints(warm["offset_nm"]), warm["stw_kn"], T0, 5.0, "start")
+
+    reduction = safe_warm_start(ctx, frame, T0, 20.0, pc.v_min, rules=rules)
+    assert np.all(reduction["stw_kn"] > pc.v_min + 1e-9) and verify(reduction) is None
+    warm, plan = clean_start(
+        ctx, frame, T0, desired_kn=20.0, v_min_kn=pc.v_min, v_max_kn=pc.v_max, eta_h=None, rules=rules, verify=verify
+    )
+    assert plan is not None and plan.verify() == []
+    assert np.all(warm["stw_kn"] <= 20.0 + 1e-9)  # the timed passage at speeds up to the desired one

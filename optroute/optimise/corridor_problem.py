@@ -342,7 +342,10 @@ class PreparedCorridor:
         """The NLP's own safe start on the centreline (:func:`optroute.optimise.min_time.clean_start`)."""
         t0, frame, step = self.departure, self.frame, self.verify_step_nm
 
-        centre = clean_start(
+        def verify(warm: dict[str, np.ndarray]) -> Plan | None:
+            return verified_plan(ctx, frame.waypoints(warm["offset_nm"]), warm["stw_kn"], t0, step, "start")
+
+        centre, plan = clean_start(
             ctx,
             frame,
             t0,
@@ -352,8 +355,8 @@ class PreparedCorridor:
             eta_h=cap_h,
             rules=warm_rules(self.rules, st),
             log=st.log,
+            verify=verify,
         )
-        plan = verified_plan(ctx, frame.waypoints(centre["offset_nm"]), centre["stw_kn"], t0, step, "start")
         return self._candidate("centreline start", centre, plan, objective)
 
     @staticmethod

@@ -32,6 +32,7 @@ plan.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -283,13 +284,20 @@ def clean_start(
     eta_h: float | None,
     rules: BandRules | None = None,
     log: list[str] | None = None,
-) -> dict[str, np.ndarray]:
-    """The first warm start of a solve: Boeing's speed reduction, or the timed start where it gets stuck.
+    verify: Callable[[dict[str, np.ndarray]], Any] | None = None,
+) -> tuple[dict[str, np.ndarray], Any]:
+    """The centreline start of a solve: Boeing's speed reduction, or the timed passage where that fails.
 
     :func:`optroute.optimise.nlp_solve.safe_warm_start` at ``desired_kn`` is kept when it found an allowed speed
-    at every point (no leg at ``v_min_kn``). Otherwise the passage of :func:`timed_safe_start` with
-    speeds up to ``desired_kn`` is taken when it arrives by ``eta_h`` (or there is no ETA), else the
-    earliest passage with speeds up to ``v_max_kn``; when neither exists, the safe start after all.
+    at every point (no leg at ``v_min_kn``) and ``verify`` accepts it. Otherwise the passage of
+    :func:`timed_safe_start` with speeds up to ``desired_kn`` is taken when it arrives by ``eta_h`` (or
+    there is no ETA), else the earliest passage with speeds up to ``v_max_kn`` (the discrete
+    minimum-time plan); when neither exists, the safe start after all.
+
+    The reduction is a point-by-point rule: it keeps each point out of the bands at the time of its
+    own schedule but not between its points, and its slow legs can fall under the engine's minimum
+    load. Where the referee rejects it, the NLP would start on band sides no plan keeps; the timed
+    passage is checked where the referee checks (:func:`block_fractions`), so it is the start.
 
     Parameters
     ----------
@@ -303,31 +311,43 @@ def clean_start(
         Arrival wanted [h after departure].
     log : list of str, optional
         Appended with what was chosen.
+    verify : callable, optional
+        The referee: a warm start's verified plan, or None when it fails verification. Without it
+        the reduction is kept whenever it has no leg at ``v_min_kn``.
 
     Returns
     -------
-    dict
-        ``offset_nm`` (N+1,) [nm] and ``stw_kn`` (N,) [kn].
+    (dict, object)
+        ``offset_nm`` (N+1,) [nm] and ``stw_kn`` (N,) [kn]; and ``verify``'s verdict on it (None
+        when it failed or ``verify`` is None).
     """
     from optroute.optimise.nlp_solve import safe_warm_start
 
+    def judged(warm: dict[str, np.ndarray]) -> Any:
+        return verify(warm) if verify is not None else None
+
     safe = safe_warm_start(ctx, frame, t0, desired_kn, v_min_kn, rules=rules)
-    if bool(np.all(safe["stw_kn"] > v_min_kn + 1e-9)):
-        return safe
+    clean = bool(np.all(safe["stw_kn"] > v_min_kn + 1e-9))
+    verdict = judged(safe) if clean else None
+    if clean and (verify is None or verdict is not None):
+        return safe, verdict
     found = timed_safe_start(ctx, frame, t0, v_min_kn=v_min_kn, v_max_kn=max(desired_kn, v_min_kn), rules=rules)
     late = not isinstance(found, TimedStart) or (eta_h is not None and found.arrival_h > eta_h)
     if late and desired_kn < v_max_kn:
         found = timed_safe_start(ctx, frame, t0, v_min_kn=v_min_kn, v_max_kn=v_max_kn, rules=rules)
+    why = "finds no allowed speed somewhere" if not clean else "fails verification"
     if log is not None:
         log.append(
-            "first start: the speed reduction finds no allowed speed somewhere; "
+            f"first start: the speed reduction {why}; "
             + (
                 f"timed safe start, {found.arrival_h:.3f} h"
                 if isinstance(found, TimedStart)
                 else f"no timed start either ({found})"
             )
         )
-    return found.warm() if isinstance(found, TimedStart) else safe
+    if isinstance(found, TimedStart):
+        return found.warm(), judged(found.warm())
+    return safe, verdict
 
 
 @dataclass(frozen=True)
