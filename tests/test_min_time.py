@@ -121,7 +121,18 @@ def test_timed_safe_start_sails_calm_water_at_top_speed_and_waits_for_the_blocke
     assert dead.from_nm <= _nm(LON0, ZONE[1]) and dead.to_nm >= _nm(LON0, ZONE[0]) - 30.0
 
 
-def test_minimum_time_through_a_blocked_window_returns_the_verified_timed_passage_honestly(sea):
+def test_minimum_time_through_a_blocked_window_returns_the_verified_timed_passage_honestly(sea, monkeypatch):
+    from optroute.optimise.nlp_solve import Problem
+
+    tally = {"solves": 0, "iterations": 0}
+    counted = Problem._count
+
+    def count(self, res):  # an independent tally of every Ipopt call and its iterations
+        tally["solves"] += 1
+        tally["iterations"] += int(res.iterations)
+        counted(self, res)
+
+    monkeypatch.setattr(Problem, "_count", count)
     # the NLP imposes a band where it applies at its start's timing and cannot leave a band by timing alone
     # (Hs below the threshold is not one of its sides): its solve fails. The call returns the verified start —
     # the timed passage — with status "start" and Ipopt's status verbatim, arriving within the hand bounds
@@ -132,6 +143,10 @@ def test_minimum_time_through_a_blocked_window_returns_the_verified_timed_passag
     v_max = float(min(SHIP.max_calm_speed_kn, 40.0))
     low, high = _earliest_by_hand(v_max)
     assert low <= best.duration_h <= high
+    # solver_stats counts every solve of the call, the failed ones behind the returned start included
+    assert tally["solves"] >= 2
+    assert best.solver_stats["nlp_solves"] == tally["solves"]
+    assert best.solver_stats["iterations"] == tally["iterations"]
 
 
 def test_the_centreline_start_is_a_passage_the_referee_accepts_where_the_speed_reduction_is_not(sea):
