@@ -37,7 +37,9 @@
    centreline, the NLP started from the 3-D DP, and the DP side by side, fuel by the referee, time,
    Ipopt solves and iterations.
 
-Run ``python -m benchmarks.bench_nlp [--quick | --crossing]`` (quick: one repeat, 125–500 legs for the scaling, 62 legs and the coarse DP).
+Run ``python -m benchmarks.bench_nlp [--quick | --crossing | --jit]`` (quick: one repeat, 125–500 legs for the scaling,
+62 legs and the coarse DP; ``--jit``: §2b's whole call at ~100 and ~300 legs, ``jit=False`` against ``jit=True``
+alternated twice after a warm-up of each, the compile time apart — about an hour on a loaded 2-core machine).
 """
 
 from __future__ import annotations
