@@ -1,42 +1,45 @@
-"""Seed 001 reproduction (Shao et al.'s 3-D DP): fuel-versus-ETA curves of a constant-speed baseline, the DP and the NLP.
+"""Shao et al.'s 3-D DP experiment in its own shape: fuel against required arrival time, baseline, IMO f_w, DP, NLP.
 
 ``orx.scenarios.shao_case(1)`` and ``shao_case(2)`` (equator, (0°, 0°) → (0°, 90° E), islands
 at lon 50–70°, lat −1 to 7°, and a bad-weather rectangle that moves south (case I, after 60 h)
-or north (case II) at 3 kn) with ``Ship.preset("container_54k_dwt")``. Over a range of required
-arrival times (ETAs), side by side in one process:
+or north (case II) at 3 kn) with ``Ship.preset("container_54k_dwt")``; the paper's lattice
+(:mod:`benchmarks.shao_experiment`: 16 stages, ΔY 75 nm, 17 lateral states, Δt 1 h, 5–30 kn every
+1 kn up to the calm speed at MCR). Over the required arrival times (ETAs) 224–336 h every 8 h and
+the paper's quoted ETA, side by side in one process:
 
-(a) **constant-speed shortest safe route on the DP's lattice** (the paper's "MEPC" baseline): for every
-    speed of the DP's own speed set that could arrive by the last ETA, the DP lattice's least-fuel
-    route at that one speed (``search_route(method="dp", speeds_kn=[v])`` with the DP's ΔX, ΔY and Δt:
-    at one speed the fuel is the fuel rate times the distance over the speed and the background sea
-    is uniform, so this is the shortest route that keeps out of the no-go areas at the times a ship at
-    that speed gets there). Its fuel at an ETA is that of the least-fuel such speed arriving by the
-    ETA: a schedule the DP itself can represent, so the DP can only match or beat it (the fuel of a
-    speed *between* two lattice speeds, interpolated in arrival time, is not one: issue 22);
-(b) **the 3-D DP**: one ``search_route(method="dp", objective="fuel", eta=<latest ETA>)`` run,
+(a) **constant-speed shortest safe route on the DP's lattice** (the paper's "MEPC" strategy: "a
+    constant speed during the voyage" on the route closest to the no-go areas): for every lattice
+    speed that could arrive by the last ETA, the lattice's least-fuel route at that one speed
+    (``search_route(method="dp", speeds_kn=[v])``); its fuel at an ETA is that of the least-fuel such
+    speed arriving by the ETA: a schedule the DP itself can represent (no interpolation between
+    speeds: issue 22);
+(b) **the IMO f_w estimate** of that schedule (MEPC.1/Circ.796's weather factor, the "MEPC regression"
+    the paper compares with): :func:`benchmarks.shao_experiment.fw_fuel_t`;
+(c) **the 3-D DP**: one ``search_route(method="dp", objective="fuel", eta=<the paper's ETA>)`` run,
     whose least fuel per arrival bin is the whole fuel-versus-ETA curve (the DP's fuel at an ETA
-    is the least over the bins that end by it). Lattice ΔX 540 nm, ΔY 150 nm (±600 nm), Δt 2 h,
-    speeds 5 kn to the top speed every 1 kn: coarser than the paper's 360 nm / 75 nm / 1 h /
-    ±900 nm, one run of which took more than 12 minutes and 2.5 GB here;
-(c) **the NLP**: ``optimise_corridor(objective="fuel", eta=)`` in a 150 nm corridor about the
-    baseline's route for the ETA, warm-started from it.
+    is the least over the bins that end by it), and whose route for the paper's ETA is refereed;
+(d) **the NLP**: ``optimise_corridor(objective="fuel", eta=)`` in a 150 nm corridor about the DP's
+    route for the paper's ETA, warm-started from it (one ETA per case: the DP returns one route per run).
 
 The DP and the baseline are compared in the DP's own fuel accounting (the same lattice and model);
-the NLP and the baseline are both scored by the referee (``Plan.from_schedule`` through the same
-weather and ship, ``Plan.verify()``), and the baseline's and the NLP's failed and unverified plans are
-counted (:func:`comparison`, in the JSON under ``comparison``). The DP's curve comes from one run, with
-no route per arrival bin, so it is not refereed; an ETA with no DP bin counts as a DP failure
-(``dp_missing``).
+the DP's route, the baseline and the NLP are also scored by the referee (``Plan.from_schedule``
+through the same weather and ship, ``Plan.verify()``), failed and unverified plans counted
+(:func:`comparison`, in the JSON under ``comparison``); an ETA with no DP bin counts as a DP failure
+(``dp_missing``). The bins are 1 h (the paper's Δt): with one label per (stage, lateral, bin) the DP
+keeps the cheapest label of a bin, which may be later than a discarded one, so a coarse bin can cost
+it the baseline's own schedule (2 h bins: 0.3–1.0 % above the baseline at every ETA; 3 h bins on a
+5-leg lattice: 2.5 %; 1 h: equal).
 
 For each case: the window of ETAs where the DP (and the NLP) use less fuel than the baseline
 (by more than 0.5 %), the largest saving [t] and [%], beside what the paper reports (case I:
 233–272 h, 1014.54 → 969.25 t at 264 h, 4.5 %; case II: 270–303 h, 898 → 852 t at 278 h,
-5.1 %). Absolute fuel differs: the paper's ship model and sea are not given in full (the seed
-gives no background sea; ``shao_case`` uses H_s 2 m from the east). ``shao_case<k>.png`` plots
-the three curves.
+5.1 %), and the evidence of whether the storm binds at all: each baseline speed's route length
+over the great circle and its clearance from the storm and the islands at the hours it passes them.
+Absolute fuel differs: the paper's ship model and sea are not given (``shao_case`` uses a
+Beaufort 5 head sea, H_s 2 m from the east). ``shao_case<k>.png`` plots the curves.
 
-Run ``python -m benchmarks.bench_shao [--quick]`` (quick: case I only, a much coarser lattice, three ETAs,
-the NLP at one).
+Run ``python -m benchmarks.bench_shao [--quick]`` (quick: case I only, 5 legs of ~1 080 nm, 300 nm
+lateral spacing, speeds every 2 kn, four ETAs, the NLP at 264 h).
 """
 
 from __future__ import annotations
@@ -97,29 +100,24 @@ def _dp_route_facts(route: orx.Route, wx: Any, ship: orx.Ship, t0: np.datetime64
             "distance_nm": route.total_distance_nm, **se.storm_clearance(route, case, t0)}  # fmt: skip
 
 
-def _evidence(curve: dict[str, Any], case: int, t0: np.datetime64) -> list[dict[str, float]]:
-    """Per baseline speed: its route's excess over the great circle and how far it keeps from the storm [nm]."""
-    out = []
-    for v, r in zip(curve["speed_kn"], curve["routes"], strict=True):
-        if r is not None:
-            out.append({"speed_kn": float(v), "arrival_h": r.total_duration_h, **se.storm_clearance(r, case, t0)})
-    return out
-
-
-def _row(eta_h: float, curve: dict[str, Any], end_h: np.ndarray, dp_fuel: np.ndarray) -> dict[str, Any]:
+def _row(
+    eta_h: float, ex: dict[str, Any], curve: dict[str, Any], end_h: np.ndarray, dp_fuel: np.ndarray
+) -> dict[str, Any]:
+    """One ETA: the exact-speed baseline ``ex``, the lattice-speed baseline from ``curve``, the DP's curve point."""
     k = baseline_at(curve, eta_h)
     nan = float("nan")
-    pick = (lambda key: nan) if k is None else (lambda key: float(curve[key][k]))  # noqa: E731
-    viol = pick("violations")
-    return {"eta_h": float(eta_h), "baseline_t": pick("fuel_t"), "baseline_speed_kn": pick("speed_kn"),
-            "baseline_arrival_h": pick("arrival_h"), "baseline_ref_t": pick("referee_fuel_t"),
-            "baseline_violations": None if not np.isfinite(viol) else int(viol), "fw_t": pick("fw_fuel_t"),
+    viol = ex["violations"]
+    return {"eta_h": float(eta_h), "baseline_t": ex["fuel_t"], "baseline_speed_kn": ex["speed_kn"],
+            "baseline_arrival_h": ex["arrival_h"], "baseline_ref_t": ex["referee_fuel_t"],
+            "baseline_violations": None if not np.isfinite(viol) else int(viol), "fw_t": ex["fw_fuel_t"],
+            "lattice_t": nan if k is None else float(curve["fuel_t"][k]),
+            "lattice_speed_kn": nan if k is None else float(curve["speed_kn"][k]),
             "dp_t": dp_at(end_h, dp_fuel, eta_h), "nlp_t": nan, "nlp_arrival_h": nan, "nlp_state": "",
             "nlp_status": ""}  # fmt: skip
 
 
 def run_case(case: int, cfg: dict[str, Any]) -> dict[str, Any]:
-    """Baseline curve, one DP run (its curve and its route for the paper's ETA), the NLP from that route."""
+    """Baselines, one DP run (its curve and its route for the paper's ETA), the NLP from that route."""
     ship = orx.Ship.preset(SHIP)
     wx = orx.scenarios.shao_case(case)
     t0 = wx.time.values[0]
@@ -128,7 +126,8 @@ def run_case(case: int, cfg: dict[str, Any]) -> dict[str, Any]:
     dp = {**cfg["dp"], "horizon_h": max(etas)}
     speeds = se.lattice_speeds(ship, *cfg["speeds_kn"])
     t = time.perf_counter()
-    curve = se.baseline_curve(wx, ship, t0, dp, speeds, max(etas))
+    exact = [se.exact_baseline(wx, ship, t0, dp, e) for e in etas]
+    curve = se.baseline_curve(wx, ship, t0, dp, speeds, max(etas), referee=False)
     baseline_s = time.perf_counter() - t
     # one DP run: its route for the paper's ETA, and its least fuel per arrival bin (the whole curve)
     t = time.perf_counter()
@@ -137,18 +136,20 @@ def run_case(case: int, cfg: dict[str, Any]) -> dict[str, Any]:
     dp_s = time.perf_counter() - t
     end_h = np.asarray(dp_route.stats["curve_bin_end_h"], float)
     dp_fuel = np.asarray(dp_route.stats["curve_fuel_t"], float)
-    rows = [_row(e, curve, end_h, dp_fuel) for e in etas]
+    rows = [_row(e, ex, curve, end_h, dp_fuel) for e, ex in zip(etas, exact, strict=True)]
     for row in rows:
         if row["eta_h"] == paper_eta:
             _nlp(row, dp_route, wx, ship, t0, paper_eta)
-    evidence = _evidence(curve, case, t0)
+    evidence = [{"eta_h": e, "speed_kn": ex["speed_kn"], **se.storm_clearance(ex["route"], case, t0)}
+                for e, ex in zip(etas, exact, strict=True) if ex["route"] is not None]  # fmt: skip
     curve.pop("routes")
-    return {"case": case, "rows": rows, "baseline_curve": curve, "dp_curve": {"bin_end_h": end_h, "fuel_t": dp_fuel},
+    return {"case": case, "rows": rows, "lattice_curve": curve, "dp_curve": {"bin_end_h": end_h, "fuel_t": dp_fuel},
             "dp_route": _dp_route_facts(dp_route, wx, ship, t0, case), "evidence": evidence,
             "fw": se.fw_factor(ship), "dp_transitions": dp_route.stats["n_transitions"], "baseline_s": baseline_s,
             "dp_s": dp_s, "nlp_s": sum(r.get("nlp_s", 0.0) for r in rows),
-            "dp_missing": sum(not np.isfinite(r["dp_t"]) for r in rows), "comparison": comparison(rows),
-            **window(rows), "paper": PAPER[case]}  # fmt: skip
+            "dp_missing": sum(not np.isfinite(r["dp_t"]) for r in rows),
+            "dp_above_lattice": sum(bool(r["dp_t"] > r["lattice_t"] * (1 + 1e-9)) for r in rows),
+            "comparison": comparison(rows), **window(rows), "paper": PAPER[case]}  # fmt: skip
 
 
 WHAT = (
@@ -207,7 +208,8 @@ def figure(res: dict[str, Any], path: Any) -> Any:
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
     eta = np.array([r["eta_h"] for r in res["rows"]])
-    for key, label, style in (("baseline", "constant lattice speed, shortest safe route", "k-o"),
+    for key, label, style in (("baseline", "constant speed, shortest safe route", "k-o"),
+                              ("lattice", "the same at the DP's speeds (its own candidate)", "k:."),
                               ("fw", "IMO f_w estimate of that schedule", "g:d"), ("dp", "3-D DP", "b-s"),
                               ("nlp", "NLP from the DP's route", "r^")):  # fmt: skip
         y = np.array([r[f"{key}_t"] for r in res["rows"]])
@@ -244,18 +246,21 @@ def _print_case(res: dict[str, Any], cfg: dict[str, Any], png: Any) -> None:
     print("_Baseline and DP: the DP's own fuel accounting on the same lattice (the baseline is a schedule the DP "
           "can represent); baseline (referee) and NLP: the plan evaluator's fuel of each plan, `verify()` findings "
           f"counted; IMO f_w: MEPC.1/Circ.796's estimate of the baseline's schedule (f_w = {res['fw']:.3f})._\n")  # fmt: skip
-    print("| ETA [h] | baseline [t] (speed [kn]) | IMO f_w [t] | DP [t] | DP / baseline | baseline by referee [t] "
-          "(violations) | NLP [t] | NLP / baseline by referee | NLP plan |")  # fmt: skip
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---|")
+    print("| ETA [h] | baseline [t] (speed [kn]) | IMO f_w [t] | lattice-speed baseline [t] (speed [kn]) | DP [t] | "
+          "DP / baseline | DP / lattice baseline | baseline by referee [t] (violations) | NLP [t] | "
+          "NLP / baseline by referee | NLP plan |")  # fmt: skip
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     for r in res["rows"]:
         b, bref = r["baseline_t"], r["baseline_ref_t"]
         bv = "–" if r["baseline_violations"] is None else r["baseline_violations"]
-        print(f"| {r['eta_h']:g} | {_f(b, '.1f')} ({_f(r['baseline_speed_kn'], 'g')}) | {_f(r['fw_t'], '.1f')} | "
-              f"{_f(r['dp_t'], '.1f')} | {_f(r['dp_t'] / b, '.4f')} | {_f(bref, '.1f')} ({bv}) | {_f(r['nlp_t'], '.1f')} | "
-              f"{_f(r['nlp_t'] / bref, '.3f')} | {_nlp_cell(r)} |")  # fmt: skip
+        print(f"| {r['eta_h']:g} | {_f(b, '.1f')} ({_f(r['baseline_speed_kn'], '.2f')}) | {_f(r['fw_t'], '.1f')} | "
+              f"{_f(r['lattice_t'], '.1f')} ({_f(r['lattice_speed_kn'], 'g')}) | {_f(r['dp_t'], '.1f')} | "
+              f"{_f(r['dp_t'] / b, '.4f')} | {_f(r['dp_t'] / r['lattice_t'], '.4f')} | {_f(bref, '.1f')} ({bv}) | "
+              f"{_f(r['nlp_t'], '.1f')} | {_f(r['nlp_t'] / bref, '.3f')} | {_nlp_cell(r)} |")  # fmt: skip
     print()
     print("\n".join(comparison_lines(res["comparison"])))
-    print(f"\nETAs without a DP curve point (DP failures): {res['dp_missing']} of {len(res['rows'])}")
+    print(f"\nETAs without a DP curve point (DP failures): {res['dp_missing']} of {len(res['rows'])}; ETAs where the DP "
+          f"uses more than the lattice-speed baseline (one of its own candidates): {res['dp_above_lattice']}")  # fmt: skip
     p, q = res["paper"], res["dp_route"]
     for key, name in (("dp", "DP"), ("nlp", "NLP")):
         best = res[f"{key}_best"]
@@ -265,13 +270,13 @@ def _print_case(res: dict[str, Any], cfg: dict[str, Any], png: Any) -> None:
     print(f"\nThe DP's route for {p['eta_h']:g} h: {q['fuel_t']:.1f} t (referee {_f(q['referee_fuel_t'], '.1f')} t, "
           f"{q['violations']} violations), arrives {q['arrival_h']:.2f} h, {q['distance_nm']:.0f} nm; speeds "
           f"{', '.join(f'{v:g}' for v in q['sog_kn'])} kn; latitudes {', '.join(f'{v:.2f}' for v in q['lat_deg'])}°")  # fmt: skip
-    print("\nWhy (or why not) a window — each baseline speed's shortest safe route: its length over the great "
+    print("\nWhy (or why not) a window — the baseline's shortest safe route at each ETA: its length over the great "
           "circle, the hours it is abreast of the rectangles (50–70° E) and how far it keeps from them:\n")  # fmt: skip
-    print("| speed [kn] | arrival [h] | over the great circle [nm] | abreast [h] | storm clearance [nm] | "
+    print("| ETA [h] | speed [kn] | over the great circle [nm] | abreast [h] | storm clearance [nm] | "
           "island clearance [nm] |")  # fmt: skip
     print("|---:|---:|---:|---|---:|---:|")
     for e in res["evidence"]:
-        print(f"| {e['speed_kn']:g} | {e['arrival_h']:.1f} | {e['excess_nm']:.1f} | {_f(e['abreast_from_h'], '.0f')}–"
+        print(f"| {e['eta_h']:g} | {e['speed_kn']:.2f} | {e['excess_nm']:.1f} | {_f(e['abreast_from_h'], '.0f')}–"
               f"{_f(e['abreast_to_h'], '.0f')} | {_f(e['storm_nm'], '.0f')} | {_f(e['islands_nm'], '.0f')} |")  # fmt: skip
     print(f"\npaper: window {p['window_h'][0]:g}–{p['window_h'][1]:g} h; at {p['eta_h']:g} h {p['baseline_t']:g} → "
           f"{p['dp_t']:g} t ({p['saving_pct']:g} %). Runtimes: baseline curve {res['baseline_s']:.1f} s, DP "

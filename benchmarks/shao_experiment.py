@@ -104,6 +104,39 @@ def baseline_curve(wx: Any, ship: orx.Ship, t0: np.datetime64, dp: dict[str, flo
             "violations": viol, "fw_fuel_t": fw, "routes": routes}  # fmt: skip
 
 
+def exact_baseline(wx: Any, ship: orx.Ship, t0: np.datetime64, dp: dict[str, float], eta_h: float,
+                   *, referee: bool = True, max_iter: int = 4) -> dict[str, Any]:  # fmt: skip
+    """The paper's "MEPC" strategy at one ETA: the one constant speed that arrives at ``eta_h`` on its shortest safe route.
+
+    Fixed point: start at the great circle over the ETA; the lattice's shortest safe route at that one
+    speed (:func:`search`) sets the next speed, its length over the ETA; stop when the route (and so the
+    speed) repeats. The speed is not on the DP's speed set: the DP mixes its lattice speeds to approach
+    it. Returns speed [kn], arrival [h], fuel [t] (the DP's accounting), distance [nm], the referee's fuel
+    [t] and violations, the IMO f_w estimate [t] and the route; NaN / None where no constant speed works
+    (the route's length never settles, or no safe route exists at that speed).
+    """
+    nan = float("nan")
+    out: dict[str, Any] = {"speed_kn": nan, "arrival_h": nan, "fuel_t": nan, "distance_nm": nan,
+                           "referee_fuel_t": nan, "violations": nan, "fw_fuel_t": nan, "route": None}  # fmt: skip
+    v = great_circle_nm() / eta_h
+    for _ in range(max_iter):
+        try:
+            r = search(wx, ship, t0, dp, speeds_kn=[v])
+        except orx.OptrouteError:
+            return out
+        v_next = r.total_distance_nm / eta_h
+        if abs(v_next - v) < 1e-9 * v:
+            break
+        v = v_next
+    else:
+        return out
+    out.update(speed_kn=v, arrival_h=r.total_duration_h, fuel_t=r.total_fuel_t, distance_nm=r.total_distance_nm,
+               fw_fuel_t=fw_fuel_t(ship, v, r.total_duration_h), route=r)  # fmt: skip
+    if referee:
+        out["referee_fuel_t"], out["violations"] = refereed(r, wx, ship, t0)
+    return out
+
+
 def baseline_at(curve: dict[str, Any], eta_h: float) -> int | None:
     """Index of the lattice speed whose constant-speed route arriving by ``eta_h`` uses least fuel (None: none does).
 
