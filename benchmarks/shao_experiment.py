@@ -105,10 +105,10 @@ def baseline_curve(wx: Any, ship: orx.Ship, t0: np.datetime64, dp: dict[str, flo
 
 
 def exact_baseline(wx: Any, ship: orx.Ship, t0: np.datetime64, dp: dict[str, float], eta_h: float,
-                   *, referee: bool = True, max_iter: int = 4) -> dict[str, Any]:  # fmt: skip
+                   *, guess_nm: float | None = None, referee: bool = True, max_iter: int = 4) -> dict[str, Any]:  # fmt: skip
     """The paper's "MEPC" strategy at one ETA: the one constant speed that arrives at ``eta_h`` on its shortest safe route.
 
-    Fixed point: start at the great circle over the ETA; the lattice's shortest safe route at that one
+    Fixed point: start at ``guess_nm`` (default the great circle) over the ETA; the lattice's shortest safe route at that one
     speed (:func:`search`) sets the next speed, its length over the ETA; stop when the route (and so the
     speed) repeats. The speed is not on the DP's speed set: the DP mixes its lattice speeds to approach
     it. Returns speed [kn], arrival [h], fuel [t] (the DP's accounting), distance [nm], the referee's fuel
@@ -118,7 +118,7 @@ def exact_baseline(wx: Any, ship: orx.Ship, t0: np.datetime64, dp: dict[str, flo
     nan = float("nan")
     out: dict[str, Any] = {"speed_kn": nan, "arrival_h": nan, "fuel_t": nan, "distance_nm": nan,
                            "referee_fuel_t": nan, "violations": nan, "fw_fuel_t": nan, "route": None}  # fmt: skip
-    v = great_circle_nm() / eta_h
+    v = (great_circle_nm() if guess_nm is None else guess_nm) / eta_h
     for _ in range(max_iter):
         try:
             r = search(wx, ship, t0, dp, speeds_kn=[v])
