@@ -156,7 +156,10 @@ def run_case(case: int, cfg: dict[str, Any]) -> dict[str, Any]:
     evidence = [{"eta_h": e, "speed_kn": ex["speed_kn"], **se.storm_clearance(ex["route"], case, t0)}
                 for e, ex in zip(etas, exact, strict=True) if ex["route"] is not None]  # fmt: skip
     curve.pop("routes")
-    return {"case": case, "rows": rows, "lattice_curve": curve, "dp_curve": {"bin_end_h": end_h, "fuel_t": dp_fuel},
+    lat_gap = se.gap_lat_deg(cfg["dp"]["dy_nm"])
+    gap = {"lat_deg": lat_gap, "storm_cover_h": se.storm_cover_h(case, lat_gap, t0), "top_kn": float(speeds.max()),
+           "earliest_50e_h": se.great_circle_nm() * 50.0 / 90.0 / float(speeds.max())}  # fmt: skip
+    return {"case": case, "gap": gap, "rows": rows, "lattice_curve": curve, "dp_curve": {"bin_end_h": end_h, "fuel_t": dp_fuel},
             "dp_route": _dp_route_facts(dp_route, wx, ship, t0, case), "evidence": evidence,
             "fw": se.fw_factor(ship), "dp_transitions": dp_route.stats["n_transitions"], "baseline_s": baseline_s,
             "dp_s": dp_s, "nlp_s": sum(r.get("nlp_s", 0.0) for r in rows),
@@ -296,6 +299,10 @@ def _print_case(res: dict[str, Any], cfg: dict[str, Any], png: Any) -> None:
     for e in res["evidence"]:
         print(f"| {e['eta_h']:g} | {e['speed_kn']:.2f} | {e['excess_nm']:.1f} | {_f(e['abreast_from_h'], '.0f')}–"
               f"{_f(e['abreast_to_h'], '.0f')} | {_f(e['storm_nm'], '.0f')} | {_f(e['islands_nm'], '.0f')} |")  # fmt: skip
+    g = res["gap"]
+    cover = "never" if g["storm_cover_h"] is None else "{:g}–{:g} h".format(*g["storm_cover_h"])
+    print(f"\nThe lattice's gap south of the islands, latitude {g['lat_deg']:.2f}°: the storm covers it {cover}; the "
+          f"fastest ship ({g['top_kn']:.1f} kn) reaches 50° E at {g['earliest_50e_h']:.0f} h at the earliest.")  # fmt: skip
     clear = [e["storm_nm"] for e in res["evidence"]]
     if clear:
         dy, binds = cfg["dp"]["dy_nm"], [e["eta_h"] for e in res["evidence"] if e["storm_nm"] <= cfg["dp"]["dy_nm"]]
@@ -309,9 +316,9 @@ def _print_case(res: dict[str, Any], cfg: dict[str, Any], png: Any) -> None:
           f"figure `{png.name}`\n")  # fmt: skip
 
 
-def run(quick: bool) -> dict[str, Any]:
-    """Both cases (case I with ``quick``): curves, windows, figures; print the tables."""
-    cfg = settings(quick)
+def run(quick: bool, cfg: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Both cases (case I with ``quick``): curves, windows, figures; print the tables (``cfg``: other settings)."""
+    cfg = settings(quick) if cfg is None else cfg
     print(load_line("load average at start"))
     out: dict[str, Any] = {"settings": cfg, "cases": [], "figures": []}
     t, cpu = time.perf_counter(), time.process_time()

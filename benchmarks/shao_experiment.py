@@ -207,3 +207,15 @@ def storm_clearance(route: orx.Route, case: int, t0: np.datetime64, step_nm: flo
             gap = max(area.lat_min - la, la - area.lat_max, 0.0) * 60.0
             out[key] = min(out[key], gap)
     return out
+
+
+def storm_cover_h(case: int, lat_deg: float, t0: np.datetime64, horizon_h: float = 400.0) -> tuple[float, float] | None:
+    """First and last hour (every 0.5 h up to ``horizon_h``) the storm's rectangle covers latitude ``lat_deg`` (None: never)."""
+    hours = np.arange(0.0, horizon_h + 1e-9, 0.5)
+    cover = [h for h in hours if (a := shao_no_go(case, float(h), start=t0)[1]).lat_min <= lat_deg <= a.lat_max]
+    return (float(cover[0]), float(cover[-1])) if cover else None
+
+
+def gap_lat_deg(dy_nm: float) -> float:
+    """The lattice's first latitude south of the islands (below −1°) [deg]: a multiple of ΔY from the equator."""
+    return -float(np.floor(60.0 / dy_nm) + 1.0) * dy_nm / 60.0
