@@ -38,6 +38,13 @@ over the great circle and its clearance from the storm and the islands at the ho
 Absolute fuel differs: the paper's ship model and sea are not given (``shao_case`` uses a
 Beaufort 5 head sea, H_s 2 m from the east). ``shao_case<k>.png`` plots the curves.
 
+Measured (case I on the paper's lattice, 2 Dec 2026, load 14-19 on 2 cores): at all 14 ETAs 224-328 h the DP
+uses 0.1-0.8 % more than the exact constant speed and never more than the lattice-speed baseline; that
+baseline's route is 14.3 nm over the great circle and keeps 179-352 nm from the storm (its gap south of the
+islands, -1.26°, is clear from 65 h; no ship reaches 50° E before 113 h): nothing binds, so no window. The
+DP took 779 s wall (8.0 M transitions), the baseline curve 1 199 s, the NLP 430 s (NoSafePassage); case II
+was not run to the end.
+
 Run ``python -m benchmarks.bench_shao [--quick]`` (quick: case I only, 5 legs of ~1 080 nm, 300 nm
 lateral spacing, speeds every 2 kn, four ETAs, no NLP: over this 5 400 nm, 270 h corridor the NLP's
 power table alone takes minutes and ~3 GB, and it ends in NoSafePassage from the DP's route).
