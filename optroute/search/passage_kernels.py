@@ -156,7 +156,10 @@ def _checked_piece(
                 for j in range(npts):
                     inv[j] = inv_new[j]
                 continue
-            if piece_clear(p, w, spd, mid[0], mid[1], mid[2], mid[3], s_pts, tt, npts, refine[0], refine[1], refine[2]):
+            if piece_clear(
+                p, w, spd, mid[0], mid[1], mid[2], mid[3], s_pts, tt, npts, la, lo, crs, sea_pts, refine[0],
+                refine[1], refine[2],
+            ):  # fmt: skip
                 return dur, fu, True, uncovered
             # a band between the check points, where the referee's rules look: strike the speed
         struck[guess] = 1.0

@@ -31,9 +31,9 @@ __all__ = ["CAPACITY", "N_FIELDS", "piece_clear", "workspace"]
 CAPACITY = 2048
 """Most points one piece's check may use; a piece needing more is treated as failing (never seen: a
 10 nm piece halved to 0.1 nm everywhere takes ~200)."""
-_S, _T, _LAT, _LON, _CRS, _C0, _G, _W, _M0 = 0, 1, 2, 3, 4, 5, 8, 9, 10
-N_FIELDS = 14
-"""Per point: s, t, lat, lon, course, 3 grid coordinates, g, wave direction, 4 band margins."""
+_S, _T, _LAT, _LON, _CRS, _C0, _G, _W, _M0, _PROBED = 0, 1, 2, 3, 4, 5, 8, 9, 10, 14
+N_FIELDS = 15
+"""Per point: s, t, lat, lon, course, 3 grid coordinates, g, wave direction, 4 band margins, evaluated (1) or not."""
 _N_SLOPES = 5  # g and the four bands
 _XTOL = min(CROSSING_TOL_NM, BAND_TOL_NM)
 
@@ -51,6 +51,7 @@ def workspace(checked):  # pragma: no cover - compiled
 def _place(w, lat, lon, course, length, row, scratch):  # pragma: no cover - compiled
     """Position, course and grid coordinates of the point at ``row[_S]``, ``row[_T]``."""
     row[_LAT], row[_LON], row[_CRS] = piece_point(lat, lon, course, row[_S] - 0.5 * length)
+    row[_PROBED] = 0.0
     grid_coordinates_at(w[1], w[2], w[3], w[4], w[5], row[_T], row[_LAT], row[_LON], scratch[13:16])
     row[_C0], row[_C0 + 1], row[_C0 + 2] = scratch[13], scratch[14], scratch[15]
 
@@ -173,7 +174,9 @@ def _needs_halving(a, i, n, sl):  # pragma: no cover - compiled
 
 
 @jit
-def piece_clear(p, w, spd, lat, lon, course, length, s0, t0, n0, ws, sl, scratch):  # pragma: no cover - compiled
+def piece_clear(
+    p, w, spd, lat, lon, course, length, s0, t0, n0, la0, lo0, crs0, sea0, ws, sl, scratch
+):  # pragma: no cover - compiled
     """Whether speed ``spd`` [kn] is allowed everywhere the referee's rules look between the piece's check points.
 
     Parameters
@@ -187,6 +190,9 @@ def piece_clear(p, w, spd, lat, lon, course, length, s0, t0, n0, ws, sl, scratch
     s0, t0 : ndarray
         The check points' distances from the piece's start [nm] (increasing, ends included) and the
         times the ship passes them [h]; ``n0`` of them.
+    la0, lo0, crs0, sea0 : ndarray
+        Their positions [deg], courses [deg true] and the weather sampled there (``sample_at``'s rows),
+        where the speed is allowed already: they are not evaluated again.
     ws, sl, scratch : ndarray
         :func:`workspace`.
 
@@ -199,13 +205,22 @@ def piece_clear(p, w, spd, lat, lon, course, length, s0, t0, n0, ws, sl, scratch
     """
     a, b = ws[0], ws[1]
     for j in range(n0):
-        a[j, _S], a[j, _T] = s0[j], t0[j]
-        _place(w, lat, lon, course, length, a[j], scratch)
+        row = a[j]
+        row[_S], row[_T], row[_LAT], row[_LON], row[_CRS] = s0[j], t0[j], la0[j], lo0[j], crs0[j]
+        grid_coordinates_at(w[1], w[2], w[3], w[4], w[5], t0[j], la0[j], lo0[j], scratch[13:16])
+        row[_C0], row[_C0 + 1], row[_C0 + 2] = scratch[13], scratch[14], scratch[15]
+        sea = sea0[j]
+        _, row[_W], row[_G] = band_state(
+            p, crs0[j], sea[0], sea[1], sea[2], sea[3], sea[4], sea[5], sea[6], spd, scratch[9:13]
+        )
+        for q in range(4):
+            row[_M0 + q] = scratch[9 + q]
+        row[_PROBED] = 1.0
     n = _crossings(a, b, n0, w, lat, lon, course, length, scratch)
     if n < 0:
         return False
     for j in range(n):
-        if not _probe(p, w, spd, a[j], scratch):
+        if a[j, _PROBED] == 0.0 and not _probe(p, w, spd, a[j], scratch):
             return False
     for _ in range(MAX_ROUNDS):
         _slopes(a, n, sl)
