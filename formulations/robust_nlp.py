@@ -322,7 +322,7 @@ class RobustSpeedNLP:
         if self.risk == "cvar":
             a, b = self._cvar_rows
             lbg[a:b], ubg[a:b] = 0.0, np.inf
-            j0 = np.ravel(self._objectives(np.concatenate([*x0, np.zeros(1 + mm)]), p))
+            j0 = np.asarray(self._objectives(np.concatenate([*x0, np.zeros(1 + mm)]), p), dtype=float).ravel()
             lbx += [np.array([-np.inf]), np.zeros(mm)]
             ubx += [np.array([np.inf]), np.full(mm, np.inf)]
             z0 = float(np.quantile(j0, self.alpha))
@@ -349,7 +349,7 @@ class RobustSpeedNLP:
             solves=1,
             solve_time_s=elapsed,
             objective=float(sol["f"]),
-            member_objective=np.ravel(self._objectives(x, p)),
+            member_objective=np.asarray(self._objectives(x, p), dtype=float).ravel(),
             member_fuel_t=fuel,
             var=float(x[self._nx - 1 - mm]) if self.risk == "cvar" else float("nan"),
             offset_nm=y,
