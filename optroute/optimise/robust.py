@@ -207,6 +207,12 @@ def optimise_robust(
         The member whose context the returned plan is evaluated in (its ``legs``, ``total_fuel_t``).
     band_solves : int
         Solves of the band re-imposition loop (:meth:`RobustSpeedNLP.solve_sides`) per tightening.
+    solver_options : mapping, optional
+        Ipopt/CasADi options; the default here adds ``"ipopt.hessian_approximation": "limited-memory"``: the
+        stacked NLP's derivatives are CasADi's automatic differentiation of M copies of the corridor model, and
+        the exact Hessian's build grows with them (on the 18-leg, 3-member storm case of ``benchmarks.bench_voyage``
+        it took 3.2× the build time of the limited-memory one, measured side by side); pass
+        ``{"ipopt.hessian_approximation": "exact"}`` to have it.
     Other parameters
         As :func:`optroute.optimise_corridor`; ``eta_mode`` must be ``"le"``; ``jit``, ``discrete_start`` and
         ``dp_options`` are not available (ConfigError); ``progress`` is not called.
@@ -288,9 +294,15 @@ def optimise_robust(
     log: list[str] = []
     counts = {"solves": 0, "iterations": 0, "solve_time_s": 0.0, "build_time_s": 0.0}
     last: RobustResult | None = None
+    options = {"ipopt.hessian_approximation": "limited-memory", **dict(solver_options or {})}
+    builds: dict[tuple[float, float, float], RobustSpeedNLP] = {}
     for retry in range(int(max_retries) + 1):
-        nlp = _build(prepared, ref, frame, y_lo, y_hi, state, exclusion, t0, solver_options, robust, alpha)
-        counts["build_time_s"] += nlp.build_time_s
+        key = (state["widen"], state["hs_margin"], state["extra_radius_nm"])  # what shapes a build (the rest is data)
+        if key not in builds:
+            builds[key] = _build(prepared, ref, frame, y_lo, y_hi, state, exclusion, t0, options, robust, alpha)
+            counts["build_time_s"] += builds[key].build_time_s
+        nlp = builds[key]
+        nlp.power = replace(nlp.power, max_load=state["max_load"], min_load=state["min_load"])
         res = nlp.solve_sides(
             eta_h=None if eta_h is None else eta_h - state["eta_shift_h"],
             objective=objective,
@@ -350,7 +362,7 @@ def _build(prepared, ref, frame, y_lo, y_hi, state, exclusion, t0, solver_option
     bands, _, a = formulation_bands(ref.ship, ref.rules, widen=state["widen"], hs_margin=state["hs_margin"])
     hs_top = max(float(np.max(p.grid.hs_m)) for p in prepared)
     bands = tuple(b for b in bands if hs_top >= b.hs_min_m)  # bands no member's sea reaches are left out
-    power = replace(ref.power, max_load=state["max_load"], min_load=state["min_load"])
+    power = ref.power
     excl = None
     if exclusion is not None:
         excl = moving_exclusion(exclusion, frame, t0, extra_radius_nm=state["extra_radius_nm"])
@@ -366,7 +378,7 @@ def _build(prepared, ref, frame, y_lo, y_hi, state, exclusion, t0, solver_option
         v_min_kn=ref.v_min,
         v_max_kn=ref.v_max,
         g_over_2pi_kn_s=a,
-        ipopt_options=dict(solver_options or {}),
+        ipopt_options=dict(solver_options),
     )
 
 
