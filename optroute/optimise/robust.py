@@ -238,17 +238,11 @@ def optimise_robust(
     SolverFailure
         No tightened solve gave a plan that verifies in every member (``best_plan``: the warm plan if it does).
     """
-    from optroute.optimise.corridor_problem import PreparedCorridor
-
     started = _time.perf_counter()
     alpha = _check_options(
         robust, cvar_alpha, eta_mode, {"jit": jit, "discrete_start": discrete_start, "dp_options": dp_options}
     )
     members = member_datasets(weather)
-    if not (isinstance(reference_member, int | np.integer) and 0 <= reference_member < len(members)):
-        raise ConfigError(
-            f"reference_member={reference_member!r} is not a member index; give an integer in [0, {len(members) - 1}]"
-        )
     shared = {
         "departure": departure,
         "latest_eta": eta,
@@ -266,18 +260,9 @@ def optimise_robust(
         "verify_step_nm": verify_step_nm,
         "use_land_mask": use_land_mask,
     }
-    prepared = [PreparedCorridor(corridor, ds, ship, **shared) for ds in members]
+    prepared, y_lo, y_hi = _prepare(corridor, members, ship, shared, reference_member)
     ref = prepared[int(reference_member)]
     frame, t0 = ref.frame, ref.departure
-    y_lo = np.max([p.y_lo for p in prepared], axis=0)
-    y_hi = np.min([p.y_hi for p in prepared], axis=0)
-    closed = np.flatnonzero(y_lo > y_hi)
-    if closed.size:
-        k = int(closed[0])
-        raise NoSafePassage(
-            f"the members' navigable ranges across waypoint {k} of the corridor do not overlap: no one track is "
-            "navigable in every member; widen the corridor or leave out the members that close it"
-        )
     eta_t = as_utc_time(eta, "eta") if eta is not None else None
     eta_h = timedelta_to_h(eta_t - t0) if eta_t is not None else (ref.prepared_cap_h if objective != "time" else None)
     ctx = ref.plan_context(eta_t, "le")
@@ -344,14 +329,38 @@ def optimise_robust(
         warm = {"offset_nm": res.offset_nm, "stw_kn": res.stw_kn}
         if not _tighten(state, [v for f in failing.values() for v in f], log):
             break
+    raise _failure(members, warm_plan, last, log, counts["solves"])
+
+
+def _prepare(corridor: Corridor, members: list[xr.Dataset], ship: Any, shared: dict[str, Any], reference: Any):
+    """Every member prepared as ``optimise_corridor`` prepares one weather, and the lateral bounds all allow."""
+    from optroute.optimise.corridor_problem import PreparedCorridor
+
+    if not (isinstance(reference, int | np.integer) and 0 <= reference < len(members)):
+        raise ConfigError(
+            f"reference_member={reference!r} is not a member index; give an integer in [0, {len(members) - 1}]"
+        )
+    prepared = [PreparedCorridor(corridor, ds, ship, **shared) for ds in members]
+    y_lo = np.max([p.y_lo for p in prepared], axis=0)
+    y_hi = np.min([p.y_hi for p in prepared], axis=0)
+    closed = np.flatnonzero(y_lo > y_hi)
+    if closed.size:
+        raise NoSafePassage(
+            f"the members' navigable ranges across waypoint {int(closed[0])} of the corridor do not overlap: no one "
+            "track is navigable in every member; widen the corridor or leave out the members that close it"
+        )
+    return prepared, y_lo, y_hi
+
+
+def _failure(members: list, warm_plan: Plan | None, last: RobustResult | None, log: list[str], solves: int):
+    """The SolverFailure of a call without a plan clean in every member; its best plan is the warm plan if clean."""
     best = None
     if warm_plan is not None and not any(warm_plan.verify(weather=m) for m in members):
         best = warm_plan
     status = last.status if last is not None else "not solved"
-    raise SolverFailure(
-        f"no robust plan verifies in every one of the {len(members)} members after {len(log)} tightenings "
-        f"(Ipopt's last status {status}; {log[-1] if log else ''}); widen the corridor, give a later ETA, or plan on "
-        "fewer members",
+    return SolverFailure(
+        f"no robust plan verifies in every one of the {len(members)} members after {solves} solve(s) (Ipopt's last "
+        f"status {status}; {log[-1] if log else ''}); widen the corridor, give a later ETA, or plan on fewer members",
         status=status,
         best_plan=best,
     )
