@@ -34,6 +34,7 @@ from optroute.search import passage_kernels
 from optroute.search.compiled_search import LegKernel
 from optroute.search.dijkstra import shortest_path
 from optroute.search.dp import solve_dp
+from optroute.search.dp_kernels import DPLegKernel
 from optroute.search.exclusion import avoiding
 from optroute.search.grid import RouteGrid
 from optroute.search.neighbourhood import Neighbourhood, angular_resolution, compass
@@ -412,7 +413,13 @@ class PassagePhysics:
             extra = {"stw_kn": (stw.reshape(n, m) * w).sum(axis=1), "power_kw": (power.reshape(n, m) * w).sum(axis=1)}
             return dur, np.where(feas, fuel, np.nan), feas, extra
 
+        if inputs is not None:  # solve_dp's compiled transitions (optroute.search.dp_kernels)
+            cost.dp_kernel = DPLegKernel(*inputs, pieces, self._count_uncovered)  # type: ignore[attr-defined]
         return cost
+
+    def _count_uncovered(self, n: int) -> None:
+        self.calls += 1
+        self.uncovered += n
 
 
 def _neighbourhood(angular_resolution_deg: float | None, directions: int | None, radius: int) -> Neighbourhood:
