@@ -35,6 +35,12 @@ physics layer runs the MCR loop and the danger bands inside it and may only
 *lower* the speed (``duration_h >= distance / sog_kn``, checked); where no
 safe speed exists it returns ``feasible = False``.
 
+A callback carrying a compiled form (``leg_cost.dp_kernel``, a
+:class:`~optroute.search.dp_kernels.DPLegKernel`: ``PassagePhysics.dp_leg``)
+has the binned transitions costed by :mod:`optroute.search.dp_kernels`, best
+first under a fuel floor: the same labels, with the legs that cannot win left
+uncosted.
+
 No-go areas (islands, moving storms) are a callable ``navigable(lat_deg,
 lon_deg, t_h) -> bool array``, checked at the state reached and at points
 along each leg every ``nogo_step_nm`` at the time the ship passes them
@@ -135,7 +141,7 @@ class DPResult:
     n_states : int
         (stage, lateral, bin) states reached.
     n_transitions : int
-        Legs costed by the callback.
+        Legs costed (with the compiled stages, only those that could still win their bin).
     """
 
     path: DPPath
