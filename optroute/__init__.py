@@ -43,6 +43,7 @@ _numba.ensure_cache_dir()
 _LAZY: dict[str, str] = {
     "optimise_corridor": "optroute.optimise.api",
     "plan_voyage": "optroute.optimise.api",
+    "refine_sailing_route": "optroute.optimise.sailing",
     "CalmWaterModel": "optroute.physics.performance",
     "KwonModel": "optroute.physics.performance",
     "PerformanceModel": "optroute.physics.performance",
@@ -87,6 +88,7 @@ _LAZY: dict[str, str] = {
 
 if TYPE_CHECKING:  # what the lazy names resolve to, for type checkers and IDEs
     from optroute.optimise.api import optimise_corridor, plan_voyage
+    from optroute.optimise.sailing import refine_sailing_route
     from optroute.physics.performance import CalmWaterModel, KwonModel, PerformanceModel, PowerTableModel
     from optroute.physics.polar import Polar, read_polar, write_polar
     from optroute.physics.safety import BandRules, ForbiddenInterval, band_margins, forbidden_speed_intervals
@@ -133,6 +135,7 @@ __all__ = [
     "__version__",
     "optimise_corridor",
     "plan_voyage",
+    "refine_sailing_route",
     "CalmWaterModel",
     "KwonModel",
     "PerformanceModel",

@@ -167,6 +167,10 @@ def test_storm_crossing_nlp_from_the_centreline_is_no_worse_than_the_finest_dp_b
 def test_nlp_objective_equals_the_referee_within_the_tabulation_bound(crossing: dict) -> None:
     tab = crossing["alone"].solver_stats["tabulation"]
     assert abs(tab["rel_error"]) <= TABULATION_BOUND
+    # the largest measured: at the NLP's solution from the 3-D DP's start, just on the bow side of Kwon's 30 deg
+    # head/bow sector edge (+3.4 % in benchmarks.bench_nlp --crossing); the stated bound is that measurement's
+    from_dp = crossing["from_dp"].solver_stats["tabulation"]
+    assert abs(from_dp["rel_error"]) <= TABULATION_BOUND
     # and the counts are honest: every solve and every iteration
     stats = crossing["alone"].solver_stats
     assert stats["nlp_solves"] >= 1 and stats["iterations"] >= stats["nlp_solves"]

@@ -32,7 +32,8 @@ from optroute.studies.tradeoff import TradeoffFront, tradeoff
 from tests.test_optimise import LinearSeaModel, _static_linear_sea
 
 # the module, not the function orx.tradeoff that shadows it as an attribute of the package
-tradeoff_mod = importlib.import_module("optroute.studies.tradeoff")
+points_mod = importlib.import_module("optroute.studies.front_points")
+runners_mod = importlib.import_module("optroute.studies.front_runners")
 SHIP = orx.Ship.preset("container_54k_dwt")
 SMALL_SHIP = SHIP.replace(name="small_feeder", mcr_kw=20000.0)
 T0 = np.datetime64("2024-01-10T00:00", "ns")
@@ -130,17 +131,18 @@ def test_infeasible_etas_are_reported_per_point_not_dropped(calm_front):
 
 
 def test_a_rising_point_keeps_the_earlier_plan_beside_its_own_solve_and_is_counted(monkeypatch):
-    real = tradeoff_mod._solve_point
+    real = points_mod.solve_point
     solved = []
 
     def spoiled(spec, eta_h, kind, warm, route=None):
         p = real(spec, eta_h, kind, warm, route)
         solved.append((kind, eta_h))
         if kind == "eta" and eta_h == 35.0:  # planted: the 35 h solve ends above the 30 h point's fuel
-            p = tradeoff_mod._replace(p, totals={**p.totals, "fuel_t": 1e6})
+            p = points_mod.replace_fields(p, totals={**p.totals, "fuel_t": 1e6})
         return p
 
-    monkeypatch.setattr(tradeoff_mod, "_solve_point", spoiled)
+    for mod in (points_mod, runners_mod):  # the chains' and the end solves' callers
+        monkeypatch.setattr(mod, "solve_point", spoiled)
     front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, etas=[30.0, 35.0, 40.0], **KW)
     # one solve per point: nothing is solved again
     assert sorted(h for k, h in solved if k == "eta") == [30.0, 35.0, 40.0]
@@ -166,18 +168,18 @@ def test_one_solve_per_point_and_the_slow_neighbour_sped_up_to_arrive_by_the_nex
     legs = CORRIDOR.resample(150.0)
     stw = np.array([14.0, 16.0, 15.0, 15.5, 14.5])
     stw = stw * (legs.leg_distance_nm / stw).sum() / 40.0  # arrives at 40 h
-    later = tradeoff_mod._Point(
-        40.0, "eta", "optimal", totals={"duration_h": 40.0}, carry=tradeoff_mod._Warm(legs.waypoints, stw)
+    later = points_mod.FrontPoint(
+        40.0, "eta", "optimal", totals={"duration_h": 40.0}, carry=points_mod.WarmStart(legs.waypoints, stw)
     )
-    sped = tradeoff_mod._retimed(later, 35.0)
+    sped = points_mod.retimed_start(later, 35.0)
     np.testing.assert_allclose(sped.stw_kn, stw * 40.0 / 35.0 * (1 + 1e-6), rtol=1e-15)
     arrival = float((legs.leg_distance_nm / sped.stw_kn).sum())
     assert 35.0 * (1 - 2e-6) < arrival <= 35.0
-    assert tradeoff_mod._retimed(later, 45.0) is later.carry  # a later ETA: the plan arrives by it as it is
+    assert points_mod.retimed_start(later, 45.0) is later.carry  # a later ETA: the plan arrives by it as it is
 
 
 def test_chains_split_by_eta_alone_descending_from_the_slow_end():
-    split = tradeoff_mod._split
+    split = runners_mod.split_chains
     assert split([1.0, 2.0, 3.0, 4.0, 5.0], 2, True) == [[3.0, 2.0, 1.0], [5.0, 4.0]]
     assert split([1.0, 2.0, 3.0], 2, False) == [[1.0, 2.0], [3.0]]
     assert split([1.0, 2.0], 4, True) == [[1.0], [2.0]]  # never an empty chain
@@ -186,7 +188,7 @@ def test_chains_split_by_eta_alone_descending_from_the_slow_end():
 def test_a_failed_minimum_time_solve_starts_the_front_from_the_fastest_verified_plan(monkeypatch):
     # planted: the minimum-time NLP fails, carrying a verified 30 h plan as its best (as SolverFailure
     # does with the search route's); the front starts there, labelled, and the rest is unchanged
-    real = tradeoff_mod.optimise_corridor
+    real = points_mod.optimise_corridor
     best = real(CORRIDOR, _calm(), SHIP, departure=T0, eta=T0 + np.timedelta64(30, "h"), **KW)
 
     def failing(*args, objective="fuel", **kw):
@@ -194,7 +196,7 @@ def test_a_failed_minimum_time_solve_starts_the_front_from_the_fastest_verified_
             raise orx.SolverFailure("planted", status="Maximum_Iterations_Exceeded", best_plan=best)
         return real(*args, objective=objective, **kw)
 
-    monkeypatch.setattr(tradeoff_mod, "optimise_corridor", failing)
+    monkeypatch.setattr(points_mod, "optimise_corridor", failing)
     front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, n=3, **KW)
     assert front.eta_h.values[0] == pytest.approx(best.duration_h, rel=1e-9)
     assert str(front.status.values[0]).startswith("feasible: fastest verified plan known")
@@ -275,12 +277,12 @@ def test_a_front_on_a_prepared_corridor_is_monotone_and_prepares_once(monkeypatc
 
     made = []
 
-    class Counting(tradeoff_mod.PreparedCorridor):
+    class Counting(points_mod.PreparedCorridor):
         def __init__(self, *args, **kwargs):
             made.append(kwargs["latest_eta"])
             super().__init__(*args, **kwargs)
 
-    monkeypatch.setattr(tradeoff_mod, "PreparedCorridor", Counting)
+    monkeypatch.setattr(points_mod, "PreparedCorridor", Counting)
     wx = _static_linear_sea(1.0, 0.15, wave_from_deg=45.0)
     corridor = orx.Corridor(np.array([[0.0, -30.0], [0.0, -10.0]]), 20.0)
     kw = {"max_leg_nm": 150.0, "use_land_mask": False, "speed_range_kn": (9.0, SHIP.max_calm_speed_kn)}
@@ -293,8 +295,8 @@ def test_a_front_on_a_prepared_corridor_is_monotone_and_prepares_once(monkeypatc
     assert interior.size >= 2
     assert made == [T0 + np.timedelta64(int(interior.max()), "h")]  # prepared once, for the latest ETA solved
     # kept for the next front of the same inputs (a study's): keyed by their fingerprint, which another ship changes
-    token = tradeoff_mod._token(corridor, wx, SHIP, T0, "fuel", kw)
-    assert (token, float(interior.max())) in tradeoff_mod._PREPARED
-    assert tradeoff_mod._token(corridor, wx, SMALL_SHIP, T0, "fuel", kw) != token
+    token = points_mod.front_token(corridor, wx, SHIP, T0, "fuel", kw)
+    assert (token, float(interior.max())) in points_mod.PREPARED_CORRIDORS
+    assert points_mod.front_token(corridor, wx, SMALL_SHIP, T0, "fuel", kw) != token
     ref = optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(80, "h"), **kw)
     assert fuel[1] == pytest.approx(ref.total_fuel_t, rel=1e-6)

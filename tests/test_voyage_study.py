@@ -111,7 +111,7 @@ def test_front_is_bit_identical_serial_run_to_run_and_on_two_workers(cluster):
 
 
 def test_interrupted_study_resumes_with_every_case_once(serial, tmp_path, monkeypatch):
-    real = vs._solve_point
+    real = vs.solve_point
     calls = {"n": 0}
 
     def interrupted(*args, **kwargs):
@@ -120,7 +120,7 @@ def test_interrupted_study_resumes_with_every_case_once(serial, tmp_path, monkey
             raise KeyboardInterrupt  # Ctrl-C half-way through the 12 cases
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(vs, "_solve_point", interrupted)
+    monkeypatch.setattr(vs, "solve_point", interrupted)
     store = tmp_path / "store"
     with pytest.raises(KeyboardInterrupt):
         _study(store, n_workers=0)

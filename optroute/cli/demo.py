@@ -6,7 +6,7 @@ built-in ship, with nothing to download:
 
 1. **the great circle sailed the way a master would without routing**: 25 kn
    wherever allowed, slowing down inside the storms until every danger band
-   holds (:func:`optroute.search.routing.sail_route`);
+   holds (:func:`optroute.search.fixed_route.sail_route`);
 2. **the searched route** (:func:`optroute.search_route`, time-dependent A*
    on a gnomonic grid, 5° angular resolution, objective time at 25 kn): the
    corridor and, per leg, the side of every danger band;
@@ -191,7 +191,7 @@ def storm_point(great_circle: Route, weather: xr.Dataset, *, before: Any = None)
     Parameters
     ----------
     great_circle : Route
-        The baseline (:func:`optroute.search.routing.sail_route`).
+        The baseline (:func:`optroute.search.fixed_route.sail_route`).
     weather : xarray.Dataset
         Its weather.
     before : datetime64, optional

@@ -233,6 +233,13 @@ def optimise_corridor(
         prepared, eta, eta_mode=eta_mode, objective=objective, warm_plan=warm_plan, route=route, progress=progress
     )
     stats = dict(plan.solver_stats)
+    # every solve of the call, those of a failed first solve and of the minimum-time solve behind an honest
+    # outcome included (the plan's own solve counts only its solve)
+    prob = prepared.problem
+    stats.update(
+        nlp_solves=prob.solves, iterations=prob.iterations, solve_time_s=prob.solve_time_s,
+        build_time_s=prob.build_time_s,
+    )  # fmt: skip
     stats["total_time_s"] = _time.perf_counter() - started
     return replace(plan, solver_stats=stats)
 

@@ -1,11 +1,10 @@
 """A corridor problem prepared once and solved for many ETAs: :class:`PreparedCorridor`.
 
-:func:`optroute.optimise_corridor` is set-up then solves. Set-up: the NLP's weather grid with the
-ship's own power tabulated on it (:func:`~optroute.optimise.nlp_inputs.weather_grid`,
-:mod:`optroute.optimise.power_table`: one model, the referee's), the lateral bounds and land mask
-(:func:`~optroute.optimise.nlp_inputs.lateral_bounds`), the :class:`~optroute.optimise.nlp_solve.Problem`
-and the CasADi builds of :class:`formulations.speed_nlp.SpeedNLP`. Only the solves depend on the
-ETA (a solve parameter of the NLP), so a fuel-versus-ETA front (:func:`optroute.studies.tradeoff`)
+:func:`optroute.optimise_corridor` is set-up then solves. Set-up
+(:func:`optroute.optimise.corridor_setup.prepare_corridor`): the NLP's weather grid with the ship's
+own power tabulated on it (one model, the referee's), the lateral bounds and land mask and the
+CasADi builds of :class:`formulations.speed_nlp.SpeedNLP`. Only the solves depend on the ETA (a
+solve parameter of the NLP), so a fuel-versus-ETA front (:func:`optroute.studies.tradeoff`)
 prepares the corridor once, for a horizon covering all its ETAs, and solves each ETA with
 :meth:`PreparedCorridor.solve`.
 
@@ -23,31 +22,27 @@ and the verified start, never a worse one, with a status that says which and why
 from __future__ import annotations
 
 import math
-import shutil
 import time as _time
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
 import xarray as xr
 
-from formulations.speed_nlp import jit_compiler
 from optroute._checks import finite
 from optroute.errors import ConfigError, SolverFailure, WeatherCoverageError
 from optroute.optimise.certificate import certificate_stats, dual_schedule
+from optroute.optimise.corridor_setup import ProgressFn, emit, prepare_corridor
 from optroute.optimise.corridor_stats import solution_stats, table_error
 from optroute.optimise.min_time import clean_start
-from optroute.optimise.nlp_inputs import build_frame, dataset_spacing, lateral_bounds, weather_grid
 from optroute.optimise.nlp_solve import (
-    Problem,
     Solved,
     Tightening,
     clear_of_exclusion,
     desired_speed,
     warm_rules,
 )
-from optroute.optimise.power_table import PowerTable, baseline_power_model, heading_nodes, speed_nodes
 from optroute.optimise.rescue import (
     LIMIT_STATUSES,
     feasible_iterate,
@@ -69,14 +64,13 @@ from optroute.optimise.starts import (
     track_warm_start,
     verified_plan,
 )
-from optroute.physics.performance import PerformanceModel, default_model
+from optroute.physics.performance import PerformanceModel
 from optroute.physics.safety import BandRules
 from optroute.physics.ship import Ship
 from optroute.plan.result import Exclusion, Plan, PlanContext, Violation
 from optroute.search.route import Corridor, Route
 from optroute.units import as_utc_time as _as_time
 from optroute.units import format_utc
-from optroute.units import h_to_timedelta as _h_to_td
 from optroute.units import timedelta_to_h as _hours
 from optroute.weather.sample import WeatherSampler
 
@@ -84,24 +78,6 @@ __all__ = ["PreparedCorridor"]
 
 Objective = Literal["time", "fuel", "cost"]
 TIE_REL_TOL = 1e-9  # relative difference of scores below which the NLP's plan and the start's tie [-]
-ProgressFn = Callable[[str, float], None]
-
-
-def _emit(progress: ProgressFn | None, stage: str, fraction: float) -> None:
-    if progress is not None:
-        progress(stage, float(fraction))
-
-
-def _check_jit(jit: bool) -> bool:
-    """``jit`` as a bool; True needs a C compiler for CasADi's ``"shell"`` plugin."""
-    if not isinstance(jit, bool | np.bool_):
-        raise ConfigError(f"jit={jit!r} must be True or False")
-    if jit and shutil.which(jit_compiler()) is None:
-        raise ConfigError(
-            f"jit=True compiles the NLP's derivatives with a C compiler, and {jit_compiler()!r} is not on the PATH; "
-            "install gcc or name another compiler in the CC environment variable, or use jit=False"
-        )
-    return bool(jit)
 
 
 _Found = tuple[Plan, Solved, float | None]  # a verified plan, its solve and the ETA solved [h]
@@ -201,132 +177,33 @@ class PreparedCorridor:
         self.hourly = float(finite("hourly_cost_per_h", hourly_cost_per_h, minimum=0.0, error=ConfigError))
         self.margin0 = float(finite("band_margin", band_margin, minimum=0.0, error=ConfigError))
         self.hs_margin0 = float(finite("band_hs_margin", band_hs_margin, minimum=0.0, error=ConfigError))
-        if isinstance(weather, WeatherSampler):
-            sampler, ds = weather, None
-        elif isinstance(weather, xr.Dataset):
-            sampler, ds = WeatherSampler(weather), weather
-        else:
-            raise ConfigError(
-                f"weather must be a canonical xarray.Dataset or a WeatherSampler, got {type(weather).__name__}"
-            )
-        n_wp = len(corridor.waypoints)
-        for k, (lat_k, lon_k) in enumerate(corridor.waypoints):  # named before any grid node is sampled
-            role = "start, " if k == 0 else ("end, " if k == n_wp - 1 else "")
-            sampler.require_area(lat_k, lon_k, what=f"{role}corridor point {k}")
-        model = model if model is not None else default_model(ship)
-        rules = rules if rules is not None else BandRules()
-        if speed_range_kn is None:
-            v_min, v_max = 3.0, float(min(ship.max_calm_speed_kn, 40.0))
-        else:
-            v_min, v_max = (
-                float(x) for x in finite("speed_range_kn", speed_range_kn, minimum=0.0, strict=True, error=ConfigError)
-            )
-            if v_max <= v_min:
-                raise ConfigError(f"speed_range_kn={speed_range_kn!r} needs lower < upper")
-        _emit(progress, "corridor", 0.0)
-
-        # ---- time window -------------------------------------------------------------
-        ext = sampler.extent
-        data_end_h = _hours(ext["time"][1] - t0) if sampler.time_policy == "raise" else math.inf
-        if sampler.time_policy == "raise" and _hours(ext["time"][0] - t0) > 1e-9:
-            raise WeatherCoverageError(
-                f"departure={format_utc(t0)} is before the weather's first time {format_utc(ext['time'][0])}; depart later "
-                "or extend the "
-                "forecast"
-            )
-        if data_end_h <= 0:
-            raise WeatherCoverageError(
-                f"departure={format_utc(t0)} is at or after the weather's last time {format_utc(ext['time'][1])}; "
-                "extend the forecast"
-            )
-        if eta_user_h is not None and eta_user_h > data_end_h + 1e-9:
-            raise WeatherCoverageError(
-                f"eta={format_utc(eta_t)} is after the weather's last time {format_utc(ext['time'][1])}: the passage could not be checked "
-                "against the weather; extend the forecast, give an earlier eta, or open the weather with "
-                "time_policy='hold'"
-            )
-        cap_h = (
-            eta_user_h
-            if eta_user_h is not None
-            else (data_end_h if objective != "time" and math.isfinite(data_end_h) else None)
+        su = prepare_corridor(
+            corridor, weather, ship, t0=t0, eta_t=eta_t, objective=objective, model=model, rules=rules,
+            max_leg_nm=max_leg_nm, exclusion=exclusion, speed_range_kn=speed_range_kn, use_land_mask=use_land_mask,
+            solver_options=solver_options, jit=jit, progress=progress,
+        )  # fmt: skip
+        self.setup = su
+        self.corridor, self.ship, self.model, self.rules = corridor, ship, su.model, su.rules
+        self.sampler, self.dataset, self.exclusion, self.use_land_mask = (
+            su.sampler,
+            su.dataset,
+            exclusion,
+            use_land_mask,
         )
-        cor = corridor.resample(float(finite("max_leg_nm", max_leg_nm, minimum=0.0, strict=True, error=ConfigError)))
-        frame = build_frame(cor)
-        length = float(frame.s_nm[-1])
-        if cap_h is not None:
-            horizon = cap_h * 1.02 + 1.0
-        else:
-            horizon = 1.3 * length / max(v_min, 0.5 * ship.design_speed_kn)
-        horizon = min(horizon, data_end_h) if math.isfinite(data_end_h) else horizon
-        dt_ds, ds_ds = dataset_spacing(ds)
-        # the NLP's grid is twice as fine as the data's, so that its smooth interpolant stays within about a
-        # quarter of its own O(h²) departure from the data's multilinear interpolation (the verifier's)
-        dt_h = float(np.clip(0.5 * dt_ds if dt_ds else 1.5, 0.5, 3.0))
-        # short NLP legs (a small max_leg_nm) do not refine it: the grid would grow with N and its spline's build
-        # dominate the solve (15 s against 1 s at 500 legs); the corridor's own vertices (where it turns) bound it
-        ds_nm = float(
-            min(np.clip(0.5 * ds_ds if ds_ds else 15.0, 5.0, 30.0), max(float(np.max(corridor.leg_distance_nm)), 5.0))
+        self.departure, self.data_end_h, self.horizon_h, self.prepared_cap_h = t0, su.data_end_h, su.horizon_h, su.cap_h
+        self.frame, self.grid, self.samples, self.power, self.table = su.frame, su.grid, su.samples, su.power, su.table
+        self.y_lo, self.y_hi, self.v_min, self.v_max, self.length_nm = (
+            su.y_lo,
+            su.y_hi,
+            su.v_min,
+            su.v_max,
+            su.length_nm,
         )
-        hw_max = float(np.max(cor.half_width_nm))
-        dy_nm = float(np.clip(ds_nm / 2.0, 2.0, max(hw_max / 2.0, 2.0)))
-        _emit(progress, "weather grid and power table", 0.05)
-        base, sfoc_err = baseline_power_model(
-            model, v_min_kn=v_min, v_max_kn=v_max, min_load=float(model.min_power_kw) / float(model.mcr_kw)
-        )
-        speeds = speed_nodes(v_min, v_max)
-        fixed_path = bool(np.all(np.asarray(cor.half_width_nm) == 0.0))
-        headings = heading_nodes(fixed_path, any(v.startswith("current") for v in sampler.variables))
-        grid, samples = weather_grid(
-            frame,
-            sampler,
-            departure=t0,
-            t_end_h=horizon,
-            dt_h=dt_h,
-            ds_nm=ds_nm,
-            dy_nm=dy_nm,
-            model=model,
-            base=base,
-            speeds_kn=speeds,
-            headings_deg=headings,
-        )
-        self.table = PowerTable(speeds, headings, samples.power_capped_share, samples.power_evaluations, sfoc_err)
-        window = t0 + np.array(
-            [_h_to_td(h) for h in np.linspace(0.0, horizon, int(min(25, max(2, horizon / dt_h + 1))))]
-        )
-        _emit(progress, "lateral bounds", 0.1)
-        y_lo, y_hi = lateral_bounds(
-            frame,
-            sampler=sampler,
-            dataset=ds,
-            times=window,
-            use_land_mask=use_land_mask,
-            step_nm=max(1.0, min(5.0, hw_max / 10.0)) if hw_max > 0 else 1.0,
-        )
-        self.corridor, self.ship, self.model, self.rules = corridor, ship, model, rules
-        self.sampler, self.dataset, self.exclusion, self.use_land_mask = sampler, ds, exclusion, use_land_mask
-        self.departure, self.data_end_h, self.horizon_h, self.prepared_cap_h = t0, data_end_h, horizon, cap_h
-        self.frame, self.grid, self.samples, self.power = frame, grid, samples, base
-        self.y_lo, self.y_hi, self.v_min, self.v_max, self.length_nm = y_lo, y_hi, v_min, v_max, length
         self.samples_per_leg = int(samples_per_leg)
         self.band_solves, self.max_retries = int(band_solves), int(max_retries)
         self.discrete_start, self.dp_options = bool(discrete_start), dict(dp_options or {})
         self.verify_step_nm = float(verify_step_nm)
-        self.problem = Problem(
-            frame=frame,
-            grid=grid,
-            samples=samples,
-            power=base,
-            ship=ship,
-            rules=rules,
-            y_lo=y_lo,
-            y_hi=y_hi,
-            v_min=v_min,
-            v_max=v_max,
-            exclusion=exclusion,
-            departure=t0,
-            solver_options=solver_options,
-            jit=_check_jit(jit),
-        )
+        self.problem = su.problem
 
     # ------------------------------------------------------------------ one ETA
 
@@ -464,7 +341,11 @@ class PreparedCorridor:
     def _centre_candidate(self, ctx: PlanContext, cap_h: float | None, objective: str, st: Tightening) -> Candidate:
         """The NLP's own safe start on the centreline (:func:`optroute.optimise.min_time.clean_start`)."""
         t0, frame, step = self.departure, self.frame, self.verify_step_nm
-        centre = clean_start(
+
+        def verify(warm: dict[str, np.ndarray]) -> Plan | None:
+            return verified_plan(ctx, frame.waypoints(warm["offset_nm"]), warm["stw_kn"], t0, step, "start")
+
+        centre, plan = clean_start(
             ctx,
             frame,
             t0,
@@ -474,8 +355,8 @@ class PreparedCorridor:
             eta_h=cap_h,
             rules=warm_rules(self.rules, st),
             log=st.log,
+            verify=verify,
         )
-        plan = verified_plan(ctx, frame.waypoints(centre["offset_nm"]), centre["stw_kn"], t0, step, "start")
         return self._candidate("centreline start", centre, plan, objective)
 
     @staticmethod
@@ -551,7 +432,7 @@ class PreparedCorridor:
             As :func:`optimise_corridor`.
         """
         call = self._inputs(eta, eta_mode, objective, route, progress)  # stage: inputs
-        _emit(progress, "start", 0.15)  # stage: start
+        emit(progress, "start", 0.15)  # stage: start
         t_s = _time.perf_counter()
         st = self._tightening()
         st.log = call.log
@@ -630,7 +511,7 @@ class PreparedCorridor:
         st.log = call.log
         warm = clear_of_exclusion(dict(cand.warm), self.frame, self.exclusion, self.departure, self.y_lo, self.y_hi)
         for attempt in range(self.max_retries + 1):
-            _emit(call.progress, "solve", 0.2 + 0.7 * attempt / (self.max_retries + 1))
+            emit(call.progress, "solve", 0.2 + 0.7 * attempt / (self.max_retries + 1))
             nlp = prob.build(st)
             eta_solve = None if call.cap_h is None else call.cap_h - st.eta_shift_h
             if eta_solve is not None and eta_solve <= 0:
@@ -727,7 +608,7 @@ class PreparedCorridor:
         nlp_score = self._score(best[0], call) if best is not None else float("inf")
         stats = self._stats(call, cands, start, first, nlp_score)
         if best is not None:
-            _emit(call.progress, "certificate", 0.95)
+            emit(call.progress, "certificate", 0.95)
             stats.update(self._solution_stats(call, best[1], best[2]))
         cap_h, mode, objective = call.cap_h, call.eta_mode, call.objective
         # a tie to the solver's tolerance (the start already optimal, as at a constant speed in calm water) keeps the
@@ -737,7 +618,7 @@ class PreparedCorridor:
             stats["status_reason"] = f"the NLP did not improve on the verified {start.label} ({start.score:.6g}): {why}"
             stats["certificate"] = self._ship_certificate(start.plan, stats, cap_h, mode, objective)  # type: ignore[arg-type]
             stats["total_time_s"] = _time.perf_counter() - call.started
-            _emit(call.progress, "done", 1.0)
+            emit(call.progress, "done", 1.0)
             return replace(start.plan, status="start", solver_stats=stats)  # type: ignore[arg-type]
         plan, sol, _ = best
         status, reason = self._status(sol)
@@ -748,7 +629,7 @@ class PreparedCorridor:
             shadow = float(sol.res.eta_multiplier) / (1.0 if objective == "fuel" else self.fuel_price)
         stats["certificate"] = self._ship_certificate(plan, stats, cap_h, mode, objective)
         stats["total_time_s"] = _time.perf_counter() - call.started
-        _emit(call.progress, "done", 1.0)
+        emit(call.progress, "done", 1.0)
         return replace(plan, status=status, solver_stats=stats, eta_shadow_price_t_per_h=shadow)
 
     def _no_plan(self, call: _Call) -> None:

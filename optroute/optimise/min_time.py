@@ -32,7 +32,9 @@ plan.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -43,7 +45,19 @@ from optroute.physics.safety import BandRules
 from optroute.plan.evaluate import PlanContext, sample_sea
 from optroute.units import NS_PER_H as _NS_PER_H
 
-__all__ = ["BlockedSection", "DeadEnd", "TimedStart", "blocked_section", "clean_start", "timed_safe_start"]
+__all__ = [
+    "CROSSING_STEP_NM",
+    "BlockedSection",
+    "DeadEnd",
+    "TimedStart",
+    "block_fractions",
+    "blocked_section",
+    "clean_start",
+    "timed_safe_start",
+]
+
+CROSSING_STEP_NM = 0.1
+"""Spacing [nm] of the ladder on which the timed search locates the weather grid's row and column crossings."""
 
 
 @dataclass(frozen=True)
@@ -112,6 +126,30 @@ def _centreline_points(frame: CorridorFrame, s_nm: np.ndarray) -> tuple[np.ndarr
     d = np.diff(s)
     frac = np.clip((s_nm - s[leg]) / np.where(d[leg] > 0, d[leg], 1.0), 0.0, 1.0)
     return gc_points(wp[leg, 0], wp[leg, 1], wp[leg + 1, 0], wp[leg + 1, 1], frac)
+
+
+def block_fractions(
+    frame: CorridorFrame, sampler: Any, t0: np.datetime64, from_nm: float, to_nm: float, step_nm: float
+) -> np.ndarray:
+    """Fractions [0, 1] of a centreline block to check: its ends, points ``step_nm`` apart and both sides of
+    every crossing of the weather's grid rows and columns (where the referee looks too,
+    :mod:`optroute.plan.checkpoints`).
+
+    Between two crossings the interpolated sea at one time is a bilinear function of position, largest
+    at the ends of the stretch; sampled ``step_nm`` apart only, a cell's edge (the top of a storm's
+    plateau) can be missed. The crossings are found on a :data:`CROSSING_STEP_NM` ladder, so each pair
+    of sides is at most that far apart.
+    """
+    d = float(to_nm - from_nm)
+    m = max(2, int(np.ceil(d / step_nm)))
+    base = np.linspace(0.0, 1.0, m + 1)
+    n_fine = max(2, int(np.ceil(d / CROSSING_STEP_NM)))
+    fine = np.linspace(0.0, 1.0, n_fine + 1)
+    lat, lon, _ = _centreline_points(frame, from_nm + fine * d)
+    cell = sampler.grid_coordinates(np.full(fine.shape, t0), lat, lon)[:, 1:]
+    cell = np.where(np.isfinite(cell), np.floor(cell), -1.0)
+    change = np.flatnonzero(np.any(cell[1:] != cell[:-1], axis=1))
+    return np.unique(np.concatenate([base, fine[change], fine[change + 1]]))
 
 
 def timed_safe_start(
@@ -186,8 +224,7 @@ def timed_safe_start(
     evaluations = 0
     for b in range(n_blocks):
         d = edges[b + 1] - edges[b]
-        m = max(2, int(np.ceil(d / step_nm)))
-        frac = np.linspace(0.0, 1.0, m + 1)  # both ends of the block too
+        frac = block_fractions(frame, ctx.sampler, t0, edges[b], edges[b + 1], step_nm)  # both ends too
         lat, lon, course = _centreline_points(frame, edges[b] + frac * d)
         dt = d / speeds  # (K,)
         t_pts = times[:, None, None] + frac[None, None, :] * dt[None, :, None]  # (B, K, m)
@@ -247,13 +284,20 @@ def clean_start(
     eta_h: float | None,
     rules: BandRules | None = None,
     log: list[str] | None = None,
-) -> dict[str, np.ndarray]:
-    """The first warm start of a solve: Boeing's speed reduction, or the timed start where it gets stuck.
+    verify: Callable[[dict[str, np.ndarray]], Any] | None = None,
+) -> tuple[dict[str, np.ndarray], Any]:
+    """The centreline start of a solve: Boeing's speed reduction, or the timed passage where that fails.
 
     :func:`optroute.optimise.nlp_solve.safe_warm_start` at ``desired_kn`` is kept when it found an allowed speed
-    at every point (no leg at ``v_min_kn``). Otherwise the passage of :func:`timed_safe_start` with
-    speeds up to ``desired_kn`` is taken when it arrives by ``eta_h`` (or there is no ETA), else the
-    earliest passage with speeds up to ``v_max_kn``; when neither exists, the safe start after all.
+    at every point (no leg at ``v_min_kn``) and ``verify`` accepts it. Otherwise the passage of
+    :func:`timed_safe_start` with speeds up to ``desired_kn`` is taken when it arrives by ``eta_h`` (or
+    there is no ETA), else the earliest passage with speeds up to ``v_max_kn`` (the discrete
+    minimum-time plan); when neither exists, the safe start after all.
+
+    The reduction is a point-by-point rule: it keeps each point out of the bands at the time of its
+    own schedule but not between its points, and its slow legs can fall under the engine's minimum
+    load. Where the referee rejects it, the NLP would start on band sides no plan keeps; the timed
+    passage is checked where the referee checks (:func:`block_fractions`), so it is the start.
 
     Parameters
     ----------
@@ -267,31 +311,43 @@ def clean_start(
         Arrival wanted [h after departure].
     log : list of str, optional
         Appended with what was chosen.
+    verify : callable, optional
+        The referee: a warm start's verified plan, or None when it fails verification. Without it
+        the reduction is kept whenever it has no leg at ``v_min_kn``.
 
     Returns
     -------
-    dict
-        ``offset_nm`` (N+1,) [nm] and ``stw_kn`` (N,) [kn].
+    (dict, object)
+        ``offset_nm`` (N+1,) [nm] and ``stw_kn`` (N,) [kn]; and ``verify``'s verdict on it (None
+        when it failed or ``verify`` is None).
     """
     from optroute.optimise.nlp_solve import safe_warm_start
 
+    def judged(warm: dict[str, np.ndarray]) -> Any:
+        return verify(warm) if verify is not None else None
+
     safe = safe_warm_start(ctx, frame, t0, desired_kn, v_min_kn, rules=rules)
-    if bool(np.all(safe["stw_kn"] > v_min_kn + 1e-9)):
-        return safe
+    clean = bool(np.all(safe["stw_kn"] > v_min_kn + 1e-9))
+    verdict = judged(safe) if clean else None
+    if clean and (verify is None or verdict is not None):
+        return safe, verdict
     found = timed_safe_start(ctx, frame, t0, v_min_kn=v_min_kn, v_max_kn=max(desired_kn, v_min_kn), rules=rules)
     late = not isinstance(found, TimedStart) or (eta_h is not None and found.arrival_h > eta_h)
     if late and desired_kn < v_max_kn:
         found = timed_safe_start(ctx, frame, t0, v_min_kn=v_min_kn, v_max_kn=v_max_kn, rules=rules)
+    why = "finds no allowed speed somewhere" if not clean else "fails verification"
     if log is not None:
         log.append(
-            "first start: the speed reduction finds no allowed speed somewhere; "
+            f"first start: the speed reduction {why}; "
             + (
                 f"timed safe start, {found.arrival_h:.3f} h"
                 if isinstance(found, TimedStart)
                 else f"no timed start either ({found})"
             )
         )
-    return found.warm() if isinstance(found, TimedStart) else safe
+    if isinstance(found, TimedStart):
+        return found.warm(), judged(found.warm())
+    return safe, verdict
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ per batch of settled nodes: select the batch, find the edges worth costing,
 cost them through the segment callback (whose compiled form walks the legs
 piece by piece, :func:`optroute.search.passage_kernels.cost_legs`), update the
 labels.  When the callback carries a :class:`LegKernel` (the physics callbacks
-of :mod:`optroute.search.routing` do), :func:`run` does the same loop in numba,
+of :mod:`optroute.search.passage_physics` do), :func:`run` does the same loop in numba,
 with the same three bookkeeping functions (:mod:`optroute.search._kernels`), the
 same leg costing (:func:`optroute.search.passage_kernels.cost_leg`) and the same
 piece geometry (:func:`optroute.search.edge_geometry.edge_pieces`), so the labels

@@ -31,7 +31,7 @@ A segment callback may carry a compiled equivalent of that walk as its
 attribute ``leg_batch(lat_deg, lon_deg, course_deg, length_nm, n_pieces, t0_h)
 -> (duration_h, fuel_t, feasible)`` over (n, kmax) piece arrays: the search
 then costs a whole batch of legs in one call (the physics callbacks of
-:mod:`optroute.search.routing` do, see :mod:`optroute.search.passage_kernels`),
+:mod:`optroute.search.passage_physics` do, see :mod:`optroute.search.passage_kernels`),
 and calls the plain callback only to report the legs of the route found.
 
 Moving no-go areas (storms, seas where no speed survives the danger bands)

@@ -256,7 +256,7 @@ def shortest_path(
         labels either way.  With numba, a segment callback carrying a
         compiled leg cost (``segment_cost.leg_kernel``, a
         :class:`~optroute.search.compiled_search.LegKernel`, as the physics
-        callbacks of :mod:`optroute.search.routing` do) runs the whole search
+        callbacks of :mod:`optroute.search.passage_physics` do) runs the whole search
         loop compiled (:func:`optroute.search.compiled_search.run`), with the
         same labels.
     cost_floor_per_nm : float, optional

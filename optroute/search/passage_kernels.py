@@ -1,6 +1,6 @@
 """Compiled edge costing of the route search and the 3-D DP: the passage physics over whole batches of legs.
 
-The Python cost callbacks of :class:`optroute.search.routing.PassagePhysics`
+The Python cost callbacks of :class:`optroute.search.passage_physics.PassagePhysics`
 sample the weather and choose the speed piece by piece with numpy arrays; the
 kernels here do the same for a whole batch of legs in one numba call, with
 the one-point functions the referee uses (:mod:`optroute.physics.pointwise`,
@@ -12,9 +12,9 @@ the one-point functions the referee uses (:mod:`optroute.physics.pointwise`,
   or the cheapest of a speed set for fuel + λ·time) and, with a band check,
   checked at points along the piece at the times the ship passes them, a
   failing speed struck out and the next taken (as
-  :meth:`~optroute.search.routing.PassagePhysics.segment_checked`);
+  :meth:`~optroute.search.passage_physics.PassagePhysics.segment_checked`);
 * :func:`cost_dp_legs` — the DP's legs at a commanded speed over ground,
-  checked piece by piece (as :meth:`~optroute.search.routing.PassagePhysics.dp_leg`).
+  checked piece by piece (as :meth:`~optroute.search.passage_physics.PassagePhysics.dp_leg`).
 
 The piece and check-point geometry comes from :mod:`optroute.search.edge_geometry`
 (the DP's leg points from :mod:`optroute.search.piece_geometry`).

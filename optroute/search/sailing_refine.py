@@ -38,7 +38,7 @@ from optroute.physics.yacht import SailingVessel, check_vessel, tack_of, wind_kn
 from optroute.search.sailing import SailingRoute, manoeuvres_along, sailing_sampler
 
 
-def _boards(route: SailingRoute) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def boards_of(route: SailingRoute) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Tack points (lat, lon) [deg], each board's side (+1 starboard, −1 port) and its leg count."""
     side = tack_of(route.twa_deg)
     pts, sides, counts = [0], [], []
@@ -59,7 +59,7 @@ def _boards(route: SailingRoute) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.stack([route.lat_deg[idx], route.lon_deg[idx]], axis=1), sgn, np.array(counts)
 
 
-def _sail(points, n_sub, sampler, vessel, t0, t_guess=None):
+def sail_boards(points, n_sub, sampler, vessel, t0, t_guess=None):
     """Sub-leg ends, times [h], courses, TWAs, speeds, lengths of the boards through ``points`` (k+1, 2)."""
     lat, lon = [points[0, 0]], [points[0, 1]]
     for b in range(points.shape[0] - 1):
@@ -129,8 +129,8 @@ def refine_sailing_route(
         raise ConfigError(f"sub_nm={sub_nm} must be > 0 [nm] and margin_deg={margin_deg} >= 0 [deg]")
     started = _time.perf_counter()
     if route.motoring.any():
-        return _keep(route, "not refined: the route motors on some legs (no tack side there)", started)
-    pts0, sides, _ = _boards(route)
+        return keep_graph_route(route, "not refined: the route motors on some legs (no tack side there)", started)
+    pts0, sides, _ = boards_of(route)
     blen = geo.distance_nm(pts0[:-1, 0], pts0[:-1, 1], pts0[1:, 0], pts0[1:, 1])
     n_sub = np.maximum(np.ceil(blen / sub_nm).astype(int), 1)
     sampler = sailing_sampler(weather)
@@ -145,7 +145,7 @@ def refine_sailing_route(
             pts = pts0.copy()
             pts[1:-1] = x.reshape(-1, 2)
             cache.clear()
-            cache[key] = _sail(pts, n_sub, sampler, vessel, route.time[0], last[0] if last else None)
+            cache[key] = sail_boards(pts, n_sub, sampler, vessel, route.time[0], last[0] if last else None)
             last[:] = [cache[key][2]]
         return cache[key]
 
@@ -165,21 +165,63 @@ def refine_sailing_route(
             res = minimize(objective, x0, method="SLSQP", constraints=[{"type": "ineq", "fun": sides_ok}],
                            bounds=bounds, options={"maxiter": int(max_iter), "eps": 1e-6, "ftol": 1e-9})  # fmt: skip
         except WeatherCoverageError as exc:
-            return _keep(route, f"rejected: a trial left the weather ({exc})", started)
+            return keep_graph_route(route, f"rejected: a trial left the weather ({exc})", started)
         x = res.x
-    lat, lon, t, course, twa, spd, length = sail(x)
-    if np.any(spd <= 0) or np.any(side_of * twa < limit - 1e-6):
-        return _keep(route, "rejected: SLSQP ended outside the no-go side constraints", started)
+    status = f"refined (SLSQP: {res.message})" if res is not None else "refined (one board: the straight line)"
+    return accept_refinement(route, weather, vessel, sail(x), side_of, limit, status, started)
+
+
+def accept_refinement(
+    route: SailingRoute,
+    weather: xr.Dataset,
+    vessel: SailingVessel,
+    sailed: tuple,
+    side_of: np.ndarray,
+    limit_deg: float,
+    status: str,
+    started: float,
+    stats: dict | None = None,
+) -> SailingRoute:
+    """The refined route if it is sailable, faster, off land and passes the referee; else the graph route.
+
+    Parameters
+    ----------
+    route : SailingRoute
+        The graph route that was refined.
+    weather, vessel
+        As for :func:`refine_sailing_route`.
+    sailed : tuple
+        :func:`sail_boards`' output for the refined tack points (the true model's sub-legs).
+    side_of : ndarray
+        Each sub-leg's board side (+1 starboard, −1 port).
+    limit_deg : float
+        The ``|TWA|`` the refinement aimed to keep [deg] (no-go limit plus a margin); the route is
+        accepted while every sub-leg keeps its board's side outside the no-go limit itself, and
+        ``stats["min_twa_margin_deg"]`` reports the clearance it kept from ``limit_deg``.
+    status : str
+        The refined route's status (the method and its solver's exit).
+    started : float
+        ``time.perf_counter()`` at the refinement's start.
+    stats : dict, optional
+        Extra entries for the refined route's ``stats``.
+    """
+    lat, lon, t, course, twa, spd, length = sailed
+    worst = float(np.min(side_of * twa)) if twa.size else 180.0
+    if np.any(spd <= 0) or worst < vessel.polar.no_go_deg:
+        return keep_graph_route(route, f"rejected: the refinement ({status}) sails at |TWA| {worst:.3f} deg on a "
+                                f"board's side, inside the no-go limit {vessel.polar.no_go_deg:g} deg", started)  # fmt: skip
     if t[-1] >= route.passage_h:
-        return _keep(route, f"rejected: no faster ({t[-1]:.4f} h against the graph's {route.passage_h:.4f} h)", started)
+        return keep_graph_route(
+            route, f"rejected: no faster ({t[-1]:.4f} h against the graph's {route.passage_h:.4f} h)", started
+        )
     if land.legs_cross_land(lat[:-1], lon[:-1], lat[1:], lon[1:], 0.25, weather=None,
                             use_land_mask=weather.attrs.get("geography") != land.SYNTHETIC_GEOGRAPHY).any():  # fmt: skip
-        return _keep(route, "rejected: a refined board touches land", started)
+        return keep_graph_route(route, "rejected: a refined board touches land", started)
     time = route.time[0] + units.h_to_timedelta(t)
     man = manoeuvres_along(twa, np.zeros(twa.size, dtype=bool), time, t, lat, lon)
     stats = {**route.stats, "graph_passage_h": route.passage_h, "refine_s": _time.perf_counter() - started,
-             "refinement": "refined", "boards": int(sides.size), "sub_legs": int(n_sub.sum())}  # fmt: skip
-    status = f"refined (SLSQP: {res.message})" if res is not None else "refined (one board: the straight line)"
+             "refinement": "refined", "boards": int(np.count_nonzero(np.diff(side_of)) + 1),
+             "sub_legs": int(side_of.size), "min_twa_margin_deg": worst - limit_deg, **(stats or {})}  # fmt: skip
     refined = SailingRoute(
         lat_deg=lat, lon_deg=lon, time=time, t_h=t, course_deg=course, twa_deg=twa, speed_kn=spd, length_nm=length,
         motoring=np.zeros(twa.size, dtype=bool), manoeuvres=tuple(man),
@@ -188,11 +230,11 @@ def refine_sailing_route(
     )  # fmt: skip
     check = refined.verify(weather, vessel)
     if not check["ok"]:
-        return _keep(route, f"rejected by the referee: {check}", started)
+        return keep_graph_route(route, f"rejected by the referee: {check}", started)
     return refined
 
 
-def _keep(route: SailingRoute, why: str, started: float) -> SailingRoute:
+def keep_graph_route(route: SailingRoute, why: str, started: float) -> SailingRoute:
     stats = {**route.stats, "graph_passage_h": route.passage_h, "refinement": why,
              "refine_s": _time.perf_counter() - started}  # fmt: skip
     return dataclasses.replace(route, stats=stats)

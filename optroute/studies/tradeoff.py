@@ -80,11 +80,7 @@ import math
 import numbers
 import os
 import tempfile
-import threading
-import time as _time
-import uuid
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -93,31 +89,32 @@ import xarray as xr
 
 from optroute.errors import (
     ConfigError,
-    InfeasibleETA,
     SolverFailure,
-    WeatherCoverageError,
 )
-from optroute.optimise.api import optimise_corridor
-from optroute.optimise.corridor_problem import PreparedCorridor
 from optroute.physics.ship import Ship
-from optroute.plan.result import Plan
 from optroute.plot.front import knee_index
 from optroute.search.route import Corridor
-from optroute.studies import fingerprint
-from optroute.studies.threads import pin_solver_threads
 from optroute.units import as_utc_time, format_utc, h_to_timedelta, timedelta_to_h
 from optroute.weather.sample import WeatherSampler
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
+from optroute.studies.front_points import (
+    FORBIDDEN_OPTIONS,
+    LEG_VARIABLES,
+    FrontPoint,
+    FrontSpec,
+    front_token,
+    replace_fields,
+)
+from optroute.studies.front_runners import DaskRunner, SerialRunner, split_chains
+
 __all__ = ["TradeoffFront", "tradeoff"]
 
 #: ``progress(points done, points in the front)``.
 FrontProgress = Callable[[int, int], None]
 
-LEG_VARIABLES = ("sog_kn", "stw_kn", "heading_deg", "distance_nm", "duration_h", "power_kw", "fuel_t", "hs_m")
-_FORBIDDEN = ("eta", "eta_mode", "objective", "warm_plan", "route", "departure", "progress")
 _SAME_ETA_H = 1e-6  # ETAs this close to an end solve's arrival [h] take that solve's plan
 
 
@@ -177,228 +174,6 @@ class TradeoffFront(xr.Dataset):
         return None
 
 
-# --------------------------------------------------------------------------- one point (runs on a worker)
-
-
-@dataclass(frozen=True)
-class _Warm:
-    """What :func:`optroute.optimise_corridor` reads of a ``warm_plan``."""
-
-    waypoints: np.ndarray
-    stw_kn: np.ndarray
-
-
-@dataclass(frozen=True)
-class _Spec:
-    """Everything a solve needs but the ETA and the warm start; shipped once to every worker."""
-
-    corridor: Corridor
-    weather: xr.Dataset | WeatherSampler
-    ship: Ship
-    departure: np.datetime64
-    objective: str
-    kwargs: Mapping[str, Any]
-    token: str = ""  # names this front's prepared corridor in a process's cache
-    latest_eta_h: float | None = None  # the chains' latest ETA [h]: set once the end solves are known
-
-
-@dataclass(frozen=True)
-class _Point:
-    eta_h: float  # NaN for the slow-steaming solve until its ETA is known
-    kind: str  # "minimum_time" | "slow_steaming" | "eta"
-    status: str
-    runtime_s: float = 0.0
-    iterations: int = 0
-    totals: Mapping[str, float] = field(default_factory=dict)
-    waypoints: np.ndarray | None = None
-    times_h: np.ndarray | None = None
-    legs: Mapping[str, np.ndarray] | None = None
-    carry: _Warm | None = None  # the warm start for the next point of a chain
-    nlp_solves: int = 0  # Ipopt calls of the point's solve (band outer loop and verification re-solves included)
-    warm_start: str = ""  # the candidate Ipopt started from ("warm plan", "centreline start", ...)
-    own_fuel_t: float | None = None  # a risen point's own solve's fuel [t] (its plan is an earlier ETA's)
-
-    @property
-    def ok(self) -> bool:
-        return self.waypoints is not None
-
-    @property
-    def fuel_t(self) -> float:
-        return float(self.totals.get("fuel_t", math.nan))
-
-
-def _from_plan(plan: Plan, eta_h: float, kind: str, runtime_s: float) -> _Point:
-    legs = plan.legs
-    dur = legs["duration_h"].to_numpy(dtype=float)
-    power = legs["power_kw"].to_numpy(dtype=float)
-    totals = {
-        "fuel_t": float(plan.total_fuel_t),
-        "duration_h": float(plan.duration_h),
-        "distance_nm": float(plan.distance_nm),
-        "mean_power_kw": float(np.sum(power * dur) / np.sum(dur)),
-        "max_power_kw": float(np.max(power)),
-        "eta_shadow_price_t_per_h": float(plan.eta_shadow_price_t_per_h),
-    }
-    times_h = np.array([timedelta_to_h(t - plan.departure) for t in plan.times], dtype=float)
-    wp = np.asarray(plan.waypoints, dtype=float)
-    return _Point(
-        eta_h=eta_h,
-        kind=kind,
-        status=plan.status,
-        runtime_s=runtime_s,
-        iterations=int(plan.solver_stats.get("iterations", 0)),
-        nlp_solves=int(plan.solver_stats.get("nlp_solves", 0)),
-        warm_start=str(plan.solver_stats.get("warm_start", "")),
-        totals=totals,
-        waypoints=wp,
-        times_h=times_h,
-        legs={k: legs[k].to_numpy(dtype=float) for k in LEG_VARIABLES if k in legs},
-        carry=_Warm(wp, plan.stw_kn),
-    )
-
-
-def _solve_point(spec: _Spec, eta_h: float | None, kind: str, warm: _Point | _Warm | None, route: Any = None) -> _Point:
-    """One solve; an unreachable ETA or a solver failure becomes the point's status, not an exception."""
-    pin_solver_threads()  # one BLAS thread for Ipopt, in this process as on a Dask worker: the same rounding
-    started = _time.perf_counter()
-    carry = _retimed(warm, eta_h) if kind == "eta" else warm.carry if isinstance(warm, _Point) else warm
-    objective = "time" if kind == "minimum_time" else spec.objective if kind == "eta" else "fuel"
-    eta = None if eta_h is None else spec.departure + h_to_timedelta(eta_h)
-    try:
-        if kind == "eta" and spec.latest_eta_h is not None and eta_h is not None and eta_h <= spec.latest_eta_h:
-            # the problem of optimise_corridor for this ETA from the same warm start; the untightened start (not
-            # the neighbour's learnt tightening) keeps every point independent of the chain it was solved in
-            prepared, lock = _prepared(spec)
-            with lock:  # one solve at a time: its cached builds are set up per solve (a worker may have threads)
-                plan = prepared.solve(eta, objective=objective, warm_plan=carry)  # type: ignore[arg-type]
-        else:
-            plan = optimise_corridor(
-                spec.corridor,
-                spec.weather,
-                spec.ship,
-                departure=spec.departure,
-                eta=eta,
-                objective=objective,
-                warm_plan=carry,
-                route=route,
-                **spec.kwargs,
-            )
-    except InfeasibleETA as exc:
-        if exc.earliest_arrival is not None:
-            earliest = as_utc_time(exc.earliest_arrival, "earliest_arrival")
-            status = (
-                f"infeasible: earliest arrival {format_utc(earliest)} "
-                f"({timedelta_to_h(earliest - spec.departure):.2f} h after departure)"
-            )
-        else:
-            status = f"infeasible: {exc}"
-        return _Point(math.nan if eta_h is None else eta_h, kind, status, _time.perf_counter() - started, carry=carry)
-    except SolverFailure as exc:
-        if kind == "minimum_time" and exc.best_plan is not None:
-            # the minimum-time NLP failed: the front starts from the fastest verified plan known (the search
-            # route's, or a safe start's), an upper bound on the earliest arrival, and its status says so
-            best = exc.best_plan
-            point = _from_plan(best, float(best.duration_h), kind, _time.perf_counter() - started)
-            return _replace(
-                point,
-                status=f"feasible: fastest verified plan known ({best.status}); the minimum-time solve failed: "
-                f"{_failure_text(exc)}",
-            )
-        return _Point(
-            math.nan if eta_h is None else eta_h,
-            kind,
-            f"solver failure: {_failure_text(exc)}",
-            _time.perf_counter() - started,
-            carry=carry,
-        )
-    except WeatherCoverageError as exc:
-        return _Point(
-            math.nan if eta_h is None else eta_h,
-            kind,
-            f"infeasible: {exc}",
-            _time.perf_counter() - started,
-            carry=carry,
-        )
-    arrival_h = float(plan.duration_h)
-    return _from_plan(plan, arrival_h if eta_h is None else eta_h, kind, _time.perf_counter() - started)
-
-
-def _retimed(warm: _Point | _Warm | None, eta_h: float | None) -> _Warm | None:
-    """A later ETA's plan sped up to arrive by ``eta_h``: the continuation's start from the slow side.
-
-    The optimiser starts Ipopt from a warm plan only when the referee accepts that plan for the new
-    ETA; a neighbour that arrives later never is.  Its speeds through the water scaled by
-    ``arrival / eta_h`` (plus 1e-6) arrive by ``eta_h`` wherever the speed over ground is the speed
-    through the water (no current); where the faster plan breaks the engine's limits or a danger
-    band, the referee refuses it and the optimiser starts from its own candidates, as cold.
-    """
-    if not isinstance(warm, _Point):
-        return warm
-    carry = warm.carry
-    arrival_h = warm.totals.get("duration_h", math.nan)
-    if carry is None or eta_h is None or not math.isfinite(arrival_h) or arrival_h <= eta_h:
-        return carry
-    return _Warm(carry.waypoints, np.asarray(carry.stw_kn, dtype=float) * (arrival_h / eta_h * (1.0 + 1e-6)))
-
-
-def _solve_chain(spec: _Spec, etas: Sequence[float], warm: _Point | None, cold: bool) -> list[_Point]:
-    """One chain of ETAs, each point started from the one before (the chain's first from ``warm``)."""
-    out = []
-    for eta_h in etas:
-        p = _solve_point(spec, eta_h, "eta", None if cold else warm)
-        warm = p if p.ok else warm
-        out.append(p)
-    return out
-
-
-#: Prepared corridors of this process (a Dask worker's too), by the inputs' fingerprint and latest ETA, least
-#: recently used first: a worker keeps them between chains and between fronts of the same inputs (a study's).
-_PREPARED: dict[tuple[str, float], tuple[PreparedCorridor, threading.Lock]] = {}
-_PREPARED_KEEP = 2
-_PREPARING = threading.Lock()
-
-
-def _prepared(spec: _Spec) -> tuple[PreparedCorridor, threading.Lock]:
-    """The front's corridor problem prepared once in this process for its latest ETA, and its solve lock."""
-    latest = float(spec.latest_eta_h)  # type: ignore[arg-type]
-    key = (spec.token, latest)
-    with _PREPARING:
-        hit = _PREPARED.pop(key, None)
-        if hit is None:
-            prepared = PreparedCorridor(
-                spec.corridor,
-                spec.weather,
-                spec.ship,
-                departure=spec.departure,
-                latest_eta=spec.departure + h_to_timedelta(latest),
-                objective=spec.objective,  # type: ignore[arg-type]
-                **spec.kwargs,
-            )
-            hit = (prepared, threading.Lock())
-        _PREPARED[key] = hit  # most recently used last
-        while len(_PREPARED) > _PREPARED_KEEP:
-            _PREPARED.pop(next(iter(_PREPARED)))
-    return hit
-
-
-def _token(corridor: Corridor, weather: Any, ship: Ship, t0: np.datetime64, objective: str, kwargs: Any) -> str:
-    """The fingerprint of a front's inputs (:mod:`optroute.studies.fingerprint`): the key of its prepared corridor.
-
-    Inputs without a canonical form (an object that does not pickle) get a fresh random key: their front
-    prepares its corridor again rather than risk another front's.
-    """
-    try:
-        return fingerprint.digest(("front", corridor, weather, ship, str(t0), objective, dict(kwargs)))
-    except ConfigError:
-        return uuid.uuid4().hex
-
-
-def _failure_text(exc: SolverFailure) -> str:
-    if exc.status in ("Solve_Succeeded", "Solved_To_Acceptable_Level"):
-        return f"no plan passed verification (last Ipopt status {exc.status})"
-    return exc.status or str(exc)
-
-
 # --------------------------------------------------------------------------- input handling
 
 
@@ -450,82 +225,6 @@ def _eta_hours(etas: Any, t0: np.datetime64) -> np.ndarray:
     if np.unique(hours).size != hours.size:
         raise ConfigError(f"etas has duplicates ({sorted(hours.tolist())} h after departure); give distinct ETAs")
     return np.sort(hours)
-
-
-# --------------------------------------------------------------------------- execution
-
-
-class _Serial:
-    """Runs points in this process."""
-
-    def ends(self, spec: _Spec, route: Any, need_slow: bool) -> tuple[_Point, _Point | None]:
-        fast = _solve_point(spec, None, "minimum_time", None, route)
-        slow = _solve_point(spec, None, "slow_steaming", None) if need_slow else None
-        return fast, slow
-
-    def resolve(self, spec: _Spec, eta_h: float, starts: list[_Point | None]) -> list[_Point]:
-        return [_solve_point(spec, eta_h, "eta", w) for w in starts]
-
-    def chains(
-        self, spec: _Spec, chains: list[tuple[list[float], _Point | None]], cold: bool, report: Callable[[_Point], None]
-    ) -> list[_Point]:
-        out = []
-        for etas, warm in chains:
-            for p in _solve_chain(spec, etas, warm, cold):
-                out.append(p)
-                report(p)
-        return out
-
-
-class _Distributed:
-    """Runs the end solves side by side and each chain as one task on a Dask cluster."""
-
-    def __init__(self, client: Any, spec: _Spec) -> None:
-        self.client = client
-        self.spec = client.scatter(spec, broadcast=True, hash=False)
-        self.workers = sorted(client.scheduler_info()["workers"])
-        self._shipped: Any = None  # the spec naming the chains' latest ETA, once scattered
-
-    def ends(self, spec: _Spec, route: Any, need_slow: bool) -> tuple[_Point, _Point | None]:
-        fast = self.client.submit(_solve_point, self.spec, None, "minimum_time", None, route, pure=False)
-        slow = (
-            self.client.submit(_solve_point, self.spec, None, "slow_steaming", None, pure=False) if need_slow else None
-        )
-        return fast.result(), slow.result() if slow is not None else None
-
-    def resolve(self, spec: _Spec, eta_h: float, starts: list[_Point | None]) -> list[_Point]:
-        """Solves of one ETA from several starts, side by side (the workers' prepared corridors serve them)."""
-        shipped = self._shipped if self._shipped is not None else self.client.scatter(spec, broadcast=True, hash=False)
-        futures = [self.client.submit(_solve_point, shipped, eta_h, "eta", w, pure=False) for w in starts]
-        return [f.result() for f in futures]
-
-    def chains(
-        self, spec: _Spec, chains: list[tuple[list[float], _Point | None]], cold: bool, report: Callable[[_Point], None]
-    ) -> list[_Point]:
-        from distributed import as_completed
-
-        # the spec now names the chains' latest ETA: each worker prepares the corridor once for it (and keeps it)
-        shipped = self._shipped = self.client.scatter(spec, broadcast=True, hash=False)
-        # one task per chain (a chain's points run one after the other anyway): few, long tasks, streamed back
-        futures = [self.client.submit(_solve_chain, shipped, etas, warm, cold, pure=False) for etas, warm in chains]
-        out = []
-        for fut in as_completed(futures, loop=self.client.loop):
-            for p in fut.result():
-                out.append(p)
-                report(p)
-            fut.release()
-        return out
-
-
-def _split(etas: list[float], k: int, from_slow: bool) -> list[list[float]]:
-    """``k`` contiguous chains of the ETAs, each in solving order: descending from the slow end with ``from_slow``.
-
-    The chains depend on the ETAs and ``k`` alone, never on the workers: the front is the same serial and
-    on any cluster.
-    """
-    k = max(1, min(k, len(etas)))
-    parts = [[float(h) for h in a] for a in np.array_split(np.asarray(etas, dtype=float), k)]
-    return [part[::-1] if from_slow else part for part in parts]
 
 
 # --------------------------------------------------------------------------- public API
@@ -636,7 +335,7 @@ def tradeoff(
             f"objective={objective!r} is not a front's objective; use 'fuel' or 'cost' (each point "
             "minimises it subject to its ETA)"
         )
-    bad = sorted(set(optimise_kwargs) & set(_FORBIDDEN))
+    bad = sorted(set(optimise_kwargs) & set(FORBIDDEN_OPTIONS))
     if bad:
         raise ConfigError(f"tradeoff sets {bad} itself for every point; drop them from the keyword arguments")
     if etas is None and not (isinstance(n, numbers.Integral) and not isinstance(n, bool) and n >= 2):
@@ -660,32 +359,32 @@ def tradeoff(
         corridor_or_endpoints, weather, ship, departure, optimise_kwargs, corridor_width_nm, search_options
     )
     user_h = _eta_hours(etas, t0) if etas is not None else None
-    spec = _Spec(
+    spec = FrontSpec(
         corridor,
         weather,
         ship,
         t0,
         objective,
         dict(optimise_kwargs),
-        token=_token(corridor, weather, ship, t0, objective, optimise_kwargs),
+        token=front_token(corridor, weather, ship, t0, objective, optimise_kwargs),
     )
     parallel = scheduler_address is not None or (n_workers or 0) >= 2
     if parallel:
         from optroute.studies.cluster import dask_client
 
         with dask_client(scheduler_address, int(n_workers or 0), 1, timeout_s) as client:
-            runner: _Serial | _Distributed = _Distributed(client, spec)
+            runner: SerialRunner | DaskRunner = DaskRunner(client, spec)
             return _front(spec, route, user_h, n, progress, runner, warm_start, monotone_rtol, int(chains))
-    return _front(spec, route, user_h, n, progress, _Serial(), warm_start, monotone_rtol, int(chains))
+    return _front(spec, route, user_h, n, progress, SerialRunner(), warm_start, monotone_rtol, int(chains))
 
 
 def _front(
-    spec: _Spec,
+    spec: FrontSpec,
     route: Any,
     user_h: np.ndarray | None,
     n: int,
     progress: FrontProgress | None,
-    runner: _Serial | _Distributed,
+    runner: SerialRunner | DaskRunner,
     warm_start: bool,
     rtol: float,
     n_chains: int,
@@ -699,7 +398,7 @@ def _front(
             status=fast.status,
         )
     t_min = fast.totals["duration_h"]
-    fast = _replace(fast, eta_h=t_min)
+    fast = replace_fields(fast, eta_h=t_min)
     if slow is not None and not slow.ok:
         if user_h is None:
             raise SolverFailure(
@@ -712,36 +411,36 @@ def _front(
         grid = np.linspace(t_min, t_slow, n) if t_slow > t_min + _SAME_ETA_H else np.array([t_min])
     else:
         grid = user_h
-    done: dict[float, _Point] = {}
+    done: dict[float, FrontPoint] = {}
     todo: list[float] = []
     for h in grid.tolist():
         if h < t_min - _SAME_ETA_H:
             earliest = spec.departure + h_to_timedelta(t_min)
-            done[h] = _Point(
+            done[h] = FrontPoint(
                 h, "eta", f"infeasible: earliest arrival {str(earliest)[:16]} ({t_min:.2f} h after departure)"
             )
         elif h <= t_min + _SAME_ETA_H:
-            done[h] = _replace(fast, eta_h=h)
+            done[h] = replace_fields(fast, eta_h=h)
         elif slow is not None and spec.objective == "fuel" and h >= t_slow - _SAME_ETA_H:
-            done[h] = _replace(slow, eta_h=h)
+            done[h] = replace_fields(slow, eta_h=h)
         else:
             todo.append(h)
     if todo:  # the points between the ends are solved on one corridor prepared per process for the latest
-        spec = _replace(spec, latest_eta_h=max(todo))
+        spec = replace_fields(spec, latest_eta_h=max(todo))
     return _rest(spec, grid, done, todo, t_min, t_slow, slow, fast, progress, runner, warm_start, rtol, n_chains)
 
 
 def _rest(
-    spec: _Spec,
+    spec: FrontSpec,
     grid: np.ndarray,
-    done: dict[float, _Point],
+    done: dict[float, FrontPoint],
     todo: list[float],
     t_min: float,
     t_slow: float,
-    slow: _Point | None,
-    fast: _Point,
+    slow: FrontPoint | None,
+    fast: FrontPoint,
     progress: FrontProgress | None,
-    runner: _Serial | _Distributed,
+    runner: SerialRunner | DaskRunner,
     warm_start: bool,
     rtol: float,
     n_chains: int,
@@ -752,7 +451,7 @@ def _rest(
     if progress is not None:
         progress(count, total)
 
-    def report(_: _Point) -> None:
+    def report(_: FrontPoint) -> None:
         nonlocal count
         count += 1
         if progress is not None:
@@ -760,7 +459,7 @@ def _rest(
 
     # the continuation: from the slow-steaming end (its plan, sped up, starts each chain) towards the fast one
     from_slow = slow is not None and spec.objective == "fuel"
-    chains = [(etas, slow if from_slow else fast) for etas in _split(todo, n_chains, from_slow)]
+    chains = [(etas, slow if from_slow else fast) for etas in split_chains(todo, n_chains, from_slow)]
     for p in runner.chains(spec, chains, not warm_start, report):
         done[p.eta_h] = p
     points = [done[h] for h in grid.tolist()]
@@ -769,13 +468,7 @@ def _rest(
     return _dataset(spec, points, t_min, t_slow, resolves, risen, n_chains)
 
 
-def _replace(p: Any, **changes: Any) -> Any:
-    from dataclasses import replace
-
-    return replace(p, **changes)
-
-
-def _resolve_failed(spec: _Spec, points: list[_Point], runner: _Serial | _Distributed) -> int:
+def _resolve_failed(spec: FrontSpec, points: list[FrontPoint], runner: SerialRunner | DaskRunner) -> int:
     """Solve each point whose chain solve failed once more, from the optimiser's own start; the re-solves made."""
     failed = [
         i
@@ -784,11 +477,11 @@ def _resolve_failed(spec: _Spec, points: list[_Point], runner: _Serial | _Distri
     ]
     for i in failed:
         (q,) = runner.resolve(spec, points[i].eta_h, [None])
-        points[i] = _replace(q, runtime_s=points[i].runtime_s + q.runtime_s) if q.ok else points[i]
+        points[i] = replace_fields(q, runtime_s=points[i].runtime_s + q.runtime_s) if q.ok else points[i]
     return len(failed)
 
 
-def _monotone(points: list[_Point], rtol: float) -> int:
+def _monotone(points: list[FrontPoint], rtol: float) -> int:
     """Points whose own solve ended above an earlier ETA's fuel take that plan; their number.
 
     Arriving by an ETA may arrive earlier (``eta_mode="le"``), so the earlier ETA's verified plan serves
@@ -797,11 +490,11 @@ def _monotone(points: list[_Point], rtol: float) -> int:
     """
     risen = 0
     best_before = math.inf
-    best_point: _Point | None = None
+    best_point: FrontPoint | None = None
     for i, p in enumerate(points):
         if p.ok and p.fuel_t > best_before * (1.0 + rtol) and best_point is not None:
             risen += 1
-            points[i] = p = _replace(
+            points[i] = p = replace_fields(
                 best_point,
                 eta_h=p.eta_h,
                 kind=p.kind,
@@ -820,7 +513,7 @@ def _monotone(points: list[_Point], rtol: float) -> int:
 
 
 def _dataset(
-    spec: _Spec, points: list[_Point], t_min: float, t_slow: float, resolves: int, risen: int, n_chains: int
+    spec: FrontSpec, points: list[FrontPoint], t_min: float, t_slow: float, resolves: int, risen: int, n_chains: int
 ) -> TradeoffFront:
     eta_h = np.array([p.eta_h for p in points], dtype=float)
     n_wp = max((p.waypoints.shape[0] for p in points if p.waypoints is not None), default=0)
@@ -829,7 +522,7 @@ def _dataset(
     def col(key: str) -> np.ndarray:
         return np.array([p.totals.get(key, math.nan) for p in points], dtype=float)
 
-    def padded(get: Callable[[_Point], np.ndarray | None], size: int) -> np.ndarray:
+    def padded(get: Callable[[FrontPoint], np.ndarray | None], size: int) -> np.ndarray:
         out = np.full((len(points), size), np.nan)
         for i, p in enumerate(points):
             a = get(p)

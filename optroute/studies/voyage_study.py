@@ -44,8 +44,8 @@ from optroute.errors import ConfigError
 from optroute.physics.ship import Ship
 from optroute.search.route import Corridor
 from optroute.studies.fingerprint import CaseInput, dataset_digest, digest, file_digest
+from optroute.studies.front_points import FORBIDDEN_OPTIONS, FrontSpec, solve_point
 from optroute.studies.study import ProgressCallback, run_study
-from optroute.studies.tradeoff import _FORBIDDEN, _solve_point, _Spec
 from optroute.units import as_utc_time, format_utc, h_to_timedelta, timedelta_to_h
 from optroute.weather.catalogue import load_weather, scenario_names
 from optroute.weather.scenarios import member
@@ -126,12 +126,12 @@ def voyage_case(
             )
             _corridors[key] = (found.corridor(width_nm=corridor_width_nm), found)
         corridor, route = _corridors[key]
-    spec = _Spec(corridor, wx, ship, t0, objective, dict(optimise_kwargs))
+    spec = FrontSpec(corridor, wx, ship, t0, objective, dict(optimise_kwargs))
     if eta_h <= 0:
         status = f"infeasible: the ETA is {eta_h:.2f} h after the departure {format_utc(t0)}"
         out: dict[str, Any] = {k: math.nan for k in TOTALS}
         return {**out, "plan_status": status, "iterations": 0}
-    p = _solve_point(spec, eta_h, "eta", None, route)
+    p = solve_point(spec, eta_h, "eta", None, route)
     return {
         **{k: float(p.totals.get(k, math.nan)) for k in TOTALS},
         "plan_status": p.status,
@@ -397,7 +397,7 @@ def study(
     """
     if objective not in ("fuel", "cost"):
         raise ConfigError(f"objective={objective!r} is not a study objective; use 'fuel' or 'cost'")
-    bad = sorted(set(optimise_kwargs) & set(_FORBIDDEN))
+    bad = sorted(set(optimise_kwargs) & set(FORBIDDEN_OPTIONS))
     if bad:
         raise ConfigError(f"study sets {bad} itself for every case; drop them from the keyword arguments")
     if corridor is not None and (start is not None or end is not None):

@@ -1,0 +1,75 @@
+"""The 3-D DP's route (Shao et al.): ``search_route(method="dp")`` on the physics of :class:`PassagePhysics`."""
+
+from __future__ import annotations
+
+import time as _time
+
+import numpy as np
+
+from optroute import geodesy as geo
+from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
+from optroute.geo import land
+from optroute.physics.safety import BANDS
+from optroute.search.dp import solve_dp
+from optroute.search.objective_search import eta_as_time, explain_uncovered
+from optroute.search.passage_physics import PassagePhysics
+from optroute.search.route import Route
+from optroute.units import h_to_timedelta as _h_to_td
+
+
+def search_dp(
+    physics: PassagePhysics, start, end, eta_h, speeds, opts, objective, t_start, coast: bool, exclusion=None
+) -> Route:
+    """``search_route(method="dp")``: :func:`optroute.search.dp.solve_dp` on :meth:`PassagePhysics.dp_leg`, as a Route.
+
+    ``opts`` are the caller's ``dp_options`` (``piece_nm`` [nm] is taken out for
+    the leg costing); nodes are navigable where the weather allows passage,
+    outside the moving ``exclusion`` and (``coast``) off land; ``eta_h`` [h from
+    departure] or None.  Errors name the ETA's UTC time and the weather's extent.
+    """
+    if objective == "time" and eta_h is not None:
+        raise ConfigError("the DP minimises fuel for an ETA; use objective='fuel' with method='dp'")
+    piece_nm = float(opts.pop("piece_nm", 30.0))
+    sampler = physics.sampler
+
+    def navigable(lat, lon, t_h):  # the weather's no-passage cells, and the coastline as in the grid search
+        when = np.broadcast_to(t_h, np.shape(lat))
+        ok = physics.sea(lat, lon, when).navigable
+        if exclusion is not None:
+            clat, clon, rad = exclusion.at(physics.departure + _h_to_td(when))
+            ok = ok & (geo.distance_nm(lat, lon, clat, clon) >= rad)
+        return ok & ~land.is_land(lat, lon) if coast else ok
+
+    t_last = (sampler.extent["time"][1] - physics.departure) / np.timedelta64(1, "s") / 3600.0
+    opts.setdefault("horizon_h", float(t_last))
+    try:
+        res = solve_dp(start, end, physics.dp_leg(piece_nm), eta_h=eta_h, speeds_kn=speeds, navigable=navigable, **opts)
+    except NoSafePassage as exc:
+        raise explain_uncovered(exc, physics) from None
+    except InfeasibleETA as exc:
+        raise eta_as_time(exc, physics.departure) from None
+    p = res.path
+    n_legs = p.lat_deg.size - 1
+    wp = np.column_stack([p.lat_deg, p.lon_deg])
+    return Route(
+        waypoints=wp,
+        times=physics.departure + _h_to_td(p.times_h),
+        sog_kn=p.sog_kn,
+        stw_kn=np.asarray(p.extra.get("stw_kn", np.full(n_legs, np.nan)), dtype=float),
+        power_kw=np.asarray(p.extra.get("power_kw", np.full(n_legs, np.nan)), dtype=float),
+        fuel_t=p.leg_fuel_t,
+        duration_h=p.leg_duration_h,
+        distance_nm=p.leg_distance_nm,
+        cost=float(p.total_fuel_t),
+        objective="fuel",
+        method="dp",
+        band_side={b: np.zeros(n_legs, dtype=np.int8) for b in BANDS},
+        stats={
+            "n_states": res.n_states,
+            "n_transitions": res.n_transitions,
+            "earliest_arrival_h": res.earliest_arrival_h,
+            "curve_bin_end_h": res.curve_bin_end_h,
+            "curve_fuel_t": res.curve_fuel_t,
+            "runtime_s": _time.perf_counter() - t_start,
+        },
+    )

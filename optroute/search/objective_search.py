@@ -1,0 +1,115 @@
+"""The search's objective: minimum time, fixed λ, or the least λ meeting an ETA; its errors stated for the user.
+
+:func:`run_objective` runs a search callback ``run(lam)`` (λ in t of fuel per
+hour, None for minimum time) for the objective asked; :func:`bisect_lambda`
+finds the least λ whose least-cost route arrives by the ETA (the fuel
+objective, as Boeing EP 2145155 trades fuel against time);
+:func:`eta_as_time` and :func:`explain_uncovered` turn the searches' errors
+into ones that name UTC times and the weather's extent.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from optroute import units
+from optroute.errors import InfeasibleETA, NoSafePassage
+from optroute.search.passage_physics import PassagePhysics
+from optroute.units import h_to_timedelta as _h_to_td
+
+
+def eta_as_time(exc: InfeasibleETA, t0: np.datetime64) -> InfeasibleETA:
+    """The search's :class:`InfeasibleETA` with ``earliest_arrival`` as a UTC time (the searches give hours)."""
+    early = exc.earliest_arrival
+    if early is None or isinstance(early, np.datetime64):
+        return exc
+    out = InfeasibleETA(
+        f"{exc} (at {units.format_utc(t0 + _h_to_td(float(early)))})", earliest_arrival=t0 + _h_to_td(float(early))
+    )
+    out.earliest_arrival_h = float(early)  # type: ignore[attr-defined]
+    return out
+
+
+def explain_uncovered(exc: NoSafePassage, physics: PassagePhysics) -> Exception:
+    """Say when the weather's extent, not the sea, stopped the search."""
+    if physics.uncovered:
+        ext = physics.sampler.extent
+        return NoSafePassage(
+            f"{exc} — {physics.uncovered} sampled points fell outside the weather data "
+            f"(lat {ext['lat']}, lon {ext['lon']}, time {units.format_utc(ext['time'][0])} to {units.format_utc(ext['time'][1])}) and counted as no "
+            "passage; extend the forecast in space or time"
+        )
+    return exc
+
+
+def run_objective(run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t):
+    """The search result for the objective and the λ it used [t/h].
+
+    ``run(lam)`` searches minimum time (``lam`` None) or least fuel + λ·time.
+    ``"time"`` runs it once; a given λ (or ``"cost"``: hourly cost / fuel price)
+    runs it once and raises :class:`InfeasibleETA` if that route is later than
+    ``eta_h`` [h from ``t0``]; ``"fuel"`` bisects λ (:func:`bisect_lambda`).
+    """
+    lam_used = 0.0
+    if objective == "time":
+        res = run(None)
+    elif lambda_t_per_h is not None or objective == "cost":
+        lam_used = float(lambda_t_per_h if lambda_t_per_h is not None else hourly_cost_per_h / fuel_price_per_t)
+        res = run(lam_used)
+        if eta_h is not None and res.arrival_h > eta_h + 1e-9:
+            raise InfeasibleETA(
+                f"with lambda {lam_used:.3g} t/h the least-cost route arrives after {res.arrival_h:.1f} h, later than "
+                f"the ETA {eta_h:.1f} h after departure; raise the hourly cost or give a later ETA",
+                earliest_arrival=t0 + _h_to_td(res.arrival_h),
+            )
+    else:
+        res, lam_used = bisect_lambda(run, eta_h, t0)
+    return res, lam_used
+
+
+def bisect_lambda(run: Callable, eta_h: float | None, t0: np.datetime64):
+    """Least λ whose least-cost route arrives by the ETA (fuel objective).
+
+    A λ whose route cannot be completed (too slow to finish inside the
+    forecast, say) counts as arriving too late; only when even the fastest
+    choice fails is the search's :class:`NoSafePassage` raised.
+    """
+    failure: list[NoSafePassage] = []
+
+    def attempt(lam: float):
+        try:
+            return run(lam)
+        except NoSafePassage as exc:
+            failure[:] = [exc]
+            return None
+
+    def late(r) -> bool:
+        return r is None or (eta_h is not None and r.arrival_h > eta_h)
+
+    slow = attempt(0.0)
+    if not late(slow):
+        return slow, 0.0
+    lo, hi = 0.0, 1.0
+    fast = attempt(hi)
+    while late(fast) and hi < 1e4:
+        lo, hi = hi, hi * 4.0
+        fast = attempt(hi)
+    if fast is None:
+        raise failure[0]
+    if late(fast):
+        raise InfeasibleETA(
+            f"even valuing an hour at {hi:.0f} t of fuel the route arrives {fast.arrival_h:.1f} h after departure, "
+            f"later than the ETA {eta_h:.1f} h; give a later ETA",
+            earliest_arrival=t0 + _h_to_td(fast.arrival_h),
+        )
+    best = fast
+    for _ in range(12):
+        mid = 0.5 * (lo + hi)
+        r = attempt(mid)
+        if late(r):
+            lo = mid
+        else:
+            hi, best = mid, r
+    return best, hi

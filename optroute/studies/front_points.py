@@ -1,0 +1,292 @@
+"""One point of a fuel–ETA front: its solve, its warm start, and the prepared corridors a process keeps.
+
+A point is one :func:`optroute.optimise_corridor` call (or, for an ETA inside a chain, one
+:meth:`PreparedCorridor.solve` on the corridor prepared once for the chain's latest ETA); an
+unreachable ETA or a solver failure becomes the point's status, not an exception.  These functions
+run in the calling process or on a Dask worker (:mod:`optroute.studies.front_runners`) for
+:func:`optroute.studies.tradeoff.tradeoff` and :func:`optroute.studies.voyage_study.study`.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time as _time
+import uuid
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import xarray as xr
+
+from optroute.errors import (
+    ConfigError,
+    InfeasibleETA,
+    SolverFailure,
+    WeatherCoverageError,
+)
+from optroute.optimise.api import optimise_corridor
+from optroute.optimise.corridor_problem import PreparedCorridor
+from optroute.physics.ship import Ship
+from optroute.plan.result import Plan
+from optroute.search.route import Corridor
+from optroute.studies import fingerprint
+from optroute.studies.threads import pin_solver_threads
+from optroute.units import as_utc_time, format_utc, h_to_timedelta, timedelta_to_h
+from optroute.weather.sample import WeatherSampler
+
+if TYPE_CHECKING:
+    pass
+
+__all__ = [
+    "FORBIDDEN_OPTIONS",
+    "LEG_VARIABLES",
+    "FrontPoint",
+    "FrontSpec",
+    "WarmStart",
+    "failure_text",
+    "front_token",
+    "point_from_plan",
+    "prepared_corridor",
+    "replace_fields",
+    "retimed_start",
+    "solve_chain",
+    "solve_point",
+]
+
+#: Leg variables a front keeps per point.
+LEG_VARIABLES = ("sog_kn", "stw_kn", "heading_deg", "distance_nm", "duration_h", "power_kw", "fuel_t", "hs_m")
+#: optimise_corridor options a front sets itself.
+FORBIDDEN_OPTIONS = ("eta", "eta_mode", "objective", "warm_plan", "route", "departure", "progress")
+
+# --------------------------------------------------------------------------- one point (runs on a worker)
+
+
+@dataclass(frozen=True)
+class WarmStart:
+    """What :func:`optroute.optimise_corridor` reads of a ``warm_plan``."""
+
+    waypoints: np.ndarray
+    stw_kn: np.ndarray
+
+
+@dataclass(frozen=True)
+class FrontSpec:
+    """Everything a solve needs but the ETA and the warm start; shipped once to every worker."""
+
+    corridor: Corridor
+    weather: xr.Dataset | WeatherSampler
+    ship: Ship
+    departure: np.datetime64
+    objective: str
+    kwargs: Mapping[str, Any]
+    token: str = ""  # names this front's prepared corridor in a process's cache
+    latest_eta_h: float | None = None  # the chains' latest ETA [h]: set once the end solves are known
+
+
+@dataclass(frozen=True)
+class FrontPoint:
+    eta_h: float  # NaN for the slow-steaming solve until its ETA is known
+    kind: str  # "minimum_time" | "slow_steaming" | "eta"
+    status: str
+    runtime_s: float = 0.0
+    iterations: int = 0
+    totals: Mapping[str, float] = field(default_factory=dict)
+    waypoints: np.ndarray | None = None
+    times_h: np.ndarray | None = None
+    legs: Mapping[str, np.ndarray] | None = None
+    carry: WarmStart | None = None  # the warm start for the next point of a chain
+    nlp_solves: int = 0  # Ipopt calls of the point's solve (band outer loop and verification re-solves included)
+    warm_start: str = ""  # the candidate Ipopt started from ("warm plan", "centreline start", ...)
+    own_fuel_t: float | None = None  # a risen point's own solve's fuel [t] (its plan is an earlier ETA's)
+
+    @property
+    def ok(self) -> bool:
+        return self.waypoints is not None
+
+    @property
+    def fuel_t(self) -> float:
+        return float(self.totals.get("fuel_t", math.nan))
+
+
+def point_from_plan(plan: Plan, eta_h: float, kind: str, runtime_s: float) -> FrontPoint:
+    legs = plan.legs
+    dur = legs["duration_h"].to_numpy(dtype=float)
+    power = legs["power_kw"].to_numpy(dtype=float)
+    totals = {
+        "fuel_t": float(plan.total_fuel_t),
+        "duration_h": float(plan.duration_h),
+        "distance_nm": float(plan.distance_nm),
+        "mean_power_kw": float(np.sum(power * dur) / np.sum(dur)),
+        "max_power_kw": float(np.max(power)),
+        "eta_shadow_price_t_per_h": float(plan.eta_shadow_price_t_per_h),
+    }
+    times_h = np.array([timedelta_to_h(t - plan.departure) for t in plan.times], dtype=float)
+    wp = np.asarray(plan.waypoints, dtype=float)
+    return FrontPoint(
+        eta_h=eta_h,
+        kind=kind,
+        status=plan.status,
+        runtime_s=runtime_s,
+        iterations=int(plan.solver_stats.get("iterations", 0)),
+        nlp_solves=int(plan.solver_stats.get("nlp_solves", 0)),
+        warm_start=str(plan.solver_stats.get("warm_start", "")),
+        totals=totals,
+        waypoints=wp,
+        times_h=times_h,
+        legs={k: legs[k].to_numpy(dtype=float) for k in LEG_VARIABLES if k in legs},
+        carry=WarmStart(wp, plan.stw_kn),
+    )
+
+
+def solve_point(
+    spec: FrontSpec, eta_h: float | None, kind: str, warm: FrontPoint | WarmStart | None, route: Any = None
+) -> FrontPoint:
+    """One solve; an unreachable ETA or a solver failure becomes the point's status, not an exception."""
+    pin_solver_threads()  # one BLAS thread for Ipopt, in this process as on a Dask worker: the same rounding
+    started = _time.perf_counter()
+    carry = retimed_start(warm, eta_h) if kind == "eta" else warm.carry if isinstance(warm, FrontPoint) else warm
+    objective = "time" if kind == "minimum_time" else spec.objective if kind == "eta" else "fuel"
+    eta = None if eta_h is None else spec.departure + h_to_timedelta(eta_h)
+    try:
+        if kind == "eta" and spec.latest_eta_h is not None and eta_h is not None and eta_h <= spec.latest_eta_h:
+            # the problem of optimise_corridor for this ETA from the same warm start; the untightened start (not
+            # the neighbour's learnt tightening) keeps every point independent of the chain it was solved in
+            prepared, lock = prepared_corridor(spec)
+            with lock:  # one solve at a time: its cached builds are set up per solve (a worker may have threads)
+                plan = prepared.solve(eta, objective=objective, warm_plan=carry)  # type: ignore[arg-type]
+        else:
+            plan = optimise_corridor(
+                spec.corridor,
+                spec.weather,
+                spec.ship,
+                departure=spec.departure,
+                eta=eta,
+                objective=objective,
+                warm_plan=carry,
+                route=route,
+                **spec.kwargs,
+            )
+    except InfeasibleETA as exc:
+        if exc.earliest_arrival is not None:
+            earliest = as_utc_time(exc.earliest_arrival, "earliest_arrival")
+            status = (
+                f"infeasible: earliest arrival {format_utc(earliest)} "
+                f"({timedelta_to_h(earliest - spec.departure):.2f} h after departure)"
+            )
+        else:
+            status = f"infeasible: {exc}"
+        return FrontPoint(
+            math.nan if eta_h is None else eta_h, kind, status, _time.perf_counter() - started, carry=carry
+        )
+    except SolverFailure as exc:
+        if kind == "minimum_time" and exc.best_plan is not None:
+            # the minimum-time NLP failed: the front starts from the fastest verified plan known (the search
+            # route's, or a safe start's), an upper bound on the earliest arrival, and its status says so
+            best = exc.best_plan
+            point = point_from_plan(best, float(best.duration_h), kind, _time.perf_counter() - started)
+            return replace_fields(
+                point,
+                status=f"feasible: fastest verified plan known ({best.status}); the minimum-time solve failed: "
+                f"{failure_text(exc)}",
+            )
+        return FrontPoint(
+            math.nan if eta_h is None else eta_h,
+            kind,
+            f"solver failure: {failure_text(exc)}",
+            _time.perf_counter() - started,
+            carry=carry,
+        )
+    except WeatherCoverageError as exc:
+        return FrontPoint(
+            math.nan if eta_h is None else eta_h,
+            kind,
+            f"infeasible: {exc}",
+            _time.perf_counter() - started,
+            carry=carry,
+        )
+    arrival_h = float(plan.duration_h)
+    return point_from_plan(plan, arrival_h if eta_h is None else eta_h, kind, _time.perf_counter() - started)
+
+
+def retimed_start(warm: FrontPoint | WarmStart | None, eta_h: float | None) -> WarmStart | None:
+    """A later ETA's plan sped up to arrive by ``eta_h``: the continuation's start from the slow side.
+
+    The optimiser starts Ipopt from a warm plan only when the referee accepts that plan for the new
+    ETA; a neighbour that arrives later never is.  Its speeds through the water scaled by
+    ``arrival / eta_h`` (plus 1e-6) arrive by ``eta_h`` wherever the speed over ground is the speed
+    through the water (no current); where the faster plan breaks the engine's limits or a danger
+    band, the referee refuses it and the optimiser starts from its own candidates, as cold.
+    """
+    if not isinstance(warm, FrontPoint):
+        return warm
+    carry = warm.carry
+    arrival_h = warm.totals.get("duration_h", math.nan)
+    if carry is None or eta_h is None or not math.isfinite(arrival_h) or arrival_h <= eta_h:
+        return carry
+    return WarmStart(carry.waypoints, np.asarray(carry.stw_kn, dtype=float) * (arrival_h / eta_h * (1.0 + 1e-6)))
+
+
+def solve_chain(spec: FrontSpec, etas: Sequence[float], warm: FrontPoint | None, cold: bool) -> list[FrontPoint]:
+    """One chain of ETAs, each point started from the one before (the chain's first from ``warm``)."""
+    out = []
+    for eta_h in etas:
+        p = solve_point(spec, eta_h, "eta", None if cold else warm)
+        warm = p if p.ok else warm
+        out.append(p)
+    return out
+
+
+#: Prepared corridors of this process (a Dask worker's too), by the inputs' fingerprint and latest ETA, least
+#: recently used first: a worker keeps them between chains and between fronts of the same inputs (a study's).
+PREPARED_CORRIDORS: dict[tuple[str, float], tuple[PreparedCorridor, threading.Lock]] = {}
+PREPARED_KEEP = 2
+_PREPARING = threading.Lock()
+
+
+def prepared_corridor(spec: FrontSpec) -> tuple[PreparedCorridor, threading.Lock]:
+    """The front's corridor problem prepared once in this process for its latest ETA, and its solve lock."""
+    latest = float(spec.latest_eta_h)  # type: ignore[arg-type]
+    key = (spec.token, latest)
+    with _PREPARING:
+        hit = PREPARED_CORRIDORS.pop(key, None)
+        if hit is None:
+            prepared = PreparedCorridor(
+                spec.corridor,
+                spec.weather,
+                spec.ship,
+                departure=spec.departure,
+                latest_eta=spec.departure + h_to_timedelta(latest),
+                objective=spec.objective,  # type: ignore[arg-type]
+                **spec.kwargs,
+            )
+            hit = (prepared, threading.Lock())
+        PREPARED_CORRIDORS[key] = hit  # most recently used last
+        while len(PREPARED_CORRIDORS) > PREPARED_KEEP:
+            PREPARED_CORRIDORS.pop(next(iter(PREPARED_CORRIDORS)))
+    return hit
+
+
+def front_token(corridor: Corridor, weather: Any, ship: Ship, t0: np.datetime64, objective: str, kwargs: Any) -> str:
+    """The fingerprint of a front's inputs (:mod:`optroute.studies.fingerprint`): the key of its prepared corridor.
+
+    Inputs without a canonical form (an object that does not pickle) get a fresh random key: their front
+    prepares its corridor again rather than risk another front's.
+    """
+    try:
+        return fingerprint.digest(("front", corridor, weather, ship, str(t0), objective, dict(kwargs)))
+    except ConfigError:
+        return uuid.uuid4().hex
+
+
+def failure_text(exc: SolverFailure) -> str:
+    if exc.status in ("Solve_Succeeded", "Solved_To_Acceptable_Level"):
+        return f"no plan passed verification (last Ipopt status {exc.status})"
+    return exc.status or str(exc)
+
+
+def replace_fields(p: Any, **changes: Any) -> Any:
+    from dataclasses import replace
+
+    return replace(p, **changes)
