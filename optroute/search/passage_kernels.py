@@ -31,6 +31,8 @@ from optroute import units
 from optroute._numba import jit
 from optroute.physics.pointwise import allowed_speed, cost_rate_floor, evaluate_speed, stw_for_sog
 from optroute.search.edge_geometry import piece_point
+from optroute.search.refine_kernels import piece_clear
+from optroute.search.refine_kernels import workspace as refine_workspace
 from optroute.weather.sample import N_POINT_FIELDS, sample_at
 
 MODE_TIME = 0
@@ -105,10 +107,13 @@ def _first_choice(
 
 @jit
 def _checked_piece(
-    p, w, mode, speeds, lam, t_h, la, lo, crs, seg, npts, stw0, sog0, work, sea_pts
+    p, w, mode, speeds, lam, t_h, la, lo, crs, seg, npts, stw0, sog0, work, sea_pts, mid, s_pts, refine
 ):  # pragma: no cover - compiled
     """One piece with its speed checked at ``npts`` points (see ``PassagePhysics.segment_checked``).
 
+    A speed allowed at every point at its own times is then checked between them by the referee's
+    rules (:func:`optroute.search.refine_kernels.piece_clear`; ``mid`` = the piece's midpoint lat,
+    lon, course and length, ``s_pts`` the points' distances from its start, ``refine`` the workspace).
     Returns ``(duration_h, fuel_t, feasible, uncovered points)``.
     """
     k_n = speeds.size
@@ -147,11 +152,16 @@ def _checked_piece(
                 worst = max(worst, abs(t_h + cum - tt[j]))
                 dur += dt
                 fu += 0.5 * (fuel_pt[j] + fuel_pt[j - 1]) * dt
-            if worst <= _DONE_TOL_H:
+            if worst > _DONE_TOL_H:  # allowed, but the times were not yet its own: check again at them
+                for j in range(npts):
+                    inv[j] = inv_new[j]
+                continue
+            if piece_clear(
+                p, w, spd, mid[0], mid[1], mid[2], mid[3], s_pts, tt, npts, la, lo, crs, sea_pts, refine[0],
+                refine[1], refine[2],
+            ):  # fmt: skip
                 return dur, fu, True, uncovered
-            for j in range(npts):
-                inv[j] = inv_new[j]
-            continue
+            # a band between the check points, where the referee's rules look: strike the speed
         struck[guess] = 1.0
         best, k_best = np.inf, -1
         for k in range(k_n):
@@ -196,7 +206,7 @@ def check_count(length_nm, check_nm):  # pragma: no cover - compiled
 
 @jit
 def cost_leg(
-    p, w, mode, check_nm, speeds, lam, desired, step, vmin, lat, lon, course, length, n_pieces, t0_h
+    p, w, mode, check_nm, speeds, lam, desired, step, vmin, lat, lon, course, length, n_pieces, t0_h, refine
 ):  # pragma: no cover - compiled
     """Duration [h], fuel [t], feasibility and uncovered points of one leg, walked piece by piece in time.
 
@@ -204,7 +214,8 @@ def cost_leg(
     there [deg true] and ``length`` [nm] (:func:`optroute.search.edge_geometry.edge_pieces`);
     ``check_nm`` <= 0 proposes and keeps each piece's speed at its midpoint
     only, else the speed is checked at :func:`check_count` points along the
-    piece (:func:`optroute.search.edge_geometry.piece_point`).  See :func:`cost_legs`.
+    piece (:func:`optroute.search.edge_geometry.piece_point`) and between them by the referee's rules
+    (``refine``: :func:`optroute.search.refine_kernels.workspace`).  See :func:`cost_legs`.
     """
     checked = check_nm > 0.0
     m = 1
@@ -216,6 +227,7 @@ def cost_leg(
     sea_pts = np.empty((m, N_POINT_FIELDS))
     seg = np.empty(max(m - 1, 1))
     la, lo, crs = np.empty(m), np.empty(m), np.empty(m)
+    s_pts, mid = np.empty(m), np.empty(4)
     t = t0_h
     fu = 0.0
     uncovered = 0
@@ -235,9 +247,14 @@ def cost_leg(
         npts = check_count(length[k], check_nm)
         for j in range(npts):
             la[j], lo[j], crs[j] = piece_point(lat[k], lon[k], course[k], (j / (npts - 1.0) - 0.5) * length[k])
+        s_pts[0] = 0.0
         for j in range(npts - 1):
             seg[j] = ((j + 1.0) / (npts - 1.0) - j / (npts - 1.0)) * length[k]
-        d, f, good, unc = _checked_piece(p, w, mode, speeds, lam, t, la, lo, crs, seg, npts, stw0, sog0, work, sea_pts)
+            s_pts[j + 1] = s_pts[j] + seg[j]
+        mid[0], mid[1], mid[2], mid[3] = lat[k], lon[k], course[k], length[k]
+        d, f, good, unc = _checked_piece(
+            p, w, mode, speeds, lam, t, la, lo, crs, seg, npts, stw0, sog0, work, sea_pts, mid, s_pts, refine
+        )
         uncovered += unc
         if not good:
             return np.nan, np.nan, False, uncovered
@@ -285,10 +302,11 @@ def cost_legs(
     fuel = np.full(n, np.nan)
     feas = np.zeros(n, dtype=np.bool_)
     uncovered = 0
+    refine = refine_workspace(check_nm > 0.0)
     for i in range(n):
         d, f, ok, unc = cost_leg(
             p, w, mode, check_nm, speeds, lam, desired, step, vmin, mid_lat[i], mid_lon[i], mid_course[i],
-            length[i], n_pieces[i], t0_h[i],
+            length[i], n_pieces[i], t0_h[i], refine,
         )  # fmt: skip
         uncovered += unc
         if ok:
