@@ -355,31 +355,42 @@ def cost_dp_legs(p, w, lat, lon, course, frac, n_pieces, leg_of, t0_h, sog_kn, d
     sea = np.empty(N_POINT_FIELDS)
     uncovered = 0
     for i in range(n):
-        g = leg_of[i]
-        npc = n_pieces[g]
-        f_sum, s_sum, p_sum = 0.0, 0.0, 0.0
-        ok = True
-        for j in range(npc):
-            t = t0_h[i] + (frac[g, j] * dist_nm[g]) / sog_kn[i]
-            if not sample_at(w[0], w[1], w[2], w[3], w[4], w[5], t, lat[g, j], lon[g, j], sea):
-                uncovered += 1
-            stw = stw_for_sog(course[g, j], sog_kn[i], sea[5], sea[6])
-            if not (math.isfinite(stw) and stw > 0.0):
-                ok = False
-                break
-            _, _, power, fuel_tph, allowed = evaluate_speed(
-                p, course[g, j], sea[0], sea[1], sea[2], sea[3], sea[4], sea[5], sea[6], stw
-            )
-            if not allowed:
-                ok = False
-                break
-            share = 1.0 / npc
-            f_sum += fuel_tph * share
-            s_sum += stw * share
-            p_sum += power * share
+        ok, f_sum, s_sum, p_sum, unc = cost_dp_leg(p, w, lat, lon, course, frac, n_pieces, leg_of[i], t0_h[i],
+                                                   sog_kn[i], dist_nm, sea)  # fmt: skip
+        uncovered += unc
         if ok:
             feas[i] = True
             fuel[i] = f_sum * dur[i]
             stw_mean[i] = s_sum
             power_mean[i] = p_sum
     return dur, fuel, feas, stw_mean, power_mean, uncovered
+
+
+@jit
+def cost_dp_leg(p, w, lat, lon, course, frac, n_pieces, g, t0_h, sog_kn, dist_nm, sea):  # pragma: no cover - compiled
+    """One DP leg of geometry ``g`` (see :func:`cost_dp_legs`) left at ``t0_h`` [h] at ``sog_kn`` [kn].
+
+    Returns ``(feasible, mean fuel rate [t/h], mean STW [kn], mean power [kW], uncovered points)``;
+    the leg's fuel is the mean rate times ``dist_nm[g] / sog_kn``.  ``sea`` is a work array of
+    :data:`~optroute.weather.sample.N_POINT_FIELDS`.
+    """
+    npc = n_pieces[g]
+    f_sum, s_sum, p_sum = 0.0, 0.0, 0.0
+    uncovered = 0
+    for j in range(npc):
+        t = t0_h + (frac[g, j] * dist_nm[g]) / sog_kn
+        if not sample_at(w[0], w[1], w[2], w[3], w[4], w[5], t, lat[g, j], lon[g, j], sea):
+            uncovered += 1
+        stw = stw_for_sog(course[g, j], sog_kn, sea[5], sea[6])
+        if not (math.isfinite(stw) and stw > 0.0):
+            return False, np.nan, np.nan, np.nan, uncovered
+        _, _, power, fuel_tph, allowed = evaluate_speed(
+            p, course[g, j], sea[0], sea[1], sea[2], sea[3], sea[4], sea[5], sea[6], stw
+        )
+        if not allowed:
+            return False, np.nan, np.nan, np.nan, uncovered
+        share = 1.0 / npc
+        f_sum += fuel_tph * share
+        s_sum += stw * share
+        p_sum += power * share
+    return True, f_sum, s_sum, p_sum, uncovered

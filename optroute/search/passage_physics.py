@@ -26,6 +26,7 @@ from optroute.physics.safety import BANDS, BandRules, band_margins
 from optroute.physics.ship import Ship
 from optroute.search import band_refine, passage_kernels
 from optroute.search.compiled_search import LegKernel
+from optroute.search.dp_kernels import DPLegKernel
 from optroute.search.edge_geometry import piece_points_flat
 from optroute.search.passage_kernels import MODE_CHEAPEST, MODE_TIME
 from optroute.search.piece_geometry import cumulative, piece_points, points_along
@@ -468,7 +469,13 @@ class PassagePhysics:
             extra = {"stw_kn": (stw.reshape(n, m) * w).sum(axis=1), "power_kw": (power.reshape(n, m) * w).sum(axis=1)}
             return dur, np.where(feas, fuel, np.nan), feas, extra
 
+        if inputs is not None:  # solve_dp's compiled transitions (optroute.search.dp_kernels)
+            cost.dp_kernel = DPLegKernel(*inputs, pieces, self._count_uncovered)  # type: ignore[attr-defined]
         return cost
+
+    def _count_uncovered(self, n: int) -> None:
+        self.calls += 1
+        self.uncovered += n
 
 
 def leg_band_sides(ship: Ship, rules: BandRules, extra: dict[str, np.ndarray], leg_of: np.ndarray, n_legs: int):
