@@ -1,6 +1,6 @@
 """Run every benchmark in one process; write one markdown report, a JSON file per benchmark and the figures.
 
-Usage: ``python -m benchmarks [--quick] [--only startup,weather,search,nlp,compare,shao,seed000,front,certificate,observer,voyage,cyclone,sailing,harness] [--results DIR]``.
+Usage: ``python -m benchmarks [--quick] [--only startup,weather,search,nlp,compare,shao,seed000,front,certificate,observer,voyage,cyclone,sailing,harness,bands] [--results DIR]``.
 
 Each benchmark prints markdown tables with ratios to a named baseline run side by side in the
 same process (``import xarray`` for the start-up, scipy's compiled Dijkstra, xarray's interp,
@@ -42,6 +42,7 @@ BENCHES = (
     "cyclone",
     "sailing",
     "harness",
+    "bands",
 )
 OPTIONAL = {"front": "benchmarks.bench_front"}
 """Benchmarks whose module may not exist yet: skipped with a message instead of failing the run."""

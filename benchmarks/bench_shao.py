@@ -1,64 +1,73 @@
-"""Seed 001 reproduction (Shao et al.'s 3-D DP): fuel-versus-ETA curves of a constant-speed baseline, the DP and the NLP.
+"""Shao et al.'s 3-D DP experiment in its own shape: fuel against required arrival time, baseline, IMO f_w, DP, NLP.
 
 ``orx.scenarios.shao_case(1)`` and ``shao_case(2)`` (equator, (0°, 0°) → (0°, 90° E), islands
 at lon 50–70°, lat −1 to 7°, and a bad-weather rectangle that moves south (case I, after 60 h)
-or north (case II) at 3 kn) with ``Ship.preset("container_54k_dwt")``. Over a range of required
-arrival times (ETAs), side by side in one process:
+or north (case II) at 3 kn) with ``Ship.preset("container_54k_dwt")``; the paper's lattice
+(:mod:`benchmarks.shao_experiment`: 16 stages, ΔY 75 nm, 17 lateral states, Δt 1 h, 5–30 kn every
+1 kn up to the calm speed at MCR). Over the required arrival times (ETAs) 224–336 h every 8 h and
+the paper's quoted ETA, side by side in one process:
 
-(a) **constant-speed shortest safe route on the DP's lattice** (the paper's "MEPC" baseline): for every
-    speed of the DP's own speed set that could arrive by the last ETA, the DP lattice's least-fuel
-    route at that one speed (``search_route(method="dp", speeds_kn=[v])`` with the DP's ΔX, ΔY and Δt:
-    at one speed the fuel is the fuel rate times the distance over the speed and the background sea
-    is uniform, so this is the shortest route that keeps out of the no-go areas at the times a ship at
-    that speed gets there). Its fuel at an ETA is that of the least-fuel such speed arriving by the
-    ETA: a schedule the DP itself can represent, so the DP can only match or beat it (the fuel of a
-    speed *between* two lattice speeds, interpolated in arrival time, is not one: issue 22);
-(b) **the 3-D DP**: one ``search_route(method="dp", objective="fuel", eta=<latest ETA>)`` run,
+(a) **constant-speed shortest safe route on the DP's lattice** (the paper's "MEPC" strategy: "a
+    constant speed during the voyage" on the route closest to the no-go areas): for every lattice
+    speed that could arrive by the last ETA, the lattice's least-fuel route at that one speed
+    (``search_route(method="dp", speeds_kn=[v])``); its fuel at an ETA is that of the least-fuel such
+    speed arriving by the ETA: a schedule the DP itself can represent (no interpolation between
+    speeds: issue 22);
+(b) **the IMO f_w estimate** of that schedule (MEPC.1/Circ.796's weather factor, the "MEPC regression"
+    the paper compares with): :func:`benchmarks.shao_experiment.fw_fuel_t`;
+(c) **the 3-D DP**: one ``search_route(method="dp", objective="fuel", eta=<the paper's ETA>)`` run,
     whose least fuel per arrival bin is the whole fuel-versus-ETA curve (the DP's fuel at an ETA
-    is the least over the bins that end by it). Lattice ΔX 540 nm, ΔY 150 nm (±600 nm), Δt 2 h,
-    speeds 5 kn to the top speed every 1 kn: coarser than the paper's 360 nm / 75 nm / 1 h /
-    ±900 nm, one run of which took more than 12 minutes and 2.5 GB here;
-(c) **the NLP**: ``optimise_corridor(objective="fuel", eta=)`` in a 150 nm corridor about the
-    baseline's route for the ETA, warm-started from it.
+    is the least over the bins that end by it), and whose route for the paper's ETA is refereed;
+(d) **the NLP**: ``optimise_corridor(objective="fuel", eta=)`` in a 150 nm corridor about the DP's
+    route for the paper's ETA, warm-started from it (one ETA per case: the DP returns one route per run).
 
 The DP and the baseline are compared in the DP's own fuel accounting (the same lattice and model);
-the NLP and the baseline are both scored by the referee (``Plan.from_schedule`` through the same
-weather and ship, ``Plan.verify()``), and the baseline's and the NLP's failed and unverified plans are
-counted (:func:`comparison`, in the JSON under ``comparison``). The DP's curve comes from one run, with
-no route per arrival bin, so it is not refereed; an ETA with no DP bin counts as a DP failure
-(``dp_missing``).
+the DP's route, the baseline and the NLP are also scored by the referee (``Plan.from_schedule``
+through the same weather and ship, ``Plan.verify()``), failed and unverified plans counted
+(:func:`comparison`, in the JSON under ``comparison``); an ETA with no DP bin counts as a DP failure
+(``dp_missing``). The bins are 1 h (the paper's Δt): with one label per (stage, lateral, bin) the DP
+keeps the cheapest label of a bin, which may be later than a discarded one, so a coarse bin can cost
+it the baseline's own schedule (2 h bins: 0.3–1.0 % above the baseline at every ETA; 3 h bins on a
+5-leg lattice: 2.5 %; 1 h: equal).
 
 For each case: the window of ETAs where the DP (and the NLP) use less fuel than the baseline
 (by more than 0.5 %), the largest saving [t] and [%], beside what the paper reports (case I:
 233–272 h, 1014.54 → 969.25 t at 264 h, 4.5 %; case II: 270–303 h, 898 → 852 t at 278 h,
-5.1 %). Absolute fuel differs: the paper's ship model and sea are not given in full (the seed
-gives no background sea; ``shao_case`` uses H_s 2 m from the east). ``shao_case<k>.png`` plots
-the three curves.
+5.1 %), and the evidence of whether the storm binds at all: each baseline speed's route length
+over the great circle and its clearance from the storm and the islands at the hours it passes them.
+Absolute fuel differs: the paper's ship model and sea are not given (``shao_case`` uses a
+Beaufort 5 head sea, H_s 2 m from the east). ``shao_case<k>.png`` plots the curves.
 
-Run ``python -m benchmarks.bench_shao [--quick]`` (quick: case I only, a much coarser lattice, three ETAs,
-the NLP at one).
+Measured (case I on the paper's lattice, 2 Dec 2026, load 14-19 on 2 cores): at all 14 ETAs 224-328 h the DP
+uses 0.1-0.8 % more than the exact constant speed and never more than the lattice-speed baseline; that
+baseline's route is 14.3 nm over the great circle and keeps 179-352 nm from the storm (its gap south of the
+islands, -1.26°, is clear from 65 h; no ship reaches 50° E before 113 h): nothing binds, so no window. The
+DP took 779 s wall (8.0 M transitions), the baseline curve 1 199 s, the NLP 430 s (NoSafePassage); case II
+was not run to the end.
+
+Run ``python -m benchmarks.bench_shao [--quick]`` (quick: case I only, 5 legs of ~1 080 nm, 300 nm
+lateral spacing, speeds every 2 kn, four ETAs, no NLP: over this 5 400 nm, 270 h corridor the NLP's
+power table alone takes minutes and ~3 GB, and it ends in NoSafePassage from the DP's route).
 """
 
 from __future__ import annotations
 
 import time
-import warnings
 from typing import Any
 
 import numpy as np
 
 import optroute as orx
+from benchmarks import shao_experiment as se
 from benchmarks._cli import bench_main, results_dir
 from benchmarks._measure import FAILED, OK, UNVERIFIED, Outcome, compare, comparison_lines, load_line
-from optroute import geodesy
-from optroute.weather.scenarios import SHAO_START_END
+from benchmarks.shao_experiment import SHIP, baseline_at, dp_at
 
-SHIP = "container_54k_dwt"
 PAPER = {
     1: {"window_h": (233.0, 272.0), "eta_h": 264.0, "baseline_t": 1014.54, "dp_t": 969.25, "saving_pct": 4.5},
     2: {"window_h": (270.0, 303.0), "eta_h": 278.0, "baseline_t": 898.0, "dp_t": 852.0, "saving_pct": 5.1},
 }
-"""What seed 001 reports per case: the window of ETAs where the DP saves, and the quoted comparison."""
+"""What Shao et al. report per case: the window of ETAs where the DP saves, and the quoted comparison."""
 SAVING_TOL = 0.005
 """A saving counts for the window when it exceeds this fraction of the baseline's fuel [-]."""
 CORRIDOR_WIDTH_NM = 150.0
@@ -67,81 +76,14 @@ CORRIDOR_WIDTH_NM = 150.0
 def settings(quick: bool) -> dict[str, Any]:
     """Lattice, speeds and ETAs of the run (the paper's lattice in full mode)."""
     if quick:
-        return {"cases": (1,), "dp": {"dx_nm": 1080.0, "dy_nm": 300.0, "half_width_nm": 600.0, "dt_h": 3.0},
-                "dp_speeds_kn": (10.0, 2.0),
-                "etas_h": (240.0, 256.0, 272.0), "nlp_etas_h": (256.0,)}  # fmt: skip
-    return {"cases": (1, 2), "dp": {"dx_nm": 540.0, "dy_nm": 150.0, "half_width_nm": 600.0, "dt_h": 2.0},
-            "dp_speeds_kn": (5.0, 1.0),
-            "etas_h": tuple(float(e) for e in np.arange(224.0, 336.1, 8.0)), "nlp_etas_h": (248.0, 264.0, 280.0)}  # fmt: skip
-
-
-def _search(wx: Any, ship: orx.Ship, t0: np.datetime64, dp: dict[str, float], **kw: Any) -> orx.Route:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)
-        return orx.search_route(*SHAO_START_END, wx, ship, departure=t0, method="dp", objective="fuel",
-                                dp_options=dict(dp), **kw)  # fmt: skip
-
-
-def lattice_speeds(ship: orx.Ship, cfg: dict[str, Any]) -> np.ndarray:
-    """The DP's speed set [kn]: from ``dp_speeds_kn[0]`` every ``dp_speeds_kn[1]`` to the top speed (0.5 kn floor)."""
-    top = float(np.floor(min(ship.max_calm_speed_kn, 40.0) * 2) / 2)
-    return np.arange(cfg["dp_speeds_kn"][0], top + 1e-9, cfg["dp_speeds_kn"][1])
-
-
-def baseline_curve(wx: Any, ship: orx.Ship, t0: np.datetime64, cfg: dict[str, Any]) -> dict[str, Any]:
-    """Per lattice speed: arrival [h], the DP's own fuel [t], the referee's fuel [t] and violations, route.
-
-    Speeds too slow to arrive by the last ETA even on the great circle are left out (they cannot be the
-    baseline at any ETA compared).
-    """
-    gc_nm = float(geodesy.distance_nm(*SHAO_START_END[0], *SHAO_START_END[1]))
-    speeds = lattice_speeds(ship, cfg)
-    speeds = speeds[gc_nm / speeds <= max(cfg["etas_h"])]
-    arrival, fuel, dist, ref, viol = (np.full(speeds.size, np.nan) for _ in range(5))
-    routes: list[orx.Route | None] = []
-    for k, v in enumerate(speeds):
-        try:
-            r = _search(wx, ship, t0, cfg["dp"], speeds_kn=[float(v)])
-        except orx.OptrouteError:  # no safe passage at this speed (or beyond the weather's span)
-            routes.append(None)
-            continue
-        routes.append(r)
-        arrival[k], fuel[k], dist[k] = r.total_duration_h, r.total_fuel_t, r.total_distance_nm
-        ref[k], viol[k] = refereed(r, wx, ship, t0)
-    return {"speed_kn": speeds, "arrival_h": arrival, "fuel_t": fuel, "distance_nm": dist, "referee_fuel_t": ref,
-            "violations": viol, "routes": routes}  # fmt: skip
-
-
-def refereed(route: orx.Route, wx: Any, ship: orx.Ship, t0: np.datetime64) -> tuple[float, float]:
-    """(the referee's fuel [t], its number of violations) of a DP route sailed as a plan (NaN, NaN if it cannot be)."""
-    try:
-        plan = orx.Plan.from_schedule(route.waypoints, route.stw_kn, departure=t0, ship=ship, weather=wx,
-                                      times=route.times)  # fmt: skip
-    except orx.OptrouteError:
-        return float("nan"), float("nan")
-    return plan.total_fuel_t, float(len(plan.verify()))
-
-
-def baseline_at(curve: dict[str, Any], eta_h: float) -> int | None:
-    """Index of the lattice speed whose constant-speed route arriving by ``eta_h`` uses least fuel (None: none does).
-
-    No interpolation between speeds: the baseline is a schedule the DP's lattice can represent.
-    """
-    ok = np.isfinite(curve["arrival_h"]) & (curve["arrival_h"] <= eta_h + 1e-9)
-    if not ok.any():
-        return None
-    idx = np.flatnonzero(ok)
-    return int(idx[np.argmin(curve["fuel_t"][idx])])
-
-
-def dp_at(curve_end_h: np.ndarray, curve_fuel_t: np.ndarray, eta_h: float) -> float:
-    """The DP's least fuel [t] over its arrival bins that end by ``eta_h`` (NaN when none does)."""
-    ok = np.isfinite(curve_fuel_t) & (curve_end_h <= eta_h + 1e-9)
-    return float(np.min(curve_fuel_t[ok])) if ok.any() else float("nan")
+        return {"cases": (1,), "dp": se.dp_options(legs=5, dy_nm=300.0, half_width_nm=600.0, dt_h=1.0),
+                "speeds_kn": (10.0, 30.0, 2.0), "etas_h": (240.0, 256.0, 264.0, 272.0), "nlp": False}  # fmt: skip
+    return {"cases": (1, 2), "dp": se.dp_options(), "speeds_kn": se.PAPER_SPEEDS_KN,
+            "etas_h": tuple(float(e) for e in np.arange(224.0, 336.1, 8.0)), "nlp": True}  # fmt: skip
 
 
 def _nlp(row: dict[str, Any], route: orx.Route, wx: Any, ship: orx.Ship, t0: np.datetime64, eta_h: float) -> None:
-    """The NLP in the baseline route's corridor, scored by the referee; fills the row's ``nlp_*`` fields."""
+    """The NLP in a corridor about ``route`` (the DP's), warm-started from it, scored by the referee; fills ``nlp_*``."""
     eta = t0 + np.timedelta64(int(round(eta_h * 3600)), "s")
     t = time.perf_counter()
     try:
@@ -157,42 +99,80 @@ def _nlp(row: dict[str, Any], route: orx.Route, wx: Any, ship: orx.Ship, t0: np.
     row["nlp_s"] = time.perf_counter() - t
 
 
+def _dp_route_facts(route: orx.Route, wx: Any, ship: orx.Ship, t0: np.datetime64, case: int) -> dict[str, Any]:
+    """The DP's route for the paper's ETA: its own fuel, the referee's, its speeds, track and storm clearance."""
+    ref, viol = se.refereed(route, wx, ship, t0)
+    return {"fuel_t": route.total_fuel_t, "arrival_h": route.total_duration_h, "referee_fuel_t": ref,
+            "violations": None if not np.isfinite(viol) else int(viol), "sog_kn": route.sog_kn,
+            "lat_deg": route.waypoints[:, 0], "lon_deg": route.waypoints[:, 1],
+            "distance_nm": route.total_distance_nm, **se.storm_clearance(route, case, t0)}  # fmt: skip
+
+
+def _row(
+    eta_h: float, ex: dict[str, Any], curve: dict[str, Any], end_h: np.ndarray, dp_fuel: np.ndarray
+) -> dict[str, Any]:
+    """One ETA: the exact-speed baseline ``ex``, the lattice-speed baseline from ``curve``, the DP's curve point."""
+    k = baseline_at(curve, eta_h)
+    nan = float("nan")
+    viol = ex["violations"]
+    return {"eta_h": float(eta_h), "baseline_t": ex["fuel_t"], "baseline_speed_kn": ex["speed_kn"],
+            "baseline_arrival_h": ex["arrival_h"], "baseline_ref_t": ex["referee_fuel_t"],
+            "baseline_violations": None if not np.isfinite(viol) else int(viol), "fw_t": ex["fw_fuel_t"],
+            "lattice_t": nan if k is None else float(curve["fuel_t"][k]),
+            "lattice_speed_kn": nan if k is None else float(curve["speed_kn"][k]),
+            "dp_t": dp_at(end_h, dp_fuel, eta_h), "nlp_t": nan, "nlp_arrival_h": nan, "nlp_state": "",
+            "nlp_status": ""}  # fmt: skip
+
+
+def _guess_nm(curve: dict[str, Any], eta_h: float) -> float | None:
+    """The route length of the lattice speed nearest the great circle's speed for ``eta_h`` (None: no route)."""
+    ok = np.isfinite(curve["distance_nm"])
+    if not ok.any():
+        return None
+    k = np.flatnonzero(ok)[np.argmin(np.abs(curve["speed_kn"][ok] - se.great_circle_nm() / eta_h))]
+    return float(curve["distance_nm"][k])
+
+
 def run_case(case: int, cfg: dict[str, Any]) -> dict[str, Any]:
+    """Baselines, one DP run (its curve and its route for the paper's ETA), the NLP from that route."""
     ship = orx.Ship.preset(SHIP)
     wx = orx.scenarios.shao_case(case)
     t0 = wx.time.values[0]
+    paper_eta = PAPER[case]["eta_h"]
+    etas = sorted({*cfg["etas_h"], paper_eta})
+    dp = {
+        **cfg["dp"],
+        "horizon_h": max(etas) + cfg["dp"]["dt_h"],
+    }  # a bin of slack: a schedule arriving at the last ETA
+    speeds = se.lattice_speeds(ship, *cfg["speeds_kn"])
     t = time.perf_counter()
-    curve = baseline_curve(wx, ship, t0, cfg)
+    curve = se.baseline_curve(wx, ship, t0, dp, speeds, max(etas), referee=False)
+    exact = [se.exact_baseline(wx, ship, t0, dp, e, guess_nm=_guess_nm(curve, e)) for e in etas]
     baseline_s = time.perf_counter() - t
-    # one DP run gives its whole fuel-versus-arrival curve (least fuel per arrival bin of width dt)
-    eta_last = t0 + np.timedelta64(int(round(max(cfg["etas_h"]) * 3600)), "s")
+    # one DP run: its route for the paper's ETA, and its least fuel per arrival bin (the whole curve)
     t = time.perf_counter()
-    dp = _search(wx, ship, t0, cfg["dp"], eta=eta_last, speeds_kn=lattice_speeds(ship, cfg))
+    dp_route = se.search(wx, ship, t0, dp, eta=t0 + np.timedelta64(int(round(paper_eta * 3600)), "s"),
+                         speeds_kn=speeds)  # fmt: skip
     dp_s = time.perf_counter() - t
-    end_h, dp_fuel = np.asarray(dp.stats["curve_bin_end_h"], float), np.asarray(dp.stats["curve_fuel_t"], float)
-    rows = []
-    for eta_h in cfg["etas_h"]:
-        k = baseline_at(curve, eta_h)
-        nan = float("nan")
-        row: dict[str, Any] = {
-            "eta_h": float(eta_h),
-            "baseline_t": nan if k is None else float(curve["fuel_t"][k]),
-            "baseline_speed_kn": nan if k is None else float(curve["speed_kn"][k]),
-            "baseline_arrival_h": nan if k is None else float(curve["arrival_h"][k]),
-            "baseline_ref_t": nan if k is None else float(curve["referee_fuel_t"][k]),
-            "baseline_violations": None if k is None or not np.isfinite(curve["violations"][k]) else int(curve["violations"][k]),
-            "dp_t": dp_at(end_h, dp_fuel, eta_h),
-            "nlp_t": nan, "nlp_arrival_h": nan, "nlp_state": "", "nlp_status": "",
-        }  # fmt: skip
-        if any(abs(eta_h - e) < 1e-9 for e in cfg["nlp_etas_h"]):
-            _nlp(row, curve["routes"][k] if k is not None else dp, wx, ship, t0, eta_h)
-        rows.append(row)
+    end_h = np.asarray(dp_route.stats["curve_bin_end_h"], float)
+    dp_fuel = np.asarray(dp_route.stats["curve_fuel_t"], float)
+    rows = [_row(e, ex, curve, end_h, dp_fuel) for e, ex in zip(etas, exact, strict=True)]
+    for row in rows:
+        if cfg["nlp"] and row["eta_h"] == paper_eta:
+            _nlp(row, dp_route, wx, ship, t0, paper_eta)
+    evidence = [{"eta_h": e, "speed_kn": ex["speed_kn"], **se.storm_clearance(ex["route"], case, t0)}
+                for e, ex in zip(etas, exact, strict=True) if ex["route"] is not None]  # fmt: skip
     curve.pop("routes")
-    nlp_s = sum(r.get("nlp_s", 0.0) for r in rows)
-    return {"case": case, "rows": rows, "baseline_curve": curve, "dp_curve": {"bin_end_h": end_h, "fuel_t": dp_fuel},
-            "dp_transitions": dp.stats["n_transitions"], "baseline_s": baseline_s, "dp_s": dp_s, "nlp_s": nlp_s,
-            "dp_missing": sum(not np.isfinite(r["dp_t"]) for r in rows), "comparison": comparison(rows),
-            **window(rows), "paper": PAPER[case]}  # fmt: skip
+    lat_gap = se.gap_lat_deg(cfg["dp"]["dy_nm"])
+    gap = {"lat_deg": lat_gap, "storm_cover_h": se.storm_cover_h(case, lat_gap, t0), "top_kn": float(speeds.max()),
+           "earliest_50e_h": se.great_circle_nm() * 50.0 / 90.0 / float(speeds.max())}  # fmt: skip
+    return {"case": case, "gap": gap, "rows": rows, "lattice_curve": curve, "dp_curve": {"bin_end_h": end_h, "fuel_t": dp_fuel},
+            "dp_route": _dp_route_facts(dp_route, wx, ship, t0, case), "evidence": evidence,
+            "fw": se.fw_factor(ship), "dp_transitions": dp_route.stats["n_transitions"], "baseline_s": baseline_s,
+            "dp_s": dp_s, "nlp_s": sum(r.get("nlp_s", 0.0) for r in rows),
+            "dp_missing": sum(not np.isfinite(r["dp_t"]) for r in rows),
+            "dp_above_lattice": sum(bool(r["dp_t"] > r["lattice_t"] * (1 + 1e-9)) for r in rows),
+            "comparison": comparison(rows), **window(rows), "paper": PAPER[case]}  # fmt: skip
 
 
 WHAT = (
@@ -241,7 +221,26 @@ def window(rows: list[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def draw(ax: Any, res: dict[str, Any]) -> None:
+    """Fuel against required arrival time of one case on ``ax``: baselines, IMO f_w, DP, NLP, the paper's window."""
+    eta = np.array([r["eta_h"] for r in res["rows"]])
+    for key, label, style in (("baseline", "constant speed, shortest safe route", "k-o"),
+                              ("lattice", "the same at the DP's speeds (its own candidate)", "k:."),
+                              ("fw", "IMO f_w estimate of the constant-speed schedule", "g:d"), ("dp", "3-D DP", "b-s"),
+                              ("nlp", "NLP from the DP's route", "r^")):  # fmt: skip
+        y = np.array([np.nan if r[f"{key}_t"] is None else r[f"{key}_t"] for r in res["rows"]], dtype=float)
+        ok = np.isfinite(y)
+        ax.plot(eta[ok], y[ok], style, label=label, ms=4)
+    lo, hi = res["paper"]["window_h"]
+    ax.axvspan(lo, hi, color="tab:orange", alpha=0.15, label=f"paper's window {lo:g}–{hi:g} h")
+    ax.set_xlabel("required arrival time [h]")
+    ax.set_ylabel("fuel [t]")
+    ax.set_title(f"Shao et al. case {'I' * res['case']} ({SHIP})", fontsize=10)
+    ax.legend(fontsize=7)
+
+
 def figure(res: dict[str, Any], path: Any) -> Any:
+    """``draw`` one case into a PNG at ``path``."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -249,19 +248,7 @@ def figure(res: dict[str, Any], path: Any) -> Any:
 
     fig = Figure(figsize=(7.5, 4.8))
     FigureCanvasAgg(fig)
-    ax = fig.add_subplot(1, 1, 1)
-    eta = np.array([r["eta_h"] for r in res["rows"]])
-    for key, label, style in (("baseline", "constant lattice speed, shortest safe route", "k-o"), ("dp", "3-D DP", "b-s"),
-                              ("nlp", "NLP in the baseline route's corridor", "r^")):  # fmt: skip
-        y = np.array([r[f"{key}_t"] for r in res["rows"]])
-        ok = np.isfinite(y)
-        ax.plot(eta[ok], y[ok], style, label=label, ms=4)
-    lo, hi = res["paper"]["window_h"]
-    ax.axvspan(lo, hi, color="tab:orange", alpha=0.15, label=f"paper's window {lo:g}–{hi:g} h")
-    ax.set_xlabel("required arrival time [h]")
-    ax.set_ylabel("fuel [t]")
-    ax.set_title(f"Seed 001 case {'I' * res['case']}: fuel vs ETA ({SHIP})")
-    ax.legend(fontsize=8)
+    draw(fig.add_subplot(1, 1, 1), res)
     return save_png(fig, path)
 
 
@@ -279,43 +266,79 @@ def _fmt_window(w: tuple[float, float] | None) -> str:
     return "none" if w is None else f"{w[0]:g}–{w[1]:g} h"
 
 
-def run(quick: bool) -> dict[str, Any]:
-    """Both cases (case I with ``quick``): curves, windows, figures; print the tables."""
-    cfg = settings(quick)
+def _print_case(res: dict[str, Any], cfg: dict[str, Any], png: Any) -> None:
+    case, d = res["case"], cfg["dp"]
+    print(f"\n### Shao et al. case {'I' * case} — `{SHIP}`, DP lattice ΔX {d['dx_nm']:.2f} nm, ΔY {d['dy_nm']:g} nm "
+          f"(±{d['half_width_nm']:g} nm), Δt {d['dt_h']:g} h, speeds {cfg['speeds_kn'][0]:g}–{cfg['speeds_kn'][1]:g} "
+          f"kn every {cfg['speeds_kn'][2]:g} kn (up to the calm speed at MCR)\n")  # fmt: skip
+    print("_Baseline and DP: the DP's own fuel accounting on the same lattice (the baseline is a schedule the DP "
+          "can represent); baseline (referee) and NLP: the plan evaluator's fuel of each plan, `verify()` findings "
+          f"counted; IMO f_w: MEPC.1/Circ.796's estimate of the baseline's schedule (f_w = {res['fw']:.3f})._\n")  # fmt: skip
+    print("| ETA [h] | baseline [t] (speed [kn]) | IMO f_w [t] | lattice-speed baseline [t] (speed [kn]) | DP [t] | "
+          "DP / baseline | DP / lattice baseline | baseline by referee [t] (violations) | NLP [t] | "
+          "NLP / baseline by referee | NLP plan |")  # fmt: skip
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
+    for r in res["rows"]:
+        b, bref = r["baseline_t"], r["baseline_ref_t"]
+        bv = "–" if r["baseline_violations"] is None else r["baseline_violations"]
+        print(f"| {r['eta_h']:g} | {_f(b, '.1f')} ({_f(r['baseline_speed_kn'], '.2f')}) | {_f(r['fw_t'], '.1f')} | "
+              f"{_f(r['lattice_t'], '.1f')} ({_f(r['lattice_speed_kn'], 'g')}) | {_f(r['dp_t'], '.1f')} | "
+              f"{_f(r['dp_t'] / b, '.4f')} | {_f(r['dp_t'] / r['lattice_t'], '.4f')} | {_f(bref, '.1f')} ({bv}) | "
+              f"{_f(r['nlp_t'], '.1f')} | {_f(r['nlp_t'] / bref, '.3f')} | {_nlp_cell(r)} |")  # fmt: skip
+    print()
+    print("\n".join(comparison_lines(res["comparison"])))
+    print(f"\nETAs without a DP curve point (DP failures): {res['dp_missing']} of {len(res['rows'])}; ETAs where the DP "
+          f"uses more than the lattice-speed baseline (one of its own candidates): {res['dp_above_lattice']}")  # fmt: skip
+    p, q = res["paper"], res["dp_route"]
+    for key, name in (("dp", "DP"), ("nlp", "NLP")):
+        best = res[f"{key}_best"]
+        print(f"\n{name}: saves > {SAVING_TOL:.1%} over ETAs {_fmt_window(res[f'{key}_window_h'])}; largest saving "
+              f"(negative: extra fuel) {_f(best['saving_t'], '.1f')} t ({_f(best['saving_pct'], '.2f')} %) at "
+              f"{_f(best['eta_h'], 'g')} h")  # fmt: skip
+    print(f"\nThe DP's route for {p['eta_h']:g} h: {q['fuel_t']:.1f} t (referee {_f(q['referee_fuel_t'], '.1f')} t, "
+          f"{q['violations']} violations), arrives {q['arrival_h']:.2f} h, {q['distance_nm']:.0f} nm; speeds "
+          f"{', '.join(f'{v:g}' for v in q['sog_kn'])} kn; latitudes {', '.join(f'{v:.2f}' for v in q['lat_deg'])}°")  # fmt: skip
+    print("\nWhy (or why not) a window — the baseline's shortest safe route at each ETA: its length over the great "
+          "circle, the hours it is abreast of the rectangles (50–70° E) and how far it keeps from them:\n")  # fmt: skip
+    print("| ETA [h] | speed [kn] | over the great circle [nm] | abreast [h] | storm clearance [nm] | "
+          "island clearance [nm] |")  # fmt: skip
+    print("|---:|---:|---:|---|---:|---:|")
+    for e in res["evidence"]:
+        print(f"| {e['eta_h']:g} | {e['speed_kn']:.2f} | {e['excess_nm']:.1f} | {_f(e['abreast_from_h'], '.0f')}–"
+              f"{_f(e['abreast_to_h'], '.0f')} | {_f(e['storm_nm'], '.0f')} | {_f(e['islands_nm'], '.0f')} |")  # fmt: skip
+    g = res["gap"]
+    cover = "never" if g["storm_cover_h"] is None else "{:g}–{:g} h".format(*g["storm_cover_h"])
+    print(f"\nThe lattice's gap south of the islands, latitude {g['lat_deg']:.2f}°: the storm covers it {cover}; the "
+          f"fastest ship ({g['top_kn']:.1f} kn) reaches 50° E at {g['earliest_50e_h']:.0f} h at the earliest.")  # fmt: skip
+    clear = [e["storm_nm"] for e in res["evidence"]]
+    if clear:
+        dy, binds = cfg["dp"]["dy_nm"], [e["eta_h"] for e in res["evidence"] if e["storm_nm"] <= cfg["dp"]["dy_nm"]]
+        print(f"\nThe storm shapes the constant-speed route (clearance ≤ ΔY = {dy:g} nm) at ETAs: "
+              f"{', '.join(f'{e:g}' for e in binds) if binds else 'none'}; least clearance {min(clear):.0f} nm. "
+              "Where it does not, the shortest safe route at one speed is what a DP on a uniform sea with fuel convex "
+              "in speed would choose anyway: there is nothing for it to save but the speed set's granularity.")  # fmt: skip
+    print(f"\npaper: window {p['window_h'][0]:g}–{p['window_h'][1]:g} h; at {p['eta_h']:g} h {p['baseline_t']:g} → "
+          f"{p['dp_t']:g} t ({p['saving_pct']:g} %). Runtimes: baseline curve {res['baseline_s']:.1f} s, DP "
+          f"{res['dp_s']:.1f} s (one run, {res['dp_transitions']:,} transitions), NLP {res['nlp_s']:.1f} s; "
+          f"figure `{png.name}`\n")  # fmt: skip
+
+
+def run(quick: bool, cfg: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Both cases (case I with ``quick``): curves, windows, figures; print the tables (``cfg``: other settings)."""
+    cfg = settings(quick) if cfg is None else cfg
     print(load_line("load average at start"))
     out: dict[str, Any] = {"settings": cfg, "cases": [], "figures": []}
+    t, cpu = time.perf_counter(), time.process_time()
     for case in cfg["cases"]:
         res = run_case(case, cfg)
         png = figure(res, results_dir() / f"shao_case{case}.png")
         out["cases"].append(res)
         out["figures"].append(str(png))
-        d = cfg["dp"]
-        print(f"\n### Seed 001 case {'I' * case} — `{SHIP}`, DP lattice ΔX {d['dx_nm']:g} nm, ΔY {d['dy_nm']:g} nm "
-              f"(±{d['half_width_nm']:g} nm), Δt {d['dt_h']:g} h, speeds every {cfg['dp_speeds_kn'][1]:g} kn\n")  # fmt: skip
-        print("_Baseline and DP: the DP's own fuel accounting on the same lattice (the baseline is a schedule the DP "
-              "can represent); baseline (referee) and NLP: the plan evaluator's fuel of each plan, `verify()` findings "
-              "counted._\n")  # fmt: skip
-        print("| ETA [h] | baseline [t] (lattice speed [kn]) | DP [t] | DP / baseline | baseline by referee [t] "
-              "(violations) | NLP [t] | NLP / baseline by referee | NLP plan |")  # fmt: skip
-        print("|---:|---:|---:|---:|---:|---:|---:|---|")
-        for r in res["rows"]:
-            b, bref = r["baseline_t"], r["baseline_ref_t"]
-            bv = "–" if r["baseline_violations"] is None else r["baseline_violations"]
-            print(f"| {r['eta_h']:g} | {_f(b, '.1f')} ({_f(r['baseline_speed_kn'], 'g')}) | {_f(r['dp_t'], '.1f')} | "
-                  f"{_f(r['dp_t'] / b, '.3f')} | {_f(bref, '.1f')} ({bv}) | {_f(r['nlp_t'], '.1f')} | "
-                  f"{_f(r['nlp_t'] / bref, '.3f')} | {_nlp_cell(r)} |")  # fmt: skip
-        print()
-        print("\n".join(comparison_lines(res["comparison"])))
-        print(f"\nETAs without a DP curve point (DP failures): {res['dp_missing']} of {len(res['rows'])}")
-        p = res["paper"]
-        for key, name in (("dp", "DP"), ("nlp", "NLP")):
-            best = res[f"{key}_best"]
-            print(f"\n{name}: saves > {SAVING_TOL:.1%} over ETAs {_fmt_window(res[f'{key}_window_h'])}; largest saving "
-                  f"(negative: extra fuel) {_f(best['saving_t'], '.1f')} t ({_f(best['saving_pct'], '.1f')} %) at "
-                  f"{_f(best['eta_h'], 'g')} h")  # fmt: skip
-        print(f"\npaper: window {p['window_h'][0]:g}–{p['window_h'][1]:g} h; at {p['eta_h']:g} h {p['baseline_t']:g} → "
-              f"{p['dp_t']:g} t ({p['saving_pct']:g} %). Runtimes: baseline curve {res['baseline_s']:.1f} s, DP "
-              f"{res['dp_s']:.1f} s (one run, {res['dp_transitions']:,} transitions), NLP {res['nlp_s']:.1f} s; figure `{png.name}`\n")  # fmt: skip
+        _print_case(res, cfg, png)
+    out["total_s"], out["total_cpu_s"] = time.perf_counter() - t, time.process_time() - cpu
+    print(f"Whole experiment: {out['total_s']:.0f} s wall, {out['total_cpu_s']:.0f} s CPU of this process "
+          f"({len(cfg['cases'])} case(s), {len(cfg['etas_h'])} + 1 ETAs)")  # fmt: skip
+    print(load_line("load average at end"))
     return out
 
 

@@ -50,6 +50,8 @@ MAX_BYTES = 300_000  # keep the repository light: every figure below 300 kB
 FRONT_LEGS = 60  # legs of the front's corridor
 FRONT_POINTS = 10  # ETAs of the front
 MANIFEST = "manifest.json"
+SHAO_FULL = False
+"""``shao.png`` on the paper's lattice (minutes of DP per case) or on the benchmark's quick lattice (both cases)."""
 
 
 def _front_case() -> tuple[Any, xr.Dataset, Any, dict[str, Any], np.datetime64]:
@@ -127,6 +129,7 @@ def figure_inputs(cell_nm: float = 40.0) -> dict[str, Any]:
             **run_demo_defaults,
             "weather_sha256": dataset_sha256(demo_weather()),
         },
+        "shao": shao_inputs(),
         "front": {
             "ship": _ship_fields(ship_front),
             "departure": str(t0),
@@ -137,6 +140,60 @@ def figure_inputs(cell_nm: float = 40.0) -> dict[str, Any]:
             "weather_sha256": dataset_sha256(wx_front),
         },
     }
+
+
+def shao_settings() -> dict[str, Any]:
+    """The settings ``shao.png`` is drawn with: the benchmark's (:data:`SHAO_FULL`: the paper's lattice) for both cases."""
+    if str(ROOT) not in sys.path:
+        sys.path.insert(0, str(ROOT))
+    from benchmarks import bench_shao
+
+    return {**bench_shao.settings(not SHAO_FULL), "cases": (1, 2)}
+
+
+def shao_inputs() -> dict[str, Any]:
+    """The inputs of ``shao.png``: the ship, the settings (:func:`shao_settings`) and both cases' weather hashes."""
+    from benchmarks import bench_shao
+    from benchmarks._cli import jsonable
+    from optroute import scenarios
+    from optroute.physics.ship import Ship
+
+    cfg = shao_settings()
+    return {
+        "ship": _ship_fields(Ship.preset(bench_shao.SHIP)),
+        "settings": jsonable(cfg),
+        "weather_sha256": [dataset_sha256(scenarios.shao_case(c)) for c in cfg["cases"]],
+    }
+
+
+def shao_png(result: dict[str, Any]) -> tuple[bytes, dict[str, Any]]:
+    """Shao et al.'s fuel against required arrival time, both cases side by side: PNG bytes and its numbers.
+
+    ``result`` is ``benchmarks.bench_shao.run(..., cfg=shao_settings())`` (or the JSON of such a run);
+    its settings must be :func:`shao_settings`.
+    """
+    import matplotlib.pyplot as plt
+
+    from benchmarks import bench_shao
+    from benchmarks._cli import jsonable
+
+    if jsonable(result["settings"]) != jsonable(shao_settings()):
+        raise SystemExit("the Shao et al. result was not run with shao_settings(); run it again")
+    fig, axes = plt.subplots(1, len(result["cases"]), figsize=(11.0, 4.4), squeeze=False)
+    numbers = {}
+    for ax, res in zip(axes[0], result["cases"], strict=True):
+        bench_shao.draw(ax, res)
+        numbers[f"case_{res['case']}"] = {
+            "dp_window_h": res["dp_window_h"],
+            "dp_best": {k: round(float(v), 3) for k, v in res["dp_best"].items()},
+            "eta_h": [r["eta_h"] for r in res["rows"]],
+            "baseline_t": [round(float(r["baseline_t"]), 3) for r in res["rows"]],
+            "dp_t": [round(float(r["dp_t"]), 3) for r in res["rows"]],
+        }
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100, bbox_inches="tight")
+    plt.close(fig)
+    return buf.getvalue(), numbers
 
 
 def inputs_sha256(inputs: dict[str, Any]) -> str:
@@ -261,20 +318,41 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=HERE / "figures", help="folder for the PNGs and the manifest")
     parser.add_argument("--cell-nm", type=float, default=40.0, help="search grid cell [nm]")
+    parser.add_argument("--only-shao", action="store_true",
+                        help="redraw only shao.png (the other figures' inputs must be unchanged)")  # fmt: skip
+    parser.add_argument("--shao-json", type=Path, default=None,
+                        help="shao.json of a bench_shao run with shao_settings(), instead of running it")  # fmt: skip
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     inputs = figure_inputs(args.cell_nm)
     pngs: dict[str, bytes] = {}
-    with tempfile.TemporaryDirectory(prefix="optroute-figures-") as tmp:
-        result = run_demo(tmp, cell_nm=args.cell_nm)
-        print(result.table())
-        print(f"demo run {result.runtime_s:.0f} s")
-        for src in result.files:
-            if src.suffix == ".png":
-                pngs[src.name] = src.read_bytes()
-    shows, quotes = demo_numbers(result)
-    pngs["front.png"], shows["front.png"] = front_png()
     figures = {}
+    if args.only_shao:  # keep the other figures: their inputs must be those they were drawn from
+        old = json.loads((args.out / MANIFEST).read_text(encoding="utf-8"))
+        stale = [part for part in inputs if part != "shao" and inputs[part] != old["inputs"].get(part)]
+        if stale:
+            raise SystemExit(f"the inputs of {stale} changed: run `python docs/make_figures.py` without --only-shao")
+        figures = {k: v for k, v in old["figures"].items() if k != "shao.png"}
+        quotes = old["readme_quotes"]
+        shows: dict[str, Any] = {}
+    else:
+        with tempfile.TemporaryDirectory(prefix="optroute-figures-") as tmp:
+            result = run_demo(tmp, cell_nm=args.cell_nm)
+            print(result.table())
+            print(f"demo run {result.runtime_s:.0f} s")
+            for src in result.files:
+                if src.suffix == ".png":
+                    pngs[src.name] = src.read_bytes()
+        shows, quotes = demo_numbers(result)
+        pngs["front.png"], shows["front.png"] = front_png()
+    if args.shao_json is not None:
+        shao = json.loads(args.shao_json.read_text(encoding="utf-8"))["result"]
+    else:
+        from benchmarks import bench_shao
+        from benchmarks._cli import jsonable
+
+        shao = jsonable(bench_shao.run(not SHAO_FULL, cfg=shao_settings()))
+    pngs["shao.png"], shows["shao.png"] = shao_png(shao)
     too_big = []
     for name, data in sorted(pngs.items()):
         dst = write_bytes(args.out / name, data)

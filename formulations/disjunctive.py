@@ -147,6 +147,10 @@ class DisjunctiveResult:
         Objective after every accepted change.
     solve_time_s : float
         Wall-clock time [s].
+    finished : bool
+        The search stopped by its own rule (no flip improves, no flip repairs, applicability stable), not on
+        its budget of solves: only then is the side choice a local optimum of the flip neighbourhood.
+        :func:`enumerate_sides` always finishes.
     """
 
     sides: np.ndarray
@@ -157,6 +161,7 @@ class DisjunctiveResult:
     n_solves: int
     history: list[float]
     solve_time_s: float
+    finished: bool = True
 
 
 def _groups_of(sides: np.ndarray, groups: ArrayLike | None) -> np.ndarray:
@@ -171,6 +176,7 @@ def _groups_of(sides: np.ndarray, groups: ArrayLike | None) -> np.ndarray:
 class _Counter:
     def __init__(self, solve: SolveFn, budget: int) -> None:
         self.solve, self.budget, self.count = solve, budget, 0
+        self.cut = False  # the budget stopped an applicability re-check
 
     def __call__(self, sides: np.ndarray, applies: np.ndarray) -> InnerOutcome:
         self.count += 1
@@ -184,7 +190,10 @@ class _Counter:
 def _settle(
     solve: _Counter, sides: np.ndarray, applies: np.ndarray, max_rounds: int
 ) -> tuple[np.ndarray, np.ndarray, InnerOutcome]:
-    """Solve, then re-check applicability at the solution until it is stable (it only grows)."""
+    """Solve, then re-check applicability at the solution until it is stable (it only grows).
+
+    Where the budget stops the re-checks while applicability still grows, ``solve.cut`` is set.
+    """
     out = solve(sides, applies)
     for _ in range(max_rounds):
         if out.applies is None or not out.feasible:
@@ -197,6 +206,7 @@ def _settle(
             sides[new] = out.side_at_solution[new]
         applies = applies | out.applies
         if solve.exhausted:
+            solve.cut = True
             break
         out = solve(sides, applies)
     return sides, applies, out
@@ -276,7 +286,10 @@ def improve_sides(
     def settle(trial: np.ndarray) -> tuple[np.ndarray, np.ndarray, InnerOutcome]:
         return _settle(counter, trial, cur_a, max_applicability_rounds)
 
-    while not _valid(cur) and not counter.exhausted:  # greedy repair on the infeasibility
+    finished = False  # True once the search stops by its own rule, not on the budget
+    while not _valid(cur):  # greedy repair on the infeasibility
+        if counter.exhausted:
+            break
         best = None
         for g in np.unique(grp[flip_ok & cur_a]):
             if counter.exhausted:
@@ -286,11 +299,12 @@ def improve_sides(
             if best is None or key < best[0]:
                 best = (key, ts, ta, to)
         if best is None or (best[0][0] == 1 and not best[0][1] < cur.infeasibility):
+            finished = not counter.exhausted  # no flip repairs (all tried), unless the budget cut the trials
             break
         _, cur_s, cur_a, cur = best
     if _valid(cur):
         history.append(cur.objective)
-        while not counter.exhausted:
+        while True:  # ends when no move improves; a move tried costs a solve, so the budget ends it too
             cand = cur.active & flip_ok & cur_a
             labels = np.unique(grp[cand])
             strength = np.array([np.max(np.where(cand & (grp == g), cur.weight, -np.inf)) for g in labels])
@@ -300,18 +314,20 @@ def improve_sides(
                 others = [int(h) for h in np.unique(grp[flip_ok & cur_a]) if h not in labels]
                 moves += [(int(g), int(h)) for g, h in itertools.combinations(labels, 2)]
                 moves += [(int(g), h) for g in labels for h in others]
-            improved = False
+            improved, tried = False, 0
             for move in moves:
                 if counter.exhausted:
                     break
                 mask = np.isin(grp, move) & flip_ok & cur_a
                 ts, ta, to = settle(_flip(cur_s, mask))
+                tried += 1
                 if _valid(to) and to.objective < cur.objective - rel_tol * max(1.0, abs(cur.objective)):
                     cur_s, cur_a, cur = ts, ta, to
                     history.append(cur.objective)
                     improved = True
                     break
             if not improved:
+                finished = tried == len(moves)  # every move tried and none improves: a local optimum
                 break
     ok = _valid(cur)
     return DisjunctiveResult(
@@ -323,6 +339,7 @@ def improve_sides(
         n_solves=counter.count,
         history=history,
         solve_time_s=time.perf_counter() - started,
+        finished=finished and not counter.cut,
     )
 
 

@@ -117,6 +117,8 @@ _IPOPT_DEFAULTS: dict[str, Any] = {
     "ipopt.mu_strategy": "adaptive",
     "ipopt.bound_relax_factor": 0.0,
 }
+#: Ipopt/CasADi options of the corridor NLPs (public: :mod:`formulations.robust_nlp` uses the same).
+IPOPT_DEFAULTS = _IPOPT_DEFAULTS
 
 
 @dataclass(frozen=True)
@@ -309,6 +311,7 @@ class SpeedNLP:
         structured: bool = True,
         jit: bool = False,
         exact_hessian: bool = False,
+        build_solver: bool = True,
     ) -> None:
         started = time.perf_counter()
         n = corridor.n_legs
@@ -337,10 +340,11 @@ class SpeedNLP:
                 raise FormulationInputError(f"bands must be Band instances, got {type(b).__name__}")
         self._build(
             expand=expand,
-            structured=structured,
+            structured=structured and build_solver,
             jit=jit,
             exact_hessian=exact_hessian,
             ipopt_options=ipopt_options or {},
+            build_solver=build_solver,
         )
         self.build_time_s = time.perf_counter() - started
 
@@ -427,8 +431,58 @@ class SpeedNLP:
         return res
 
     # ------------------------------------------------------------------ build
+    def symbolic_model(self, y: Any, v: Any, t: Any, beta: Any, fac: Any) -> dict[str, Any]:
+        """The model's CasADi expressions for symbolic offsets ``y`` (N+1), speeds ``v`` (N), times ``t`` (N+1),
+        band edges ``beta`` (N·m·B, band-major) and leg power factors ``fac`` (N).
+
+        Keys: ``dt_leg`` and ``fuel_leg`` [h], [t] (N), ``load``, ``sog``, ``h_perp`` (N·m), ``band_res`` (N·m·B,
+        band-major; with bands), ``excl_res`` (N·m; with an exclusion), and the diagnostics of :meth:`evaluate`.
+        The rows this NLP imposes on them are those of :meth:`solve`; :mod:`formulations.robust_nlp` stacks them.
+        """
+        return self._model(y, v, t, beta, fac)
+
+    @property
+    def has_current_rows(self) -> bool:
+        """Whether the drift-angle and SOG rows are imposed (a current that can bind them)."""
+        return bool(self._has_current)
+
+    def band_edges(self, sides: np.ndarray, applies: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The band-edge parameter ``beta`` (band-major) and the band rows' bounds for sides and applicability
+        (N, m, B), as :meth:`solve` sets them."""
+        n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
+        k_ = n * m
+        lower = np.array([b.lower for b in self.bands])
+        upper = np.array([b.upper for b in self.bands])
+        side_arr = np.asarray(sides).astype(np.int8)
+        app_arr = np.asarray(applies, dtype=bool)
+        if side_arr.shape != (n, m, nb) or app_arr.shape != (n, m, nb):
+            raise FormulationInputError(
+                f"sides and applies must have shape {(n, m, nb)}, got {side_arr.shape} and {app_arr.shape}"
+            )
+        if not nb:
+            return np.zeros(0), np.zeros(0), np.zeros(0)
+        if not np.isin(side_arr, (-1, 1)).all():
+            raise FormulationInputError("sides must be -1 (ratio <= lower) or +1 (ratio >= upper)")
+        beta3 = np.where(side_arr < 0, lower[None, None, :], upper[None, None, :])
+        if (app_arr & ~np.isfinite(beta3)).any():
+            raise FormulationInputError("a band constraint is imposed on a side whose edge is infinite")
+        beta3 = np.where(np.isfinite(beta3), beta3, 0.0)
+        beta = np.transpose(beta3.reshape(k_, nb)).ravel()
+        s_flat = np.transpose(side_arr.reshape(k_, nb)).ravel()
+        a_flat = np.transpose(app_arr.reshape(k_, nb)).ravel()
+        lo = np.where(a_flat & (s_flat > 0), 0.0, -np.inf)
+        hi = np.where(a_flat & (s_flat < 0), 0.0, np.inf)
+        return beta, lo, hi
+
     def _build(
-        self, *, expand: bool, structured: bool, jit: bool, exact_hessian: bool, ipopt_options: dict[str, Any]
+        self,
+        *,
+        expand: bool,
+        structured: bool,
+        jit: bool,
+        exact_hessian: bool,
+        ipopt_options: dict[str, Any],
+        build_solver: bool = True,
     ) -> None:
         n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
         k_ = n * m
@@ -473,7 +527,11 @@ class SpeedNLP:
             self._derivatives = structured_derivatives(self, jit=jit, exact_hessian=exact_hessian)  # keep alive
             opts.update(self._derivatives)
         param = ca.vertcat(weights, beta, fac)
-        self._solver = ca.nlpsol("speed_nlp", "ipopt", {"x": x, "p": param, "f": objective, "g": g}, opts)
+        self._solver = (
+            ca.nlpsol("speed_nlp", "ipopt", {"x": x, "p": param, "f": objective, "g": g}, opts)
+            if build_solver
+            else None
+        )
         names = ["t_s", "s_s", "y_s", "x_s", "yf_s", "hs", "per", "sog", "power", "load", "rate", "cos_chi"]
         names += ["length", "dt_leg", "fuel_leg", "px", "py"]
         outs = [mdl[k] for k in names]
@@ -684,6 +742,8 @@ class SpeedNLP:
         """
         n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
         k_ = n * m
+        if self._solver is None:
+            raise FormulationInputError("this SpeedNLP was built with build_solver=False: it has no solver")
         if objective not in ("time", "fuel", "cost"):
             raise FormulationInputError(f"objective must be 'time', 'fuel' or 'cost', got {objective!r}")
         if eta_mode not in ("le", "eq"):

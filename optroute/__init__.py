@@ -73,6 +73,7 @@ _LAZY: dict[str, str] = {
     "TradeoffFront": "optroute.studies.tradeoff",
     "tradeoff": "optroute.studies.tradeoff",
     "study": "optroute.studies.voyage_study",
+    "member_violations": "optroute.studies.ensemble_check",
     "apf_avoidance": "optroute.voyage.apf",
     "read_track": "optroute.weather.cyclone_tracks",
     "ReplanPolicy": "optroute.voyage",
@@ -98,6 +99,7 @@ if TYPE_CHECKING:  # what the lazy names resolve to, for type checkers and IDEs
     from optroute.search.route import Corridor, Route
     from optroute.search.routing import search_route
     from optroute.search.sailing import SailingGrid, SailingRoute
+    from optroute.studies.ensemble_check import member_violations
     from optroute.studies.study import SchedulerUnreachable, StudyError, load_study, run_study
     from optroute.studies.tradeoff import TradeoffFront, tradeoff
     from optroute.studies.voyage_study import study
@@ -165,6 +167,7 @@ __all__ = [
     "TradeoffFront",
     "tradeoff",
     "study",
+    "member_violations",
     "OnboardObserver",
     "ReplanPolicy",
     "VoyageOutcome",

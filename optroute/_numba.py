@@ -33,8 +33,9 @@ from typing import Any
 
 __all__ = ["ensure_cache_dir", "jit", "njit"]
 
-#: The subpackages holding ``cache=True`` kernels (their ``__pycache__`` is numba's in-tree cache).
-KERNEL_PACKAGES = ("physics", "weather", "search")
+#: The subpackages holding ``cache=True`` kernels (their ``__pycache__`` is numba's in-tree cache); ``""`` is the
+#: package itself (``geodesy``'s local WGS84 factor, compiled by ``optroute.search.edge_geometry``).
+KERNEL_PACKAGES = ("", "physics", "weather", "search")
 _LOCATORS = ("UserProvidedCacheLocator", "InTreeCacheLocator", "UserWideCacheLocator")
 _warned = False
 

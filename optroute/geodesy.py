@@ -62,6 +62,8 @@ __all__ = [
     "sphere_distance_nm",
     "sphere_initial_course_deg",
     "sphere_to_wgs84",
+    "wgs84_local_factor",
+    "wgs84_radii_m",
     "unwrap_lon_deg",
 ]
 
@@ -305,6 +307,44 @@ def midpoint(lat1_deg: float, lon1_deg: float, lat2_deg: float, lon2_deg: float)
 # --------------------------------------------------------------------------- the sphere, where needed
 
 
+def wgs84_radii_m(lat_deg):
+    """WGS84's principal radii of curvature (M, N) at a geodetic latitude [m].
+
+    M = a(1 − e²)/(1 − e² sin² φ)^{3/2} (meridian) and N = a/(1 − e² sin² φ)^{1/2} (prime
+    vertical), Torge & Müller, *Geodesy*, 4th ed., §4.1.  Written with numpy's ufuncs only, so that
+    one source serves arrays (numpy) and single points in the compiled kernels
+    (:mod:`optroute.search.edge_geometry` compiles it with numba; this module never imports numba).
+
+    Parameters
+    ----------
+    lat_deg : float or ndarray
+        Geodetic latitude [deg].
+
+    Returns
+    -------
+    (float or ndarray, float or ndarray)
+        M and N [m].
+    """
+    s = np.sin(np.radians(lat_deg))
+    w = 1.0 - _E2 * s * s
+    return WGS84_A_M * (1.0 - _E2) / (w * np.sqrt(w)), WGS84_A_M / np.sqrt(w)
+
+
+def wgs84_local_factor(m_m, n_m, course_deg):
+    """:func:`sphere_to_wgs84` from the radii of curvature: (scale [-], ellipsoid's course [deg, [0, 360)]).
+
+    ``m_m, n_m`` are :func:`wgs84_radii_m` at the piece's latitude [m], ``course_deg`` the piece's
+    course on the sphere [deg true].  The one implementation of the local factor (formula and
+    accuracy in :func:`sphere_to_wgs84`), on floats or float arrays with numpy's ufuncs only:
+    :mod:`optroute.search.edge_geometry` compiles this very function for its kernels.
+    """
+    a = np.radians(course_deg)
+    north, east = m_m * np.cos(a), n_m * np.sin(a)
+    course = np.mod(np.degrees(np.arctan2(east, north)), 360.0)
+    course = course - 360.0 * (course >= 360.0)  # np.mod of a tiny negative angle rounds to 360 (as units.wrap_360)
+    return np.hypot(north, east) / EARTH_RADIUS_M, course
+
+
 def sphere_to_wgs84(lat_deg: ArrayLike, course_deg: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Local conversion of a short piece from the R₁ sphere to WGS84 (same latitudes and longitudes).
 
@@ -332,13 +372,9 @@ def sphere_to_wgs84(lat_deg: ArrayLike, course_deg: ArrayLike) -> tuple[np.ndarr
     course_deg : ndarray
         Course of the piece on the ellipsoid [deg true, to], in [0, 360).
     """
-    s2 = np.sin(np.radians(np.asarray(lat_deg, dtype=float))) ** 2
-    w = 1.0 - _E2 * s2
-    n = WGS84_A_M / np.sqrt(w)
-    m = WGS84_A_M * (1.0 - _E2) / (w * np.sqrt(w))
-    a = np.radians(np.asarray(course_deg, dtype=float))
-    north, east = m * np.cos(a), n * np.sin(a)
-    return np.hypot(north, east) / EARTH_RADIUS_M, units.wrap_360(np.degrees(np.arctan2(east, north)))
+    m, n = wgs84_radii_m(np.asarray(lat_deg, dtype=float))
+    scale, course = wgs84_local_factor(m, n, np.asarray(course_deg, dtype=float))
+    return np.asarray(scale, dtype=float), np.asarray(course, dtype=float)
 
 
 def sphere_distance_nm(

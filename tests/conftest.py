@@ -6,6 +6,9 @@ keeps exploring new examples.
 """
 
 import os
+import subprocess
+import sys
+from pathlib import Path
 
 from hypothesis import settings
 
@@ -62,3 +65,24 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
     terminalreporter.write_sep("=", f"CPU time per test (total {sum(_CPU_S.values()):.1f} CPU-s)")
     for nodeid, cpu_s in shown:
         terminalreporter.write_line(f"{cpu_s:8.2f} CPU-s  {nodeid}")
+
+
+# ---------------------------------------------------------------------------
+# numba's kernels compiled once for all xdist workers: on a clean clone there is no on-disk cache, and each
+# worker would compile every kernel it meets (tens of CPU-seconds each) until another process has cached it.
+# The controller compiles them first (tests/warm_kernels.py, in a subprocess, before the workers start).
+# Serial runs skip this: a run of one test file would compile kernels it never uses.
+# ---------------------------------------------------------------------------
+def pytest_configure(config):
+    workers = getattr(config.option, "numprocesses", None)
+    if hasattr(config, "workerinput") or not workers or workers in ("0", 0):
+        return
+    root = Path(__file__).resolve().parents[1]
+    done = subprocess.run(
+        [sys.executable, "-m", "tests.warm_kernels"], cwd=root, capture_output=True, text=True, timeout=900, check=False
+    )
+    if done.returncode != 0:  # the tests compile what they need themselves; say why the warm-up did not help
+        tail = "\n".join(done.stderr.strip().splitlines()[-5:])
+        config.issue_config_time_warning(
+            pytest.PytestWarning(f"numba warm-up failed (tests/warm_kernels.py):\n{tail}"), 2
+        )

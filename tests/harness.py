@@ -412,12 +412,29 @@ def _solve(
     return plan
 
 
+def fuel_not_worse(plan: orx.Plan, verified: list[orx.Plan], eta, rtol: float = 1e-6) -> list[Finding]:
+    """Issue 14 failure 5: a least-fuel plan is never worse than a verified plan that meets the same ETA.
+
+    ``verified`` are plans the user already has from the same corridor (the minimum-time plan: the
+    audit's case was a fuel plan of 300.4 t arriving 38 h later while the minimum-time plan met the
+    ETA on 288.2 t); each that arrives by ``eta`` bounds the fuel plan's fuel (``rtol`` relative).
+    Returns a ``fuel_worse`` finding per plan beaten, ``value`` the fuel plan's fuel and ``limit`` the other's [t].
+    """
+    out = []
+    for other in verified:
+        if other.arrival <= eta and plan.total_fuel_t > other.total_fuel_t * (1.0 + rtol):
+            end = tuple(float(x) for x in np.asarray(plan.waypoints)[-1])
+            out.append(Finding("fuel_worse", -1, end, plan.total_fuel_t, other.total_fuel_t))
+    return out
+
+
 def run_case(case: Case, *, max_leg_nm: float = 50.0) -> CaseResult:
     """Minimum time, then least fuel with the case's ETA; every plan checked (:func:`check_plan`).
 
     A case is *feasible* when a verified plan exists: the minimum-time plan, or a SolverFailure's
     ``best_plan``.  An :class:`InfeasibleETA` of the fuel solve is then itself a finding
-    (``honest_eta``): the minimum-time plan meets that ETA.
+    (``honest_eta``): the minimum-time plan meets that ETA; so is a fuel plan using more fuel than
+    the minimum-time plan when that one passed the check (``fuel_worse``, :func:`fuel_not_worse`).
     """
     start = time.process_time()
     res = CaseResult(case)
@@ -428,7 +445,10 @@ def run_case(case: Case, *, max_leg_nm: float = 50.0) -> CaseResult:
     if fastest is not None:
         res.feasible = True
         eta = T0 + np.timedelta64(int(round(fastest.duration_h * case.eta_factor * 3600.0)), "s")
-        _solve(res, "fuel", corridor, wx, ship, eta=eta, objective="fuel", max_leg_nm=max_leg_nm)
+        least = _solve(res, "fuel", corridor, wx, ship, eta=eta, objective="fuel", max_leg_nm=max_leg_nm)
+        returned = all(res.outcomes.get(k, "").startswith("plan") for k in ("time", "fuel"))
+        if least is not None and returned and not res.findings.get("time"):
+            res.findings.setdefault("fuel", []).extend(fuel_not_worse(least, [fastest], eta))
         if res.outcomes.get("fuel") == "InfeasibleETA":
             res.findings["fuel"] = [Finding("honest_eta", -1, case.waypoints[-1], fastest.duration_h, 0.0)]
     res.cpu_s = time.process_time() - start

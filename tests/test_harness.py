@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import optroute as orx
-from tests.harness import K_KN_S, band_ratios, check_plan, make_case, run_case, summarise
+from tests.harness import K_KN_S, band_ratios, check_plan, fuel_not_worse, make_case, run_case, summarise
 
 T0 = np.datetime64("2024-01-10T00:00", "ns")
 SHIP = orx.Ship.preset("general_cargo_25k_dwt")  # L = 170 m (bands apply from Hs 6.8 m), T_R = 18.07 s
@@ -63,6 +63,22 @@ def test_the_check_finds_power_above_mcr_and_a_missed_eta():
     assert "eta" in kinds  # 24 nm at 18 kn is 1.3 h
     ok = orx.Plan.from_schedule(WP, [12.0], departure=T0, ship=SHIP, weather=wx)
     assert check_plan(ok, wx, SHIP, eta=T0 + np.timedelta64(3, "h"))[0] == []
+
+
+def test_a_fuel_plan_worse_than_the_minimum_time_plan_at_its_eta_is_a_finding():
+    """Issue 14 failure 5 by hand: on a calm sea fuel per nm grows with speed (cubic power: fuel ∝ v² d), so a
+    plan at 8 then 16 kn (d/8 + d/16 = 0.1875 d h, 320 d units) is later and dearer than 12 kn throughout
+    (0.167 d h, 288 d units); the 12 kn plan meets the ETA of the other, so the other is a finding."""
+    wx = orx.scenarios.calm(bbox=(-5.0, 5.0, -5.0, 5.0), start=T0, duration_h=24.0, resolution_deg=1.0)
+    wp = [[0.0, 0.0], [0.0, 0.5], [0.0, 1.0]]
+    even = orx.Plan.from_schedule(wp, [12.0, 12.0], departure=T0, ship=SHIP, weather=wx)
+    uneven = orx.Plan.from_schedule(wp, [8.0, 16.0], departure=T0, ship=SHIP, weather=wx)
+    assert even.arrival < uneven.arrival and even.total_fuel_t < uneven.total_fuel_t
+    found = fuel_not_worse(uneven, [even], uneven.arrival)
+    assert [f.kind for f in found] == ["fuel_worse"]
+    assert found[0].value == uneven.total_fuel_t and found[0].limit == even.total_fuel_t
+    assert fuel_not_worse(even, [uneven], uneven.arrival) == []  # the better plan is no finding
+    assert fuel_not_worse(uneven, [even], even.arrival - np.timedelta64(1, "m")) == []  # late for that ETA: no bound
 
 
 def test_the_generator_is_seeded():

@@ -218,12 +218,6 @@ def test_sailing_the_first_plan_blind_meets_a_danger_band(storm_voyages):
     assert inside.any() and np.all(margins[inside].min(axis=1) <= 1e-9)
 
 
-@pytest.mark.xfail(
-    reason="not yet: written against the fitted-model optimiser; with the one-model corridor NLP (merged the same "
-    "session) the re-plan on the second forecast yields no plan under STORM_OPTS, so the ship sails the first plan "
-    "(n_replans == 0, 7.4 h in a band) — the re-plan's failure is to be diagnosed",
-    strict=False,
-)
 def test_the_replanning_voyage_avoids_the_band_and_keeps_the_eta(storm_voyages):
     _, forecasts, _, replanned = storm_voyages
     o = replanned.outcome

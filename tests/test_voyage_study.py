@@ -175,7 +175,8 @@ def test_same_store_with_another_corridor_is_refused_naming_it_or_recomputed(tmp
     short = _one(store, CORRIDOR, wx, 60.0)
     assert float(short.distance_nm.squeeze()) == pytest.approx(CORRIDOR.length_nm, rel=1e-9)
     with pytest.raises(
-        orx.studies.study.StudyError, match=r"route: corridor of 60\d\.\d nm.* in the store, now corridor of 120\d\.\d nm"
+        orx.studies.study.StudyError,
+        match=r"route: corridor of 60\d\.\d nm.* in the store, now corridor of 120\d\.\d nm",
     ):
         _one(store, LONG, wx, 60.0)
     with pytest.warns(UserWarning, match="inputs changed"):

@@ -18,7 +18,7 @@ import xarray as xr
 
 from optroute.errors import ConfigError, WeatherSchemaError
 from optroute.weather import WeatherSampler, open_weather
-from optroute.weather import io as wio
+from optroute.weather import formats as wformats
 from optroute.weather.schema import canonical_dataset, normalise_lon
 
 T0 = np.datetime64("2024-01-10T00:00", "ns")
@@ -383,7 +383,7 @@ def _era5_grib(path):
 
 def test_grib_without_the_extra_says_how_to_install(tmp_path, monkeypatch):
     (tmp_path / "x.grib2").write_bytes(b"GRIB" + bytes(100))
-    monkeypatch.setattr(wio, "_has_module", lambda name: False)
+    monkeypatch.setattr(wformats, "has_module", lambda name: False)
     with pytest.raises(ConfigError, match=r'pip install "optroute\[grib\]"'):
         open_weather(tmp_path / "x.grib2")
 

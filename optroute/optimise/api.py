@@ -77,6 +77,8 @@ def optimise_corridor(
     use_land_mask: bool | None = None,
     discrete_start: bool = False,
     dp_options: Mapping[str, Any] | None = None,
+    robust: Literal["all", "cvar"] | None = None,
+    cvar_alpha: float = 0.0,
 ) -> Plan:
     """Optimise the waypoints and leg speeds inside a corridor: the corridor NLP, verified.
 
@@ -153,6 +155,13 @@ def optimise_corridor(
         the DP at its default resolution takes about 4× the rest of the call.
     dp_options : mapping, optional
         Resolution of that DP (``dx_nm``, ``dy_nm``, ``dt_h``, ``speed_step_kn``; :func:`optroute.optimise.starts.dp_route`).
+    robust : {"all", "cvar"}, optional
+        With ``weather`` an ensemble (a ``member`` dimension, :func:`optroute.weather.scenarios.ensemble`): one plan
+        whose danger bands, engine range, exclusion and ETA hold in every member, minimising the members' mean
+        objective (``"all"``) or its CVaR at ``cvar_alpha`` (``"cvar"``); verified in every member
+        (:func:`optroute.optimise.robust.optimise_robust`, which documents its statuses and statistics).
+    cvar_alpha : float
+        CVaR level in [0, 1) for ``robust="cvar"`` (0: the mean).
 
     Returns
     -------
@@ -203,6 +212,8 @@ def optimise_corridor(
         raise ConfigError(f"objective={objective!r} is not known; use 'time', 'fuel' or 'cost'")
     if eta_mode not in ("le", "eq"):
         raise ConfigError(f"eta_mode={eta_mode!r} is not known; use 'le' (arrive by) or 'eq' (arrive at)")
+    if robust is not None or (isinstance(weather, xr.Dataset) and "member" in weather.dims):
+        return _robust(robust, weather, locals())
     started = _time.perf_counter()
     prepared = PreparedCorridor(
         corridor,
@@ -330,6 +341,20 @@ def plan_voyage(
         "stats": {k: v for k, v in route.stats.items() if np.isscalar(v)},
     }
     return replace(plan, solver_stats=stats)
+
+
+def _robust(robust: Any, weather: Any, args: dict[str, Any]) -> Plan:
+    """``optimise_corridor`` on an ensemble: :func:`optroute.optimise.robust.optimise_robust`, or the ConfigError."""
+    from optroute.optimise.robust import optimise_robust
+
+    if robust is None:
+        raise ConfigError(
+            f"the weather holds {weather.sizes['member']} ensemble members (dimension 'member'): pick one member "
+            "(optroute.weather.scenarios.member(ds, k) or ds.isel(member=k)), or pass robust='all' (or 'cvar') for "
+            "one plan that is safe in every member"
+        )
+    kw = {k: v for k, v in args.items() if k not in ("corridor", "weather", "ship", "PreparedCorridor")}
+    return optimise_robust(args["corridor"], weather, args["ship"], **kw)
 
 
 # --------------------------------------------------------------------------- honest outcomes (issue 14 items 4, 5)

@@ -293,7 +293,7 @@ class Problem:
             list(out.history),
             nlp,
             iterations=iterations[0],
-            sides_settled=out.n_solves < budget,
+            sides_settled=out.finished,
         )
 
 

@@ -282,8 +282,54 @@ def cost_rate_floor(p, stw_kn, lam_t_per_h, current_kn):  # pragma: no cover - c
 
 
 @jit
-def _in_band(r, lo, hi):  # pragma: no cover - compiled
-    return lo <= r <= hi
+def _band_terms(p, speed_kn, period_s, alpha_deg):  # pragma: no cover - compiled
+    """(u, T_E): the speed along the waves [kn] and the encounter period [s] (inf where the waves are met at rest)."""
+    cos_a = math.cos(math.radians(alpha_deg))
+    u = -speed_kn * cos_a
+    k = p[P_K_TE]
+    denom = abs(k * period_s + speed_kn * cos_a)
+    t_e = k * period_s**2 / denom if denom > 0.0 else np.inf
+    return u, t_e
+
+
+@jit
+def _margin_of(p, band, u, t_e, period_s, alpha_deg):  # pragma: no cover - compiled
+    """Band ``band``'s ``max(lo − r, r − hi)`` from :func:`_band_terms`; +inf where disabled or its IMO condition fails."""
+    if p[P_BAND0 + band] == 0.0:
+        return np.inf
+    m = p[P_MARGIN]
+    if band == 0:
+        r = t_e / p[P_ROLL]
+        return max(1.0 - m - r, r - (1.0 + m))
+    if band == 1:
+        r = t_e / p[P_ROLL]
+        return max(0.5 * (1.0 - m) - r, r - 0.5 * (1.0 + m))
+    if p[P_IMO] == 0.0:
+        c = _G * period_s / (2.0 * math.pi) / _MS_PER_KN
+        r = u / c if band == 2 else u / (0.5 * c)
+        return max(1.0 - m - r, r - (1.0 + m))
+    length = p[P_LENGTH]
+    if band == 2:
+        if not 135.0 < alpha_deg < 225.0:
+            return np.inf
+        return 1.0 - u / (1.8 * math.sqrt(length))  # the band [1, inf) of u / 1.8 sqrt(L)
+    if not _G * period_s**2 / (2.0 * math.pi) > 0.8 * length:
+        return np.inf
+    r = t_e / period_s if p[P_K_TE] * period_s - u > 0.0 else -t_e / period_s
+    return max(_IMO_HW_LO - r, r - _IMO_HW_HI)
+
+
+@jit
+def band_margin(p, band, speed_kn, period_s, alpha_deg):  # pragma: no cover - compiled
+    """Signed distance of band ``band``'s ratio to its forbidden range, as :func:`optroute.physics.safety.band_margins`.
+
+    ``band`` indexes :data:`optroute.physics.safety.BANDS`; ``max(lo − r, r − hi)`` (<= 0 inside the
+    closed band), +inf where the band is disabled or its IMO condition (sector, wavelength) fails.
+    Hs is not looked at: the bands apply where Hs >= the threshold (:func:`band_forbidden`).
+    α is the IMO encounter angle [deg].
+    """
+    u, t_e = _band_terms(p, speed_kn, period_s, alpha_deg)
+    return _margin_of(p, band, u, t_e, period_s, alpha_deg)
 
 
 @jit
@@ -293,33 +339,15 @@ def band_forbidden(p, speed_kn, hs_m, period_s, alpha_deg):  # pragma: no cover 
     The conditions of :func:`optroute.physics.safety.is_speed_forbidden`:
     T_E / T_R in [1 ∓ m] (synchronous) or [0.5 (1 ∓ m)] (parametric roll);
     Boeing: V cos χ / c and V cos χ / c_g in [1 ∓ m]; IMO: V cos(180° − α) >= 1.8 √L
-    for 135° < α < 225°, and 1.8 <= T_E / T <= 3 (signed) where λ > 0.8 L.
-    Nothing is forbidden where Hs is below the threshold.
+    for 135° < α < 225°, and 1.8 <= T_E / T <= 3 (signed) where λ > 0.8 L: a band's
+    :func:`band_margin` <= 0.  Nothing is forbidden where Hs is below the threshold.
     """
     if not hs_m >= p[P_HS_MIN]:
         return False
-    m = p[P_MARGIN]
-    cos_a = math.cos(math.radians(alpha_deg))
-    u = -speed_kn * cos_a
-    k = p[P_K_TE]
-    denom = abs(k * period_s + speed_kn * cos_a)
-    t_e = k * period_s**2 / denom if denom > 0.0 else np.inf
-    roll = p[P_ROLL]
-    if p[P_BAND0] != 0.0 and _in_band(t_e / roll, 1.0 - m, 1.0 + m):
-        return True
-    if p[P_BAND0 + 1] != 0.0 and _in_band(t_e / roll, 0.5 * (1.0 - m), 0.5 * (1.0 + m)):
-        return True
-    if p[P_IMO] == 0.0:
-        c = _G * period_s / (2.0 * math.pi) / _MS_PER_KN
-        if p[P_BAND0 + 2] != 0.0 and _in_band(u / c, 1.0 - m, 1.0 + m):
+    u, t_e = _band_terms(p, speed_kn, period_s, alpha_deg)
+    for band in range(4):
+        if _margin_of(p, band, u, t_e, period_s, alpha_deg) <= 0.0:
             return True
-        return p[P_BAND0 + 3] != 0.0 and _in_band(u / (0.5 * c), 1.0 - m, 1.0 + m)
-    length = p[P_LENGTH]
-    if p[P_BAND0 + 2] != 0.0 and 135.0 < alpha_deg < 225.0 and u / (1.8 * math.sqrt(length)) >= 1.0:
-        return True
-    if p[P_BAND0 + 3] != 0.0 and _G * period_s**2 / (2.0 * math.pi) > 0.8 * length:
-        r = t_e / period_s if k * period_s - u > 0.0 else -t_e / period_s
-        return _in_band(r, _IMO_HW_LO, _IMO_HW_HI)
     return False
 
 
@@ -380,6 +408,28 @@ def allowed_speed(
     if not p[P_MIN_POWER] <= power <= p[P_MCR]:
         return np.nan, np.nan, False
     return sog, fuel_rate(p, power), True
+
+
+@jit
+def band_state(
+    p, course_deg, hs_m, period_s, wave_from_deg, wind_u_ms, wind_v_ms, cur_u_ms, cur_v_ms, stw_kn, margins
+):  # pragma: no cover - compiled
+    """The referee's band functions at one point, as :func:`optroute.search.band_refine.band_functions`.
+
+    Writes every band's :func:`band_margin` into ``margins[:4]`` (the heading the course where it
+    cannot be held) and returns ``(ok, wave_from_deg, g)``: navigable with the course held, the wave
+    direction (0 where not navigable) and Hs's relative distance below the bands' threshold
+    (−inf where the threshold is 0).
+    """
+    nav, hs, period, heading, _, alpha, _ = _situation(
+        course_deg, hs_m, period_s, wave_from_deg, wind_u_ms, wind_v_ms, cur_u_ms, cur_v_ms, stw_kn
+    )
+    u, t_e = _band_terms(p, stw_kn, period, alpha)
+    for band in range(4):
+        margins[band] = _margin_of(p, band, u, t_e, period, alpha)
+    thr = p[P_HS_MIN]
+    g = (thr - hs) / thr if thr > 0.0 else -np.inf
+    return nav and math.isfinite(heading), wave_from_deg if nav else 0.0, g
 
 
 @jit

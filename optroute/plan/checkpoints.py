@@ -32,7 +32,9 @@ for 1–3 nm between two midpoints. :func:`check_points` finds every such stretc
 An interval no longer than the tolerance is never halved: a band stretch longer than it contains a
 check point. So every band stretch longer than :data:`BAND_TOL_NM` contains a check point, up to the
 slope bound's estimate (``tests/test_checkpoints.py`` compares with brute force at 0.01 nm); a
-shorter one may or may not be found.
+shorter one may or may not be found.  Steps 2 and 3 and their constants are
+:mod:`optroute.search.band_refine`'s, shared with the route search, which checks its pieces by the
+same rules.
 
 The ship is at a check point at the time of the plan's own schedule: linear in distance between
 the dense evaluation's points (whose times are the schedule's), so the check points and the
@@ -47,10 +49,18 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from optroute import units
 from optroute.geo.tracks import gc_points
 from optroute.physics.passage import SeaState, evaluate_speeds
-from optroute.physics.safety import band_margins
+from optroute.search.band_refine import (
+    BAND_TOL_NM,
+    CROSSING_TOL_NM,
+    MAX_ROUNDS,
+    SLOPE_SAFETY,
+    TURN_DEG,
+    band_functions,
+    crossing_nodes,
+    intervals_to_halve,
+)
 from optroute.units import h_to_timedelta as _h_to_td
 
 __all__ = [
@@ -66,18 +76,8 @@ __all__ = [
     "track_clock",
 ]
 
-BAND_TOL_NM = 0.1
-"""A band entered over more than this distance along a leg is found [nm]."""
 INITIAL_SPACING_NM = 1.0
 """Longest spacing of the first check points along a leg [nm]."""
-CROSSING_TOL_NM = 0.01
-"""Regime crossings (grid rows, columns, time slices) are located to within this [nm]."""
-SLOPE_SAFETY = 2.0
-"""Factor on the largest neighbouring secant slope in the Lipschitz bound [-]."""
-TURN_DEG = 10.0
-"""An interval across which the wave direction turns by more than this is halved [deg]."""
-MAX_ROUNDS = 40
-"""Bound on the halving rounds (each halves every uncertified interval; 1 nm reaches 0.1 nm in 4)."""
 
 
 @dataclass(frozen=True)
@@ -230,108 +230,19 @@ def _start_nodes(dense_leg: np.ndarray, dense_frac: np.ndarray, d_nm: np.ndarray
 
 
 def _crossings(ctx, waypoints, d_nm, clock, departure, leg, s, tol_nm):
-    """Add both sides of every change of the weather's interpolation cell along the legs.
-
-    The crossing of a grid line (or time slice) inside an interval is put where the continuous grid
-    coordinate, linear between the interval's ends, reaches the line; points ``0.45 tol_nm`` either
-    side of it are added; an interval that still changes cell is treated again (a secant search:
-    exact in one pass on a uniform grid, up to the great circle's curvature over the interval).
-    """
+    """Add both sides of every change of the weather's interpolation cell along the legs (:func:`crossing_nodes`)."""
 
     def coords(lg, ss):
         lat, lon, _, t_h = _positions(waypoints, d_nm, clock, lg, ss)
         return ctx.sampler.grid_coordinates(departure + _h_to_td(t_h), lat, lon)
 
-    c = coords(leg, s)
-    for _ in range(12):
-        cell = np.where(np.isfinite(c), np.floor(c), -1.0)
-        h = s[1:] - s[:-1]
-        change = (leg[1:] == leg[:-1]) & np.any(cell[1:] != cell[:-1], axis=1) & (h > tol_nm)
-        i = np.flatnonzero(change)
-        if i.size == 0:
-            break
-        ca, cb = c[i], c[i + 1]
-        # per dimension that changes: the grid line just past the lower end, as a fraction of the interval
-        line = np.where(cb > ca, np.floor(ca) + 1.0, np.ceil(ca) - 1.0 + (ca == np.floor(ca)))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            frac = (line - ca) / (cb - ca)
-        frac = np.where(np.isfinite(frac) & (frac > 0.0) & (frac < 1.0) & (cell[i] != cell[i + 1]), frac, np.inf)
-        f = frac.min(axis=1)
-        f = np.where(np.isfinite(f), f, 0.5)  # (leaving the data, or a periodic wrap: halve)
-        mid = s[i] + f * h[i]
-        half = 0.45 * tol_nm
-        lo = np.clip(mid - half, s[i] + 0.25 * half, s[i + 1] - 0.25 * half)
-        hi = np.clip(mid + half, s[i] + 0.25 * half, s[i + 1] - 0.25 * half)
-        new_leg = np.concatenate([leg[i], leg[i]])
-        new_s = np.concatenate([lo, hi])
-        leg = np.concatenate([leg, new_leg])
-        s = np.concatenate([s, new_s])
-        c = np.concatenate([c, coords(new_leg, new_s)])
-        order = np.lexsort((s, leg))
-        leg, s, c = leg[order], s[order], c[order]
-        keep = np.ones(leg.size, dtype=bool)
-        keep[1:] = (leg[1:] != leg[:-1]) | (s[1:] != s[:-1])
-        leg, s, c = leg[keep], s[keep], c[keep]
-    return leg, s
-
-
-def _functions(ctx, pts: CheckPoints) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-    """(ok, wave direction [deg], Hs's relative distance below the threshold, {band: ratio's distance to it})."""
-    sea = pts.sea
-    nav = np.isfinite(sea.hs_m) & np.isfinite(sea.period_s) & np.isfinite(sea.wave_from_deg) & pts.covered
-    held = np.isfinite(pts.heading)
-    ok = nav & held
-    thr = ctx.rules.hs_threshold_fraction * ctx.ship.length_m
-    hs = np.where(nav, sea.hs_m, 0.0)
-    per = np.where(nav & (sea.period_s > 0), sea.period_s, 1.0)
-    wfrom = np.where(nav, sea.wave_from_deg, 0.0)
-    heading = np.where(held, pts.heading, pts.course)
-    # the ratio's distance to each band wherever its other conditions hold (Hs put over the threshold)
-    margins = band_margins(
-        ctx.ship, speed_kn=pts.stw, hs_m=np.maximum(hs, thr), period_s=per, wave_from_deg=wfrom, heading_deg=heading,
-        rules=ctx.rules,
-    )  # fmt: skip
-    bands = {b: np.asarray(margins[b].margin, dtype=float) for b in ctx.rules.enabled_bands}
-    g = (thr - hs) / thr if thr > 0 else np.full(hs.shape, -np.inf)
-    return ok, wfrom, g, bands
-
-
-def _certified(ma, mb, slope_a, slope_b, h, tol):
-    """Whether a function positive at both ends cannot be <= 0 over a stretch longer than ``tol``."""
-    return (ma > 0) & (mb > 0) & (ma + mb > SLOPE_SAFETY * np.maximum(slope_a, slope_b) * (h - tol))
-
-
-def _slopes(m: np.ndarray, s: np.ndarray, same: np.ndarray) -> np.ndarray:
-    """Per interval, the largest secant slope of it and its neighbours on the same leg (0 where not finite)."""
-    h = s[1:] - s[:-1]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sl = np.abs(np.diff(m)) / np.where(h > 0, h, np.inf)
-    sl = np.where(np.isfinite(sl) & same, sl, 0.0)
-    left = np.concatenate([[0.0], np.where(same[:-1], sl[:-1], 0.0)])
-    right = np.concatenate([np.where(same[1:], sl[1:], 0.0), [0.0]])
-    return np.maximum(sl, np.maximum(left, right))
+    return crossing_nodes(leg, s, coords, tol_nm)
 
 
 def _to_halve(ctx, pts: CheckPoints, tol_nm: float) -> np.ndarray:
-    """Indices i of the intervals (i, i + 1) that are not certified and longer than ``tol_nm``."""
-    ok, wfrom, g, bands = _functions(ctx, pts)
-    leg, s = pts.leg, pts.s_nm
-    same = leg[1:] == leg[:-1]
-    h = s[1:] - s[:-1]
-    cand = same & (h > tol_nm)
-    a_ok, b_ok = ok[:-1], ok[1:]
-    both = a_ok & b_ok  # (an end that is not navigable or cannot hold its course is a violation already)
-    need = both & (np.abs(units.wrap_180(wfrom[1:] - wfrom[:-1])) > TURN_DEG)
-    g_slope = _slopes(g, s, same)
-    hs_cert = _certified(g[:-1], g[1:], g_slope, g_slope, h, tol_nm)
-    for m in bands.values():
-        inside = (m <= 0) & (g <= 0)
-        found = inside[:-1] | inside[1:]
-        fin_a, fin_b = np.isfinite(m[:-1]), np.isfinite(m[1:])
-        m_slope = _slopes(m, s, same)
-        ratio_cert = np.where(fin_a & fin_b, _certified(m[:-1], m[1:], m_slope, m_slope, h, tol_nm), ~fin_a & ~fin_b)
-        need |= both & ~found & ~(ratio_cert | hs_cert)
-    return np.flatnonzero(cand & need)
+    """Indices i of the intervals (i, i + 1) that are not certified and longer than ``tol_nm`` (:func:`intervals_to_halve`)."""
+    ok, wfrom, g, bands = band_functions(ctx.ship, ctx.rules, pts.sea, pts.covered, pts.heading, pts.course, pts.stw)
+    return intervals_to_halve(pts.leg, pts.s_nm, ok, wfrom, g, bands, tol_nm)
 
 
 def check_points(

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -98,6 +98,12 @@ def _as_sampler(weather: xr.Dataset | WeatherSampler) -> tuple[WeatherSampler, x
     if isinstance(weather, WeatherSampler):
         return weather, None
     if isinstance(weather, xr.Dataset):
+        if "member" in weather.dims:
+            raise ConfigError(
+                f"the weather holds {weather.sizes['member']} ensemble members (dimension 'member'); a plan is "
+                "evaluated in one weather: pick a member (optroute.weather.scenarios.member(ds, k) or "
+                "ds.isel(member=k)), and check a plan against every member with plan.verify(weather=member)"
+            )
         return WeatherSampler(weather), weather
     raise ConfigError(f"weather must be a canonical xarray.Dataset or a WeatherSampler, got {type(weather).__name__}")
 
@@ -337,6 +343,33 @@ class Plan:
         """Speed through the water of every leg [kn]."""
         return self.legs["stw_kn"].to_numpy(dtype=float)
 
+    def in_weather(self, weather: xr.Dataset | WeatherSampler, *, step_nm: float = 5.0) -> Plan:
+        """The same track and speeds through water sailed in another weather (an ensemble member, the truth).
+
+        The waypoints and leg speeds through water [kn] are kept; the schedule, power and fuel are the true
+        model's in ``weather`` (:meth:`from_context` without times: the speed over ground of that weather's
+        current), and the context's requirements (ETA, corridor, exclusion, land) are kept, so
+        :meth:`verify` of the result checks the plan there.
+
+        Raises
+        ------
+        ConfigError
+            ``weather`` is not one weather (a dataset with a ``member`` dimension: pick a member).
+        """
+        sampler, ds = _as_sampler(weather)
+        step = float(finite("step_nm", step_nm, minimum=0.0, strict=True, error=ConfigError))
+        ctx = replace(self.context, sampler=sampler, dataset=ds)
+        return Plan.from_context(
+            ctx,
+            np.asarray(self.waypoints, dtype=float),
+            self.stw_kn,
+            departure=self.departure,
+            status=self.status,
+            solver_stats=self.solver_stats,
+            eta_shadow_price_t_per_h=self.eta_shadow_price_t_per_h,
+            step_nm=step,
+        )
+
     # ------------------------------------------------------------------ verification
     def _land_between(
         self, found: dict[tuple[str, int], tuple[float, Violation]], step: float, sched_h: np.ndarray
@@ -371,6 +404,7 @@ class Plan:
         eta: Any = None,
         eta_mode: str | None = None,
         tol_nm: float = BAND_TOL_NM,
+        weather: xr.Dataset | WeatherSampler | None = None,
     ) -> Verification:
         """Re-check every constraint on a dense resampling, independently of the optimiser.
 
@@ -397,6 +431,12 @@ class Plan:
             Override the plan's ETA requirement (default: the context's).
         tol_nm : float
             Band stretches longer than this are found [nm] (:data:`optroute.plan.checkpoints.BAND_TOL_NM`).
+        weather : xarray.Dataset or WeatherSampler, optional
+            Check the plan in another weather than the one it was planned in (an ensemble member, the
+            truth): its track and speeds through water are sailed there (:meth:`in_weather`: the
+            schedule is the one those speeds make in that weather, so a current changes the arrival) and
+            every constraint of the plan's context (ship, rules, corridor, ETA, exclusion) is checked
+            there by the same referee.
 
         Returns
         -------
@@ -406,6 +446,16 @@ class Plan:
         """
         ctx = self.context
         step = float(finite("step_nm", step_nm, minimum=0.0, strict=True, error=ConfigError))
+        if weather is not None:
+            return self.in_weather(weather, step_nm=step).verify(
+                step_nm=step,
+                time_tol_h=time_tol_h,
+                power_rtol=power_rtol,
+                corridor_tol_nm=corridor_tol_nm,
+                eta=eta,
+                eta_mode=eta_mode,
+                tol_nm=tol_nm,
+            )
         tol_h = float(finite("time_tol_h", time_tol_h, minimum=0.0, error=ConfigError))
         tol_nm = float(finite("tol_nm", tol_nm, minimum=0.0, strict=True, error=ConfigError))
         eta_t = _as_time(eta, "eta") if eta is not None else ctx.eta

@@ -23,6 +23,7 @@ from optroute._numba import jit
 from optroute.search import _kernels
 from optroute.search.edge_geometry import edge_pieces
 from optroute.search.passage_kernels import cost_leg
+from optroute.search.refine_kernels import workspace as refine_workspace
 
 __all__ = ["LegKernel", "run"]
 
@@ -68,8 +69,8 @@ class LegKernel:
 
 
 @jit
-def _cost_batch(k, u, v, o, tarr, tangent, piece_f0, piece_f1, piece_n, buf):  # pragma: no cover - compiled
-    """Cost edges ``u → v``; returns (duration, fuel, feasible, uncovered points)."""
+def _cost_batch(k, u, v, o, tarr, tangent, piece_f0, piece_f1, piece_n, buf, refine):  # pragma: no cover - compiled
+    """Cost edges ``u → v`` (``refine``: :func:`optroute.search.refine_kernels.workspace`); returns (duration, fuel, feasible, uncovered points)."""
     n = u.size
     dur, fu = np.empty(n), np.empty(n)
     feas = np.zeros(n, dtype=np.bool_)
@@ -80,7 +81,7 @@ def _cost_batch(k, u, v, o, tarr, tangent, piece_f0, piece_f1, piece_n, buf):  #
         edge_pieces(tangent[u[e]], tangent[v[e]], piece_f0[q], piece_f1[q], piece_n[q], buf[0], buf[1], buf[2], buf[3])
         d, f, ok, c = cost_leg(
             p, w, mode, check_nm, speeds, lam, desired, step, vmin, buf[0], buf[1], buf[2], buf[3], piece_n[q],
-            tarr[u[e]],
+            tarr[u[e]], refine,
         )  # fmt: skip
         unc += c
         dur[e], fu[e], feas[e] = d, f, ok
@@ -118,6 +119,7 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state, touched):  # p
     bad = np.zeros(3)
     kmax = pf0.shape[1]
     buf = np.empty((4, kmax))
+    refine = refine_workspace(k[3] > 0.0)
     open_nodes = np.array([s], dtype=np.int64)
     relaxed = 0
     while open_nodes.size:
@@ -134,7 +136,7 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state, touched):  # p
         )  # fmt: skip
         if u.size == 0:
             continue
-        dur, fu, feas, unc = _cost_batch(k, u, v, o, tarr, tangent, pf0, pf1, pn, buf)
+        dur, fu, feas, unc = _cost_batch(k, u, v, o, tarr, tangent, pf0, pf1, pn, buf, refine)
         counts[1] += u.size
         counts[3] += unc
         new = np.empty(u.size)

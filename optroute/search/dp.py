@@ -35,6 +35,12 @@ physics layer runs the MCR loop and the danger bands inside it and may only
 *lower* the speed (``duration_h >= distance / sog_kn``, checked); where no
 safe speed exists it returns ``feasible = False``.
 
+A callback carrying a compiled form (``leg_cost.dp_kernel``, a
+:class:`~optroute.search.dp_kernels.DPLegKernel`: ``PassagePhysics.dp_leg``)
+has the binned transitions costed by :mod:`optroute.search.dp_kernels`, best
+first under a fuel floor: the same labels, with the legs that cannot win left
+uncosted.
+
 No-go areas (islands, moving storms) are a callable ``navigable(lat_deg,
 lon_deg, t_h) -> bool array``, checked at the state reached and at points
 along each leg every ``nogo_step_nm`` at the time the ship passes them
@@ -57,6 +63,8 @@ from optroute import geodesy as geo
 from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
 from optroute.search.costs import unpack_cost
+from optroute.search.dp_kernels import DPLegKernel, enumerate_candidates, resolve
+from optroute.search.passage_kernels import cost_dp_legs
 
 LegCostFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], Any]
 NoGoFn = Callable[[np.ndarray, np.ndarray, np.ndarray], ArrayLike]
@@ -133,7 +141,7 @@ class DPResult:
     n_states : int
         (stage, lateral, bin) states reached.
     n_transitions : int
-        Legs costed by the callback.
+        Legs costed (with the compiled stages, only those that could still win their bin).
     """
 
     path: DPPath
@@ -407,6 +415,9 @@ def solve_dp(
     if navigable is not None and not _nav(navigable, np.array([s[0]]), np.array([s[1]]), np.array([0.0]))[0]:
         raise NoSafePassage(f"the start {s} is in a no-go area at departure; move it or change the no-go mask")
     step_fn = _Transition(lat, lon, dists, speeds, leg_cost, navigable, nogo_step, rem_nm, vmax, horizon)
+    kernel = getattr(leg_cost, "dp_kernel", None)
+    stages = None if kernel is None else _CompiledStages(kernel, step_fn, (t_ref, dt, n_bins))
+    step_fn.stages = stages
     for k in range(n_stages):
         src_l, src_b = np.nonzero(np.isfinite(fuel_t[k]))
         if src_l.size == 0:
@@ -428,6 +439,12 @@ def solve_dp(
             early_back[k + 1, lj[q], 0] = l0[q]
             early_back[k + 1, lj[q], 1] = vi[q]
         # the binned fuel labels
+        if stages is not None:
+            src = (src_l, time_t[k][src_l, src_b], fuel_t[k][src_l, src_b])
+            for dl, db, f1, tt, w_src, w_v in stages.stage(k, src, dest, step, max_batch, rem_nm[k + 1]):
+                fuel_t[k + 1][dl, db], time_t[k + 1][dl, db] = f1, tt
+                back_l[k + 1][dl, db], back_b[k + 1][dl, db], speed_i[k + 1][dl, db] = src_l[w_src], src_b[w_src], w_v
+            continue
         chunk = max(1, max_batch // max(dest.size * speeds.size, 1))
         for a in range(0, src_l.size, chunk):
             sl, sb = src_l[a : a + chunk], src_b[a : a + chunk]
@@ -580,6 +597,7 @@ class _Transition:
         self.leg_cost, self.navigable, self.nogo_step = leg_cost, navigable, nogo_step
         self.rem_nm, self.vmax, self.horizon = rem_nm, vmax, horizon
         self.count = 0
+        self.stages: _CompiledStages | None = None
         self._samples: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
     def _samples_for(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -597,8 +615,11 @@ class _Transition:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Cost legs; return (ok, t1, fuel, duration) with ok = feasible and within the horizon."""
         sog = self.speeds[vi]
-        out = self.leg_cost(self.lat[k, l0], self.lon[k, l0], self.lat[k + 1, lj], self.lon[k + 1, lj], t0, sog)
-        dur, fu, feas, _ = unpack_cost(out, l0.size, "leg_cost")
+        if self.stages is not None:  # the compiled legs, their pieces computed once per stage
+            dur, fu, feas = self.stages.cost_legs(k, l0, lj, vi, t0)
+        else:
+            out = self.leg_cost(self.lat[k, l0], self.lon[k, l0], self.lat[k + 1, lj], self.lon[k + 1, lj], t0, sog)
+            dur, fu, feas, _ = unpack_cost(out, l0.size, "leg_cost")
         self.count += l0.size
         dd = self.dists[k][l0, lj]
         fast = feas & (dur * sog < dd * (1.0 - _SPEED_TOL))
@@ -652,3 +673,101 @@ def _leg_samples(
     f = ((np.arange(n) + 1.0) / (n + 1.0))[None, None, :]
     lat, lon, _ = geo.points_along(la[:, None, None], lo_a[:, None, None], lb[None, :, None], lo_b[None, :, None], f)
     return lat, lon
+
+
+class _CompiledStages:
+    """The binned labels of a stage from the compiled transitions (:mod:`optroute.search.dp_kernels`).
+
+    The same winners as the loop over every transition: per (destination lateral, bin), the
+    transition of least (fuel, time, order) that is feasible and clear of the no-go areas.
+    """
+
+    def __init__(self, kernel: DPLegKernel, step_fn: _Transition, bins: tuple[float, float, int]) -> None:
+        self.kernel, self.step_fn = kernel, step_fn
+        self.t_ref, self.dt, self.n_bins = bins
+        self.speeds = np.ascontiguousarray(step_fn.speeds, dtype=float)
+        self.floor = kernel.floor_tph(self.speeds)
+        self.inputs = (np.ascontiguousarray(kernel.params, dtype=float), tuple(kernel.weather))
+        self._geom_k: int = -1
+        self._geom: tuple = ()
+
+    def _geometry(self, k: int):
+        """The pieces of every leg from stage k to k+1 (its ends: the centre only), computed once per stage."""
+        if self._geom_k != k:
+            lat, lon = self.step_fn.lat, self.step_fn.lon
+            n_stages, n_lat = lat.shape[0] - 1, lat.shape[1]
+            src = np.array([n_lat // 2]) if k == 0 else np.arange(n_lat)
+            dst = np.array([n_lat // 2]) if k + 1 == n_stages else np.arange(n_lat)
+            a, b = np.meshgrid(src, dst, indexing="ij")
+            a, b = a.ravel(), b.ravel()
+            geom = self.kernel.geometry(lat[k, a], lon[k, a], lat[k + 1, b], lon[k + 1, b])
+            geom_of = np.full((n_lat, n_lat), -1, dtype=np.int64)
+            geom_of[a, b] = np.arange(a.size)
+            self._geom, self._geom_k = (geom, geom_of), k
+        return self._geom
+
+    def cost_legs(self, k: int, l0: np.ndarray, lj: np.ndarray, vi: np.ndarray, t0: np.ndarray):
+        """(duration [h], fuel [t], feasible) of legs from stage k, as the callback costs them."""
+        geom, geom_of = self._geometry(k)
+        dur, fuel, feas, _, _, unc = cost_dp_legs(
+            *self.inputs, geom.lat_deg, geom.lon_deg, geom.course_deg, geom.frac, geom.n_pieces,
+            np.ascontiguousarray(geom_of[l0, lj]), np.ascontiguousarray(t0, dtype=float),
+            np.ascontiguousarray(self.speeds[vi]), geom.dist_nm,
+        )  # fmt: skip
+        self.kernel.uncovered(int(unc))
+        return dur, fuel, feas
+
+    def stage(self, k: int, src: tuple, dest: np.ndarray, step: int | None, max_batch: int, rem_next: np.ndarray):
+        """Yield, per batch of destination laterals, the winners: (lateral, bin, fuel, time, source, speed index)."""
+        src_l, src_t, src_f = (np.ascontiguousarray(a) for a in src)
+        src_l = src_l.astype(np.int64)
+        geom, geom_of = self._geometry(k)
+        per_dest = max(src_l.size * self.speeds.size, 1)
+        chunk = max(1, max_batch // per_dest)
+        for a in range(0, dest.size, chunk):
+            cand = enumerate_candidates(
+                src_l, src_t, src_f, np.ascontiguousarray(dest[a : a + chunk], dtype=np.int64), self.speeds,
+                self.floor, geom_of, geom.dist_nm, -1 if step is None else int(step),
+                np.ascontiguousarray(rem_next, dtype=float), self.step_fn.vmax, self.step_fn.horizon, self.t_ref,
+                self.dt, self.n_bins,
+            )  # fmt: skip
+            won = self._winners(k, src_l, src_t, src_f, geom, geom_of, *cand)
+            if won is not None:
+                yield won
+
+    def _winners(self, k, src_l, src_t, src_f, geom, geom_of, c_src, c_lj, c_vi, t1, key, lb):
+        if key.size == 0:
+            return None
+        order = np.lexsort((lb, key))  # stable: ties keep the order (source, destination, speed)
+        ks = key[order]
+        starts = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
+        group_start = np.r_[starts, ks.size].astype(np.int64)
+        n_groups = starts.size
+        ptr = group_start[:-1].copy()
+        costed = np.zeros(key.size, dtype=bool)
+        fuel1 = np.full(key.size, np.nan)
+        rejected = np.zeros(key.size, dtype=bool)
+        winner = np.full(n_groups, -1, dtype=np.int64)
+        todo = np.arange(n_groups, dtype=np.int64)
+        while todo.size:
+            best, n_costed, unc = resolve(
+                *self.inputs, geom.lat_deg, geom.lon_deg, geom.course_deg, geom.frac, geom.n_pieces, geom.dist_nm,
+                geom_of, self.speeds, order, group_start, todo, ptr, costed, fuel1, rejected,
+                c_src, c_lj, c_vi, t1, lb, src_l, src_t, src_f,
+            )  # fmt: skip
+            self.step_fn.count += int(n_costed)
+            self.kernel.uncovered(int(unc))
+            has = best >= 0
+            todo, best = todo[has], best[has]
+            if best.size == 0:
+                break
+            s = c_src[best]
+            dur = geom.dist_nm[geom_of[src_l[s], c_lj[best]]] / self.speeds[c_vi[best]]  # the leg kernel's
+            clear = self.step_fn.clear(k, src_l[s], c_lj[best], src_t[s], dur)
+            winner[todo[clear]] = best[clear]
+            rejected[best[~clear]] = True
+            todo = todo[~clear]
+        w = winner[winner >= 0]
+        if w.size == 0:
+            return None
+        return c_lj[w], key[w] - c_lj[w] * self.n_bins, fuel1[w], t1[w], c_src[w], c_vi[w]

@@ -40,41 +40,33 @@ __all__ = [
 ]
 
 _R_NM = geo.EARTH_RADIUS_NM
-_A_M, _E2, _R_M = geo.WGS84_A_M, geo.WGS84_F * (2.0 - geo.WGS84_F), geo.EARTH_RADIUS_M
 
 
-@jit
-def _radii(lat_deg):  # pragma: no cover - compiled
-    """WGS84's meridian and prime-vertical radii of curvature M, N at a latitude [m]."""
-    s = math.sin(math.radians(lat_deg))
-    w = 1.0 - _E2 * s * s
-    return _A_M * (1.0 - _E2) / (w * math.sqrt(w)), _A_M / math.sqrt(w)
+_wgs84_radii = jit(geo.wgs84_radii_m)
+_wgs84_factor = jit(geo.wgs84_local_factor)
 
 
 @jit
 def wgs84_scale(lat_deg, course_deg):  # pragma: no cover - compiled
     """Ellipsoidal / spherical length of a short piece at ``lat_deg`` on the sphere's ``course_deg`` [-].
 
-    The scale of :func:`optroute.geodesy.sphere_to_wgs84` (the principal radii of curvature M and
-    N of WGS84), one point at a time for the kernels.
+    :func:`optroute.geodesy.wgs84_local_factor` (the scale of :func:`optroute.geodesy.sphere_to_wgs84`), compiled.
     """
-    m, n = _radii(lat_deg)
-    a = math.radians(course_deg)
-    return math.hypot(m * math.cos(a), n * math.sin(a)) / _R_M
+    m, n = _wgs84_radii(lat_deg)
+    return _wgs84_factor(m, n, course_deg)[0]
 
 
 @jit
 def wgs84_course(lat_deg, course_deg):  # pragma: no cover - compiled
-    """The ellipsoid's course [deg true, [0, 360)] of a piece sailed on the sphere's ``course_deg`` (as sphere_to_wgs84)."""
-    m, n = _radii(lat_deg)
-    a = math.radians(course_deg)
-    return math.degrees(math.atan2(n * math.sin(a), m * math.cos(a))) % 360.0
+    """The ellipsoid's course [deg true, [0, 360)] of a piece sailed on the sphere's ``course_deg`` (:func:`optroute.geodesy.wgs84_local_factor`)."""
+    m, n = _wgs84_radii(lat_deg)
+    return _wgs84_factor(m, n, course_deg)[1]
 
 
 @jit
 def sphere_course(lat_deg, course_deg):  # pragma: no cover - compiled
     """The inverse of :func:`wgs84_course`: the sphere's course [deg] of a piece on the ellipsoid's ``course_deg``."""
-    m, n = _radii(lat_deg)
+    m, n = _wgs84_radii(lat_deg)
     a = math.radians(course_deg)
     return math.degrees(math.atan2(m * math.sin(a), n * math.cos(a))) % 360.0
 

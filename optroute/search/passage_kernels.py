@@ -31,6 +31,8 @@ from optroute import units
 from optroute._numba import jit
 from optroute.physics.pointwise import allowed_speed, cost_rate_floor, evaluate_speed, stw_for_sog
 from optroute.search.edge_geometry import piece_point
+from optroute.search.refine_kernels import piece_clear
+from optroute.search.refine_kernels import workspace as refine_workspace
 from optroute.weather.sample import N_POINT_FIELDS, sample_at
 
 MODE_TIME = 0
@@ -105,10 +107,13 @@ def _first_choice(
 
 @jit
 def _checked_piece(
-    p, w, mode, speeds, lam, t_h, la, lo, crs, seg, npts, stw0, sog0, work, sea_pts
+    p, w, mode, speeds, lam, t_h, la, lo, crs, seg, npts, stw0, sog0, work, sea_pts, mid, s_pts, refine
 ):  # pragma: no cover - compiled
     """One piece with its speed checked at ``npts`` points (see ``PassagePhysics.segment_checked``).
 
+    A speed allowed at every point at its own times is then checked between them by the referee's
+    rules (:func:`optroute.search.refine_kernels.piece_clear`; ``mid`` = the piece's midpoint lat,
+    lon, course and length, ``s_pts`` the points' distances from its start, ``refine`` the workspace).
     Returns ``(duration_h, fuel_t, feasible, uncovered points)``.
     """
     k_n = speeds.size
@@ -147,11 +152,16 @@ def _checked_piece(
                 worst = max(worst, abs(t_h + cum - tt[j]))
                 dur += dt
                 fu += 0.5 * (fuel_pt[j] + fuel_pt[j - 1]) * dt
-            if worst <= _DONE_TOL_H:
+            if worst > _DONE_TOL_H:  # allowed, but the times were not yet its own: check again at them
+                for j in range(npts):
+                    inv[j] = inv_new[j]
+                continue
+            if piece_clear(
+                p, w, spd, mid[0], mid[1], mid[2], mid[3], s_pts, tt, npts, la, lo, crs, sea_pts, refine[0],
+                refine[1], refine[2],
+            ):  # fmt: skip
                 return dur, fu, True, uncovered
-            for j in range(npts):
-                inv[j] = inv_new[j]
-            continue
+            # a band between the check points, where the referee's rules look: strike the speed
         struck[guess] = 1.0
         best, k_best = np.inf, -1
         for k in range(k_n):
@@ -196,7 +206,7 @@ def check_count(length_nm, check_nm):  # pragma: no cover - compiled
 
 @jit
 def cost_leg(
-    p, w, mode, check_nm, speeds, lam, desired, step, vmin, lat, lon, course, length, n_pieces, t0_h
+    p, w, mode, check_nm, speeds, lam, desired, step, vmin, lat, lon, course, length, n_pieces, t0_h, refine
 ):  # pragma: no cover - compiled
     """Duration [h], fuel [t], feasibility and uncovered points of one leg, walked piece by piece in time.
 
@@ -204,7 +214,8 @@ def cost_leg(
     there [deg true] and ``length`` [nm] (:func:`optroute.search.edge_geometry.edge_pieces`);
     ``check_nm`` <= 0 proposes and keeps each piece's speed at its midpoint
     only, else the speed is checked at :func:`check_count` points along the
-    piece (:func:`optroute.search.edge_geometry.piece_point`).  See :func:`cost_legs`.
+    piece (:func:`optroute.search.edge_geometry.piece_point`) and between them by the referee's rules
+    (``refine``: :func:`optroute.search.refine_kernels.workspace`).  See :func:`cost_legs`.
     """
     checked = check_nm > 0.0
     m = 1
@@ -216,6 +227,7 @@ def cost_leg(
     sea_pts = np.empty((m, N_POINT_FIELDS))
     seg = np.empty(max(m - 1, 1))
     la, lo, crs = np.empty(m), np.empty(m), np.empty(m)
+    s_pts, mid = np.empty(m), np.empty(4)
     t = t0_h
     fu = 0.0
     uncovered = 0
@@ -235,9 +247,14 @@ def cost_leg(
         npts = check_count(length[k], check_nm)
         for j in range(npts):
             la[j], lo[j], crs[j] = piece_point(lat[k], lon[k], course[k], (j / (npts - 1.0) - 0.5) * length[k])
+        s_pts[0] = 0.0
         for j in range(npts - 1):
             seg[j] = ((j + 1.0) / (npts - 1.0) - j / (npts - 1.0)) * length[k]
-        d, f, good, unc = _checked_piece(p, w, mode, speeds, lam, t, la, lo, crs, seg, npts, stw0, sog0, work, sea_pts)
+            s_pts[j + 1] = s_pts[j] + seg[j]
+        mid[0], mid[1], mid[2], mid[3] = lat[k], lon[k], course[k], length[k]
+        d, f, good, unc = _checked_piece(
+            p, w, mode, speeds, lam, t, la, lo, crs, seg, npts, stw0, sog0, work, sea_pts, mid, s_pts, refine
+        )
         uncovered += unc
         if not good:
             return np.nan, np.nan, False, uncovered
@@ -285,10 +302,11 @@ def cost_legs(
     fuel = np.full(n, np.nan)
     feas = np.zeros(n, dtype=np.bool_)
     uncovered = 0
+    refine = refine_workspace(check_nm > 0.0)
     for i in range(n):
         d, f, ok, unc = cost_leg(
             p, w, mode, check_nm, speeds, lam, desired, step, vmin, mid_lat[i], mid_lon[i], mid_course[i],
-            length[i], n_pieces[i], t0_h[i],
+            length[i], n_pieces[i], t0_h[i], refine,
         )  # fmt: skip
         uncovered += unc
         if ok:
@@ -337,31 +355,42 @@ def cost_dp_legs(p, w, lat, lon, course, frac, n_pieces, leg_of, t0_h, sog_kn, d
     sea = np.empty(N_POINT_FIELDS)
     uncovered = 0
     for i in range(n):
-        g = leg_of[i]
-        npc = n_pieces[g]
-        f_sum, s_sum, p_sum = 0.0, 0.0, 0.0
-        ok = True
-        for j in range(npc):
-            t = t0_h[i] + (frac[g, j] * dist_nm[g]) / sog_kn[i]
-            if not sample_at(w[0], w[1], w[2], w[3], w[4], w[5], t, lat[g, j], lon[g, j], sea):
-                uncovered += 1
-            stw = stw_for_sog(course[g, j], sog_kn[i], sea[5], sea[6])
-            if not (math.isfinite(stw) and stw > 0.0):
-                ok = False
-                break
-            _, _, power, fuel_tph, allowed = evaluate_speed(
-                p, course[g, j], sea[0], sea[1], sea[2], sea[3], sea[4], sea[5], sea[6], stw
-            )
-            if not allowed:
-                ok = False
-                break
-            share = 1.0 / npc
-            f_sum += fuel_tph * share
-            s_sum += stw * share
-            p_sum += power * share
+        ok, f_sum, s_sum, p_sum, unc = cost_dp_leg(p, w, lat, lon, course, frac, n_pieces, leg_of[i], t0_h[i],
+                                                   sog_kn[i], dist_nm, sea)  # fmt: skip
+        uncovered += unc
         if ok:
             feas[i] = True
             fuel[i] = f_sum * dur[i]
             stw_mean[i] = s_sum
             power_mean[i] = p_sum
     return dur, fuel, feas, stw_mean, power_mean, uncovered
+
+
+@jit
+def cost_dp_leg(p, w, lat, lon, course, frac, n_pieces, g, t0_h, sog_kn, dist_nm, sea):  # pragma: no cover - compiled
+    """One DP leg of geometry ``g`` (see :func:`cost_dp_legs`) left at ``t0_h`` [h] at ``sog_kn`` [kn].
+
+    Returns ``(feasible, mean fuel rate [t/h], mean STW [kn], mean power [kW], uncovered points)``;
+    the leg's fuel is the mean rate times ``dist_nm[g] / sog_kn``.  ``sea`` is a work array of
+    :data:`~optroute.weather.sample.N_POINT_FIELDS`.
+    """
+    npc = n_pieces[g]
+    f_sum, s_sum, p_sum = 0.0, 0.0, 0.0
+    uncovered = 0
+    for j in range(npc):
+        t = t0_h + (frac[g, j] * dist_nm[g]) / sog_kn
+        if not sample_at(w[0], w[1], w[2], w[3], w[4], w[5], t, lat[g, j], lon[g, j], sea):
+            uncovered += 1
+        stw = stw_for_sog(course[g, j], sog_kn, sea[5], sea[6])
+        if not (math.isfinite(stw) and stw > 0.0):
+            return False, np.nan, np.nan, np.nan, uncovered
+        _, _, power, fuel_tph, allowed = evaluate_speed(
+            p, course[g, j], sea[0], sea[1], sea[2], sea[3], sea[4], sea[5], sea[6], stw
+        )
+        if not allowed:
+            return False, np.nan, np.nan, np.nan, uncovered
+        share = 1.0 / npc
+        f_sum += fuel_tph * share
+        s_sum += stw * share
+        p_sum += power * share
+    return True, f_sum, s_sum, p_sum, uncovered

@@ -24,8 +24,10 @@ from optroute.physics.passage import SeaState, SpeedChoice, best_speed, cheapest
 from optroute.physics.performance import PerformanceModel
 from optroute.physics.safety import BANDS, BandRules, band_margins
 from optroute.physics.ship import Ship
-from optroute.search import passage_kernels
+from optroute.search import band_refine, passage_kernels
 from optroute.search.compiled_search import LegKernel
+from optroute.search.dp_kernels import DPLegKernel
+from optroute.search.edge_geometry import piece_points_flat
 from optroute.search.passage_kernels import MODE_CHEAPEST, MODE_TIME
 from optroute.search.piece_geometry import cumulative, piece_points, points_along
 from optroute.units import h_to_timedelta as _h_to_td
@@ -248,15 +250,15 @@ class PassagePhysics:
 
         Duration and fuel integrate 1/SOG and fuel rate over the points
         (trapezoidal rule); heading, Hs, period and wave direction are reported
-        at the piece's midpoint.  The check is a sampling at ``check_nm``: a
-        band met between two points for less than their spacing can be missed.
-        The case seen in practice is the bands switching on where Hs reaches
-        their threshold (0.04 L): a speed allowed at the last point below it
-        and again at the next point, where the band has moved on, can lie in
-        the band for the few miles just past the crossing (5 of 62 routes
-        through random seas, at most 5 of ~1000 points re-checked every
-        1 nm, margins down to -0.005; a planning buffer such as
-        ``BandRules(margin=0.205)`` removed them all).
+        at the piece's midpoint.  A speed allowed at every point at its own
+        times is then checked between them where the referee looks
+        (:meth:`clear_between`, :mod:`optroute.search.band_refine`: the weather's
+        regime crossings and halving until every interval is certified), so that a
+        band entered over more than :data:`~optroute.search.band_refine.BAND_TOL_NM`
+        is found as ``Plan.verify()`` finds it; a speed failing there is struck
+        out as one failing at a point.  (Sampling at ``check_nm`` alone let a
+        speed sit in a band for ~3 nm just past where Hs reaches the bands'
+        threshold, issue 14 item 1.)
         """
         ship, model, rules, engine = self.ship, self.model, self.rules, self.engine
         speeds = np.asarray(speeds_kn, dtype=float).ravel()
@@ -295,6 +297,13 @@ class PassagePhysics:
                     inv_new = np.where(ok[:, None], 1.0 / sog, 0.0)
                 dt = 0.5 * (inv_new[:, 1:] + inv_new[:, :-1]) * seg[p]
                 done = ok & (np.abs(t_h[p, None] + cumulative(dt) - tt).max(axis=1) <= 1e-3)
+                if done.any():  # and between the points, where the referee's rules look (band_refine)
+                    q = np.flatnonzero(done)
+                    clear = self.clear_between(
+                        lat[p[q]], lon[p[q]], course[p[q]], length_nm[p[q]], n_pts[p[q]], seg[p[q]], tt[q], spd[q]
+                    )
+                    ok[q[~clear]] = False
+                    done[q[~clear]] = False
                 d, idx = np.flatnonzero(done), p[done]
                 out["dur"][idx] = dt[d].sum(axis=1)
                 out["fuel"][idx] = (0.5 * (fuel[d, 1:] + fuel[d, :-1]) * dt[d]).sum(axis=1)
@@ -336,6 +345,71 @@ class PassagePhysics:
             return np.where(feas, out["dur"], np.nan), np.where(feas, out["fuel"], np.nan), feas, extra
 
         return cost
+
+    def clear_between(self, lat, lon, course, length_nm, n_pts, seg_nm, t_h, stw_kn) -> np.ndarray:
+        """Whether each piece's speed is allowed wherever the referee's rules look between its check points.
+
+        The numpy form of :func:`optroute.search.refine_kernels.piece_clear`: the points of
+        :mod:`optroute.search.band_refine` (regime crossings, then halving until certified) between
+        the check points (``n_pts`` of them, spaced ``seg_nm`` [nm] along the piece given by its
+        midpoint [deg], course [deg true] and length [nm], passed at ``t_h`` [h]; (n, m) arrays
+        padded past ``n_pts``), the ship at each at the time linear in distance between them;
+        a piece fails where the speed ``stw_kn`` [kn] is not allowed at one of them.
+        """
+        n, m = t_h.shape
+        own = np.arange(m)[None, :] < n_pts[:, None]
+        group = np.repeat(np.arange(n), n_pts)
+        s = cumulative(seg_nm)[own]
+        t = np.asarray(t_h, dtype=float)[own]
+        scale = float(np.max(length_nm, initial=0.0)) + 1.0  # (group, s) as one increasing axis
+        x_nodes, t_nodes = group * scale + s, t
+
+        def where(g, ss, tt=None):
+            tt = np.interp(g * scale + ss, x_nodes, t_nodes) if tt is None else tt
+            la, lo, crs = (np.empty(ss.size) for _ in range(3))
+            if ss.size:
+                piece_points_flat(
+                    *(np.ascontiguousarray(a[g], dtype=float) for a in (lat, lon, course)),
+                    np.ascontiguousarray(ss - 0.5 * length_nm[g]), la, lo, crs,
+                )  # fmt: skip
+            return la, lo, crs, tt
+
+        def coords(g, ss):
+            la, lo, _, tt = where(g, ss)
+            return self.sampler.grid_coordinates(self.departure + _h_to_td(tt), la, lo)
+
+        group, s = band_refine.crossing_nodes(
+            group, s, coords, min(band_refine.CROSSING_TOL_NM, band_refine.BAND_TOL_NM)
+        )
+        la, lo, crs, t = where(group, s)
+        clear = np.ones(n, dtype=bool)
+        fn = self._band_functions(la, lo, crs, t, stw_kn[group], group, clear)
+        for _ in range(band_refine.MAX_ROUNDS):
+            i = band_refine.intervals_to_halve(group, s, *fn, band_refine.BAND_TOL_NM)
+            i = i[clear[group[i]]]
+            if i.size == 0:
+                break
+            s_new = 0.5 * (s[i] + s[i + 1])
+            t_new = t[i] + (s_new - s[i]) / (s[i + 1] - s[i]) * (t[i + 1] - t[i])
+            la_n, lo_n, crs_n, _ = where(group[i], s_new, t_new)
+            fn_n = self._band_functions(la_n, lo_n, crs_n, t_new, stw_kn[group[i]], group[i], clear)
+            order = np.lexsort((np.concatenate([s, s_new]), np.concatenate([group, group[i]])))
+            group, s, t = (np.concatenate([a, b])[order] for a, b in ((group, group[i]), (s, s_new), (t, t_new)))
+            fn = tuple(np.concatenate([a, b])[order] for a, b in zip(fn[:3], fn_n[:3], strict=True)) + (
+                {k: np.concatenate([fn[3][k], fn_n[3][k]])[order] for k in fn[3]},
+            )
+        return clear
+
+    def _band_functions(self, la, lo, crs, t, stw, group, clear):
+        """:func:`optroute.search.band_refine.band_functions` at points; ``clear[group]`` struck where the speed is not allowed."""
+        sea = self.sea(la, lo, t)
+        heading, sog, _, _, allowed = evaluate_speeds(
+            self.ship, self.model, self.rules, crs, sea, stw, engine=self.engine
+        )
+        with np.errstate(invalid="ignore"):
+            bad = ~(allowed & (sog > 0))
+        clear[group[bad]] = False
+        return band_refine.band_functions(self.ship, self.rules, sea, np.ones(la.size, dtype=bool), heading, crs, stw)
 
     def dp_leg(self, piece_nm: float) -> Callable:
         """Leg-cost callback of the 3D DP: a commanded speed over ground, checked piece by piece.
@@ -395,7 +469,13 @@ class PassagePhysics:
             extra = {"stw_kn": (stw.reshape(n, m) * w).sum(axis=1), "power_kw": (power.reshape(n, m) * w).sum(axis=1)}
             return dur, np.where(feas, fuel, np.nan), feas, extra
 
+        if inputs is not None:  # solve_dp's compiled transitions (optroute.search.dp_kernels)
+            cost.dp_kernel = DPLegKernel(*inputs, pieces, self._count_uncovered)  # type: ignore[attr-defined]
         return cost
+
+    def _count_uncovered(self, n: int) -> None:
+        self.calls += 1
+        self.uncovered += n
 
 
 def leg_band_sides(ship: Ship, rules: BandRules, extra: dict[str, np.ndarray], leg_of: np.ndarray, n_legs: int):

@@ -158,8 +158,9 @@ def search_route(
     band_check_nm : float or None
         Grid search: each piece's speed is checked (danger bands, MCR) at
         points at most this far apart along the piece [nm], ends included, at
-        the times the ship passes them (:meth:`PassagePhysics.segment_checked`).
-        ``None`` checks the piece's midpoint at its entry time only (Boeing's
+        the times the ship passes them (:meth:`PassagePhysics.segment_checked`),
+        and between them where the referee looks (:mod:`optroute.search.band_refine`:
+        a band entered over more than 0.1 nm is found).  ``None`` checks the piece's midpoint at its entry time only (Boeing's
         one sea state per cell): faster, but a route can then cross a band
         between midpoints.
     dp_options : dict, optional

@@ -46,7 +46,7 @@ from optroute.units import format_utc
 from optroute.weather import schema
 from optroute.weather.io import TIME_POLICIES, check_required
 
-__all__ = ["PointWeather", "WeatherSampler", "sample_at", "sample_weather", "trilinear_at"]
+__all__ = ["PointWeather", "WeatherSampler", "grid_coordinates_at", "sample_at", "sample_weather", "trilinear_at"]
 
 _EPS_DEG = 1e-7
 _DIR = "wave_from_deg"
@@ -241,6 +241,47 @@ def sample_at(fields, time_s, lat_deg, lon_deg, meta, offset_ns, t_h, lat, lon, 
     out[2] = np.degrees(np.arctan2(s, c)) % 360.0
     for k in range(4, 8):
         out[k - 1] = trilinear_at(fields[k], b, xi, xj, nx, dt, tw, yw, xw)
+    return True
+
+
+@jit
+def grid_coordinates_at(time_s, lat_deg, lon_deg, meta, offset_ns, t_h, lat, lon, out):  # pragma: no cover - compiled
+    """Continuous grid coordinates of one point, as :meth:`WeatherSampler.grid_coordinates`.
+
+    ``t_h`` is hours after the departure of :attr:`PointWeather.offset_ns`.  Writes the
+    ``[time, lat, lon]`` coordinates (the stencil's lower index plus its weight; under the "hold"
+    policy −0.5 before the time span and ``n_time − 0.5`` after it) into ``out[:3]``; returns False,
+    with NaN written, where the point lies outside the area or (unless held) the time span.
+    """
+    seconds = (offset_ns + np.int64(np.round(t_h * 3.6e12))) / 1e9
+    lon0 = meta[_M_X_START]
+    lonu = lon0 + (lon - lon0) % 360.0
+    if lonu > lon0 + 360.0 - _EPS_DEG:
+        lonu -= 360.0
+    inside = meta[_M_Y_START] - _EPS_DEG <= lat <= meta[_M_Y_STOP] + _EPS_DEG
+    if meta[_M_PERIODIC] == 0.0:
+        inside = inside and lonu <= meta[_M_X_STOP] + _EPS_DEG
+    if meta[_M_HOLD] == 0.0:
+        inside = inside and meta[_M_T_START] <= seconds <= meta[_M_T_STOP]
+    if not inside:
+        out[:3] = np.nan
+        return False
+    if seconds < meta[_M_T_START]:
+        out[0] = -0.5
+    elif seconds > meta[_M_T_STOP]:
+        out[0] = time_s.size - 0.5
+    else:
+        ti, tw = _locate(time_s, seconds, meta[_M_T_START], meta[_M_T_STEP], meta[_M_T_UNIFORM])
+        out[0] = ti + tw
+    la = min(max(lat, meta[_M_Y_START]), meta[_M_Y_STOP])
+    yi, yw = _locate(lat_deg, la, meta[_M_Y_START], meta[_M_Y_STEP], meta[_M_Y_UNIFORM])
+    out[1] = yi + yw
+    if meta[_M_PERIODIC] != 0.0:
+        out[2] = min(max((lonu - lon0) / meta[_M_X_STEP], 0.0), float(lon_deg.size))
+    else:
+        lo = min(max(lonu, lon0), meta[_M_X_STOP])
+        xi, xw = _locate(lon_deg, lo, lon0, meta[_M_X_STEP], meta[_M_X_UNIFORM])
+        out[2] = xi + xw
     return True
 
 

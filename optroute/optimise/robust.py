@@ -1,0 +1,417 @@
+"""Ensemble-robust corridor plans: one plan that is safe in every member of an ensemble (issue 16 item 3).
+
+:func:`optimise_robust` is :func:`optroute.optimise_corridor` with ``weather`` an ensemble (a dataset with a
+``member`` dimension, :func:`optroute.weather.scenarios.ensemble`) and ``robust="all"`` or ``"cvar"``:
+
+* **Set-up per member.** Every member is prepared as :func:`optimise_corridor` prepares one weather
+  (:class:`~optroute.optimise.corridor_problem.PreparedCorridor`: the corridor frame, the member's weather on the
+  corridor's grid as B-spline interpolants and the ship's own performance model tabulated in that member's sea,
+  the member's navigable lateral bounds). The lateral bounds are intersected over the members.
+* **One plan, every member's rows.** :class:`formulations.robust_nlp.RobustSpeedNLP` decides one set of waypoint
+  offsets and leg speeds through water; its rows are the corridor NLP's stacked per member (each with its own
+  arrival times, since the speed over ground depends on the member's current): danger bands (sides per member),
+  the engine's load range (MCR and minimum power), the moving exclusion, and the ETA for every member's arrival.
+* **Objective.** ``robust="all"``: the mean of the members' fuel (or time, cost) — the members equally likely;
+  ``robust="cvar"``: their conditional value at risk at level ``cvar_alpha`` by the Rockafellar–Uryasev auxiliary
+  variable (Rockafellar & Uryasev 2000; :func:`cvar` is the referee's value of it). In both, every constraint holds
+  in every member: there is no "all but a fraction" variant (not built).
+* **Verified in every member.** The plan of the solution is evaluated by the referee in the reference member
+  (its context: ship, rules, corridor, ETA, exclusion) and :meth:`Plan.verify(weather=member) <Plan.verify>` is run
+  for every member. Where a member breaks a constraint the problem is tightened where the verification says (band
+  edges and threshold backed off, load limits, exclusion radius, the ETA) and solved again, at most
+  ``max_retries`` times; a plan that fails any member is never returned
+  (:class:`~optroute.errors.SolverFailure`, whose ``best_plan`` is the warm plan when that verifies in every member).
+
+The returned :class:`~optroute.plan.result.Plan` is evaluated in the reference member (``reference_member``,
+default 0: :func:`optroute.weather.scenarios.ensemble`'s control): its ``legs`` and ``total_fuel_t`` are that
+member's; ``solver_stats["robust"]`` holds every member's fuel and arrival by the referee, their mean and CVaR,
+and the NLP's objective.
+"""
+
+from __future__ import annotations
+
+import time as _time
+from collections.abc import Mapping
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from formulations.robust_nlp import RobustResult, RobustSpeedNLP
+from optroute._checks import finite
+from optroute.errors import ConfigError, NoSafePassage, SolverFailure
+from optroute.optimise.nlp_inputs import formulation_bands, moving_exclusion
+from optroute.optimise.nlp_solve import VIOLATION_TOL, route_warm_start
+from optroute.optimise.rescue import LIMIT_STATUSES, plan_warm_start
+from optroute.plan.result import Plan, Violation
+from optroute.search.route import Corridor, Route
+from optroute.units import as_utc_time, format_utc, timedelta_to_h
+
+__all__ = ["ROBUST_MODES", "cvar", "member_datasets", "optimise_robust"]
+
+#: The values of ``optimise_corridor(robust=...)``.
+ROBUST_MODES = ("all", "cvar")
+
+_BAND_KINDS = "band:"
+_ENGINE = ("power_above_mcr", "power_below_min")
+
+
+def member_datasets(weather: xr.Dataset) -> list[xr.Dataset]:
+    """The members of an ensemble (a canonical dataset with a ``member`` dimension) as canonical datasets.
+
+    Each keeps the ensemble's global attributes but ``ensemble`` (its own storm attrs are those of
+    :func:`optroute.weather.scenarios.member` when the dataset came from :func:`~optroute.weather.scenarios.ensemble`).
+
+    Raises
+    ------
+    ConfigError
+        Not a dataset with a ``member`` dimension, or no member in it.
+    """
+    if not isinstance(weather, xr.Dataset) or "member" not in weather.dims:
+        raise ConfigError(
+            f"robust plans need an ensemble: an xarray.Dataset with a 'member' dimension, got {type(weather).__name__}"
+            f"{' without one' if isinstance(weather, xr.Dataset) else ''}; build one with "
+            "optroute.weather.scenarios.ensemble(...) or stack members with xarray.concat(..., dim='member')"
+        )
+    n = int(weather.sizes["member"])
+    if n < 1:
+        raise ConfigError("the ensemble has no member (member dimension of size 0); give at least one member")
+    out = []
+    for k in range(n):
+        one = weather.isel(member=k)
+        one = one.drop_vars("member") if "member" in one.coords else one
+        one.attrs = {key: v for key, v in weather.attrs.items() if key != "ensemble"}
+        one.attrs["ensemble_member"] = k
+        out.append(one)
+    return out
+
+
+def cvar(values: Any, alpha: float) -> float:
+    """Conditional value at risk of equally likely outcomes at level ``alpha`` in [0, 1).
+
+    ``CVaR_α = min_z z + Σ_m max(v_m − z, 0) / ((1 − α) M)`` (Rockafellar & Uryasev 2000), evaluated at its
+    breakpoints (the function of ``z`` is convex and piecewise linear with kinks at the values): the mean of the
+    worst ``(1 − α)`` share of the outcomes, the boundary outcome weighted by its fraction. α = 0 is the mean.
+    """
+    v = np.asarray(values, dtype=float).ravel()
+    if v.size == 0 or not np.isfinite(v).all():
+        raise ConfigError(f"cvar needs finite values, got {v!r}")
+    a = float(finite("cvar_alpha", alpha, minimum=0.0, error=ConfigError))
+    if a >= 1.0:
+        raise ConfigError(f"cvar_alpha={alpha!r} must be below 1 (1 is the worst member: use a value such as 0.9)")
+    scale = 1.0 / ((1.0 - a) * v.size)
+    return float(min(z + scale * np.maximum(v - z, 0.0).sum() for z in v))
+
+
+def _check_options(robust: Any, cvar_alpha: Any, eta_mode: str, unsupported: Mapping[str, Any]) -> float:
+    if robust not in ROBUST_MODES:
+        raise ConfigError(
+            f"robust={robust!r} is not known; use 'all' (every member's constraints, mean objective) or 'cvar' "
+            "(every member's constraints, CVaR of the objective at cvar_alpha)"
+        )
+    alpha = float(finite("cvar_alpha", cvar_alpha, minimum=0.0, error=ConfigError))
+    if alpha >= 1.0:
+        raise ConfigError(f"cvar_alpha={cvar_alpha!r} must be in [0, 1): 0 is the mean, towards 1 the worst member")
+    if robust == "all" and alpha != 0.0:
+        raise ConfigError(f"cvar_alpha={cvar_alpha!r} is only used with robust='cvar'; pass robust='cvar' or drop it")
+    if eta_mode != "le":
+        raise ConfigError(
+            f"eta_mode={eta_mode!r}: a robust plan arrives by the ETA in every member ('le'); the members' currents "
+            "make one schedule arrive at different times, so 'eq' cannot be asked of every member"
+        )
+    on = [k for k, v in unsupported.items() if v]
+    if on:
+        raise ConfigError(f"{', '.join(on)} is not available with robust=; leave it at its default")
+    return alpha
+
+
+def _warm(frame: Any, length_nm: float, eta_h: float | None, v_max: float, warm_plan, route) -> dict[str, np.ndarray]:
+    if warm_plan is not None:
+        return plan_warm_start(warm_plan, frame)
+    if route is not None:
+        return route_warm_start(route, frame)
+    speed = length_nm / eta_h if eta_h is not None else 0.9 * v_max
+    return {"offset_nm": np.zeros(frame.n_legs + 1), "stw_kn": np.full(frame.n_legs, speed)}
+
+
+def _tighten(state: dict[str, float], found: list[Violation], log: list[str]) -> bool:
+    """Tighten the robust problem where the members' verification says; False when nothing can be tightened."""
+    kinds = {v.kind for v in found}
+    moved = False
+    if any(k.startswith(_BAND_KINDS) for k in kinds):
+        state["widen"] = 2.0 * state["widen"] + 0.01
+        state["hs_margin"] = min(state["hs_margin"] + 0.05, 0.5)
+        moved = True
+    for v in found:  # the smooth power table misses the model's peak (a storm's core between samples): that leg's
+        # power is scaled up in the NLP by what the referee found beyond the limit (down for the minimum power)
+        if v.kind in _ENGINE and np.isfinite(v.value) and v.limit > 0:
+            ratio = v.value / v.limit
+            factor = ratio * 1.01 if v.kind == "power_above_mcr" else ratio / 1.01
+            state["leg_factor"][v.leg] *= factor
+            moved = True
+    if "exclusion" in kinds:
+        state["extra_radius_nm"] += 2.0 + max(v.limit - v.value for v in found if v.kind == "exclusion")
+        moved = True
+    if "eta" in kinds:
+        state["eta_shift_h"] += 2.0 / 60.0 + max(v.value for v in found if v.kind == "eta")
+        moved = True
+    shown = {k: (round(v, 4) if np.isscalar(v) else np.round(v, 4).tolist()) for k, v in state.items()}
+    log.append(f"tightened for {sorted(kinds)}: {shown}")
+    return moved
+
+
+def optimise_robust(
+    corridor: Corridor,
+    weather: xr.Dataset,
+    ship: Any,
+    *,
+    robust: str,
+    cvar_alpha: float = 0.0,
+    departure: Any,
+    eta: Any = None,
+    eta_mode: str = "le",
+    objective: str = "fuel",
+    model: Any = None,
+    rules: Any = None,
+    route: Route | None = None,
+    warm_plan: Plan | None = None,
+    max_leg_nm: float = 50.0,
+    samples_per_leg: int = 3,
+    fuel_price_per_t: float = 600.0,
+    hourly_cost_per_h: float = 0.0,
+    exclusion: Any = None,
+    speed_range_kn: tuple[float, float] | None = None,
+    band_solves: int = 6,
+    max_retries: int = 4,
+    band_margin: float = 0.005,
+    band_hs_margin: float = 0.05,
+    verify_step_nm: float = 5.0,
+    solver_options: Mapping[str, Any] | None = None,
+    use_land_mask: bool | None = None,
+    reference_member: int = 0,
+    progress: Any = None,
+    jit: bool = False,
+    discrete_start: bool = False,
+    dp_options: Mapping[str, Any] | None = None,
+) -> Plan:
+    """One plan for every member of an ensemble (module docstring); called by ``optimise_corridor(robust=...)``.
+
+    Parameters
+    ----------
+    robust : {"all", "cvar"}
+        Constraints in every member; objective the members' mean (``"all"``) or CVaR at ``cvar_alpha``.
+    cvar_alpha : float
+        CVaR level in [0, 1) (``"cvar"`` only; 0 gives the mean).
+    reference_member : int
+        The member whose context the returned plan is evaluated in (its ``legs``, ``total_fuel_t``).
+    band_solves : int
+        Solves of the band re-imposition loop (:meth:`RobustSpeedNLP.solve_sides`) per tightening.
+    solver_options : mapping, optional
+        Ipopt/CasADi options; the default here adds ``"ipopt.hessian_approximation": "limited-memory"``: the
+        stacked NLP's derivatives are CasADi's automatic differentiation of M copies of the corridor model, and
+        the exact Hessian's build grows with them (on the 18-leg, 3-member storm case of ``benchmarks.bench_voyage``
+        it took 3.2× the build time of the limited-memory one, measured side by side); pass
+        ``{"ipopt.hessian_approximation": "exact"}`` to have it.
+    Other parameters
+        As :func:`optroute.optimise_corridor`; ``eta_mode`` must be ``"le"``; ``jit``, ``discrete_start`` and
+        ``dp_options`` are not available (ConfigError); ``progress`` is not called.
+
+    Returns
+    -------
+    Plan
+        Verified in every member (``plan.verify(weather=m) == []`` for each). ``status``: ``"optimal"`` (Ipopt
+        converged and no member met a band that was not imposed), ``"sides_unsettled"`` (converged; the band
+        re-imposition stopped on ``band_solves``), ``"feasible"`` (Ipopt stopped at a limit at a point that
+        verifies in every member). ``solver_stats["robust"]``: ``mode``, ``cvar_alpha``, ``members``,
+        ``reference_member``, ``member_fuel_t`` and ``member_arrival`` (referee, per member), ``fuel_mean_t``,
+        ``fuel_cvar_t`` (referee), ``nlp_objective``, ``nlp_member_fuel_t``, ``nlp_var``; and ``ipopt_status``,
+        ``nlp_solves``, ``iterations``, ``solve_time_s``, ``build_time_s``, ``retries``, ``tightening``,
+        ``total_time_s``.
+
+    Raises
+    ------
+    ConfigError
+        Bad ``robust``, ``cvar_alpha``, ``eta_mode``, ``reference_member``, or an option not available here.
+    NoSafePassage
+        The members' navigable lateral ranges do not overlap at some waypoint.
+    SolverFailure
+        No tightened solve gave a plan that verifies in every member (``best_plan``: the warm plan if it does).
+    """
+    started = _time.perf_counter()
+    alpha = _check_options(
+        robust, cvar_alpha, eta_mode, {"jit": jit, "discrete_start": discrete_start, "dp_options": dp_options}
+    )
+    members = member_datasets(weather)
+    shared = {
+        "departure": departure,
+        "latest_eta": eta,
+        "objective": objective,
+        "model": model,
+        "rules": rules,
+        "max_leg_nm": max_leg_nm,
+        "samples_per_leg": samples_per_leg,
+        "fuel_price_per_t": fuel_price_per_t,
+        "hourly_cost_per_h": hourly_cost_per_h,
+        "exclusion": exclusion,
+        "speed_range_kn": speed_range_kn,
+        "band_margin": band_margin,
+        "band_hs_margin": band_hs_margin,
+        "verify_step_nm": verify_step_nm,
+        "use_land_mask": use_land_mask,
+    }
+    prepared, y_lo, y_hi = _prepare(corridor, members, ship, shared, reference_member)
+    ref = prepared[int(reference_member)]
+    frame, t0 = ref.frame, ref.departure
+    eta_t = as_utc_time(eta, "eta") if eta is not None else None
+    eta_h = timedelta_to_h(eta_t - t0) if eta_t is not None else (ref.prepared_cap_h if objective != "time" else None)
+    ctx = ref.plan_context(eta_t, "le")
+    warm = _warm(frame, ref.length_nm, eta_h, ref.v_max, warm_plan, route)
+    state = {
+        "widen": ref.margin0,
+        "hs_margin": ref.hs_margin0,
+        "max_load": 1.0,
+        "min_load": ref.power.min_load,
+        "extra_radius_nm": 0.0,
+        "eta_shift_h": 0.0,
+        "leg_factor": np.ones(frame.n_legs),
+    }
+    log: list[str] = []
+    counts = {"solves": 0, "iterations": 0, "solve_time_s": 0.0, "build_time_s": 0.0}
+    last: RobustResult | None = None
+    options = {"ipopt.hessian_approximation": "limited-memory", **dict(solver_options or {})}
+    builds: dict[tuple[float, float, float], RobustSpeedNLP] = {}
+    for retry in range(int(max_retries) + 1):
+        key = (state["widen"], state["hs_margin"], state["extra_radius_nm"])  # what shapes a build (the rest is data)
+        if key not in builds:
+            builds[key] = _build(prepared, ref, frame, y_lo, y_hi, state, exclusion, t0, options, robust, alpha)
+            counts["build_time_s"] += builds[key].build_time_s
+        nlp = builds[key]
+        nlp.power = replace(nlp.power, max_load=state["max_load"], min_load=state["min_load"])
+        res = nlp.solve_sides(
+            eta_h=None if eta_h is None else eta_h - state["eta_shift_h"],
+            objective=objective,
+            fuel_price=ref.fuel_price,
+            hourly_cost=ref.hourly,
+            offset0_nm=warm["offset_nm"],
+            stw0_kn=warm["stw_kn"],
+            max_solves=int(band_solves),
+            leg_power_factor=state["leg_factor"],
+        )
+        counts["solves"] += res.solves
+        counts["iterations"] += res.iterations
+        counts["solve_time_s"] += res.solve_time_s
+        last = res
+        usable = res.max_violation <= VIOLATION_TOL and (res.success or res.status in LIMIT_STATUSES)
+        if not usable:  # nothing the verification could say: tightening would not help
+            log.append(f"solve {retry}: Ipopt {res.status}, max violation {res.max_violation:.2e}")
+            break
+        plan = Plan.from_context(
+            ctx,
+            frame.waypoints(res.offset_nm),
+            res.stw_kn,
+            departure=t0,
+            status="candidate",
+            step_nm=ref.verify_step_nm,
+        )
+        found = {k: plan.verify(weather=m, step_nm=ref.verify_step_nm) for k, m in enumerate(members)}
+        failing = {k: f for k, f in found.items() if f}
+        if not failing:
+            status = "feasible" if not res.success else ("optimal" if res.sides_settled else "sides_unsettled")
+            stats = _stats(plan, members, res, robust, alpha, int(reference_member), objective, ref)
+            stats.update(counts, retries=retry, tightening=log, ipopt_status=res.status, nlp_solves=counts["solves"])
+            stats["total_time_s"] = _time.perf_counter() - started
+            return replace(plan, status=status, solver_stats=stats)
+        log.append(
+            f"solve {retry}: the plan fails members {sorted(failing)}: "
+            + "; ".join(f"member {k}: {f[0]}" for k, f in sorted(failing.items())[:3])
+        )
+        warm = {"offset_nm": res.offset_nm, "stw_kn": res.stw_kn}
+        if not _tighten(state, [v for f in failing.values() for v in f], log):
+            break
+    raise _failure(members, warm_plan, last, log, counts["solves"])
+
+
+def _prepare(corridor: Corridor, members: list[xr.Dataset], ship: Any, shared: dict[str, Any], reference: Any):
+    """Every member prepared as ``optimise_corridor`` prepares one weather, and the lateral bounds all allow."""
+    from optroute.optimise.corridor_problem import PreparedCorridor
+
+    if not (isinstance(reference, int | np.integer) and 0 <= reference < len(members)):
+        raise ConfigError(
+            f"reference_member={reference!r} is not a member index; give an integer in [0, {len(members) - 1}]"
+        )
+    prepared = [PreparedCorridor(corridor, ds, ship, **shared) for ds in members]
+    y_lo = np.max([p.y_lo for p in prepared], axis=0)
+    y_hi = np.min([p.y_hi for p in prepared], axis=0)
+    closed = np.flatnonzero(y_lo > y_hi)
+    if closed.size:
+        raise NoSafePassage(
+            f"the members' navigable ranges across waypoint {int(closed[0])} of the corridor do not overlap: no one "
+            "track is navigable in every member; widen the corridor or leave out the members that close it"
+        )
+    return prepared, y_lo, y_hi
+
+
+def _failure(members: list, warm_plan: Plan | None, last: RobustResult | None, log: list[str], solves: int):
+    """The SolverFailure of a call without a plan clean in every member; its best plan is the warm plan if clean."""
+    best = None
+    if warm_plan is not None and not any(warm_plan.verify(weather=m) for m in members):
+        best = warm_plan
+    status = last.status if last is not None else "not solved"
+    return SolverFailure(
+        f"no robust plan verifies in every one of the {len(members)} members after {solves} solve(s) (Ipopt's last "
+        f"status {status}; {log[-1] if log else ''}); widen the corridor, give a later ETA, or plan on fewer members",
+        status=status,
+        best_plan=best,
+    )
+
+
+def _build(prepared, ref, frame, y_lo, y_hi, state, exclusion, t0, solver_options, robust, alpha) -> RobustSpeedNLP:
+    """The stacked NLP for one tightening state."""
+    bands, _, a = formulation_bands(ref.ship, ref.rules, widen=state["widen"], hs_margin=state["hs_margin"])
+    hs_top = max(float(np.max(p.grid.hs_m)) for p in prepared)
+    bands = tuple(b for b in bands if hs_top >= b.hs_min_m)  # bands no member's sea reaches are left out
+    power = ref.power
+    excl = None
+    if exclusion is not None:
+        excl = moving_exclusion(exclusion, frame, t0, extra_radius_nm=state["extra_radius_nm"])
+    return RobustSpeedNLP(
+        frame.geometry(y_lo, y_hi),
+        [p.grid for p in prepared],
+        power,
+        risk="cvar" if robust == "cvar" else "mean",
+        alpha=alpha,
+        bands=bands,
+        exclusion=excl,
+        samples_per_leg=ref.samples_per_leg,
+        v_min_kn=ref.v_min,
+        v_max_kn=ref.v_max,
+        g_over_2pi_kn_s=a,
+        ipopt_options=dict(solver_options),
+    )
+
+
+def _stats(plan, members, res, robust, alpha, reference, objective, ref) -> dict[str, Any]:
+    """The plan's ``solver_stats``: every member's fuel and arrival by the referee, their mean and CVaR."""
+    sailed = [plan.in_weather(m, step_nm=ref.verify_step_nm) for m in members]
+    fuel = np.array([p.total_fuel_t for p in sailed])
+    return {
+        "robust": {
+            "mode": robust,
+            "cvar_alpha": alpha,
+            "objective": objective,
+            "members": len(members),
+            "reference_member": reference,
+            "member_fuel_t": fuel.tolist(),
+            "member_arrival": [format_utc(p.arrival) for p in sailed],
+            "member_duration_h": [p.duration_h for p in sailed],
+            "fuel_mean_t": float(fuel.mean()),
+            "fuel_cvar_t": cvar(fuel, alpha),
+            "nlp_objective": res.objective,
+            "nlp_member_fuel_t": res.member_fuel_t.tolist(),
+            "nlp_var": res.var,
+            "sides_settled": res.sides_settled,
+        },
+        "n_legs": int(np.asarray(plan.waypoints).shape[0] - 1),
+        "samples_per_leg": ref.samples_per_leg,
+    }

@@ -1,0 +1,252 @@
+"""Compiled stage-to-stage transitions of the 3-D DP (Shao et al.), best first under a fuel floor.
+
+:func:`optroute.search.dp.solve_dp` keeps, per (stage, lateral, arrival-time
+bin), the label of least (fuel, arrival time); the transitions into one bin
+come from every source state and speed whose leg ends in it.  With the
+compiled leg costing (:func:`optroute.search.passage_kernels.cost_dp_leg`,
+the physics functions the referee uses) the DP costed *every* such
+transition, and spent as long again finding each leg's piece geometry
+(``numpy.unique`` over millions of rows).  Here, per stage:
+
+1. :func:`enumerate_candidates` lists the transitions (source state,
+   destination lateral, speed) whose arrival time — the leg's length over the
+   commanded speed over ground, known before any physics — falls inside the
+   horizon and a bin, with a lower bound on the fuel label they would reach:
+   the source's fuel plus the leg's duration times :func:`fuel_floor_tph`;
+2. :func:`resolve` takes each destination bin's candidates in order of that
+   bound and costs them (:func:`~optroute.search.passage_kernels.cost_dp_leg`,
+   each leg's pieces computed once per stage) only while the bound does not
+   exceed the best label found, so every candidate left uncosted would have
+   lost; ties of (fuel, time) go to the first candidate in the order
+   (source state, destination, speed), as the DP's stable sort does;
+3. the caller checks the winner against the no-go areas (a Python callable)
+   and, where it fails, :func:`resolve` resumes with it struck out.
+
+The winner of each bin is therefore the candidate of least (fuel, time,
+order) that is feasible and clear of the no-go areas, as with every
+transition costed.  The bound: a feasible piece's fuel rate is at least
+``fuel_rate(max(P_calm(v), P_min))`` at its speed through water ``v``
+(Kwon's loss is floored at 0, an allowed power is at least the minimum load,
+the IMO GHG4 fuel rate increases with the power), and ``v >= SOG - |current|``
+(the velocity triangle); see :func:`optroute.physics.pointwise.cost_rate_floor`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from optroute import units
+from optroute._numba import jit
+from optroute.physics.pointwise import P_MIN_POWER, calm_power, fuel_rate
+from optroute.search.passage_kernels import cost_dp_leg
+from optroute.weather.sample import N_POINT_FIELDS
+
+_FLOOR_SLACK = 1.0 - 1e-9  # rounding room: the bound stays below the kernel's sum over pieces
+_CURRENT_SLACK = 1.0 + 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class LegGeometry:
+    """The pieces of a set of DP legs (``PassagePhysics.dp_leg``'s): length [nm], midpoints [deg], course [deg true]."""
+
+    dist_nm: np.ndarray
+    n_pieces: np.ndarray
+    frac: np.ndarray
+    lat_deg: np.ndarray
+    lon_deg: np.ndarray
+    course_deg: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class DPLegKernel:
+    """What :func:`optroute.search.dp.solve_dp` needs to cost its transitions in compiled code.
+
+    Attached as ``leg_cost.dp_kernel`` by :meth:`optroute.search.routing.PassagePhysics.dp_leg`
+    when the compiled kernels apply; the callback itself stays the reference (and costs the path).
+
+    Attributes
+    ----------
+    params : ndarray
+        :func:`optroute.physics.pointwise.point_params`.
+    weather : tuple
+        :class:`optroute.weather.sample.PointWeather` fields.
+    pieces : callable
+        ``pieces(lat0, lon0, lat1, lon1) -> (dist_nm, n_pieces (n, 1), frac, lat, lon, course)``,
+        the callback's own leg geometry.
+    uncovered : callable
+        ``uncovered(n)``: records ``n`` points sampled outside the weather (and one call).
+    """
+
+    params: np.ndarray
+    weather: tuple
+    pieces: Callable
+    uncovered: Callable[[int], None]
+
+    def geometry(self, lat0: np.ndarray, lon0: np.ndarray, lat1: np.ndarray, lon1: np.ndarray) -> LegGeometry:
+        """The pieces of the legs (lat0, lon0) → (lat1, lon1) [deg], as contiguous arrays."""
+        dist, n_pc, f, lat, lon, course = self.pieces(lat0, lon0, lat1, lon1)
+        c = np.ascontiguousarray
+        return LegGeometry(
+            c(dist, dtype=float),
+            c(n_pc[:, 0], dtype=np.int64),
+            c(f, dtype=float),
+            c(lat, dtype=float),
+            c(lon, dtype=float),
+            c(course, dtype=float),
+        )
+
+    def current_kn(self) -> float:
+        """The strongest current of the weather [kn] (interpolation never exceeds its grid's largest)."""
+        fields = self.weather[0]
+        speed = np.hypot(fields[6], fields[7])
+        return float(np.nanmax(speed)) / units.MS_PER_KN if np.isfinite(speed).any() else 0.0
+
+    def floor_tph(self, speeds_kn: np.ndarray) -> np.ndarray:
+        """A lower bound on the fuel rate [t/h] of any feasible leg at each commanded SOG [kn]."""
+        return fuel_floor_tph(self.params, np.ascontiguousarray(speeds_kn, dtype=float), self.current_kn())
+
+
+@jit
+def fuel_floor_tph(p, sog_kn, current_kn):  # pragma: no cover - compiled
+    """``fuel_rate(max(P_calm(max(SOG - |c|, 0)), P_min))`` per commanded SOG, lowered by a rounding slack [t/h]."""
+    out = np.empty(sog_kn.size)
+    for i in range(sog_kn.size):
+        v = max(sog_kn[i] - current_kn * _CURRENT_SLACK, 0.0)
+        out[i] = fuel_rate(p, max(calm_power(p, v), p[P_MIN_POWER])) * _FLOOR_SLACK
+    return _nonnegative(out)
+
+
+@jit
+def _nonnegative(a):  # pragma: no cover - compiled
+    """``a`` with negative and NaN entries set to 0 (a floor must never be above the truth)."""
+    for i in range(a.size):
+        if not a[i] > 0.0:
+            a[i] = 0.0
+    return a
+
+
+@jit
+def enumerate_candidates(
+    src_l, src_t, src_f, dest, speeds, floor_tph, geom_of, dist, step, rem_next, vmax, horizon, t_ref, dt, n_bins
+):  # pragma: no cover - compiled
+    """The transitions of one stage that end inside the horizon and a bin, in the order (source, destination, speed).
+
+    Parameters
+    ----------
+    src_l, src_t, src_f : ndarray, shape (n_src,)
+        Source states: lateral index, exact time [h], fuel [t].
+    dest : ndarray of int
+        Destination laterals.
+    speeds, floor_tph : ndarray, shape (n_speeds,)
+        Commanded SOG [kn] and the fuel-rate floor there [t/h].
+    geom_of : ndarray of int, shape (n_lat, n_lat)
+        Geometry index of the leg (source lateral, destination lateral).
+    dist : ndarray
+        Leg lengths [nm] by geometry.
+    step : int
+        Largest lateral change (< 0: any).
+    rem_next : ndarray
+        Distance from each destination lateral to the end [nm].
+    vmax, horizon, t_ref, dt : float
+        Top speed [kn], horizon [h], bin origin [h] and width [h].
+    n_bins : int
+
+    Returns
+    -------
+    src, lj, vi : ndarray of int
+        Source index, destination lateral, speed index of each candidate.
+    t1 : ndarray
+        Arrival [h] (source time + length / SOG, as the leg kernel's duration).
+    key : ndarray of int
+        ``lj * n_bins + bin``.
+    lb : ndarray
+        Lower bound of the fuel label reached [t].
+    """
+    cap = src_l.size * dest.size * speeds.size
+    o_src = np.empty(cap, dtype=np.int64)
+    o_lj = np.empty(cap, dtype=np.int64)
+    o_vi = np.empty(cap, dtype=np.int64)
+    o_t1 = np.empty(cap)
+    o_key = np.empty(cap, dtype=np.int64)
+    o_lb = np.empty(cap)
+    n = 0
+    for s in range(src_l.size):
+        l0 = src_l[s]
+        for a in range(dest.size):
+            lj = dest[a]
+            if step >= 0 and abs(lj - l0) > step:
+                continue
+            g = geom_of[l0, lj]
+            tail = rem_next[lj] / vmax
+            for v in range(speeds.size):
+                dur = dist[g] / speeds[v]
+                t1 = src_t[s] + dur
+                if not t1 + tail <= horizon + 1e-9:
+                    continue
+                b = math.floor((t1 - t_ref) / dt)
+                if b < 0 or b >= n_bins:
+                    continue
+                o_src[n], o_lj[n], o_vi[n], o_t1[n] = s, lj, v, t1
+                o_key[n] = lj * n_bins + b
+                o_lb[n] = src_f[s] + floor_tph[v] * dur
+                n += 1
+    return o_src[:n], o_lj[:n], o_vi[:n], o_t1[:n], o_key[:n], o_lb[:n]
+
+
+@jit
+def _beats(f, t, i, bf, bt, bi):  # pragma: no cover - compiled
+    """(f, t, i) before (bf, bt, bi) lexicographically."""
+    return f < bf or (f == bf and (t < bt or (t == bt and i < bi)))
+
+
+@jit
+def resolve(
+    p, w, geo_lat, geo_lon, geo_course, geo_frac, geo_n, dist, geom_of, speeds,
+    order, group_start, unresolved, ptr, costed, fuel1, rejected,
+    src, lj, vi, t1, lb, src_l, src_t, src_f,
+):  # fmt: skip  # pragma: no cover - compiled
+    """Per unresolved group (one destination bin), its best (fuel, time, order) candidate not yet struck out.
+
+    Costs each group's candidates in order of their bound ``lb`` only while the bound does
+    not exceed the best label found (``ptr`` holds each group's progress, ``costed`` /
+    ``fuel1`` the labels: NaN where infeasible).  Returns ``(best candidate per group or -1,
+    legs costed, uncovered points)``.
+    """
+    sea = np.empty(N_POINT_FIELDS)
+    best_out = np.full(unresolved.size, -1, dtype=np.int64)
+    n_costed = 0
+    uncovered = 0
+    for u in range(unresolved.size):
+        grp = unresolved[u]
+        lo, hi = group_start[grp], group_start[grp + 1]
+        bf, bt, bi = np.inf, np.inf, -1
+        for r in range(lo, ptr[grp]):  # the labels already found, less those struck out
+            c = order[r]
+            if costed[c] and not rejected[c] and math.isfinite(fuel1[c]) and _beats(fuel1[c], t1[c], c, bf, bt, bi):
+                bf, bt, bi = fuel1[c], t1[c], c
+        r = ptr[grp]
+        while r < hi and lb[order[r]] <= bf:
+            c = order[r]
+            s = src[c]
+            g = geom_of[src_l[s], lj[c]]
+            sog = speeds[vi[c]]
+            ok, f_sum, _, _, unc = cost_dp_leg(
+                p, w, geo_lat, geo_lon, geo_course, geo_frac, geo_n, g, src_t[s], sog, dist, sea
+            )
+            uncovered += unc
+            n_costed += 1
+            costed[c] = True
+            if ok:
+                fuel1[c] = src_f[s] + f_sum * (dist[g] / sog)
+                if _beats(fuel1[c], t1[c], c, bf, bt, bi):
+                    bf, bt, bi = fuel1[c], t1[c], c
+            else:
+                fuel1[c] = np.nan
+            r += 1
+        ptr[grp] = r
+        best_out[u] = bi
+    return best_out, n_costed, uncovered

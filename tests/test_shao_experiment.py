@@ -1,0 +1,74 @@
+"""Shao et al.'s (3-D DP) experiment: its constant-speed baseline by hand, and the DP never worse than it.
+
+Cheap on purpose: 3 legs of ~1 800 nm, three speeds, 300 nm lateral spacing.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import optroute as orx
+from benchmarks import shao_experiment as se
+
+LEGS = 3
+SPEEDS_KN = (16.0, 20.0, 24.0)
+
+
+@pytest.fixture(scope="module")
+def ship() -> orx.Ship:
+    return orx.Ship.preset(se.SHIP)
+
+
+def _hand_fuel_t(speed_kn: float) -> float:
+    """Constant speed on the equator in calm water, worked from the preset's published particulars.
+
+    ``container_54k_dwt``: MCR 36 500 kW; 24 kn at 85 % MCR with a 15 % sea margin, so the calm-water
+    power at 24 kn is 0.85 · 36 500 / 1.15 kW and the admiralty law scales it with the cube of the
+    speed; SFOC 175 g/kWh × (0.455 L² − 0.710 L + 1.280), L = P / MCR (IMO GHG study curve). The
+    distance is a quarter of the WGS84 equator, a π / 2 / 1 852 nm (a = 6 378 137 m).
+    """
+    p_kw = 0.85 * 36_500.0 / 1.15 * (speed_kn / 24.0) ** 3
+    load = p_kw / 36_500.0
+    sfoc = 175.0 * (0.455 * load**2 - 0.710 * load + 1.280)
+    dist_nm = 6_378_137.0 * math.pi / 2.0 / 1852.0
+    return sfoc * p_kw * 1e-6 * dist_nm / speed_kn
+
+
+def test_baseline_fuel_is_the_hand_worked_constant_speed_figure_without_islands(ship):
+    wx = orx.scenarios.calm((-15.0, 15.0, -5.0, 95.0), duration_h=400.0, resolution_deg=1.0)
+    wx.attrs["geography"] = "synthetic"  # Shao et al.'s equator crosses Africa: their sea is synthetic
+    t0 = wx.time.values[0]
+    curve = se.baseline_curve(wx, ship, t0, se.dp_options(legs=LEGS, dy_nm=300.0), np.array([18.0]), 400.0,
+                              referee=False)  # fmt: skip
+    assert curve["distance_nm"][0] == pytest.approx(6_378_137.0 * math.pi / 2.0 / 1852.0, rel=1e-6)
+    assert curve["arrival_h"][0] == pytest.approx(curve["distance_nm"][0] / 18.0, rel=1e-9)
+    assert curve["fuel_t"][0] == pytest.approx(_hand_fuel_t(18.0), rel=1e-6)
+
+
+def test_fw_estimate_is_circ796_by_hand(ship):
+    """f_w = 0.0208 ln(0.7 · 54 000) + 0.633 (MEPC.1/Circ.796 container curve, Capacity 70 % DWT)."""
+    fw = 0.0208 * math.log(0.7 * 54_000.0) + 0.633
+    assert se.fw_factor(ship) == pytest.approx(fw, rel=1e-12)
+    v_calm = 18.0 / fw
+    p_kw = 0.85 * 36_500.0 / 1.15 * (v_calm / 24.0) ** 3
+    sfoc = 175.0 * (0.455 * (p_kw / 36_500.0) ** 2 - 0.710 * p_kw / 36_500.0 + 1.280)
+    assert se.fw_fuel_t(ship, 18.0, 300.0) == pytest.approx(sfoc * p_kw * 1e-6 * 300.0, rel=1e-9)
+    assert math.isnan(se.fw_fuel_t(ship, 25.0, 300.0))  # 25 / 0.852 kn is beyond the calm speed at MCR
+
+
+def test_dp_is_never_worse_than_the_baselines_own_route_and_speed(ship):
+    """Each constant-speed shortest safe route is one of the DP's candidates on its lattice (case I)."""
+    wx = orx.scenarios.shao_case(1)
+    t0 = wx.time.values[0]
+    dp = {**se.dp_options(legs=LEGS, dy_nm=300.0), "horizon_h": 360.0}
+    curve = se.baseline_curve(wx, ship, t0, dp, np.array(SPEEDS_KN), 360.0, referee=False)
+    assert np.isfinite(curve["fuel_t"]).all()
+    full = se.search(wx, ship, t0, dp, speeds_kn=list(SPEEDS_KN))
+    end_h = np.asarray(full.stats["curve_bin_end_h"], float)
+    fuel = np.asarray(full.stats["curve_fuel_t"], float)
+    for arrival, base in zip(curve["arrival_h"], curve["fuel_t"], strict=True):
+        eta = math.floor(arrival) + 1.0  # the end of the 1 h arrival bin the baseline lands in
+        assert se.dp_at(end_h, fuel, eta) <= base * (1.0 + 1e-12)

@@ -1,0 +1,56 @@
+"""Compile optroute's numba kernels once, into the on-disk cache, before pytest-xdist starts its workers.
+
+Run by ``tests/conftest.py`` (``pytest_configure``, in the xdist controller only, ``-n 2`` or more) as
+``python -m tests.warm_kernels`` from the checkout, so that it compiles this checkout's kernels. On a clean clone numba has no cache yet, so every worker would compile
+each kernel it meets for itself (tens of CPU-seconds per process) until another process has written it;
+compiled here first, the workers and the tests' subprocesses load them from the cache instead. The calls
+are tiny problems through the public API, so the kernels compile with the argument types the suite
+uses; a kernel missed here is simply compiled by the first test that needs it, as before. Nothing is
+asserted: the tests check the results.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+
+def warm() -> None:
+    """Run each kernel family once on a tiny problem (search, Kwon's inversion, the sampler, sailing)."""
+    import optroute as orx
+    from optroute.physics.performance import KwonModel
+    from optroute.physics.polar import Polar
+    from optroute.physics.yacht import SailingVessel
+    from optroute.search.sailing import SailingGrid, search_sailing_route
+    from optroute.weather import WeatherSampler
+    from optroute.weather.schema import canonical_dataset
+
+    t0 = np.datetime64("2024-01-10T00:00", "ns")
+    ship = orx.Ship.preset("container_54k_dwt")
+    wx = orx.scenarios.uniform(
+        hs_m=2.5, tp_s=8.0, bbox=(25, 35, -155, -135), start=t0, duration_h=48, resolution_deg=1.0
+    )
+    KwonModel(ship).brake_power_kw(np.array([18.0]), hs_m=np.array([2.0]), wave_angle_deg=np.array([30.0]))
+    for n in (5_000, 200_000):  # the sampler's serial and parallel kernels
+        when = np.full(n, t0 + np.timedelta64(5, "h"))
+        WeatherSampler(wx, engine="numba").sample(when, np.full(n, 30.0), np.linspace(-150.0, -140.0, n))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for objective in ("time", "fuel"):
+            orx.search_route(
+                (30.0, -150.0), (31.0, -145.0), wx, ship, departure=t0, objective=objective, cell_nm=60,
+                use_land_mask=False,
+            )  # fmt: skip
+    polar = Polar([0.0, 40.0, 90.0, 180.0], [5.0, 20.0], [[0, 0], [4.0, 6.0], [6.0, 8.0], [5.0, 7.0]], name="warm")
+    cell = 1.0 / 60.0
+    wind = canonical_dataset(
+        np.array([t0]), np.linspace(-0.2, 0.4, 7), np.linspace(-0.3, 0.3, 7),
+        {"wind_u_ms": 0.0, "wind_v_ms": -5.0}, attrs={"source": "warm-up", "geography": "synthetic"},
+    )  # fmt: skip
+    grid = SailingGrid(np.arange(7) * cell, np.arange(-2, 3) * cell)
+    search_sailing_route((0.0, 0.0), (6 * cell, 0.0), wind, SailingVessel(polar, name="warm"), departure=t0, grid=grid)
+
+
+if __name__ == "__main__":
+    warm()
