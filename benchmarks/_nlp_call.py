@@ -40,20 +40,24 @@ def _case() -> dict[str, Any]:
 
 
 def whole_call(
-    quick: bool, sizes: tuple[int, ...] | None = None, jits: tuple[bool, ...] | None = None
+    quick: bool,
+    sizes: tuple[int, ...] | None = None,
+    jits: tuple[bool, ...] | None = None,
+    repeats: int | None = None,
 ) -> dict[str, Any]:
-    """Time ``optimise_corridor`` at a few leg counts (jit off and on alternated in full mode)."""
+    """Time ``optimise_corridor`` at a few leg counts (jit off and on alternated in full mode), ``repeats`` rounds."""
     import optroute as orx
 
     c = _case()
     length = c.pop("length_nm")
     sizes = sizes or ((31, 62) if quick else (124, 248, 496))
     jits = jits or ((False,) if quick else (False, True))
+    repeats = repeats or (2 if quick else 3)
     rows = []
     for n in sizes:
         kw = {**c, "max_leg_nm": length / n * (1 + 1e-9)}
         variants = {f"jit={j}": (lambda j=j, kw=kw: orx.optimise_corridor(**kw, jit=j)) for j in jits}
-        alt = alternate(variants, repeats=2 if quick else 3)
+        alt = alternate(variants, repeats=repeats)
         for name, t in alt.timings.items():
             st = alt.results[name].solver_stats
             rows.append({
@@ -67,7 +71,7 @@ def whole_call(
     off = [r for r in rows if r["variant"] == "jit=False"]
     exponent = (float(np.polyfit(np.log([r["legs"] for r in off]), np.log([r["median_s"] for r in off]), 1)[0])
                 if len(off) > 1 else float("nan"))  # fmt: skip
-    return {"rows": rows, "exponent": exponent, "repeats": 2 if quick else 3}
+    return {"rows": rows, "exponent": exponent, "repeats": repeats}
 
 
 def print_whole_call(w: dict[str, Any]) -> None:
@@ -84,7 +88,47 @@ def print_whole_call(w: dict[str, Any]) -> None:
         print(f"| {r['legs']} | {r['variant']} | {r['min_s']:.2f} | {r['median_s']:.2f} | {r['ratio_to_jit_off']:.2f} | "
               f"{r['build_s']:.2f} | {r['ipopt_s']:.2f} | {r['nlp_solves']} | {r['iterations']} | {r['status']} | "
               f"{r['load_before']:.1f} → {r['load_after']:.1f} |")  # fmt: skip
+    if not any(r["variant"] == "jit=True" for r in w["rows"]):
+        print(f"\n(jit=True not timed here: compiling takes minutes. {JIT_MEASURED}.)")
     med = statistics.median(r["median_s"] for r in w["rows"])
     print(
         f"\nfitted exponent of the whole call (jit=False): time ∝ N^{w['exponent']:.2f}; median of the medians {med:.2f} s"
     )
+
+
+JIT_MEASURED = (
+    "jit=True, measured whole with `python -m benchmarks.bench_nlp --jit` (2 December 2026, 2 shared cores, load "
+    "3–17): 1.9× as long as jit=False at 100 legs (median of 2 alternated calls), 1.8× at 300 legs (one call each); "
+    "the C compilation in every call's build ~220 s and ~120 s, the Ipopt time 0.70× and 0.94× — the figure in "
+    "`optimise_corridor`'s `jit` docstring"
+)
+"""The last ``--jit`` measurement, printed where a run does not time ``jit=True`` (quick mode)."""
+
+JIT_SIZES = (100, 300)
+"""The corridors of the ``jit`` measurement (``python -m benchmarks.bench_nlp --jit``): ~100 and ~300 legs."""
+
+
+def jit_whole_call(repeats: int = 2) -> dict[str, Any]:
+    """``jit=False`` against ``jit=True``, whole calls alternated after a warm-up of each, per size printed as it ends.
+
+    The C compilation is in every ``jit=True`` call's build (every call builds); it is reported apart as
+    the build time with jit minus the build time without (medians of the calls' own ``solver_stats``).
+    """
+    rows, summary = [], []
+    for n in JIT_SIZES:
+        w = whole_call(False, sizes=(n,), jits=(False, True), repeats=repeats)
+        print_whole_call(w)
+        rows += w["rows"]
+        off, on = (next(r for r in w["rows"] if r["variant"] == v) for v in ("jit=False", "jit=True"))
+        summary.append({
+            "legs": off["legs"], "median_ratio_on_to_off": on["median_s"] / off["median_s"],
+            "min_ratio_on_to_off": on["min_s"] / off["min_s"], "compile_s": on["build_s"] - off["build_s"],
+            "ipopt_ratio_on_to_off": on["ipopt_s"] / off["ipopt_s"], "warmup_on_s": on["warmup_s"],
+        })  # fmt: skip
+    print("\n| legs | whole call jit=True / jit=False (median, min) | Ipopt time jit=True / jit=False | "
+          "compile (build with jit − without) [s] |")  # fmt: skip
+    print("|---:|---:|---:|---:|")
+    for s in summary:
+        print(f"| {s['legs']} | {s['median_ratio_on_to_off']:.2f}, {s['min_ratio_on_to_off']:.2f} | "
+              f"{s['ipopt_ratio_on_to_off']:.2f} | {s['compile_s']:.1f} |")  # fmt: skip
+    return {"rows": rows, "summary": summary, "repeats": repeats}

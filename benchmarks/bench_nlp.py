@@ -37,7 +37,9 @@
    centreline, the NLP started from the 3-D DP, and the DP side by side, fuel by the referee, time,
    Ipopt solves and iterations.
 
-Run ``python -m benchmarks.bench_nlp [--quick | --crossing]`` (quick: one repeat, 125–500 legs for the scaling, 62 legs and the coarse DP).
+Run ``python -m benchmarks.bench_nlp [--quick | --crossing | --jit]`` (quick: one repeat, 125–500 legs for the scaling,
+62 legs and the coarse DP; ``--jit``: §2b's whole call at ~100 and ~300 legs, ``jit=False`` against ``jit=True``
+alternated twice after a warm-up of each, the compile time apart — about an hour on a loaded 2-core machine).
 """
 
 from __future__ import annotations
@@ -51,7 +53,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks._cli import bench_main
-from benchmarks._nlp_call import print_whole_call, whole_call
+from benchmarks._nlp_call import jit_whole_call, print_whole_call, whole_call
 from formulations.common import (
     G_OVER_2PI_KN_S,
     Band,
@@ -688,6 +690,9 @@ def run(quick: bool) -> dict[str, Any]:
 def main(argv: list[str] | None = None) -> None:
     if argv is not None and "--crossing" in argv or argv is None and "--crossing" in __import__("sys").argv:
         print_crossing(bench_crossing_storm())  # section 4's storm crossing alone
+        return
+    if argv is not None and "--jit" in argv or argv is None and "--jit" in __import__("sys").argv:
+        jit_whole_call()  # §2b's whole call at ~100 and ~300 legs, jit off and on alternated
         return
     bench_main(run, __doc__.splitlines()[0], "smaller cases, fewer repetitions (about 30 s)", argv)
 

@@ -140,10 +140,12 @@ def optimise_corridor(
         Ipopt/CasADi options for :class:`formulations.speed_nlp.SpeedNLP` (e.g. ``{"ipopt.max_iter": 100}``).
     jit : bool
         Compile the NLP's per-leg derivative functions to C (CasADi's ``"shell"`` plugin; needs a C compiler
-        ``cc`` on the PATH): a few seconds more per build (every call builds, so every call compiles), each Ipopt
-        solve faster, a whole call only a little: about 1.15× faster on a 500-leg corridor (issue 22's measurement;
-        ``benchmarks.bench_nlp`` §2b times the whole call both ways, alternated). Worth it for long corridors and
-        fronts, where builds are reused.
+        ``cc`` on the PATH). Every call builds, so every call compiles, and the compilation costs more than the
+        faster Ipopt solves save: measured whole (``python -m benchmarks.bench_nlp --jit``, §4's great circle, calls
+        alternated after a warm-up of each, 2 December 2026 on 2 shared cores, load 3–17), a call with ``jit=True``
+        took 1.9× as long at 100 legs (median of 2) and 1.8× at 300 legs (one call each); the compilation added
+        ~220 s and ~120 s to the build while the Ipopt time fell only to 0.70× and 0.94×. Leave it off unless the
+        solves dominate and a build is reused.
     use_land_mask : bool, optional
         Apply the real coastline (default: unless the weather declares synthetic geography).
     discrete_start : bool
