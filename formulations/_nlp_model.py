@@ -172,13 +172,25 @@ def jit_compiler() -> str:
 
 
 def jit_options(jit: bool) -> dict[str, Any]:
-    """CasADi options that compile an SX function to C with the system compiler (``"shell"`` plugin)."""
+    """CasADi options that compile an SX function to C with the system compiler (``"shell"`` plugin).
+
+    The generated C source and the compiler's object and library files go to the system's temporary
+    directory (the shell plugin's ``directory`` option, uniquely named, removed when the function is
+    unloaded), never the working directory: a benchmark or a user's project folder is not written.
+    """
     if not jit:
         return {}
+    import tempfile
+
     return {
         "jit": True,
         "compiler": "shell",
-        "jit_options": {"flags": ["-O2"], "verbose": False, "compiler": jit_compiler()},
+        "jit_options": {
+            "flags": ["-O2"],
+            "verbose": False,
+            "compiler": jit_compiler(),
+            "directory": tempfile.gettempdir() + os.sep,
+        },  # fmt: skip
     }
 
 
