@@ -159,14 +159,14 @@ def test_san_clemente_corridor_returns_a_verified_plan_off_land():
 
 
 def test_the_verification_loop_moves_a_leg_off_land_the_bounds_missed(monkeypatch):
-    import optroute.optimise.corridor_problem as cp
+    import optroute.optimise.corridor_setup as setup
 
     def corridor_wide(frame, **kw):  # the old failure: bounds blind to the island
         hi = np.asarray(frame.corridor.half_width_nm, float).copy()
         hi[[0, -1]] = 0.0
         return -hi, hi
 
-    monkeypatch.setattr(cp, "lateral_bounds", corridor_wide)
+    monkeypatch.setattr(setup, "lateral_bounds", corridor_wide)
     plan = _san_clemente_plan()
     _assert_off_land(plan)
     assert any(line.startswith("land cut on leg") for line in plan.solver_stats["tightening"])
