@@ -198,14 +198,9 @@ def _locate(values, x, start, step, uniform):  # pragma: no cover - compiled
 
 
 @jit
-def sample_at(fields, time_s, lat_deg, lon_deg, meta, offset_ns, t_h, lat, lon, out):  # pragma: no cover - compiled
-    """The weather at one point, as :meth:`WeatherSampler.sample` (trilinear; directions as unit vectors).
-
-    ``t_h`` is hours after the departure of :attr:`PointWeather.offset_ns`.
-    Writes Hs [m], period [s], wave-from [deg], wind u, v and current u, v
-    [m/s] into ``out[:7]``; returns False, with NaN written, where the point
-    lies outside the dataset's area or (unless held) time span.
-    """
+def _placed(meta, offset_ns, t_h, lat, lon):  # pragma: no cover - compiled
+    """A point against the grid: its time [s since the epoch], its longitude unwrapped onto the grid's
+    [deg] and whether it lies inside the area and (unless held) the time span."""
     seconds = (offset_ns + np.int64(np.round(t_h * 3.6e12))) / 1e9
     lon0 = meta[_M_X_START]
     lonu = lon0 + (lon - lon0) % 360.0
@@ -216,6 +211,20 @@ def sample_at(fields, time_s, lat_deg, lon_deg, meta, offset_ns, t_h, lat, lon, 
         inside = inside and lonu <= meta[_M_X_STOP] + _EPS_DEG
     if meta[_M_HOLD] == 0.0:
         inside = inside and meta[_M_T_START] <= seconds <= meta[_M_T_STOP]
+    return seconds, lonu, inside
+
+
+@jit
+def sample_at(fields, time_s, lat_deg, lon_deg, meta, offset_ns, t_h, lat, lon, out):  # pragma: no cover - compiled
+    """The weather at one point, as :meth:`WeatherSampler.sample` (trilinear; directions as unit vectors).
+
+    ``t_h`` is hours after the departure of :attr:`PointWeather.offset_ns`.
+    Writes Hs [m], period [s], wave-from [deg], wind u, v and current u, v
+    [m/s] into ``out[:7]``; returns False, with NaN written, where the point
+    lies outside the dataset's area or (unless held) time span.
+    """
+    seconds, lonu, inside = _placed(meta, offset_ns, t_h, lat, lon)
+    lon0 = meta[_M_X_START]
     if not inside:
         out[:7] = np.nan
         return False
@@ -253,16 +262,8 @@ def grid_coordinates_at(time_s, lat_deg, lon_deg, meta, offset_ns, t_h, lat, lon
     policy −0.5 before the time span and ``n_time − 0.5`` after it) into ``out[:3]``; returns False,
     with NaN written, where the point lies outside the area or (unless held) the time span.
     """
-    seconds = (offset_ns + np.int64(np.round(t_h * 3.6e12))) / 1e9
+    seconds, lonu, inside = _placed(meta, offset_ns, t_h, lat, lon)
     lon0 = meta[_M_X_START]
-    lonu = lon0 + (lon - lon0) % 360.0
-    if lonu > lon0 + 360.0 - _EPS_DEG:
-        lonu -= 360.0
-    inside = meta[_M_Y_START] - _EPS_DEG <= lat <= meta[_M_Y_STOP] + _EPS_DEG
-    if meta[_M_PERIODIC] == 0.0:
-        inside = inside and lonu <= meta[_M_X_STOP] + _EPS_DEG
-    if meta[_M_HOLD] == 0.0:
-        inside = inside and meta[_M_T_START] <= seconds <= meta[_M_T_STOP]
     if not inside:
         out[:3] = np.nan
         return False
