@@ -149,6 +149,12 @@ def solve_point(
     carry = retimed_start(warm, eta_h) if kind == "eta" else warm.carry if isinstance(warm, FrontPoint) else warm
     objective = "time" if kind == "minimum_time" else spec.objective if kind == "eta" else "fuel"
     eta = None if eta_h is None else spec.departure + h_to_timedelta(eta_h)
+
+    def failed(status: str) -> FrontPoint:  # the point of a solve that gave no plan, its status saying why
+        return FrontPoint(
+            math.nan if eta_h is None else eta_h, kind, status, _time.perf_counter() - started, carry=carry
+        )
+
     try:
         if kind == "eta" and spec.latest_eta_h is not None and eta_h is not None and eta_h <= spec.latest_eta_h:
             # the problem of optimise_corridor for this ETA from the same warm start; the untightened start (not
@@ -177,9 +183,7 @@ def solve_point(
             )
         else:
             status = f"infeasible: {exc}"
-        return FrontPoint(
-            math.nan if eta_h is None else eta_h, kind, status, _time.perf_counter() - started, carry=carry
-        )
+        return failed(status)
     except SolverFailure as exc:
         if kind == "minimum_time" and exc.best_plan is not None:
             # the minimum-time NLP failed: the front starts from the fastest verified plan known (the search
@@ -191,21 +195,9 @@ def solve_point(
                 status=f"feasible: fastest verified plan known ({best.status}); the minimum-time solve failed: "
                 f"{failure_text(exc)}",
             )
-        return FrontPoint(
-            math.nan if eta_h is None else eta_h,
-            kind,
-            f"solver failure: {failure_text(exc)}",
-            _time.perf_counter() - started,
-            carry=carry,
-        )
+        return failed(f"solver failure: {failure_text(exc)}")
     except WeatherCoverageError as exc:
-        return FrontPoint(
-            math.nan if eta_h is None else eta_h,
-            kind,
-            f"infeasible: {exc}",
-            _time.perf_counter() - started,
-            carry=carry,
-        )
+        return failed(f"infeasible: {exc}")
     arrival_h = float(plan.duration_h)
     return point_from_plan(plan, arrival_h if eta_h is None else eta_h, kind, _time.perf_counter() - started)
 
