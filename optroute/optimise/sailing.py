@@ -151,6 +151,13 @@ def refine_sailing_route(
     sampler = sailing_sampler(weather)
     limit = vessel.polar.no_go_deg + margin_deg
     side_of = np.repeat(sides, n_sub)
+    lon_ax = weather["lon"].values
+    if route.lon_deg.min() - trust_deg < lon_ax[0] or route.lon_deg.max() + trust_deg > lon_ax[-1]:
+        # the NLP reads the wind on the dataset's own axis: a route in another longitude convention (or across
+        # a periodic grid's seam) is left to the SLSQP method, which samples through the weather sampler
+        return keep_graph_route(route, f"not refined: the route's longitudes {route.lon_deg.min():.3f} to "
+                                f"{route.lon_deg.max():.3f} deg do not lie on the wind grid's axis {lon_ax[0]:.3f} to "
+                                f"{lon_ax[-1]:.3f} deg; use method='slsqp'", started)  # fmt: skip
     c_nodes, w_nodes, table, table_err = polar_cos_table(vessel.polar, limit)
     grid, u, v = _wind_box(weather, route.lat_deg, route.lon_deg, route.time[0], trust_deg)
     res = solve_sailing_boards(
