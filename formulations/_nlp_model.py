@@ -245,11 +245,12 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
     names = nlp.weather.field_names
     nf = len(names)
     has_excl = nlp.exclusion is not None
-    frac = nlp.sample_fraction
+    layout = nlp.sample_layout  # fractions and quadrature weights (N, m): per-leg inputs of the leg function
     # ---- per-leg SX function of z_k -------------------------------------------------
     n_theta = 2 + 6 * nf + (18 if has_excl else 0)  # t0, y0, weather Taylor, exclusion Taylor
     z = ca.SX.sym("z", _N_Z)
-    geo = ca.SX.sym("geo", 11)  # c_k, c_k+1, n_k, n_k+1, tangent, the static power factor f_k
+    # c_k, c_k+1, n_k, n_k+1, tangent, the static power factor f_k, the samples' fractions and weights
+    geo = ca.SX.sym("geo", 11 + 2 * m)
     theta = ca.SX.sym("theta", n_theta * m)
     beta = ca.SX.sym("beta", max(nb, 1) * m)
     ya, yb, v, ta, tb = (z[i] for i in range(_N_Z))
@@ -263,7 +264,8 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
     dt_sum = 0.0
     fuel_sum = 0.0
     loads, bands_res, drifts, sogs, excls = [], [[] for _ in range(nb)], [], [], []
-    for j, fj in enumerate(frac):
+    for j in range(m):
+        fj, wj = geo[11 + j], geo[11 + m + j]
         th = theta[j * n_theta : (j + 1) * n_theta]
         ts = ta + fj * (tb - ta)
         ys = ya + fj * (yb - ya)
@@ -278,7 +280,7 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
         col = {name: wvals[i] for i, name in enumerate(names)}
         b_j = [beta[b * m + j] for b in range(nb)]
         phys = sample_physics(
-            v, cos_d, sin_d, length / m, factor, col, b_j, nlp.power, nlp.bands, nlp.g_over_2pi, nlp.weather.ratio_axes
+            v, cos_d, sin_d, length * wj, factor, col, b_j, nlp.power, nlp.bands, nlp.g_over_2pi, nlp.weather.ratio_axes
         )
         dt_sum = dt_sum + phys["dt"]
         fuel_sum = fuel_sum + phys["fuel"]
@@ -330,7 +332,7 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
     # ---- symbolic inputs of the nlpsol derivative functions ---------------------------
     x = ca.MX.sym("x", nx)
     p = ca.MX.sym("p", 2 + k_ * nb + n)  # weights, band edges, per-leg static power factors
-    geo_dm = ca.vertcat(geo_fixed, p[2 + k_ * nb :].T)
+    geo_dm = ca.vertcat(geo_fixed, p[2 + k_ * nb :].T, ca.DM(np.vstack([layout.fraction.T, layout.weight.T])))
     lam_f = ca.MX.sym("lam_f")
     lam_g = ca.MX.sym("lam_g", ng)
     zmat = ca.reshape(x[z_idx.T.ravel().tolist()], _N_Z, n)
@@ -338,12 +340,13 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
     # sample coordinates and the Taylor data of the weather at x
     y_a, y_b = zmat[0, :], zmat[1, :]
     t_a, t_b = zmat[3, :], zmat[4, :]
-    fr = ca.DM(np.tile(frac, n)[None, :])
+    frac = layout.fraction.ravel()  # leg-major: k·m + j
+    fr = ca.DM(frac[None, :])
     rep = np.repeat(legs, m).tolist()
     t_s = t_a[:, rep] + fr * (t_b[:, rep] - t_a[:, rep])
     y_s = y_a[:, rep] + fr * (y_b[:, rep] - y_a[:, rep])
     s = cor.s_nm
-    s_s = ca.DM((np.repeat(s[:-1], m) + np.tile(frac, n) * np.repeat(np.diff(s), m))[None, :])
+    s_s = ca.DM((np.repeat(s[:-1], m) + frac * np.repeat(np.diff(s), m))[None, :])
     pts = ca.vertcat(t_s, s_s, y_s)
 
     def theta_at(order: int) -> Any:

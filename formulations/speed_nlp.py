@@ -91,6 +91,7 @@ from formulations.common import (
     WeatherGrid,
     broadcast_legs,
 )
+from formulations.sample_layout import SampleLayout, midpoint_layout
 
 __all__ = [
     "CorridorGeometry",
@@ -290,6 +291,11 @@ class SpeedNLP:
     exact_hessian : bool
         Keep the weather's second derivatives in the Hessian (see
         :func:`formulations._nlp_model.structured_derivatives`; default False).
+    sample_layout : SampleLayout, optional
+        Where every leg is sampled (:mod:`formulations.sample_layout`): fractions (N, M) along the leg and
+        quadrature weights; replaces the midpoint rule of ``samples_per_leg`` (then ``samples_per_leg``
+        becomes ``M``). Row-only points (weight 0) put the load, band and exclusion rows where a referee
+        checks the plan.
     """
 
     def __init__(
@@ -312,17 +318,21 @@ class SpeedNLP:
         jit: bool = False,
         exact_hessian: bool = False,
         build_solver: bool = True,
+        sample_layout: SampleLayout | None = None,
     ) -> None:
         started = time.perf_counter()
         n = corridor.n_legs
-        if not (isinstance(samples_per_leg, int | np.integer) and samples_per_leg >= 1):
-            raise FormulationInputError(f"samples_per_leg must be an integer >= 1, got {samples_per_leg!r}")
-        m = int(samples_per_leg)
+        layout = midpoint_layout(n, samples_per_leg) if sample_layout is None else sample_layout
+        if not isinstance(layout, SampleLayout) or layout.n_legs != n:
+            raise FormulationInputError(f"sample_layout must be a SampleLayout of {n} legs, got {layout!r}")
+        m = layout.per_leg
+        self.sample_layout = layout
         self.corridor, self.weather, self.power = corridor, weather, power
         self.bands = tuple(bands)
         self.exclusion = exclusion
         self.n_legs, self.samples_per_leg, self.n_bands = n, m, len(self.bands)
-        self.sample_fraction = (np.arange(m) + 0.5) / m
+        # (M,) for a layout that is the same on every leg (the midpoint rule), else (N, M)
+        self.sample_fraction = layout.fraction[0] if layout.uniform else layout.fraction
         self.v_min_kn = broadcast_legs(v_min_kn, n, "v_min_kn")
         self.v_max_kn = broadcast_legs(v_max_kn, n, "v_max_kn")
         if (self.v_min_kn <= 0).any() or (self.v_max_kn < self.v_min_kn).any():
@@ -383,7 +393,8 @@ class SpeedNLP:
         cor = self.corridor
         n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
         k_ = n * m
-        frac = np.tile(self.sample_fraction, n)[:, None]
+        frac = self.sample_layout.fraction.reshape(-1, 1)  # leg-major: k·M + j
+        weight = ca.DM(self.sample_layout.weight.reshape(-1, 1))
         c, nrm, tau, s = cor.centre_xy_nm, cor.normal_xy, cor.tangent_xy, cor.s_nm
         px = c[:, 0:1] + y * nrm[:, 0:1]
         py = c[:, 1:2] + y * nrm[:, 1:2]
@@ -398,7 +409,7 @@ class SpeedNLP:
         yf_s = _rep(py[:-1], m) + frac * _rep(dy, m)
         fields = self._interp_map(ca.horzcat(t_s, s_s, y_s).T)  # (n_fields, K)
         rows = ca.vertcat(
-            _rep(v, m).T, _rep(cos_d, m).T, _rep(sin_d, m).T, _rep(length / m, m).T, _rep(fac, m).T, fields
+            _rep(v, m).T, _rep(cos_d, m).T, _rep(sin_d, m).T, (_rep(length, m) * weight).T, _rep(fac, m).T, fields
         )
         if nb:
             rows = ca.vertcat(rows, ca.reshape(beta, k_, nb).T)

@@ -79,6 +79,7 @@ def optimise_corridor(
     dp_options: Mapping[str, Any] | None = None,
     robust: Literal["all", "cvar"] | None = None,
     cvar_alpha: float = 0.0,
+    constraint_rows: Literal["referee", "midpoints"] = "referee",
 ) -> Plan:
     """Optimise the waypoints and leg speeds inside a corridor: the corridor NLP, verified.
 
@@ -115,7 +116,13 @@ def optimise_corridor(
     max_leg_nm : float
         Longest NLP leg [nm]; the corridor is resampled on its great circles.
     samples_per_leg : int
-        NLP samples per leg (constraints and the midpoint-rule time and fuel).
+        NLP samples per leg of the midpoint-rule time and fuel (every constraint is imposed there too).
+    constraint_rows : {"referee", "midpoints"}
+        Where the NLP's engine-load, band and exclusion rows sit besides the midpoints: ``"referee"``
+        also at the referee's check points of the start's plan (leg ends, weather-grid crossings, points
+        near band edges; :mod:`optroute.optimise.rows`), so that a converged plan passes
+        :meth:`Plan.verify` on the first try; ``"midpoints"`` only at the midpoints (the former
+        placement, kept to measure the difference: ``solver_stats["first_solve"]``).
     fuel_price_per_t, hourly_cost_per_h : float
         For ``"cost"`` [currency/t], [currency/h].
     exclusion : Exclusion, optional
@@ -241,6 +248,7 @@ def optimise_corridor(
         use_land_mask=use_land_mask,
         progress=progress,
         jit=jit,
+        constraint_rows=constraint_rows,
     )
     plan = _solve_honestly(
         prepared, eta, eta_mode=eta_mode, objective=objective, warm_plan=warm_plan, route=route, progress=progress
@@ -353,7 +361,8 @@ def _robust(robust: Any, weather: Any, args: dict[str, Any]) -> Plan:
             "(optroute.weather.scenarios.member(ds, k) or ds.isel(member=k)), or pass robust='all' (or 'cvar') for "
             "one plan that is safe in every member"
         )
-    kw = {k: v for k, v in args.items() if k not in ("corridor", "weather", "ship", "PreparedCorridor")}
+    skip = ("corridor", "weather", "ship", "PreparedCorridor", "constraint_rows")
+    kw = {k: v for k, v in args.items() if k not in skip}
     return optimise_robust(args["corridor"], weather, args["ship"], **kw)
 
 

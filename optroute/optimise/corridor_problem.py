@@ -53,6 +53,7 @@ from optroute.optimise.rescue import (
     tighten,
     to_plan,
 )
+from optroute.optimise.rows import ROW_PLACEMENTS, points_of, referee_rows
 from optroute.optimise.starts import (
     ENGINE_KINDS,
     Candidate,
@@ -104,6 +105,7 @@ class _Call:
     last: Solved | None = None
     last_violations: list[Violation] = field(default_factory=list)
     retries: int = 0
+    first_solve: str | None = None  # the first solve's verdict: "verified", "mended", "rejected: ...", "Ipopt ..."
 
 
 class PreparedCorridor:
@@ -113,7 +115,8 @@ class PreparedCorridor:
     ----------
     corridor, weather, ship, departure, model, rules, max_leg_nm, samples_per_leg, fuel_price_per_t,
     hourly_cost_per_h, exclusion, speed_range_kn, band_solves, max_retries,
-    band_margin, band_hs_margin, verify_step_nm, solver_options, use_land_mask, jit, discrete_start, dp_options
+    band_margin, band_hs_margin, verify_step_nm, solver_options, use_land_mask, jit, discrete_start, dp_options,
+    constraint_rows
         As in :func:`optroute.optimise_corridor`.
     latest_eta : datetime64 or str, optional
         The latest ETA to be solved [UTC]: the weather grid (and the ship's power table on it) runs
@@ -157,7 +160,14 @@ class PreparedCorridor:
         jit: bool = False,
         discrete_start: bool = False,
         dp_options: Mapping[str, Any] | None = None,
+        constraint_rows: str = "referee",
     ) -> None:
+        if constraint_rows not in ROW_PLACEMENTS:
+            raise ConfigError(
+                f"constraint_rows={constraint_rows!r} is not known; use 'referee' (the NLP's rows at the referee's "
+                "check points of its start) or 'midpoints' (at the quadrature's midpoints only)"
+            )
+        self.constraint_rows = constraint_rows
         if objective not in ("time", "fuel", "cost"):
             raise ConfigError(f"objective={objective!r} is not known; use 'time', 'fuel' or 'cost'")
         if not isinstance(corridor, Corridor):
@@ -510,6 +520,8 @@ class PreparedCorridor:
         prob, st = self.problem, self._tightening()
         st.log = call.log
         warm = clear_of_exclusion(dict(cand.warm), self.frame, self.exclusion, self.departure, self.y_lo, self.y_hi)
+        if self.constraint_rows == "referee":
+            st.row_points = referee_rows(call.ctx, self.frame, warm, self.departure, self.verify_step_nm)
         for attempt in range(self.max_retries + 1):
             emit(call.progress, "solve", 0.2 + 0.7 * attempt / (self.max_retries + 1))
             nlp = prob.build(st)
@@ -526,8 +538,12 @@ class PreparedCorridor:
             at_limit = sol.res.status in LIMIT_STATUSES and not np.any(sol.res.samples.inside)
             if not sol.ok and not at_limit:
                 call.log.append(f"attempt {attempt}: Ipopt {sol.res.status}")
+                call.first_solve = call.first_solve or f"Ipopt {sol.res.status}"
                 break
             found, plan, violations = self._verified(call, sol, attempt)
+            if call.first_solve is None:
+                verdict = "rejected: " + ", ".join(sorted({v.kind for v in violations}))
+                call.first_solve = verdict if found is None else ("mended" if found[1].mended_legs else "verified")
             if found is not None:
                 return found[0], found[1], eta_solve
             call.last_violations = violations
@@ -535,6 +551,8 @@ class PreparedCorridor:
                 break
             st.retries += 1
             tighten(st, violations, plan, sol.res)
+            if self.constraint_rows == "referee" and getattr(violations, "points", None) is not None:
+                st.row_points = points_of(violations.points, plan.waypoints)  # the rejected plan's check points
             call.retries, call.samples_per_leg = st.retries, st.samples_per_leg
             warm = {"offset_nm": sol.res.offset_nm, "stw_kn": sol.res.stw_kn}
         return None
@@ -679,6 +697,9 @@ class PreparedCorridor:
             "nlp_score": nlp_score,
             "stage_time_s": call.stage_s,
             "retries": call.retries,
+            "first_solve": call.first_solve or "not run",
+            "constraint_rows": self.constraint_rows,
+            "row_samples_per_leg": call.last.nlp.samples_per_leg if call.last is not None else None,
             "tightening": list(call.log),
             "power_table": self._table_stats(),
             "n_legs": self.frame.n_legs,

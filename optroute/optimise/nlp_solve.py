@@ -25,6 +25,7 @@ from formulations.speed_nlp import NLPResult, SpeedNLP
 from optroute import units
 from optroute.geo.tracks import Exclusion, gc_points, project_to_polyline
 from optroute.optimise.nlp_inputs import CorridorFrame, formulation_bands, moving_exclusion
+from optroute.optimise.rows import sample_layout
 from optroute.physics.passage import best_speed
 from optroute.physics.safety import BandRules
 from optroute.physics.ship import Ship
@@ -68,6 +69,8 @@ class Tightening:
     y_hi: np.ndarray | None = None  # (None: the prepared ones; see optroute.optimise.lateral.avoid_point)
     retries: int = 0
     log: list[str] = field(default_factory=list)
+    # row-only samples per leg, fractions [-] of the referee's check points (optroute.optimise.rows); None: midpoints
+    row_points: list[np.ndarray] | None = None
 
 
 @dataclass
@@ -166,6 +169,7 @@ class Problem:
             np.asarray(st.bound_scale, dtype=float).tobytes(),
             max_iter,
             *(b.tobytes() if b is not None else None for b in (st.y_lo, st.y_hi)),
+            None if st.row_points is None else b"|".join(np.asarray(p, dtype=float).tobytes() for p in st.row_points),
         )
 
     def build(self, st: Tightening, *, max_iter: int | None = None) -> SpeedNLP:
@@ -212,7 +216,7 @@ class Problem:
             power,
             bands=bands,
             exclusion=excl,
-            samples_per_leg=st.samples_per_leg,
+            sample_layout=sample_layout(st.row_points, self.frame.n_legs, st.samples_per_leg),
             v_min_kn=self.v_min,
             v_max_kn=self.v_max,
             g_over_2pi_kn_s=a,
@@ -456,7 +460,8 @@ def _leg_rates(nlp: SpeedNLP, res: NLPResult, v: np.ndarray) -> np.ndarray:
     """Mean fuel rate [t/h] of every leg at per-leg speeds ``v`` (N,) [kn]: the NLP's own power at its samples."""
     n = nlp.n_legs
     ev = nlp._eval(nlp._pack(res.offset_nm, np.asarray(v, dtype=float), res.time_h))
-    return np.reshape(ev["rate"], (n, nlp.samples_per_leg)).mean(axis=1)
+    # the quadrature's weights (row-only samples weigh 0; the midpoint rule 1/m each)
+    return np.sum(np.reshape(ev["rate"], (n, nlp.samples_per_leg)) * nlp.sample_layout.weight, axis=1)
 
 
 def _leg_powers(nlp: SpeedNLP, res: NLPResult, v: np.ndarray) -> np.ndarray:

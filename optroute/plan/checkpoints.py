@@ -45,10 +45,11 @@ evaluation agree where they coincide. Everything is vectorised; the point physic
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
+from optroute.errors import ConfigError
 from optroute.geo.tracks import gc_points
 from optroute.physics.passage import SeaState, evaluate_speeds
 from optroute.search.band_refine import (
@@ -73,11 +74,15 @@ __all__ = [
     "CheckPoints",
     "check_points",
     "evaluate_at",
+    "row_points",
     "track_clock",
 ]
 
 INITIAL_SPACING_NM = 1.0
 """Longest spacing of the first check points along a leg [nm]."""
+
+#: :attr:`CheckPoints.origin` codes: why a point is checked.
+ORIGIN_SPACING, ORIGIN_END, ORIGIN_CROSSING, ORIGIN_REFINED = 0, 1, 2, 3
 
 
 @dataclass(frozen=True)
@@ -105,6 +110,11 @@ class CheckPoints:
         The tolerance the points were refined to [nm].
     rounds : int
         Halving rounds made.
+    origin : ndarray of int8 or None
+        Why each point is checked: :data:`ORIGIN_SPACING` (the even spacing and the dense evaluation's
+        points), :data:`ORIGIN_END` (a leg end), :data:`ORIGIN_CROSSING` (a side of a weather-grid row,
+        column or time-slice crossing), :data:`ORIGIN_REFINED` (added by the adaptive refinement);
+        None where not recorded (:func:`evaluate_at` alone).
     """
 
     leg: np.ndarray
@@ -121,6 +131,7 @@ class CheckPoints:
     stw: np.ndarray
     tol_nm: float = BAND_TOL_NM
     rounds: int = 0
+    origin: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -210,6 +221,8 @@ def _concat(a: CheckPoints, b: CheckPoints) -> CheckPoints:
     for name in ("leg", "s_nm", "lat", "lon", "course", "time_h", "covered", "heading", "sog", "power", "stw"):
         out[name] = cat(getattr(a, name), getattr(b, name))
     out["sea"] = sea
+    if a.origin is not None and b.origin is not None:
+        out["origin"] = cat(a.origin, b.origin)
     return CheckPoints(**out)
 
 
@@ -278,9 +291,9 @@ def check_points(
     wp = np.asarray(waypoints, dtype=float)
     stw = np.asarray(stw_kn, dtype=float)
     clock = track_clock(dense.leg, dense.frac, dense.time_h, d_nm)
-    leg, s = _start_nodes(dense.leg, dense.frac, d_nm, float(spacing_nm))
-    leg, s = _crossings(ctx, wp, d_nm, clock, departure, leg, s, min(CROSSING_TOL_NM, tol_nm))
-    pts = evaluate_at(ctx, wp, stw, departure, d_nm, clock, leg, s)
+    leg0, s0 = _start_nodes(dense.leg, dense.frac, d_nm, float(spacing_nm))
+    leg, s = _crossings(ctx, wp, d_nm, clock, departure, leg0, s0, min(CROSSING_TOL_NM, tol_nm))
+    pts = replace(evaluate_at(ctx, wp, stw, departure, d_nm, clock, leg, s), origin=_origins(leg0, s0, leg, s, d_nm))
     rounds = 0
     while rounds < MAX_ROUNDS:
         i = _to_halve(ctx, pts, tol_nm)
@@ -288,7 +301,52 @@ def check_points(
             break
         rounds += 1
         new = evaluate_at(ctx, wp, stw, departure, d_nm, clock, pts.leg[i], 0.5 * (pts.s_nm[i] + pts.s_nm[i + 1]))
+        new = replace(new, origin=np.full(new.size, ORIGIN_REFINED, dtype=np.int8))
         pts = _concat(pts, new)
     out = {f.name: getattr(pts, f.name) for f in fields(CheckPoints)}
     out["tol_nm"], out["rounds"] = float(tol_nm), rounds
     return CheckPoints(**out)
+
+
+def _origins(leg0: np.ndarray, s0: np.ndarray, leg: np.ndarray, s: np.ndarray, d_nm: np.ndarray) -> np.ndarray:
+    """:attr:`CheckPoints.origin` of the start nodes ``(leg0, s0)`` with the crossings' points added: ``(leg, s)``."""
+    start = np.isin(leg + 1j * s, leg0 + 1j * s0)
+    end = (s <= 1e-9) | (s >= d_nm[leg] - 1e-9)
+    return np.where(end, ORIGIN_END, np.where(start, ORIGIN_SPACING, ORIGIN_CROSSING)).astype(np.int8)
+
+
+def row_points(pts: CheckPoints, d_nm: np.ndarray, *, refined_per_leg: int = 4) -> list[np.ndarray]:
+    """Where an optimiser's rows should sit so that its plan passes these checks: fractions along every leg.
+
+    The leg ends, both sides of every weather-grid crossing (between them the referee's weather is one
+    trilinear polynomial along the track) and, thinned to at most ``refined_per_leg`` evenly spread ones,
+    the points the adaptive refinement added (where a band's ratio or Hs came near its edge); not the
+    even 1 nm spacing. :mod:`optroute.optimise.rows` turns them into the NLP's sample layout.
+
+    Parameters
+    ----------
+    pts : CheckPoints
+        The check points of a plan (:func:`check_points`, ``Plan.verify().points``).
+    d_nm : ndarray, shape (N,)
+        The plan's leg lengths [nm].
+    refined_per_leg : int
+        Most refinement points kept per leg.
+
+    Returns
+    -------
+    list of ndarray
+        Per leg, sorted fractions of the leg's length [-] in [0, 1].
+    """
+    d = np.asarray(d_nm, dtype=float)
+    if pts.origin is None:
+        raise ConfigError("these check points carry no origin (evaluate_at alone): take them from check_points()")
+    frac = np.clip(np.divide(pts.s_nm, d[pts.leg], out=np.zeros(pts.size), where=d[pts.leg] > 0), 0.0, 1.0)
+    out = []
+    for k in range(d.size):
+        on = pts.leg == k
+        base = frac[on & ((pts.origin == ORIGIN_END) | (pts.origin == ORIGIN_CROSSING))]
+        refined = np.sort(frac[on & (pts.origin == ORIGIN_REFINED)])
+        if refined.size > refined_per_leg:
+            refined = refined[np.unique(np.round(np.linspace(0, refined.size - 1, refined_per_leg)).astype(int))]
+        out.append(np.unique(np.concatenate([[0.0, 1.0], base, refined])))
+    return out

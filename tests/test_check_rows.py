@@ -1,0 +1,170 @@
+"""The NLP's rows where the referee checks (issue 13 item 3).
+
+* :mod:`formulations.sample_layout`: row-only points are added to the midpoint quadrature with weight
+  0, merged and padded as documented (checked by enumeration of the fractions);
+* :class:`formulations.speed_nlp.SpeedNLP` with per-leg fractions: its exact leg-by-leg derivatives
+  equal CasADi's automatic ones, its samples sit at the given fractions of the straight legs (positions
+  recomputed by hand), and the quadrature (time, fuel) is the midpoint rule's whatever points are added;
+* :func:`optroute.plan.checkpoints.row_points`: the leg ends and every crossing of a latitude row or a
+  longitude column of the weather grid, against brute force along the great circle every 1e-4 of the leg.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from formulations.common import Band, CorridorGeometry, PowerModel, WeatherGrid
+from formulations.sample_layout import MERGE_FRACTION, SampleLayout, midpoint_layout, with_points
+from formulations.speed_nlp import SpeedNLP
+
+# --------------------------------------------------------------------------- the layout
+
+
+def test_with_points_keeps_the_quadrature_and_adds_row_only_points() -> None:
+    base = midpoint_layout(3, 2)  # fractions 0.25, 0.75, weight 0.5
+    points = [np.array([0.0, 1.0, 0.5]), np.array([0.25 + 0.5 * MERGE_FRACTION]), np.array([0.9, 0.1])]
+    lay = with_points(base, points)
+    # leg 0 has the most samples: 2 midpoints + 3 points = 5
+    assert lay.fraction.shape == (3, 5)
+    np.testing.assert_allclose(lay.fraction[0], [0.0, 0.25, 0.5, 0.75, 1.0])
+    np.testing.assert_allclose(lay.weight[0], [0.0, 0.5, 0.0, 0.5, 0.0])
+    # leg 1: its point merges into the midpoint 0.25; padded by halving the widest gap, first found, of [0, .25, .75, 1]
+    assert np.count_nonzero(lay.weight[1]) == 2 and np.isclose(lay.weight[1].sum(), 1.0)
+    np.testing.assert_allclose(lay.fraction[1], [0.125, 0.25, 0.375, 0.5, 0.75])
+    # every leg: sorted, distinct, the midpoints with their weights
+    for k in range(3):
+        assert np.all(np.diff(lay.fraction[k]) > 0)
+        np.testing.assert_allclose(lay.fraction[k][lay.weight[k] > 0], [0.25, 0.75])
+    np.testing.assert_allclose(lay.fraction[2][[0, 4]], [0.1, 0.9])
+
+
+def test_with_points_thins_evenly_and_keeps_the_leg_ends() -> None:
+    lay = with_points(midpoint_layout(1, 1), [np.linspace(0.0, 1.0, 101)], max_points=5)
+    np.testing.assert_allclose(lay.fraction[0], [0.0, 0.25, 0.5, 0.75, 1.0])  # 0.5 is the midpoint too
+    np.testing.assert_allclose(lay.weight[0], [0.0, 0.0, 1.0, 0.0, 0.0])
+
+
+def test_a_layout_refuses_weights_that_do_not_sum_to_one() -> None:
+    from formulations.common import FormulationInputError
+
+    with pytest.raises(FormulationInputError, match="sum to 1"):
+        SampleLayout(np.array([[0.2, 0.8]]), np.array([[0.5, 0.6]]))
+    with pytest.raises(FormulationInputError, match=r"in \[0, 1\]"):
+        SampleLayout(np.array([[1.2]]), np.array([[1.0]]))
+
+
+# --------------------------------------------------------------------------- the NLP with per-leg fractions
+
+
+def _problem(layout: SampleLayout | None, **kw: object) -> SpeedNLP:
+    """Four curved 40 nm legs, waves and a current that vary in time, two bands, a power table."""
+    n = 4
+    s = np.arange(n + 1) * 40.0
+    ang = np.radians(45 + 25 * np.sin(s / 80))
+    c = np.vstack([[0, 0], np.cumsum(np.column_stack([np.sin(ang[:-1]), np.cos(ang[:-1])]) * 40.0, axis=0)])
+    cor = CorridorGeometry(centre_xy_nm=c, half_width_nm=20.0)
+    tg, sg, yg = np.arange(0, 30, 6.0), np.linspace(0, cor.s_nm[-1], 6), np.linspace(-30, 30, 4)
+    tt, ss, yy = np.meshgrid(tg, sg, yg, indexing="ij")
+    hs = 2.0 + 3.0 * np.exp(-(((ss - 80 - 4 * tt) / 60) ** 2 + ((yy - 5) / 20) ** 2))
+    th = np.radians(20 + tt + ss / 20)
+    wx = WeatherGrid(
+        t_h=tg, s_nm=sg, y_nm=yg, hs_m=hs, period_s=4.5 * np.sqrt(hs) + 1,
+        wave_to_along=np.cos(th), wave_to_across=np.sin(th),
+        current_along_kn=1.5 * np.sin(ss / 50), current_across_kn=4.0 * np.cos(tt / 10),
+        power_ratio=1.0 + 0.02 * hs[..., None, None] ** 2 * (1.0 + 0.01 * np.array([6.0, 24.0])[:, None])
+        * np.ones(2)[None, :],
+        ratio_speed_kn=[6.0, 24.0], ratio_heading_deg=[-30.0, 30.0],
+    )  # fmt: skip
+    pw = PowerModel(calm_coef=[2.2], calm_exp=[3.0], mcr_kw=36000, min_load=0.1)
+    bands = (Band("te_over_tr", 0.8, 1.2, param=20.0, hs_min_m=3.0), Band("v_over_c", 0.8, 1.2, hs_min_m=3.0))
+    return SpeedNLP(cor, wx, pw, bands=bands, samples_per_leg=2, v_min_kn=6, v_max_kn=24, sample_layout=layout, **kw)  # type: ignore[arg-type]
+
+
+LAYOUT = with_points(
+    midpoint_layout(4, 2), [np.array([0.0, 1.0]), np.array([0.1, 0.6]), np.array([0.0, 0.4, 1.0]), np.array([0.9])]
+)
+
+
+@pytest.fixture(scope="module")
+def exact_and_auto() -> tuple[SpeedNLP, SpeedNLP]:
+    return _problem(LAYOUT, exact_hessian=True), _problem(LAYOUT, structured=False)
+
+
+def test_per_leg_fractions_keep_the_derivatives_exact(exact_and_auto) -> None:
+    exact, auto = exact_and_auto
+    rng = np.random.default_rng(5)
+    n, m = exact.n_legs, exact.samples_per_leg
+    assert m == LAYOUT.per_leg == 5
+    # times from 0.5 h: a sample at a leg end sits exactly on the weather's first knot at t = 0, where the
+    # spline's two derivative paths take different one-sided derivatives (t_0 is fixed at 0 in every solve)
+    x = np.concatenate([rng.uniform(-10, 10, n + 1), rng.uniform(10, 20, n), np.linspace(0.5, 15, n + 1)])
+    p = np.concatenate([[1.3, 0.7], rng.uniform(0.5, 1.5, n * m * 2), rng.uniform(0.5, 1.5, n)])
+    lam_g = rng.normal(size=exact._ng)
+    for name, args in (("nlp_grad_f", [x, p]), ("nlp_jac_g", [x, p]), ("nlp_hess_l", [x, p, 0.8, lam_g])):
+        mine = exact._solver.get_function(name)(*args)
+        ref = auto._solver.get_function(name)(*args)
+        mine = mine if isinstance(mine, tuple | list) else [mine]
+        ref = ref if isinstance(ref, tuple | list) else [ref]
+        for a, b in zip(mine, ref, strict=True):
+            a, b = np.array(a.full()), np.array(b.full())
+            np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(b).max()), err_msg=name)
+
+
+def test_samples_sit_at_their_fractions_and_the_quadrature_is_the_midpoint_rule(exact_and_auto) -> None:
+    nlp, _ = exact_and_auto
+    plain = _problem(None, build_solver=False)
+    n = nlp.n_legs
+    y = np.array([0.0, 5.0, -8.0, 3.0, 0.0])
+    v = np.array([12.0, 14.0, 11.0, 15.0])
+    t = plain.consistent_times(y, v)
+    st = nlp.evaluate(y, v, t)
+    # positions and times by hand: linear along the straight leg between its waypoints
+    cor = nlp.corridor
+    p = cor.centre_xy_nm + y[:, None] * cor.normal_xy
+    f = LAYOUT.fraction
+    np.testing.assert_allclose(st.x_nm, p[:-1, None, 0] + f * np.diff(p[:, 0])[:, None], atol=1e-9)
+    np.testing.assert_allclose(st.y_flat_nm, p[:-1, None, 1] + f * np.diff(p[:, 1])[:, None], atol=1e-9)
+    np.testing.assert_allclose(st.time_h, t[:-1, None] + f * np.diff(t)[:, None], atol=1e-9)
+    # the row-only points weigh nothing: time and fuel are the midpoint rule's (the NLP without them)
+    np.testing.assert_allclose(nlp.consistent_times(y, v), t, rtol=1e-12)
+    np.testing.assert_allclose(nlp.leg_fuel_t(y, v, t), plain.leg_fuel_t(y, v, t), rtol=1e-12)
+    assert n == 4
+
+
+# --------------------------------------------------------------------------- the referee's points
+
+
+def test_row_points_are_the_leg_ends_and_every_grid_crossing() -> None:
+    import optroute as orx
+    from optroute import geodesy as geo
+    from optroute.plan.checkpoints import row_points
+    from optroute.plan.result import Plan, gc_points
+    from optroute.weather.schema import canonical_dataset
+
+    ship = orx.Ship.preset("general_cargo_25k_dwt")
+    t0 = np.datetime64("2024-01-10T00:00", "ns")
+    lat, lon = np.arange(-2.0, 2.01, 0.5), np.arange(148.0, 153.01, 0.5)
+    time = t0 + np.array([0, 240], dtype="timedelta64[h]").astype("timedelta64[ns]")
+    shape = (2, lat.size, lon.size)
+    fields = {k: np.full(shape, v) for k, v in (("hs_m", 2.0), ("tp_s", 9.0), ("wave_from_deg", 30.0))}
+    ds = canonical_dataset(time, lat, lon, fields, {"geography": "synthetic", "source": "test_check_rows"})
+    wp = np.array([[-1.2, 149.1], [-0.3, 150.2], [0.55, 150.45]])
+    plan = Plan.from_context(
+        orx.PlanContext(ship=ship, model=orx.KwonModel(ship), rules=orx.BandRules(), sampler=orx.WeatherSampler(ds)),
+        wp, np.array([12.0, 12.0]), departure=t0, status="test",
+    )  # fmt: skip
+    d = geo.distance_nm(wp[:-1, 0], wp[:-1, 1], wp[1:, 0], wp[1:, 1])
+    rows = row_points(plan.verify().points, d)
+    for k in range(2):
+        f = np.linspace(0.0, 1.0, 10001)
+        la, lo, _ = gc_points(np.full(f.size, wp[k, 0]), np.full(f.size, wp[k, 1]), wp[k + 1, 0], wp[k + 1, 1], f)
+        cell = np.column_stack([np.floor((la + 2.0) / 0.5), np.floor((lo - 148.0) / 0.5)])
+        crossings = f[1:][np.any(cell[1:] != cell[:-1], axis=1)]
+        assert crossings.size >= 2
+        assert rows[k][0] == 0.0 and rows[k][-1] == 1.0
+        # every crossing has a row point within 2e-4 of the leg, and nothing but ends and crossings is there
+        near = np.min(np.abs(rows[k][:, None] - crossings[None, :]), axis=0)
+        assert np.all(near < 2e-4), (k, crossings, rows[k])
+        inner = rows[k][1:-1]
+        assert np.all(np.min(np.abs(inner[:, None] - crossings[None, :]), axis=1) < 2e-4)
