@@ -168,3 +168,64 @@ def test_row_points_are_the_leg_ends_and_every_grid_crossing() -> None:
         assert np.all(near < 2e-4), (k, crossings, rows[k])
         inner = rows[k][1:-1]
         assert np.all(np.min(np.abs(inner[:, None] - crossings[None, :]), axis=1) < 2e-4)
+
+
+# --------------------------------------------------------------------------- the elastic phase-1 problem
+
+
+def _calm(min_load: float = 0.1, band: Band | None = None, hs_m: float = 2.0) -> SpeedNLP:
+    """Four straight 40 nm legs (160 nm) in a static sea without current; P = 2.2 V³ kW, MCR 36 000 kW, 6–16 kn."""
+    c = np.column_stack([np.zeros(5), np.arange(5) * 40.0])
+    cor = CorridorGeometry(centre_xy_nm=c, half_width_nm=0.0)
+    tg, sg, yg = np.array([0.0, 100.0]), np.array([0.0, 160.0]), np.array([-1.0, 1.0])
+    shape = (2, 2, 2)
+    wx = WeatherGrid(
+        t_h=tg, s_nm=sg, y_nm=yg, hs_m=np.full(shape, hs_m), period_s=np.full(shape, 10.0),
+        wave_to_along=np.ones(shape), wave_to_across=np.zeros(shape),
+    )  # fmt: skip
+    pw = PowerModel(calm_coef=[2.2], calm_exp=[3.0], mcr_kw=36000, min_load=min_load)
+    bands = () if band is None else (band,)
+    return SpeedNLP(cor, wx, pw, bands=bands, samples_per_leg=2, v_min_kn=6, v_max_kn=16, build_solver=False)
+
+
+def test_phase1_an_unreachable_eta_gives_the_earliest_arrival() -> None:
+    from formulations.phase1 import solve_phase1
+
+    nlp = _calm()
+    out = solve_phase1(
+        nlp, applies=np.zeros((4, 2, 0), bool), eta_h=8.0, offset0_nm=np.zeros(5), stw0_kn=np.full(4, 10.0)
+    )
+    assert out.success, out.status
+    assert out.safety_slack <= 1e-6
+    # 160 nm at the top speed of 16 kn: 10 h, so 2 h after the ETA of 8 h
+    np.testing.assert_allclose(out.eta_slack_h, 2.0, atol=1e-5)
+    np.testing.assert_allclose(out.time_h[-1], 10.0, atol=1e-5)
+    assert not out.feasible
+
+
+def test_phase1_names_the_load_no_speed_reaches() -> None:
+    from formulations.phase1 import solve_phase1
+
+    nlp = _calm(min_load=0.3)  # the top speed's load is 2.2 · 16³ / 36 000 = 0.2503 < 0.3
+    out = solve_phase1(
+        nlp, applies=np.zeros((4, 2, 0), bool), eta_h=None, offset0_nm=np.zeros(5), stw0_kn=np.full(4, 10.0)
+    )
+    np.testing.assert_allclose(out.stw_kn, 16.0, atol=1e-5)
+    np.testing.assert_allclose(out.load_slack, 0.3 - 2.2 * 16.0**3 / 36000.0, atol=1e-6)
+    kind, leg, _, _, slack = out.worst()
+    assert kind == "load" and 0 <= leg < 4 and slack > 0.04
+
+
+def test_phase1_leaves_a_band_for_a_side_without_being_told_which() -> None:
+    from formulations.phase1 import solve_phase1
+
+    # surf-riding V cos χ / c in (0.8, 1.2) with following seas (cos χ = 1) and c = 3.0339 · 10 s = 30.3 kn: never
+    # reached at 6–16 kn; a band V / 12 kn in (0.8, 1.2) (v_over_ref) forbids 9.6–14.4 kn: starting at 12 kn, the
+    # nearest allowed speeds are 9.6 or 14.4 kn; with an ETA of 11 h (160 nm at 14.55 kn) only the upper side makes it
+    band = Band("v_over_ref", 0.8, 1.2, param=12.0, hs_min_m=1.0, name="test")
+    nlp = _calm(band=band)
+    applies = np.ones((4, 2, 1), bool)
+    out = solve_phase1(nlp, applies=applies, eta_h=11.0, offset0_nm=np.zeros(5), stw0_kn=np.full(4, 12.0))
+    assert out.success, out.status
+    assert out.feasible, (out.safety_slack, out.eta_slack_h)
+    assert np.all(out.stw_kn >= 14.4 - 1e-6) and out.time_h[-1] <= 11.0 + 1e-6
