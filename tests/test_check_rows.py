@@ -229,3 +229,35 @@ def test_phase1_leaves_a_band_for_a_side_without_being_told_which() -> None:
     assert out.success, out.status
     assert out.feasible, (out.safety_slack, out.eta_slack_h)
     assert np.all(out.stw_kn >= 14.4 - 1e-6) and out.time_h[-1] <= 11.0 + 1e-6
+
+
+# --------------------------------------------------------------------------- harness seed 10's cause, in small
+
+
+def test_a_first_leg_closed_at_departure_is_no_safe_passage_naming_it() -> None:
+    # harness seed 10: no speed is allowed on the first leg when the ship must enter it (at departure), though the
+    # sea opens later (so no cross-section is closed at every time: not the blocked-section rule). Head seas of
+    # Hs 12 m, Tp 11 s on the equator allow no speed from 3 kn to MCR for container_54k_dwt (brute force in
+    # tests/test_honest_outcomes.py); here for the first 12 h only, then Hs 2 m
+    import optroute as orx
+    from optroute.errors import NoSafePassage
+    from optroute.optimise.corridor_problem import PreparedCorridor
+    from optroute.optimise.phase1 import diagnose
+
+    t0 = np.datetime64("2024-01-10T00:00", "ns")
+    box = {"bbox": (-5.0, 5.0, -35.0, -20.0), "start": t0, "duration_h": 48.0, "resolution_deg": 1.0}
+    wx = orx.scenarios.uniform(hs_m=12.0, tp_s=11.0, wave_from_deg=90.0, **box)
+    late = wx["time"] > t0 + np.timedelta64(12, "h")
+    wx["hs_m"] = wx["hs_m"].where(~late, 2.0)
+    ship = orx.Ship.preset("container_54k_dwt")
+    corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -28.0]], width_nm=0.0)
+    pc = PreparedCorridor(corridor, wx, ship, departure=t0, objective="time", max_leg_nm=60.0, use_land_mask=False)
+    prob = pc.problem
+    nlp = prob.build(pc._tightening())
+    warm = {"offset_nm": np.zeros(pc.frame.n_legs + 1), "stw_kn": np.full(pc.frame.n_legs, 12.0)}
+    kw = {"eta_mode": "le", "objective": "time", "fuel_price": 600.0, "hourly_cost": 0.0}
+    log: list[str] = []
+    with pytest.raises(NoSafePassage, match=r"all along leg 0 entered at 2024-01-10T00:00:00Z") as err:
+        diagnose(prob, nlp, ctx=pc.plan_context(), warm=warm, cap_h=None, eta_user_h=None, t0=t0, budget=4,
+                 solve_kw=kw, log=log)  # fmt: skip
+    assert "no safe passage" in str(err.value) and log[0].startswith("phase-1: Ipopt Solve_Succeeded")

@@ -36,6 +36,7 @@ from optroute.optimise.nlp_solve import (
     route_warm_start,
     safe_warm_start,
 )
+from optroute.optimise.phase1 import diagnose
 from optroute.physics.safety import BandRules
 from optroute.plan.result import Exclusion, Plan, PlanContext, Violation
 from optroute.search.route import Route
@@ -369,8 +370,11 @@ def first_failure(
       the problem is solved again from it (for ``objective="time"`` it *is* the solution) and the
       new solve is returned; when that fails too, :class:`SolverFailure` carries the minimum-time
       plan as the best verified plan;
-    * it fails from every start: :class:`SolverFailure` with the first solve's Ipopt status and the
-      best verified plan known (the search route's, the safe warm start's, the timed passage's).
+    * it fails from every start: the elastic phase-1 problem (:func:`optroute.optimise.phase1.diagnose`)
+      raises :class:`~optroute.errors.NoSafePassage` or :class:`InfeasibleETA` where it proves one, or
+      gives a feasible start that is solved from; else :class:`SolverFailure` with the first solve's
+      Ipopt status and the best verified plan known (the search route's, the safe warm start's, the
+      timed passage's).
     """
     if feasible_iterate(sol.res, ctx, prob.frame, t0, step_nm):
         log.append(
@@ -449,6 +453,13 @@ def first_failure(
                 f"{cand.res.max_violation:.2g}) as a feasible, not optimal, solution"
             )
             return replace(cand, ok=True)
+    # the elastic phase-1 problem: a feasible start after all, or where (and whether) the passage is closed
+    found = diagnose(
+        prob, nlp, ctx=ctx, warm=first_warm, cap_h=cap_h, eta_user_h=eta_user_h, t0=t0, budget=budget,
+        solve_kw=solve_kw, log=log,
+    )  # fmt: skip
+    if found is not None:
+        return found
     dead = next(
         (
             line.split("no passage found: ", 1)[1]
