@@ -56,6 +56,7 @@ def run(quick: bool = False) -> dict[str, Any]:
     print(f"| band grazes (< 0.1 nm, not violations) | {s['grazes']} | |")
     print(f"| baseline: violations `Plan.verify()` reports (5 nm) | {s['referee_violations']} | 0 |")
     print(f"| SolverFailure in feasible cases | {s['solver_failure_cases']} ({100 * share:.1f} %) | < 2 % |")
+    print(f"| plans whose first NLP solve passed `verify()` | {s['first_solve_verified']} of {s['plans_returned']} | |")
     print(f"| wall time [s] | {time.perf_counter() - t0:.0f} | |")
     print()
     print("Outcomes: " + ", ".join(f"{k} {v}" for k, v in sorted(s["outcomes"].items())) + "\n")

@@ -126,6 +126,7 @@ class CaseResult:
     grazes: dict[str, int] = field(default_factory=dict)
     messages: dict[str, str] = field(default_factory=dict)
     referee: dict[str, int] = field(default_factory=dict)
+    first_solve: dict[str, str] = field(default_factory=dict)
     feasible: bool = False
     cpu_s: float = 0.0
 
@@ -409,6 +410,7 @@ def _solve(
     res.outcomes[name] = f"plan:{plan.status}"
     res.findings[name], res.grazes[name] = check_plan(plan, wx, ship, eta=eta)
     res.referee[name] = len(plan.verify())  # the baseline: the plan's own referee at its default 5 nm
+    res.first_solve[name] = str(plan.solver_stats.get("first_solve", "not recorded"))
     return plan
 
 
@@ -488,5 +490,8 @@ def summarise(results: list[CaseResult]) -> dict[str, Any]:
         ],
         "violating": violating,
         "outcomes": outcomes,
+        # plans whose NLP's first solve passed verify() as it was (issue 13 item 3), of the plans returned
+        "first_solve_verified": sum(v == "verified" for r in results for v in r.first_solve.values()),
+        "plans_returned": sum(len(r.first_solve) for r in results),
         "cpu_s": sum(r.cpu_s for r in results),
     }

@@ -261,3 +261,38 @@ def test_a_first_leg_closed_at_departure_is_no_safe_passage_naming_it() -> None:
         diagnose(prob, nlp, ctx=pc.plan_context(), warm=warm, cap_h=None, eta_user_h=None, t0=t0, budget=4,
                  solve_kw=kw, log=log)  # fmt: skip
     assert "no safe passage" in str(err.value) and log[0].startswith("phase-1: Ipopt Solve_Succeeded")
+
+
+# --------------------------------------------------------------------------- harness seeds 4 and 5's cause, in small
+
+
+def test_rows_at_the_leg_ends_keep_a_band_that_applies_only_at_a_waypoint() -> None:
+    # harness seeds 4 and 5: the referee found the plan in a band at the waypoint shared by two legs, where the NLP
+    # had no row (its samples at the legs' midpoints). Here Hs is 2 m but for a peak of 4 m at the waypoint s = 40 nm
+    # (the band applies from 3 m), and a band forbids V / 12 kn in (0.8, 1.2), 9.6–14.4 kn (v_over_ref). The ETA
+    # asks 160 nm in 12.31 h, 13 kn: inside the band. By hand: with rows at the midpoints only (10 nm from the
+    # peak, Hs < 3 m) the band never applies and every leg sails 13 kn, 13 / 12 = 1.083 at the waypoint; with the
+    # rows at the leg ends too the two legs meeting there leave the band (>= 14.4 kn)
+    c = np.column_stack([np.zeros(5), np.arange(5) * 40.0])
+    cor = CorridorGeometry(centre_xy_nm=c, half_width_nm=0.0)
+    sg = np.arange(0.0, 160.1, 5.0)
+    hs = np.broadcast_to(np.where(sg == 40.0, 4.0, 2.0)[None, :, None], (2, sg.size, 2)).copy()
+    wx = WeatherGrid(
+        t_h=np.array([0.0, 100.0]), s_nm=sg, y_nm=np.array([-1.0, 1.0]), hs_m=hs, period_s=np.full(hs.shape, 10.0),
+        wave_to_along=np.ones(hs.shape), wave_to_across=np.zeros(hs.shape),
+    )  # fmt: skip
+    pw = PowerModel(calm_coef=[2.2], calm_exp=[3.0], mcr_kw=36000, min_load=0.01)
+    band = Band("v_over_ref", 0.8, 1.2, param=12.0, hs_min_m=3.0, name="test")
+    ends = with_points(midpoint_layout(4, 2), [np.array([0.0, 1.0])] * 4)
+    out = {}
+    for label, layout in (("midpoints", None), ("leg ends", ends)):
+        nlp = SpeedNLP(cor, wx, pw, bands=(band,), samples_per_leg=2, v_min_kn=6, v_max_kn=16, sample_layout=layout)
+        res = nlp.solve(eta_h=160.0 / 13.0, objective="fuel", stw0_kn=np.full(4, 13.0))
+        assert res.success, (label, res.status)
+        hs_at = nlp.evaluate(res.offset_nm, res.stw_kn, res.time_h).hs_m
+        if layout is None:
+            assert np.all(hs_at < 3.0)  # no midpoint sees the peak (the spline gives 3.33 m at the waypoint itself)
+        out[label] = res.stw_kn
+    np.testing.assert_allclose(out["midpoints"], 13.0, atol=1e-4)  # legs 0 and 1 inside the band at s = 40 nm
+    assert np.all(out["leg ends"][:2] >= 14.4 - 1e-6)  # outside it, on the upper side
+    assert 13.0 * 4 <= np.sum(out["leg ends"]) + 1e-6  # and the ETA still met: 160 nm in 160 / 13 h

@@ -44,6 +44,8 @@ __all__ = ["PROOF_STEP_KN", "diagnose"]
 PROOF_STEP_KN = 0.1
 #: End offsets across the corridor of that check.
 PROOF_OFFSETS = 9
+#: Phase-1 solves, each with the bands added where they apply at the last one's point.
+APPLICABILITY_ROUNDS = 3
 
 
 def _leg_closed(prob: Problem, ctx: PlanContext, res: Phase1Result, t0: np.datetime64, leg: int) -> bool:
@@ -78,6 +80,20 @@ def _leg_closed(prob: Problem, ctx: PlanContext, res: Phase1Result, t0: np.datet
     return True
 
 
+def _applicable_phase1(nlp: SpeedNLP, y0: np.ndarray, v0: np.ndarray, cap_h: float | None) -> Phase1Result:
+    """Phase-1 with the bands imposed where they apply at its own point: where its samples moved (in time, across)
+    into seas over a band's threshold, the band is added there and phase-1 solved again from its point, at most
+    :data:`APPLICABILITY_ROUNDS` times (the NLP's own rule, :meth:`SpeedNLP.default_sides`)."""
+    applies = nlp.default_sides(nlp.evaluate(y0, v0, nlp.consistent_times(y0, v0)))[1]
+    for _ in range(APPLICABILITY_ROUNDS):
+        res = solve_phase1(nlp, applies=applies, eta_h=cap_h, offset0_nm=y0, stw0_kn=v0)
+        now = nlp.default_sides(nlp.evaluate(res.offset_nm, res.stw_kn, res.time_h))[1]
+        if not res.success or not np.any(now & ~applies):
+            break
+        applies, y0, v0 = applies | now, res.offset_nm, res.stw_kn
+    return res
+
+
 def diagnose(
     prob: Problem,
     nlp: SpeedNLP,
@@ -102,8 +118,7 @@ def diagnose(
     """
     y0 = np.clip(np.asarray(warm["offset_nm"], dtype=float), *nlp.corridor.offset_bounds())
     v0 = np.clip(np.asarray(warm["stw_kn"], dtype=float), nlp.v_min_kn, nlp.v_max_kn)
-    applies = nlp.default_sides(nlp.evaluate(y0, v0, nlp.consistent_times(y0, v0)))[1]
-    res = solve_phase1(nlp, applies=applies, eta_h=cap_h, offset0_nm=y0, stw0_kn=v0)
+    res = _applicable_phase1(nlp, y0, v0, cap_h)
     log.append(
         f"phase-1: Ipopt {res.status}, largest safety slack {res.safety_slack:.3g}, ETA slack {res.eta_slack_h:.3g} h"
     )
