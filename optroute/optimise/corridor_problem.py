@@ -11,7 +11,8 @@ prepares the corridor once, for a horizon covering all its ETAs, and solves each
 A solve, in stages: **start** — the best verified discrete plan on the corridor
 (:mod:`optroute.optimise.starts`: a given warm plan or search route, the 3-D DP on the corridor, the
 centreline start; scored by the referee); **solve** — Ipopt from it with the band outer loop
-(:meth:`~optroute.optimise.nlp_solve.Problem.solve`); **verify** — the plan of the solution by the
+(:meth:`~optroute.optimise.nlp_solve.Problem.solve`), the load, band and exclusion rows also at the
+referee's check points of the start's plan (:mod:`optroute.optimise.rows`; ``constraint_rows``); **verify** — the plan of the solution by the
 referee; where it finds only the engine outside its range (the smooth power table cannot follow the
 model's steps between the NLP's samples) the speeds of those legs move to the limit
 (:func:`~optroute.optimise.starts.repaired_plan`, status ``"mended"``); otherwise re-solved with the rows the
