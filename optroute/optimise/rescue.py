@@ -227,8 +227,9 @@ def _minimum_time(
     speed) when a speed is allowed at every point of it; the earliest passage of the time-expanded
     search (:func:`optroute.optimise.min_time.timed_safe_start`: its timing avoids the places and times where
     no speed is allowed, which the point-by-point reduction meets at the lowest speed, below the
-    minimum load, on band sides no speed keeps); the search route's speeds and the failed solve's own
-    (safe) start. (Where all fail, :func:`first_failure` asks the elastic phase-1 problem.)
+    minimum load, on band sides no speed keeps); the search route's speeds, the failed solve's own
+    (safe) start, and safe starts from 3/4 and 1/2 of the top speed (they reach a storm later, so
+    their band sides are other ones).
     """
     kw = dict(solve_kw)
     kw["objective"] = "time"
@@ -260,9 +261,12 @@ def _minimum_time(
     if route is not None:
         starts.append(("search route", lambda: route_warm_start(route, frame)))
     # a dead end of the timed search is no proof (its speed ladder and blocks may miss a narrow window): the other
-    # starts are still tried; where every one fails the elastic phase-1 problem finds a start (first_failure), in
-    # place of the safe starts at 3/4 and 1/2 of the top speed that were tried here for luck
-    starts += [("first start", lambda: first_warm)]
+    # starts are still tried
+    starts += [
+        ("first start", lambda: first_warm),
+        ("3/4 top speed", lambda: safe(0.75)),
+        ("1/2 top speed", lambda: safe(0.5)),
+    ]
     if not top_clean:
         starts.append(("top speed", lambda: top))
     for name, make in starts:
