@@ -211,7 +211,10 @@ def optimise_corridor(
         The corridor or the ETA lies outside the weather.
     NoSafePassage, OnLandError
         No navigable channel joins the corridor's ends (the message names the leg where it closes;
-        :func:`optroute.optimise.lateral.lateral_bounds`), or it starts or ends on land.
+        :func:`optroute.optimise.lateral.lateral_bounds`), or it starts or ends on land; or, after a failed
+        solve, the elastic phase-1 problem leaves a leg that the true model allows no constant speed on, entered
+        where and when phase-1 enters it (the message names the leg, position and time;
+        :mod:`optroute.optimise.phase1`).
     """
     from optroute.optimise.corridor_problem import PreparedCorridor
 
