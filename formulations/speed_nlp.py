@@ -77,6 +77,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from formulations._nlp_model import (
+    WeatherValues,
     jit_compiler,
     sample_physics,
     structured_derivatives,
@@ -116,6 +117,11 @@ _IPOPT_DEFAULTS: dict[str, Any] = {
     "ipopt.linear_solver": "mumps",
     "ipopt.mu_strategy": "adaptive",
     "ipopt.bound_relax_factor": 0.0,
+    # no gradient of the Lagrangian in CasADi's Nlpsol (Ipopt returns the bound multipliers lam_x itself, and
+    # nothing reads the parameters' lam_p): building it differentiates the whole graph by reverse mode at
+    # construction, through the weather splines, which was most of a build's time on a corridor's grid
+    "calc_lam_p": False,
+    "no_nlp_grad": True,
 }
 #: Ipopt/CasADi options of the corridor NLPs (public: :mod:`formulations.robust_nlp` uses the same).
 IPOPT_DEFAULTS = _IPOPT_DEFAULTS
@@ -486,8 +492,14 @@ class SpeedNLP:
     ) -> None:
         n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
         k_ = n * m
-        self.weather_function = self.weather.interpolant()
-        self._interp_map = self.weather_function.map(k_)
+        # with the structured derivatives nothing differentiates the weather through CasADi: read it in numpy
+        # (no CasADi spline of the grid is built; WeatherGrid.tensor_spline is built once per grid)
+        self.numeric_weather = bool(structured and not expand and self.weather.method == "smooth")
+        if self.numeric_weather:
+            self._weather_values = WeatherValues(self.weather, k_)  # keep alive: the graphs call it
+            self._interp_map = self._weather_values
+        else:
+            self._interp_map = self.weather.interpolant().map(k_)
         self._sample_map = self._sample_function().map(k_)
         if self.exclusion is not None:
             self.exclusion_function = self.exclusion.interpolant()
@@ -544,6 +556,11 @@ class SpeedNLP:
         diag = ca.Function("speed_nlp_diag", [x, beta, fac], outs)
         self._diag = diag.expand() if expand else diag
         self._diag_names = names
+
+    @property
+    def weather_function(self) -> Any:
+        """CasADi function ``(t, s, y) ↦ fields`` of the weather (:meth:`WeatherGrid.interpolant`, built once per grid)."""
+        return self.weather.interpolant()
 
     # ------------------------------------------------------------------ helpers
     def _needs_current_rows(self) -> bool:
