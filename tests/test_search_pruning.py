@@ -1,9 +1,7 @@
-"""The search's exact pruning: the time limit (the weather's end), the cost ceiling, and their reuse in the λ bisection.
+"""The search's exact pruning: the time limit (the weather's end) and the cost ceiling.
 
 References: the search without the limit or the ceiling (the same route and
-times where they do not bind, and no route either where the limit does); a
-monotone λ → (fuel, time) model for the bisection, run with and without the
-reused ceiling (the same λ and route); the bound recomputed
+times where they do not bind, and no route either where the limit does); the bound recomputed
 independently on every edge handed to the callback (WGS84 geodesic lengths
 from :func:`optroute.geodesy.distance_nm` at ``v_max``); a weather file too
 short for the great circle at the ship's top speed (hand-worked: 840 nm at
@@ -21,7 +19,6 @@ from optroute import geodesy as geo
 from optroute.errors import NoSafePassage, WeatherCoverageError
 from optroute.search import RouteGrid, _kernels, compass, shortest_path
 from optroute.search.dijkstra import TIME_LIMIT_SLACK_H
-from optroute.search.objective_search import bisect_lambda
 from optroute.search.routing import search_route
 from tests.test_search_dijkstra import SpeedField
 from tests.test_search_kernels import BOX, CARGO, T0, sea_fields
@@ -139,46 +136,3 @@ def test_ceiling_above_the_cost_keeps_the_route_and_below_it_finds_none(grid, ob
     assert above.evaluated_edges <= free.evaluated_edges
     with pytest.raises(NoSafePassage, match="cheaper than the cost ceiling"):
         run(free.cost * (1.0 - 1e-9))
-
-
-class Monotone:
-    """A λ → route model: faster and thirstier as λ grows (arrival 400 / (1 + λ) h, fuel 100 (1 + λ)² t)."""
-
-    def __init__(self, use_ceiling):
-        self.use_ceiling = use_ceiling
-        self.ceilings, self.rounds = [], []
-
-    def __call__(self, lam, ceiling=None):
-        arrival, fuel = 400.0 / (1.0 + lam), 100.0 * (1.0 + lam) ** 2
-        self.ceilings.append(ceiling)
-        self.rounds.append((lam, ceiling, None))
-        if arrival > 240.0:  # runs past the weather's end: no route
-            raise NoSafePassage(f"lambda {lam}: no route")
-        if self.use_ceiling and ceiling is not None and fuel + lam * arrival >= ceiling:
-            raise NoSafePassage("none cheaper")
-        self.rounds[-1] = (lam, ceiling, _Found(arrival, fuel))
-        return self.rounds[-1][2]
-
-
-class _Found:
-    def __init__(self, arrival_h, fuel_t):
-        self.arrival_h, self.total_fuel_t = arrival_h, fuel_t
-
-
-@pytest.mark.parametrize("eta_h", [None, 300.0, 150.0])
-def test_bisection_reusing_the_best_route_finds_the_same_lambda(eta_h):
-    plain, reuse = Monotone(False), Monotone(True)
-    best_a, lam_a = bisect_lambda(plain, eta_h, T0)
-    best_b, lam_b = bisect_lambda(reuse, eta_h, T0)
-    assert lam_b == lam_a
-    assert (best_b.arrival_h, best_b.total_fuel_t) == (best_a.arrival_h, best_a.total_fuel_t)
-    # hand-worked: 400 / (1 + λ) <= min(240, ETA)  <=>  λ >= 400 / min(240, ETA) - 1
-    assert lam_a == pytest.approx(400.0 / min(240.0, eta_h or 240.0) - 1.0, abs=4.0 / 2**12)
-    # every round after the first one in time is offered the best route's cost at its own λ
-    first = next(i for i, c in enumerate(reuse.ceilings) if c is not None)
-    assert first >= 1 and all(c is not None for c in reuse.ceilings[first:])
-    last = None  # the last route in time: its fuel + λ · its arrival is the next round's ceiling
-    for lam, ceiling, r in reuse.rounds:
-        assert ceiling == (None if last is None else last.total_fuel_t + lam * last.arrival_h)
-        if r is not None and (eta_h is None or r.arrival_h <= eta_h):
-            last = r

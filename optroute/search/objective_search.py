@@ -47,8 +47,7 @@ def explain_uncovered(exc: NoSafePassage, physics: PassagePhysics) -> Exception:
 def run_objective(run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t):
     """The search result for the objective and the λ it used [t/h].
 
-    ``run(lam, ceiling)`` searches minimum time (``lam`` None) or least fuel + λ·time, below the cost
-    ``ceiling`` [t] when it is not None (``shortest_path``'s ``cost_ceiling``).
+    ``run(lam)`` searches minimum time (``lam`` None) or least fuel + λ·time.
     ``"time"`` runs it once; a given λ (or ``"cost"``: hourly cost / fuel price)
     runs it once and raises :class:`InfeasibleETA` if that route is later than
     ``eta_h`` [h from ``t0``]; ``"fuel"`` bisects λ (:func:`bisect_lambda`).
@@ -76,32 +75,18 @@ def bisect_lambda(run: Callable, eta_h: float | None, t0: np.datetime64):
     A λ whose route cannot be completed (too slow to finish inside the
     forecast, say) counts as arriving too late; only when even the fastest
     choice fails is the search's :class:`NoSafePassage` raised.
-
-    Once a round has found a route in time, every later round reuses it: at
-    its own λ that route costs ``fuel + λ·time``, and the round looks only for
-    a cheaper one (``run``'s ``ceiling``; the A* then prunes every edge that
-    cannot beat it, so a round that fails stops early instead of exploring
-    the whole grid).  A round that finds none counts as late, as it does when
-    it finds no route at all; it differs from the search without the ceiling
-    only where that search would return an in-time route costlier, at this λ,
-    than the one in hand.
     """
     failure: list[NoSafePassage] = []
-    found: list = []  # the last route in time
-
-    def late(r) -> bool:
-        return r is None or (eta_h is not None and r.arrival_h > eta_h)
 
     def attempt(lam: float):
-        ceiling = None if not found else found[0].total_fuel_t + lam * found[0].arrival_h
         try:
-            r = run(lam, ceiling)
+            return run(lam)
         except NoSafePassage as exc:
             failure[:] = [exc]
             return None
-        if not late(r):
-            found[:] = [r]
-        return r
+
+    def late(r) -> bool:
+        return r is None or (eta_h is not None and r.arrival_h > eta_h)
 
     slow = attempt(0.0)
     if not late(slow):

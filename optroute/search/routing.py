@@ -311,7 +311,7 @@ def search_route(
 
     limit_h = _time_limit_h(sampler, t0, check)
 
-    def run(lam: float | None, ceiling: float | None = None):
+    def run(lam: float | None):
         if objective == "time" and lam is None:
             cb = _avoid(physics.segment_time(desired, speed_step_kn, min_speed_kn, check), exclusion, t0)
             return shortest_path(
@@ -322,7 +322,6 @@ def search_route(
         return shortest_path(
             grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="cost", lambda_t_per_h=lam,
             cost_floor_per_nm=physics.cost_floor_per_nm(speeds, lam, v_bound - top_kn), time_limit_h=limit_h,
-            cost_ceiling=ceiling,
         )  # fmt: skip
 
     try:
