@@ -44,7 +44,9 @@ Methods
 ``batched=False`` settles one node per step (the textbook order) for
 comparison.  Before the callback is called, edges that could not improve
 their end node's label, or the goal's, even at ``v_max_kn`` are dropped
-(exact).  The search checks on every costed edge that ``duration_h >=
+(exact); so are, given ``time_limit_h`` (the weather's end), edges from which
+the goal cannot be reached by then even at ``v_max_kn`` along the great
+circle (exact: every leg past the limit is infeasible).  The search checks on every costed edge that ``duration_h >=
 distance / v_max_kn`` (otherwise the heuristic, the batching and the pruning
 would not be exact) and raises :class:`~optroute.errors.ConfigError` if the
 callback sails faster.
