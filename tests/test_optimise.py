@@ -281,7 +281,8 @@ def test_moderate_sea_plans_pass_verification_for_every_objective(storm):
     fast = optimise_corridor(corridor, storm, SHIP, departure=T0, objective="time", max_leg_nm=40.0)
     for plan in (fuel, cost, fast):
         assert plan.verify() == []
-    assert fast.duration_h < cost.duration_h <= fuel.duration_h + 1e-6 <= 48.0 + 1e-6
+    assert fast.duration_h < cost.duration_h <= fuel.duration_h + 1e-6
+    assert fuel.duration_h <= 48.0 + 1e-6  # (a chain "x + 1e-6 <= 48 + 1e-6" failed on 4e-13 of rounding)
     assert fuel.total_fuel_t < cost.total_fuel_t < fast.total_fuel_t
     assert np.isnan(fast.eta_shadow_price_t_per_h)
     # the NLP's own plan carries its ETA multiplier; in this flat sea the verified centreline start can score as

@@ -169,6 +169,7 @@ class PreparedCorridor:
                 "check points of its start) or 'midpoints' (at the quadrature's midpoints only)"
             )
         self.constraint_rows = constraint_rows
+        self._row_points: list[np.ndarray] | None = None  # the referee's row points, set at the first solve
         if objective not in ("time", "fuel", "cost"):
             raise ConfigError(f"objective={objective!r} is not known; use 'time', 'fuel' or 'cost'")
         if not isinstance(corridor, Corridor):
@@ -244,6 +245,7 @@ class PreparedCorridor:
             bound_scale=np.ones(n + 1),
             y_lo=self.y_lo.copy(),
             y_hi=self.y_hi.copy(),
+            row_points=self._row_points,
         )
 
     # ------------------------------------------------------------------ stage: start
@@ -499,6 +501,8 @@ class PreparedCorridor:
 
         A discrete start the NLP cannot improve on costs time, not fuel: the plan stage keeps the start.
         """
+        self._rows_from(call, clear_of_exclusion(dict(first.warm), self.frame, self.exclusion, self.departure,
+                                                 self.y_lo, self.y_hi))  # fmt: skip
         call.start_table = self._table_at(call.ctx, first.warm)
         best: _Found | None = None
         tries = [first] + ([start] if first is not start and start.plan is not None else [])
@@ -512,6 +516,13 @@ class PreparedCorridor:
                 best = found
         return best
 
+    def _rows_from(self, call: _Call, warm: Mapping[str, np.ndarray]) -> None:
+        """The NLP's row points (:mod:`optroute.optimise.rows`): the referee's check points of the first solve's start,
+        kept for the later ETAs of this prepared corridor so that one build serves them all (the grid-line crossings
+        are the same fractions of the legs; the time-slice crossings are the first start's)."""
+        if self.constraint_rows == "referee" and self._row_points is None:
+            self._row_points = referee_rows(call.ctx, self.frame, warm, self.departure, self.verify_step_nm)
+
     def _solve_from(self, call: _Call, cand: Candidate, *, diagnose: bool) -> _Found | None:
         """Solve from one candidate; where the referee rejects the plan, tighten the rows it flagged and solve again.
 
@@ -521,8 +532,8 @@ class PreparedCorridor:
         prob, st = self.problem, self._tightening()
         st.log = call.log
         warm = clear_of_exclusion(dict(cand.warm), self.frame, self.exclusion, self.departure, self.y_lo, self.y_hi)
-        if self.constraint_rows == "referee":
-            st.row_points = referee_rows(call.ctx, self.frame, warm, self.departure, self.verify_step_nm)
+        self._rows_from(call, warm)
+        st.row_points = self._row_points
         for attempt in range(self.max_retries + 1):
             emit(call.progress, "solve", 0.2 + 0.7 * attempt / (self.max_retries + 1))
             nlp = prob.build(st)

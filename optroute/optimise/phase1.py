@@ -118,7 +118,11 @@ def diagnose(
     """
     y0 = np.clip(np.asarray(warm["offset_nm"], dtype=float), *nlp.corridor.offset_bounds())
     v0 = np.clip(np.asarray(warm["stw_kn"], dtype=float), nlp.v_min_kn, nlp.v_max_kn)
-    res = _applicable_phase1(nlp, y0, v0, cap_h)
+    try:
+        res = _applicable_phase1(nlp, y0, v0, cap_h)
+    except RuntimeError as exc:  # CasADi cannot build its derivatives (see the report): the caller's failure stands
+        log.append(f"phase-1 not built: {str(exc).splitlines()[0][:160]}")
+        return None
     log.append(
         f"phase-1: Ipopt {res.status}, largest safety slack {res.safety_slack:.3g}, ETA slack {res.eta_slack_h:.3g} h"
     )
