@@ -39,16 +39,35 @@ over the great circle and its clearance from the storm and the islands at the ho
 Absolute fuel differs: the paper's ship model and sea are not given (``shao_case`` uses a
 Beaufort 5 head sea, H_s 2 m from the east). ``shao_case<k>.png`` plots the curves.
 
-Measured (case I on the paper's lattice, 2 Dec 2026, load 14-19 on 2 cores): at all 14 ETAs 224-328 h the DP
-uses 0.1-0.8 % more than the exact constant speed and never more than the lattice-speed baseline; that
-baseline's route is 14.3 nm over the great circle and keeps 179-352 nm from the storm (its gap south of the
-islands, -1.26°, is clear from 65 h; no ship reaches 50° E before 113 h): nothing binds, so no window. The
-DP took 779 s wall (8.0 M transitions), the baseline curve 1 199 s, the NLP 430 s (NoSafePassage); case II
-was not run to the end.
+Measured (``python -m benchmarks --only shao``, both cases on the paper's lattice, 15 + 1 ETAs, 2 Dec 2026,
+load 24-27 on 2 cores): the whole experiment 604 s wall, 167 s CPU; per case (wall / CPU) baseline
+227 / 62 s and 237 / 66 s (~25 one-speed searches each), DP 39 / 11 s and 34 / 10 s (one run, 1.15 M
+transitions costed by dp_kernels' compiled stages: the 779 s and 8.0 M of the earlier measurement
+predate them), IMO f_w < 0.1 s, NLP 47 / 13 s (case I) and 4 / 1 s (case II, failed). No window in
+either case: case I, the DP uses 0.12-0.79 % more than the exact constant speed at every ETA (the
+baseline's route, 14.3 nm over the great circle, keeps 179-366 nm from the storm; nothing binds);
+case II, the storm shapes the baseline's route at 13 of 16 ETAs (14-87 nm clearance) and the DP's
+best saving is 0.22 % (256 h), below the 0.5 % the window needs; the DP is above its lattice-speed
+candidate at one ETA (240 h, 1140.7 against 1140.1 t: one label per 1 h bin). The NLP on the DP's
+track at 264 h (case I): 945.7 t, verified, equal to the exact constant speed (945.7 t) and 0.4 %
+under the DP's 949.6 t (it makes the DP's 1 kn speed steps continuous). Case II at 278 h:
+NoSafePassage, because the NLP has no time-dependent no-go constraint: its lateral bounds are static
+per leg, blocked over every time a ship could be on the leg (113-189 h at 49.8° E), and the storm's
+south edge passes the DP's track there (−7.55°) only at ~149 h; the DP's route clears it by its
+timing alone, which fixed bounds cannot express (even over the DP's own hours abreast of 50-70° E
+the track is closed, at 61.3° E; the formulation's moving exclusion is a circle).
 
 Run ``python -m benchmarks.bench_shao [--quick]`` (quick: case I only, 5 legs of ~1 080 nm, 300 nm
-lateral spacing, speeds every 2 kn, four ETAs, no NLP: over this 5 400 nm, 270 h corridor the NLP's
-power table alone takes minutes and ~3 GB, and it ends in NoSafePassage from the DP's route).
+lateral spacing, speeds every 2 kn, four ETAs, no NLP: its CasADi build over 105 legs alone takes
+~10 CPU-s).
+
+Why the NLP failed before (NoSafePassage after > 3 GB): (1) the memory was ``prepare_corridor``'s
+weather grid and power table over a 150 nm corridor (:data:`NLP_WIDTH_NM`), before any build or
+solve; (2) the NoSafePassage came from the corridor's lateral bounds, which blocked every leg by the
+weather's no-passage cells at *any* time of the passage: the storm's sweep (lat −1° southwards from
+60 h) beside the islands (−1° to 7°) closed all of ±75 nm at 3 000 nm along the corridor
+(49.8° E), where no ship can be before 111 h. The bounds now block each leg over the times a
+ship can be on it (``optroute.optimise.lateral.reach_windows``).
 """
 
 from __future__ import annotations
