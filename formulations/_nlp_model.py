@@ -39,6 +39,7 @@ from formulations.common import Band, PowerModel, spline_weights
 
 __all__ = [
     "ABS_EPS_KN",
+    "WeatherValues",
     "power_ratio",
     "sample_physics",
     "structured_derivatives",
@@ -335,26 +336,7 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
     lam_g = ca.MX.sym("lam_g", ng)
     zmat = ca.reshape(x[z_idx.T.ravel().tolist()], _N_Z, n)
     beta_mat = ca.reshape(p[beta_idx.T.ravel().tolist()], nb * m, n) if nb else ca.MX.zeros(m, n)
-    # sample coordinates and the Taylor data of the weather at x
-    y_a, y_b = zmat[0, :], zmat[1, :]
-    t_a, t_b = zmat[3, :], zmat[4, :]
-    fr = ca.DM(np.tile(frac, n)[None, :])
-    rep = np.repeat(legs, m).tolist()
-    t_s = t_a[:, rep] + fr * (t_b[:, rep] - t_a[:, rep])
-    y_s = y_a[:, rep] + fr * (y_b[:, rep] - y_a[:, rep])
-    s = cor.s_nm
-    s_s = ca.DM((np.repeat(s[:-1], m) + np.tile(frac, n) * np.repeat(np.diff(s), m))[None, :])
-    pts = ca.vertcat(t_s, s_s, y_s)
-
-    def theta_at(order: int) -> Any:
-        parts = [t_s, y_s, nlp.weather.taylor_function(order).map(k_)(pts)]
-        if has_excl:
-            efun = _taylor_function(nlp.exclusion_function, 3, "excl_taylor", time_only=True, order=order)
-            parts.append(efun.map(k_)(pts))
-        return ca.reshape(ca.vertcat(*parts), n_theta * m, n)
-
-    theta1 = ca.Function("theta1", [x], [theta_at(1)])  # first derivatives: gradient and Jacobian
-    theta_h = ca.Function("theta_h", [x], [theta_at(2)]) if exact_hessian else theta1
+    memo = _taylor_source(nlp, x, zmat, z_idx, n_theta, exact_hessian)
     th = ca.MX.sym("theta", n_theta * m, n)
     th_h = ca.MX.sym("theta_h", n_theta * m, n)
     args = [zmat, geo_dm, th, beta_mat]
@@ -388,7 +370,6 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
     sp_h, gat_h = _scatter(nx, nx, np.array(hr), np.array(hc), len(hr))
     hess_full = ca.MX(sp_h, ca.mtimes(gat_h, ca.vec(h_k)))
     hess_core = ca.Function("hess_lag_core", [x, p, lam_f, lam_g, th_h], [hess_full])
-    memo = _TaylorMemo(theta1, theta_h)
     return {
         "grad_f": _MemoCallback("grad_f", grad_core, memo.first, ["x", "p"], ["f", "grad_f_x"], cache=True),
         "jac_g": _MemoCallback("jac_g", jac_core, memo.first, ["x", "p"], ["g", "jac_g_x"]),
@@ -396,6 +377,95 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
             "hess_lag", hess_core, memo.hessian, ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]
         ),
     }
+
+
+def _sample_coordinates(nlp: Any, zmat: Any) -> tuple[Any, Any, np.ndarray]:
+    """Time [h], across-track offset [nm] (MX rows, 1 × N·m, sample k·m + j) and along-track position [nm]
+    (numpy, N·m) of every sample, from the legs' variables ``zmat`` (5 × N)."""
+    n, m, frac = nlp.n_legs, nlp.samples_per_leg, nlp.sample_fraction
+    y_a, y_b = zmat[0, :], zmat[1, :]
+    t_a, t_b = zmat[3, :], zmat[4, :]
+    fr = ca.DM(np.tile(frac, n)[None, :])
+    rep = np.repeat(np.arange(n), m).tolist()
+    t_s = t_a[:, rep] + fr * (t_b[:, rep] - t_a[:, rep])
+    y_s = y_a[:, rep] + fr * (y_b[:, rep] - y_a[:, rep])
+    s = nlp.corridor.s_nm
+    s_s = np.repeat(s[:-1], m) + np.tile(frac, n) * np.repeat(np.diff(s), m)
+    return t_s, y_s, s_s
+
+
+def _taylor_source(nlp: Any, x: Any, zmat: Any, z_idx: np.ndarray, n_theta: int, exact_hessian: bool) -> Any:
+    """The per-sample Taylor data ``theta`` (n_theta·m × N) at a point x, memoised: from the weather's numpy
+    :class:`~formulations.splines.TensorSpline` when the NLP reads its weather that way (no CasADi spline is
+    built), else from CasADi's mapped ``WeatherGrid.taylor_function``."""
+    k_ = nlp.n_legs * nlp.samples_per_leg
+    has_excl = nlp.exclusion is not None
+    t_s, y_s, s_s = _sample_coordinates(nlp, zmat)
+    pts = ca.vertcat(t_s, ca.DM(s_s[None, :]), y_s)
+    excl: dict[int, Any] = {}
+    if has_excl:
+        for order in (1, 2) if exact_hessian else (1,):
+            efun = _taylor_function(nlp.exclusion_function, 3, "excl_taylor", time_only=True, order=order)
+            excl[order] = efun.map(k_)
+    if nlp.numeric_weather:
+        coords = ca.Function("coords", [x], [ca.vertcat(t_s, y_s)])
+        return _NumericTaylor(nlp, coords, s_s, excl, n_theta, exact_hessian)
+    m, n = nlp.samples_per_leg, nlp.n_legs
+
+    def theta_at(order: int) -> Any:
+        parts = [t_s, y_s, nlp.weather.taylor_function(order).map(k_)(pts)]
+        if has_excl:
+            parts.append(excl[order](pts))
+        return ca.reshape(ca.vertcat(*parts), n_theta * m, n)
+
+    theta1 = ca.Function("theta1", [x], [theta_at(1)])  # first derivatives: gradient and Jacobian
+    theta_h = ca.Function("theta_h", [x], [theta_at(2)]) if exact_hessian else theta1
+    return _TaylorMemo(theta1, theta_h)
+
+
+class _NumericTaylor:
+    """The weather's Taylor data at the last point asked for, evaluated in numpy
+    (:meth:`formulations.splines.TensorSpline.evaluate`, the same numbers as CasADi's derivative splines),
+    one evaluation per point for the gradient, the Jacobian and the Hessian (second derivatives left at 0
+    for the first two, as :func:`_taylor_source`'s CasADi branch gives them)."""
+
+    def __init__(
+        self, nlp: Any, coords: Any, s_s: np.ndarray, excl: dict[int, Any], n_theta: int, exact_hessian: bool
+    ) -> None:
+        self._spline = nlp.weather.tensor_spline()
+        self._nf = len(nlp.weather.field_names)
+        self._coords, self._s, self._excl = coords, s_s, excl
+        self._n, self._m, self._n_theta = nlp.n_legs, nlp.samples_per_leg, n_theta
+        self._order = 2 if exact_hessian else 1
+        self._last: tuple[bytes, Any, Any] | None = None
+
+    def _theta(self, x: Any) -> tuple[Any, Any]:
+        key = np.asarray(x).tobytes()
+        if self._last is not None and self._last[0] == key:
+            return self._last[1], self._last[2]
+        nf, k_ = self._nf, self._n * self._m
+        ts_ys = np.asarray(self._coords(x), dtype=float)  # (2, K)
+        pts = np.vstack([ts_ys[0], self._s, ts_ys[1]])
+        full = np.zeros((self._n_theta, k_))
+        full[:2] = ts_ys
+        full[2 : 2 + 3 * self._order * nf] = self._spline.evaluate(pts, self._order)
+        if self._excl:
+            full[2 + 6 * nf :] = np.asarray(self._excl[self._order](pts), dtype=float)
+        first = full
+        if self._order == 2:
+            first = full.copy()
+            first[2 + 3 * nf : 2 + 6 * nf] = 0.0
+            if self._excl:
+                first[2 + 6 * nf + 9 :] = 0.0
+        shaped = [ca.DM(a.T.reshape(self._n, self._m * self._n_theta).T) for a in (first, full)]
+        self._last = (key, shaped[0], shaped[1])
+        return shaped[0], shaped[1]
+
+    def first(self, x: Any) -> Any:
+        return self._theta(x)[0]
+
+    def hessian(self, x: Any) -> Any:
+        return self._theta(x)[1]
 
 
 class _TaylorMemo:
@@ -467,3 +537,31 @@ class _MemoCallback(ca.Callback):
         if self._cache:
             self._last = (key, out)
         return out
+
+
+class WeatherValues(ca.Callback):
+    """The weather fields at K points, ``(3, K) [t; s; y] ↦ (n_fields, K)``, as a CasADi function evaluated in
+    numpy (:meth:`formulations.common.WeatherGrid.tensor_spline`): the values of CasADi's
+    ``WeatherGrid.interpolant`` without building it. No derivatives: the NLP built with it takes its
+    derivatives from :func:`structured_derivatives`."""
+
+    def __init__(self, weather: Any, n_points: int) -> None:
+        ca.Callback.__init__(self)
+        self._spline = weather.tensor_spline()
+        self._k = int(n_points)
+        self.construct("weather_values", {})
+
+    def get_n_in(self) -> int:
+        return 1
+
+    def get_n_out(self) -> int:
+        return 1
+
+    def get_sparsity_in(self, i: int) -> Any:
+        return ca.Sparsity.dense(3, self._k)
+
+    def get_sparsity_out(self, i: int) -> Any:
+        return ca.Sparsity.dense(self._spline.n_fields, self._k)
+
+    def eval(self, arg: list[Any]) -> list[Any]:
+        return [ca.DM(self._spline.evaluate(np.asarray(arg[0], dtype=float), 0))]

@@ -14,6 +14,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from formulations.splines import (
+    TensorSpline,
+    bspline_function,
+    is_uniform,
+    quasi_spline,
+    resample_linear,
+    spline_derivative,
+    spline_weights,
+)
+
 __all__ = [
     "BAND_KINDS",
     "Band",
@@ -554,26 +564,73 @@ class WeatherGrid:
             if g.size == 1:  # constant along this axis: duplicate the slab
                 g = np.array([g[0], g[0] + 1.0])
                 data = np.concatenate([data, data], axis=axis + 1)
-            if g.size < min_pts or (self.method == "smooth" and not _is_uniform(g)):
+            if g.size < min_pts or (self.method == "smooth" and not is_uniform(g)):
                 # resample linearly (keeps the data's multilinear interpolant between old nodes)
                 step = float(np.min(np.diff(g)))
                 count = max(min_pts, min(int(np.ceil((g[-1] - g[0]) / step)) + 1, 4 * g.size))
                 new = np.linspace(g[0], g[-1], count)
-                data = _resample_linear(data, g, new, axis + 1)
+                data = resample_linear(data, g, new, axis + 1)
                 g = new
             grids[axis] = g
         return grids, data
+
+    def _memo(self) -> dict[Any, Any]:
+        """What is built from the data, once per grid (the data are frozen): the spline's control points, the
+        CasADi functions. Not pickled (:meth:`__getstate__`); a ``dataclasses.replace`` copy starts empty."""
+        memo = self.__dict__.get("_built")
+        if memo is None:
+            memo = {}
+            object.__setattr__(self, "_built", memo)
+        return memo
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        state.pop("_built", None)
+        return state
+
+    def tensor_spline(self) -> TensorSpline:
+        """The ``"smooth"`` quasi-interpolant of every field as a numpy :class:`~formulations.splines.TensorSpline`
+        (built once per grid): values and derivatives at many points without building any CasADi function."""
+        if self.method != "smooth":
+            raise FormulationInputError(f"tensor_spline needs method='smooth', this grid has method={self.method!r}")
+        memo = self._memo()
+        if "tensor" not in memo:
+            grids, data = self._prepared()
+            knots, coef, _ = quasi_spline(grids, data)
+            memo["tensor"], memo["knots"] = TensorSpline(grids, coef), knots
+        return memo["tensor"]
+
+    def _part(self, axes: tuple[int, ...]) -> Any:
+        """The CasADi B-spline of the ``"smooth"`` table differentiated along ``axes`` (built once per grid)."""
+        memo = self._memo()
+        key = ("part", axes)
+        if key not in memo:
+            spline = self.tensor_spline()
+            k, c, d = memo["knots"], spline.coef, [3, 3, 3]
+            for ax in axes:
+                k, c, d = spline_derivative(k, c, d, ax)
+            memo[key] = bspline_function("f" + "".join("tsy"[a] for a in axes), k, c, d)
+        return memo[key]
 
     def _raw_interpolant(self, grids: list[np.ndarray], data: np.ndarray) -> Any:
         import casadi as ca
 
         if self.method == "smooth":
-            return _bspline_function("weather", *_quasi_spline(grids, data))
+            return self._part(())
         # CasADi layout: outputs fastest, then the grid axes in Fortran order.
         return ca.interpolant("weather", self.method, grids, data.ravel(order="F"))
 
+    def _axes_bounds(self) -> tuple[list[float], list[float]]:
+        """The first and last node of every axis as the interpolants see them (after :meth:`_prepared`)."""
+        if self.method == "smooth":
+            sp = self.tensor_spline()
+            return sp.x0.tolist(), sp.hi.tolist()
+        grids, _ = self._prepared()
+        return [float(g[0]) for g in grids], [float(g[-1]) for g in grids]
+
     def interpolant(self) -> Any:
-        """A CasADi function ``(t, s, y) ↦ fields`` (3 inputs stacked, ``len(field_names)`` outputs).
+        """A CasADi function ``(t, s, y) ↦ fields`` (3 inputs stacked, ``len(field_names)`` outputs), built once
+        per grid.
 
         Outside the grid every field is held at its value on the nearest edge (the inputs are
         clamped to the grid; a B-spline would otherwise drop to zero there). Solutions report
@@ -581,43 +638,46 @@ class WeatherGrid:
         """
         import casadi as ca
 
-        grids, data = self._prepared()
-        x = ca.MX.sym("tsy", 3)
-        lo, hi = [float(g[0]) for g in grids], [float(g[-1]) for g in grids]
-        inner = self._raw_interpolant(grids, data)
-        return ca.Function("weather", [x], [inner(ca.fmin(ca.fmax(x, ca.DM(lo)), ca.DM(hi)))])
+        memo = self._memo()
+        if "interpolant" not in memo:
+            lo, hi = self._axes_bounds()
+            inner = self._part(()) if self.method == "smooth" else self._raw_interpolant(*self._prepared())
+            x = ca.MX.sym("tsy", 3)
+            memo["interpolant"] = ca.Function("weather", [x], [inner(ca.fmin(ca.fmax(x, ca.DM(lo)), ca.DM(hi)))])
+        return memo["interpolant"]
 
     def taylor_function(self, order: int = 1) -> Any:
-        """CasADi function ``(t, s, y) ↦ [F, F_t, F_y, F_tt, F_ty, F_yy]`` (6·n_fields, stacked by block).
+        """CasADi function ``(t, s, y) ↦ [F, F_t, F_y, F_tt, F_ty, F_yy]`` (6·n_fields, stacked by block), built
+        once per grid and order.
 
         The partial derivatives in time and across-track position of every field, consistent with
         :meth:`interpolant` (zero outside the grid along an axis where the field is held constant);
         the second derivatives are zero for ``order=1``. For ``"smooth"`` they are explicit
         derivative splines (lower-degree B-splines with differenced coefficients, cheaper than
         differentiating the spline node); otherwise CasADi's derivatives of the interpolant.
+        :meth:`tensor_spline` gives the same numbers in numpy.
         """
+        memo = self._memo()
+        key = ("taylor", int(order))
+        if key not in memo:
+            memo[key] = self._taylor_function(order)
+        return memo[key]
+
+    def _taylor_function(self, order: int) -> Any:
         import casadi as ca
 
         nf = len(self.field_names)
-        grids, data = self._prepared()
-        lo, hi = [float(g[0]) for g in grids], [float(g[-1]) for g in grids]
+        lo, hi = self._axes_bounds()
         x = ca.MX.sym("tsy", 3)
         xc = ca.fmin(ca.fmax(x, ca.DM(lo)), ca.DM(hi))
         inside = [ca.logic_and(x[i] >= lo[i], x[i] <= hi[i]) for i in range(3)]
         zero = ca.MX.zeros(nf, 1)
         if self.method == "smooth":
-            knots, coef, deg = _quasi_spline(grids, data)
-
-            def part(axes: tuple[int, ...], name: str) -> Any:
-                k, c, d = knots, coef, deg
-                for ax in axes:
-                    k, c, d = _spline_derivative(k, c, d, ax)
-                return _bspline_function(name, k, c, d)(xc)
-
-            blocks = [part((), "f"), part((0,), "f_t"), part((2,), "f_y")]
+            blocks = [self._part(axes)(xc) for axes in ((), (0,), (2,))]
             if order > 1:
-                blocks += [part((0, 0), "f_tt"), part((0, 2), "f_ty"), part((2, 2), "f_yy")]
+                blocks += [self._part(axes)(xc) for axes in ((0, 0), (0, 2), (2, 2))]
         else:
+            grids, data = self._prepared()
             xs = ca.MX.sym("xs", 3)
             fun = ca.Function("f", [xs], [self._raw_interpolant(grids, data)(xs)])
             val = fun(xc)
@@ -633,106 +693,6 @@ class WeatherGrid:
         masks = [1, inside[0], inside[2], inside[0], inside[0] * inside[2], inside[2]]
         blocks = [blk * mk for blk, mk in zip(blocks, masks, strict=True)]
         return ca.Function("weather_taylor", [x], [ca.densify(ca.vertcat(*blocks))])
-
-
-def spline_weights(x: Any, x0: float, h: float, n: int, lib: Any) -> list[Any]:
-    """Weights ``w_i(x)`` of the uniform cubic B-spline quasi-interpolant ``Σ_i w_i(x) f_i`` of nodes ``x0 + i h``.
-
-    Schoenberg's quasi-interpolant with the data ``f_i`` as control points, extended linearly by one
-    node at either end (``f_{-1} = 2f_0 − f_1``), as :class:`WeatherGrid`'s spline along its axes: C²,
-    exact for linear data, within the data's range away from the ends. The centred cubic B-spline
-    is written with truncated powers, ``B(u) = [(u+2)₊³ − 4(u+1)₊³ + 6u₊³ − 4(u−1)₊³]/6`` for
-    ``|u| ≤ 2`` (0 beyond), so that the same expression serves ``numpy`` and CasADi (``lib`` provides
-    ``fmax`` and ``fmin``). ``x`` is held at the nearest node outside ``[x0, x0 + (n−1)h]``.
-    """
-    if n == 1:
-        return [1.0]
-    xc = lib.fmin(lib.fmax(x, x0), x0 + (n - 1) * h)
-    u = (xc - x0) / h
-
-    def b(d: Any) -> Any:
-        d = lib.fmin(lib.fmax(d, -2.0), 2.0)
-        p = [lib.fmax(d + k, 0.0) ** 3 for k in (2.0, 1.0, 0.0, -1.0)]
-        return (p[0] - 4.0 * p[1] + 6.0 * p[2] - 4.0 * p[3]) / 6.0
-
-    basis = [b(u - i) for i in range(-1, n + 1)]  # f_{-1} … f_n
-    w = basis[1 : n + 1]
-    w[0], w[1] = w[0] + 2.0 * basis[0], w[1] - basis[0]
-    w[n - 1], w[n - 2] = w[n - 1] + 2.0 * basis[n + 1], w[n - 2] - basis[n + 1]
-    return w
-
-
-def _is_uniform(g: np.ndarray) -> bool:
-    d = np.diff(g)
-    return bool(np.allclose(d, d[0], rtol=1e-9, atol=0.0))
-
-
-def _resample_linear(data: np.ndarray, g: np.ndarray, new: np.ndarray, axis: int) -> np.ndarray:
-    """Linear interpolation of ``data`` along ``axis`` from nodes ``g`` to nodes ``new``."""
-    idx = np.clip(np.searchsorted(g, new, side="right") - 1, 0, g.size - 2)
-    w = (new - g[idx]) / (g[idx + 1] - g[idx])
-    shape = [1] * data.ndim
-    shape[axis] = new.size
-    w = w.reshape(shape)
-    return np.take(data, idx, axis=axis) * (1.0 - w) + np.take(data, idx + 1, axis=axis) * w
-
-
-def _quasi_spline(grids: list[np.ndarray], data: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, list[int]]:
-    """Cubic tensor B-spline whose control points are the data (Schoenberg's quasi-interpolant).
-
-    On a uniform axis with spacing ``h`` the knots are the grid nodes extended by ``3h`` on either
-    side and the data are padded by one linearly extrapolated node per side, so every grid node is
-    the centre of one cubic B-spline. The result is C², reproduces linear fields exactly, stays
-    within the range of the data away from the outermost cells (no overshoot), and differs from
-    the multilinear interpolant by ``O(h²)`` (at a node, by ``(f_{i-1} − 2 f_i + f_{i+1})/6``). It
-    needs no fitting, so it is built instantly.
-
-    Returns
-    -------
-    knots : list of numpy.ndarray
-        Knot vector per axis.
-    coef : numpy.ndarray, shape (n_fields, n0 + 2, n1 + 2, n2 + 2)
-        Control points.
-    degree : list of int
-        ``[3, 3, 3]``.
-    """
-    knots = []
-    for axis, g in enumerate(grids):
-        h = float(g[1] - g[0])
-        lo = 2.0 * np.take(data, [0], axis=axis + 1) - np.take(data, [1], axis=axis + 1)
-        hi = 2.0 * np.take(data, [-1], axis=axis + 1) - np.take(data, [-2], axis=axis + 1)
-        data = np.concatenate([lo, data, hi], axis=axis + 1)
-        knots.append(np.concatenate([g[0] + h * np.arange(-3, 0), g, g[-1] + h * np.arange(1, 4)]))
-    return knots, data, [3, 3, 3]
-
-
-def _spline_derivative(
-    knots: list[np.ndarray], coef: np.ndarray, degree: list[int], axis: int
-) -> tuple[list[np.ndarray], np.ndarray, list[int]]:
-    """Partial derivative of a tensor B-spline along ``axis``: degree − 1, differenced coefficients.
-
-    ``d/dx Σ c_i B_{i,p} = Σ p (c_{i+1} − c_i) / (t_{i+p+1} − t_{i+1}) B_{i+1,p−1}`` on the knots
-    without their first and last entries (de Boor 1978, ch. X).
-    """
-    t, p = knots[axis], degree[axis]
-    diff = np.diff(coef, axis=axis + 1)
-    span = (t[p + 1 : -1] - t[1 : -p - 1])[: diff.shape[axis + 1]]
-    shape = [1] * coef.ndim
-    shape[axis + 1] = span.size
-    new_knots = list(knots)
-    new_knots[axis] = t[1:-1]
-    new_degree = list(degree)
-    new_degree[axis] = p - 1
-    return new_knots, p * diff / span.reshape(shape), new_degree
-
-
-def _bspline_function(name: str, knots: list[np.ndarray], coef: np.ndarray, degree: list[int]) -> Any:
-    """``casadi.Function.bspline`` from per-axis knots and coefficients (n_out, n0, n1, n2)."""
-    import casadi as ca
-
-    opts = {"lookup_mode": ["exact"] * len(knots)}  # uniform knots: O(1) cell lookup (the default scans)
-    flat = coef.ravel(order="F").tolist()  # outputs fastest, then the axes in Fortran order
-    return ca.Function.bspline(name, [k.tolist() for k in knots], flat, list(degree), coef.shape[0], opts)
 
 
 @dataclass(frozen=True)

@@ -69,7 +69,6 @@ and bands (IMO MSC.1/Circ.1228, Boeing EP 2145155; physics.md §2–3); SFOC
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import casadi as ca
@@ -77,6 +76,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from formulations._nlp_model import (
+    WeatherValues,
     jit_compiler,
     sample_physics,
     structured_derivatives,
@@ -91,6 +91,7 @@ from formulations.common import (
     WeatherGrid,
     broadcast_legs,
 )
+from formulations.nlp_result import NLPResult, SampleState
 
 __all__ = [
     "CorridorGeometry",
@@ -116,125 +117,14 @@ _IPOPT_DEFAULTS: dict[str, Any] = {
     "ipopt.linear_solver": "mumps",
     "ipopt.mu_strategy": "adaptive",
     "ipopt.bound_relax_factor": 0.0,
+    # no gradient of the Lagrangian in CasADi's Nlpsol (Ipopt returns the bound multipliers lam_x itself, and
+    # nothing reads the parameters' lam_p): building it differentiates the whole graph by reverse mode at
+    # construction, through the weather splines, which was most of a build's time on a corridor's grid
+    "calc_lam_p": False,
+    "no_nlp_grad": True,
 }
 #: Ipopt/CasADi options of the corridor NLPs (public: :mod:`formulations.robust_nlp` uses the same).
 IPOPT_DEFAULTS = _IPOPT_DEFAULTS
-
-
-@dataclass(frozen=True)
-class SampleState:
-    """Conditions and derived quantities at every sample, arrays of shape (n_legs, m) (bands: (n_legs, m, n_bands)).
-
-    Attributes
-    ----------
-    time_h, s_nm, y_nm : numpy.ndarray
-        Time since departure [h] and corridor coordinates [nm] of the sample.
-    x_nm, y_flat_nm : numpy.ndarray
-        Position in the flat frame [nm].
-    hs_m, period_s : numpy.ndarray
-        Significant wave height [m] and wave period [s] interpolated there.
-    sog_kn, power_kw, load, fuel_rate_tph : numpy.ndarray
-        Speed over ground [kn], brake power [kW], engine load P/MCR [-], fuel rate [t/h].
-    cos_chi : numpy.ndarray
-        cos of the angle between heading and wave propagation [-] (1 = following sea).
-    ratio : numpy.ndarray, shape (n_legs, m, n_bands)
-        Band ratios (see :class:`formulations.common.Band`).
-    applies : numpy.ndarray of bool, shape (n_legs, m, n_bands)
-        ``hs_m ≥ band.hs_min_m`` at this sample.
-    inside : numpy.ndarray of bool, shape (n_legs, m, n_bands)
-        ``applies`` and ``lower + ε < ratio < upper − ε`` (ε = 1e-6 · max(1, |lower|), the solver tolerance).
-    exclusion_margin_nm : numpy.ndarray
-        Distance to the moving exclusion circle's edge [nm] (> 0 outside; +inf without one).
-    outside_grid : numpy.ndarray of bool
-        The sample lies outside the weather grid (the interpolant extrapolates).
-    """
-
-    time_h: np.ndarray
-    s_nm: np.ndarray
-    y_nm: np.ndarray
-    x_nm: np.ndarray
-    y_flat_nm: np.ndarray
-    hs_m: np.ndarray
-    period_s: np.ndarray
-    sog_kn: np.ndarray
-    power_kw: np.ndarray
-    load: np.ndarray
-    fuel_rate_tph: np.ndarray
-    cos_chi: np.ndarray
-    ratio: np.ndarray
-    applies: np.ndarray
-    inside: np.ndarray
-    exclusion_margin_nm: np.ndarray
-    outside_grid: np.ndarray
-
-
-@dataclass(frozen=True)
-class NLPResult:
-    """Solution of :meth:`SpeedNLP.solve`.
-
-    Attributes
-    ----------
-    status : str
-        Ipopt's ``return_status``, verbatim (``"Solve_Succeeded"``, ``"Infeasible_Problem_Detected"``...).
-    success : bool
-        CasADi's ``stats()["success"]``.
-    iterations : int
-        Ipopt iterations.
-    solve_time_s : float
-        Wall-clock time of the Ipopt call [s].
-    objective : float
-        Optimal objective: fuel [t], time [h] or cost [currency].
-    offset_nm : numpy.ndarray, shape (N+1,)
-        Lateral offsets ``y_k`` [nm].
-    position_xy_nm : numpy.ndarray, shape (N+1, 2)
-        Waypoints in the flat frame [nm].
-    stw_kn : numpy.ndarray, shape (N,)
-        Speed through water per leg [kn].
-    time_h : numpy.ndarray, shape (N+1,)
-        Arrival time at every waypoint [h since departure].
-    distance_nm, duration_h, fuel_t : numpy.ndarray, shape (N,)
-        Leg length [nm], duration [h], fuel [t].
-    total_fuel_t, duration_total_h : float
-        Voyage fuel [t] and passage time [h].
-    eta_multiplier : float
-        ``-d(objective*)/d(T_eta)``, Ipopt's multiplier of the ETA bound; for ``"fuel"``
-        the fuel saved per extra hour of passage [t/h]. 0 without an active ETA.
-    band_multiplier : numpy.ndarray, shape (N, m, B)
-        Multipliers of the band constraints (0 where not imposed) [objective units per unit ratio·scale].
-    band_active : numpy.ndarray of bool, shape (N, m, B)
-        Band constraint imposed and binding (|multiplier| > 1e-8 or ratio within 1e-6 of its edge).
-    sides, applies : numpy.ndarray, shape (N, m, B)
-        The side (−1 / +1) and applicability used in this solve.
-    samples : SampleState
-        Per-sample conditions at the solution (re-evaluated, for the outer loop and reports).
-    max_violation : float
-        Largest constraint violation at the returned point (scaled units of each row).
-    """
-
-    status: str
-    success: bool
-    iterations: int
-    solve_time_s: float
-    objective: float
-    offset_nm: np.ndarray
-    position_xy_nm: np.ndarray
-    stw_kn: np.ndarray
-    time_h: np.ndarray
-    distance_nm: np.ndarray
-    duration_h: np.ndarray
-    fuel_t: np.ndarray
-    total_fuel_t: float
-    duration_total_h: float
-    eta_multiplier: float
-    band_multiplier: np.ndarray
-    band_active: np.ndarray
-    sides: np.ndarray
-    applies: np.ndarray
-    samples: SampleState
-    max_violation: float
-    x_opt: np.ndarray = field(repr=False)
-    lam_x: np.ndarray = field(repr=False)
-    lam_g: np.ndarray = field(repr=False)
 
 
 def _rep(col: Any, m: int) -> Any:
@@ -486,8 +376,14 @@ class SpeedNLP:
     ) -> None:
         n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
         k_ = n * m
-        self.weather_function = self.weather.interpolant()
-        self._interp_map = self.weather_function.map(k_)
+        # with the structured derivatives nothing differentiates the weather through CasADi: read it in numpy
+        # (no CasADi spline of the grid is built; WeatherGrid.tensor_spline is built once per grid)
+        self.numeric_weather = bool(structured and not expand and self.weather.method == "smooth")
+        if self.numeric_weather:
+            self._weather_values = WeatherValues(self.weather, k_)  # keep alive: the graphs call it
+            self._interp_map = self._weather_values
+        else:
+            self._interp_map = self.weather.interpolant().map(k_)
         self._sample_map = self._sample_function().map(k_)
         if self.exclusion is not None:
             self.exclusion_function = self.exclusion.interpolant()
@@ -544,6 +440,11 @@ class SpeedNLP:
         diag = ca.Function("speed_nlp_diag", [x, beta, fac], outs)
         self._diag = diag.expand() if expand else diag
         self._diag_names = names
+
+    @property
+    def weather_function(self) -> Any:
+        """CasADi function ``(t, s, y) ↦ fields`` of the weather (:meth:`WeatherGrid.interpolant`, built once per grid)."""
+        return self.weather.interpolant()
 
     # ------------------------------------------------------------------ helpers
     def _needs_current_rows(self) -> bool:

@@ -1,0 +1,242 @@
+"""The B-spline machinery of the weather tables: Schoenberg's cubic quasi-interpolant, its derivatives, and
+its evaluation in numpy.
+
+Split out of :mod:`formulations.common` (the :class:`~formulations.common.WeatherGrid` it serves stays there).
+Two ways to evaluate the same spline:
+
+* CasADi's ``Function.bspline`` (:func:`bspline_function`), differentiable by CasADi: what a caller that lets
+  CasADi differentiate the graph needs (``SpeedNLP(structured=False)``, ``expand=True``, the robust NLP);
+* :class:`TensorSpline`, numpy over arrays of points, with the first and second partial derivatives in time
+  and across-track position from the derivatives of the basis functions. It holds the control points once;
+  building it costs the padding of the data, nothing more. ``Function.bspline`` copies its coefficients
+  through a Python list and, per derivative, builds another spline of the differenced coefficients: on a
+  corridor's grid of ten million values that was most of the NLP's build time.
+
+Both evaluate ``Σ c_abc B_a(t) B_b(s) B_c(y)`` with the uniform cubic B-spline ``B`` (de Boor 1978, ch. IX–X);
+they agree to rounding (the test suite compares them).
+
+Units: whatever the axes and data carry (the corridor NLP: hours, nautical miles, the fields' own units).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "TensorSpline",
+    "bspline_function",
+    "is_uniform",
+    "quasi_spline",
+    "resample_linear",
+    "spline_derivative",
+    "spline_weights",
+]
+
+_CHUNK = 2048  # points per gather in TensorSpline.evaluate: bounds the (points, 64, fields) block in memory
+
+
+def spline_weights(x: Any, x0: float, h: float, n: int, lib: Any) -> list[Any]:
+    """Weights ``w_i(x)`` of the uniform cubic B-spline quasi-interpolant ``Σ_i w_i(x) f_i`` of nodes ``x0 + i h``.
+
+    Schoenberg's quasi-interpolant with the data ``f_i`` as control points, extended linearly by one
+    node at either end (``f_{-1} = 2f_0 − f_1``), as :class:`formulations.common.WeatherGrid`'s spline along
+    its axes: C², exact for linear data, within the data's range away from the ends. The centred cubic B-spline
+    is written with truncated powers, ``B(u) = [(u+2)₊³ − 4(u+1)₊³ + 6u₊³ − 4(u−1)₊³]/6`` for
+    ``|u| ≤ 2`` (0 beyond), so that the same expression serves ``numpy`` and CasADi (``lib`` provides
+    ``fmax`` and ``fmin``). ``x`` is held at the nearest node outside ``[x0, x0 + (n−1)h]``.
+    """
+    if n == 1:
+        return [1.0]
+    xc = lib.fmin(lib.fmax(x, x0), x0 + (n - 1) * h)
+    u = (xc - x0) / h
+
+    def b(d: Any) -> Any:
+        d = lib.fmin(lib.fmax(d, -2.0), 2.0)
+        p = [lib.fmax(d + k, 0.0) ** 3 for k in (2.0, 1.0, 0.0, -1.0)]
+        return (p[0] - 4.0 * p[1] + 6.0 * p[2] - 4.0 * p[3]) / 6.0
+
+    basis = [b(u - i) for i in range(-1, n + 1)]  # f_{-1} … f_n
+    w = basis[1 : n + 1]
+    w[0], w[1] = w[0] + 2.0 * basis[0], w[1] - basis[0]
+    w[n - 1], w[n - 2] = w[n - 1] + 2.0 * basis[n + 1], w[n - 2] - basis[n + 1]
+    return w
+
+
+def is_uniform(g: np.ndarray) -> bool:
+    """Whether the nodes ``g`` are equally spaced (to 1e-9 relative)."""
+    d = np.diff(g)
+    return bool(np.allclose(d, d[0], rtol=1e-9, atol=0.0))
+
+
+def resample_linear(data: np.ndarray, g: np.ndarray, new: np.ndarray, axis: int) -> np.ndarray:
+    """Linear interpolation of ``data`` along ``axis`` from nodes ``g`` to nodes ``new``."""
+    idx = np.clip(np.searchsorted(g, new, side="right") - 1, 0, g.size - 2)
+    w = (new - g[idx]) / (g[idx + 1] - g[idx])
+    shape = [1] * data.ndim
+    shape[axis] = new.size
+    w = w.reshape(shape)
+    return np.take(data, idx, axis=axis) * (1.0 - w) + np.take(data, idx + 1, axis=axis) * w
+
+
+def quasi_spline(grids: list[np.ndarray], data: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, list[int]]:
+    """Cubic tensor B-spline whose control points are the data (Schoenberg's quasi-interpolant).
+
+    On a uniform axis with spacing ``h`` the knots are the grid nodes extended by ``3h`` on either
+    side and the data are padded by one linearly extrapolated node per side, so every grid node is
+    the centre of one cubic B-spline. The result is C², reproduces linear fields exactly, stays
+    within the range of the data away from the outermost cells (no overshoot), and differs from
+    the multilinear interpolant by ``O(h²)`` (at a node, by ``(f_{i-1} − 2 f_i + f_{i+1})/6``). It
+    needs no fitting, so it is built instantly.
+
+    Returns
+    -------
+    knots : list of numpy.ndarray
+        Knot vector per axis.
+    coef : numpy.ndarray, shape (n_fields, n0 + 2, n1 + 2, n2 + 2)
+        Control points.
+    degree : list of int
+        ``[3, 3, 3]``.
+    """
+    knots = []
+    for axis, g in enumerate(grids):
+        h = float(g[1] - g[0])
+        lo = 2.0 * np.take(data, [0], axis=axis + 1) - np.take(data, [1], axis=axis + 1)
+        hi = 2.0 * np.take(data, [-1], axis=axis + 1) - np.take(data, [-2], axis=axis + 1)
+        data = np.concatenate([lo, data, hi], axis=axis + 1)
+        knots.append(np.concatenate([g[0] + h * np.arange(-3, 0), g, g[-1] + h * np.arange(1, 4)]))
+    return knots, data, [3, 3, 3]
+
+
+def spline_derivative(
+    knots: list[np.ndarray], coef: np.ndarray, degree: list[int], axis: int
+) -> tuple[list[np.ndarray], np.ndarray, list[int]]:
+    """Partial derivative of a tensor B-spline along ``axis``: degree − 1, differenced coefficients.
+
+    ``d/dx Σ c_i B_{i,p} = Σ p (c_{i+1} − c_i) / (t_{i+p+1} − t_{i+1}) B_{i+1,p−1}`` on the knots
+    without their first and last entries (de Boor 1978, ch. X).
+    """
+    t, p = knots[axis], degree[axis]
+    diff = np.diff(coef, axis=axis + 1)
+    span = (t[p + 1 : -1] - t[1 : -p - 1])[: diff.shape[axis + 1]]
+    shape = [1] * coef.ndim
+    shape[axis + 1] = span.size
+    new_knots = list(knots)
+    new_knots[axis] = t[1:-1]
+    new_degree = list(degree)
+    new_degree[axis] = p - 1
+    return new_knots, p * diff / span.reshape(shape), new_degree
+
+
+def bspline_function(name: str, knots: list[np.ndarray], coef: np.ndarray, degree: list[int]) -> Any:
+    """``casadi.Function.bspline`` from per-axis knots and coefficients (n_out, n0, n1, n2).
+
+    The coefficients go in as a numpy array (CasADi's wrapper accepts it for its list of floats; a
+    ``.tolist()`` first would make ten million Python floats on a corridor's grid).
+    """
+    import casadi as ca
+
+    opts = {"lookup_mode": ["exact"] * len(knots)}  # uniform knots: O(1) cell lookup (the default scans)
+    flat = np.ravel(coef, order="F")  # outputs fastest, then the axes in Fortran order
+    return ca.Function.bspline(
+        name, [np.asarray(k, dtype=float) for k in knots], flat, list(degree), coef.shape[0], opts
+    )
+
+
+def _basis(u: np.ndarray, order: int) -> np.ndarray:
+    """The four uniform cubic B-spline weights on a cell and their derivatives in the local coordinate ``u``.
+
+    Returns shape (order + 1, 4, K): ``[d^r/du^r B_{i+a}(u)]`` for ``r = 0..order``, ``a = 0..3``
+    (``B`` centred on the padded control points ``i .. i+3`` of the cell ``[i, i+1]``).
+    """
+    v = 1.0 - u
+    u2, u3 = u * u, u * u * u
+    out = [
+        np.stack(
+            [v * v * v / 6.0, (3.0 * u3 - 6.0 * u2 + 4.0) / 6.0, (-3.0 * u3 + 3.0 * u2 + 3.0 * u + 1.0) / 6.0, u3 / 6.0]
+        )
+    ]
+    if order >= 1:
+        out.append(np.stack([-0.5 * v * v, 1.5 * u2 - 2.0 * u, -1.5 * u2 + u + 0.5, 0.5 * u2]))
+    if order >= 2:
+        out.append(np.stack([v, 3.0 * u - 2.0, 1.0 - 3.0 * u, u]))
+    return np.stack(out)
+
+
+class TensorSpline:
+    """A uniform cubic tensor B-spline on (t, s, y) evaluated in numpy, with its derivatives in t and y.
+
+    Parameters
+    ----------
+    grids : list of three numpy.ndarray
+        Uniform, increasing axes, at least 2 nodes each (the data's nodes; :func:`quasi_spline` pads them).
+    coef : numpy.ndarray, shape (n_fields, n0 + 2, n1 + 2, n2 + 2)
+        Control points, as :func:`quasi_spline` returns them.
+
+    Notes
+    -----
+    The same function as :func:`bspline_function` of ``quasi_spline(grids, data)``, held at the nearest
+    edge outside the grid (as :meth:`formulations.common.WeatherGrid.interpolant`), with the derivative
+    along an axis zero where the point is clamped on it (as ``WeatherGrid.taylor_function``).
+    """
+
+    def __init__(self, grids: list[np.ndarray], coef: np.ndarray) -> None:
+        self.n_fields = int(coef.shape[0])
+        self.x0 = np.array([float(g[0]) for g in grids])
+        self.h = np.array([float(g[1] - g[0]) for g in grids])
+        self.hi = np.array([float(g[-1]) for g in grids])
+        self.n_cells = np.array([g.size - 1 for g in grids])
+        shape = coef.shape[1:]
+        # control points as rows of fields: one contiguous row per (t, s, y) node, gathered 64 at a time
+        self._rows = np.ascontiguousarray(np.moveaxis(coef, 0, -1)).reshape(-1, self.n_fields)
+        #: the control points (n_fields, n0 + 2, n1 + 2, n2 + 2), a view of the rows (no second copy)
+        self.coef = np.moveaxis(self._rows.reshape(*shape, self.n_fields), -1, 0)
+        strides = np.array([shape[1] * shape[2], shape[2], 1])
+        a, b, c = np.meshgrid(np.arange(4), np.arange(4), np.arange(4), indexing="ij")
+        self._strides = strides
+        self._offsets = (a * strides[0] + b * strides[1] + c * strides[2]).ravel()  # (64,), (a, b, c) C order
+
+    def evaluate(self, points: np.ndarray, order: int = 0) -> np.ndarray:
+        """Values and partial derivatives at points (3, K) [t, s, y].
+
+        Returns
+        -------
+        numpy.ndarray
+            ``order=0``: (n_fields, K), the values ``F``. ``order=1``: (3·n_fields, K), ``[F, F_t, F_y]``
+            stacked by block; ``order=2``: (6·n_fields, K), ``[F, F_t, F_y, F_tt, F_ty, F_yy]``.
+        """
+        pts = np.asarray(points, dtype=float)
+        k_ = pts.shape[1]
+        n_blocks = (1, 3, 6)[order]
+        out = np.empty((n_blocks, self.n_fields, k_))
+        for start in range(0, k_, _CHUNK):
+            stop = min(k_, start + _CHUNK)
+            out[:, :, start:stop] = self._chunk(pts[:, start:stop], order)
+        return out.reshape(n_blocks * self.n_fields, k_)
+
+    def _chunk(self, pts: np.ndarray, order: int) -> np.ndarray:
+        lo, hi = self.x0[:, None], self.hi[:, None]
+        inside = (pts >= lo) & (pts <= hi)
+        xc = np.minimum(np.maximum(pts, lo), hi)
+        r = (xc - lo) / self.h[:, None]
+        cell = np.clip(np.floor(r), 0, self.n_cells[:, None] - 1).astype(np.int64)
+        u = r - cell
+        wt = _basis(u[0], order) / (self.h[0] ** np.arange(order + 1))[:, None, None]  # (order+1, 4, K)
+        ws = _basis(u[1], 0)[0]  # (4, K)
+        wy = _basis(u[2], order) / (self.h[2] ** np.arange(order + 1))[:, None, None]
+        base = cell[0] * self._strides[0] + cell[1] * self._strides[1] + cell[2]
+        block = self._rows[base[:, None] + self._offsets[None, :]]  # (K, 64, n_fields)
+        pairs = [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)][: (1, 3, 6)[order]]  # (t order, y order)
+        masks = [1.0, inside[0], inside[2], inside[0], inside[0] & inside[2], inside[2]]
+        weights = np.stack(
+            [
+                (wt[p][:, None, None, :] * ws[None, :, None, :] * wy[q][None, None, :, :]).reshape(64, -1)
+                for p, q in pairs
+            ]
+        )  # (blocks, 64, K)
+        vals = np.matmul(np.transpose(weights, (2, 0, 1)), block)  # (K, blocks, n_fields)
+        vals = np.transpose(vals, (1, 2, 0))  # (blocks, n_fields, K)
+        for i in range(1, len(pairs)):
+            vals[i] *= masks[i]
+        return vals
