@@ -55,7 +55,9 @@ NoSafePassage, because the NLP has no time-dependent no-go constraint: its later
 per leg, blocked over every time a ship could be on the leg (113-189 h at 49.8° E), and the storm's
 south edge passes the DP's track there (−7.55°) only at ~149 h; the DP's route clears it by its
 timing alone, which fixed bounds cannot express (even over the DP's own hours abreast of 50-70° E
-the track is closed, at 61.3° E; the formulation's moving exclusion is a circle).
+the track is closed, at 61.3° E; the formulation's moving exclusion is a circle). Re-measured after
+main's faster NLP build (nlpfast), load 14 falling to 5: 453 s wall, 153 s CPU; NLP 15 / 6 s (case I);
+every fuel figure the same.
 
 Run ``python -m benchmarks.bench_shao [--quick]`` (quick: case I only, 5 legs of ~1 080 nm, 300 nm
 lateral spacing, speeds every 2 kn, four ETAs, no NLP: its CasADi build over 105 legs alone takes
