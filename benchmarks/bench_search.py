@@ -33,7 +33,11 @@
    the same run: the numpy callbacks, the compiled leg callback costing
    every transition (before) and the compiled stages of
    :mod:`optroute.search.dp_kernels` (after), CPU seconds of the process.
-1d. (full mode) ``plan_voyage`` San Diego → Tokyo through the storms with its
+1d. The weather's end as the search's time limit: the fuel objective's λ
+   rounds with the limit and without it (:func:`bench_time_limit`).
+1e. Where the compiled A*'s time goes: the band check on and off
+   (:func:`bench_band_check_share`).
+1f. (full mode) ``plan_voyage`` San Diego → Tokyo through the storms with its
    defaults, end to end (the issue's target is <= 10 s).
 2. The graph sizes of seed 003's Table 1 (Gulf of Gdańsk, 595–3 222
    vertices, 7 514–200 236 edges, 8/16/32 directions): grids of about the
@@ -62,6 +66,7 @@ from scipy.sparse.csgraph import dijkstra as csgraph_dijkstra
 import optroute as orx
 from benchmarks._cli import bench_main
 from optroute import geodesy as geo
+from optroute.errors import NoSafePassage
 from optroute.search import (
     RouteGrid,
     _kernels,
@@ -332,6 +337,79 @@ def bench_dp_physics(quick: bool) -> dict[str, Any]:
     return {"route": f"San Diego -> {end}, half-width {half:g} nm", "rows": rows}
 
 
+def bench_band_check_share(quick: bool) -> dict[str, Any]:
+    """Where the compiled A*'s time goes: the same search with the band check (every 10 nm and between, the default)
+    and with each piece checked at its midpoint only, calm and storms, CPU seconds of this process, same run.
+
+    The graph, the nodes expanded and the edges costed barely change, so the difference is the check's share of
+    the leg costing; the rest (bookkeeping, sampling, the speed choice) is what the midpoint-only search takes.
+    """
+    import warnings
+
+    ship = orx.Ship.preset("container_8000teu")
+    wx = _pacific_weather()
+    cell = 60.0 if quick else 20.0
+    rows = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for name in ("calm", "storms"):
+            for check in (10.0, None):
+                kw = dict(start=orx.scenarios.SAN_DIEGO, end=orx.scenarios.TOKYO, weather=wx[name], ship=ship,
+                          departure=wx["t0"], cell_nm=cell, band_check_nm=check)  # fmt: skip
+                cpu = time.process_time()
+                route, seen = _search_route_timed(kw)
+                rows.append({"weather": name, "check_nm": check, "cpu_s": time.process_time() - cpu,
+                             "search_s": seen["search_s"], "edges": route.stats["evaluated_edges"],
+                             "expanded": route.stats["expanded"], "arrival_h": route.total_duration_h})  # fmt: skip
+    return {"cell_nm": cell, "rows": rows}
+
+
+def bench_time_limit(quick: bool) -> dict[str, Any]:
+    """The weather's end as the search's time limit (issue 15): the fuel objective's λ rounds with and without it.
+
+    San Diego -> Tokyo through the storms at 60 nm cells (120 nm with ``--quick``), λ = 0 (the bisection's
+    first round: too slow to finish inside the 384 h forecast) and λ = 3.07 t/h (a round just too slow,
+    from the bisection of the 60 nm search), each searched with the limit and with it removed, same run.
+    """
+    import warnings
+
+    ship = orx.Ship.preset("container_8000teu")
+    wx = orx.scenarios.north_pacific_storms()
+    cell = 120.0 if quick else 60.0
+    inner = routing.shortest_path
+    rows = []
+    for lam in (0.0, 3.07421875):
+        for limited in (True, False):
+            seen: dict[str, Any] = {}
+
+            def spy(grid: RouteGrid, hood: Any, limited: bool = limited, seen: dict = seen, **kw: Any) -> Any:
+                if not limited:
+                    kw["time_limit_h"] = None
+                cpu = time.process_time()
+                try:
+                    res = inner(grid, hood, **kw)
+                    seen.update(outcome=f"{res.arrival_h:.1f} h", expanded=res.expanded, edges=res.evaluated_edges)
+                    return res
+                except NoSafePassage as exc:
+                    seen.update(outcome="no route", reached=str(exc).split("reached ")[1].split(" nodes")[0])
+                    raise
+                finally:
+                    seen["cpu_s"] = time.process_time() - cpu
+
+            routing.shortest_path = spy
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    orx.search_route(orx.scenarios.SAN_DIEGO, orx.scenarios.TOKYO, wx, ship,
+                                     departure=wx.time.values[0], cell_nm=cell, objective="fuel", lambda_t_per_h=lam)  # fmt: skip
+            except NoSafePassage:
+                pass
+            finally:
+                routing.shortest_path = inner
+            rows.append({"lambda_t_per_h": lam, "limit": limited, **seen})
+    return {"cell_nm": cell, "rows": rows}
+
+
 def bench_plan_voyage() -> dict[str, Any]:
     """``plan_voyage`` San Diego -> Tokyo through the storms, defaults (search, corridor, NLP), end to end."""
     import warnings
@@ -477,6 +555,26 @@ def run(quick: bool) -> dict[str, Any]:
               f"{numpy_s} | {r['legs_cpu_s']:.2f} ({r['legs_s']:.1f}) | {r['stages_cpu_s']:.2f} ({r['stages_s']:.1f}) "
               f"| {r['legs_cpu_s'] / r['stages_cpu_s']:.1f} | {r['legs_fuel_t']:.3f} | {r['stages_fuel_t']:.3f} |")  # fmt: skip
     print()
+    bc = bench_band_check_share(quick)
+    print(f"### Where the compiled A* spends its time: band check on or off, San Diego → Tokyo, {bc['cell_nm']:g} nm "
+          "cells, objective time, same run\n")  # fmt: skip
+    print("| weather | band check | search_route CPU, grid build included [s] | search wall [s] | expanded | "
+          "edges costed | arrival [h] |")  # fmt: skip
+    print("|---|---|---:|---:|---:|---:|---:|")
+    for r in bc["rows"]:
+        check = "every 10 nm + between (default)" if r["check_nm"] else "midpoint only"
+        print(f"| {r['weather']} | {check} | {r['cpu_s']:.2f} | {r['search_s']:.2f} | {r['expanded']:,} | "
+              f"{r['edges']:,} | {r['arrival_h']:.2f} |")  # fmt: skip
+    print()
+    tl = bench_time_limit(quick)
+    print(f"### The weather's end as the search's time limit: fuel objective, San Diego → Tokyo, storms, "
+          f"{tl['cell_nm']:g} nm cells, CPU seconds of this process, same run\n")  # fmt: skip
+    print("| λ [t/h] | time limit | outcome | nodes reached (no route) or expanded | CPU [s] |")
+    print("|---:|---|---|---:|---:|")
+    for r in tl["rows"]:
+        print(f"| {r['lambda_t_per_h']:.4g} | {'weather end' if r['limit'] else 'none (before)'} | {r['outcome']} | "
+              f"{r.get('reached', r.get('expanded', ''))} | {r['cpu_s']:.2f} |")  # fmt: skip
+    print()
     pv = None
     if not quick:
         pv = bench_plan_voyage()
@@ -507,7 +605,9 @@ def run(quick: bool) -> dict[str, Any]:
           f"{dp['step3_transitions'] / dp['step3_s']:,.0f} | {dp['step3_fuel_t']:.2f} | "
           f"{dp['step3_s'] / dp['full_s']:.2f} |")  # fmt: skip
     print()
-    return {"pacific": pac, "pacific_physics": phy, "dp_physics": dpp, "plan_voyage": pv, "seed003": s3, "dp": dp}
+    return {"pacific": pac, "pacific_physics": phy, "dp_physics": dpp, "band_check": bc, "time_limit": tl,
+            "plan_voyage": pv,
+            "seed003": s3, "dp": dp}  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -83,8 +83,10 @@ def voyages():
     # here: with SEARCH the re-planned voyage also stays 30.9 km outside R + 30 km)
     common = dict(forecasts=[(T0, wx)], departure=T0, step_h=1.0, optimise_options=OPTIMISE, corridor_width_nm=240.0,
                   cyclone=watch)  # fmt: skip
-    blind = orx.simulate_voyage((A, B), wx, SHIP, replan=ReplanPolicy.never(), **common)
     replanned = orx.simulate_voyage((A, B), wx, SHIP, replan=ReplanPolicy(), **common)
+    # sailed blind: the same first plan (made at the departure round the track known then, as simulate_voyage makes
+    # it from the ports), never re-planned; planned once, not twice
+    blind = orx.simulate_voyage(replanned.plans[0], wx, SHIP, replan=ReplanPolicy.never(), **common)
     return watch, blind, replanned
 
 

@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike
 from optroute import units
 from optroute._checks import finite
 from optroute.errors import SeaStateError
-from optroute.physics.speed_loss import OnUnreachable, _first, _on_unreachable, _speed_kn
+from optroute.physics._inputs import OnUnreachable, first_true, on_unreachable_mode, speed_kn
 
 __all__ = ["heading_for_course", "sog_from_stw", "stw_for_sog"]
 
@@ -70,7 +70,7 @@ def sog_from_stw(
     SeaStateError
         A non-finite or negative STW, or a non-finite heading or current.
     """
-    stw = _speed_kn("stw_kn", stw_kn)
+    stw = speed_kn("stw_kn", stw_kn)
     h = _angle("heading_deg", heading_deg)
     cu, cv = _current_kn(current_u_ms, current_v_ms)
     su, sv = units.speed_to_deg_to_uv(stw, h)
@@ -136,14 +136,14 @@ def heading_for_course(
     cu, cv = _current_kn(current_u_ms, current_v_ms)
     course, stw, cu, cv = np.broadcast_arrays(course, stw, cu, cv)
     along, cross = _along_cross(course, cu, cv)
-    if _on_unreachable(on_unreachable) == "nan":
+    if on_unreachable_mode(on_unreachable) == "nan":
         delta = np.arcsin(np.clip(-cross / stw, -1.0, 1.0))
         sog = stw * np.cos(delta) + along
         bad = (np.abs(cross) > stw) | (sog <= 0.0)
         return np.where(bad, np.nan, units.wrap_360(course + np.degrees(delta))), np.where(bad, np.nan, sog)
     bad = np.abs(cross) > stw
     if bad.any():
-        idx, where = _first(bad)
+        idx, where = first_true(bad)
         raise SeaStateError(
             f"the cross-current {abs(cross[idx]):.3f} kn exceeds stw_kn={float(stw[idx])!r} on course_deg={float(course[idx])!r}"
             f"{where}: the course cannot be held; use more speed or another course"
@@ -152,7 +152,7 @@ def heading_for_course(
     sog = stw * np.cos(delta) + along
     bad = sog <= 0.0
     if bad.any():
-        idx, where = _first(bad)
+        idx, where = first_true(bad)
         raise SeaStateError(
             f"the current sets the ship back: SOG along course_deg={float(course[idx])!r} would be {sog[idx]:.3f} kn "
             f"at stw_kn={float(stw[idx])!r}{where}; use more speed or another course"

@@ -11,7 +11,8 @@ input):
   the calm-water speed V1 whose speed in weather is a given V2, so that the
   power needed for a speed through the water V2 in weather is the calm-water
   power at V1.
-* **IMO f_w** — the standard weather factor of the EEDI (MEPC.1/Circ.796).
+* **IMO f_w** — the standard weather factor of the EEDI (MEPC.1/Circ.796),
+  in :mod:`optroute.physics.imo_fw` and re-exported here.
 * Currents (the velocity triangle) live in :mod:`optroute.physics.currents`.
 
 Conventions (``shared/design.md``, ``shared/physics.md`` §1)
@@ -61,7 +62,18 @@ from numpy.typing import ArrayLike
 from optroute import units
 from optroute._checks import finite
 from optroute._numba import jit
-from optroute.errors import ConfigError, OptrouteError, SeaStateError, ShipSpecError
+from optroute.errors import ConfigError, SeaStateError
+from optroute.physics._inputs import (
+    OnUnreachable,
+    ShipType,
+    at_most,
+    first_true,
+    known_ship_type,
+    on_unreachable_mode,
+    particular,
+    speed_kn,
+)
+from optroute.physics.imo_fw import imo_fw, imo_fw_capacity
 from optroute.physics.seaway import G_MS2
 
 __all__ = [
@@ -79,11 +91,8 @@ __all__ = [
     "speed_in_weather_kn",
 ]
 
-ShipType = Literal["container", "bulk_carrier", "tanker", "general_cargo"]
 Loading = Literal["normal", "loaded", "ballast"]
-OnUnreachable = Literal["raise", "nan"]
 
-SHIP_TYPES: tuple[str, ...] = ("container", "bulk_carrier", "tanker", "general_cargo")
 LOADINGS: tuple[str, ...] = ("normal", "loaded", "ballast")
 
 BLOCK_COEFFICIENT_RANGE: tuple[float, float] = (0.55, 0.85)
@@ -132,29 +141,10 @@ def _loading(loading: str) -> str:
     return "normal" if loading == "loaded" else loading
 
 
-def _ship_type(ship_type: str) -> str:
-    if ship_type not in SHIP_TYPES:
-        raise ConfigError(f"ship_type={ship_type!r} is not known; use one of {', '.join(map(repr, SHIP_TYPES))}")
-    return ship_type
-
-
-def _first(bad: np.ndarray) -> tuple[tuple[int, ...], str]:
-    """Index of the first True in ``bad`` and its " at index (...)" text (empty for 0-d)."""
-    idx = tuple(int(i) for i in np.argwhere(bad)[0])
-    return idx, ("" if bad.ndim == 0 else f" at index {idx}")
-
-
-def _at_most(name: str, arr: np.ndarray, maximum: float, error: type[OptrouteError], fix: str) -> None:
-    bad = arr > maximum
-    if bad.any():
-        idx, where = _first(bad)
-        raise error(f"{name} must be <= {maximum}, got {float(arr[idx])!r}{where}; {fix}")
-
-
 def _beaufort(beaufort: ArrayLike) -> np.ndarray:
     fix = "pass a Beaufort number in [0, 12] (optroute.physics.seaway.beaufort_from_wind or beaufort_from_hs)"
     bn = finite("beaufort", beaufort, minimum=0.0, fix=fix)
-    _at_most("beaufort", bn, BEAUFORT_MAX, SeaStateError, fix)
+    at_most("beaufort", bn, BEAUFORT_MAX, SeaStateError, fix)
     return bn
 
 
@@ -165,21 +155,13 @@ def _block_coefficient(block_coefficient: ArrayLike) -> np.ndarray:
         "for this ship supply a PerformanceModel fitted to its own speed-loss data"
     )
     cb = finite("block_coefficient", block_coefficient, minimum=lo, error=ConfigError, fix=fix)
-    _at_most("block_coefficient", cb, hi, ConfigError, fix)
+    at_most("block_coefficient", cb, hi, ConfigError, fix)
     return cb
 
 
 def _folded_angle(weather_angle_deg: ArrayLike) -> np.ndarray:
     a = units.wrap_360(finite("weather_angle_deg", weather_angle_deg, fix="pass an angle from the bow in degrees"))
     return np.where(a > 180.0, 360.0 - a, a)
-
-
-def _speed_kn(name: str, value: ArrayLike) -> np.ndarray:
-    return finite(name, value, minimum=0.0, fix="pass a speed through the water in knots, >= 0")
-
-
-def _particular(name: str, value: ArrayLike, what: str) -> np.ndarray:
-    return finite(name, value, minimum=0.0, strict=True, error=ShipSpecError, fix=f"pass the ship's {what}, > 0")
 
 
 def _froude(speed_kn: np.ndarray, length_m: np.ndarray) -> np.ndarray:
@@ -356,10 +338,10 @@ def kwon_form_coefficient(
     ConfigError
         An unknown ``ship_type`` or ``loading``.
     """
-    kind = _ship_type(ship_type)
+    kind = known_ship_type(ship_type)
     load = _loading(loading)
     bn = _beaufort(beaufort)
-    vol = _particular("volume_m3", volume_m3, "displacement volume in m^3")
+    vol = particular("volume_m3", volume_m3, "displacement volume in m^3")
     v23 = vol ** (2.0 / 3.0)
     if kind == "container":
         return 0.7 * bn + bn**6.5 / (22.0 * v23)
@@ -435,18 +417,12 @@ def kwon_speed_loss_pct(
     SeaStateError, ShipSpecError, ConfigError
         See the module docstring; every message names the bad value.
     """
-    v1 = _speed_kn("calm_stw_kn", calm_stw_kn)
-    length = _particular("length_m", length_m, "length between perpendiculars in m")
+    v1 = speed_kn("calm_stw_kn", calm_stw_kn)
+    length = particular("length_m", length_m, "length between perpendiculars in m")
     cb = _block_coefficient(block_coefficient)
     c_beta = kwon_direction_coefficient(weather_angle_deg, beaufort)
     c_form = kwon_form_coefficient(beaufort, volume_m3, ship_type, loading)
     return _loss_pct(v1, length, cb, c_beta * c_form, loading)
-
-
-def _on_unreachable(mode: str) -> str:
-    if mode not in ("raise", "nan"):
-        raise ConfigError(f"on_unreachable={mode!r} is not known; use 'raise' or 'nan'")
-    return mode
 
 
 def speed_in_weather_kn(
@@ -486,8 +462,8 @@ def speed_in_weather_kn(
         Where the loss exceeds 100 % (with ``on_unreachable="raise"``), and
         for the bad inputs of :func:`kwon_speed_loss_pct`.
     """
-    mode = _on_unreachable(on_unreachable)
-    v1 = _speed_kn("calm_stw_kn", calm_stw_kn)
+    mode = on_unreachable_mode(on_unreachable)
+    v1 = speed_kn("calm_stw_kn", calm_stw_kn)
     loss = kwon_speed_loss_pct(
         v1, length_m, block_coefficient, volume_m3, beaufort, weather_angle_deg, ship_type=ship_type, loading=loading
     )
@@ -497,7 +473,7 @@ def speed_in_weather_kn(
     if bad.any():
         if mode == "nan":
             return np.where(bad, np.nan, v2)
-        idx, where = _first(bad)
+        idx, where = first_true(bad)
         raise SeaStateError(
             f"Kwon's speed loss is {loss[idx]:.1f} % (> 100 %) for calm_stw_kn={float(v1[idx])!r}{where}: the method "
             "predicts no headway; avoid this sea state or heading, or pass on_unreachable='nan' to mark such cases"
@@ -558,10 +534,10 @@ def calm_speed_for_weather_kn(
         Where no V1 <= max_calm_froude · √(g L) reaches V2 (with
         ``on_unreachable="raise"``), and for bad inputs.
     """
-    mode = _on_unreachable(on_unreachable)
+    mode = on_unreachable_mode(on_unreachable)
     fn_max = float(finite("max_calm_froude", max_calm_froude, minimum=0.0, strict=True, error=ConfigError))
-    v2 = _speed_kn("stw_kn", stw_kn)
-    length = _particular("length_m", length_m, "length between perpendiculars in m")
+    v2 = speed_kn("stw_kn", stw_kn)
+    length = particular("length_m", length_m, "length between perpendiculars in m")
     cb = _block_coefficient(block_coefficient)
     load = _loading(loading)
     c_bf = kwon_direction_coefficient(weather_angle_deg, beaufort) * kwon_form_coefficient(
@@ -583,7 +559,7 @@ def calm_speed_for_weather_kn(
     v1 = np.where(too_fast, np.nan, v1)
     bad = np.isnan(v1)
     if bad.any() and mode == "raise":
-        idx, where = _first(bad)
+        idx, where = first_true(bad)
         raise SeaStateError(
             f"stw_kn={float(v2[idx])!r}{where} cannot be made in this weather (Beaufort and weather angle as given): "
             f"no calm-water speed up to Fn {fn_max} ({v_max[idx]:.2f} kn for length_m={float(length[idx])!r}) reaches it "
@@ -732,106 +708,3 @@ def _invert_kwon(v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn, v_max, n_scan, n_bise
             v2[i], a[i], b[i], c[i], loss_per_cu[i], inv_sqrt_gl_kn[i], v_max[i], n_scan, n_bisect
         )
     return out
-
-
-# ------------------------------------------------------------------ IMO f_w
-
-# MEPC.1/Circ.796 Part 2 Table 1: standard f_w = a ln(Capacity) + b.  The
-# circular gives curves for these three types only; general cargo ships (and
-# every other type) need the simulation of Part 1, so they raise ConfigError.
-_IMO_FW_AB: dict[str, tuple[float, float]] = {
-    "bulk_carrier": (0.0429, 0.294),
-    "tanker": (0.0238, 0.526),
-    "container": (0.0208, 0.633),
-}
-
-
-def imo_fw_capacity(ship_type: ShipType, dwt_t: ArrayLike) -> np.ndarray:
-    """EEDI Capacity used in the standard f_w curve [t].
-
-    Capacity as defined by the EEDI calculation guidelines (MEPC.212(63)
-    §2.3, kept in MEPC.245(66), MEPC.308(73), MEPC.364(79)): the deadweight
-    for bulk carriers, tankers and general cargo ships, 70 % of the
-    deadweight for container ships.
-
-    Parameters
-    ----------
-    ship_type : {"container", "bulk_carrier", "tanker", "general_cargo"}
-        Ship type.
-    dwt_t : array_like
-        Deadweight [t], > 0.
-
-    Returns
-    -------
-    ndarray
-        Capacity [t].
-
-    Raises
-    ------
-    ShipSpecError
-        A deadweight that is not finite or not positive.
-    ConfigError
-        An unknown ``ship_type``.
-    """
-    kind = _ship_type(ship_type)
-    dwt = _particular("dwt_t", dwt_t, "deadweight in tonnes")
-    # Flag (physics.md §7): Circ.796 itself only says "Capacity as defined in
-    # the EEDI guidelines"; the 70 % of DWT for container ships is that
-    # definition (checked against the Circ.796 example: 54 000 DWT -> 0.852).
-    return 0.7 * dwt if kind == "container" else dwt
-
-
-def imo_fw(ship_type: ShipType, capacity: ArrayLike) -> np.ndarray:
-    """IMO standard weather factor f_w = a ln(Capacity) + b [-].
-
-    MEPC.1/Circ.796 (2012) Part 2, Table 1 (``physics.md`` §7): the ratio of
-    the speed in the representative sea (Beaufort 6 head seas: wind
-    12.6 m/s, Hs 3.0 m, T 6.7 s) to the calm-water speed, at the same power.
-
-    ==============  =======  =====
-    ship type       a        b
-    ==============  =======  =====
-    bulk carrier    0.0429   0.294
-    tanker          0.0238   0.526
-    container ship  0.0208   0.633
-    ==============  =======  =====
-
-    Parameters
-    ----------
-    ship_type : {"bulk_carrier", "tanker", "container"}
-        Ship type; Circ.796 has no standard curve for "general_cargo" or any
-        other type.
-    capacity : array_like
-        EEDI Capacity [t], > 0 (see :func:`imo_fw_capacity`).
-
-    Returns
-    -------
-    ndarray
-        f_w [-], in (0, 1].
-
-    Raises
-    ------
-    ConfigError
-        ``ship_type`` without a Circ.796 curve ("general_cargo") or unknown.
-    ShipSpecError
-        A capacity that is not finite, not positive, or so far outside the
-        curves' data that f_w leaves (0, 1].
-    """
-    kind = _ship_type(ship_type)
-    if kind not in _IMO_FW_AB:
-        raise ConfigError(
-            f"ship_type={ship_type!r} has no standard f_w curve in MEPC.1/Circ.796 (only "
-            f"{', '.join(map(repr, _IMO_FW_AB))}); compute f_w by the simulation of Circ.796 Part 1, "
-            "or use kwon_speed_loss_pct at Beaufort 6 head seas"
-        )
-    cap = _particular("capacity", capacity, "EEDI Capacity in tonnes")
-    a, b = _IMO_FW_AB[kind]
-    fw = a * np.log(cap) + b
-    bad = (fw <= 0.0) | (fw > 1.0)
-    if bad.any():
-        idx, where = _first(bad)
-        raise ShipSpecError(
-            f"capacity={float(cap[idx])!r}{where} gives f_w = {fw[idx]:.4f}, outside (0, 1]: the Circ.796 curve does "
-            "not apply; pass the Capacity in tonnes (imo_fw_capacity)"
-        )
-    return fw

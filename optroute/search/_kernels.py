@@ -6,7 +6,9 @@ arithmetic as its numpy code path, written element by element for numba:
 * :func:`candidates` — for a batch of settled nodes, the edges that exist
   (destination on the grid, every crossed cell navigable, destination not
   settled) and are worth costing (their cost at ``v_max`` could still beat
-  the destination's label and the goal's), with their great-circle lengths;
+  the destination's label and the goal's, and the goal could still be
+  reached by the time limit — the weather's end — at ``v_max``), with their
+  great-circle lengths;
 * :func:`apply` — write the improved labels, keeping per destination the
   least (label, arrival time), the first such candidate on ties, exactly as
   the stable lexicographic sort of the numpy path does;
@@ -51,7 +53,13 @@ def _candidates(
     xyz: np.ndarray,
     w_over_v: float,
     two_r: float,
+    tarr: np.ndarray,
+    t_goal: np.ndarray,
+    t_limit: float,
+    inv_v: float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    # t_goal[y]: a lower bound on the time from y to the goal [h]; inv_v: a lower bound on the hours per nm
+    # of any leg; an edge whose departure plus both bounds passes t_limit cannot end inside it
     m = di.size
     cap = batch.size * m
     u = np.empty(cap, dtype=np.int64)
@@ -86,6 +94,8 @@ def _candidates(
             d = two_r * np.arcsin(min(max(half, 0.0), 1.0))
             lb = lx + w_over_v * d
             if lb >= label[y] or lb + h[y] >= goal_label:
+                continue
+            if tarr[x] + inv_v * d + t_goal[y] > t_limit:
                 continue
             u[k], v[k], o[k], dist[k] = x, y, q, d
             k += 1

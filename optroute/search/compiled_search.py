@@ -98,8 +98,10 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state, touched):  # p
         ``(ii, jj, di, dj, off, ny, nx, nav_pad, base_pad, cell_off, cell_n, all_navigable, xyz, tangent,
         piece_f0, piece_f1, piece_n)`` as held by ``_Search`` and ``LegEvaluator``.
     search : tuple
-        ``(start, goal, h, delta, f_slack, select_mode, rho, two_r, time_objective, lam, v_max, tol)``:
-        ``rho`` the objective's lower bound per nm [h/nm or t/nm].
+        ``(start, goal, h, delta, f_slack, select_mode, rho, two_r, time_objective, lam, v_max, tol, t_goal,
+        t_limit, inv_v)``: ``rho`` the objective's lower bound per nm [h/nm or t/nm]; ``t_goal`` a lower bound on
+        each node's time to the goal [h], ``t_limit`` the time limit [h] (inf for none), ``inv_v`` = 1 / v_max
+        less the speed check's tolerance [h/nm] (see :func:`optroute.search._kernels.candidates`).
     k : tuple
         :class:`LegKernel`'s fields but the callback.
     label, tarr, fuel, parent, poff, state, touched : ndarray
@@ -114,7 +116,7 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state, touched):  # p
         Length [nm], duration [h] and cost of the edge that broke a bound (error only).
     """
     ii, jj, di, dj, off, ny, nx, nav_pad, base_pad, cell_off, cell_n, all_nav, xyz, tangent, pf0, pf1, pn = graph
-    s, g, h, delta, slack, mode, rho, two_r, time_obj, lam, vmax, tol = search
+    s, g, h, delta, slack, mode, rho, two_r, time_obj, lam, vmax, tol, t_goal, t_limit, inv_v = search
     counts = np.zeros(6, dtype=np.int64)
     bad = np.zeros(3)
     kmax = pf0.shape[1]
@@ -132,7 +134,7 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state, touched):  # p
             break
         u, v, o, dist = _kernels.candidates(
             batch, ii, jj, di, dj, off, ny, nx, nav_pad, base_pad, cell_off, cell_n, all_nav, state, label, h,
-            label[g], xyz, rho, two_r,
+            label[g], xyz, rho, two_r, tarr, t_goal, t_limit, inv_v,
         )  # fmt: skip
         if u.size == 0:
             continue

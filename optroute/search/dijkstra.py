@@ -44,7 +44,9 @@ Methods
 ``batched=False`` settles one node per step (the textbook order) for
 comparison.  Before the callback is called, edges that could not improve
 their end node's label, or the goal's, even at ``v_max_kn`` are dropped
-(exact).  The search checks on every costed edge that ``duration_h >=
+(exact); so are, given ``time_limit_h`` (the weather's end), edges from which
+the goal cannot be reached by then even at ``v_max_kn`` along the great
+circle (exact: every leg past the limit is infeasible).  The search checks on every costed edge that ``duration_h >=
 distance / v_max_kn`` (otherwise the heuristic, the batching and the pruning
 would not be exact) and raises :class:`~optroute.errors.ConfigError` if the
 callback sails faster.
@@ -66,7 +68,7 @@ import numpy as np
 
 from optroute import geodesy as geo
 from optroute._checks import finite
-from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
+from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, WeatherCoverageError
 from optroute.search import _kernels, compiled_search
 from optroute.search.compiled_search import LegKernel
 from optroute.search.costs import EdgeCostFn, LegEvaluator, SegmentCostFn
@@ -81,6 +83,10 @@ _TWO_R_FLOOR_NM = 2.0 * geo.EARTH_RADIUS_NM * geo.SPHERE_TO_WGS84_MIN
 # local sphere-to-ellipsoid lengths (geodesy.sphere_to_wgs84, < 1e-6) so that it stays consistent.
 _HEURISTIC_SHRINK = 1.0 - 1e-5
 _EMPTY = np.zeros(0, dtype=np.int64)
+TIME_LIMIT_SLACK_H = 0.01
+"""Room past ``time_limit_h`` before an edge is pruned [h]: a checked piece's end is sampled at a time within
+1e-3 h of the ship's (:mod:`optroute.search.passage_kernels`), so a leg arriving later than the limit plus this
+is certainly sampled past it."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -218,6 +224,8 @@ def shortest_path(
     batched: bool = True,
     engine: Literal["auto", "numba", "numpy"] = "auto",
     cost_floor_per_nm: float | None = None,
+    time_limit_h: float | None = None,
+    cost_ceiling: float | None = None,
 ) -> SearchResult:
     """Time-dependent shortest path from ``grid.start`` to ``grid.end``.
 
@@ -265,6 +273,22 @@ def shortest_path(
         is the A* heuristic's weight (ρ times the great-circle distance to the
         end) and the batches' edge floor, so with a positive ρ the fuel
         objective gets both; checked on every costed edge like ``v_max_kn``.
+    time_limit_h : float, optional
+        A time after which every leg is infeasible [h from departure]: the
+        weather's end when points past it count as no passage and each piece
+        is checked at its end (``time_policy="raise"``, a band check).  An
+        edge whose departure plus its length and its end's great-circle
+        distance to the goal, all at ``v_max_kn``, passes the limit (plus
+        :data:`TIME_LIMIT_SLACK_H`) is not costed: no route through it ends
+        inside the limit (exact, whatever the objective).  If even the start's
+        great-circle time to the goal passes it, :class:`WeatherCoverageError`
+        is raised at once instead of searching.
+    cost_ceiling : float, optional
+        Look only for a route whose cost (the objective's label) is below
+        this, e.g. the cost of a route already known: the goal's label starts
+        there, so the A* pruning drops every edge that cannot beat it.  A route
+        cheaper than the ceiling is found exactly as without it; if there is
+        none, :class:`NoSafePassage` says so.
 
     Returns
     -------
@@ -281,6 +305,8 @@ def shortest_path(
     ConfigError
         Bad options, or a callback that breaks its contract (including sailing
         faster than ``v_max_kn`` or cheaper than ``cost_floor_per_nm``).
+    WeatherCoverageError
+        The end cannot be reached by ``time_limit_h`` even along the great circle at ``v_max_kn``.
     """
     if method not in ("astar", "dijkstra"):
         raise ConfigError(f"method={method!r} is not known; use 'astar' or 'dijkstra'")
@@ -302,7 +328,12 @@ def shortest_path(
     if cost_floor_per_nm is not None and objective != "time":
         floor = float(finite("cost_floor_per_nm", cost_floor_per_nm, minimum=0.0, error=ConfigError))
         weight = max(weight, floor * vmax)
-    return _Search(grid, neighbourhood, ev, vmax, method, objective, lam, batched, eng, weight).run(eta_h)
+    limit = np.inf if time_limit_h is None else float(finite("time_limit_h", time_limit_h, error=ConfigError))
+    search = _Search(grid, neighbourhood, ev, vmax, method, objective, lam, batched, eng, weight)
+    search.t_limit = limit + TIME_LIMIT_SLACK_H
+    if cost_ceiling is not None:
+        search.ceiling = float(finite("cost_ceiling", cost_ceiling, error=ConfigError))
+    return search.run(eta_h)
 
 
 def dijkstra(grid: RouteGrid, neighbourhood: Neighbourhood, **kwargs: object) -> SearchResult:
@@ -369,6 +400,10 @@ class _Search:
         self.evaluated = 0
         self.batches = 0
         self.weight = weight  # weight / v_max: a lower bound on the objective per nm of any leg [h/nm or t/nm]
+        self.t_limit = np.inf  # see shortest_path's time_limit_h (plus the slack)
+        self.t_goal = np.zeros(n)  # a lower bound on the time from each node to the goal [h] (set by run)
+        self.inv_v = (1.0 - _SPEED_TOL) / vmax  # a lower bound on the hours per nm of any costed leg
+        self.ceiling = np.inf  # see shortest_path's cost_ceiling: the goal's label before any route reaches it
 
     # ------------------------------------------------------------ relax
     def _edges_ok(self, batch: np.ndarray) -> np.ndarray:
@@ -413,7 +448,8 @@ class _Search:
             return _kernels.candidates(
                 batch, self.ii, self.jj, self.di, self.dj, self.off, ny, nx, self.nav_pad, self.base_pad,
                 self.cell_off, self.cell_n, self.all_navigable, self.state, self.label, self.h,
-                float(self.label[self.g]), self.ev.xyz, self.weight / self.vmax, _TWO_R_FLOOR_NM,
+                float(self.label[self.g]), self.ev.xyz, self.weight / self.vmax, _TWO_R_FLOOR_NM, self.tarr,
+                self.t_goal, self.t_limit, self.inv_v,
             )  # fmt: skip
         nbr = batch[:, None] + self.off[None, :]
         ok = self._edges_ok(batch)
@@ -425,7 +461,9 @@ class _Search:
         # sailed at v_max_kn, is not costed
         dist = self.ev.distance_nm(u, v)
         lb = self.label[u] + self.weight / self.vmax * dist
-        useful = np.nonzero((lb < self.label[v]) & (lb + self.h[v] < self.label[self.g]))[0]
+        useful = (lb < self.label[v]) & (lb + self.h[v] < self.label[self.g])
+        useful &= ~(self.tarr[u] + self.inv_v * dist + self.t_goal[v] > self.t_limit)
+        useful = np.nonzero(useful)[0]
         if useful.size < u.size:
             u, v, o, dist = u[useful], v[useful], o[useful], dist[useful]
         return u, v, o, dist
@@ -477,12 +515,17 @@ class _Search:
                     "move it to open water or check the navigable mask"
                 )
         n = grid.n_nodes
-        if self.method == "astar":
+        self.h = np.zeros(n)
+        if self.method == "astar" or np.isfinite(self.t_limit):
             d_goal = self.ev.distance_nm(np.arange(n), np.full(n, self.g))
-            self.h = self.weight * _HEURISTIC_SHRINK * d_goal / self.vmax
-        else:
-            self.h = np.zeros(n)
+            if np.isfinite(self.t_limit):
+                self.t_goal = _HEURISTIC_SHRINK * d_goal / self.vmax
+                self._check_reachable()
+            if self.method == "astar":
+                self.h = self.weight * _HEURISTIC_SHRINK * d_goal / self.vmax
         self.label[self.s] = 0.0
+        if self.g != self.s:
+            self.label[self.g] = self.ceiling
         self.tarr[self.s] = 0.0
         self.state[self.s] = 1
         self._loop()
@@ -498,6 +541,17 @@ class _Search:
             exc.earliest_arrival_h = res.arrival_h  # type: ignore[attr-defined]
             raise exc
         return res
+
+    def _check_reachable(self) -> None:
+        """Raise at once if the great circle at ``v_max`` cannot reach the goal by the time limit."""
+        need = float(self.t_goal[self.s])
+        if need > self.t_limit:
+            limit = self.t_limit - TIME_LIMIT_SLACK_H
+            raise WeatherCoverageError(
+                f"the end cannot be reached inside the weather: it ends {limit:.2f} h after departure, but even the "
+                f"great circle ({need * self.vmax:.0f} nm) at v_max_kn={self.vmax:.2f} arrives {need:.2f} h after "
+                "departure; give a forecast reaching past that arrival (or time_policy='hold'), or an earlier departure"
+            )
 
     def _loop(self) -> None:
         """Settle nodes in batches that provably cannot be improved any more.
@@ -576,7 +630,8 @@ class _Search:
                  self.cell_n, self.all_navigable, ev.xyz, ev.tangent, ev.piece_f0, ev.piece_f1,
                  ev.piece_n.astype(np.int64))  # fmt: skip
         search = (self.s, self.g, self.h, delta, self.f_slack, mode, self.weight / self.vmax,
-                  _TWO_R_FLOOR_NM, self.time_obj, self.lam, self.vmax, _SPEED_TOL)  # fmt: skip
+                  _TWO_R_FLOOR_NM, self.time_obj, self.lam, self.vmax, _SPEED_TOL, self.t_goal, self.t_limit,
+                  self.inv_v)  # fmt: skip
         k = (kernel.params, kernel.weather, kernel.mode, kernel.check_nm, kernel.speeds, kernel.lam,
              kernel.desired, kernel.step, kernel.vmin)  # fmt: skip
         counts, bad = compiled_search.run(graph, search, k, self.label, self.tarr, self.fuel, self.parent,
@@ -594,12 +649,14 @@ class _Search:
     # ---------------------------------------------------------- output
     def _fail(self) -> None:
         grid = self.grid
-        reached = np.nonzero(np.isfinite(self.label))[0]
+        reached = np.nonzero(np.isfinite(self.label) & (self.state > 0))[0]
         d = self.ev.distance_nm(reached, np.full(reached.size, self.g))
+        cheaper = "" if np.isinf(self.ceiling) else f" cheaper than the cost ceiling {self.ceiling:.6g}"
+
         k = int(reached[int(np.argmin(d))])
         i, j = (int(v) for v in grid.unflat(k))
         raise NoSafePassage(
-            f"no feasible route from ({grid.start_latlon[0]:.4f}, {grid.start_latlon[1]:.4f}) to "
+            f"no feasible route{cheaper} from ({grid.start_latlon[0]:.4f}, {grid.start_latlon[1]:.4f}) to "
             f"({grid.end_latlon[0]:.4f}, {grid.end_latlon[1]:.4f}): the search reached {reached.size} of "
             f"{grid.n_nodes} nodes and stopped at node ({i}, {j}) = ({grid.lat_deg[i, j]:.3f}, "
             f"{grid.lon_deg[i, j]:.3f}), {float(d.min()):.1f} nm from the end; widen the grid "

@@ -276,8 +276,8 @@ def search_route(
         for p, w in ((start, "start"), (end, "end"))
     )
     # the fastest any leg can go over ground: the speed ceiling of the objective plus the strongest current
-    ceiling = desired if objective == "time" and lambda_t_per_h is None else float(speeds.max())
-    v_bound = ceiling + _max_current_kn(ds) + 1e-6
+    top_kn = desired if objective == "time" and lambda_t_per_h is None else float(speeds.max())
+    v_bound = top_kn + _max_current_kn(ds) + 1e-6
 
     if method == "dp":
         coast = (
@@ -309,16 +309,19 @@ def search_route(
         else float(finite("band_check_nm", band_check_nm, minimum=0.0, strict=True, error=ConfigError))
     )
 
+    limit_h = _time_limit_h(sampler, t0, check)
+
     def run(lam: float | None):
         if objective == "time" and lam is None:
             cb = _avoid(physics.segment_time(desired, speed_step_kn, min_speed_kn, check), exclusion, t0)
             return shortest_path(
-                grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="time", eta_h=eta_h
-            )
+                grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="time", eta_h=eta_h,
+                time_limit_h=limit_h,
+            )  # fmt: skip
         cb = _avoid(physics.segment_cheapest(speeds, lam, check), exclusion, t0)
         return shortest_path(
             grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="cost", lambda_t_per_h=lam,
-            cost_floor_per_nm=physics.cost_floor_per_nm(speeds, lam, v_bound - ceiling),
+            cost_floor_per_nm=physics.cost_floor_per_nm(speeds, lam, v_bound - top_kn), time_limit_h=limit_h,
         )  # fmt: skip
 
     try:
@@ -327,7 +330,21 @@ def search_route(
         raise explain_uncovered(exc, physics) from None
     except InfeasibleETA as exc:
         raise eta_as_time(exc, t0) from None
+    except WeatherCoverageError as exc:
+        raise WeatherCoverageError(f"{exc} (the weather ends at {units.format_utc(last_t)})") from None
     return _route_from_search(res, physics, t0, objective, method, lam_used, t_start)
+
+
+def _time_limit_h(sampler: WeatherSampler, t0: np.datetime64, check_nm: float | None) -> float | None:
+    """The weather's end [h after ``t0``] when no leg can run past it, else None (see ``shortest_path``).
+
+    Past the end a point is outside the weather (no passage) unless the sampler holds the last time
+    (``time_policy="hold"``); and only a band check samples each piece's end at the time the ship reaches it
+    (the midpoint check samples a piece at its entry time, so a route may then end after the weather).
+    """
+    if sampler.time_policy == "hold" or check_nm is None:
+        return None
+    return float((sampler.extent["time"][1] - t0) / np.timedelta64(1, "s")) / 3600.0
 
 
 def _avoid(cb: Callable, exclusion: Exclusion | None, t0: np.datetime64) -> Callable:
