@@ -18,8 +18,9 @@ the paper's quoted ETA, side by side in one process:
 (c) **the 3-D DP**: one ``search_route(method="dp", objective="fuel", eta=<the paper's ETA>)`` run,
     whose least fuel per arrival bin is the whole fuel-versus-ETA curve (the DP's fuel at an ETA
     is the least over the bins that end by it), and whose route for the paper's ETA is refereed;
-(d) **the NLP**: ``optimise_corridor(objective="fuel", eta=)`` in a 150 nm corridor about the DP's
-    route for the paper's ETA, warm-started from it (one ETA per case: the DP returns one route per run).
+(d) **the NLP**: ``optimise_corridor(objective="fuel", eta=)`` on the DP's route for the paper's ETA
+    (its track fixed, :data:`NLP_WIDTH_NM`; the NLP sets the speed of every ≤ 60 nm leg), warm-started from
+    it (one ETA per case: the DP returns one route per run).
 
 The DP and the baseline are compared in the DP's own fuel accounting (the same lattice and model);
 the DP's route, the baseline and the NLP are also scored by the referee (``Plan.from_schedule``
@@ -38,21 +39,44 @@ over the great circle and its clearance from the storm and the islands at the ho
 Absolute fuel differs: the paper's ship model and sea are not given (``shao_case`` uses a
 Beaufort 5 head sea, H_s 2 m from the east). ``shao_case<k>.png`` plots the curves.
 
-Measured (case I on the paper's lattice, 2 Dec 2026, load 14-19 on 2 cores): at all 14 ETAs 224-328 h the DP
-uses 0.1-0.8 % more than the exact constant speed and never more than the lattice-speed baseline; that
-baseline's route is 14.3 nm over the great circle and keeps 179-352 nm from the storm (its gap south of the
-islands, -1.26°, is clear from 65 h; no ship reaches 50° E before 113 h): nothing binds, so no window. The
-DP took 779 s wall (8.0 M transitions), the baseline curve 1 199 s, the NLP 430 s (NoSafePassage); case II
-was not run to the end.
+Measured (``python -m benchmarks --only shao``, both cases on the paper's lattice, 15 + 1 ETAs, 2 Dec 2026,
+load 24-27 on 2 cores): the whole experiment 604 s wall, 167 s CPU; per case (wall / CPU) baseline
+227 / 62 s and 237 / 66 s (~25 one-speed searches each), DP 39 / 11 s and 34 / 10 s (one run, 1.15 M
+transitions costed by dp_kernels' compiled stages: the 779 s and 8.0 M of the earlier measurement
+predate them), IMO f_w < 0.1 s, NLP 47 / 13 s (case I) and 4 / 1 s (case II, failed). No window in
+either case: case I, the DP uses 0.12-0.79 % more than the exact constant speed at every ETA (the
+baseline's route, 14.3 nm over the great circle, keeps 179-366 nm from the storm; nothing binds);
+case II, the storm shapes the baseline's route at 13 of 16 ETAs (14-87 nm clearance) and the DP's
+best saving is 0.22 % (256 h), below the 0.5 % the window needs; the DP is above its lattice-speed
+candidate at one ETA (240 h, 1140.7 against 1140.1 t: one label per 1 h bin). The NLP on the DP's
+track at 264 h (case I): 945.7 t, verified, equal to the exact constant speed (945.7 t) and 0.4 %
+under the DP's 949.6 t (it makes the DP's 1 kn speed steps continuous). Case II at 278 h:
+NoSafePassage, because the NLP has no time-dependent no-go constraint: its lateral bounds are static
+per leg, blocked over every time a ship could be on the leg (113-189 h at 49.8° E), and the storm's
+south edge passes the DP's track there (−7.55°) only at ~149 h; the DP's route clears it by its
+timing alone, which fixed bounds cannot express (even over the DP's own hours abreast of 50-70° E
+the track is closed, at 61.3° E; the formulation's moving exclusion is a circle). Re-measured after
+main's faster NLP build (nlpfast), load 14 falling to 5: 453 s wall, 153 s CPU; NLP 15 / 6 s (case I);
+every fuel figure the same.
 
 Run ``python -m benchmarks.bench_shao [--quick]`` (quick: case I only, 5 legs of ~1 080 nm, 300 nm
-lateral spacing, speeds every 2 kn, four ETAs, no NLP: over this 5 400 nm, 270 h corridor the NLP's
-power table alone takes minutes and ~3 GB, and it ends in NoSafePassage from the DP's route).
+lateral spacing, speeds every 2 kn, four ETAs, no NLP: its CasADi build over 105 legs alone takes
+~10 CPU-s).
+
+Why the NLP failed before (NoSafePassage after > 3 GB): (1) the memory was ``prepare_corridor``'s
+weather grid and power table over a 150 nm corridor (:data:`NLP_WIDTH_NM`), before any build or
+solve; (2) the NoSafePassage came from the corridor's lateral bounds, which blocked every leg by the
+weather's no-passage cells at *any* time of the passage: the storm's sweep (lat −1° southwards from
+60 h) beside the islands (−1° to 7°) closed all of ±75 nm at 3 000 nm along the corridor
+(49.8° E), where no ship can be before 111 h. The bounds now block each leg over the times a
+ship can be on it (``optroute.optimise.lateral.reach_windows``).
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
@@ -70,24 +94,37 @@ PAPER = {
 """What Shao et al. report per case: the window of ETAs where the DP saves, and the quoted comparison."""
 SAVING_TOL = 0.005
 """A saving counts for the window when it exceeds this fraction of the baseline's fuel [-]."""
-CORRIDOR_WIDTH_NM = 150.0
+NLP_WIDTH_NM = 0.0
+"""The NLP's corridor about the DP's route: its track fixed, the NLP choosing the speed of every ≤ 60 nm leg.
+
+A corridor of width does not fit the experiment: the NLP's weather grid is twice as fine as the data's
+(0.25°, 6 h) over the whole corridor and passage, 91 × 724 × 41 nodes for 150 nm, and its power table
+over 8 speeds × 5 headings held 3.6 GB and over 85 CPU-s before the first solve (``prepare_corridor``'s
+``weather_grid``, in optroute/optimise, not the formulation's build). The fixed track: 91 × 724 nodes, one
+heading, 0.5 CPU-s and 1.1 GB for the whole call (measured 2 Dec 2026, case I at 264 h)."""
 
 
 def settings(quick: bool) -> dict[str, Any]:
     """Lattice, speeds and ETAs of the run (the paper's lattice in full mode)."""
     if quick:
         return {"cases": (1,), "dp": se.dp_options(legs=5, dy_nm=300.0, half_width_nm=600.0, dt_h=1.0),
-                "speeds_kn": (10.0, 30.0, 2.0), "etas_h": (240.0, 256.0, 264.0, 272.0), "nlp": False}  # fmt: skip
+                "speeds_kn": (10.0, 30.0, 2.0), "etas_h": (240.0, 256.0, 264.0, 272.0), "nlp": False,
+                "nlp_width_nm": NLP_WIDTH_NM}  # fmt: skip
     return {"cases": (1, 2), "dp": se.dp_options(), "speeds_kn": se.PAPER_SPEEDS_KN,
-            "etas_h": tuple(float(e) for e in np.arange(224.0, 336.1, 8.0)), "nlp": True}  # fmt: skip
+            "etas_h": tuple(float(e) for e in np.arange(224.0, 336.1, 8.0)), "nlp": True,
+            "nlp_width_nm": NLP_WIDTH_NM}  # fmt: skip
 
 
-def _nlp(row: dict[str, Any], route: orx.Route, wx: Any, ship: orx.Ship, t0: np.datetime64, eta_h: float) -> None:
-    """The NLP in a corridor about ``route`` (the DP's), warm-started from it, scored by the referee; fills ``nlp_*``."""
+def _nlp(row: dict[str, Any], route: orx.Route, wx: Any, ship: orx.Ship, t0: np.datetime64, eta_h: float,
+         width_nm: float) -> None:  # fmt: skip
+    """The NLP in a corridor of ``width_nm`` about ``route`` (the DP's), warm-started from it, scored by the referee.
+
+    Fills the row's ``nlp_*`` fields.
+    """
     eta = t0 + np.timedelta64(int(round(eta_h * 3600)), "s")
     t = time.perf_counter()
     try:
-        plan = orx.optimise_corridor(route.corridor(width_nm=CORRIDOR_WIDTH_NM), wx, ship, departure=t0,
+        plan = orx.optimise_corridor(route.corridor(width_nm=width_nm), wx, ship, departure=t0,
                                      eta=eta, objective="fuel", route=route, max_leg_nm=60.0)  # fmt: skip
     except orx.OptrouteError as exc:
         row.update(nlp_state=FAILED, nlp_violations=None, nlp_status=f"failed: {type(exc).__name__}",
@@ -124,6 +161,21 @@ def _row(
             "nlp_status": ""}  # fmt: skip
 
 
+class _Clock:
+    """Wall and CPU time [s] of named stages of one case (``with clock("dp"): ...``), in ``stages``."""
+
+    def __init__(self) -> None:
+        self.stages: dict[str, dict[str, float]] = {}
+
+    @contextmanager
+    def __call__(self, name: str) -> Iterator[None]:
+        t, cpu = time.perf_counter(), time.process_time()
+        try:
+            yield
+        finally:
+            self.stages[name] = {"wall_s": time.perf_counter() - t, "cpu_s": time.process_time() - cpu}
+
+
 def _guess_nm(curve: dict[str, Any], eta_h: float) -> float | None:
     """The route length of the lattice speed nearest the great circle's speed for ``eta_h`` (None: no route)."""
     ok = np.isfinite(curve["distance_nm"])
@@ -145,21 +197,23 @@ def run_case(case: int, cfg: dict[str, Any]) -> dict[str, Any]:
         "horizon_h": max(etas) + cfg["dp"]["dt_h"],
     }  # a bin of slack: a schedule arriving at the last ETA
     speeds = se.lattice_speeds(ship, *cfg["speeds_kn"])
-    t = time.perf_counter()
-    curve = se.baseline_curve(wx, ship, t0, dp, speeds, max(etas), referee=False)
-    exact = [se.exact_baseline(wx, ship, t0, dp, e, guess_nm=_guess_nm(curve, e)) for e in etas]
-    baseline_s = time.perf_counter() - t
-    # one DP run: its route for the paper's ETA, and its least fuel per arrival bin (the whole curve)
-    t = time.perf_counter()
-    dp_route = se.search(wx, ship, t0, dp, eta=t0 + np.timedelta64(int(round(paper_eta * 3600)), "s"),
-                         speeds_kn=speeds)  # fmt: skip
-    dp_s = time.perf_counter() - t
+    clock = _Clock()
+    with clock("baseline"):  # every lattice speed's route, then the exact constant speed of each ETA (refereed)
+        curve = se.baseline_curve(wx, ship, t0, dp, speeds, max(etas), referee=False)
+        exact = [se.exact_baseline(wx, ship, t0, dp, e, guess_nm=_guess_nm(curve, e)) for e in etas]
+    with clock("dp"):  # one DP run: its route for the paper's ETA, and its least fuel per arrival bin (the whole curve)
+        dp_route = se.search(wx, ship, t0, dp, eta=t0 + np.timedelta64(int(round(paper_eta * 3600)), "s"),
+                             speeds_kn=speeds)  # fmt: skip
     end_h = np.asarray(dp_route.stats["curve_bin_end_h"], float)
     dp_fuel = np.asarray(dp_route.stats["curve_fuel_t"], float)
     rows = [_row(e, ex, curve, end_h, dp_fuel) for e, ex in zip(etas, exact, strict=True)]
-    for row in rows:
-        if cfg["nlp"] and row["eta_h"] == paper_eta:
-            _nlp(row, dp_route, wx, ship, t0, paper_eta)
+    with clock("fw"):  # the IMO f_w estimate of each ETA's constant-speed schedule
+        for r, ex in zip(rows, exact, strict=True):
+            r["fw_t"] = se.fw_fuel_t(ship, ex["speed_kn"], ex["arrival_h"]) if ex["route"] is not None else float("nan")
+    with clock("nlp"):
+        for row in rows:
+            if cfg["nlp"] and row["eta_h"] == paper_eta:
+                _nlp(row, dp_route, wx, ship, t0, paper_eta, cfg["nlp_width_nm"])
     evidence = [{"eta_h": e, "speed_kn": ex["speed_kn"], **se.storm_clearance(ex["route"], case, t0)}
                 for e, ex in zip(etas, exact, strict=True) if ex["route"] is not None]  # fmt: skip
     curve.pop("routes")
@@ -168,8 +222,9 @@ def run_case(case: int, cfg: dict[str, Any]) -> dict[str, Any]:
            "earliest_50e_h": se.great_circle_nm() * 50.0 / 90.0 / float(speeds.max())}  # fmt: skip
     return {"case": case, "gap": gap, "rows": rows, "lattice_curve": curve, "dp_curve": {"bin_end_h": end_h, "fuel_t": dp_fuel},
             "dp_route": _dp_route_facts(dp_route, wx, ship, t0, case), "evidence": evidence,
-            "fw": se.fw_factor(ship), "dp_transitions": dp_route.stats["n_transitions"], "baseline_s": baseline_s,
-            "dp_s": dp_s, "nlp_s": sum(r.get("nlp_s", 0.0) for r in rows),
+            "fw": se.fw_factor(ship), "dp_transitions": dp_route.stats["n_transitions"], "stages": clock.stages,
+            "baseline_s": clock.stages["baseline"]["wall_s"], "dp_s": clock.stages["dp"]["wall_s"],
+            "nlp_s": sum(r.get("nlp_s", 0.0) for r in rows),
             "dp_missing": sum(not np.isfinite(r["dp_t"]) for r in rows),
             "dp_above_lattice": sum(bool(r["dp_t"] > r["lattice_t"] * (1 + 1e-9)) for r in rows),
             "comparison": comparison(rows), **window(rows), "paper": PAPER[case]}  # fmt: skip
@@ -318,9 +373,14 @@ def _print_case(res: dict[str, Any], cfg: dict[str, Any], png: Any) -> None:
               "Where it does not, the shortest safe route at one speed is what a DP on a uniform sea with fuel convex "
               "in speed would choose anyway: there is nothing for it to save but the speed set's granularity.")  # fmt: skip
     print(f"\npaper: window {p['window_h'][0]:g}–{p['window_h'][1]:g} h; at {p['eta_h']:g} h {p['baseline_t']:g} → "
-          f"{p['dp_t']:g} t ({p['saving_pct']:g} %). Runtimes: baseline curve {res['baseline_s']:.1f} s, DP "
-          f"{res['dp_s']:.1f} s (one run, {res['dp_transitions']:,} transitions), NLP {res['nlp_s']:.1f} s; "
+          f"{p['dp_t']:g} t ({p['saving_pct']:g} %). Runtimes (wall / CPU of this process): "
+          f"{_stage_times(res['stages'])}; the DP one run of {res['dp_transitions']:,} transitions costed; "
           f"figure `{png.name}`\n")  # fmt: skip
+
+
+def _stage_times(stages: dict[str, dict[str, float]]) -> str:
+    names = {"baseline": "baseline", "dp": "DP", "fw": "IMO f_w", "nlp": "NLP"}
+    return ", ".join(f"{names[k]} {v['wall_s']:.1f} s / {v['cpu_s']:.1f} s" for k, v in stages.items())
 
 
 def run(quick: bool, cfg: dict[str, Any] | None = None) -> dict[str, Any]:
@@ -338,6 +398,8 @@ def run(quick: bool, cfg: dict[str, Any] | None = None) -> dict[str, Any]:
     out["total_s"], out["total_cpu_s"] = time.perf_counter() - t, time.process_time() - cpu
     print(f"Whole experiment: {out['total_s']:.0f} s wall, {out['total_cpu_s']:.0f} s CPU of this process "
           f"({len(cfg['cases'])} case(s), {len(cfg['etas_h'])} + 1 ETAs)")  # fmt: skip
+    for res in out["cases"]:
+        print(f"  case {'I' * res['case']} (wall / CPU): {_stage_times(res['stages'])}")
     print(load_line("load average at end"))
     return out
 

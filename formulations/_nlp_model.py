@@ -566,5 +566,13 @@ class WeatherValues(ca.Callback):
     def get_sparsity_out(self, i: int) -> Any:
         return ca.Sparsity.dense(self._spline.n_fields, self._k)
 
-    def eval(self, arg: list[Any]) -> list[Any]:
-        return [ca.DM(self._spline.evaluate(np.asarray(arg[0], dtype=float), 0))]
+    def has_eval_buffer(self) -> bool:
+        return True
+
+    def eval_buffer(self, arg: list[Any], res: list[Any]) -> int:
+        """Read the points from and write the fields into CasADi's own buffers (column-major): no DM conversion,
+        which costs more than the spline itself on a few thousand points."""
+        pts = np.frombuffer(arg[0], dtype=float).reshape(self._k, 3).T
+        out = np.frombuffer(res[0], dtype=float).reshape(self._k, self._spline.n_fields).T
+        out[:] = self._spline.evaluate(pts, 0)
+        return 0

@@ -74,6 +74,23 @@ def test_fuel_versus_eta_curve_is_non_increasing_and_above_the_analytic_bound():
     assert p.arrival_h <= 100.0 and analytic(100.0) <= p.total_fuel_t <= analytic(100.0) * 1.02
 
 
+@pytest.mark.parametrize("eta_h", [None, 100.0, 100.5])
+def test_an_arrival_exactly_at_a_bin_end_is_in_that_bin(eta_h):
+    """Bins are (end - dt, end]: the constant speed D / 100 kn arrives at 100 h, the end of its bin.
+
+    With bins [start, end) the label fell into the bin ending at 101 h, and the curve's point
+    "arrives by 100 h" missed the one schedule that does (the constant-speed baseline at that ETA).
+    """
+    r = solve_dp(START, END, cubic, eta_h=eta_h, dx_nm=400, dy_nm=50, half_width_nm=0, speeds_kn=[D / 100.0], dt_h=1.0)
+    assert r.path.arrival_h == pytest.approx(100.0, abs=1e-9)
+    at = np.flatnonzero(np.isfinite(r.curve_fuel_in_bin_t))
+    assert at.size == 1  # one speed, one route: one label
+    expected_end = 100.0 if eta_h != 100.5 else 100.5  # with the ETA 100.5 h the bin edges are at x.5 h
+    assert r.curve_bin_end_h[at[0]] == pytest.approx(expected_end, abs=1e-9)
+    assert r.curve_arrival_h[at[0]] == pytest.approx(100.0, abs=1e-9)
+    assert r.curve_fuel_in_bin_t[at[0]] == pytest.approx(analytic(100.0), rel=1e-9)
+
+
 def test_impossible_eta_reports_the_earliest_arrival():
     with pytest.raises(InfeasibleETA) as exc:
         solve_dp(START, END, cubic, eta_h=40.0, dx_nm=300, dy_nm=60, half_width_nm=60, speeds_kn=[10.0, 15.0, 20.0])

@@ -70,5 +70,5 @@ def test_dp_is_never_worse_than_the_baselines_own_route_and_speed(ship):
     end_h = np.asarray(full.stats["curve_bin_end_h"], float)
     fuel = np.asarray(full.stats["curve_fuel_t"], float)
     for arrival, base in zip(curve["arrival_h"], curve["fuel_t"], strict=True):
-        eta = math.floor(arrival) + 1.0  # the end of the 1 h arrival bin the baseline lands in
+        eta = math.ceil(arrival - 1e-9)  # the end of the 1 h arrival bin (end - 1, end] the baseline lands in
         assert se.dp_at(end_h, fuel, eta) <= base * (1.0 + 1e-12)

@@ -188,15 +188,15 @@ def test_chains_split_by_eta_alone_descending_from_the_slow_end():
 def test_a_failed_minimum_time_solve_starts_the_front_from_the_fastest_verified_plan(monkeypatch):
     # planted: the minimum-time NLP fails, carrying a verified 30 h plan as its best (as SolverFailure
     # does with the search route's); the front starts there, labelled, and the rest is unchanged
-    real = points_mod.optimise_corridor
-    best = real(CORRIDOR, _calm(), SHIP, departure=T0, eta=T0 + np.timedelta64(30, "h"), **KW)
+    real = points_mod.solve_prepared
+    best = optimise_corridor(CORRIDOR, _calm(), SHIP, departure=T0, eta=T0 + np.timedelta64(30, "h"), **KW)
 
     def failing(*args, objective="fuel", **kw):
         if objective == "time":
             raise orx.SolverFailure("planted", status="Maximum_Iterations_Exceeded", best_plan=best)
         return real(*args, objective=objective, **kw)
 
-    monkeypatch.setattr(points_mod, "optimise_corridor", failing)
+    monkeypatch.setattr(points_mod, "solve_prepared", failing)
     front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, n=3, **KW)
     assert front.eta_h.values[0] == pytest.approx(best.duration_h, rel=1e-9)
     assert str(front.status.values[0]).startswith("feasible: fastest verified plan known")
@@ -272,7 +272,7 @@ def test_fuel_never_rises_with_a_later_eta_on_random_fixed_paths(hs, from_deg):
 
 
 def test_a_front_on_a_prepared_corridor_is_monotone_and_prepares_once(monkeypatch):
-    """The points between the ends share one PreparedCorridor per process; each equals optimise_corridor's plan."""
+    """The ends and the points between share one PreparedCorridor per process; each equals optimise_corridor's plan."""
     from tests.test_optimise import _static_linear_sea
 
     made = []
@@ -293,10 +293,10 @@ def test_a_front_on_a_prepared_corridor_is_monotone_and_prepares_once(monkeypatc
     assert not any("non-monotone" in str(s) for s in front.status.values)
     interior = front.eta_h.values[front.solve.values == "eta"]
     assert interior.size >= 2
-    assert made == [T0 + np.timedelta64(int(interior.max()), "h")]  # prepared once, for the latest ETA solved
+    assert made == [None]  # prepared once, for the weather's whole time span: the two ends and every ETA between
     # kept for the next front of the same inputs (a study's): keyed by their fingerprint, which another ship changes
     token = points_mod.front_token(corridor, wx, SHIP, T0, "fuel", kw)
-    assert (token, float(interior.max())) in points_mod.PREPARED_CORRIDORS
+    assert token in points_mod.PREPARED_CORRIDORS
     assert points_mod.front_token(corridor, wx, SMALL_SHIP, T0, "fuel", kw) != token
     ref = optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(80, "h"), **kw)
     assert fuel[1] == pytest.approx(ref.total_fuel_t, rel=1e-6)

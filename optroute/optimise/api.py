@@ -38,7 +38,7 @@ from optroute.plan.result import Exclusion, Plan
 from optroute.search.route import Corridor, Route
 from optroute.weather.sample import WeatherSampler
 
-__all__ = ["optimise_corridor", "plan_voyage"]
+__all__ = ["optimise_corridor", "plan_voyage", "solve_prepared"]
 
 #: Tolerance of "meets the ETA" for the plans compared here [h] (Plan.verify's default).
 _ETA_TOL_H = 1.0 / 60.0
@@ -370,6 +370,24 @@ def _robust(robust: Any, weather: Any, args: dict[str, Any]) -> Plan:
 
 
 # --------------------------------------------------------------------------- honest outcomes (issue 14 items 4, 5)
+
+
+def solve_prepared(
+    prepared: Any,
+    eta: Any = None,
+    *,
+    eta_mode: str = "le",
+    objective: str = "fuel",
+    warm_plan: Plan | None = None,
+    route: Route | None = None,
+) -> Plan:
+    """:func:`optimise_corridor`'s solve and honest outcomes on a corridor prepared once (a front's points).
+
+    ``prepared`` is a :class:`~optroute.optimise.corridor_problem.PreparedCorridor`; the rest as in
+    :func:`optimise_corridor`, whose outcomes (plans, statuses, errors) this gives for the same solve.
+    """
+    kw = {"eta_mode": eta_mode, "objective": objective, "warm_plan": warm_plan, "route": route, "progress": None}
+    return _solve_honestly(prepared, eta, **kw)
 
 
 def _solve_honestly(prepared: Any, eta: Any, *, eta_mode: str, objective: str, warm_plan, route, progress) -> Plan:

@@ -22,8 +22,10 @@ import numpy as np
 import xarray as xr
 
 from formulations.speed_nlp import jit_compiler
+from optroute import units
 from optroute._checks import finite
 from optroute.errors import ConfigError, WeatherCoverageError
+from optroute.optimise.lateral import reach_windows
 from optroute.optimise.nlp_inputs import CorridorFrame, build_frame, dataset_spacing, lateral_bounds, weather_grid
 from optroute.optimise.nlp_solve import Problem
 from optroute.optimise.power_table import PowerTable, baseline_power_model, heading_nodes, speed_nodes
@@ -173,6 +175,24 @@ def _grid_steps(ds: xr.Dataset | None, corridor: Corridor, hw_max: float) -> tup
     return dt_h, ds_nm, dy_nm
 
 
+def _leg_windows(
+    frame: CorridorFrame, sampler: WeatherSampler, ds: xr.Dataset | None, t0: np.datetime64, cap_h: float | None,
+    v_max: float,
+) -> np.ndarray | None:  # fmt: skip
+    """:func:`~optroute.optimise.lateral.reach_windows` of the corridor's legs, or None (every leg over the whole
+    window) without a passage cap or where the strongest current is unknown (a sampler without its dataset)."""
+    has_current = any(v.startswith("current") for v in sampler.variables)
+    if cap_h is None or not math.isfinite(cap_h) or (has_current and ds is None):
+        return None
+    current_kn = 0.0
+    if has_current:
+        speed = np.hypot(ds["current_u_ms"], ds["current_v_ms"]).max(skipna=True)
+        current_kn = float(units.ms_to_kn(float(speed)))
+    if not math.isfinite(current_kn):
+        return None
+    return reach_windows(frame, t0, cap_h, v_max + current_kn)
+
+
 def prepare_corridor(
     corridor: Corridor,
     weather: xr.Dataset | WeatherSampler,
@@ -229,8 +249,9 @@ def prepare_corridor(
     emit(progress, "lateral bounds", 0.1)
     step_nm = max(1.0, min(5.0, hw_max / 10.0)) if hw_max > 0 else 1.0
     y_lo, y_hi = lateral_bounds(
-        frame, sampler=sampler, dataset=ds, times=window, use_land_mask=use_land_mask, step_nm=step_nm
-    )
+        frame, sampler=sampler, dataset=ds, times=window, use_land_mask=use_land_mask, step_nm=step_nm,
+        leg_windows=_leg_windows(frame, sampler, ds, t0, cap_h, v_max),
+    )  # fmt: skip
     problem = Problem(
         frame=frame, grid=grid, samples=samples, power=base, ship=ship, rules=rules, y_lo=y_lo, y_hi=y_hi,
         v_min=v_min, v_max=v_max, exclusion=exclusion, departure=t0, solver_options=solver_options,

@@ -57,14 +57,15 @@ from numpy.typing import ArrayLike
 from scipy import ndimage, sparse
 from scipy.optimize import linprog
 
-from optroute.errors import NoSafePassage, OnLandError
+from optroute import geodesy as geo
+from optroute.errors import ConfigError, NoSafePassage, OnLandError
 from optroute.geo import land
 from optroute.weather.sample import WeatherSampler
 
 if TYPE_CHECKING:
     from optroute.optimise.nlp_inputs import CorridorFrame
 
-__all__ = ["LAND_STEP_MIN_NM", "avoid_point", "lateral_bounds"]
+__all__ = ["LAND_STEP_MIN_NM", "avoid_point", "lateral_bounds", "reach_windows"]
 
 LAND_STEP_MIN_NM = 0.15
 """Finest lattice spacing used for the land mask [nm] (the GSHHG backend is finer than this)."""
@@ -202,6 +203,55 @@ def _weather_blocker(dataset: xr.Dataset, times: np.ndarray):  # noqa: ANN202 - 
         return out
 
     return blocked, box_clear
+
+
+def _leg_times(times: np.ndarray, leg_windows: np.ndarray | None, n: int) -> list[np.ndarray]:
+    """Per leg, the times [UTC] its rows are checked at: ``times``, or those inside its window and the window's ends."""
+    if leg_windows is None:
+        return [times] * n
+    w = np.asarray(leg_windows).astype("datetime64[ns]")
+    if w.shape != (n, 2) or np.isnat(w).any() or np.any(w[:, 1] < w[:, 0]):
+        raise ConfigError(
+            f"leg_windows must be {n} (first, last) UTC times, one per leg, first <= last; got shape {w.shape}: "
+            "build them with reach_windows(frame, ...)"
+        )
+    return [np.unique(np.concatenate([[a, b], times[(times > a) & (times < b)]])) for a, b in w]
+
+
+def _groups(leg_times: list[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The distinct time sets of ``leg_times`` and the legs having each."""
+    out: dict[bytes, tuple[np.ndarray, list[int]]] = {}
+    for k, t in enumerate(leg_times):
+        out.setdefault(t.tobytes(), (t, []))[1].append(k)
+    return [(t, np.asarray(legs)) for t, legs in out.values()]
+
+
+class _LegBlockers:
+    """:func:`_weather_blocker` of each leg over its own times, built once per distinct bracket of dataset times."""
+
+    def __init__(self, dataset: xr.Dataset, leg_times: list[np.ndarray]) -> None:
+        t_all = np.asarray(dataset["time"].values).astype("datetime64[ns]") if "time" in dataset.coords else None
+        built: dict[tuple[int, int], tuple] = {}
+        self.of_leg: list[tuple] = []
+        for t in leg_times:
+            key = (0, 0)
+            if t_all is not None and t_all.size > 1:
+                key = (max(int(np.searchsorted(t_all, t.min(), side="right")) - 1, 0),
+                       min(int(np.searchsorted(t_all, t.max(), side="left")), t_all.size - 1))  # fmt: skip
+            if key not in built:
+                built[key] = _weather_blocker(dataset, t)
+            self.of_leg.append(built[key])
+
+    def box_clear(self, leg: int, *box: float) -> bool:
+        return bool(self.of_leg[leg][1](*box))
+
+    def blocked(self, row_leg: np.ndarray, lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
+        """Blocked points of rows (one leg each, ``row_leg``) × columns."""
+        out = np.zeros(lat.shape, dtype=bool)
+        for leg in np.unique(row_leg):
+            r = row_leg == leg
+            out[r] = self.of_leg[int(leg)][0](lat[r], lon[r])
+        return out
 
 
 def _sampler_blocked(sampler: WeatherSampler, times: np.ndarray, lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
@@ -391,6 +441,7 @@ def lateral_bounds(
     use_land_mask: bool | None = None,
     step_nm: float = 2.0,
     reference_port_nm: ArrayLike | None = None,
+    leg_windows: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Navigable lateral range [nm, port +] of every waypoint, such that every leg stays navigable.
 
@@ -418,6 +469,11 @@ def lateral_bounds(
         spacing finer than its grid; without ``dataset``, the coarse spacing).
     reference_port_nm : array_like, shape (N+1,), optional
         The path whose side of an island is kept [nm, port +] (e.g. a warm start); default 0.
+    leg_windows : array_like of datetime64, shape (N, 2), optional
+        The first and last time [UTC] the ship can be on each leg (:func:`reach_windows`): a leg's
+        rows are blocked by the weather's no-passage cells over its own window instead of over all
+        of ``times`` (a moving no-go area then blocks only where it is while the ship can be there).
+        Default: every leg over ``times``.
 
     Returns
     -------
@@ -448,7 +504,8 @@ def lateral_bounds(
     n_rows, n_cols = lat_.n_rows, lat_.y_nm.size
     blocked_land = np.zeros((n_rows, n_cols), dtype=bool)
     blocked_wx = np.zeros((n_rows, n_cols), dtype=bool)
-    wx_blocked, wx_box_clear = _weather_blocker(dataset, times) if dataset is not None else (None, None)
+    leg_times = _leg_times(times, leg_windows, n)
+    wx = _LegBlockers(dataset, leg_times) if dataset is not None else None
     diag = float(mask.resolution_nm) * math.sqrt(2.0) if mask is not None else 0.0
     # legs whose whole (padded) sweep is clear need no lattice: a box look-up on the mask and the weather grid
     boxes = lat_.leg_boxes(frame, diag + 2.0 * step)
@@ -457,7 +514,7 @@ def lateral_bounds(
     if mask is None or box_land is not None:
         for k, (a, b, c, d) in enumerate(boxes):
             land_clear = mask is None or (-180.0 <= c and d < 180.0 and not box_land(a, b, c, d))
-            need[k] = not (land_clear and (wx_box_clear is None or wx_box_clear(a, b, c, d)))
+            need[k] = not (land_clear and (wx is None or wx.box_clear(k, a, b, c, d)))
     row_need = need[lat_.row_leg]
     row_need[lat_.station_row[1:-1]] |= need[:-1]  # a station row closes the leg before it too
     need_rows = np.flatnonzero(row_need)
@@ -466,14 +523,17 @@ def lateral_bounds(
         la, lo = lat_.positions(rows)
         if mask is not None:
             blocked_land[rows] = mask.is_land(la, lo)
-        if wx_blocked is not None:
-            blocked_wx[rows] = wx_blocked(la, lo)
+        if wx is not None:
+            blocked_wx[rows] = wx.blocked(lat_.row_leg[rows], la, lo)
     if dataset is None:
         stride = max(1, int(round(float(step_nm) / step)))
         rows_c = np.unique(np.concatenate([np.arange(0, n_rows, stride), [n_rows - 1]]))
         cols_c = np.unique(np.concatenate([np.arange(lat_.centre_col % stride, n_cols, stride), [0, n_cols - 1]]))
         la, lo = lat_.positions(rows_c, cols_c)
-        coarse = _sampler_blocked(sampler, times, la.ravel(), lo.ravel()).reshape(la.shape)
+        coarse = np.zeros(la.shape, dtype=bool)
+        for when, legs in _groups(leg_times):
+            r = np.flatnonzero(np.isin(lat_.row_leg[rows_c], legs))
+            coarse[r] = _sampler_blocked(sampler, when, la[r].ravel(), lo[r].ravel()).reshape(r.size, -1)
         blocked_wx = coarse if stride == 1 else _coarse_to_fine(coarse, rows_c, cols_c, n_rows, n_cols)
     inside = np.abs(lat_.y_nm)[None, :] <= lat_.row_hw[:, None] + 1e-9
     raw = blocked_land | blocked_wx
@@ -516,6 +576,43 @@ def lateral_bounds(
             )
         y_lo, y_hi = lp
     return y_lo, np.maximum(y_hi, y_lo)
+
+
+def reach_windows(
+    frame: CorridorFrame, departure: np.datetime64, cap_h: float, sog_max_kn: float, *, margin_h: float = 1.0
+) -> np.ndarray:
+    """The first and last time [UTC] a ship can be on each leg of the corridor, shape (N, 2).
+
+    A ship departing at ``departure`` from the first waypoint, arriving at the last by ``cap_h`` [h after
+    departure] and never faster over ground than ``sog_max_kn`` [kn] (the NLP's top speed through water plus
+    the strongest current) reaches station ``k`` no earlier than ``d(start, W_k) / sog_max`` and leaves
+    station ``k + 1`` no later than ``cap_h - d(W_{k+1}, end) / sog_max``, with ``d`` the WGS84 geodesic
+    distance (no track is shorter) to the nearest admissible offset of the station (offsets every
+    ``half_width / 16``, less half that spacing: the distance is 1-Lipschitz in the position). The window
+    of leg ``k`` is the first of these to the second, widened by ``margin_h`` [h] each side and clipped to
+    ``[0, cap_h]``: a superset of the times the ship can be on the leg, so blocking a leg's sweep over its
+    window keeps every admissible leg navigable, as the static window did, but a moving no-go area blocks
+    only where it is while the ship can be there.
+    """
+    n = frame.n_legs
+    hw = np.asarray(frame.corridor.half_width_nm, dtype=float)
+    frac = np.linspace(-1.0, 1.0, 33)
+    kk = np.repeat(np.arange(n + 1), frac.size)
+    yy = (hw[:, None] * frac[None, :]).ravel()
+    lat, lon = frame.normal_points(kk, yy)
+    wp = frame.corridor.waypoints
+    slack = hw / 32.0 + 1e-6  # half the offset spacing [nm]
+    d0 = geo.distance_nm(wp[0, 0], wp[0, 1], lat, lon).reshape(n + 1, -1).min(axis=1) - slack
+    d1 = geo.distance_nm(lat, lon, wp[-1, 0], wp[-1, 1]).reshape(n + 1, -1).min(axis=1) - slack
+    v = float(sog_max_kn) * (1.0 + 1e-9)
+    first = np.maximum(d0[:-1], 0.0) / v - margin_h
+    last = float(cap_h) - np.maximum(d1[1:], 0.0) / v + margin_h
+    first, last = np.clip(first, 0.0, cap_h), np.clip(last, 0.0, cap_h)
+    last = np.maximum(last, first)
+    to_ns = np.timedelta64(1, "ns")
+    t0 = np.datetime64(departure, "ns")
+    hours = np.column_stack([first, last])
+    return t0 + np.round(hours * 3600e9).astype(np.int64) * to_ns
 
 
 def avoid_point(

@@ -18,8 +18,13 @@ the *exact* arrival time of that label (ties: the earlier one) and a back
 pointer; times are never rounded, so the reported times and ETAs are exact
 for the path returned.  Keeping one label per bin discards, within a bin, an
 earlier-but-costlier label: the error this causes vanishes as ``dt_h`` → 0.
-The bins are aligned so that the required ETA is a bin edge; every label in a
-bin that ends at or before the ETA arrives in time.
+The bins are aligned so that the required ETA is a bin edge, and they are
+closed at their end: a bin holds the arrivals after its start up to *and at*
+its end (``(end - dt_h, end]``), i.e. an arrival time is rounded up to the end
+of its bin (within :data:`~optroute.search.dp_kernels.BIN_TOL_H`).  So every
+label in a bin that ends at or before the ETA arrives in time, and a label
+arriving exactly at the ETA (a constant speed of distance / ETA) is in the
+ETA's bin, not the next one.
 
 Waiting is not allowed: "arrive by the ETA" means arriving at or before it,
 with the fuel burnt on the way (no loitering at sea or at the port).
@@ -63,7 +68,7 @@ from optroute import geodesy as geo
 from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
 from optroute.search.costs import unpack_cost
-from optroute.search.dp_kernels import DPLegKernel, enumerate_candidates, resolve
+from optroute.search.dp_kernels import BIN_TOL_H, DPLegKernel, enumerate_candidates, resolve
 from optroute.search.passage_kernels import cost_dp_legs
 
 LegCostFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], Any]
@@ -123,7 +128,8 @@ class DPResult:
     eta_h : float or None
         The required arrival [h from departure].
     curve_bin_end_h : ndarray
-        Upper edge of each arrival-time bin [h from departure].
+        Upper edge of each arrival-time bin [h from departure]; a bin holds the
+        arrivals in ``(end - dt_h, end]``.
     curve_arrival_h : ndarray
         Exact arrival of the least-fuel label in each bin [h] (NaN: unreachable).
     curve_fuel_t : ndarray
@@ -390,8 +396,9 @@ def solve_dp(
     )
     if eta_h is not None:
         horizon = max(horizon, eta_h)
-    t_ref = 0.0 if eta_h is None else eta_h - np.ceil(eta_h / dt - 1e-12) * dt
-    n_bins = int(np.floor((horizon - t_ref) / dt)) + 1
+    # bin b holds the arrivals in (t_ref + b dt, t_ref + (b + 1) dt]: the ETA is a bin end, departure in bin 0
+    t_ref = (0.0 if eta_h is None else eta_h - np.ceil(eta_h / dt - 1e-12) * dt) - dt
+    n_bins = int(np.ceil((horizon - t_ref) / dt - BIN_TOL_H / dt))
 
     valid = np.ones((n_stages + 1, n_lat), dtype=bool)
     valid[0], valid[-1] = False, False
@@ -409,7 +416,7 @@ def solve_dp(
         geo.distance_nm(lat[k][:, None], lon[k][:, None], lat[k + 1][None, :], lon[k + 1][None, :])
         for k in range(n_stages)
     ]
-    b0 = int(np.floor((0.0 - t_ref) / dt))
+    b0 = int(np.ceil((0.0 - t_ref) / dt - BIN_TOL_H / dt)) - 1
     fuel_t[0][c, b0], time_t[0][c, b0] = 0.0, 0.0
     early_t[0, c], early_f[0, c] = 0.0, 0.0
     if navigable is not None and not _nav(navigable, np.array([s[0]]), np.array([s[1]]), np.array([0.0]))[0]:
@@ -460,7 +467,7 @@ def solve_dp(
             sel = np.nonzero(ok)[0]
             f1 = fuel_t[k][l0[sel], b_src[sel]] + fu[sel]
             tt = t1[sel]
-            b1 = np.floor((tt - t_ref) / dt).astype(np.int64)
+            b1 = np.ceil((tt - t_ref) / dt - BIN_TOL_H / dt).astype(np.int64) - 1
             inside = (b1 >= 0) & (b1 < n_bins)
             sel, f1, tt, b1 = sel[inside], f1[inside], tt[inside], b1[inside]
             dl = lj[sel]

@@ -47,6 +47,8 @@ from optroute.weather.sample import N_POINT_FIELDS
 
 _FLOOR_SLACK = 1.0 - 1e-9  # rounding room: the bound stays below the kernel's sum over pieces
 _CURRENT_SLACK = 1.0 + 1e-9
+BIN_TOL_H = 1e-9
+"""An arrival this close after a bin's end [h] is in that bin (the rounding of a sum of leg durations)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -152,7 +154,8 @@ def enumerate_candidates(
     rem_next : ndarray
         Distance from each destination lateral to the end [nm].
     vmax, horizon, t_ref, dt : float
-        Top speed [kn], horizon [h], bin origin [h] and width [h].
+        Top speed [kn], horizon [h], bin origin [h] and width [h]: bin ``b`` holds the arrivals in
+        ``(t_ref + b dt, t_ref + (b + 1) dt]``.
     n_bins : int
 
     Returns
@@ -187,7 +190,7 @@ def enumerate_candidates(
                 t1 = src_t[s] + dur
                 if not t1 + tail <= horizon + 1e-9:
                     continue
-                b = math.floor((t1 - t_ref) / dt)
+                b = math.ceil((t1 - t_ref) / dt - BIN_TOL_H / dt) - 1  # bins (start, end]: up to the end
                 if b < 0 or b >= n_bins:
                     continue
                 o_src[n], o_lj[n], o_vi[n], o_t1[n] = s, lj, v, t1

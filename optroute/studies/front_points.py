@@ -1,8 +1,9 @@
 """One point of a fuel–ETA front: its solve, its warm start, and the prepared corridors a process keeps.
 
-A point is one :func:`optroute.optimise_corridor` call (or, for an ETA inside a chain, one
-:meth:`PreparedCorridor.solve` on the corridor prepared once for the chain's latest ETA); an
-unreachable ETA or a solver failure becomes the point's status, not an exception.  These functions
+A point is one :func:`optroute.optimise.api.solve_prepared` call (the solve of
+:func:`optroute.optimise_corridor`) on the corridor prepared once per process for the weather's whole
+time span (:func:`prepared_corridor`); an unreachable ETA or a solver failure becomes the point's
+status, not an exception.  These functions
 run in the calling process or on a Dask worker (:mod:`optroute.studies.front_runners`) for
 :func:`optroute.studies.tradeoff.tradeoff` and :func:`optroute.studies.voyage_study.study`.
 """
@@ -26,7 +27,7 @@ from optroute.errors import (
     SolverFailure,
     WeatherCoverageError,
 )
-from optroute.optimise.api import optimise_corridor
+from optroute.optimise.api import optimise_corridor, solve_prepared
 from optroute.optimise.corridor_problem import PreparedCorridor
 from optroute.physics.ship import Ship
 from optroute.plan.result import Plan
@@ -82,7 +83,6 @@ class FrontSpec:
     objective: str
     kwargs: Mapping[str, Any]
     token: str = ""  # names this front's prepared corridor in a process's cache
-    latest_eta_h: float | None = None  # the chains' latest ETA [h]: set once the end solves are known
 
 
 @dataclass(frozen=True)
@@ -156,13 +156,9 @@ def solve_point(
         )
 
     try:
-        if kind == "eta" and spec.latest_eta_h is not None and eta_h is not None and eta_h <= spec.latest_eta_h:
-            # the problem of optimise_corridor for this ETA from the same warm start; the untightened start (not
-            # the neighbour's learnt tightening) keeps every point independent of the chain it was solved in
-            prepared, lock = prepared_corridor(spec)
-            with lock:  # one solve at a time: its cached builds are set up per solve (a worker may have threads)
-                plan = prepared.solve(eta, objective=objective, warm_plan=carry)  # type: ignore[arg-type]
-        else:
+        prepared, lock = prepared_corridor(spec) if spec.token else (None, None)
+        if prepared is None or lock is None or not _covers(prepared, eta_h):
+            # a study's case (no fingerprint: one solve, set up for its ETA) or an ETA past a free-arrival horizon
             plan = optimise_corridor(
                 spec.corridor,
                 spec.weather,
@@ -174,6 +170,15 @@ def solve_point(
                 route=route,
                 **spec.kwargs,
             )
+        else:
+            with lock:  # one solve at a time: its cached builds are set up per solve (a worker may have threads)
+                plan = solve_prepared(
+                    prepared,
+                    eta,
+                    objective=objective,
+                    warm_plan=carry,  # type: ignore[arg-type]
+                    route=route,
+                )
     except InfeasibleETA as exc:
         if exc.earliest_arrival is not None:
             earliest = as_utc_time(exc.earliest_arrival, "earliest_arrival")
@@ -230,34 +235,49 @@ def solve_chain(spec: FrontSpec, etas: Sequence[float], warm: FrontPoint | None,
     return out
 
 
-#: Prepared corridors of this process (a Dask worker's too), by the inputs' fingerprint and latest ETA, least
-#: recently used first: a worker keeps them between chains and between fronts of the same inputs (a study's).
-PREPARED_CORRIDORS: dict[tuple[str, float], tuple[PreparedCorridor, threading.Lock]] = {}
+#: Prepared corridors of this process (a Dask worker's too), by the inputs' fingerprint, least recently used
+#: first: a worker keeps them between chains, between fronts of the same inputs and between a study's cases.
+PREPARED_CORRIDORS: dict[str, tuple[PreparedCorridor, threading.Lock]] = {}
 PREPARED_KEEP = 2
 _PREPARING = threading.Lock()
 
 
 def prepared_corridor(spec: FrontSpec) -> tuple[PreparedCorridor, threading.Lock]:
-    """The front's corridor problem prepared once in this process for its latest ETA, and its solve lock."""
-    latest = float(spec.latest_eta_h)  # type: ignore[arg-type]
-    key = (spec.token, latest)
+    """The corridor problem of ``spec`` prepared once in this process, and its solve lock.
+
+    Prepared for the whole of the weather's time span (``latest_eta=None`` with the front's fuel or cost
+    objective): the minimum-time and slow-steaming ends and every ETA between them are solved on the same
+    weather grid, power table and CasADi build, so a front (or a study's cases of one ship, weather and
+    corridor) costs one set-up per process.
+    """
     with _PREPARING:
-        hit = PREPARED_CORRIDORS.pop(key, None)
+        hit = PREPARED_CORRIDORS.pop(spec.token, None)
         if hit is None:
-            prepared = PreparedCorridor(
-                spec.corridor,
-                spec.weather,
-                spec.ship,
-                departure=spec.departure,
-                latest_eta=spec.departure + h_to_timedelta(latest),
-                objective=spec.objective,  # type: ignore[arg-type]
-                **spec.kwargs,
-            )
-            hit = (prepared, threading.Lock())
-        PREPARED_CORRIDORS[key] = hit  # most recently used last
+            hit = (_prepare(spec), threading.Lock())
+        PREPARED_CORRIDORS[spec.token] = hit  # most recently used last
         while len(PREPARED_CORRIDORS) > PREPARED_KEEP:
             PREPARED_CORRIDORS.pop(next(iter(PREPARED_CORRIDORS)))
     return hit
+
+
+def _prepare(spec: FrontSpec) -> PreparedCorridor:
+    """The corridor of ``spec`` prepared for the weather's whole time span."""
+    return PreparedCorridor(
+        spec.corridor,
+        spec.weather,
+        spec.ship,
+        departure=spec.departure,
+        latest_eta=None,
+        objective=spec.objective,  # type: ignore[arg-type]
+        **spec.kwargs,
+    )
+
+
+def _covers(prepared: PreparedCorridor, eta_h: float | None) -> bool:
+    """Whether the prepared weather grid runs past an ETA [h] (always, when it runs to the weather's end)."""
+    if eta_h is None or prepared.prepared_cap_h is not None:
+        return True
+    return eta_h * 1.02 + 1.0 <= prepared.horizon_h + 1e-9
 
 
 def front_token(corridor: Corridor, weather: Any, ship: Ship, t0: np.datetime64, objective: str, kwargs: Any) -> str:

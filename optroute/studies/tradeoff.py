@@ -34,8 +34,8 @@ The ETAs between the two ends are swept from the slow-steaming end, where the pr
 easiest (loads far from the engine's limits), towards the fast one: each point's
 :meth:`~optroute.optimise.corridor_problem.PreparedCorridor.solve` starts from its later
 neighbour's plan sped up to arrive by its own ETA (speeds through the water times
-``arrival / ETA``), which the optimiser takes as Ipopt's start when the referee accepts it (the
-optimiser's own start otherwise).  One solve per point; only a point whose solve failed is
+``arrival / ETA``), which the optimiser takes as Ipopt's start when the referee accepts it and scores it best among
+its candidates (its own start otherwise).  One solve per point; only a point whose solve failed is
 solved once more, from the optimiser's own start (``attrs["monotonicity_resolves"]``).  The
 primal solution only: the optimiser's public interface (``warm_plan``) carries no multipliers.
 
@@ -64,14 +64,16 @@ a cluster and run to run (``runtime_s`` aside).
 
 Set-up once per process
 -----------------------
-The points between the ends are solved on one
-:class:`~optroute.optimise.corridor_problem.PreparedCorridor` per process (this one when serial,
-each Dask worker's), prepared for the latest of them: the weather grid with the ship's power
-table, lateral bounds and the CasADi build are made once.  It is kept in the process, keyed by
-the fingerprint of the front's inputs (:mod:`optroute.studies.fingerprint`) and that ETA, for
-the next chain and the next front of the same inputs (the two most recent are kept).  Each point
-starts from the untightened problem, as :func:`optroute.optimise_corridor` would, so a point does
-not depend on what was solved before it in the process.
+Every solve of a front — the minimum-time end, the slow-steaming end and the ETAs between — runs on
+one :class:`~optroute.optimise.corridor_problem.PreparedCorridor` per process (this one when serial,
+each Dask worker's), prepared for the weather's whole time span: the weather grid with the ship's
+power table, lateral bounds and the CasADi build are made once, not once per end solve and again for
+the chains.  It is kept in the process, keyed by the fingerprint of the front's inputs
+(:mod:`optroute.studies.fingerprint`), for the next chain, the next front of the same inputs and a
+study's cases (the two most recent are kept).  Each solve goes through
+:func:`optroute.optimise.api.solve_prepared` (the solve and honest outcomes of
+:func:`optroute.optimise_corridor`) from the untightened problem, so a point does not depend on
+what was solved before it in the process.
 """
 
 from __future__ import annotations
@@ -425,8 +427,6 @@ def _front(
             done[h] = replace_fields(slow, eta_h=h)
         else:
             todo.append(h)
-    if todo:  # the points between the ends are solved on one corridor prepared per process for the latest
-        spec = replace_fields(spec, latest_eta_h=max(todo))
     return _rest(spec, grid, done, todo, t_min, t_slow, slow, fast, progress, runner, warm_start, rtol, n_chains)
 
 
