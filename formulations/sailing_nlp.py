@@ -16,8 +16,9 @@ settles for a danger band from its start.  With the sides fixed, the continuous 
 The wind is read by piecewise-(bi/tri)linear interpolants on the weather's own grid — the weather
 sampler's own interpolation, so the NLP and the referee read the same wind (a smooth B-spline of a
 field that is rough at its grid scale differs from it by up to 0.7 m/s on the Gulf of Gdańsk case,
-and its optimum broke the no-go sector in the true wind); the price is a nonsmooth problem, on which
-Ipopt reaches a local optimum only where the wind varies smoothly between grid nodes.  The boat
+and its optimum broke the no-go sector in the true wind); the price is a passage time with kinks
+where a sub-leg's start crosses a grid line, for which the caller asks Ipopt for a limited-memory
+quasi-Newton Hessian (``ipopt_options``) rather than the exact one.  The boat
 speed is a cubic B-spline of ``(cos TWA, TWS)`` tabulated from the true polar (speed is an even
 function of TWA, so it is smooth in ``cos TWA`` at a dead run); its error is measured by the caller.
 The sub-leg geometry is the local plane of the WGS84 ellipsoid at the sub-leg's middle latitude

@@ -3,8 +3,17 @@
 The graph route of :func:`~optroute.search.sailing.search_sailing_route` settles the disjunction
 "port OR starboard tack" on every board, as the search's start settles a danger band's side for
 the corridor NLP.  With the sides fixed, :func:`formulations.sailing_nlp.solve_sailing_boards`
-moves the tack points by Ipopt (exact derivatives through CasADi), each sub-leg's true wind angle
-kept on its board's side outside the no-go sector.  Inside the NLP the polar is a B-spline of
+moves the tack points by Ipopt (exact first derivatives through CasADi), each sub-leg's true wind
+angle kept on its board's side outside the no-go sector.  The wind the NLP reads is the sampler's
+own piecewise-linear interpolation, so the passage time has kinks wherever a sub-leg's start crosses
+a grid line: an exact Hessian there is meaningless and Ipopt's Newton steps stall (on the Gulf of
+Gdańsk case it ended at its iteration limit no faster than the graph route).  Ipopt therefore
+runs with a limited-memory BFGS Hessian, the quasi-Newton choice that works well on nonsmooth
+objectives (Lewis and Overton, "Nonsmooth optimization via quasi-Newton methods", Math.
+Programming 2013); on such a problem it often stops at its iteration limit circling a kink rather
+than meeting its tolerance, so its last iterate is used whatever its exit, and it is judged only
+by the true model and the referee below — the returned ``status`` names Ipopt's exit verbatim and
+is never "optimal".  Inside the NLP the polar is a B-spline of
 ``(cos TWA, TWS)`` tabulated from the true polar (its largest error on the table's cell midpoints
 is measured and reported), the wind the sampler's own linear interpolation on the weather's grid.  The answer is then
 re-sailed with the true model (:func:`~optroute.search.sailing_refine.sail_boards`: the polar's own
@@ -124,7 +133,7 @@ def refine_sailing_route(
     trust_deg : float
         How far a tack point may move in latitude and in longitude [deg].
     max_iter : int
-        Solver iterations.
+        Solver iterations (Ipopt: its limit; its last iterate is judged by the true model whatever its exit).
 
     Returns
     -------
@@ -163,11 +172,12 @@ def refine_sailing_route(
     res = solve_sailing_boards(
         pts0, sides, n_sub, polar_cos_nodes=c_nodes, polar_tws_nodes_kn=w_nodes, polar_speed_kn=table,
         wind_grid=grid, wind_u_ms=u, wind_v_ms=v, limit_deg=limit, trust_deg=trust_deg, max_iter=max_iter,
+        ipopt_options={"hessian_approximation": "limited-memory"},
     )  # fmt: skip
     extra = {"nlp_passage_h": float(res.t_h[-1]), "polar_table_error_kn": table_err,
              "ipopt_iterations": res.iterations, "ipopt_status": res.status}  # fmt: skip
-    if not res.success:
-        out = keep_graph_route(route, f"rejected: Ipopt ended with {res.status}", started)
+    if not np.all(np.isfinite(res.points_deg)) or not np.all(np.isfinite(res.t_h)):
+        out = keep_graph_route(route, f"rejected: Ipopt ended with {res.status} at a non-finite iterate", started)
         return _with_stats(out, extra)
     try:
         sailed = sail_boards(res.points_deg, n_sub, sampler, vessel, route.time[0], res.t_h)

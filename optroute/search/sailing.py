@@ -156,6 +156,8 @@ class SailingGraph:
     course_deg: np.ndarray = field(repr=False)
     sea: np.ndarray = field(repr=False)
     land_resolution_nm: float | None = None
+    _geometry: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+    """Per-graph geometry computed on first use and kept (the graph is immutable): sea nodes, distances to a node."""
 
     @classmethod
     def build(cls, grid: SailingGrid, directions: int = 16, *, use_land_mask: bool = True,
@@ -190,10 +192,29 @@ class SailingGraph:
         return int((self.target >= 0).sum())
 
     def nearest_sea(self, lat: float, lon: float) -> int:
-        """Flat index of the sea node nearest (great circle) to a position."""
-        la, lo = self.grid.node_latlon(np.flatnonzero(self.sea))
-        k = int(np.argmin(geo.distance_nm(lat, lon, la, lo)))
-        return int(np.flatnonzero(self.sea)[k])
+        """Flat index of the sea node nearest (WGS84 geodesic) to a position.
+
+        The spherical distance brackets the geodesic one (:data:`optroute.geodesy.SPHERE_TO_WGS84_MIN` and
+        ``_MAX``), so only the nodes the sphere cannot rule out are measured on the ellipsoid: the same node.
+        """
+        if "sea" not in self._geometry:
+            nodes = np.flatnonzero(self.sea)
+            self._geometry["sea"] = (nodes, *self.grid.node_latlon(nodes))
+        nodes, la, lo = self._geometry["sea"]
+        d_sphere = geo.sphere_distance_nm(lat, lon, la, lo)
+        near = np.flatnonzero(d_sphere * geo.SPHERE_TO_WGS84_MIN <= d_sphere.min() * geo.SPHERE_TO_WGS84_MAX)
+        k = near[int(np.argmin(geo.distance_nm(lat, lon, la[near], lo[near])))]
+        return int(nodes[k])
+
+    def distance_to_nm(self, node: int) -> np.ndarray:
+        """WGS84 geodesic distance [nm] from every node to ``node``, kept for the next search to that node."""
+        key = ("to", int(node))
+        if key not in self._geometry:
+            la, lo = self.grid.node_latlon(np.arange(self.grid.n_nodes))
+            d = geo.distance_nm(la, lo, *self.grid.node_latlon(node))
+            d.setflags(write=False)
+            self._geometry[key] = d
+        return self._geometry[key]
 
 
 @dataclass(frozen=True)
@@ -543,9 +564,7 @@ def _weighted(run, res, found: int, dst: int, pen: float):
 
 def _bound_h(graph: SailingGraph, dst: int, v_max_kn: float) -> np.ndarray:
     """A* bound [h]: great-circle distance to the end over the fastest speed, a hair below (rounding)."""
-    la, lo = graph.grid.node_latlon(np.arange(graph.grid.n_nodes))
-    la1, lo1 = graph.grid.node_latlon(dst)
-    return geo.distance_nm(la, lo, la1, lo1) / v_max_kn * (1.0 - 1e-9)
+    return graph.distance_to_nm(dst) / v_max_kn * (1.0 - 1e-9)
 
 
 def _graph(start, end, weather, directions, grid, cell_nm, margin_nm, use_land_mask) -> SailingGraph:
