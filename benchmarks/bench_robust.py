@@ -75,8 +75,9 @@ def _exponent(ms: list[int], values: list[float]) -> float:
     return float(np.polyfit(np.log(ms), np.log(np.maximum(values, 1e-9)), 1)[0])
 
 
-def run(quick: bool) -> dict[str, Any]:
-    ms = [1, 2, 4] if quick else [2, 4, 10, 20]
+def run(quick: bool, members: list[int] | None = None) -> dict[str, Any]:
+    """The table for M in ``members`` (default: quick 1, 2, 4; full 2, 4, 10, 20)."""
+    ms = members or ([1, 2, 4] if quick else [2, 4, 10, 20])
     ref, grids, y_lo, y_hi = _members(max(ms))
     rows = []
     print(

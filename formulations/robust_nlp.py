@@ -142,8 +142,91 @@ class RobustResult:
     x_opt: np.ndarray = field(repr=False)
 
 
-def _member_weather(weathers: Sequence[WeatherGrid]) -> Any:
-    """``(member index, (t, s, y)) ↦ fields``: the members' interpolants behind one ``Function.conditional``."""
+def _pattern(n_rows: int, n_cols: int, rows: np.ndarray, cols: np.ndarray) -> tuple[Any, np.ndarray]:
+    """Sparsity of the entries (rows, cols) and the order that lists them column-major (CasADi's nonzero order)."""
+    order = np.lexsort((rows, cols))
+    return ca.Sparsity.triplet(n_rows, n_cols, rows[order].tolist(), cols[order].tolist()), order
+
+
+class _Stated(ca.Callback):
+    """A numeric function of its first input whose Jacobian is another such function: CasADi never differentiates
+    through it (its derivatives are stated, not derived)."""
+
+    def __init__(self, name: str, fn: Any, sp_in: list, sp_out: list, jac: Any = None) -> None:
+        ca.Callback.__init__(self)
+        self._fn, self._jac, self._sp_in, self._sp_out, self._keep = fn, jac, sp_in, sp_out, []
+        self.construct(name, {"enable_fd": False})
+
+    def get_n_in(self) -> int:
+        return len(self._sp_in)
+
+    def get_n_out(self) -> int:
+        return len(self._sp_out)
+
+    def get_sparsity_in(self, i: int) -> Any:
+        return self._sp_in[i]
+
+    def get_sparsity_out(self, i: int) -> Any:
+        return self._sp_out[i]
+
+    def eval(self, arg: list) -> list:
+        return self._fn(arg[0])
+
+    def has_jacobian(self) -> bool:
+        return self._jac is not None
+
+    def get_jacobian(self, name: str, inames: Any, onames: Any, opts: Any) -> Any:
+        self._keep.append(self._jac(name))  # CasADi holds no Python reference: keep it alive here
+        return self._keep[-1]
+
+
+def _stated_weather(grid: WeatherGrid, name: str, k_: int) -> _Stated:
+    """``(3, K) sample points (t [h], s [nm], y [nm]) ↦ (n_fields, K)`` fields of one member, derivatives stated.
+
+    The value is :meth:`WeatherGrid.interpolant`; its first and second derivatives in t and y are those of
+    :meth:`WeatherGrid.taylor_function` (explicit derivative splines: the same spline's exact derivatives, built from
+    differenced control points in numpy), handed to CasADi as the Jacobian and the Jacobian's Jacobian. Letting CasADi
+    differentiate the spline node instead costs tens of seconds per member and derivative on a large grid (it copies
+    the 2.4 million control points of ``benchmarks.bench_robust``'s grid for every derivative function). The
+    derivative in ``s`` is left structurally zero: ``s`` is fixed at every sample of the corridor model.
+    """
+    nf = len(grid.field_names)
+    value, taylor = grid.interpolant().map(k_), grid.taylor_function(order=2).map(k_)
+    f_idx, k_idx = (a.ravel() for a in np.meshgrid(np.arange(nf), np.arange(k_), indexing="ij"))
+    out_row = f_idx + nf * k_idx  # out[f, k] among the output's entries (column-major)
+    sp_j, ord_j = _pattern(
+        nf * k_, 3 * k_, np.concatenate([out_row, out_row]), np.concatenate([3 * k_idx, 3 * k_idx + 2])
+    )
+    n_j = nf * k_ * 3 * k_  # entries of the Jacobian; its Jacobian: d J[(f, k), (a, k)] / d P[b, k]
+    pairs = ((0, 0), (0, 2), (2, 0), (2, 2))  # (a, b): F_tt, F_ty, F_yt, F_yy
+    hr = np.concatenate([out_row + nf * k_ * (3 * k_idx + a) for a, _ in pairs])
+    sp_h, ord_h = _pattern(n_j, 3 * k_, hr, np.concatenate([3 * k_idx + b for _, b in pairs]))
+    sp_p, sp_o = ca.Sparsity.dense(3, k_), ca.Sparsity.dense(nf, k_)
+
+    def blocks(p: Any) -> list[np.ndarray]:
+        b = np.asarray(taylor(p))  # (6 nf, K): F, F_t, F_y, F_tt, F_ty, F_yy
+        return [b[i * nf : (i + 1) * nf][f_idx, k_idx] for i in range(6)]
+
+    def jac_num(p: Any) -> list:
+        b = blocks(p)
+        return [ca.DM(sp_j, np.concatenate([b[1], b[2]])[ord_j])]
+
+    def hess_num(p: Any) -> list:
+        b = blocks(p)
+        return [ca.DM(sp_h, np.concatenate([b[3], b[4], b[4], b[5]])[ord_h]), ca.DM(n_j, nf * k_)]
+
+    def hess(nm: str) -> _Stated:
+        return _Stated(nm, hess_num, [sp_p, sp_o, sp_j], [sp_h, ca.Sparsity(n_j, nf * k_)])
+
+    def jac(nm: str) -> _Stated:
+        return _Stated(nm, jac_num, [sp_p, sp_o], [sp_j], hess)
+
+    return _Stated(name, lambda p: [value(p)], [sp_p], [sp_o], jac)
+
+
+def _member_weather(weathers: Sequence[WeatherGrid], k_: int) -> tuple[Any, list]:
+    """``(member index, (3, K) points) ↦ (n_fields, K)``: the members' stated-derivative weathers behind one
+    ``Function.conditional``; and the callbacks (to be kept alive)."""
     first = weathers[0]
     for k, w in enumerate(weathers):
         if w.field_names != first.field_names or w.ratio_axes != first.ratio_axes:
@@ -152,8 +235,8 @@ def _member_weather(weathers: Sequence[WeatherGrid]) -> Any:
                 f"against {len(first.field_names)} fields): the members of one robust NLP must carry the same fields "
                 "and tabulate the ship's power at the same speeds and headings"
             )
-    cases = [w.interpolant() for w in weathers]
-    return ca.Function.conditional("member_weather", cases, cases[0])
+    cases = [_stated_weather(w, f"member_weather_{k}", k_) for k, w in enumerate(weathers)]
+    return ca.Function.conditional("member_weather", cases, cases[0]), cases
 
 
 def _current_rows(weathers: Sequence[WeatherGrid], v_min_kn: np.ndarray, sog_min_kn: float) -> bool:
@@ -238,7 +321,7 @@ class RobustSpeedNLP:
         self.samples_per_leg, self.n_bands = tpl.samples_per_leg, tpl.n_bands
         self.v_min_kn, self.v_max_kn, self.sog_min_kn = tpl.v_min_kn, tpl.v_max_kn, float(sog_min_kn)
         self.has_current_rows = _current_rows(weathers, self.v_min_kn, self.sog_min_kn)
-        self._weather = _member_weather(weathers)
+        self._weather, self._weather_cases = _member_weather(weathers, self.n_legs * self.samples_per_leg)
         self.exact_hessian = bool(exact_hessian)
         self._build(dict(ipopt_options or {}))
         self.build_time_s = time.perf_counter() - started
@@ -248,10 +331,9 @@ class RobustSpeedNLP:
         """The member's rows and fuel, and its diagnostics, as functions of (y, v, t, beta, fac, member index)."""
         n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
         k_ = n * m
-        interp = self._weather.map("member_weather_map", "serial", k_, [0], [])  # the index is shared
         y, v, t = ca.MX.sym("y", n + 1), ca.MX.sym("v", n), ca.MX.sym("t", n + 1)
         beta, fac, index = ca.MX.sym("beta", k_ * nb), ca.MX.sym("f", n), ca.MX.sym("member")
-        mdl = self.template.symbolic_model(y, v, t, beta, fac, weather=lambda pts: interp(index, pts))
+        mdl = self.template.symbolic_model(y, v, t, beta, fac, weather=lambda pts: self._weather(index, pts))
         parts: list[Any] = []
         rows: dict[str, tuple[int, int]] = {}
 
