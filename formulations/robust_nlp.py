@@ -9,17 +9,19 @@ engine load, danger bands with their sides, drift and SOG, moving exclusion) is 
 member's weather, and the ETA bounds every member's arrival ``t^m_N``.
 
 **One member function, mapped.** The model of one member is one CasADi function of the plan, that member's times,
-band edges and the member's index, which selects its weather interpolant (:meth:`WeatherGrid.interpolant`) through
-one ``Function.conditional`` node; ``Function.map`` applies it to the M members. The expression graph of the model
-and its derivatives do not grow with M, and the exact Hessian of the Lagrangian is used (by default): with Ipopt's
-limited-memory approximation the stacked problem needed about ten times the iterations (151 against 14 at two
-members of ``benchmarks.bench_robust``'s storm case, the same optimum), the cause of the 10-member plan stopping
-at the iteration limit. What still grows with M is CasADi's one-off derivative construction for each member's
-B-spline (tens of CPU-seconds a member on the 31×36×41-node, 44-field grid of that case: CasADi differentiates
-the spline node by copying its 2.4 million control points per derivative; it was the same with the members' splines
-given custom first and second derivatives, and with the control points as a parameter of one ``casadi.bspline``,
-which also grew past 4 GB at two members). The members must carry the same fields and power-table axes (an
-ensemble's members do).
+band edges and the member's index, which selects its weather through one ``Function.conditional`` node;
+``Function.map`` applies it to the M members. Each member's weather is a callback whose first and second
+derivatives in t and y are stated from the spline's own derivative splines (:meth:`WeatherGrid.taylor_function`),
+so CasADi never differentiates the B-spline node itself. The expression graph, its derivatives and ``nlpsol``'s
+build therefore do not grow with M; what does is building each member's splines (value and derivative splines:
+:meth:`WeatherGrid.interpolant`, :meth:`WeatherGrid.taylor_function`) and evaluating them. Measured on the
+18-leg, 44-field storm case of ``benchmarks.bench_robust`` at two members, under the same load: letting CasADi
+differentiate the members' spline nodes cost 79 s of build (about 35 s per member and derivative function: it copies
+the 2.4 million control points for each); passing the control points as a parameter of one ``casadi.bspline``
+grew past 4 GB; the stated derivatives build in 42 s (of which ``nlpsol`` 9 s). The exact Hessian of the
+Lagrangian is used by default: with Ipopt's limited-memory approximation the stacked problem needed about ten times
+the iterations (151 against 14 at two members, the same optimum), the cause of the 10-member plan stopping at the
+iteration limit. The members must carry the same fields and power-table axes (an ensemble's members do).
 
 With ``J_m = w_f · fuel_m + w_t · t^m_N`` (fuel [t], time [h], or cost) the objective is
 
