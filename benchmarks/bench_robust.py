@@ -81,10 +81,10 @@ def run(quick: bool, members: list[int] | None = None) -> dict[str, Any]:
     ref, grids, y_lo, y_hi = _members(max(ms))
     rows = []
     print(
-        "| M | Hessian | build [s] | Ipopt iterations | solves | Ipopt [s] | status | mean fuel [t] | build / exact M="
-        f"{ms[0]} |"
+        "| M | Hessian | build [s] | build CPU [s] | Ipopt iterations | solves | Ipopt [s] | solve CPU [s] | status | "
+        f"mean fuel [t] | build CPU / exact M={ms[0]} |"
     )
-    print("|---:|---|---:|---:|---:|---:|---|---:|---:|")
+    print("|---:|---|---:|---:|---:|---:|---:|---:|---|---:|---:|")
     for m in ms:
         for exact in (True, False):
             r = {"members": m, "hessian": "exact" if exact else "L-BFGS", **_one(ref, grids[:m], y_lo, y_hi, exact)}
