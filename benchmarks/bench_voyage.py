@@ -16,7 +16,8 @@ the robust planning plus the sailing, and its row says how many members the robu
 in (all of them clean, by :meth:`optroute.Plan.verify` with ``weather=member``). Full mode: 10
 members; quick mode: 4.
 
-Run ``python -m benchmarks.bench_voyage [--quick]``.
+Run ``python -m benchmarks.bench_voyage [--quick]``; the reduced full mode (the first case only, with the cold
+re-plans and the 10-member robust plan) is ``python -c "from benchmarks.bench_voyage import run; run(False, n_cases=1)"``.
 """
 
 from __future__ import annotations
@@ -118,8 +119,9 @@ def _sail(truth: Any, fcs: list, policy: ReplanPolicy, warm: bool = True, plan: 
     }
 
 
-def run(quick: bool) -> dict[str, Any]:
-    cases = CASES[:1] if quick else CASES
+def run(quick: bool, *, n_cases: int | None = None) -> dict[str, Any]:
+    """The table; ``n_cases`` (reduced full mode) keeps the full mode's policies and 10 members on fewer cases."""
+    cases = CASES[:1] if quick else CASES[: n_cases or len(CASES)]
     rows = []
     print("| forecast error | policy | in band [h] | band met [h] | ETA miss [h] | fuel [t] | fuel / (a) | re-plans "
           "(failed) | wall [s] | wall per sim. day [s] | wall / (a) |")  # fmt: skip

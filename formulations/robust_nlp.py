@@ -1,12 +1,27 @@
 """One speed-and-offset schedule over the members of an ensemble: the corridor NLP stacked per member.
 
 The members ``m = 1..M`` of an ensemble are ``M`` weather grids (:class:`formulations.common.WeatherGrid`, each
-with the ship's power table tabulated in that member's sea) on the same corridor. The decision is one plan —
-the lateral offsets ``y_k`` and the speeds through water ``V_k`` of :mod:`formulations.speed_nlp` — and, because
-the speed over ground depends on each member's current, one arrival-time vector ``t^m`` per member. Every
-row of :class:`formulations.speed_nlp.SpeedNLP` (time dynamics, engine load, danger bands with their sides,
-drift and SOG, moving exclusion) is imposed in every member, with that member's weather, and the ETA bounds
-every member's arrival ``t^m_N``.
+with the ship's power table tabulated in that member's sea) on the same corridor and the same (t, s, y) grid. The
+decision is one plan — the lateral offsets ``y_k`` and the speeds through water ``V_k`` of
+:mod:`formulations.speed_nlp` — and, because the speed over ground depends on each member's current, one
+arrival-time vector ``t^m`` per member. Every row of :class:`formulations.speed_nlp.SpeedNLP` (time dynamics,
+engine load, danger bands with their sides, drift and SOG, moving exclusion) is imposed in every member, with that
+member's weather, and the ETA bounds every member's arrival ``t^m_N``.
+
+**One member function, mapped.** The model of one member is one CasADi function of the plan, that member's times,
+band edges and the member's index, which selects its weather through one ``Function.conditional`` node;
+``Function.map`` applies it to the M members. Each member's weather is a callback whose first and second
+derivatives in t and y are stated from the spline's own derivative splines (:meth:`WeatherGrid.taylor_function`),
+so CasADi never differentiates the B-spline node itself. The expression graph, its derivatives and ``nlpsol``'s
+build therefore do not grow with M; what does is building each member's splines (value and derivative splines:
+:meth:`WeatherGrid.interpolant`, :meth:`WeatherGrid.taylor_function`) and evaluating them. Measured on the
+18-leg, 44-field storm case of ``benchmarks.bench_robust`` at two members, under the same load: letting CasADi
+differentiate the members' spline nodes cost 79 s of build (about 35 s per member and derivative function: it copies
+the 2.4 million control points for each); passing the control points as a parameter of one ``casadi.bspline``
+grew past 4 GB; the stated derivatives build in 42 s (of which ``nlpsol`` 9 s). The exact Hessian of the
+Lagrangian is used by default: with Ipopt's limited-memory approximation the stacked problem needed about ten times
+the iterations (151 against 14 at two members, the same optimum), the cause of the 10-member plan stopping at the
+iteration limit. The members must carry the same fields and power-table axes (an ensemble's members do).
 
 With ``J_m = w_f · fuel_m + w_t · t^m_N`` (fuel [t], time [h], or cost) the objective is
 
@@ -19,17 +34,24 @@ With ``J_m = w_f · fuel_m + w_t · t^m_N`` (fuel [t], time [h], or cost) the ob
   written smoothly with ``u_m ≥ 0``, ``u_m ≥ J_m − z``. α = 0 gives the mean; with two members, α = ½ gives
   the worse member's ``J``; α → 1 tends to the worst member.
 
-Band sides and applicability are per member (N, m, B each) and are run-time data, as in :class:`SpeedNLP`;
+**All but k members** (:meth:`RobustSpeedNLP.solve_chance`): the safety rows (band, engine load, exclusion) and
+the ETA of up to ``k`` members may be dropped; the time dynamics, drift and SOG rows of every member stay (they
+define its arrival and fuel, which the mean still counts). Dropping more members only relaxes the problem, so the
+optimum drops exactly ``k``: the ``C(M, k)`` choices are enumerated (exact in the choice of members; each solve a
+local NLP optimum), every one solved with the same solver (the dropped rows are bounds, not structure).
+
+Band sides and applicability are per member (M, N, m, B) and are run-time data, as in :class:`SpeedNLP`;
 :meth:`RobustSpeedNLP.solve_sides` re-imposes a band where a member's solution has moved into a sea where it
 applies (sides from :func:`formulations.disjunctive.select_sides`) until no new band applies. It does not
 search the band sides (no flips): a local optimum for the sides found.
 
-Derivatives: CasADi's automatic differentiation of the stacked MX graph (no structured leg-by-leg
-derivatives); Ipopt with MUMPS and the options of :mod:`formulations.speed_nlp`.
+Ipopt with MUMPS and the options of :mod:`formulations.speed_nlp`; exact Hessian by default.
 """
 
 from __future__ import annotations
 
+import itertools
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -52,9 +74,15 @@ from formulations.common import (
 from formulations.disjunctive import select_sides
 from formulations.speed_nlp import IPOPT_DEFAULTS, SampleState, SpeedNLP
 
-__all__ = ["RobustResult", "RobustSpeedNLP"]
+__all__ = ["MAX_DROP_CHOICES", "RobustResult", "RobustSpeedNLP"]
 
 Risk = Literal["mean", "cvar"]
+
+#: The most choices of dropped members :meth:`RobustSpeedNLP.solve_chance` enumerates (one solve each).
+MAX_DROP_CHOICES = 64
+
+_SAFETY_ROWS = ("load", "band", "excl")  # what a dropped member no longer has to satisfy (with its ETA)
+_STATE_EXTRA = ("ratio", "excl_margin")
 
 
 @dataclass(frozen=True)
@@ -88,9 +116,11 @@ class RobustResult:
     sides, applies : numpy.ndarray, shape (M, N, m, B)
         Sides and applicability imposed in the last solve.
     sides_settled : bool
-        No member's solution met a band that was not imposed (the last re-imposition changed nothing).
+        No kept member's solution met a band that was not imposed (the last re-imposition changed nothing).
     max_violation : float
-        Largest constraint violation at the returned point (scaled units of each row).
+        Largest violation of the rows imposed at the returned point (scaled units of each row).
+    dropped : numpy.ndarray of bool, shape (M,)
+        Members whose safety rows and ETA were not imposed (all False but in :meth:`solve_chance`).
     """
 
     status: str
@@ -110,18 +140,129 @@ class RobustResult:
     applies: np.ndarray
     sides_settled: bool
     max_violation: float
+    dropped: np.ndarray
     x_opt: np.ndarray = field(repr=False)
 
 
+def _pattern(n_rows: int, n_cols: int, rows: np.ndarray, cols: np.ndarray) -> tuple[Any, np.ndarray]:
+    """Sparsity of the entries (rows, cols) and the order that lists them column-major (CasADi's nonzero order)."""
+    order = np.lexsort((rows, cols))
+    return ca.Sparsity.triplet(n_rows, n_cols, rows[order].tolist(), cols[order].tolist()), order
+
+
+class _Stated(ca.Callback):
+    """A numeric function of its first input whose Jacobian is another such function: CasADi never differentiates
+    through it (its derivatives are stated, not derived)."""
+
+    def __init__(self, name: str, fn: Any, sp_in: list, sp_out: list, jac: Any = None) -> None:
+        ca.Callback.__init__(self)
+        self._fn, self._jac, self._sp_in, self._sp_out, self._keep = fn, jac, sp_in, sp_out, []
+        self.construct(name, {"enable_fd": False})
+
+    def get_n_in(self) -> int:
+        return len(self._sp_in)
+
+    def get_n_out(self) -> int:
+        return len(self._sp_out)
+
+    def get_sparsity_in(self, i: int) -> Any:
+        return self._sp_in[i]
+
+    def get_sparsity_out(self, i: int) -> Any:
+        return self._sp_out[i]
+
+    def eval(self, arg: list) -> list:
+        return self._fn(arg[0])
+
+    def has_jacobian(self) -> bool:
+        return self._jac is not None
+
+    def get_jacobian(self, name: str, inames: Any, onames: Any, opts: Any) -> Any:
+        self._keep.append(self._jac(name))  # CasADi holds no Python reference: keep it alive here
+        return self._keep[-1]
+
+
+def _stated_weather(grid: WeatherGrid, name: str, k_: int) -> _Stated:
+    """``(3, K) sample points (t [h], s [nm], y [nm]) ↦ (n_fields, K)`` fields of one member, derivatives stated.
+
+    The value is :meth:`WeatherGrid.interpolant`; its first and second derivatives in t and y are those of
+    :meth:`WeatherGrid.taylor_function` (explicit derivative splines: the same spline's exact derivatives, built from
+    differenced control points in numpy), handed to CasADi as the Jacobian and the Jacobian's Jacobian. Letting CasADi
+    differentiate the spline node instead costs tens of seconds per member and derivative on a large grid (it copies
+    the 2.4 million control points of ``benchmarks.bench_robust``'s grid for every derivative function). The
+    derivative in ``s`` is left structurally zero: ``s`` is fixed at every sample of the corridor model.
+    """
+    nf = len(grid.field_names)
+    value, taylor = grid.interpolant().map(k_), grid.taylor_function(order=2).map(k_)
+    f_idx, k_idx = (a.ravel() for a in np.meshgrid(np.arange(nf), np.arange(k_), indexing="ij"))
+    out_row = f_idx + nf * k_idx  # out[f, k] among the output's entries (column-major)
+    sp_j, ord_j = _pattern(
+        nf * k_, 3 * k_, np.concatenate([out_row, out_row]), np.concatenate([3 * k_idx, 3 * k_idx + 2])
+    )
+    n_j = nf * k_ * 3 * k_  # entries of the Jacobian; its Jacobian: d J[(f, k), (a, k)] / d P[b, k]
+    pairs = ((0, 0), (0, 2), (2, 0), (2, 2))  # (a, b): F_tt, F_ty, F_yt, F_yy
+    hr = np.concatenate([out_row + nf * k_ * (3 * k_idx + a) for a, _ in pairs])
+    sp_h, ord_h = _pattern(n_j, 3 * k_, hr, np.concatenate([3 * k_idx + b for _, b in pairs]))
+    sp_p, sp_o = ca.Sparsity.dense(3, k_), ca.Sparsity.dense(nf, k_)
+
+    def blocks(p: Any) -> list[np.ndarray]:
+        b = np.asarray(taylor(p))  # (6 nf, K): F, F_t, F_y, F_tt, F_ty, F_yy
+        return [b[i * nf : (i + 1) * nf][f_idx, k_idx] for i in range(6)]
+
+    def jac_num(p: Any) -> list:
+        b = blocks(p)
+        return [ca.DM(sp_j, np.concatenate([b[1], b[2]])[ord_j])]
+
+    def hess_num(p: Any) -> list:
+        b = blocks(p)
+        return [ca.DM(sp_h, np.concatenate([b[3], b[4], b[4], b[5]])[ord_h]), ca.DM(n_j, nf * k_)]
+
+    def hess(nm: str) -> _Stated:
+        return _Stated(nm, hess_num, [sp_p, sp_o, sp_j], [sp_h, ca.Sparsity(n_j, nf * k_)])
+
+    def jac(nm: str) -> _Stated:
+        return _Stated(nm, jac_num, [sp_p, sp_o], [sp_j], hess)
+
+    return _Stated(name, lambda p: [value(p)], [sp_p], [sp_o], jac)
+
+
+def _member_weather(weathers: Sequence[WeatherGrid], k_: int) -> tuple[Any, list]:
+    """``(member index, (3, K) points) ↦ (n_fields, K)``: the members' stated-derivative weathers behind one
+    ``Function.conditional``; and the callbacks (to be kept alive)."""
+    first = weathers[0]
+    for k, w in enumerate(weathers):
+        if w.field_names != first.field_names or w.ratio_axes != first.ratio_axes:
+            raise FormulationInputError(
+                f"member {k}'s weather has other fields or power-table axes than member 0's ({len(w.field_names)} "
+                f"against {len(first.field_names)} fields): the members of one robust NLP must carry the same fields "
+                "and tabulate the ship's power at the same speeds and headings"
+            )
+    cases = [_stated_weather(w, f"member_weather_{k}", k_) for k, w in enumerate(weathers)]
+    return ca.Function.conditional("member_weather", cases, cases[0]), cases
+
+
+def _current_rows(weathers: Sequence[WeatherGrid], v_min_kn: np.ndarray, sog_min_kn: float) -> bool:
+    """Whether any member's current can bind the drift-angle and SOG rows (the rule of :class:`SpeedNLP`:
+    ``|u| ≤ v_min/2`` keeps the drift angle ≤ 30° and ``SOG ≥ 0.366 v_min``)."""
+    v_min = float(np.min(v_min_kn))
+    for w in weathers:
+        if w.current_along_kn is None:
+            continue
+        speed = np.hypot(np.asarray(w.current_along_kn), np.asarray(w.current_across_kn))
+        if not (float(speed.max()) <= 0.5 * v_min and 0.366 * v_min >= sog_min_kn):
+            return True
+    return False
+
+
 class RobustSpeedNLP:
-    """The corridor NLP over the members of an ensemble: one plan, every member's rows.
+    """The corridor NLP over the members of an ensemble: one plan, every member's rows (module docstring).
 
     Parameters
     ----------
     corridor : CorridorGeometry
         Centreline, normals and lateral bounds (N legs), shared by the members.
     weathers : sequence of WeatherGrid
-        One grid per member (M ≥ 1), each with its own power table.
+        One grid per member (M ≥ 1), each with its own power table, all ``method="smooth"`` on the same axes.
     power : PowerModel
         Calm-water baseline, load limits and SFOC (shared).
     risk : {"mean", "cvar"}
@@ -130,6 +271,8 @@ class RobustSpeedNLP:
         CVaR level in [0, 1) (only for ``"cvar"``).
     bands, exclusion, samples_per_leg, v_min_kn, v_max_kn, g_over_2pi_kn_s, sog_min_kn
         As in :class:`formulations.speed_nlp.SpeedNLP`.
+    exact_hessian : bool
+        Ipopt's exact Hessian of the Lagrangian (default) or its limited-memory (L-BFGS) approximation.
     ipopt_options : dict, optional
         Overrides of the Ipopt/CasADi options.
     """
@@ -149,6 +292,7 @@ class RobustSpeedNLP:
         v_max_kn: ArrayLike = 30.0,
         g_over_2pi_kn_s: float = G_OVER_2PI_KN_S,
         sog_min_kn: float = 1.0,
+        exact_hessian: bool = True,
         ipopt_options: dict[str, Any] | None = None,
     ) -> None:
         started = time.perf_counter()
@@ -160,82 +304,91 @@ class RobustSpeedNLP:
         if not (np.isfinite(alpha) and 0.0 <= float(alpha) < 1.0):
             raise FormulationInputError(f"alpha must be in [0, 1), got {alpha!r}")
         self.risk, self.alpha = risk, float(alpha)
-        self.members = tuple(
-            SpeedNLP(
-                corridor,
-                w,
-                power,
-                bands=bands,
-                exclusion=exclusion,
-                samples_per_leg=samples_per_leg,
-                v_min_kn=v_min_kn,
-                v_max_kn=v_max_kn,
-                g_over_2pi_kn_s=g_over_2pi_kn_s,
-                sog_min_kn=sog_min_kn,
-                build_solver=False,
-            )
-            for w in weathers
+        self.template = SpeedNLP(  # member 0's NLP: its model is every member's, read with a member's spline
+            corridor,
+            weathers[0],
+            power,
+            bands=bands,
+            exclusion=exclusion,
+            samples_per_leg=samples_per_leg,
+            v_min_kn=v_min_kn,
+            v_max_kn=v_max_kn,
+            g_over_2pi_kn_s=g_over_2pi_kn_s,
+            sog_min_kn=sog_min_kn,
+            build_solver=False,
         )
-        first = self.members[0]
-        self.corridor, self.power = corridor, power
-        self.n_members, self.n_legs = len(self.members), first.n_legs
-        self.samples_per_leg, self.n_bands = first.samples_per_leg, first.n_bands
-        self.v_min_kn, self.v_max_kn = first.v_min_kn, first.v_max_kn
+        tpl = self.template
+        self.corridor, self.power, self.bands = corridor, power, tpl.bands
+        self.n_members, self.n_legs = len(weathers), tpl.n_legs
+        self.samples_per_leg, self.n_bands = tpl.samples_per_leg, tpl.n_bands
+        self.v_min_kn, self.v_max_kn, self.sog_min_kn = tpl.v_min_kn, tpl.v_max_kn, float(sog_min_kn)
+        self.has_current_rows = _current_rows(weathers, self.v_min_kn, self.sog_min_kn)
+        self._weather, self._weather_cases = _member_weather(weathers, self.n_legs * self.samples_per_leg)
+        self.exact_hessian = bool(exact_hessian)
         self._build(dict(ipopt_options or {}))
         self.build_time_s = time.perf_counter() - started
 
     # ------------------------------------------------------------------ build
+    def _member_functions(self) -> tuple[Any, Any]:
+        """The member's rows and fuel, and its diagnostics, as functions of (y, v, t, beta, fac, member index)."""
+        n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
+        k_ = n * m
+        y, v, t = ca.MX.sym("y", n + 1), ca.MX.sym("v", n), ca.MX.sym("t", n + 1)
+        beta, fac, index = ca.MX.sym("beta", k_ * nb), ca.MX.sym("f", n), ca.MX.sym("member")
+        mdl = self.template.symbolic_model(y, v, t, beta, fac, weather=lambda pts: self._weather(index, pts))
+        parts: list[Any] = []
+        rows: dict[str, tuple[int, int]] = {}
+
+        def add(name: str, expr: Any) -> None:
+            start = sum(p.shape[0] for p in parts)
+            rows[name] = (start, start + expr.shape[0])
+            parts.append(expr)
+
+        add("dyn", (t[1:] - t[:-1]) - mdl["dt_leg"])
+        add("load", mdl["load"])
+        if nb:
+            add("band", mdl["band_res"])
+        if self.has_current_rows:
+            add("drift", mdl["h_perp"])
+            add("sog", mdl["sog"])
+        if self.template.exclusion is not None:
+            add("excl", mdl["excl_res"])
+        self._rows, self._ng_member = rows, sum(p.shape[0] for p in parts)
+        member = ca.Function("member", [y, v, t, beta, fac, index], [ca.vertcat(*parts), ca.sum1(mdl["fuel_leg"])])
+        names = [*SpeedNLP.STATE_KEYS, "dt_leg", "fuel_leg"] + [k for k in _STATE_EXTRA if k in mdl]
+        self._diag_names = names
+        diag = ca.Function("member_diag", [y, v, t, beta, fac, index], [mdl[k] for k in names])
+        return member, diag
+
     def _build(self, ipopt_options: dict[str, Any]) -> None:
-        n, mm = self.n_legs, self.n_members
-        kb = n * self.samples_per_leg * self.n_bands
+        n, mm, nb = self.n_legs, self.n_members, self.n_bands
+        kb = n * self.samples_per_leg * nb
+        member, diag = self._member_functions()
         cvar = self.risk == "cvar"
         nx = (n + 1) + n + mm * (n + 1) + ((1 + mm) if cvar else 0)
         x = ca.MX.sym("x", nx)
         y, v = x[: n + 1], x[n + 1 : 2 * n + 1]
-        weights = ca.MX.sym("w", 2)
-        beta = ca.MX.sym("beta", mm * kb)
-        fac = ca.MX.sym("f", n)
-        parts: list[Any] = []
-        rows: list[dict[str, tuple[int, int]]] = []
-        objectives = []
-
-        def add(table: dict[str, tuple[int, int]], name: str, expr: Any) -> None:
-            start = sum(p.shape[0] for p in parts)
-            table[name] = (start, start + expr.shape[0])
-            parts.append(expr)
-
-        for k, nlp in enumerate(self.members):
-            a = 2 * n + 1 + k * (n + 1)
-            t = x[a : a + n + 1]
-            mdl = nlp.symbolic_model(y, v, t, beta[k * kb : (k + 1) * kb], fac)
-            table: dict[str, tuple[int, int]] = {}
-            add(table, "dyn", (t[1:] - t[:-1]) - mdl["dt_leg"])
-            add(table, "load", mdl["load"])
-            if self.n_bands:
-                add(table, "band", mdl["band_res"])
-            if nlp.has_current_rows:
-                add(table, "drift", mdl["h_perp"])
-                add(table, "sog", mdl["sog"])
-            if nlp.exclusion is not None:
-                add(table, "excl", mdl["excl_res"])
-            rows.append(table)
-            objectives.append(weights[0] * ca.sum1(mdl["fuel_leg"]) + weights[1] * (t[n] - t[0]))
-        j = ca.vertcat(*objectives)
+        t = ca.reshape(x[2 * n + 1 : 2 * n + 1 + mm * (n + 1)], n + 1, mm)
+        weights, beta, fac = ca.MX.sym("w", 2), ca.MX.sym("beta", mm * kb), ca.MX.sym("f", n)
+        mapped = member.map("members", "serial", mm, [0, 1, 4], [])  # y, v and the leg factors are shared
+        g_all, fuel = mapped(y, v, t, ca.reshape(beta, kb, mm), fac, ca.DM(np.arange(mm)[None, :]))
+        j = (weights[0] * fuel + weights[1] * (t[n, :] - t[0, :])).T  # (M, 1)
+        g = ca.vec(g_all)  # member-major: member k's rows at k·ng_member + r
         if cvar:
             z, u = x[nx - 1 - mm], x[nx - mm :]
-            cvar_rows: dict[str, tuple[int, int]] = {}
-            add(cvar_rows, "cvar", u - j + z)  # u_m ≥ J_m − z
+            self._cvar_rows = (g.shape[0], g.shape[0] + mm)
+            g = ca.vertcat(g, u - j + z)  # u_m ≥ J_m − z
             objective = z + ca.sum1(u) / ((1.0 - self.alpha) * mm)
-            self._cvar_rows = cvar_rows["cvar"]
         else:
             objective = ca.sum1(j) / mm
-        g = ca.vertcat(*parts)
-        self._rows, self._ng, self._nx, self._kb = rows, g.shape[0], nx, kb
+        self._ng, self._nx, self._kb = g.shape[0], nx, kb
         opts = dict(IPOPT_DEFAULTS)
+        opts["ipopt.hessian_approximation"] = "exact" if self.exact_hessian else "limited-memory"
         opts.update(ipopt_options)
         param = ca.vertcat(weights, beta, fac)
         self._solver = ca.nlpsol("robust_speed_nlp", "ipopt", {"x": x, "p": param, "f": objective, "g": g}, opts)
         self._objectives = ca.Function("member_objectives", [x, param], [j])
+        self._diag = diag.map("member_diags", "serial", mm, [0, 1, 4], [])
 
     # ------------------------------------------------------------------ helpers
     def _split(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -244,20 +397,78 @@ class RobustSpeedNLP:
         t = x[2 * n + 1 : 2 * n + 1 + mm * (n + 1)].reshape(mm, n + 1)
         return y, v, t
 
+    def _values(self, y: np.ndarray, v: np.ndarray, t: np.ndarray, fac: np.ndarray | None = None) -> list[dict]:
+        """Every member's diagnostic values (one dict per member) at offsets, speeds and times (M, N+1)."""
+        n, mm = self.n_legs, self.n_members
+        fac = np.ones(n) if fac is None else fac
+        out = self._diag(y, v, np.asarray(t, dtype=float).T, np.zeros((self._kb, mm)), fac, np.arange(mm)[None, :])
+        out = out if isinstance(out, tuple | list) else [out]
+        arrays = [np.asarray(o, dtype=float) for o in out]
+        per = []
+        for k in range(mm):
+            vals = {}
+            for name, a in zip(self._diag_names, arrays, strict=True):
+                cols = a.shape[1] // mm  # the map stacks the members' outputs side by side
+                vals[name] = a[:, k * cols : (k + 1) * cols]
+            per.append(vals)
+        return per
+
+    def consistent_times(self, offset_nm: ArrayLike, stw_kn: ArrayLike, *, iterations: int = 3) -> np.ndarray:
+        """Every member's arrival times (M, N+1) [h] that satisfy its time dynamics for one plan (the fixed point
+        of :meth:`SpeedNLP.consistent_times`, all members at once)."""
+        y = broadcast_legs(offset_nm, self.n_legs + 1, "offset_nm")
+        v = broadcast_legs(stw_kn, self.n_legs, "stw_kn")
+        t0 = np.concatenate([[0.0], np.cumsum(np.diff(self.corridor.s_nm) / v)])
+        t = np.tile(t0, (self.n_members, 1))
+        for _ in range(max(1, iterations)):
+            vals = self._values(y, v, t)
+            t = np.array([np.concatenate([[0.0], np.cumsum(d["dt_leg"].ravel())]) for d in vals])
+        return t
+
     def evaluate(self, offset_nm: ArrayLike, stw_kn: ArrayLike) -> tuple[tuple[SampleState, ...], np.ndarray]:
         """Every member's sample conditions and consistent times (M, N+1) [h] for one plan (offsets, speeds)."""
         y = broadcast_legs(offset_nm, self.n_legs + 1, "offset_nm")
         v = broadcast_legs(stw_kn, self.n_legs, "stw_kn")
-        times = np.array([nlp.consistent_times(y, v) for nlp in self.members])
-        states = tuple(nlp.evaluate(y, v, t) for nlp, t in zip(self.members, times, strict=True))
-        return states, times
+        times = self.consistent_times(y, v)
+        return self._states(y, v, times), times
+
+    def _states(self, y: np.ndarray, v: np.ndarray, t: np.ndarray) -> tuple[SampleState, ...]:
+        return tuple(self.template.sample_state(d) for d in self._values(y, v, t))
 
     def default_sides(self, states: Sequence[SampleState]) -> tuple[np.ndarray, np.ndarray]:
         """Sides and applicability (M, N, m, B) from every member's conditions (:meth:`SpeedNLP.default_sides`)."""
-        pairs = [nlp.default_sides(s) for nlp, s in zip(self.members, states, strict=True)]
+        pairs = [self.template.default_sides(s) for s in states]
         return np.stack([p[0] for p in pairs]), np.stack([p[1] for p in pairs])
 
     # ------------------------------------------------------------------ solve
+    def _bounds(
+        self, sides: np.ndarray, applies: np.ndarray, dropped: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Row bounds of every member (dropped members: no safety rows) and the band edges (M·kb,)."""
+        lbg, ubg = np.zeros(self._ng), np.zeros(self._ng)
+        betas = []
+        for k in range(self.n_members):
+            base = k * self._ng_member
+            beta, band_lo, band_hi = self.template.band_edges(sides[k], applies[k])
+            betas.append(beta)
+            bounds = {"load": (self.power.min_load, self.power.max_load), "band": (band_lo, band_hi)}
+            bounds |= {
+                "drift": (-np.sqrt(0.75), np.sqrt(0.75)),
+                "sog": (self.sog_min_kn, np.inf),
+                "excl": (0.0, np.inf),
+            }
+            for name, (a, b) in self._rows.items():
+                if name == "dyn":
+                    continue
+                lo, hi = bounds[name]
+                if dropped[k] and name in _SAFETY_ROWS:
+                    lo, hi = -np.inf, np.inf
+                lbg[base + a : base + b], ubg[base + a : base + b] = lo, hi
+        if self.risk == "cvar":
+            a, b = self._cvar_rows
+            lbg[a:b], ubg[a:b] = 0.0, np.inf
+        return lbg, ubg, np.concatenate(betas) if betas else np.zeros(0)
+
     def solve(
         self,
         *,
@@ -270,16 +481,21 @@ class RobustSpeedNLP:
         offset0_nm: ArrayLike,
         stw0_kn: ArrayLike,
         leg_power_factor: ArrayLike | None = None,
+        dropped: ArrayLike | None = None,
     ) -> RobustResult:
         """One Ipopt solve for given sides and applicability (M, N, m, B) from a warm start (offsets, speeds).
 
-        ``eta_h`` bounds every member's arrival [h since departure] (``None``: free arrival).
+        ``eta_h`` bounds every kept member's arrival [h since departure] (``None``: free arrival); ``dropped``
+        (M,) bool: members whose safety rows and ETA are not imposed (default none).
         """
         n, mm = self.n_legs, self.n_members
         if objective not in ("time", "fuel", "cost"):
             raise FormulationInputError(f"objective must be 'time', 'fuel' or 'cost', got {objective!r}")
         if eta_h is not None and not (np.isfinite(eta_h) and eta_h > 0):
             raise FormulationInputError(f"eta_h must be a positive number of hours, got {eta_h}")
+        drop = np.zeros(mm, dtype=bool) if dropped is None else np.asarray(dropped, dtype=bool)
+        if drop.shape != (mm,):
+            raise FormulationInputError(f"dropped must be {mm} booleans (one per member), got shape {drop.shape}")
         weights = {"fuel": (1.0, 0.0), "time": (0.0, 1.0), "cost": (float(fuel_price), float(hourly_cost))}[objective]
         shape = (mm, n, self.samples_per_leg, self.n_bands)
         sides, applies = np.asarray(sides), np.asarray(applies, dtype=bool)
@@ -290,38 +506,18 @@ class RobustSpeedNLP:
         y0 = np.clip(broadcast_legs(offset0_nm, n + 1, "offset0_nm"), *self.corridor.offset_bounds())
         v0 = np.clip(broadcast_legs(stw0_kn, n, "stw0_kn"), self.v_min_kn, self.v_max_kn)
         fac = broadcast_legs(1.0 if leg_power_factor is None else leg_power_factor, n, "leg_power_factor")
-        _, t0 = self.evaluate(y0, v0)
-        lbg, ubg = np.zeros(self._ng), np.zeros(self._ng)
-        betas = []
-        for k, nlp in enumerate(self.members):
-            table = self._rows[k]
-
-            def set_rows(name: str, lo: Any, hi: Any, table: dict[str, tuple[int, int]] = table) -> None:
-                a, b = table[name]
-                lbg[a:b], ubg[a:b] = lo, hi
-
-            set_rows("load", self.power.min_load, self.power.max_load)
-            beta, lo, hi = nlp.band_edges(sides[k], applies[k])
-            betas.append(beta)
-            if self.n_bands:
-                set_rows("band", lo, hi)
-            if nlp.has_current_rows:
-                set_rows("drift", -np.sqrt(0.75), np.sqrt(0.75))  # drift angle ≤ 60°, as SpeedNLP
-                set_rows("sog", nlp.sog_min_kn, np.inf)
-            if nlp.exclusion is not None:
-                set_rows("excl", 0.0, np.inf)
+        t0 = self.consistent_times(y0, v0)
+        lbg, ubg, beta = self._bounds(sides, applies, drop)
         y_lo, y_hi = self.corridor.offset_bounds()
         t_lo, t_hi = np.zeros((mm, n + 1)), np.full((mm, n + 1), np.inf)
         t_hi[:, 0] = 0.0
         if eta_h is not None:
-            t_hi[:, n] = eta_h
+            t_hi[~drop, n] = eta_h
         lbx = [y_lo, self.v_min_kn, t_lo.ravel()]
         ubx = [y_hi, self.v_max_kn, t_hi.ravel()]
         x0 = [y0, v0, t0.ravel()]
-        p = np.concatenate([weights, *betas, fac])
+        p = np.concatenate([weights, beta, fac])
         if self.risk == "cvar":
-            a, b = self._cvar_rows
-            lbg[a:b], ubg[a:b] = 0.0, np.inf
             j0 = np.asarray(self._objectives(np.concatenate([*x0, np.zeros(1 + mm)]), p), dtype=float).ravel()
             lbx += [np.array([-np.inf]), np.zeros(mm)]
             ubx += [np.array([np.inf]), np.full(mm, np.inf)]
@@ -340,8 +536,7 @@ class RobustSpeedNLP:
             float(np.max(np.concatenate([[0.0], lbx_a - x, x - ubx_a]))),
         )
         y, v, t = self._split(x)
-        states = tuple(nlp.evaluate(y, v, tk) for nlp, tk in zip(self.members, t, strict=True))
-        fuel = np.array([float(np.sum(nlp.leg_fuel_t(y, v, tk))) for nlp, tk in zip(self.members, t, strict=True)])
+        vals = self._values(y, v, t, fac)
         return RobustResult(
             status=str(stats.get("return_status", "unknown")),
             success=bool(stats.get("success", False)),
@@ -350,16 +545,17 @@ class RobustSpeedNLP:
             solve_time_s=elapsed,
             objective=float(sol["f"]),
             member_objective=np.asarray(self._objectives(x, p), dtype=float).ravel(),
-            member_fuel_t=fuel,
+            member_fuel_t=np.array([float(np.sum(d["fuel_leg"])) for d in vals]),
             var=float(x[self._nx - 1 - mm]) if self.risk == "cvar" else float("nan"),
             offset_nm=y,
             stw_kn=v,
             time_h=t,
-            states=states,
+            states=tuple(self.template.sample_state(d) for d in vals),
             sides=sides.astype(np.int8),
             applies=applies,
             sides_settled=True,
             max_violation=viol,
+            dropped=drop,
             x_opt=x,
         )
 
@@ -374,22 +570,23 @@ class RobustSpeedNLP:
         """Solve, then re-impose every band a member's solution met where it was not imposed; repeat.
 
         Sides start from every member's conditions at the warm start (:meth:`default_sides`); after a
-        solve, a sample where a band now applies in a member (``Hs ≥ hs_min`` there) is added to that
+        solve, a sample where a band now applies in a kept member (``Hs ≥ hs_min`` there) is added to that
         member's imposed rows with the side the solution is on (:func:`select_sides`, the nearer edge
         inside the band). Stops when nothing is added or after ``max_solves`` solves
         (``sides_settled`` False). Keyword arguments as :meth:`solve`.
         """
         states, _ = self.evaluate(offset0_nm, stw0_kn)
         sides, applies = self.default_sides(states)
+        drop = np.zeros(self.n_members, dtype=bool) if kwargs.get("dropped") is None else np.asarray(kwargs["dropped"])
         y0, v0 = offset0_nm, stw0_kn
         iterations, elapsed, solves = 0, 0.0, 0
         while True:
             res = self.solve(sides=sides, applies=applies, offset0_nm=y0, stw0_kn=v0, **kwargs)
             iterations, elapsed, solves = iterations + res.iterations, elapsed + res.solve_time_s, solves + 1
-            new = np.stack([s.applies for s in res.states]) & ~applies
+            new = np.stack([s.applies for s in res.states]) & ~applies & ~drop[:, None, None, None]
             if self.n_bands:
-                lower = np.array([b.lower for b in self.members[0].bands])
-                upper = np.array([b.upper for b in self.members[0].bands])
+                lower = np.array([b.lower for b in self.bands])
+                upper = np.array([b.upper for b in self.bands])
                 ratio = np.stack([s.ratio for s in res.states])
                 sides = np.where(new, select_sides(ratio, lower, upper), sides).astype(np.int8)
             settled = not new.any()
@@ -398,3 +595,32 @@ class RobustSpeedNLP:
             applies = applies | new
             y0, v0 = res.offset_nm, res.stw_kn
         return replace(res, iterations=iterations, solve_time_s=elapsed, solves=solves, sides_settled=settled)
+
+    def solve_chance(self, *, max_dropped: int, **kwargs: Any) -> tuple[RobustResult, ...]:
+        """Every choice of exactly ``max_dropped`` members to drop, solved (:meth:`solve_sides`); best first.
+
+        The exact "all but k members" problem for small M (module docstring): ``C(M, k)`` solves of the same
+        solver, at most :data:`MAX_DROP_CHOICES`. Results are ordered by usable (Ipopt converged or stopped at a
+        limit with the rows held to 1e-6) and then by objective; the caller checks them in that order. Keyword
+        arguments as :meth:`solve_sides` (without ``dropped``); ``iterations``/``solve_time_s`` of the first
+        result are those of all solves.
+        """
+        mm = self.n_members
+        if not (isinstance(max_dropped, int | np.integer) and 0 <= max_dropped < mm):
+            raise FormulationInputError(f"max_dropped must be an integer in [0, {mm - 1}], got {max_dropped!r}")
+        count = math.comb(mm, int(max_dropped))
+        if count > MAX_DROP_CHOICES:
+            raise FormulationInputError(
+                f"dropping {max_dropped} of {mm} members has {count} choices, more than the {MAX_DROP_CHOICES} this "
+                "enumeration solves; ask for a smaller fraction or fewer members, or use the CVaR objective"
+            )
+        results = []
+        for combo in itertools.combinations(range(mm), int(max_dropped)):
+            drop = np.zeros(mm, dtype=bool)
+            drop[list(combo)] = True
+            results.append(self.solve_sides(dropped=drop, **kwargs))
+        iterations = sum(r.iterations for r in results)
+        elapsed = sum(r.solve_time_s for r in results)
+        solves = sum(r.solves for r in results)
+        order = sorted(results, key=lambda r: (not (r.success and r.max_violation <= 1e-6), r.objective))
+        return (replace(order[0], iterations=iterations, solve_time_s=elapsed, solves=solves), *order[1:])

@@ -278,8 +278,11 @@ class SpeedNLP:
         out = ca.vertcat(*[ph[k] for k in keys], *ph["res"], *ph["ratio"])
         return ca.Function("sample", [inp], [out])
 
-    def _model(self, y: Any, v: Any, t: Any, beta: Any, fac: Any) -> dict[str, Any]:
-        """The symbolic model: leg geometry in vectorised MX, per-sample physics mapped; columns of length N·m."""
+    def _model(self, y: Any, v: Any, t: Any, beta: Any, fac: Any, weather: Any = None) -> dict[str, Any]:
+        """The symbolic model: leg geometry in vectorised MX, per-sample physics mapped; columns of length N·m.
+
+        ``weather`` maps the (3, N·m) sample points ``(t, s, y)`` to the (n_fields, N·m) fields (default: this
+        NLP's own interpolant, mapped)."""
         cor = self.corridor
         n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
         k_ = n * m
@@ -297,7 +300,7 @@ class SpeedNLP:
         t_s = _rep(t[:-1], m) + frac * _rep(t[1:] - t[:-1], m)
         x_s = _rep(px[:-1], m) + frac * _rep(dx, m)
         yf_s = _rep(py[:-1], m) + frac * _rep(dy, m)
-        fields = self._interp_map(ca.horzcat(t_s, s_s, y_s).T)  # (n_fields, K)
+        fields = (self._interp_map if weather is None else weather)(ca.horzcat(t_s, s_s, y_s).T)  # (n_fields, K)
         rows = ca.vertcat(
             _rep(v, m).T, _rep(cos_d, m).T, _rep(sin_d, m).T, (_rep(length, m) * weight).T, _rep(fac, m).T, fields
         )
@@ -332,15 +335,27 @@ class SpeedNLP:
         return res
 
     # ------------------------------------------------------------------ build
-    def symbolic_model(self, y: Any, v: Any, t: Any, beta: Any, fac: Any) -> dict[str, Any]:
+    def symbolic_model(self, y: Any, v: Any, t: Any, beta: Any, fac: Any, weather: Any = None) -> dict[str, Any]:
         """The model's CasADi expressions for symbolic offsets ``y`` (N+1), speeds ``v`` (N), times ``t`` (N+1),
         band edges ``beta`` (N·m·B, band-major) and leg power factors ``fac`` (N).
+
+        ``weather``, optional: a callable taking the (3, N·m) sample points ``(t [h], s [nm], y [nm])`` to the
+        (n_fields, N·m) fields in :attr:`WeatherGrid.field_names` order, in place of this NLP's own interpolant
+        (:mod:`formulations.robust_nlp` passes one whose spline coefficients are a parameter, one per member).
 
         Keys: ``dt_leg`` and ``fuel_leg`` [h], [t] (N), ``load``, ``sog``, ``h_perp`` (N·m), ``band_res`` (N·m·B,
         band-major; with bands), ``excl_res`` (N·m; with an exclusion), and the diagnostics of :meth:`evaluate`.
         The rows this NLP imposes on them are those of :meth:`solve`; :mod:`formulations.robust_nlp` stacks them.
         """
-        return self._model(y, v, t, beta, fac)
+        return self._model(y, v, t, beta, fac, weather)
+
+    #: The keys of :meth:`symbolic_model` that :meth:`sample_state` reads.
+    STATE_KEYS = ("t_s", "s_s", "y_s", "x_s", "yf_s", "hs", "per", "sog", "power", "load", "rate", "cos_chi")
+
+    def sample_state(self, values: dict[str, np.ndarray]) -> SampleState:
+        """The :class:`SampleState` of numeric values of :meth:`symbolic_model`'s outputs (keys :attr:`STATE_KEYS`,
+        ``ratio`` with bands, ``excl_margin`` with an exclusion), as :meth:`evaluate` builds it."""
+        return self._state(values)
 
     @property
     def has_current_rows(self) -> bool:

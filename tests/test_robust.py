@@ -10,6 +10,9 @@ the MCR in the mean sea, and over it in the member whose storm sits on the track
 
 from __future__ import annotations
 
+import itertools
+import math
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -80,6 +83,52 @@ def test_bad_formulation_inputs() -> None:
         _two_members("worst")
     with pytest.raises(FormulationInputError, match="WeatherGrid"):
         RobustSpeedNLP(CorridorGeometry.straight([D_NM]), [], CUBIC)
+
+
+# --------------------------------------------------------------------------- all but k members, against enumeration
+
+#: Along-track currents [kn] of three one-leg members (following, slack, head) and the number that may be dropped.
+DROP_CASES = [((2.0, 0.0, -3.0), 1), ((1.0, -2.5, -0.5), 1), ((3.0, -1.0, -4.0), 2)]
+
+
+def _brute_force(currents: tuple[float, ...], k: int, v_min: float) -> tuple[float, float, set[int]]:
+    """Every set of at most k members to drop, solved by hand: the kept members' ETA asks V ≥ D/T − u_m, the mean
+    fuel (1/M) Σ_m K V³ D/(V + u_m) of all members rises with V there, so V is the least speed the kept members allow.
+    Returns the best (objective, V, dropped members)."""
+    best = (np.inf, np.nan, set())
+    for size in range(k + 1):
+        for drop in itertools.combinations(range(len(currents)), size):
+            kept = [u for i, u in enumerate(currents) if i not in drop]
+            v = max(v_min, max(D_NM / ETA_H - u for u in kept))
+            j = float(np.mean([K * v**3 * D_NM / (v + u) for u in currents]))
+            if j < best[0] - 1e-12:
+                best = (j, v, set(drop))
+    return best
+
+
+@pytest.mark.parametrize(("currents", "k"), DROP_CASES)
+def test_all_but_k_members_matches_enumeration(currents: tuple[float, ...], k: int) -> None:
+    nlp = RobustSpeedNLP(
+        CorridorGeometry.straight([D_NM]), [_current(u) for u in currents], CUBIC, samples_per_leg=1,
+        v_min_kn=5.0, v_max_kn=30.0,
+    )  # fmt: skip
+    results = nlp.solve_chance(max_dropped=k, eta_h=ETA_H, offset0_nm=np.zeros(2), stw0_kn=np.array([12.0]))
+    j, v, drop = _brute_force(currents, k, 5.0)
+    best = results[0]
+    assert best.success and len(results) == math.comb(len(currents), k)
+    assert best.objective == pytest.approx(j, rel=1e-6)
+    assert best.stw_kn[0] == pytest.approx(v, rel=1e-6)
+    assert drop <= set(np.flatnonzero(best.dropped))  # the brute force's dropped members are among the NLP's
+    kept_arrival = best.time_h[~best.dropped, -1]
+    assert np.all(kept_arrival <= ETA_H + 1e-6)  # the ETA holds in every member kept
+
+
+def test_drop_choices_are_bounded() -> None:
+    from formulations.common import FormulationInputError
+
+    nlp = _two_members("mean")
+    with pytest.raises(FormulationInputError, match="max_dropped"):
+        nlp.solve_chance(max_dropped=2, eta_h=ETA_H, offset0_nm=np.zeros(2), stw0_kn=np.array([12.0]))
 
 
 # --------------------------------------------------------------------------- the referee's CVaR
@@ -171,6 +220,24 @@ def test_member_violations_report(plans: dict[str, orx.Plan], three_storms: xr.D
     assert table.loc["robust", "fuel_max_t"] == pytest.approx(max(sailed))
 
 
+def test_chance_plan_keeps_all_but_one_member(
+    plans: dict[str, orx.Plan], three_storms: xr.Dataset, corridor: orx.Corridor
+) -> None:
+    # a third of three members: one may be violated; the plan claims the other two and is clean in them
+    plan = orx.optimise_corridor(
+        corridor, three_storms, SHIP, departure=T0, eta=ETA, robust="chance", violation_fraction=0.34, **OPTS
+    )
+    stats = plan.solver_stats["robust"]
+    assert len(stats["dropped_members"]) == 1 and stats["drop_choices_solved"] == 3
+    assert set(stats["members_violated"]) <= set(stats["dropped_members"])
+    for k, m in enumerate(member_datasets(three_storms)):
+        assert (plan.verify(weather=m) != []) == (k in stats["members_violated"])
+    # dropping a member only relaxes the problem: no worse than the plan kept clean in all three
+    assert stats["nlp_objective"] <= plans["robust"].solver_stats["robust"]["nlp_objective"] * (1 + 1e-6)
+    table = orx.member_violations({"chance": plan}, three_storms)
+    assert table.loc["chance", "members_violated"] == len(stats["members_violated"])
+
+
 # --------------------------------------------------------------------------- bad inputs
 
 
@@ -183,6 +250,8 @@ def test_ensemble_without_robust_names_the_fix(three_storms: xr.Dataset, corrido
     ("kwargs", "match"),
     [
         ({"robust": "worst"}, "robust='worst' is not known"),
+        ({"robust": "chance"}, r"violation_fraction=0.0 must be in \(0, 1\)"),
+        ({"robust": "all", "violation_fraction": 0.3}, "only used with robust='chance'"),
         ({"robust": "cvar", "cvar_alpha": 1.0}, r"cvar_alpha=1.0 must be in \[0, 1\)"),
         ({"robust": "all", "cvar_alpha": 0.5}, "only used with robust='cvar'"),
         ({"robust": "all", "eta_mode": "eq"}, "eta_mode='eq'"),

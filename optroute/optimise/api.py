@@ -77,8 +77,9 @@ def optimise_corridor(
     use_land_mask: bool | None = None,
     discrete_start: bool = False,
     dp_options: Mapping[str, Any] | None = None,
-    robust: Literal["all", "cvar"] | None = None,
+    robust: Literal["all", "cvar", "chance"] | None = None,
     cvar_alpha: float = 0.0,
+    violation_fraction: float = 0.0,
     constraint_rows: Literal["referee", "midpoints"] = "referee",
 ) -> Plan:
     """Optimise the waypoints and leg speeds inside a corridor: the corridor NLP, verified.
@@ -162,13 +163,16 @@ def optimise_corridor(
         the DP at its default resolution takes about 4× the rest of the call.
     dp_options : mapping, optional
         Resolution of that DP (``dx_nm``, ``dy_nm``, ``dt_h``, ``speed_step_kn``; :func:`optroute.optimise.starts.dp_route`).
-    robust : {"all", "cvar"}, optional
+    robust : {"all", "cvar", "chance"}, optional
         With ``weather`` an ensemble (a ``member`` dimension, :func:`optroute.weather.scenarios.ensemble`): one plan
         whose danger bands, engine range, exclusion and ETA hold in every member, minimising the members' mean
         objective (``"all"``) or its CVaR at ``cvar_alpha`` (``"cvar"``); verified in every member
         (:func:`optroute.optimise.robust.optimise_robust`, which documents its statuses and statistics).
     cvar_alpha : float
         CVaR level in [0, 1) for ``robust="cvar"`` (0: the mean).
+    violation_fraction : float
+        For ``robust="chance"``: the share in (0, 1) of the members whose constraints the plan may break (all but
+        that share hold; mean objective; exact by enumeration of the members dropped, for small ensembles).
 
     Returns
     -------
@@ -224,6 +228,9 @@ def optimise_corridor(
         raise ConfigError(f"eta_mode={eta_mode!r} is not known; use 'le' (arrive by) or 'eq' (arrive at)")
     if robust is not None or (isinstance(weather, xr.Dataset) and "member" in weather.dims):
         return _robust(robust, weather, locals())
+    if violation_fraction != 0.0:
+        raise ConfigError(f"violation_fraction={violation_fraction!r} applies to an ensemble plan only; pass an "
+                          "ensemble (dimension 'member') with robust='chance', or drop violation_fraction")  # fmt: skip
     started = _time.perf_counter()
     prepared = PreparedCorridor(
         corridor,

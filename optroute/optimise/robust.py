@@ -14,7 +14,18 @@
 * **Objective.** ``robust="all"``: the mean of the members' fuel (or time, cost) — the members equally likely;
   ``robust="cvar"``: their conditional value at risk at level ``cvar_alpha`` by the Rockafellar–Uryasev auxiliary
   variable (Rockafellar & Uryasev 2000; :func:`cvar` is the referee's value of it). In both, every constraint holds
-  in every member: there is no "all but a fraction" variant (not built).
+  in every member.
+* **All but a stated fraction.** ``robust="chance"`` with ``violation_fraction=ε`` in (0, 1): the plan may break
+  the constraints (bands, engine range, exclusion, ETA) of at most ``k = ⌊ε M⌋`` members, the sample-based chance
+  constraint "P(violation) ≤ ε" over equally likely members; objective the mean over all M members. Formulated
+  exactly for small M: every choice of ``k`` members to drop is solved
+  (:meth:`~formulations.robust_nlp.RobustSpeedNLP.solve_chance`; dropping more only relaxes, so the optimum drops
+  exactly ``k``), at most :data:`~formulations.robust_nlp.MAX_DROP_CHOICES` choices (else ConfigError). Not chosen:
+  the CVaR-based convex approximation of the chance constraint (Nemirovski & Shapiro 2006, "Convex approximations
+  of chance constrained programs", SIAM J. Optim. 17(4)), conservative — it guarantees the fraction but may drop no
+  member where the enumeration drops ``k``. The plan is verified in every member it keeps;
+  ``solver_stats["robust"]["members_violated"]`` lists the members the referee finds it breaks (at most ``k``,
+  all among ``dropped_members``).
 * **Verified in every member.** The plan of the solution is evaluated by the referee in the reference member
   (its context: ship, rules, corridor, ETA, exclusion) and :meth:`Plan.verify(weather=member) <Plan.verify>` is run
   for every member. Where a member breaks a constraint the problem is tightened where the verification says (band
@@ -30,6 +41,7 @@ and the NLP's objective.
 
 from __future__ import annotations
 
+import math
 import time as _time
 from collections.abc import Mapping
 from dataclasses import replace
@@ -38,7 +50,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from formulations.robust_nlp import RobustResult, RobustSpeedNLP
+from formulations.robust_nlp import MAX_DROP_CHOICES, RobustResult, RobustSpeedNLP
 from optroute._checks import finite
 from optroute.errors import ConfigError, NoSafePassage, SolverFailure
 from optroute.optimise.nlp_inputs import formulation_bands, moving_exclusion
@@ -51,7 +63,7 @@ from optroute.units import as_utc_time, format_utc, timedelta_to_h
 __all__ = ["ROBUST_MODES", "cvar", "member_datasets", "optimise_robust"]
 
 #: The values of ``optimise_corridor(robust=...)``.
-ROBUST_MODES = ("all", "cvar")
+ROBUST_MODES = ("all", "cvar", "chance")
 
 _BAND_KINDS = "band:"
 _ENGINE = ("power_above_mcr", "power_below_min")
@@ -104,17 +116,29 @@ def cvar(values: Any, alpha: float) -> float:
     return float(min(z + scale * np.maximum(v - z, 0.0).sum() for z in v))
 
 
-def _check_options(robust: Any, cvar_alpha: Any, eta_mode: str, unsupported: Mapping[str, Any]) -> float:
+def _check_options(robust: Any, cvar_alpha: Any, fraction: Any, eta_mode: str, unsupported: Mapping[str, Any]):
+    """``(alpha, violation_fraction)`` checked (ConfigError naming the value and the fix)."""
     if robust not in ROBUST_MODES:
         raise ConfigError(
-            f"robust={robust!r} is not known; use 'all' (every member's constraints, mean objective) or 'cvar' "
-            "(every member's constraints, CVaR of the objective at cvar_alpha)"
+            f"robust={robust!r} is not known; use 'all' (every member's constraints, mean objective), 'cvar' "
+            "(every member's constraints, CVaR of the objective at cvar_alpha) or 'chance' (every member's but a "
+            "violation_fraction of them, mean objective)"
         )
     alpha = float(finite("cvar_alpha", cvar_alpha, minimum=0.0, error=ConfigError))
     if alpha >= 1.0:
         raise ConfigError(f"cvar_alpha={cvar_alpha!r} must be in [0, 1): 0 is the mean, towards 1 the worst member")
-    if robust == "all" and alpha != 0.0:
+    if robust != "cvar" and alpha != 0.0:
         raise ConfigError(f"cvar_alpha={cvar_alpha!r} is only used with robust='cvar'; pass robust='cvar' or drop it")
+    eps = float(finite("violation_fraction", fraction, minimum=0.0, error=ConfigError))
+    if robust != "chance" and eps != 0.0:
+        raise ConfigError(
+            f"violation_fraction={fraction!r} is only used with robust='chance'; pass robust='chance' or drop it"
+        )
+    if robust == "chance" and not 0.0 < eps < 1.0:
+        raise ConfigError(
+            f"violation_fraction={fraction!r} must be in (0, 1) with robust='chance' (e.g. 0.1: all but one member "
+            "in ten may be violated); for every member use robust='all'"
+        )
     if eta_mode != "le":
         raise ConfigError(
             f"eta_mode={eta_mode!r}: a robust plan arrives by the ETA in every member ('le'); the members' currents "
@@ -123,7 +147,7 @@ def _check_options(robust: Any, cvar_alpha: Any, eta_mode: str, unsupported: Map
     on = [k for k, v in unsupported.items() if v]
     if on:
         raise ConfigError(f"{', '.join(on)} is not available with robust=; leave it at its default")
-    return alpha
+    return alpha, eps
 
 
 def _warm(frame: Any, length_nm: float, eta_h: float | None, v_max: float, warm_plan, route) -> dict[str, np.ndarray]:
@@ -168,6 +192,7 @@ def optimise_robust(
     *,
     robust: str,
     cvar_alpha: float = 0.0,
+    violation_fraction: float = 0.0,
     departure: Any,
     eta: Any = None,
     eta_mode: str = "le",
@@ -199,20 +224,22 @@ def optimise_robust(
 
     Parameters
     ----------
-    robust : {"all", "cvar"}
-        Constraints in every member; objective the members' mean (``"all"``) or CVaR at ``cvar_alpha``.
+    robust : {"all", "cvar", "chance"}
+        Constraints in every member; objective the members' mean (``"all"``) or CVaR at ``cvar_alpha``; or
+        (``"chance"``) constraints in all but ``⌊violation_fraction · M⌋`` members, mean objective.
     cvar_alpha : float
         CVaR level in [0, 1) (``"cvar"`` only; 0 gives the mean).
+    violation_fraction : float
+        ``"chance"`` only: the share of members in (0, 1) whose constraints the plan may break.
     reference_member : int
         The member whose context the returned plan is evaluated in (its ``legs``, ``total_fuel_t``).
     band_solves : int
         Solves of the band re-imposition loop (:meth:`RobustSpeedNLP.solve_sides`) per tightening.
     solver_options : mapping, optional
-        Ipopt/CasADi options; the default here adds ``"ipopt.hessian_approximation": "limited-memory"``: the
-        stacked NLP's derivatives are CasADi's automatic differentiation of M copies of the corridor model, and
-        the exact Hessian's build grows with them (on the 18-leg, 3-member storm case of ``benchmarks.bench_voyage``
-        it took 3.2× the build time of the limited-memory one, measured side by side); pass
-        ``{"ipopt.hessian_approximation": "exact"}`` to have it.
+        Ipopt/CasADi options. The exact Hessian is the default (:mod:`formulations.robust_nlp`: the limited-memory
+        approximation took about ten times the iterations, the cause of the 10-member plan of
+        ``benchmarks.bench_voyage`` stopping at Ipopt's iteration limit); ``{"ipopt.hessian_approximation":
+        "limited-memory"}`` restores it.
     Other parameters
         As :func:`optroute.optimise_corridor`; ``eta_mode`` must be ``"le"``; ``jit``, ``discrete_start`` and
         ``dp_options`` are not available (ConfigError); ``progress`` is not called.
@@ -220,10 +247,12 @@ def optimise_robust(
     Returns
     -------
     Plan
-        Verified in every member (``plan.verify(weather=m) == []`` for each). ``status``: ``"optimal"`` (Ipopt
+        Verified in every member (``plan.verify(weather=m) == []`` for each) — with ``"chance"``, in every member
+        but those of ``members_violated``. ``status``: ``"optimal"`` (Ipopt
         converged and no member met a band that was not imposed), ``"sides_unsettled"`` (converged; the band
         re-imposition stopped on ``band_solves``), ``"feasible"`` (Ipopt stopped at a limit at a point that
-        verifies in every member). ``solver_stats["robust"]``: ``mode``, ``cvar_alpha``, ``members``,
+        verifies in every member). ``solver_stats["robust"]``: ``mode``, ``cvar_alpha``, ``violation_fraction``,
+        ``dropped_members`` (the NLP's, ``"chance"``), ``members_violated`` (the referee's), ``members``,
         ``reference_member``, ``member_fuel_t`` and ``member_arrival`` (referee, per member), ``fuel_mean_t``,
         ``fuel_cvar_t`` (referee), ``nlp_objective``, ``nlp_member_fuel_t``, ``nlp_var``; and ``ipopt_status``,
         ``nlp_solves``, ``iterations``, ``solve_time_s``, ``build_time_s``, ``retries``, ``tightening``,
@@ -232,17 +261,29 @@ def optimise_robust(
     Raises
     ------
     ConfigError
-        Bad ``robust``, ``cvar_alpha``, ``eta_mode``, ``reference_member``, or an option not available here.
+        Bad ``robust``, ``cvar_alpha``, ``violation_fraction`` (or too many choices of members to drop),
+        ``eta_mode``, ``reference_member``, or an option not available here.
     NoSafePassage
         The members' navigable lateral ranges do not overlap at some waypoint.
     SolverFailure
         No tightened solve gave a plan that verifies in every member (``best_plan``: the warm plan if it does).
     """
     started = _time.perf_counter()
-    alpha = _check_options(
-        robust, cvar_alpha, eta_mode, {"jit": jit, "discrete_start": discrete_start, "dp_options": dp_options}
+    alpha, fraction = _check_options(
+        robust,
+        cvar_alpha,
+        violation_fraction,
+        eta_mode,
+        {"jit": jit, "discrete_start": discrete_start, "dp_options": dp_options},
     )
     members = member_datasets(weather)
+    n_drop = int(np.floor(fraction * len(members) + 1e-9))  # members that may be violated
+    if robust == "chance" and math.comb(len(members), n_drop) > MAX_DROP_CHOICES:
+        raise ConfigError(
+            f"violation_fraction={violation_fraction!r} of {len(members)} members lets {n_drop} be violated: "
+            f"{math.comb(len(members), n_drop)} choices of members, more than the {MAX_DROP_CHOICES} solved exactly; "
+            "give a smaller fraction or fewer members, or use robust='cvar'"
+        )
     shared = {
         "departure": departure,
         "latest_eta": eta,
@@ -260,7 +301,7 @@ def optimise_robust(
         "verify_step_nm": verify_step_nm,
         "use_land_mask": use_land_mask,
     }
-    prepared, y_lo, y_hi = _prepare(corridor, members, ship, shared, reference_member)
+    prepared, y_lo, y_hi = prepare_members(corridor, members, ship, shared, reference_member)
     ref = prepared[int(reference_member)]
     frame, t0 = ref.frame, ref.departure
     eta_t = as_utc_time(eta, "eta") if eta is not None else None
@@ -279,7 +320,7 @@ def optimise_robust(
     log: list[str] = []
     counts = {"solves": 0, "iterations": 0, "solve_time_s": 0.0, "build_time_s": 0.0}
     last: RobustResult | None = None
-    options = {"ipopt.hessian_approximation": "limited-memory", **dict(solver_options or {})}
+    options = dict(solver_options or {})
     builds: dict[tuple[float, float, float], RobustSpeedNLP] = {}
     for retry in range(int(max_retries) + 1):
         key = (state["widen"], state["hs_margin"], state["extra_radius_nm"])  # what shapes a build (the rest is data)
@@ -288,24 +329,59 @@ def optimise_robust(
             counts["build_time_s"] += builds[key].build_time_s
         nlp = builds[key]
         nlp.power = replace(nlp.power, max_load=state["max_load"], min_load=state["min_load"])
-        res = nlp.solve_sides(
-            eta_h=None if eta_h is None else eta_h - state["eta_shift_h"],
-            objective=objective,
-            fuel_price=ref.fuel_price,
-            hourly_cost=ref.hourly,
-            offset0_nm=warm["offset_nm"],
-            stw0_kn=warm["stw_kn"],
-            max_solves=int(band_solves),
-            leg_power_factor=state["leg_factor"],
-        )
-        counts["solves"] += res.solves
-        counts["iterations"] += res.iterations
-        counts["solve_time_s"] += res.solve_time_s
-        last = res
-        usable = res.max_violation <= VIOLATION_TOL and (res.success or res.status in LIMIT_STATUSES)
-        if not usable:  # nothing the verification could say: tightening would not help
-            log.append(f"solve {retry}: Ipopt {res.status}, max violation {res.max_violation:.2e}")
+        solve_kw = {
+            "eta_h": None if eta_h is None else eta_h - state["eta_shift_h"],
+            "objective": objective,
+            "fuel_price": ref.fuel_price,
+            "hourly_cost": ref.hourly,
+            "offset0_nm": warm["offset_nm"],
+            "stw0_kn": warm["stw_kn"],
+            "max_solves": int(band_solves),
+            "leg_power_factor": state["leg_factor"],
+        }
+        if robust == "chance":
+            candidates = nlp.solve_chance(max_dropped=n_drop, **solve_kw)
+        else:
+            candidates = (nlp.solve_sides(**solve_kw),)
+        for key_, res in (("solves", candidates[0].solves), ("iterations", candidates[0].iterations)):
+            counts[key_] += res
+        counts["solve_time_s"] += candidates[0].solve_time_s
+        last = candidates[0]
+        picked, failing = _pick(candidates, ctx, frame, t0, ref, members, log, retry)
+        if picked is not None:
+            res, plan, violated = picked
+            status = "feasible" if not res.success else ("optimal" if res.sides_settled else "sides_unsettled")
+            stats = _stats(plan, members, res, robust, alpha, int(reference_member), objective, ref)
+            stats["robust"].update(
+                violation_fraction=fraction,
+                dropped_members=np.flatnonzero(res.dropped).tolist(),
+                members_violated=violated,
+                drop_choices_solved=len(candidates),
+            )
+            stats.update(counts, retries=retry, tightening=log, ipopt_status=res.status, nlp_solves=counts["solves"])
+            stats["total_time_s"] = _time.perf_counter() - started
+            return replace(plan, status=status, solver_stats=stats)
+        if failing is None:  # no usable solve: nothing the verification could say, tightening would not help
             break
+        res, failing = failing
+        warm = {"offset_nm": res.offset_nm, "stw_kn": res.stw_kn}
+        if not _tighten(state, [v for f in failing.values() for v in f], log):
+            break
+    raise _failure(members, warm_plan, last, log, counts["solves"])
+
+
+def _pick(candidates, ctx, frame, t0, ref, members, log: list[str], retry: int):
+    """The first candidate (best objective first) whose plan verifies in every member it keeps.
+
+    Returns ``((result, plan, violated members), None)`` for it, else ``(None, (result, {member: violations}))``
+    for the best usable candidate's failing kept members, or ``(None, None)`` when no solve was usable.
+    """
+    first_failing = None
+    for res in candidates:
+        usable = res.max_violation <= VIOLATION_TOL and (res.success or res.status in LIMIT_STATUSES)
+        if not usable:
+            log.append(f"solve {retry}: Ipopt {res.status}, max violation {res.max_violation:.2e}")
+            continue
         plan = Plan.from_context(
             ctx,
             frame.waypoints(res.offset_nm),
@@ -315,24 +391,19 @@ def optimise_robust(
             step_nm=ref.verify_step_nm,
         )
         found = {k: plan.verify(weather=m, step_nm=ref.verify_step_nm) for k, m in enumerate(members)}
-        failing = {k: f for k, f in found.items() if f}
+        failing = {k: f for k, f in found.items() if f and not res.dropped[k]}
         if not failing:
-            status = "feasible" if not res.success else ("optimal" if res.sides_settled else "sides_unsettled")
-            stats = _stats(plan, members, res, robust, alpha, int(reference_member), objective, ref)
-            stats.update(counts, retries=retry, tightening=log, ipopt_status=res.status, nlp_solves=counts["solves"])
-            stats["total_time_s"] = _time.perf_counter() - started
-            return replace(plan, status=status, solver_stats=stats)
+            return (res, plan, sorted(k for k, f in found.items() if f)), None
         log.append(
-            f"solve {retry}: the plan fails members {sorted(failing)}: "
+            f"solve {retry}: the plan fails kept members {sorted(failing)}: "
             + "; ".join(f"member {k}: {f[0]}" for k, f in sorted(failing.items())[:3])
         )
-        warm = {"offset_nm": res.offset_nm, "stw_kn": res.stw_kn}
-        if not _tighten(state, [v for f in failing.values() for v in f], log):
-            break
-    raise _failure(members, warm_plan, last, log, counts["solves"])
+        if first_failing is None:
+            first_failing = (res, failing)
+    return None, first_failing
 
 
-def _prepare(corridor: Corridor, members: list[xr.Dataset], ship: Any, shared: dict[str, Any], reference: Any):
+def prepare_members(corridor: Corridor, members: list[xr.Dataset], ship: Any, shared: dict[str, Any], reference: Any):
     """Every member prepared as ``optimise_corridor`` prepares one weather, and the lateral bounds all allow."""
     from optroute.optimise.corridor_problem import PreparedCorridor
 
