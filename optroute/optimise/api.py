@@ -120,8 +120,9 @@ def optimise_corridor(
         NLP samples per leg of the midpoint-rule time and fuel (every constraint is imposed there too).
     constraint_rows : {"referee", "midpoints"}
         Where the NLP's engine-load, band and exclusion rows sit besides the midpoints: ``"referee"``
-        also at the referee's check points of the start's plan (leg ends, weather-grid crossings, points
-        near band edges; :mod:`optroute.optimise.rows`), so that a converged plan passes
+        also at the referee's check points of a canonical start — the centreline at the speed of the
+        latest ETA (leg ends, weather-grid crossings, points near band edges;
+        :func:`optroute.optimise.rows.canonical_rows`), the same for every ETA of a prepared corridor — so that a converged plan passes
         :meth:`Plan.verify` on the first try; ``"midpoints"`` only at the midpoints (the former
         placement, kept to measure the difference: ``solver_stats["first_solve"]``).
     fuel_price_per_t, hourly_cost_per_h : float

@@ -12,7 +12,7 @@ A solve, in stages: **start** — the best verified discrete plan on the corrido
 (:mod:`optroute.optimise.starts`: a given warm plan or search route, the 3-D DP on the corridor, the
 centreline start; scored by the referee); **solve** — Ipopt from it with the band outer loop
 (:meth:`~optroute.optimise.nlp_solve.Problem.solve`), the load, band and exclusion rows also at the
-referee's check points of the start's plan (:mod:`optroute.optimise.rows`; ``constraint_rows``); **verify** — the plan of the solution by the
+referee's check points of a canonical start (:mod:`optroute.optimise.rows`); **verify** — the plan of the solution by the
 referee; where it finds only the engine outside its range (the smooth power table cannot follow the
 model's steps between the NLP's samples) the speeds of those legs move to the limit
 (:func:`~optroute.optimise.starts.repaired_plan`, status ``"mended"``); otherwise re-solved with the rows the
@@ -54,7 +54,7 @@ from optroute.optimise.rescue import (
     tighten,
     to_plan,
 )
-from optroute.optimise.rows import ROW_PLACEMENTS, points_of, referee_rows
+from optroute.optimise.rows import ROW_PLACEMENTS, canonical_rows, points_of
 from optroute.optimise.starts import (
     ENGINE_KINDS,
     Candidate,
@@ -169,7 +169,7 @@ class PreparedCorridor:
                 "check points of its start) or 'midpoints' (at the quadrature's midpoints only)"
             )
         self.constraint_rows = constraint_rows
-        self._row_points: list[np.ndarray] | None = None  # the referee's row points, set at the first solve
+        self._row_points: tuple[list[np.ndarray] | None] | None = None  # (rows,) once computed (_rows_from)
         if objective not in ("time", "fuel", "cost"):
             raise ConfigError(f"objective={objective!r} is not known; use 'time', 'fuel' or 'cost'")
         if not isinstance(corridor, Corridor):
@@ -245,7 +245,7 @@ class PreparedCorridor:
             bound_scale=np.ones(n + 1),
             y_lo=self.y_lo.copy(),
             y_hi=self.y_hi.copy(),
-            row_points=self._row_points,
+            row_points=self._rows_from(),
         )
 
     # ------------------------------------------------------------------ stage: start
@@ -501,8 +501,6 @@ class PreparedCorridor:
 
         A discrete start the NLP cannot improve on costs time, not fuel: the plan stage keeps the start.
         """
-        self._rows_from(call, clear_of_exclusion(dict(first.warm), self.frame, self.exclusion, self.departure,
-                                                 self.y_lo, self.y_hi))  # fmt: skip
         call.start_table = self._table_at(call.ctx, first.warm)
         best: _Found | None = None
         tries = [first] + ([start] if first is not start and start.plan is not None else [])
@@ -516,12 +514,17 @@ class PreparedCorridor:
                 best = found
         return best
 
-    def _rows_from(self, call: _Call, warm: Mapping[str, np.ndarray]) -> None:
-        """The NLP's row points (:mod:`optroute.optimise.rows`): the referee's check points of the first solve's start,
-        kept for the later ETAs of this prepared corridor so that one build serves them all (the grid-line crossings
-        are the same fractions of the legs; the time-slice crossings are the first start's)."""
-        if self.constraint_rows == "referee" and self._row_points is None:
-            self._row_points = referee_rows(call.ctx, self.frame, warm, self.departure, self.verify_step_nm)
+    def _rows_from(self) -> list[np.ndarray] | None:
+        """The NLP's row points, once per prepared corridor (:func:`optroute.optimise.rows.canonical_rows`)."""
+        if self.constraint_rows != "referee":
+            return None
+        if self._row_points is None:
+            cap_h = self.prepared_cap_h
+            speed = self.length_nm / cap_h if cap_h is not None and np.isfinite(cap_h) else self.ship.design_speed_kn
+            rows = canonical_rows(self.plan_context(), self.frame, (self.y_lo, self.y_hi), float(np.clip(
+                speed, self.v_min, self.v_max)), self.departure, self.verify_step_nm)  # fmt: skip
+            self._row_points = (rows,)
+        return self._row_points[0]
 
     def _solve_from(self, call: _Call, cand: Candidate, *, diagnose: bool) -> _Found | None:
         """Solve from one candidate; where the referee rejects the plan, tighten the rows it flagged and solve again.
@@ -532,8 +535,7 @@ class PreparedCorridor:
         prob, st = self.problem, self._tightening()
         st.log = call.log
         warm = clear_of_exclusion(dict(cand.warm), self.frame, self.exclusion, self.departure, self.y_lo, self.y_hi)
-        self._rows_from(call, warm)
-        st.row_points = self._row_points
+        st.row_points = self._rows_from()
         for attempt in range(self.max_retries + 1):
             emit(call.progress, "solve", 0.2 + 0.7 * attempt / (self.max_retries + 1))
             nlp = prob.build(st)

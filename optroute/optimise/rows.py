@@ -30,7 +30,7 @@ from optroute.optimise.nlp_inputs import CorridorFrame
 from optroute.plan.checkpoints import CheckPoints, row_points
 from optroute.plan.result import Plan, PlanContext
 
-__all__ = ["MAX_ROW_POINTS", "ROW_PLACEMENTS", "points_of", "referee_rows", "sample_layout"]
+__all__ = ["MAX_ROW_POINTS", "ROW_PLACEMENTS", "canonical_rows", "points_of", "referee_rows", "sample_layout"]
 
 #: Row-only points per leg at most (:func:`formulations.sample_layout.with_points`).
 MAX_ROW_POINTS = 16
@@ -68,6 +68,29 @@ def referee_rows(
     except OptrouteError:  # a start that cannot be evaluated: the midpoint rows remain
         return None
     return points_of(pts, wp)
+
+
+def canonical_rows(
+    ctx: PlanContext,
+    frame: CorridorFrame,
+    bounds_nm: tuple[np.ndarray, np.ndarray],
+    speed_kn: float,
+    departure: np.datetime64,
+    step_nm: float,
+) -> list[np.ndarray] | None:
+    """The row points a prepared corridor keeps for all its solves: the referee's check points of a canonical start.
+
+    The start is the centreline (clipped into the lateral ``bounds_nm`` (low, high) [nm, port +]) at the constant
+    speed through water ``speed_kn`` [kn] (the caller's: the one arriving at the prepared corridor's latest ETA).
+    Taken from the prepared inputs alone, never from a solve, so that a solve's result depends on its own inputs
+    only — not on which ETAs were solved before it in the process (a front is the same serial and on workers) —
+    and one build serves every ETA.  The grid-line crossings are the same fractions of the legs at any speed; the
+    time-slice crossings are the canonical start's.  A plan the referee rejects moves the rows to its own check
+    points for the next attempt (:func:`points_of`).
+    """
+    n = frame.n_legs
+    warm = {"offset_nm": np.clip(np.zeros(n + 1), *bounds_nm), "stw_kn": np.full(n, float(speed_kn))}
+    return referee_rows(ctx, frame, warm, departure, step_nm)
 
 
 def sample_layout(points: list[np.ndarray] | None, n_legs: int, samples_per_leg: int) -> SampleLayout:
