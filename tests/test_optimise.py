@@ -493,8 +493,12 @@ def test_nan_weather_narrows_the_corridor_and_a_blocked_waypoint_raises():
         )
 
 
-def test_prepared_corridor_solves_several_etas_as_independent_optimise_corridor_calls():
+@pytest.mark.parametrize("rows", ["midpoints", "referee"])
+def test_prepared_corridor_solves_several_etas_as_independent_optimise_corridor_calls(rows):
     """One set-up and one build for three ETAs; each plan as optimise_corridor's own (independent set-up).
+
+    With ``constraint_rows="referee"`` the rows come from the prepared corridor's canonical start, not from
+    whichever ETA was solved first, so the prepared solves still equal independent calls and share one build.
 
     The weather is static and the lowest speed (9 kn) is above half of every ETA's mean speed, so the
     set-up for the latest ETA (longer weather grid, power table over 9 kn to the top speed) is the one
@@ -506,7 +510,8 @@ def test_prepared_corridor_solves_several_etas_as_independent_optimise_corridor_
 
     wx = _static_linear_sea(1.0, 0.15, wave_from_deg=45.0)
     corridor = orx.Corridor(np.array([[0.0, -30.0], [0.0, -10.0]]), 20.0)
-    kw = {"max_leg_nm": 100.0, "use_land_mask": False, "speed_range_kn": (9.0, SHIP.max_calm_speed_kn)}
+    kw = {"max_leg_nm": 100.0, "use_land_mask": False, "speed_range_kn": (9.0, SHIP.max_calm_speed_kn),
+          "constraint_rows": rows}  # fmt: skip
     etas_h = [95.0, 80.0, 70.0]
     prepared = PreparedCorridor(corridor, wx, SHIP, departure=T0, latest_eta=T0 + _td(etas_h[0]), **kw)
     previous = None
@@ -517,6 +522,8 @@ def test_prepared_corridor_solves_several_etas_as_independent_optimise_corridor_
         assert plan.verify() == [] and ref.verify() == []
         assert plan.total_fuel_t == pytest.approx(ref.total_fuel_t, rel=1e-6)
         assert plan.duration_h <= eta_h + 1e-6
+        assert plan.solver_stats["constraint_rows"] == rows
+        assert (plan.solver_stats["row_samples_per_leg"] > plan.solver_stats["samples_per_leg"]) == (rows == "referee")
         previous = plan
     assert prepared.problem.builds == 1  # the ETA is a solve parameter, not part of the build
     with pytest.raises(ConfigError, match="latest ETA"):
