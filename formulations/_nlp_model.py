@@ -41,6 +41,7 @@ __all__ = [
     "ABS_EPS_KN",
     "WeatherValues",
     "power_ratio",
+    "row_blocks",
     "sample_physics",
     "structured_derivatives",
 ]
@@ -576,3 +577,30 @@ class WeatherValues(ca.Callback):
         out = np.frombuffer(res[0], dtype=float).reshape(self._k, self._spline.n_fields).T
         out[:] = self._spline.evaluate(pts, 0)
         return 0
+
+
+def row_blocks(mdl: dict[str, Any], t: Any, *, bands: bool, current: bool, exclusion: bool) -> tuple[list[Any], dict]:
+    """The corridor NLP's constraint blocks in their order, and each block's (first, end) row.
+
+    Time dynamics, engine load, band residuals (``bands``), drift and speed over ground (``current``),
+    exclusion (``exclusion``) — from :meth:`SpeedNLP.symbolic_model`'s expressions ``mdl`` and the arrival
+    times ``t``; shared by the single-weather and the ensemble (member) NLPs.
+    """
+    parts: list[Any] = []
+    rows: dict[str, tuple[int, int]] = {}
+
+    def add(name: str, expr: Any) -> None:
+        start = sum(p.shape[0] for p in parts)
+        rows[name] = (start, start + expr.shape[0])
+        parts.append(expr)
+
+    add("dyn", (t[1:] - t[:-1]) - mdl["dt_leg"])
+    add("load", mdl["load"])
+    if bands:
+        add("band", mdl["band_res"])
+    if current:
+        add("drift", mdl["h_perp"])
+        add("sog", mdl["sog"])
+    if exclusion:
+        add("excl", mdl["excl_res"])
+    return parts, rows

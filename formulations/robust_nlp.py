@@ -61,6 +61,7 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
+from formulations._nlp_model import row_blocks
 from formulations.common import (
     G_OVER_2PI_KN_S,
     Band,
@@ -336,23 +337,8 @@ class RobustSpeedNLP:
         y, v, t = ca.MX.sym("y", n + 1), ca.MX.sym("v", n), ca.MX.sym("t", n + 1)
         beta, fac, index = ca.MX.sym("beta", k_ * nb), ca.MX.sym("f", n), ca.MX.sym("member")
         mdl = self.template.symbolic_model(y, v, t, beta, fac, weather=lambda pts: self._weather(index, pts))
-        parts: list[Any] = []
-        rows: dict[str, tuple[int, int]] = {}
-
-        def add(name: str, expr: Any) -> None:
-            start = sum(p.shape[0] for p in parts)
-            rows[name] = (start, start + expr.shape[0])
-            parts.append(expr)
-
-        add("dyn", (t[1:] - t[:-1]) - mdl["dt_leg"])
-        add("load", mdl["load"])
-        if nb:
-            add("band", mdl["band_res"])
-        if self.has_current_rows:
-            add("drift", mdl["h_perp"])
-            add("sog", mdl["sog"])
-        if self.template.exclusion is not None:
-            add("excl", mdl["excl_res"])
+        parts, rows = row_blocks(mdl, t, bands=bool(nb), current=self.has_current_rows,
+                                 exclusion=self.template.exclusion is not None)  # fmt: skip
         self._rows, self._ng_member = rows, sum(p.shape[0] for p in parts)
         member = ca.Function("member", [y, v, t, beta, fac, index], [ca.vertcat(*parts), ca.sum1(mdl["fuel_leg"])])
         names = [*SpeedNLP.STATE_KEYS, "dt_leg", "fuel_leg"] + [k for k in _STATE_EXTRA if k in mdl]

@@ -78,6 +78,7 @@ from numpy.typing import ArrayLike
 from formulations._nlp_model import (
     WeatherValues,
     jit_compiler,
+    row_blocks,
     sample_physics,
     structured_derivatives,
 )
@@ -422,24 +423,10 @@ class SpeedNLP:
         fac = ca.MX.sym("f", n)  # the static per-leg power factors f_k (a parameter)
         mdl = self._model(y, v, t, beta, fac)
         objective = weights[0] * ca.sum1(mdl["fuel_leg"]) + weights[1] * (t[n] - t[0])
-        rows: dict[str, tuple[int, int]] = {}
-        parts: list[Any] = []
-
-        def add(name: str, expr: Any) -> None:
-            start = sum(p.shape[0] for p in parts)
-            rows[name] = (start, start + expr.shape[0])
-            parts.append(expr)
-
-        add("dyn", (t[1:] - t[:-1]) - mdl["dt_leg"])
-        add("load", mdl["load"])
-        if nb:
-            add("band", mdl["band_res"])
         self._has_current = self._needs_current_rows()
-        if self._has_current:
-            add("drift", mdl["h_perp"])
-            add("sog", mdl["sog"])
-        if self.exclusion is not None:
-            add("excl", mdl["excl_res"])
+        parts, rows = row_blocks(
+            mdl, t, bands=bool(nb), current=self._has_current, exclusion=self.exclusion is not None
+        )
         g = ca.vertcat(*parts)
         self._rows, self._ng, self._nx = rows, g.shape[0], nx
         opts = dict(_IPOPT_DEFAULTS)
