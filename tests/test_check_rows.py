@@ -301,3 +301,27 @@ def test_rows_at_the_leg_ends_keep_a_band_that_applies_only_at_a_waypoint() -> N
     np.testing.assert_allclose(out["midpoints"], 13.0, atol=1e-4)  # legs 0 and 1 inside the band at s = 40 nm
     assert np.all(out["leg ends"][:2] >= 14.4 - 1e-6)  # outside it, on the upper side
     assert 13.0 * 4 <= np.sum(out["leg ends"]) + 1e-6  # and the ETA still met: 160 nm in 160 / 13 h
+
+
+# --------------------------------------------------------------------------- the exclusion in the flat frame
+
+
+def test_a_centre_beyond_the_corridor_end_keeps_its_distance_in_the_flat_frame() -> None:
+    """The cyclone voyage of test_voyage_cyclone: a centre 90 nm past the destination and 100-150 nm abeam.
+
+    Reference: WGS84 geodesic distances from the corridor's ends (:func:`optroute.geodesy.distance_nm`).
+    The developed frame is flat, so distances agree to its O((d/R)^2) stretch (< 0.5 % at 170 nm);
+    held at the end (the old ``to_xy``), the centre lost its 90 nm past the destination (error ~ 20 %).
+    """
+    import optroute as orx
+    from optroute import geodesy as geo
+    from optroute.optimise.nlp_inputs import build_frame
+
+    frame = build_frame(orx.Corridor.from_waypoints([(15.5, 138.0), (17.0, 138.0), (18.5, 138.0)], width_nm=240.0))
+    lat = np.array([20.0, 20.0, 20.0, 14.0, 17.5])
+    lon = np.array([140.5, 139.7, 136.0, 138.9, 140.0])  # past the end (three), before the start, abeam leg 1
+    xy = frame.to_xy(lat, lon)
+    for end in (0, -1):
+        flat = np.linalg.norm(xy - frame.centre_xy_nm[end], axis=1)
+        true = geo.distance_nm(frame.corridor.waypoints[end, 0], frame.corridor.waypoints[end, 1], lat, lon)
+        np.testing.assert_allclose(flat, true, rtol=5e-3)

@@ -153,8 +153,15 @@ class CorridorFrame:
         return lat, lon, along
 
     def to_xy(self, lat_deg: ArrayLike, lon_deg: ArrayLike) -> np.ndarray:
-        """Flat-frame position [nm] (…, 2) of points: foot on the centreline plus the signed offset along its normal."""
-        s, xt, _, k = project_to_polyline(self.corridor.waypoints, lat_deg, lon_deg)
+        """Flat-frame position [nm] (…, 2) of points: foot on the centreline plus the signed offset along its normal.
+
+        The foot is taken on the nearest leg's geodesic *extended* past its ends (the one the offset is
+        measured from), so that a point beyond the corridor's ends (a cyclone centre past the destination)
+        keeps its distance from them: held at the end, its along-track distance past it was lost (a centre
+        90 nm past the destination was put 90 nm nearer the last leg, and the NLP found the cyclone voyage
+        of ``tests/test_voyage_cyclone.py`` infeasible once rows sat where the referee checks).
+        """
+        s, xt, _, k = project_to_polyline(self.corridor.waypoints, lat_deg, lon_deg, clamp=False)
         tau = self.tangent_xy[k]
         normal = np.stack([-tau[..., 1], tau[..., 0]], axis=-1)  # port
         base = self.centre_xy_nm[k] + (s - self.s_nm[k])[..., None] * tau
