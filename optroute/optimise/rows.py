@@ -15,6 +15,12 @@ and keeps them as fractions of each leg (:func:`optroute.plan.checkpoints.row_po
 (:func:`formulations.sample_layout.with_points`). As fractions of the leg they move with its ends
 when Ipopt moves the offsets; the crossings of the time slices move with the schedule, so after a
 rejected solve the rows are taken again from the rejected plan's check points.
+
+Only rows that can bind are kept (:func:`binding_legs`): every leg keeps its ends (the engine load is checked
+there with the leg's own speed), and the crossings and refinement points only where a danger band can apply
+(Hs in the NLP's weather grid reaches the bands' threshold near the leg at some time) or the exclusion circle
+comes within :data:`EXCLUSION_REACH_NM` of the leg's corridor. The NLP's arrays have as many samples on every
+leg as on its busiest one, so this trims the legs' row points, not always the per-leg sample count.
 """
 
 from __future__ import annotations
