@@ -248,25 +248,27 @@ def _apf_case(case: CrossingCase, track: CycloneTrack, ds: Any, ship: orx.Ship) 
         return None, Outcome.failed("APF", runtime_s=time.perf_counter() - t, error=f"{type(exc).__name__}: {exc}"), {}
     wall = time.perf_counter() - t
     out = Outcome.scored("APF", fuel_t=float(run.plan.total_fuel_t), runtime_s=wall, violations=len(run.plan.verify()))
+    gap, bound = trigger_bound_km(run, track, case.speed_kn)
     return run.plan, out, {"triggered": run.trigger_time is not None, "trigger": str(run.trigger_time),
-                           "trigger_bound_km": trigger_bound_km(run, track, case.speed_kn)}  # fmt: skip
+                           "trigger_gap_km": gap, "trigger_bound_km": bound}  # fmt: skip
 
 
-def trigger_bound_km(run: Any, track: CycloneTrack, speed_kn: float) -> float:
-    """From where the APF's trigger fired: the best closest approach any heading at ``speed_kn`` achieves, minus R [km].
+def trigger_bound_km(run: Any, track: CycloneTrack, speed_kn: float) -> tuple[float, float]:
+    """Where the APF's trigger fired: (distance − R, the best closest approach any heading at ``speed_kn`` achieves − R) [km].
 
     :func:`optroute.geo.encounter.best_closest_approach` with the centre's position, motion and R at the
-    trigger (NaN when the trigger never fired).  Below 0: no heading keeps out of R; below 30: none keeps out
-    of R + 30 km (the centre held its velocity).
+    trigger (NaN, NaN when the trigger never fired).  A bound below the first figure: no heading holds the
+    distance (the centre held its velocity); below 0: none keeps out of R.
     """
     if run.trigger_time is None:
-        return math.nan
+        return math.nan, math.nan
     k = int(np.argmin(np.abs(run.plan.times - run.trigger_time)))
     lat, lon = (float(x) for x in run.plan.waypoints[k])
     s = track.at(run.plan.times[k])
     rel = local_xy_nm(lat, lon, s["lat"], s["lon"])
     best_nm = best_closest_approach(rel, [float(s["u_kn"]), float(s["v_kn"])], speed_kn)
-    return best_nm * 1.852 - float(s["r7_km"])
+    r_km = float(s["r7_km"])
+    return float(orx.geodesy.distance_nm(lat, lon, s["lat"], s["lon"])) * 1.852 - r_km, best_nm * 1.852 - r_km
 
 
 def apf_entry_reasons(rows: list[dict[str, Any]]) -> list[str]:
@@ -276,19 +278,20 @@ def apf_entry_reasons(rows: list[dict[str, Any]]) -> list[str]:
         b = r.get("apf_brute")
         if b is None or b["inside_safe_h"] <= 0.0:
             continue
-        bound = r["apf"].get("trigger_bound_km", math.nan)
+        gap, bound = r["apf"].get("trigger_gap_km", math.nan), r["apf"].get("trigger_bound_km", math.nan)
         head = (f"{r['case']}: the APF spends {b['inside_safe_h']:.1f} h inside R + 30 km ({b['inside_r_h']:.1f} h "
                 f"inside R, closest {b['closest_r_km']:.0f} km from R)")  # fmt: skip
-        where = (f"from the trigger point (centre at R + 30 km with DCPA ≤ R, [0076]/[0124]) the best heading at "
-                 f"{r['speed_kn']:.1f} kn against the centre's {r['advance_kn']:.1f} kn passes {bound:.0f} km from R")  # fmt: skip
+        where = (f"the trigger (DCPA ≤ R and the centre within R + 30 km, [0076]/[0124]) fired {gap:.0f} km from R; "
+                 f"from there the best heading at {r['speed_kn']:.1f} kn against the centre's {r['advance_kn']:.1f} kn "
+                 f"passes {bound:.0f} km from R")  # fmt: skip
         if bound < 0.0:
             why = "so no heading at the kept speed ([0077]) keeps out of R: geometry, not the field"
-        elif bound < 30.0:
-            why = "so no heading keeps out of R + 30 km; R itself can be kept out of"
+        elif bound < gap - 1.0:
+            why = "so no heading holds even that distance: geometry takes the ship deeper into R + 30 km"
         else:
-            why = ("a heading that holds R + 30 km exists; the field's heading is the sum of the attraction to the "
-                   "destination and the repulsion ([0104]–[0121]), which starts on that circle with the centre closing, "
-                   "so the track dips in by the field's design")  # fmt: skip
+            why = ("a heading that holds that distance exists; the field's heading is the sum of the attraction to the "
+                   "destination and the repulsion ([0104]–[0121]), not the heading that opens the distance, so the "
+                   "track dips in by the field's design")  # fmt: skip
         out.append(f"- {head}: {where}, {why}.")
     return out
 

@@ -123,14 +123,14 @@ def test_from_the_trigger_point_the_bound_says_whether_any_heading_keeps_out_of_
 def test_the_bench_names_why_an_apf_track_enters_r_plus_30_km():
     from benchmarks.bench_cyclone import apf_entry_reasons
 
-    def row(name, inside_safe_h, inside_r_h, bound_km):
+    def row(name, inside_safe_h, inside_r_h, gap_km, bound_km):
         b = {"inside_safe_h": inside_safe_h, "inside_r_h": inside_r_h, "closest_r_km": -5.0}
-        return {"case": name, "apf_brute": b, "apf": {"trigger_bound_km": bound_km}, "speed_kn": 12.5,
-                "advance_kn": 24.5}  # fmt: skip
+        return {"case": name, "apf_brute": b, "apf": {"trigger_gap_km": gap_km, "trigger_bound_km": bound_km},
+                "speed_kn": 12.5, "advance_kn": 24.5}  # fmt: skip
 
-    out = apf_entry_reasons([row("a", 15.2, 13.3, -88.0), row("b", 9.9, 0.0, 12.0), row("c", 0.3, 0.0, 120.0),
-                             row("d", 0.0, 0.0, 50.0)])  # fmt: skip
+    out = apf_entry_reasons([row("a", 15.2, 13.3, 27.0, -88.0), row("b", 9.9, 0.0, 29.0, 13.0),
+                             row("c", 0.3, 0.0, 29.0, 28.5), row("d", 0.0, 0.0, 29.0, 29.0)])  # fmt: skip
     assert len(out) == 3  # "d" never enters R + 30 km
     assert "passes -88 km from R" in out[0] and "no heading at the kept speed" in out[0]
-    assert "no heading keeps out of R + 30 km" in out[1]
+    assert "fired 29 km from R" in out[1] and "no heading holds even that distance" in out[1]
     assert "by the field's design" in out[2]
