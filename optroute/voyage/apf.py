@@ -34,11 +34,14 @@ not consistent, and the two readings differ by an order of magnitude:
   The repulsion is zero at the trigger and grows only as the ship sails into R + 30 km, so the
   track enters R + 30 km by design and, where the typhoon outruns the turn, R itself.
 
-On the 14 synthetic crossings of ``bench_cyclone --suite`` (1° weather) the first reading spends
-0–1.7 h inside R + 30 km where the second spent 3–37 h, and keeps out of R on the antimeridian
-crossing (the second: 3.4 h inside); neither can keep out of R on the overtaking crossing with a
-24.5 kn typhoon, where no heading at the kept 12.5 kn can
-(:func:`optroute.geo.encounter.best_closest_approach`).  Both readings still dip into R + 30 km:
+On the 14 synthetic crossings of ``bench_cyclone``'s suite (1° weather) the first reading spends
+0–1.7 h inside R + 30 km on 11 of them, where the second spent 0–37 h (2.8–37 h on the 10 where
+it triggered); on the antimeridian crossing (a 17.9 kn typhoon, the ship at 14 kn) 9.9 h, outside R
+(the second: 14.2 h, 3.4 h inside R); on the overtaking crossing with a 24.5 kn typhoon both spend
+13.3 h inside R, where no heading at the kept 12.5 kn can keep out
+(:func:`optroute.geo.encounter.best_closest_approach`); on the 13th (a typhoon on the route) the first
+reading steers onto a heading where no speed down to 3 kn is allowed (NoSafePassage), which the second
+did not.  Both readings dip into R + 30 km:
 the trigger fires on that circle with the centre closing, and the field's heading is the sum of the
 attraction to the destination and the repulsion, not the heading that opens the distance fastest.
 
