@@ -75,6 +75,8 @@ def run(quick: bool = False) -> dict[str, Any]:
     print(f"| wall time [s] | {time.perf_counter() - t0:.0f} | |")
     print()
     print("Outcomes: " + ", ".join(f"{k} {v}" for k, v in sorted(s["outcomes"].items())) + "\n")
+    print("Outcomes with the rows where the referee checks: " + ", ".join(
+        f"{k} {v}" for k, v in sorted(b["outcomes"].items())) + "\n")  # fmt: skip
     if s["violating"]:
         print("Violations found (seed, solve: first findings):\n")
         for line in s["violating"]:
