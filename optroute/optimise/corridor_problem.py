@@ -162,7 +162,7 @@ class PreparedCorridor:
         jit: bool = False,
         discrete_start: bool = False,
         dp_options: Mapping[str, Any] | None = None,
-        constraint_rows: str = "referee",
+        constraint_rows: str = "midpoints",
     ) -> None:
         if constraint_rows not in ROW_PLACEMENTS:
             raise ConfigError(
