@@ -234,11 +234,6 @@ def test_phase1_leaves_a_band_for_a_side_without_being_told_which() -> None:
 # --------------------------------------------------------------------------- harness seed 10's cause, in small
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="since the merge of nlpfast the corridor's weather is read through a numpy spline whose CasADi wrapper "
-    "has no MX derivatives: phase-1's automatic derivatives of SpeedNLP.symbolic_model fail to build (passed before)",
-)
 def test_a_first_leg_closed_at_departure_is_no_safe_passage_naming_it() -> None:
     # harness seed 10: no speed is allowed on the first leg when the ship must enter it (at departure), though the
     # sea opens later (so no cross-section is closed at every time: not the blocked-section rule). Head seas of

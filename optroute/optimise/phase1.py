@@ -44,6 +44,8 @@ __all__ = ["PROOF_STEP_KN", "diagnose"]
 PROOF_STEP_KN = 0.1
 #: End offsets across the corridor of that check.
 PROOF_OFFSETS = 9
+#: Legs with a safety slack checked by the true model, the earliest first.
+PROOF_LEGS = 8
 #: Phase-1 solves, each with the bands added where they apply at the last one's point.
 APPLICABILITY_ROUNDS = 3
 
@@ -78,6 +80,31 @@ def _leg_closed(prob: Problem, ctx: PlanContext, res: Phase1Result, t0: np.datet
         if np.any(np.all(allowed.reshape(speeds.size, f.size), axis=1)):
             return False
     return True
+
+
+def _no_safe_passage(prob: Problem, ctx: PlanContext, res: Phase1Result, t0: np.datetime64, log: list[str]) -> None:
+    """Raise :class:`NoSafePassage` at the first leg (of at most :data:`PROOF_LEGS` with a safety slack, in sailing
+    order) the true model closes (:func:`_leg_closed`); return when none is."""
+    for leg in res.slack_legs()[:PROOF_LEGS]:
+        kind, leg, frac, time_h, slack = res.worst(int(leg))
+        blocked = _leg_closed(prob, ctx, res, t0, leg)
+        log.append(f"phase-1: {kind} slack {slack:.3g} on leg {leg} at {frac:.3f} of it, {time_h:.2f} h; true model: "
+                   + ("no constant speed allowed on the leg" if blocked else "a speed is allowed"))  # fmt: skip
+        if not blocked:
+            continue
+        wp = prob.frame.waypoints(res.offset_nm)
+        lat, lon, _ = gc_points(
+            wp[leg : leg + 1, 0], wp[leg : leg + 1, 1], wp[leg + 1, 0], wp[leg + 1, 1], np.array([frac])
+        )
+        when = units.format_utc(t0 + _h_to_td(time_h))
+        raise NoSafePassage(
+            f"no speed through the water from {prob.v_min:g} to {prob.v_max:.1f} kn is allowed all along leg {leg} "
+            f"entered at {units.format_utc(t0 + _h_to_td(float(res.time_h[leg])))} ({kind}, worst at "
+            f"({float(lat[0]):.3f}, {float(lon[0]):.3f}) at {when}, {time_h:.2f} h after departure; every end of "
+            "the leg across the corridor tried; the time the leg is entered is the elastic phase-1 problem's, a "
+            "local optimum): no safe passage through this corridor in this weather was found; take another "
+            "route, a wider corridor or another departure"
+        )
 
 
 def _applicable_phase1(nlp: SpeedNLP, y0: np.ndarray, v0: np.ndarray, cap_h: float | None) -> Phase1Result:
@@ -129,24 +156,7 @@ def diagnose(
     if not res.success:
         return None
     if res.safety_slack > SLACK_TOL:
-        kind, leg, frac, time_h, slack = res.worst()
-        blocked = _leg_closed(prob, ctx, res, t0, leg)
-        wp = prob.frame.waypoints(res.offset_nm)
-        lat, lon, _ = gc_points(
-            wp[leg : leg + 1, 0], wp[leg : leg + 1, 1], wp[leg + 1, 0], wp[leg + 1, 1], np.array([frac])
-        )
-        log.append(f"phase-1: worst {kind} on leg {leg} at {frac:.3f} of it, {time_h:.2f} h; true model: "
-                   + ("no constant speed allowed on the leg" if blocked else "a speed is allowed"))  # fmt: skip
-        if blocked:
-            when = units.format_utc(t0 + _h_to_td(time_h))
-            raise NoSafePassage(
-                f"no speed through the water from {prob.v_min:g} to {prob.v_max:.1f} kn is allowed all along leg {leg} "
-                f"entered at {units.format_utc(t0 + _h_to_td(float(res.time_h[leg])))} ({kind}, worst at "
-                f"({float(lat[0]):.3f}, {float(lon[0]):.3f}) at {when}, {time_h:.2f} h after departure; every end of "
-                "the leg across the corridor tried; the time the leg is entered is the elastic phase-1 problem's, a "
-                "local optimum): no safe passage through this corridor in this weather was found; take another "
-                "route, a wider corridor or another departure"
-            )
+        _no_safe_passage(prob, ctx, res, t0, log)
         return None
     if res.eta_slack_h > SLACK_TOL and cap_h is not None:
         arrival_h = float(res.time_h[-1])
