@@ -32,6 +32,7 @@ Nothing here imports :mod:`optroute`.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -75,6 +76,8 @@ class Phase1Result:
     sample_fraction : numpy.ndarray, shape (N, M)
         Where each sample is along its leg [-].
     band_names : tuple of str
+    solve_time_s : float
+        Ipopt's wall-clock time [s].
     """
 
     status: str
@@ -90,6 +93,7 @@ class Phase1Result:
     sample_time_h: np.ndarray
     sample_fraction: np.ndarray
     band_names: tuple[str, ...] = field(default=())
+    solve_time_s: float = 0.0
 
     @property
     def safety_slack(self) -> float:
@@ -274,7 +278,9 @@ class Phase1Problem:
         ubx = np.concatenate([y_hi, nlp.v_max_kn, t_hi, slack_hi])
         x0 = np.concatenate([y0, v0, t0, np.zeros(ns)])
         x0[nx:] = self._start_slacks(x0, p, lbg, ubg, eta_h)
+        started = time.perf_counter()
         sol = self._solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        elapsed = time.perf_counter() - started
         stats = self._solver.stats()
         zz = np.asarray(sol["x"], dtype=float).ravel()
         yy, vv, tt = zz[: n + 1], zz[n + 1 : 2 * n + 1], zz[2 * n + 1 : nx]
@@ -295,6 +301,7 @@ class Phase1Problem:
             sample_time_h=tt[:-1, None] + frac * np.diff(tt)[:, None],
             sample_fraction=frac,
             band_names=tuple(b.name or b.kind for b in nlp.bands),
+            solve_time_s=elapsed,
         )
 
     def _start_slacks(
