@@ -30,6 +30,8 @@ from optroute.optimise.nlp_solve import (
     Problem,
     Solved,
     Tightening,
+    clear_of_exclusion,
+    safe_warm_start,
 )
 from optroute.optimise.phase1 import infeasible_eta, phase1_point
 from optroute.plan.result import Exclusion, Plan, PlanContext, Violation
@@ -275,8 +277,14 @@ def first_failure(
     """The first solve failed and no start verifies: find out why from the elastic phase-1 problem, and solve from it.
 
     Ipopt's last iterate is kept where it stopped at a limit on a plan that verifies (:func:`feasible_iterate`).
-    Else the elastic phase-1 problem (:func:`optroute.optimise.phase1.phase1_point`, from the failed solve's start,
-    the ETA row elastic) decides:
+    Else the elastic phase-1 problem (:func:`optroute.optimise.phase1.phase1_point`, the ETA row elastic) decides,
+    started from the other end of the schedule than the failed solve (whose start was ``first_warm``): the
+    fastest speeds the true model allows leg by leg (Boeing's reduction from the top speed,
+    :func:`~optroute.optimise.nlp_solve.safe_warm_start` with the call's rules, moved clear of an exclusion circle;
+    on the beam-seas case of tests/test_band_suite.py the fuel solve from phase-1's point found 18.90 t from this
+    start, as the minimum-time rescue did, and 21.64 t from the failed solve's start; from the reduction with the
+    NLP's back-offs (:func:`~optroute.optimise.nlp_solve.warm_rules`) phase-1 stayed in the synchronous-roll band
+    there):
 
     * a leg the true model closes: :class:`~optroute.errors.NoSafePassage` (raised there);
     * safe, but the ETA (or, without one, the weather's end) missed from its point: the minimum-time solve from
@@ -295,7 +303,12 @@ def first_failure(
             "its plan passes verification; a feasible, not optimal, solution"
         )
         return replace(sol, ok=True)
-    point = phase1_point(prob, nlp, ctx=ctx, warm=first_warm, cap_h=cap_h, t0=t0, log=log)
+    frame = prob.frame
+    top = safe_warm_start(ctx, frame, t0, prob.v_max, prob.v_min, rules=prob.rules)
+    top = clear_of_exclusion(top, frame, prob.exclusion, t0, prob.y_lo, prob.y_hi)
+    log.append(f"phase-1 from the fastest safe speeds, not the failed solve's start ({np.mean(first_warm['stw_kn']):.1f} kn "
+               "on average)")  # fmt: skip
+    point = phase1_point(prob, nlp, ctx=ctx, warm=top, cap_h=cap_h, t0=t0, log=log)
     if point is None:
         raise _failure(sol, route, ctx, step_nm, log, "the elastic phase-1 problem found no safe start either")
     warm = {"offset_nm": point.offset_nm, "stw_kn": point.stw_kn}
