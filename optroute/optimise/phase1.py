@@ -259,8 +259,8 @@ def infeasible_eta(arrival_h: float, *, cap_h: float, eta_user_h: float | None, 
     if eta_user_h is None:
         raise WeatherCoverageError(
             f"the passage cannot be completed within the weather's time span ({cap_h:.1f} h after departure): "
-            f"{what} arrives {arrival_h:.1f} h after departure, at {units.format_utc(earliest)}; extend the "
-            "forecast or pass an ETA"
+            f"{what} arrives {arrival_h:.1f} h after departure, at {units.format_utc(earliest)}; "
+            "extend the forecast or pass an ETA"
         )
     raise InfeasibleETA(
         f"the ETA {cap_h:.2f} h after departure cannot be met: {what} arrives {arrival_h:.2f} h after departure, "
