@@ -234,11 +234,6 @@ def test_phase1_leaves_a_band_for_a_side_without_being_told_which() -> None:
 # --------------------------------------------------------------------------- harness seed 10's cause, in small
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="since the merge of nlpfast the corridor's weather is read through a numpy spline whose CasADi wrapper "
-    "has no MX derivatives: phase-1's automatic derivatives of SpeedNLP.symbolic_model fail to build (passed before)",
-)
 def test_a_first_leg_closed_at_departure_is_no_safe_passage_naming_it() -> None:
     # harness seed 10: no speed is allowed on the first leg when the ship must enter it (at departure), though the
     # sea opens later (so no cross-section is closed at every time: not the blocked-section rule). Head seas of
@@ -247,7 +242,7 @@ def test_a_first_leg_closed_at_departure_is_no_safe_passage_naming_it() -> None:
     import optroute as orx
     from optroute.errors import NoSafePassage
     from optroute.optimise.corridor_problem import PreparedCorridor
-    from optroute.optimise.phase1 import diagnose
+    from optroute.optimise.phase1 import phase1_point
 
     t0 = np.datetime64("2024-01-10T00:00", "ns")
     box = {"bbox": (-5.0, 5.0, -35.0, -20.0), "start": t0, "duration_h": 48.0, "resolution_deg": 1.0}
@@ -260,11 +255,9 @@ def test_a_first_leg_closed_at_departure_is_no_safe_passage_naming_it() -> None:
     prob = pc.problem
     nlp = prob.build(pc._tightening())
     warm = {"offset_nm": np.zeros(pc.frame.n_legs + 1), "stw_kn": np.full(pc.frame.n_legs, 12.0)}
-    kw = {"eta_mode": "le", "objective": "time", "fuel_price": 600.0, "hourly_cost": 0.0}
     log: list[str] = []
     with pytest.raises(NoSafePassage, match=r"all along leg 0 entered at 2024-01-10T00:00:00Z") as err:
-        diagnose(prob, nlp, ctx=pc.plan_context(), warm=warm, cap_h=None, eta_user_h=None, t0=t0, budget=4,
-                 solve_kw=kw, log=log)  # fmt: skip
+        phase1_point(prob, nlp, ctx=pc.plan_context(), warm=warm, cap_h=None, t0=t0, log=log)
     assert "no safe passage" in str(err.value) and log[0].startswith("phase-1: Ipopt Solve_Succeeded")
 
 

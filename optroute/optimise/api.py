@@ -209,22 +209,19 @@ def optimise_corridor(
     Raises
     ------
     InfeasibleETA
-        The ETA cannot be met; ``earliest_arrival`` is the minimum-time solve's arrival (tried from
-        several warm starts, on a weather grid covering its passage).
+        The ETA cannot be met; ``earliest_arrival`` is the minimum-time plan's arrival (its solve started from
+        the elastic phase-1 problem's point where no start verifies, on a weather grid covering its passage).
     SolverFailure
         Ipopt fails (``status`` verbatim) or no tightened re-solve gives a plan that passes
-        verification; ``best_plan`` is the best plan known that passes verification (the minimum-time
-        solve's, the search route's, the safe warm start's, or the timed safe start's passage,
-        :func:`optroute.optimise.min_time.timed_safe_start`), else None. When the timed search finds no passage
-        along the centreline, the message begins with where and when it found no allowed speed.
+        verification, and no verified plan meets the ETA (one that does, the minimum-time plan included, is
+        returned with ``status="start"``); ``best_plan`` is the search route's plan when it verifies, else None.
     WeatherCoverageError
         The corridor or the ETA lies outside the weather.
     NoSafePassage, OnLandError
         No navigable channel joins the corridor's ends (the message names the leg where it closes;
         :func:`optroute.optimise.lateral.lateral_bounds`), or it starts or ends on land; or, after a failed
-        solve, the elastic phase-1 problem leaves a leg that the true model allows no constant speed on, entered
-        where and when phase-1 enters it (the message names the leg, position and time;
-        :mod:`optroute.optimise.phase1`).
+        solve, the elastic phase-1 problem keeps a slack on the first leg and the true model allows no constant
+        speed on it from departure (the message names the leg, position and time; :mod:`optroute.optimise.phase1`).
     """
     from optroute.optimise.corridor_problem import PreparedCorridor
 

@@ -598,7 +598,6 @@ class PreparedCorridor:
             budget=self.band_solves,
             step_nm=self.verify_step_nm,
             solve_kw=call.solve_kw,
-            warm_rules=warm_rules(self.rules, st),
             first_warm=warm,
             log=call.log,
         )
