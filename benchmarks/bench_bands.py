@@ -90,10 +90,13 @@ def _cases() -> list[Case]:
         Case("head, late peak, 16.5 kn", h, c54, 16.5, wave_from_deg=90.0, tp_s=14.0, t_peak_h=16.0),
         Case("head, period 13.5 s, 15 kn", h, c54, 15.0, wave_from_deg=90.0, tp_s=13.5),
         Case("bow, parametric, 15.5 kn", h, c54, 15.5, wave_from_deg=110.0, tp_s=13.5),
-        Case("storm crossing, 17 kn", "storm", c54, 17.0, hs_peak_m=9.0),
-        Case("storm crossing, 18 kn", "storm", c54, 18.0, hs_peak_m=9.0),
-        Case("storm crossing, 8000 TEU, 17 kn", "storm", c8k, 17.0, hs_peak_m=9.0),
-        Case("storm crossing, 7 m, 17.5 kn", "storm", c54, 17.5, hs_peak_m=7.0),
+        # The storm crossings' ETAs lie after the earliest band-safe arrival that benchmarks._bands_reach finds by
+        # brute force on fixed tracks (27.0 h, 27.0 h, 21.9 h and 22.2 h at the worst track): at the 17-18 kn
+        # passages these cases had before, no safe plan existed, so no method could be compared on them.
+        Case("storm crossing, 13 kn", "storm", c54, 13.0, hs_peak_m=9.0),
+        Case("storm crossing, 13.5 kn", "storm", c54, 13.5, hs_peak_m=9.0),
+        Case("storm crossing, 8000 TEU, 16 kn", "storm", c8k, 16.0, hs_peak_m=9.0),
+        Case("storm crossing, 7 m, 16 kn", "storm", c54, 16.0, hs_peak_m=7.0),
     ]
 
 
