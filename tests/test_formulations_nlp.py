@@ -47,7 +47,9 @@ def test_physics_md_analytic_split(eta_mode: str, structured: bool) -> None:
     np.testing.assert_allclose(res.distance_nm, D, rtol=1e-12)
 
 
-@settings(max_examples=200, deadline=None)
+# 50 examples (was 200, the suite's most expensive test at about a minute of CPU): each costs a CasADi build, two
+# Ipopt solves and two Clarabel solves; the CI profile draws the same 50 on every run, and a developer's run new ones
+@settings(max_examples=50, deadline=None)
 @given(
     n=st.integers(2, 20),
     seed=st.integers(0, 2**31 - 1),
@@ -55,7 +57,7 @@ def test_physics_md_analytic_split(eta_mode: str, structured: bool) -> None:
     capped=st.booleans(),
 )
 def test_fixed_path_nlp_equals_the_convex_optimum(n: int, seed: int, slacks: list[float], capped: bool) -> None:
-    # 200 random corridors, each solved for two ETAs: 400 instances against Clarabel (the ETA is a
+    # 50 random corridors, each solved for two ETAs: 100 instances against Clarabel (the ETA is a
     # solve parameter, so the second instance costs a solve, not a CasADi build)
     rng = np.random.default_rng(seed)
     d = rng.uniform(20.0, 300.0, n)

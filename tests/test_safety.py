@@ -285,7 +285,9 @@ def test_explicit_cases_against_brute_force(
 angles = st.one_of(st.floats(0.0, 360.0), st.sampled_from([0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0]))
 
 
-@settings(max_examples=1500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# 500 draws (was 1500) and 800 seeded cases below (was 2500): each compares a closed form with 16 001 grid speeds;
+# the 28 explicit cases above cover every branch by name, the random ones what no one thought to name
+@settings(max_examples=500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     length_m=st.floats(50.0, 400.0),
     roll_s=st.floats(5.0, 40.0),
@@ -307,7 +309,7 @@ def test_closed_form_matches_brute_force_hypothesis(
 
 def test_closed_form_matches_brute_force_random_sweep():
     rng = np.random.default_rng(20240601)
-    for _ in range(2500):
+    for _ in range(800):
         rules = BandRules(
             rule_set=str(rng.choice(["boeing", "imo"])),
             period_form=str(rng.choice(["exact", "imo"])),

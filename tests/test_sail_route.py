@@ -57,9 +57,9 @@ def test_boeing_2008_searched_route_keeps_25_kn_and_arrives_in_about_8_days(boei
     assert r.total_distance_nm < 1.05 * gc
 
 
-def test_unsailable_fixed_route_names_where():
+def test_unsailable_fixed_route_names_where(boeing_2008_north_pacific):
+    _, _, wx = boeing_2008_north_pacific  # the same storms (about 10 CPU-s to build), taken from the fixture
     ship = orx.Ship.preset("container_8000teu")  # Kwon at Beaufort 12 head seas: no headway at any speed
-    wx = orx.scenarios.north_pacific_storms()
     lat, lon = geo.great_circle_points(32.6, -117.4, 35.0, 140.0, 60)
     with pytest.raises(NoSafePassage, match=r"no allowed speed down to 3.0 kn at \(.*\) on leg \d+ at"):
         sail_route(np.column_stack([lat, lon]), wx, ship, departure=wx.time.values[0])
