@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import xarray as xr
 
+from optroute._store import StudyError
 from optroute.errors import (
     ConfigError,
     InfeasibleETA,
@@ -45,15 +46,21 @@ __all__ = [
     "LEG_VARIABLES",
     "FrontPoint",
     "FrontSpec",
+    "SpecMissing",
     "WarmStart",
     "failure_text",
     "front_token",
+    "has_spec",
+    "install_spec",
     "point_from_plan",
     "prepared_corridor",
     "replace_fields",
     "retimed_start",
     "solve_chain",
+    "solve_chain_by_token",
     "solve_point",
+    "solve_point_by_token",
+    "spec_of",
 ]
 
 #: Leg variables a front keeps per point.
@@ -233,6 +240,57 @@ def solve_chain(spec: FrontSpec, etas: Sequence[float], warm: FrontPoint | None,
         warm = p if p.ok else warm
         out.append(p)
     return out
+
+
+#: Front inputs installed in this process (a Dask worker's), by their token, least recently used first: a
+#: front's weather and corridor travel to a worker once (:func:`install_spec`), and its tasks carry the token
+#: alone (:func:`solve_chain_by_token`), so a study's fronts and a benchmark's repetitions ship nothing again.
+SPECS: dict[str, FrontSpec] = {}
+SPECS_KEEP = 4
+
+
+class SpecMissing(StudyError):
+    """A task names front inputs this worker does not hold (it joined later, or evicted them)."""
+
+
+def install_spec(spec: FrontSpec) -> str:
+    """Keep ``spec`` in this process under its token (most recently used last); the token."""
+    if not spec.token:
+        raise ConfigError("install_spec needs a FrontSpec with a token (front_token of its inputs)")
+    with _PREPARING:
+        SPECS.pop(spec.token, None)
+        SPECS[spec.token] = spec
+        while len(SPECS) > SPECS_KEEP:
+            SPECS.pop(next(iter(SPECS)))
+    return spec.token
+
+
+def has_spec(token: str) -> bool:
+    """Whether this process holds the front inputs named ``token``."""
+    return token in SPECS
+
+
+def spec_of(token: str) -> FrontSpec:
+    """The front inputs named ``token`` in this process; :class:`SpecMissing` when it has none."""
+    spec = SPECS.get(token)
+    if spec is None:
+        raise SpecMissing(
+            f"this process holds no front inputs with token {token!r} (a worker that joined after the front "
+            "started, or one that kept newer fronts); the front installs them again and resubmits"
+        )
+    return spec
+
+
+def solve_chain_by_token(token: str, etas: Sequence[float], warm: FrontPoint | None, cold: bool) -> list[FrontPoint]:
+    """:func:`solve_chain` on the front inputs installed in this process under ``token``."""
+    return solve_chain(spec_of(token), etas, warm, cold)
+
+
+def solve_point_by_token(
+    token: str, eta_h: float | None, kind: str, warm: FrontPoint | WarmStart | None, route: Any = None
+) -> FrontPoint:
+    """:func:`solve_point` on the front inputs installed in this process under ``token``."""
+    return solve_point(spec_of(token), eta_h, kind, warm, route)
 
 
 #: Prepared corridors of this process (a Dask worker's too), by the inputs' fingerprint, least recently used
