@@ -73,7 +73,10 @@ the chains.  It is kept in the process, keyed by the fingerprint of the front's 
 study's cases (the two most recent are kept).  Each solve goes through
 :func:`optroute.optimise.api.solve_prepared` (the solve and honest outcomes of
 :func:`optroute.optimise_corridor`) from the untightened problem, so a point does not depend on
-what was solved before it in the process.
+what was solved before it in the process.  On a cluster the front's inputs (its weather, tens of MB)
+travel to each worker once and stay there under the same fingerprint
+(:func:`~optroute.studies.front_points.install_spec`): the tasks carry the token, the ETAs and a warm
+start, so the next front of the same inputs ships nothing.
 """
 
 from __future__ import annotations
