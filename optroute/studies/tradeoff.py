@@ -34,7 +34,8 @@ The ETAs between the two ends are swept from the slow-steaming end, where the pr
 easiest (loads far from the engine's limits), towards the fast one: each point's
 :meth:`~optroute.optimise.corridor_problem.PreparedCorridor.solve` starts from its later
 neighbour's plan sped up to arrive by its own ETA (speeds through the water times
-``arrival / ETA``), which the optimiser takes as Ipopt's start when the referee accepts it and scores it best among
+``arrival / ETA``, then each leg the referee finds outside the engine's range moved to the limit:
+:func:`~optroute.studies.front_points.mended_start`), which the optimiser takes as Ipopt's start when the referee accepts it and scores it best among
 its candidates (its own start otherwise).  One solve per point; only a point whose solve failed is
 solved once more, from the optimiser's own start (``attrs["monotonicity_resolves"]``).  The
 primal solution only: the optimiser's public interface (``warm_plan``) carries no multipliers.
