@@ -16,7 +16,8 @@ The warm-up runs are the first of each: there each process prepares the corridor
 table, CasADi functions — the build is most of a cold front: 83 % of the samples of a 16-leg serial front
 under load), and solves the two ends and every point between on it; in the timed runs it keeps it (keyed
 by the fingerprint of the inputs), as a worker does across the chains and fronts of a study.  Both are
-reported.  The corridor is open ocean with
+reported, with this process's CPU seconds of each serial run and the points where the warm-started
+front ends above (or below) the cold one.  The corridor is open ocean with
 synthetic weather, so the coastline is not applied (``use_land_mask=False``).  Min and median of each
 over the repetitions, with the load average before and after.  ``--quick``: the first half of the corridor
 in 16 legs, 6 ETAs, one repetition.
@@ -24,7 +25,8 @@ in 16 legs, 6 ETAs, one repetition.
 Then a study of 1 200 cases (3 ships × 4 distances × 100 ETAs; quick: 240) through
 :func:`optroute.studies.study.run_study` with its resumable store and text progress bar: serial
 (``"synchronous"``) against a 2-worker local cluster (start-up included), each run again on its
-full store (resumed: nothing computed), in cases per minute.  The case is the calm-water fuel from
+full store (resumed: nothing computed), in cases per minute; on the cluster the cases go in tasks of up
+to 16 (:func:`optroute.studies.study.cases_per_task`).  The case is the calm-water fuel from
 the ship's own curves, cheap on purpose: the figure is the engine's (scheduling and atomic case
 files); an optimiser case adds its solve time on top.  The front's figure goes to
 ``<results>/front.png`` (``front_quick.png`` in quick mode).  Run
@@ -117,11 +119,19 @@ def run(quick: bool) -> dict[str, Any]:
             worker_dashboard_address=None,
         )
     )
+    cpu_serial: list[float] = []
+
+    def serial() -> Any:  # this process's CPU seconds of each serial front, beside its wall-clock time
+        started = time.process_time()
+        out = orx.tradeoff(**common)
+        cpu_serial.append(time.process_time() - started)
+        return out
+
     try:
         address = cluster.scheduler_address
         alt = alternate(
             {
-                "serial": lambda: orx.tradeoff(**common),
+                "serial": serial,
                 "parallel": lambda: orx.tradeoff(**common, scheduler_address=address),
                 "cold": lambda: orx.tradeoff(**common, warm_start=False),
             },
@@ -152,6 +162,11 @@ def run(quick: bool) -> dict[str, Any]:
         "continuation": cont,
         "cold": cont_cold,
         "bit_identical_parallel": _identical(warm, par),
+        "serial_cpu_s": cpu_serial,
+        "points_warm_worse_than_cold": int(
+            np.sum(warm.fuel_t.values > cold.fuel_t.values * (1.0 + 1e-6))  # NaN compares False either way
+        ),
+        "points_warm_better_than_cold": int(np.sum(warm.fuel_t.values < cold.fuel_t.values * (1.0 - 1e-6))),
         "max_rel_fuel_diff_cold": float(
             np.nanmax(np.abs(cold.fuel_t.values - warm.fuel_t.values) / warm.fuel_t.values)
         ),
@@ -194,6 +209,11 @@ def run(quick: bool) -> dict[str, Any]:
         f"{out['warm_over_cold']:.2f}; max rel. fuel diff cold vs warm {out['max_rel_fuel_diff_cold']:.1e}; "
         f"end solves {cont['end_solves_s']:.1f} s of the last serial run; monotone: {out['monotone']}; "
         f"statuses: {', '.join(out['statuses'])}"
+    )
+    print(
+        f"serial CPU [s] of this process per run (warm-up first): {', '.join(f'{c:.1f}' for c in cpu_serial)}; "
+        f"point by point, warm against cold: {out['points_warm_worse_than_cold']} worse, "
+        f"{out['points_warm_better_than_cold']} better (relative 1e-6) of {out['n_points']}"
     )
     save_png(warm.plot(), results_dir() / ("front_quick.png" if quick else "front.png"))
     with tempfile.TemporaryDirectory(prefix="optroute-bench-study-") as folder:

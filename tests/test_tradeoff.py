@@ -178,6 +178,39 @@ def test_one_solve_per_point_and_the_slow_neighbour_sped_up_to_arrive_by_the_nex
     assert points_mod.retimed_start(later, 45.0) is later.carry  # a later ETA: the plan arrives by it as it is
 
 
+def test_a_retimed_start_below_the_minimum_load_is_mended_up_to_it_by_the_propeller_law():
+    """Calm water, fixed path: a leg slowed below the engine's minimum load moves up to the speed where the
+    ship's own calm-water power meets it (by hand, bisection on ``Ship.calm_power_kw``), and no faster than
+    the repair's step beyond; the others keep their speeds, so the plan arrives earlier and verifies."""
+    legs = CORRIDOR.resample(150.0)
+    v_limit = _bisect(lambda v: SHIP.calm_power_kw(v) - SHIP.min_power_kw, 1.0, 20.0)
+    stw = np.full(legs.n_legs, 1.2 * v_limit)  # above the minimum load
+    stw[1] = 0.8 * v_limit  # about half the minimum power
+    spec = points_mod.FrontSpec(
+        CORRIDOR,
+        _calm(),
+        SHIP,
+        T0,
+        "fuel",
+        dict(KW),
+        token=points_mod.front_token(CORRIDOR, _calm(), SHIP, T0, "fuel", KW),
+    )
+    prepared, _ = points_mod.prepared_corridor(spec)
+    eta = T0 + np.timedelta64(60, "h")
+    mended = points_mod.mended_start(prepared, points_mod.WarmStart(legs.waypoints, stw), eta)
+    assert np.array_equal(np.delete(mended.stw_kn, 1), np.delete(stw, 1))
+    assert v_limit <= mended.stw_kn[1] <= v_limit + 0.3
+    plan = orx.Plan.from_context(prepared.plan_context(eta), mended.waypoints, mended.stw_kn, departure=T0)
+    assert not plan.verify() and plan.duration_h <= 60.0
+
+
+def _bisect(f, lo: float, hi: float) -> float:
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if f(mid) < 0 else (lo, mid)
+    return hi
+
+
 def test_chains_split_by_eta_alone_descending_from_the_slow_end():
     split = runners_mod.split_chains
     assert split([1.0, 2.0, 3.0, 4.0, 5.0], 2, True) == [[3.0, 2.0, 1.0], [5.0, 4.0]]

@@ -110,6 +110,59 @@ def test_front_is_bit_identical_serial_run_to_run_and_on_two_workers(cluster):
         assert other.attrs == ser.attrs
 
 
+def _forget_front_inputs() -> None:
+    """Run on a worker: drop the front inputs it holds (module-level, so the worker's own module is cleared)."""
+    import optroute.studies.front_points as fp
+
+    fp.SPECS.clear()
+
+
+def test_a_second_front_on_the_same_workers_ships_nothing_and_a_worker_that_lost_the_inputs_gets_them_again(
+    cluster,
+):
+    """The front's inputs (its weather) travel to each worker once, keyed by their fingerprint."""
+    import distributed
+
+    import optroute.studies.front_points as fp
+    from optroute.studies.front_runners import DaskRunner
+
+    wx = WEATHER["moderate"]
+    token = fp.front_token(CORRIDOR, wx, SHIP, T0, "fuel", KW)
+    spec = fp.FrontSpec(CORRIDOR, wx, SHIP, T0, "fuel", dict(KW), token=token)
+    with distributed.Client(cluster.scheduler_address, set_as_default=False) as client:
+        client.run(_forget_front_inputs)
+        first = DaskRunner(client, spec)
+        assert first.installed == 2 and all(client.run(fp.has_spec, token).values())
+        assert DaskRunner(client, spec).installed == 0  # held by both: nothing shipped
+        client.run(_forget_front_inputs)  # both workers lose the inputs under a running front
+        fast, _ = first.ends(spec, None, need_slow=False)
+    ref = fp.solve_point(spec, None, "minimum_time", None)
+    assert fast.ok and fast.totals.keys() == ref.totals.keys()
+    got, want = (np.array(list(p.totals.values())) for p in (fast, ref))
+    assert np.array_equal(got, want, equal_nan=True)  # installed again, solved as in this process, to the bit
+    assert first.installed == 4
+
+
+def test_a_study_prepares_one_corridor_per_ship_and_weather_and_its_cases_do_not_depend_on_their_order(
+    serial, tmp_path, monkeypatch
+):
+    """The cases of one ship and weather share the process's prepared corridor: one preparation each, and a case
+    gives the same bits whichever cases ran before it on that corridor (here: the ETAs in reverse order)."""
+    import optroute.studies.front_points as fp
+
+    made = []
+    real = fp._prepare
+    monkeypatch.setattr(fp, "_prepare", lambda spec: made.append(spec.token) or real(spec))
+    fp.PREPARED_CORRIDORS.clear()
+    rev = orx.study(
+        [SHIP, SMALL], WEATHER, ETAS[::-1], corridor=CORRIDOR, departure=T0, store=tmp_path / "r", n_workers=0, **KW
+    )
+    assert len(made) == len(set(made)) == 4  # 2 ships x 2 weathers, each prepared once for its 3 ETAs
+    for name in ("fuel_t", "duration_h", "eta_shadow_price_t_per_h", "plan_status"):
+        a, b = serial[name].values, rev[name].sel(eta_h=ETAS).values
+        assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), name  # ==, not approximately
+
+
 def test_interrupted_study_resumes_with_every_case_once(serial, tmp_path, monkeypatch):
     real = vs.solve_point
     calls = {"n": 0}

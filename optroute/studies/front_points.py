@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import xarray as xr
 
+from optroute._store import StudyError
 from optroute.errors import (
     ConfigError,
     InfeasibleETA,
@@ -29,6 +30,7 @@ from optroute.errors import (
 )
 from optroute.optimise.api import optimise_corridor, solve_prepared
 from optroute.optimise.corridor_problem import PreparedCorridor
+from optroute.optimise.starts import repaired_plan
 from optroute.physics.ship import Ship
 from optroute.plan.result import Plan
 from optroute.search.route import Corridor
@@ -45,15 +47,22 @@ __all__ = [
     "LEG_VARIABLES",
     "FrontPoint",
     "FrontSpec",
+    "SpecMissing",
     "WarmStart",
     "failure_text",
     "front_token",
+    "has_spec",
+    "install_spec",
+    "mended_start",
     "point_from_plan",
     "prepared_corridor",
     "replace_fields",
     "retimed_start",
     "solve_chain",
+    "solve_chain_by_token",
     "solve_point",
+    "solve_point_by_token",
+    "spec_of",
 ]
 
 #: Leg variables a front keeps per point.
@@ -172,6 +181,8 @@ def solve_point(
             )
         else:
             with lock:  # one solve at a time: its cached builds are set up per solve (a worker may have threads)
+                if kind == "eta" and isinstance(warm, FrontPoint) and carry is not None and eta is not None:
+                    carry = mended_start(prepared, carry, eta)
                 plan = solve_prepared(
                     prepared,
                     eta,
@@ -225,6 +236,31 @@ def retimed_start(warm: FrontPoint | WarmStart | None, eta_h: float | None) -> W
     return WarmStart(carry.waypoints, np.asarray(carry.stw_kn, dtype=float) * (arrival_h / eta_h * (1.0 + 1e-6)))
 
 
+def mended_start(prepared: PreparedCorridor, carry: WarmStart, eta: np.datetime64) -> WarmStart:
+    """The retimed neighbour's plan with the engine's range mended leg by leg: the continuation's start.
+
+    Sped up to arrive by an earlier ETA, the neighbour's plan passes every point of the track earlier, in
+    other weather: on the benchmark's storm corridor the slow-steaming plan, at the engine's minimum load,
+    fell below it on 18–28 legs at the next four ETAs (following seas), so the referee refused it and every
+    point near the slow end started from the centreline (46–84 Ipopt iterations against 12–17 from a
+    neighbour).  :func:`optroute.optimise.starts.repaired_plan` moves the speed of each such leg to the
+    limit by the propeller law, as the optimiser does for a search route's plan; raising a leg's speed
+    only arrives earlier, so the ETA still holds.  Where it cannot be mended the retimed plan is returned
+    unchanged (the optimiser then starts from its own candidates).
+    """
+    plan, _ = repaired_plan(
+        prepared.plan_context(eta),
+        np.asarray(carry.waypoints, dtype=float),
+        np.asarray(carry.stw_kn, dtype=float),
+        prepared.departure,
+        prepared.verify_step_nm,
+        "start",
+        v_min_kn=prepared.v_min,
+        v_max_kn=prepared.v_max,
+    )
+    return carry if plan is None else WarmStart(np.asarray(plan.waypoints, dtype=float), np.asarray(plan.stw_kn))
+
+
 def solve_chain(spec: FrontSpec, etas: Sequence[float], warm: FrontPoint | None, cold: bool) -> list[FrontPoint]:
     """One chain of ETAs, each point started from the one before (the chain's first from ``warm``)."""
     out = []
@@ -233,6 +269,57 @@ def solve_chain(spec: FrontSpec, etas: Sequence[float], warm: FrontPoint | None,
         warm = p if p.ok else warm
         out.append(p)
     return out
+
+
+#: Front inputs installed in this process (a Dask worker's), by their token, least recently used first: a
+#: front's weather and corridor travel to a worker once (:func:`install_spec`), and its tasks carry the token
+#: alone (:func:`solve_chain_by_token`), so a study's fronts and a benchmark's repetitions ship nothing again.
+SPECS: dict[str, FrontSpec] = {}
+SPECS_KEEP = 4
+
+
+class SpecMissing(StudyError):
+    """A task names front inputs this worker does not hold (it joined later, or evicted them)."""
+
+
+def install_spec(spec: FrontSpec) -> str:
+    """Keep ``spec`` in this process under its token (most recently used last); the token."""
+    if not spec.token:
+        raise ConfigError("install_spec needs a FrontSpec with a token (front_token of its inputs)")
+    with _PREPARING:
+        SPECS.pop(spec.token, None)
+        SPECS[spec.token] = spec
+        while len(SPECS) > SPECS_KEEP:
+            SPECS.pop(next(iter(SPECS)))
+    return spec.token
+
+
+def has_spec(token: str) -> bool:
+    """Whether this process holds the front inputs named ``token``."""
+    return token in SPECS
+
+
+def spec_of(token: str) -> FrontSpec:
+    """The front inputs named ``token`` in this process; :class:`SpecMissing` when it has none."""
+    spec = SPECS.get(token)
+    if spec is None:
+        raise SpecMissing(
+            f"this process holds no front inputs with token {token!r} (a worker that joined after the front "
+            "started, or one that kept newer fronts); the front installs them again and resubmits"
+        )
+    return spec
+
+
+def solve_chain_by_token(token: str, etas: Sequence[float], warm: FrontPoint | None, cold: bool) -> list[FrontPoint]:
+    """:func:`solve_chain` on the front inputs installed in this process under ``token``."""
+    return solve_chain(spec_of(token), etas, warm, cold)
+
+
+def solve_point_by_token(
+    token: str, eta_h: float | None, kind: str, warm: FrontPoint | WarmStart | None, route: Any = None
+) -> FrontPoint:
+    """:func:`solve_point` on the front inputs installed in this process under ``token``."""
+    return solve_point(spec_of(token), eta_h, kind, warm, route)
 
 
 #: Prepared corridors of this process (a Dask worker's too), by the inputs' fingerprint, least recently used

@@ -14,7 +14,17 @@ import numpy as np
 if TYPE_CHECKING:
     pass
 
-from optroute.studies.front_points import FrontPoint, FrontSpec, solve_chain, solve_point
+from optroute.studies.front_points import (
+    FrontPoint,
+    FrontSpec,
+    SpecMissing,
+    has_spec,
+    install_spec,
+    solve_chain,
+    solve_chain_by_token,
+    solve_point,
+    solve_point_by_token,
+)
 
 __all__ = ["DaskRunner", "SerialRunner", "split_chains"]
 
@@ -48,26 +58,56 @@ class SerialRunner:
 
 
 class DaskRunner:
-    """Runs the end solves side by side and each chain as one task on a Dask cluster."""
+    """Runs the end solves side by side and each chain as one task on a Dask cluster.
+
+    The front's inputs (its weather, tens of MB) travel to each worker once and stay there, keyed by their
+    fingerprint (:func:`~optroute.studies.front_points.install_spec`); the tasks carry that token, the ETAs
+    and a warm start only, so the next front of the same inputs — a benchmark's repetition, a study's —
+    ships nothing again and finds the worker's prepared corridor.
+    """
 
     def __init__(self, client: Any, spec: FrontSpec) -> None:
         self.client = client
-        self.spec = client.scatter(spec, broadcast=True, hash=False)
-        self.workers = sorted(client.scheduler_info()["workers"])
-        self._shipped: Any = None  # the spec naming the chains' latest ETA, once scattered
+        self.token = spec.token
+        self._spec = spec
+        self.workers: list[str] = []
+        self.installed = 0  # workers the inputs were shipped to by this front
+        self._install()
+
+    def _install(self) -> None:
+        """Ship the inputs to the workers that do not hold them; the workers holding them run the tasks."""
+        held = self.client.run(has_spec, self.token)
+        missing = sorted(w for w, ok in held.items() if not ok)
+        if missing:
+            self.client.run(install_spec, self._spec, workers=missing)
+            self.installed += len(missing)
+        self.workers = sorted(held)
+
+    def _submit(self, fn: Callable[..., Any], *args: Any) -> Any:
+        return self.client.submit(fn, self.token, *args, workers=self.workers, allow_other_workers=False, pure=False)
+
+    def _result(self, fut: Any, fn: Callable[..., Any], *args: Any) -> Any:
+        """A task's result; a worker that lost the inputs (:class:`SpecMissing`) gets them again, once."""
+        try:
+            return fut.result()
+        except SpecMissing:
+            self._install()
+            return self._submit(fn, *args).result()
 
     def ends(self, spec: FrontSpec, route: Any, need_slow: bool) -> tuple[FrontPoint, FrontPoint | None]:
-        fast = self.client.submit(solve_point, self.spec, None, "minimum_time", None, route, pure=False)
-        slow = (
-            self.client.submit(solve_point, self.spec, None, "slow_steaming", None, pure=False) if need_slow else None
+        fast_args = (None, "minimum_time", None, route)
+        slow_args = (None, "slow_steaming", None)
+        fast = self._submit(solve_point_by_token, *fast_args)
+        slow = self._submit(solve_point_by_token, *slow_args) if need_slow else None
+        return (
+            self._result(fast, solve_point_by_token, *fast_args),
+            self._result(slow, solve_point_by_token, *slow_args) if slow is not None else None,
         )
-        return fast.result(), slow.result() if slow is not None else None
 
     def resolve(self, spec: FrontSpec, eta_h: float, starts: list[FrontPoint | None]) -> list[FrontPoint]:
         """Solves of one ETA from several starts, side by side (the workers' prepared corridors serve them)."""
-        shipped = self._shipped if self._shipped is not None else self.client.scatter(spec, broadcast=True, hash=False)
-        futures = [self.client.submit(solve_point, shipped, eta_h, "eta", w, pure=False) for w in starts]
-        return [f.result() for f in futures]
+        futures = [(self._submit(solve_point_by_token, eta_h, "eta", w), w) for w in starts]
+        return [self._result(f, solve_point_by_token, eta_h, "eta", w) for f, w in futures]
 
     def chains(
         self,
@@ -78,13 +118,14 @@ class DaskRunner:
     ) -> list[FrontPoint]:
         from distributed import as_completed
 
-        # the spec now names the chains' latest ETA: each worker prepares the corridor once for it (and keeps it)
-        shipped = self._shipped = self.client.scatter(spec, broadcast=True, hash=False)
         # one task per chain (a chain's points run one after the other anyway): few, long tasks, streamed back
-        futures = [self.client.submit(solve_chain, shipped, etas, warm, cold, pure=False) for etas, warm in chains]
+        args, futures = {}, []
+        for etas, warm in chains:
+            futures.append(self._submit(solve_chain_by_token, etas, warm, cold))
+            args[futures[-1].key] = (etas, warm, cold)
         out = []
         for fut in as_completed(futures, loop=self.client.loop):
-            for p in fut.result():
+            for p in self._result(fut, solve_chain_by_token, *args[fut.key]):
                 out.append(p)
                 report(p)
             fut.release()

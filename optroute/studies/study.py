@@ -364,6 +364,30 @@ def _run_case(
 # --------------------------------------------------------------------------- execution
 
 
+def _run_batch(
+    case_fn: CaseFunction,
+    batch: Sequence[tuple[tuple[int, ...], dict[str, Any], bool, str | None]],
+    reserved: Sequence[str],
+    store: str | None,
+) -> list[_Outcome]:
+    """The task of a batch of cases: :func:`_run_case` on each, one after the other, each stored as it finishes."""
+    return [_run_case(case_fn, index, params, reserved, store, again, inputs) for index, params, again, inputs in batch]
+
+
+def cases_per_task(pending: int, workers: int) -> int:
+    """Cases per Dask task: about eight tasks per worker, at most :data:`MAX_CASES_PER_TASK` cases each.
+
+    A task costs the scheduler a few milliseconds whatever it computes; a cheap case (a calm-water fuel figure)
+    costs less than that, so one task per case made two workers slower than one process.  Eight tasks per
+    worker keep the load balanced and the progress bar moving; the ceiling bounds the wait for a batch's
+    results (each case is stored by the worker as soon as it is computed, whatever the batch).
+    """
+    return max(1, min(MAX_CASES_PER_TASK, pending // max(8 * workers, 1)))
+
+
+MAX_CASES_PER_TASK = 16
+
+
 def _run_distributed(
     client: Any,
     case_fn: CaseFunction,
@@ -381,55 +405,67 @@ def _run_distributed(
     # The case function travels once per worker (as a task result the scheduler can recompute if the
     # worker holding it dies), not once per case: it may carry a corridor and a weather dataset.
     fn = client.submit(_identity, case_fn, pure=False, key=f"optroute-study-{token}-case_fn")
-    index_of: dict[str, tuple[int, ...]] = {}
+    size = cases_per_task(len(pending), max(len(client.scheduler_info().get("workers", {})), 1))
+    # contiguous batches in C order: a batch's cases share their leading axes (ship, weather), hence a worker's
+    # prepared corridor
+    batch_of: dict[str, list[tuple[int, ...]]] = {}
     submitted = []
-    for index in pending:
-        name = _store.case_name(index)[: -len(".nc")]
+    for first in range(0, len(pending), size):
+        indices = pending[first : first + size]
+        batch = [(index, params(index), index in replace, inputs_of(index)) for index in indices]
+        name = _store.case_name(indices[0])[: -len(".nc")]
         fut = client.submit(
-            _run_case,
-            fn,
-            index,
-            params(index),
-            reserved,
-            store,
-            index in replace,
-            inputs_of(index),
-            pure=False,
-            key=f"optroute-study-{token}-{name}",
+            _run_batch, fn, batch, reserved, store, pure=False, key=f"optroute-study-{token}-{name}-{len(indices)}"
         )
-        index_of[fut.key] = index
+        batch_of[fut.key] = indices
         submitted.append(fut)
     futures = as_completed(submitted, loop=client.loop)
     del submitted  # hold each result only until it is stored
     for fut in futures:
-        index = index_of.pop(fut.key)
-        if fut.status == "finished":
-            outcome = fut.result()
-        elif fut.status == "error" and fn.status == "error":
-            exc = fn.exception()
-            raise StudyError(
-                f"the Dask workers could not load case_fn ({type(exc).__name__}: {exc}); make its module importable "
-                "on every worker (same code and environment), or bind it with functools.partial to a module-level "
-                f"function; no case was recorded as failed: run the study again to resume"
-            ) from exc
-        elif fut.status == "error" and isinstance(fut.exception(), _WorkerStoreError):
-            exc = fut.exception()
-            raise StudyError(
-                f"{exc}; the workers must be able to write the store (on a shared filesystem, at the same path): "
-                "fix that, or pass store_on_workers=False to have this process write every case file; "
-                "then run the study again to resume"
-            ) from exc
-        elif fut.status == "error":  # the task itself failed: a worker died under it (KilledWorker), SystemExit…
-            exc = fut.exception()
-            tb = "".join(traceback.format_tb(fut.traceback())) + "".join(traceback.format_exception_only(exc))
-            outcome = _failure(index, exc, math.nan, tb, inputs_of(index))
-        else:
-            raise StudyError(
-                f"the Dask cluster lost case {index} (its future is {fut.status!r}), most likely because the "
-                "scheduler went away; the cases finished so far are stored: run the study again to resume"
-            )
+        indices = batch_of.pop(fut.key)
+        for outcome in _batch_outcomes(fut, fn, indices, store, inputs_of):
+            on_outcome(outcome)
         fut.release()
-        on_outcome(outcome)
+
+
+def _batch_outcomes(
+    fut: Any,
+    fn: Any,
+    indices: list[tuple[int, ...]],
+    store: str | None,
+    inputs_of: Callable[[tuple[int, ...]], str | None],
+) -> list[_Outcome]:
+    """The outcomes of a finished batch task; a task that failed fails its cases not yet stored (or raises)."""
+    if fut.status == "finished":
+        return fut.result()
+    if fut.status == "error" and fn.status == "error":
+        exc = fn.exception()
+        raise StudyError(
+            f"the Dask workers could not load case_fn ({type(exc).__name__}: {exc}); make its module importable "
+            "on every worker (same code and environment), or bind it with functools.partial to a module-level "
+            f"function; no case was recorded as failed: run the study again to resume"
+        ) from exc
+    if fut.status == "error" and isinstance(fut.exception(), _WorkerStoreError):
+        exc = fut.exception()
+        raise StudyError(
+            f"{exc}; the workers must be able to write the store (on a shared filesystem, at the same path): "
+            "fix that, or pass store_on_workers=False to have this process write every case file; "
+            "then run the study again to resume"
+        ) from exc
+    if fut.status == "error":  # the task itself failed: a worker died under it (KilledWorker), SystemExit…
+        exc = fut.exception()
+        tb = "".join(traceback.format_tb(fut.traceback())) + "".join(traceback.format_exception_only(exc))
+        stored = (lambda i: (_store.cases_dir(Path(store)) / _store.case_name(i)).exists()) if store else None
+        return [
+            _Outcome(index, "stored", None, math.nan)
+            if stored is not None and stored(index)  # stored by the worker before the task died
+            else _failure(index, exc, math.nan, tb, inputs_of(index))
+            for index in indices
+        ]
+    raise StudyError(
+        f"the Dask cluster lost cases {indices[0]} to {indices[-1]} (their task is {fut.status!r}), most likely "
+        "because the scheduler went away; the cases finished so far are stored: run the study again to resume"
+    )
 
 
 # --------------------------------------------------------------------------- public API
@@ -586,7 +622,11 @@ def run_study(
     deleted.  A worker that dies while running a case is replaced and the case
     re-run by Dask (a re-run whose file already exists returns at once); a
     case that kills its worker repeatedly is recorded as ``"failed:
-    KilledWorker: ..."``.  An exception raised by ``case_fn`` is recorded as
+    KilledWorker: ..."``, with the cases of its task not yet stored.  On a
+    cluster the cases go in tasks of up to 16 contiguous cases
+    (:func:`cases_per_task`: about eight tasks per worker), each case stored as
+    soon as it is computed: a task per cheap case cost more in scheduling than
+    the case.  An exception raised by ``case_fn`` is recorded as
     that case's status (the traceback is kept in the case file's
     ``optroute_study_traceback`` attribute) and not retried unless
     ``retry_failed=True``.  One run at a time may write a store (an advisory

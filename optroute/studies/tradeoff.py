@@ -34,7 +34,8 @@ The ETAs between the two ends are swept from the slow-steaming end, where the pr
 easiest (loads far from the engine's limits), towards the fast one: each point's
 :meth:`~optroute.optimise.corridor_problem.PreparedCorridor.solve` starts from its later
 neighbour's plan sped up to arrive by its own ETA (speeds through the water times
-``arrival / ETA``), which the optimiser takes as Ipopt's start when the referee accepts it and scores it best among
+``arrival / ETA``, then each leg the referee finds outside the engine's range moved to the limit:
+:func:`~optroute.studies.front_points.mended_start`), which the optimiser takes as Ipopt's start when the referee accepts it and scores it best among
 its candidates (its own start otherwise).  One solve per point; only a point whose solve failed is
 solved once more, from the optimiser's own start (``attrs["monotonicity_resolves"]``).  The
 primal solution only: the optimiser's public interface (``warm_plan``) carries no multipliers.
@@ -73,7 +74,10 @@ the chains.  It is kept in the process, keyed by the fingerprint of the front's 
 study's cases (the two most recent are kept).  Each solve goes through
 :func:`optroute.optimise.api.solve_prepared` (the solve and honest outcomes of
 :func:`optroute.optimise_corridor`) from the untightened problem, so a point does not depend on
-what was solved before it in the process.
+what was solved before it in the process.  On a cluster the front's inputs (its weather, tens of MB)
+travel to each worker once and stay there under the same fingerprint
+(:func:`~optroute.studies.front_points.install_spec`): the tasks carry the token, the ETAs and a warm
+start, so the next front of the same inputs ships nothing.
 """
 
 from __future__ import annotations

@@ -62,7 +62,13 @@ _corridors: dict[tuple[Any, ...], tuple[Corridor, Any]] = {}  # per worker proce
 
 
 def _weather(ref: xr.Dataset | str) -> xr.Dataset:
-    return ref if isinstance(ref, xr.Dataset) else load_weather(ref)
+    """The weather of a case, in memory: a file is read and closed (a prepared corridor kept in the process holds
+    the dataset, and must not hold the file open: it may be overwritten by the next forecast)."""
+    if isinstance(ref, xr.Dataset):
+        return ref
+    ds = load_weather(ref)
+    with ds:
+        return ds.load()
 
 
 def voyage_case(
@@ -77,6 +83,7 @@ def voyage_case(
     corridor_width_nm: float,
     search_options: Mapping[str, Any] | None,
     optimise_kwargs: Mapping[str, Any],
+    tokens: Mapping[tuple[str, str], str] | None = None,
 ) -> dict[str, Any]:
     """One case of a voyage study: optimise one ship through one weather for one ETA.
 
@@ -94,6 +101,12 @@ def voyage_case(
         [UTC]; default the weather's first time.
     objective, corridor_width_nm, search_options, optimise_kwargs
         As in :func:`study`.
+    tokens : mapping, optional
+        ``(ship label, weather label) →`` the fingerprint of every input of a case but its ETA
+        (:func:`study` computes them from the inputs' digests): the cases of one ship and weather solve
+        on the corridor prepared once per process for the weather's whole time span, as a front's points
+        do (:func:`optroute.studies.front_points.prepared_corridor`).  Without it each case prepares its
+        own, for its ETA.
 
     Returns
     -------
@@ -126,7 +139,8 @@ def voyage_case(
             )
             _corridors[key] = (found.corridor(width_nm=corridor_width_nm), found)
         corridor, route = _corridors[key]
-    spec = FrontSpec(corridor, wx, ship, t0, objective, dict(optimise_kwargs))
+    token = tokens.get((case["ship"], case["scenario"]), "") if tokens is not None else ""
+    spec = FrontSpec(corridor, wx, ship, t0, objective, dict(optimise_kwargs), token=token)
     if eta_h <= 0:
         status = f"infeasible: the ETA is {eta_h:.2f} h after the departure {format_utc(t0)}"
         out: dict[str, Any] = {k: math.nan for k in TOTALS}
@@ -307,6 +321,22 @@ def _inputs_fn(
     return inputs
 
 
+def _case_tokens(
+    inputs: Any, ships: Mapping[str, Ship], weathers: Mapping[str, Any], eta_name: str, any_eta: Any
+) -> dict[tuple[str, str], str]:
+    """``(ship, weather) →`` the digest of every input of a case but the ETA: the key of its prepared corridor.
+
+    Made of the digests the store records (:func:`_inputs_fn`), so two cases share a prepared corridor exactly
+    when their ship, weather content, route, departure and options are equal.
+    """
+    out = {}
+    for s in ships:
+        for w in weathers:
+            recorded = inputs({"ship": s, "scenario": w, eta_name: any_eta})
+            out[(s, w)] = digest(("voyage-study", sorted((k, v.digest) for k, v in recorded.items() if k != "eta")))
+    return out
+
+
 # --------------------------------------------------------------------------- public API
 
 
@@ -428,6 +458,15 @@ def study(
         search_options=dict(search_options or {}),
         optimise_kwargs=dict(optimise_kwargs),
     )
+    inputs = _inputs_fn(
+        ship_map,
+        weather_map,
+        _route_input(corridor, endpoints, float(corridor_width_nm), dict(search_options or {})),
+        t0,
+        objective,
+        dict(optimise_kwargs),
+    )
+    case_fn = functools.partial(case_fn, tokens=_case_tokens(inputs, ship_map, weather_map, eta_name, eta_values[0]))
     axes = {"ship": list(ship_map), "scenario": list(weather_map), eta_name: eta_values}
     ds = run_study(
         axes,
@@ -439,14 +478,7 @@ def study(
         resume=resume,
         retry_failed=retry_failed,
         timeout_s=timeout_s,
-        case_inputs=_inputs_fn(
-            ship_map,
-            weather_map,
-            _route_input(corridor, endpoints, float(corridor_width_nm), dict(search_options or {})),
-            t0,
-            objective,
-            dict(optimise_kwargs),
-        ),
+        case_inputs=inputs,
         on_changed_inputs=on_changed_inputs,
     )
     if t0 is not None and eta_name == "eta_h":
