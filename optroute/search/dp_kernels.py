@@ -74,7 +74,8 @@ class DPLegKernel:
     params : ndarray
         :func:`optroute.physics.pointwise.point_params`.
     weather : tuple
-        :class:`optroute.weather.sample.PointWeather` fields.
+        :class:`optroute.weather.sample.PointWeather` fields and their node bounds
+        (:func:`optroute.search.band_bounds.weather_with_bounds`).
     pieces : callable
         ``pieces(lat0, lon0, lat1, lon1) -> (dist_nm, n_pieces (n, 1), frac, lat, lon, course)``,
         the callback's own leg geometry.
