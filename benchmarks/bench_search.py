@@ -35,8 +35,8 @@
    :mod:`optroute.search.dp_kernels` (after), CPU seconds of the process.
 1d. The weather's end as the search's time limit: the fuel objective's λ
    rounds with the limit and without it (:func:`bench_time_limit`).
-1e. Where the compiled A*'s time goes: the band check on and off
-   (:func:`bench_band_check_share`).
+1e. Where the compiled A*'s time goes: the band check on (with and without the node-bound
+   certificate of :mod:`optroute.search.band_bounds`) and off (:func:`bench_band_check_share`).
 1f. (full mode) ``plan_voyage`` San Diego → Tokyo through the storms with its
    defaults, end to end (the issue's target is <= 10 s).
 2. The graph sizes of seed 003's Table 1 (Gulf of Gdańsk, 595–3 222
@@ -338,27 +338,42 @@ def bench_dp_physics(quick: bool) -> dict[str, Any]:
 
 
 def bench_band_check_share(quick: bool) -> dict[str, Any]:
-    """Where the compiled A*'s time goes: the same search with the band check (every 10 nm and between, the default)
-    and with each piece checked at its midpoint only, calm and storms, CPU seconds of this process, same run.
+    """Where the compiled A*'s time goes: the same search with the band check (every 10 nm and between, the default),
+    the same without the node-bound certificate (:mod:`optroute.search.band_bounds`: every piece refined, as before
+    issue 15's band-check work) and with each piece checked at its midpoint only, calm and storms, CPU seconds of this
+    process, same run.
 
     The graph, the nodes expanded and the edges costed barely change, so the difference is the check's share of
-    the leg costing; the rest (bookkeeping, sampling, the speed choice) is what the midpoint-only search takes.
+    the leg costing; the rest (bookkeeping, sampling, the speed choice) is what the midpoint-only search takes.  The
+    certificate changes no label: the arrivals of the first two rows are equal.
     """
     import warnings
+
+    from optroute.search import band_bounds, passage_physics
 
     ship = orx.Ship.preset("container_8000teu")
     wx = _pacific_weather()
     cell = 60.0 if quick else 20.0
     rows = []
+    with_bounds = passage_physics.weather_with_bounds
+
+    def without_bounds(pw: Any) -> tuple:
+        return (*tuple(pw)[:6], band_bounds.NO_BOUNDS)
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for name in ("calm", "storms"):
-            for check in (10.0, None):
+            for check, certificate in ((10.0, True), (10.0, False), (None, True)):
                 kw = dict(start=orx.scenarios.SAN_DIEGO, end=orx.scenarios.TOKYO, weather=wx[name], ship=ship,
                           departure=wx["t0"], cell_nm=cell, band_check_nm=check)  # fmt: skip
-                cpu = time.process_time()
-                route, seen = _search_route_timed(kw)
-                rows.append({"weather": name, "check_nm": check, "cpu_s": time.process_time() - cpu,
+                passage_physics.weather_with_bounds = with_bounds if certificate else without_bounds
+                try:
+                    cpu = time.process_time()
+                    route, seen = _search_route_timed(kw)
+                    cpu = time.process_time() - cpu
+                finally:
+                    passage_physics.weather_with_bounds = with_bounds
+                rows.append({"weather": name, "check_nm": check, "certificate": certificate, "cpu_s": cpu,
                              "search_s": seen["search_s"], "edges": route.stats["evaluated_edges"],
                              "expanded": route.stats["expanded"], "arrival_h": route.total_duration_h})  # fmt: skip
     return {"cell_nm": cell, "rows": rows}
@@ -562,9 +577,11 @@ def run(quick: bool) -> dict[str, Any]:
           "edges costed | arrival [h] |")  # fmt: skip
     print("|---|---|---:|---:|---:|---:|---:|")
     for r in bc["rows"]:
-        check = "every 10 nm + between (default)" if r["check_nm"] else "midpoint only"
+        check = "midpoint only"
+        if r["check_nm"]:
+            check = "every 10 nm + between (default)" if r["certificate"] else "every 10 nm + between, no certificate"
         print(f"| {r['weather']} | {check} | {r['cpu_s']:.2f} | {r['search_s']:.2f} | {r['expanded']:,} | "
-              f"{r['edges']:,} | {r['arrival_h']:.2f} |")  # fmt: skip
+              f"{r['edges']:,} | {r['arrival_h']:.9f} |")  # fmt: skip
     print()
     tl = bench_time_limit(quick)
     print(f"### The weather's end as the search's time limit: fuel objective, San Diego → Tokyo, storms, "

@@ -49,6 +49,7 @@ from optroute.physics.speed_loss import (
     MAX_CALM_FROUDE,
     calm_speed_point,
     kwon_cu_coefficients,
+    kwon_weather_speed_increasing,
 )
 
 __all__ = [
@@ -58,6 +59,7 @@ __all__ = [
     "beaufort_from_hs",
     "beaufort_from_wind",
     "brake_power",
+    "brake_power_bound",
     "cached_point_params",
     "cost_rate_floor",
     "evaluate_speed",
@@ -259,6 +261,33 @@ def brake_power(p, stw_kn, hs_m, wave_angle_deg, wind_speed_ms):  # pragma: no c
     if not math.isfinite(v1):
         return np.inf
     return calm_power(p, v1)
+
+
+@jit
+def brake_power_bound(p, stw_lo_kn, stw_hi_kn, bn_max):  # pragma: no cover - compiled
+    """An upper bound on :func:`brake_power` at every speed in [``stw_lo_kn``, ``stw_hi_kn``], any wave angle, BN <= ``bn_max`` [kW].
+
+    Calm water: the admiralty power at ``stw_hi_kn``.  Kwon (2008): C_β <= 1 at every angle and
+    C_Form increases with BN, so the loss per C_U is at most ``C_Form(bn_max) / 100``; where the
+    weather speed increases with the calm speed over [``stw_lo_kn``, V_max] at that loss (then at
+    every smaller loss too), the calm speed :func:`calm_speed_point` finds is unique, grows with the
+    loss and with the speed wanted, so its power at (``stw_hi_kn``, the largest loss) bounds every
+    other, up to the few ulps the root is found to (a relative 1e-9 is added).  ``inf`` where this
+    does not hold (the bound is then unknown).
+    """
+    if p[P_KWON] == 0.0:
+        return calm_power(p, stw_hi_kn) * (1.0 + 1e-9)
+    v_max = p[P_VMAX_KN]
+    if not (0.0 < stw_lo_kn <= stw_hi_kn <= v_max):
+        return np.inf
+    loss = kwon_form_coefficient(bn_max, p[P_FORM_LINEAR], p[P_FORM_DIV], p[P_V23]) / 100.0
+    a, b, c, inv = p[P_CU_A], p[P_CU_B], p[P_CU_C], p[P_INV_SQRT_GL_KN]
+    if not kwon_weather_speed_increasing(stw_lo_kn, v_max, a, b, c, loss * (1.0 + 1e-6), inv):
+        return np.inf
+    v1 = calm_speed_point(stw_hi_kn, a, b, c, loss, inv, v_max, KWON_SCAN_STEPS, KWON_BISECTIONS)
+    if not math.isfinite(v1):
+        return np.inf
+    return calm_power(p, v1) * (1.0 + 1e-9)
 
 
 @jit

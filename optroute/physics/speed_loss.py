@@ -88,6 +88,7 @@ __all__ = [
     "kwon_form_coefficient",
     "kwon_speed_coefficient",
     "kwon_speed_loss_pct",
+    "kwon_weather_speed_increasing",
     "speed_in_weather_kn",
 ]
 
@@ -600,6 +601,11 @@ def _kwon_slope_positive(v2, v_max, a, b, c, loss_per_cu, inv_sqrt_gl_kn):  # pr
         if f_lo < f_v < f_hi:
             q = max(q, a + f_v * (2.0 * b + 3.0 * c * f_v))
     return loss_per_cu * q < 1.0
+
+
+kwon_weather_speed_increasing = _kwon_slope_positive
+"""Public name of the monotonicity test :func:`calm_speed_point` branches on (its unique-root case): where it
+holds for a loss ``k``, it holds for every smaller loss, and the calm speed found grows with ``k`` and with V2."""
 
 
 @jit

@@ -43,7 +43,8 @@ class LegKernel:
     params : ndarray
         :func:`optroute.physics.pointwise.point_params` (the vessel's physics; one vector, one function).
     weather : tuple
-        :class:`optroute.weather.sample.PointWeather` fields.
+        :class:`optroute.weather.sample.PointWeather` fields and their node bounds
+        (:func:`optroute.search.band_bounds.weather_with_bounds`).
     mode : int
         :data:`~optroute.search.passage_kernels.MODE_TIME` or ``MODE_CHEAPEST``.
     check_nm : float

@@ -46,8 +46,7 @@ import numpy as np
 from optroute import units
 from optroute._numba import jit
 from optroute.physics.pointwise import P_MIN_POWER, calm_power, fuel_rate
-from optroute.search.passage_kernels import cost_dp_leg
-from optroute.weather.sample import N_POINT_FIELDS
+from optroute.search.passage_kernels import cost_dp_leg, dp_workspace
 
 _FLOOR_SLACK = 1.0 - 1e-9  # rounding room: the bound stays below the kernel's sum over pieces
 _CURRENT_SLACK = 1.0 + 1e-9
@@ -79,7 +78,8 @@ class DPLegKernel:
     params : ndarray
         :func:`optroute.physics.pointwise.point_params`.
     weather : tuple
-        :class:`optroute.weather.sample.PointWeather` fields.
+        :class:`optroute.weather.sample.PointWeather` fields and their node bounds
+        (:func:`optroute.search.band_bounds.weather_with_bounds`).
     pieces : callable
         ``pieces(lat0, lon0, lat1, lon1) -> (dist_nm, n_pieces (n, 1), frac, lat, lon, course)``,
         the callback's own leg geometry.
@@ -223,7 +223,7 @@ def resolve(
     ``fuel1`` the labels: NaN where infeasible).  Returns ``(best candidate per group or -1,
     legs costed, uncovered points)``.
     """
-    sea = np.empty(N_POINT_FIELDS)
+    work = dp_workspace()
     best_out = np.full(unresolved.size, -1, dtype=np.int64)
     n_costed = 0
     uncovered = 0
@@ -245,7 +245,7 @@ def resolve(
             g = geom_of[src_l[s], lj[c]]
             sog = speeds[vi[c]]
             ok, f_sum, _, _, unc = cost_dp_leg(
-                p, w, geo_lat, geo_lon, geo_course, geo_frac, geo_n, g, src_t[s], sog, dist, sea
+                p, w, geo_lat, geo_lon, geo_course, geo_frac, geo_n, g, src_t[s], sog, dist, work
             )
             uncovered += unc
             n_costed += 1

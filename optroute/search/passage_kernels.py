@@ -14,7 +14,8 @@ the one-point functions the referee uses (:mod:`optroute.physics.pointwise`,
   failing speed struck out and the next taken (as
   :meth:`~optroute.search.passage_physics.PassagePhysics.segment_checked`);
 * :func:`cost_dp_legs` — the DP's legs at a commanded speed over ground,
-  checked piece by piece (as :meth:`~optroute.search.passage_physics.PassagePhysics.dp_leg`).
+  costed at each piece's midpoint and checked along each piece by the referee's rules
+  (as :meth:`~optroute.search.passage_physics.PassagePhysics.dp_leg`).
 
 The piece and check-point geometry comes from :mod:`optroute.search.edge_geometry`
 (the DP's leg points from :mod:`optroute.search.piece_geometry`).
@@ -157,7 +158,7 @@ def _checked_piece(
                     inv[j] = inv_new[j]
                 continue
             if piece_clear(
-                p, w, spd, mid[0], mid[1], mid[2], mid[3], s_pts, tt, npts, la, lo, crs, sea_pts, refine[0],
+                p, w, spd, False, mid[0], mid[1], mid[2], mid[3], s_pts, tt, npts, la, lo, crs, sea_pts, refine[0],
                 refine[1], refine[2],
             ):  # fmt: skip
                 return dur, fu, True, uncovered
@@ -316,7 +317,7 @@ def cost_legs(
 
 @jit
 def cost_dp_legs(p, w, lat, lon, course, frac, n_pieces, leg_of, t0_h, sog_kn, dist_nm):  # pragma: no cover - compiled
-    """The 3-D DP's legs at a commanded SOG, checked at each piece's midpoint (``PassagePhysics.dp_leg``).
+    """The 3-D DP's legs at a commanded SOG, costed at each piece's midpoint and checked along it (``PassagePhysics.dp_leg``).
 
     Parameters
     ----------
@@ -339,7 +340,8 @@ def cost_dp_legs(p, w, lat, lon, course, frac, n_pieces, leg_of, t0_h, sog_kn, d
         dist / SOG, and the pieces' mean fuel rate times it (NaN where infeasible).
     feasible : ndarray of bool
         Every piece, at the time the ship passes it: the STW making the SOG
-        good against the current > 0 and allowed.
+        good against the current > 0 and allowed at its midpoint, its ends and
+        wherever the referee's rules look between (:func:`cost_dp_leg`).
     stw_kn, power_kw : ndarray
         Mean STW [kn] and brake power [kW] over the pieces.
     uncovered : int
@@ -352,11 +354,11 @@ def cost_dp_legs(p, w, lat, lon, course, frac, n_pieces, leg_of, t0_h, sog_kn, d
     stw_mean = np.full(n, np.nan)
     power_mean = np.full(n, np.nan)
     feas = np.zeros(n, dtype=np.bool_)
-    sea = np.empty(N_POINT_FIELDS)
+    work = dp_workspace()
     uncovered = 0
     for i in range(n):
         ok, f_sum, s_sum, p_sum, unc = cost_dp_leg(p, w, lat, lon, course, frac, n_pieces, leg_of[i], t0_h[i],
-                                                   sog_kn[i], dist_nm, sea)  # fmt: skip
+                                                   sog_kn[i], dist_nm, work)  # fmt: skip
         uncovered += unc
         if ok:
             feas[i] = True
@@ -367,13 +369,58 @@ def cost_dp_legs(p, w, lat, lon, course, frac, n_pieces, leg_of, t0_h, sog_kn, d
 
 
 @jit
-def cost_dp_leg(p, w, lat, lon, course, frac, n_pieces, g, t0_h, sog_kn, dist_nm, sea):  # pragma: no cover - compiled
+def dp_workspace():  # pragma: no cover - compiled
+    """Work arrays of :func:`cost_dp_leg`: the sea at one point, a piece's three check points, the refinement's."""
+    ws, sl, scratch = refine_workspace(True)
+    return np.empty(N_POINT_FIELDS), np.empty((3, N_POINT_FIELDS)), np.empty((5, 3)), ws, sl, scratch
+
+
+@jit
+def _dp_piece_clear(p, w, la, lo, crs, length, t_mid, sog_kn, work):  # pragma: no cover - compiled
+    """Whether a DP piece (midpoint, course, length [nm], passed at ``t_mid`` [h] at ``sog_kn``) is clear end to end.
+
+    Its ends are checked as its midpoint (the speed through water making the SOG good, allowed), then
+    the stretches between by the referee's rules (:func:`optroute.search.refine_kernels.piece_clear`).
+    Returns ``(clear, uncovered points)``.
+    """
+    _, sea_pts, pts, ws, sl, scratch = work
+    s_pts, t_pts, la_pts, lo_pts, crs_pts = pts[0], pts[1], pts[2], pts[3], pts[4]
+    uncovered = 0
+    for j in range(3):
+        s_pts[j] = 0.5 * length * j
+        t_pts[j] = t_mid + (s_pts[j] - 0.5 * length) / sog_kn
+        if j == 1:
+            la_pts[j], lo_pts[j], crs_pts[j] = la, lo, crs
+        else:
+            la_pts[j], lo_pts[j], crs_pts[j] = piece_point(la, lo, crs, s_pts[j] - 0.5 * length)
+        sea = sea_pts[j]
+        if not sample_at(w[0], w[1], w[2], w[3], w[4], w[5], t_pts[j], la_pts[j], lo_pts[j], sea):
+            uncovered += 1
+        if j == 1:
+            continue  # the midpoint: allowed already
+        stw = stw_for_sog(crs_pts[j], sog_kn, sea[5], sea[6])
+        if not (math.isfinite(stw) and stw > 0.0):
+            return False, uncovered
+        sog, _, allowed = _eval_at(p, crs_pts[j], sea, stw)
+        if not (allowed and sog > 0.0):
+            return False, uncovered
+    clear = piece_clear(
+        p, w, sog_kn, True, la, lo, crs, length, s_pts, t_pts, 3, la_pts, lo_pts, crs_pts, sea_pts, ws, sl, scratch
+    )
+    return clear, uncovered
+
+
+@jit
+def cost_dp_leg(p, w, lat, lon, course, frac, n_pieces, g, t0_h, sog_kn, dist_nm, work):  # pragma: no cover - compiled
     """One DP leg of geometry ``g`` (see :func:`cost_dp_legs`) left at ``t0_h`` [h] at ``sog_kn`` [kn].
 
     Returns ``(feasible, mean fuel rate [t/h], mean STW [kn], mean power [kW], uncovered points)``;
-    the leg's fuel is the mean rate times ``dist_nm[g] / sog_kn``.  ``sea`` is a work array of
-    :data:`~optroute.weather.sample.N_POINT_FIELDS`.
+    the leg's fuel is the mean rate times ``dist_nm[g] / sog_kn``.  Each piece is costed at its
+    midpoint (Shao et al.'s time-stepped simulation) and checked there, at its ends and between them
+    where the referee's rules look (:func:`_dp_piece_clear`, issue 14 item 1: a band entered between
+    two midpoints is found as ``Plan.verify()`` finds it).  ``work`` is :func:`dp_workspace`.
     """
+    sea = work[0]
     npc = n_pieces[g]
     f_sum, s_sum, p_sum = 0.0, 0.0, 0.0
     uncovered = 0
@@ -393,4 +440,11 @@ def cost_dp_leg(p, w, lat, lon, course, frac, n_pieces, g, t0_h, sog_kn, dist_nm
         f_sum += fuel_tph * share
         s_sum += stw * share
         p_sum += power * share
+    length = dist_nm[g] / npc
+    for j in range(npc):
+        t = t0_h + (frac[g, j] * dist_nm[g]) / sog_kn
+        clear, unc = _dp_piece_clear(p, w, lat[g, j], lon[g, j], course[g, j], length, t, sog_kn, work)
+        uncovered += unc
+        if not clear:
+            return False, np.nan, np.nan, np.nan, uncovered
     return True, f_sum, s_sum, p_sum, uncovered

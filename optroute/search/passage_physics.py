@@ -25,6 +25,7 @@ from optroute.physics.performance import PerformanceModel
 from optroute.physics.safety import BANDS, BandRules, band_margins
 from optroute.physics.ship import Ship
 from optroute.search import band_refine, passage_kernels
+from optroute.search.band_bounds import weather_with_bounds
 from optroute.search.compiled_search import LegKernel
 from optroute.search.dp_kernels import DPLegKernel
 from optroute.search.edge_geometry import piece_points_flat
@@ -191,7 +192,7 @@ class PassagePhysics:
         if params is None or not self.compiled:
             return None
         pw = self.sampler.point_weather(self.departure)
-        return None if pw is None else (params, tuple(pw))
+        return None if pw is None else (params, weather_with_bounds(pw))
 
     def _with_kernel(self, cb: Callable, mode: int, speeds: np.ndarray, lam: float, boeing: tuple, check_nm):
         """``cb`` with its compiled batch form as ``cb.leg_batch`` (see :mod:`optroute.search.costs`) where available."""
@@ -346,7 +347,7 @@ class PassagePhysics:
 
         return cost
 
-    def clear_between(self, lat, lon, course, length_nm, n_pts, seg_nm, t_h, stw_kn) -> np.ndarray:
+    def clear_between(self, lat, lon, course, length_nm, n_pts, seg_nm, t_h, stw_kn, sog_mode=False) -> np.ndarray:
         """Whether each piece's speed is allowed wherever the referee's rules look between its check points.
 
         The numpy form of :func:`optroute.search.refine_kernels.piece_clear`: the points of
@@ -354,7 +355,9 @@ class PassagePhysics:
         the check points (``n_pts`` of them, spaced ``seg_nm`` [nm] along the piece given by its
         midpoint [deg], course [deg true] and length [nm], passed at ``t_h`` [h]; (n, m) arrays
         padded past ``n_pts``), the ship at each at the time linear in distance between them;
-        a piece fails where the speed ``stw_kn`` [kn] is not allowed at one of them.
+        a piece fails where the speed ``stw_kn`` [kn] is not allowed at one of them.  With ``sog_mode``,
+        ``stw_kn`` is the speed over ground made good (the 3-D DP's command) and the speed through water
+        the one making it good against the current at each point (as ``piece_clear``'s ``sog_mode``).
         """
         n, m = t_h.shape
         own = np.arange(m)[None, :] < n_pts[:, None]
@@ -383,7 +386,7 @@ class PassagePhysics:
         )
         la, lo, crs, t = where(group, s)
         clear = np.ones(n, dtype=bool)
-        fn = self._band_functions(la, lo, crs, t, stw_kn[group], group, clear)
+        fn = self._band_functions(la, lo, crs, t, stw_kn[group], group, clear, sog_mode)
         for _ in range(band_refine.MAX_ROUNDS):
             i = band_refine.intervals_to_halve(group, s, *fn, band_refine.BAND_TOL_NM)
             i = i[clear[group[i]]]
@@ -392,7 +395,7 @@ class PassagePhysics:
             s_new = 0.5 * (s[i] + s[i + 1])
             t_new = t[i] + (s_new - s[i]) / (s[i + 1] - s[i]) * (t[i + 1] - t[i])
             la_n, lo_n, crs_n, _ = where(group[i], s_new, t_new)
-            fn_n = self._band_functions(la_n, lo_n, crs_n, t_new, stw_kn[group[i]], group[i], clear)
+            fn_n = self._band_functions(la_n, lo_n, crs_n, t_new, stw_kn[group[i]], group[i], clear, sog_mode)
             order = np.lexsort((np.concatenate([s, s_new]), np.concatenate([group, group[i]])))
             group, s, t = (np.concatenate([a, b])[order] for a, b in ((group, group[i]), (s, s_new), (t, t_new)))
             fn = tuple(np.concatenate([a, b])[order] for a, b in zip(fn[:3], fn_n[:3], strict=True)) + (
@@ -400,14 +403,25 @@ class PassagePhysics:
             )
         return clear
 
-    def _band_functions(self, la, lo, crs, t, stw, group, clear):
-        """:func:`optroute.search.band_refine.band_functions` at points; ``clear[group]`` struck where the speed is not allowed."""
+    def _band_functions(self, la, lo, crs, t, stw, group, clear, sog_mode=False):
+        """:func:`optroute.search.band_refine.band_functions` at points; ``clear[group]`` struck where the speed is not allowed.
+
+        With ``sog_mode``, ``stw`` is the speed over ground made good and the speed through water is taken
+        against the current at each point (:func:`optroute.physics.currents.stw_for_sog`).
+        """
+        from optroute.physics.currents import stw_for_sog
+
         sea = self.sea(la, lo, t)
+        ok_stw = np.ones(la.size, dtype=bool)
+        if sog_mode:
+            stw, _ = stw_for_sog(crs, stw, sea.current_u_ms, sea.current_v_ms)
+            ok_stw = np.isfinite(stw) & (stw > 0)
+            stw = np.where(ok_stw, stw, 1.0)
         heading, sog, _, _, allowed = evaluate_speeds(
             self.ship, self.model, self.rules, crs, sea, stw, engine=self.engine
         )
         with np.errstate(invalid="ignore"):
-            bad = ~(allowed & (sog > 0))
+            bad = ~(allowed & (sog > 0) & ok_stw)
         clear[group[bad]] = False
         return band_refine.band_functions(self.ship, self.rules, sea, np.ones(la.size, dtype=bool), heading, crs, stw)
 
@@ -417,7 +431,10 @@ class PassagePhysics:
         Shao et al. (3-D DP) simulate each stage in time steps: here each leg is cut into
         pieces of at most ``piece_nm``; at each piece, at the time the ship is
         there, the STW needed to make the SOG good against the current, its
-        power (within [min load, MCR]) and the danger bands are checked.  The
+        power (within [min load, MCR]) and the danger bands are checked at its
+        midpoint (which costs it), its ends and between them where the referee's
+        rules look (:meth:`clear_between`, as the search's pieces: a band entered
+        between two midpoints is found, issue 14 item 1).  The
         number of pieces is each leg's own (the legs of one call are padded to
         the longest), so a leg costs the same whichever legs it is batched with.
         """
@@ -432,6 +449,36 @@ class PassagePhysics:
             m = int(n_pc.max(initial=1))
             f = (np.minimum(np.arange(m)[None, :], n_pc - 1) + 0.5) / n_pc  # padded with the last piece
             return dist, n_pc, f, *points_along(lat0, lon0, lat1, lon1, f)
+
+        def pieces_clear(dist, n_pc, lat, lon, course, t_mid, sog_kn):
+            """Per leg: every own piece allowed at its ends and clear between them (as ``cost_dp_leg``)."""
+            length = dist / n_pc
+            own = np.arange(lat.shape[1])[None, :] < n_pc[:, None]
+            leg = np.nonzero(own)[0]
+            la, lo, crs, tm = lat[own], lon[own], course[own], t_mid[own]
+            ln, sog = length[leg], sog_kn[leg]
+            s = 0.5 * ln[:, None] * np.arange(3)[None, :]
+            tt = tm[:, None] + (s - 0.5 * ln[:, None]) / sog[:, None]
+            ends = s[:, [0, 2]] - 0.5 * ln[:, None]
+            e_la, e_lo, e_crs = (np.empty(ends.shape) for _ in range(3))
+            piece_points_flat(*(np.ascontiguousarray(np.repeat(a, 2)) for a in (la, lo, crs)), ends.ravel(),
+                              e_la.reshape(-1), e_lo.reshape(-1), e_crs.reshape(-1))  # fmt: skip
+            sea = self.sea(e_la.ravel(), e_lo.ravel(), tt[:, [0, 2]].ravel())
+            stw, _ = stw_for_sog(e_crs.ravel(), np.repeat(sog, 2), sea.current_u_ms, sea.current_v_ms)
+            ok_stw = np.isfinite(stw) & (stw > 0)
+            _, e_sog, _, _, allowed = evaluate_speeds(
+                self.ship, self.model, self.rules, e_crs.ravel(), sea, np.where(ok_stw, stw, 1.0), engine=self.engine
+            )
+            with np.errstate(invalid="ignore"):
+                clear = (ok_stw & allowed & (e_sog > 0)).reshape(-1, 2).all(axis=1)
+            q = np.flatnonzero(clear)
+            if q.size:
+                seg = np.repeat(0.5 * ln[q, None], 2, axis=1)
+                clear[q] = self.clear_between(la[q], lo[q], crs[q], ln[q], np.full(q.size, 3), seg, tt[q], sog[q],
+                                              sog_mode=True)  # fmt: skip
+            out = np.ones(lat.shape[0], dtype=bool)
+            np.logical_and.at(out, leg, clear)
+            return out
 
         def compiled(lat0, lon0, lat1, lon1, t0_h, sog_kn):
             # the DP costs each stage-to-stage leg at many times and speeds: its geometry once per leg
@@ -466,6 +513,8 @@ class PassagePhysics:
             dur = dist / sog_kn
             fuel = (np.where(np.isfinite(fuel_tph), fuel_tph, 0.0).reshape(n, m) * w).sum(axis=1) * dur
             feas = allowed.all(axis=1)
+            feas[feas] = pieces_clear(dist[feas], n_pc[feas, 0], lat[feas], lon[feas], course[feas], t[feas],
+                                      sog_kn[feas])  # fmt: skip
             extra = {"stw_kn": (stw.reshape(n, m) * w).sum(axis=1), "power_kw": (power.reshape(n, m) * w).sum(axis=1)}
             return dur, np.where(feas, fuel, np.nan), feas, extra
 

@@ -20,8 +20,9 @@ from __future__ import annotations
 import numpy as np
 
 from optroute._numba import jit
-from optroute.physics.pointwise import allowed_speed, band_state
+from optroute.physics.pointwise import allowed_speed, band_state, stw_for_sog
 from optroute.search import band_refine
+from optroute.search.band_bounds import piece_certified
 from optroute.search.band_refine import BAND_TOL_NM, CROSSING_PASSES, CROSSING_TOL_NM, MAX_ROUNDS, TURN_DEG
 from optroute.search.edge_geometry import piece_point
 from optroute.weather.sample import grid_coordinates_at, sample_at
@@ -57,12 +58,21 @@ def _place(w, lat, lon, course, length, row, scratch):  # pragma: no cover - com
 
 
 @jit
-def _probe(p, w, spd, row, scratch):  # pragma: no cover - compiled
+def _stw(spd, sog_mode, course, sea):  # pragma: no cover - compiled
+    """The speed through water [kn]: ``spd`` itself, or with ``sog_mode`` the one making ``spd`` good over ground."""
+    return stw_for_sog(course, spd, sea[5], sea[6]) if sog_mode else spd
+
+
+@jit
+def _probe(p, w, spd, sog_mode, row, scratch):  # pragma: no cover - compiled
     """The speed's allowedness at a placed point (False: a violation), and its band functions into ``row``."""
     sea = scratch[:9]
     sample_at(w[0], w[1], w[2], w[3], w[4], w[5], row[_T], row[_LAT], row[_LON], sea)
-    sog, _, allowed = allowed_speed(p, row[_CRS], sea[0], sea[1], sea[2], sea[3], sea[4], sea[5], sea[6], spd)
-    ok, wf, g = band_state(p, row[_CRS], sea[0], sea[1], sea[2], sea[3], sea[4], sea[5], sea[6], spd, scratch[9:13])
+    stw = _stw(spd, sog_mode, row[_CRS], sea)
+    if not (stw > 0.0 and np.isfinite(stw)):
+        return False
+    sog, _, allowed = allowed_speed(p, row[_CRS], sea[0], sea[1], sea[2], sea[3], sea[4], sea[5], sea[6], stw)
+    ok, wf, g = band_state(p, row[_CRS], sea[0], sea[1], sea[2], sea[3], sea[4], sea[5], sea[6], stw, scratch[9:13])
     row[_G], row[_W] = g, wf
     for b in range(4):
         row[_M0 + b] = scratch[9 + b]
@@ -175,16 +185,20 @@ def _needs_halving(a, i, n, sl):  # pragma: no cover - compiled
 
 @jit
 def piece_clear(
-    p, w, spd, lat, lon, course, length, s0, t0, n0, la0, lo0, crs0, sea0, ws, sl, scratch
+    p, w, spd, sog_mode, lat, lon, course, length, s0, t0, n0, la0, lo0, crs0, sea0, ws, sl, scratch
 ):  # pragma: no cover - compiled
     """Whether speed ``spd`` [kn] is allowed everywhere the referee's rules look between the piece's check points.
 
     Parameters
     ----------
     p, w
-        :func:`optroute.physics.pointwise.point_params`; :class:`~optroute.weather.sample.PointWeather` fields.
+        :func:`optroute.physics.pointwise.point_params`; :class:`~optroute.weather.sample.PointWeather` fields
+        with their node table (:func:`optroute.search.band_bounds.weather_with_bounds`).
     spd : float
-        Speed through water [kn].
+        Speed through water [kn]; with ``sog_mode`` the speed over ground made good (the 3-D DP's command), the
+        speed through water then taken at each point against the current there
+        (:func:`optroute.physics.pointwise.stw_for_sog`).
+    sog_mode : bool
     lat, lon, course, length : float
         The piece's midpoint [deg], course there [deg true] and length [nm].
     s0, t0 : ndarray
@@ -201,8 +215,12 @@ def piece_clear(
     bool
         False where a point put by the rules (a regime crossing or a halving) has the speed not
         allowed (:func:`~optroute.physics.pointwise.allowed_speed`: a band, the power, no sea), or
-        more than :data:`CAPACITY` points would be needed.
+        more than :data:`CAPACITY` points would be needed.  A piece that
+        :func:`optroute.search.band_bounds.piece_certified` certifies from its weather's node bounds (no point
+        of it can fail) is True at once, without the points: the outcome is the same.
     """
+    if piece_certified(p, w, spd, sog_mode, la0, lo0, t0, s0, n0, lat, lon, length, CAPACITY, scratch):
+        return True
     a, b = ws[0], ws[1]
     for j in range(n0):
         row = a[j]
@@ -211,7 +229,17 @@ def piece_clear(
         row[_C0], row[_C0 + 1], row[_C0 + 2] = scratch[13], scratch[14], scratch[15]
         sea = sea0[j]
         _, row[_W], row[_G] = band_state(
-            p, crs0[j], sea[0], sea[1], sea[2], sea[3], sea[4], sea[5], sea[6], spd, scratch[9:13]
+            p,
+            crs0[j],
+            sea[0],
+            sea[1],
+            sea[2],
+            sea[3],
+            sea[4],
+            sea[5],
+            sea[6],
+            _stw(spd, sog_mode, crs0[j], sea),
+            scratch[9:13],
         )
         for q in range(4):
             row[_M0 + q] = scratch[9 + q]
@@ -220,7 +248,7 @@ def piece_clear(
     if n < 0:
         return False
     for j in range(n):
-        if a[j, _PROBED] == 0.0 and not _probe(p, w, spd, a[j], scratch):
+        if a[j, _PROBED] == 0.0 and not _probe(p, w, spd, sog_mode, a[j], scratch):
             return False
     for _ in range(MAX_ROUNDS):
         _slopes(a, n, sl)
@@ -234,7 +262,7 @@ def piece_clear(
             if k + 2 > a.shape[0]:
                 return False
             _between(a, i, 0.5 * (a[i, _S] + a[i + 1, _S]), b[k], w, lat, lon, course, length, scratch)
-            if not _probe(p, w, spd, b[k], scratch):
+            if not _probe(p, w, spd, sog_mode, b[k], scratch):
                 return False
             k += 1
             added = True
