@@ -672,6 +672,7 @@ class WeatherValues(ca.Callback):
         ca.Callback.__init__(self)
         self._spline = weather.tensor_spline()
         self._k = int(n_points)
+        self._last: tuple[np.ndarray, np.ndarray] | None = None  # the last points and their fields
         self.construct("weather_values", {})
 
     def get_n_in(self) -> int:
@@ -692,9 +693,11 @@ class WeatherValues(ca.Callback):
     def eval_buffer(self, arg: list[Any], res: list[Any]) -> int:
         """Read the points from and write the fields into CasADi's own buffers (column-major): no DM conversion,
         which costs more than the spline itself on a few thousand points."""
-        pts = np.frombuffer(arg[0], dtype=float).reshape(self._k, 3).T
+        flat = np.frombuffer(arg[0], dtype=float)
         out = np.frombuffer(res[0], dtype=float).reshape(self._k, self._spline.n_fields).T
-        out[:] = self._spline.evaluate(pts, 0)
+        if self._last is None or not np.array_equal(self._last[0], flat):  # Ipopt asks f and g at the same point
+            self._last = (flat.copy(), self._spline.evaluate(flat.reshape(self._k, 3).T, 0))
+        out[:] = self._last[1]
         return 0
 
 
