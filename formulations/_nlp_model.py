@@ -545,7 +545,8 @@ class _NumericTaylor:
         if lay.size:
             nv, nd = self._axes[2], self._axes[5]
             self._table = np.array([[names.index(f"ratio_{j}_{k}") for k in range(nd)] for j in range(nv)])
-        self._coords, self._s, self._excl = coords, s_s, excl
+        self._coords, self._s, self._excl = _Buffered(coords), s_s, excl
+        self._dev_at = _Buffered(lay.dev_at) if lay.size else None
         self._n, self._m, self._n_theta = nlp.n_legs, nlp.samples_per_leg, n_theta
         self._order = 2 if exact_hessian else 1
         self._last: tuple[bytes, Any, Any] | None = None
@@ -556,7 +557,7 @@ class _NumericTaylor:
             return self._last[1], self._last[2]
         k_, order, lay = self._n * self._m, self._order, self._lay
         nf_p = self._plain.size
-        ts_ys = np.asarray(self._coords(x), dtype=float)  # (2, K)
+        ts_ys = self._coords(x)[0].reshape(k_, 2).T  # (2, K): the (2, K) output's nonzeros, column-major
         pts = np.vstack([ts_ys[0], self._s, ts_ys[1]])
         full = np.zeros((self._n_theta, k_))
         full[:2] = ts_ys
@@ -566,7 +567,7 @@ class _NumericTaylor:
         if self._excl:
             full[e0:] = np.asarray(self._excl[order](pts), dtype=float)[: 9 * order]
         if lay.size:
-            dev = np.asarray(lay.dev_at(x, self._shaped(full)), dtype=float).ravel(order="F")  # sample k·m + j
+            dev = self._dev_at(x, self._shaped(full))[0].copy()  # (m, N) column-major: sample k·m + j
             v = np.repeat(np.asarray(x, dtype=float).ravel()[self._n + 1 : 2 * self._n + 1], self._m)
             full[lay.start : e0] = ratio_taylor_data(vals[:, self._table], v, dev, self._axes)
         first = full
@@ -580,9 +581,10 @@ class _NumericTaylor:
         self._last = (key, shaped[0], shaped[1])
         return shaped[0], shaped[1]
 
-    def _shaped(self, a: np.ndarray) -> Any:
-        """(n_theta, K) → the leg functions' (n_theta·m, N) DM."""
-        return ca.DM(a.T.reshape(self._n, self._m * self._n_theta).T)
+    def _shaped(self, a: np.ndarray) -> np.ndarray:
+        """(n_theta, K) → the nonzeros of the leg functions' dense (n_theta·m, N) input, column-major (leg k's
+        column is its m samples' data one after the other)."""
+        return np.ascontiguousarray(a.T).ravel()
 
     def first(self, x: Any) -> Any:
         return self._theta(x)[0]
@@ -603,7 +605,7 @@ class _TaylorMemo:
         key = np.asarray(x).tobytes()
         hit = self._last.get(which)
         if hit is None or hit[0] != key:
-            hit = (key, self._fns[which](x))
+            hit = (key, np.asarray(self._fns[which](x), dtype=float).ravel(order="F"))  # nonzeros, column-major
             self._last[which] = hit
         return hit[1]
 
@@ -614,6 +616,36 @@ class _TaylorMemo:
         if self._fns["hessian"] is self._fns["first"]:
             return self._get("first", x)
         return self._get("hessian", x)
+
+
+class _Buffered:
+    """A CasADi function evaluated on numpy arrays through its buffers (``Function.buffer``): the arrays are the
+    inputs' and outputs' nonzeros, column-major; nothing is converted to or from ``DM``."""
+
+    def __init__(self, fn: Any) -> None:
+        self._fn = fn
+        self._buf, self._eval = fn.buffer()
+        self._outs = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]
+
+    def array_in(self, i: int, mem: Any) -> np.ndarray:
+        """Input ``i`` from a buffer CasADi passed (zeros where it passed none)."""
+        a = np.frombuffer(mem, dtype=float) if mem is not None else np.zeros(0)
+        return a if a.size == self._fn.nnz_in(i) else np.zeros(self._fn.nnz_in(i))
+
+    def array_out(self, i: int, mem: Any) -> np.ndarray:
+        """Output ``i``'s buffer to write into (a scratch array where CasADi wants none)."""
+        a = np.frombuffer(mem, dtype=float) if mem is not None else np.zeros(0)
+        return a if a.size == self._fn.nnz_out(i) else np.zeros(self._fn.nnz_out(i))
+
+    def __call__(self, *args: np.ndarray, out: list[np.ndarray] | None = None) -> list[np.ndarray]:
+        ins = [np.ascontiguousarray(a, dtype=float).ravel() for a in args]  # kept alive through the call
+        outs = self._outs if out is None else out
+        for i, a in enumerate(ins):
+            self._buf.set_arg(i, memoryview(a))
+        for i, o in enumerate(outs):
+            self._buf.set_res(i, memoryview(o))
+        self._eval()
+        return outs
 
 
 class _MemoCallback(ca.Callback):
@@ -630,6 +662,7 @@ class _MemoCallback(ca.Callback):
     ) -> None:
         ca.Callback.__init__(self)
         self._core, self._theta, self._names = core, theta, (names_in, names_out)
+        self._run = _Buffered(core)
         self._cache = cache
         self._last: tuple[bytes, Any] | None = None
         self.construct(name, {})
@@ -652,14 +685,24 @@ class _MemoCallback(ca.Callback):
     def get_sparsity_out(self, i: int) -> Any:
         return self._core.sparsity_out(i)
 
-    def eval(self, arg: list[Any]) -> list[Any]:
-        key = b"".join(np.asarray(a).tobytes() for a in arg) if self._cache else b""
+    def has_eval_buffer(self) -> bool:
+        return True
+
+    def eval_buffer(self, arg: list[Any], res: list[Any]) -> int:
+        """Read the inputs from and write the outputs into CasADi's own buffers: no DM conversion of the inputs,
+        the Taylor data or the outputs (on a 500-leg corridor they cost as much as the leg functions)."""
+        core = self._run
+        ins = [core.array_in(i, a) for i, a in enumerate(arg)]
+        outs = [core.array_out(i, r) for i, r in enumerate(res)]
+        key = b"".join(a.tobytes() for a in ins) if self._cache else b""
         if self._cache and self._last is not None and self._last[0] == key:
-            return self._last[1]
-        out = self._core.call([*arg, self._theta(arg[0])])
+            for o, c in zip(outs, self._last[1], strict=True):
+                o[:] = c
+            return 0
+        core(*ins, self._theta(ins[0]), out=outs)
         if self._cache:
-            self._last = (key, out)
-        return out
+            self._last = (key, [o.copy() for o in outs])
+        return 0
 
 
 class WeatherValues(ca.Callback):
