@@ -40,6 +40,7 @@ from formulations.splines import spline_weight_derivatives
 
 __all__ = [
     "ABS_EPS_KN",
+    "SharedMap",
     "WeatherValues",
     "power_ratio",
     "row_blocks",
@@ -741,6 +742,48 @@ class WeatherValues(ca.Callback):
         if self._last is None or not np.array_equal(self._last[0], flat):  # Ipopt asks f and g at the same point
             self._last = (flat.copy(), self._spline.evaluate(flat.reshape(self._k, 3).T, 0))
         out[:] = self._last[1]
+        return 0
+
+
+class SharedMap(ca.Callback):
+    """A function without derivatives that answers a repeated input from its last result (buffers, no DM).
+
+    Ipopt asks the objective and the constraints at the same point, and CasADi evaluates the NLP's graph once for
+    each: wrapped around the per-sample physics mapped over the samples (the bulk of both), the second evaluation
+    is a copy of the first. Only for a graph nothing differentiates (the NLP built with
+    :func:`structured_derivatives` and the weather read in numpy, :class:`WeatherValues`).
+    """
+
+    def __init__(self, fn: Any) -> None:
+        ca.Callback.__init__(self)
+        self._fn = fn
+        self._run = _Buffered(fn)
+        self._last: tuple[bytes, list[np.ndarray]] | None = None
+        self.construct(fn.name() + "_shared", {})
+
+    def get_n_in(self) -> int:
+        return self._fn.n_in()
+
+    def get_n_out(self) -> int:
+        return self._fn.n_out()
+
+    def get_sparsity_in(self, i: int) -> Any:
+        return self._fn.sparsity_in(i)
+
+    def get_sparsity_out(self, i: int) -> Any:
+        return self._fn.sparsity_out(i)
+
+    def has_eval_buffer(self) -> bool:
+        return True
+
+    def eval_buffer(self, arg: list[Any], res: list[Any]) -> int:
+        ins = [self._run.array_in(i, a) for i, a in enumerate(arg)]
+        outs = [self._run.array_out(i, r) for i, r in enumerate(res)]
+        key = b"".join(a.tobytes() for a in ins)
+        if self._last is None or self._last[0] != key:
+            self._last = (key, [o.copy() for o in self._run(*ins)])
+        for o, c in zip(outs, self._last[1], strict=True):
+            o[:] = c
         return 0
 
 

@@ -76,6 +76,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from formulations._nlp_model import (
+    SharedMap,
     WeatherValues,
     jit_compiler,
     row_blocks,
@@ -412,6 +413,8 @@ class SpeedNLP:
         else:
             self._interp_map = self.weather.interpolant().map(k_)
         self._sample_map = self._sample_function().map(k_)
+        if self.numeric_weather:  # nothing differentiates the graph: f and g at one point share one evaluation
+            self._sample_map = SharedMap(self._sample_map)
         if self.exclusion is not None:
             self.exclusion_function = self.exclusion.interpolant()
             self._excl_map = self.exclusion_function.map(k_)
