@@ -35,13 +35,12 @@ from typing import Any, NamedTuple
 import casadi as ca
 import numpy as np
 
+from formulations._buffers import Buffered, MemoCallback
 from formulations.common import Band, PowerModel, spline_weights
 from formulations.splines import spline_weight_derivatives
 
 __all__ = [
     "ABS_EPS_KN",
-    "SharedMap",
-    "WeatherValues",
     "power_ratio",
     "row_blocks",
     "sample_physics",
@@ -458,9 +457,9 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
     hess_full = ca.MX(sp_h, ca.mtimes(gat_h, ca.vec(h_k)))
     hess_core = ca.Function("hess_lag_core", [x, p, lam_f, lam_g, th_h], [hess_full])
     return {
-        "grad_f": _MemoCallback("grad_f", grad_core, memo.first, ["x", "p"], ["f", "grad_f_x"], cache=True),
-        "jac_g": _MemoCallback("jac_g", jac_core, memo.first, ["x", "p"], ["g", "jac_g_x"]),
-        "hess_lag": _MemoCallback(
+        "grad_f": MemoCallback("grad_f", grad_core, memo.first, ["x", "p"], ["f", "grad_f_x"], cache=True),
+        "jac_g": MemoCallback("jac_g", jac_core, memo.first, ["x", "p"], ["g", "jac_g_x"]),
+        "hess_lag": MemoCallback(
             "hess_lag", hess_core, memo.hessian, ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]
         ),
     }
@@ -546,8 +545,8 @@ class _NumericTaylor:
         if lay.size:
             nv, nd = self._axes[2], self._axes[5]
             self._table = np.array([[names.index(f"ratio_{j}_{k}") for k in range(nd)] for j in range(nv)])
-        self._coords, self._s, self._excl = _Buffered(coords), s_s, excl
-        self._dev_at = _Buffered(lay.dev_at) if lay.size else None
+        self._coords, self._s, self._excl = Buffered(coords), s_s, excl
+        self._dev_at = Buffered(lay.dev_at) if lay.size else None
         self._n, self._m, self._n_theta = nlp.n_legs, nlp.samples_per_leg, n_theta
         self._order = 2 if exact_hessian else 1
         self._last: tuple[bytes, Any, Any] | None = None
@@ -617,174 +616,6 @@ class _TaylorMemo:
         if self._fns["hessian"] is self._fns["first"]:
             return self._get("first", x)
         return self._get("hessian", x)
-
-
-class _Buffered:
-    """A CasADi function evaluated on numpy arrays through its buffers (``Function.buffer``): the arrays are the
-    inputs' and outputs' nonzeros, column-major; nothing is converted to or from ``DM``."""
-
-    def __init__(self, fn: Any) -> None:
-        self._fn = fn
-        self._buf, self._eval = fn.buffer()
-        self._outs = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]
-
-    def array_in(self, i: int, mem: Any) -> np.ndarray:
-        """Input ``i`` from a buffer CasADi passed (zeros where it passed none)."""
-        a = np.frombuffer(mem, dtype=float) if mem is not None else np.zeros(0)
-        return a if a.size == self._fn.nnz_in(i) else np.zeros(self._fn.nnz_in(i))
-
-    def array_out(self, i: int, mem: Any) -> np.ndarray:
-        """Output ``i``'s buffer to write into (a scratch array where CasADi wants none)."""
-        a = np.frombuffer(mem, dtype=float) if mem is not None else np.zeros(0)
-        return a if a.size == self._fn.nnz_out(i) else np.zeros(self._fn.nnz_out(i))
-
-    def __call__(self, *args: np.ndarray, out: list[np.ndarray] | None = None) -> list[np.ndarray]:
-        ins = [np.ascontiguousarray(a, dtype=float).ravel() for a in args]  # kept alive through the call
-        outs = self._outs if out is None else out
-        for i, a in enumerate(ins):
-            self._buf.set_arg(i, memoryview(a))
-        for i, o in enumerate(outs):
-            self._buf.set_res(i, memoryview(o))
-        self._eval()
-        return outs
-
-
-class _MemoCallback(ca.Callback):
-    """A derivative function for ``nlpsol`` that feeds the memoised Taylor data to a core function."""
-
-    def __init__(
-        self,
-        name: str,
-        core: Any,
-        theta: Callable[[Any], Any],
-        names_in: list[str],
-        names_out: list[str],
-        cache: bool = False,
-    ) -> None:
-        ca.Callback.__init__(self)
-        self._core, self._theta, self._names = core, theta, (names_in, names_out)
-        self._run = _Buffered(core)
-        self._cache = cache
-        self._last: tuple[bytes, Any] | None = None
-        self.construct(name, {})
-
-    def get_n_in(self) -> int:
-        return len(self._names[0])
-
-    def get_n_out(self) -> int:
-        return len(self._names[1])
-
-    def get_name_in(self, i: int) -> str:
-        return self._names[0][i]
-
-    def get_name_out(self, i: int) -> str:
-        return self._names[1][i]
-
-    def get_sparsity_in(self, i: int) -> Any:
-        return self._core.sparsity_in(i)
-
-    def get_sparsity_out(self, i: int) -> Any:
-        return self._core.sparsity_out(i)
-
-    def has_eval_buffer(self) -> bool:
-        return True
-
-    def eval_buffer(self, arg: list[Any], res: list[Any]) -> int:
-        """Read the inputs from and write the outputs into CasADi's own buffers: no DM conversion of the inputs,
-        the Taylor data or the outputs (on a 500-leg corridor they cost as much as the leg functions)."""
-        core = self._run
-        ins = [core.array_in(i, a) for i, a in enumerate(arg)]
-        outs = [core.array_out(i, r) for i, r in enumerate(res)]
-        key = b"".join(a.tobytes() for a in ins) if self._cache else b""
-        if self._cache and self._last is not None and self._last[0] == key:
-            for o, c in zip(outs, self._last[1], strict=True):
-                o[:] = c
-            return 0
-        core(*ins, self._theta(ins[0]), out=outs)
-        if self._cache:
-            self._last = (key, [o.copy() for o in outs])
-        return 0
-
-
-class WeatherValues(ca.Callback):
-    """The weather fields at K points, ``(3, K) [t; s; y] ↦ (n_fields, K)``, as a CasADi function evaluated in
-    numpy (:meth:`formulations.common.WeatherGrid.tensor_spline`): the values of CasADi's
-    ``WeatherGrid.interpolant`` without building it. No derivatives: the NLP built with it takes its
-    derivatives from :func:`structured_derivatives`."""
-
-    def __init__(self, weather: Any, n_points: int) -> None:
-        ca.Callback.__init__(self)
-        self._spline = weather.tensor_spline()
-        self._k = int(n_points)
-        self._last: tuple[np.ndarray, np.ndarray] | None = None  # the last points and their fields
-        self.construct("weather_values", {})
-
-    def get_n_in(self) -> int:
-        return 1
-
-    def get_n_out(self) -> int:
-        return 1
-
-    def get_sparsity_in(self, i: int) -> Any:
-        return ca.Sparsity.dense(3, self._k)
-
-    def get_sparsity_out(self, i: int) -> Any:
-        return ca.Sparsity.dense(self._spline.n_fields, self._k)
-
-    def has_eval_buffer(self) -> bool:
-        return True
-
-    def eval_buffer(self, arg: list[Any], res: list[Any]) -> int:
-        """Read the points from and write the fields into CasADi's own buffers (column-major): no DM conversion,
-        which costs more than the spline itself on a few thousand points."""
-        flat = np.frombuffer(arg[0], dtype=float)
-        out = np.frombuffer(res[0], dtype=float).reshape(self._k, self._spline.n_fields).T
-        if self._last is None or not np.array_equal(self._last[0], flat):  # Ipopt asks f and g at the same point
-            self._last = (flat.copy(), self._spline.evaluate(flat.reshape(self._k, 3).T, 0))
-        out[:] = self._last[1]
-        return 0
-
-
-class SharedMap(ca.Callback):
-    """A function without derivatives that answers a repeated input from its last result (buffers, no DM).
-
-    Ipopt asks the objective and the constraints at the same point, and CasADi evaluates the NLP's graph once for
-    each: wrapped around the per-sample physics mapped over the samples (the bulk of both), the second evaluation
-    is a copy of the first. Only for a graph nothing differentiates (the NLP built with
-    :func:`structured_derivatives` and the weather read in numpy, :class:`WeatherValues`).
-    """
-
-    def __init__(self, fn: Any) -> None:
-        ca.Callback.__init__(self)
-        self._fn = fn
-        self._run = _Buffered(fn)
-        self._last: tuple[bytes, list[np.ndarray]] | None = None
-        self.construct(fn.name() + "_shared", {})
-
-    def get_n_in(self) -> int:
-        return self._fn.n_in()
-
-    def get_n_out(self) -> int:
-        return self._fn.n_out()
-
-    def get_sparsity_in(self, i: int) -> Any:
-        return self._fn.sparsity_in(i)
-
-    def get_sparsity_out(self, i: int) -> Any:
-        return self._fn.sparsity_out(i)
-
-    def has_eval_buffer(self) -> bool:
-        return True
-
-    def eval_buffer(self, arg: list[Any], res: list[Any]) -> int:
-        ins = [self._run.array_in(i, a) for i, a in enumerate(arg)]
-        outs = [self._run.array_out(i, r) for i, r in enumerate(res)]
-        key = b"".join(a.tobytes() for a in ins)
-        if self._last is None or self._last[0] != key:
-            self._last = (key, [o.copy() for o in self._run(*ins)])
-        for o, c in zip(outs, self._last[1], strict=True):
-            o[:] = c
-        return 0
 
 
 def row_blocks(mdl: dict[str, Any], t: Any, *, bands: bool, current: bool, exclusion: bool) -> tuple[list[Any], dict]:

@@ -75,9 +75,8 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
+from formulations._buffers import SharedMap, WeatherValues
 from formulations._nlp_model import (
-    SharedMap,
-    WeatherValues,
     jit_compiler,
     row_blocks,
     sample_physics,
