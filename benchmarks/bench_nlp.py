@@ -39,7 +39,9 @@
 
 Run ``python -m benchmarks.bench_nlp [--quick | --crossing | --jit]`` (quick: one repeat, 125–500 legs for the scaling,
 62 legs and the coarse DP; ``--jit``: §2b's whole call at ~100 and ~300 legs, ``jit=False`` against ``jit=True``
-alternated twice after a warm-up of each, the compile time apart — about an hour on a loaded 2-core machine).
+alternated twice after a warm-up of each, the compile time apart — about an hour on a loaded 2-core machine;
+``--scaling [--baseline REF] [--full] [--sizes N …]``: the whole call at 21, 125 and 500 legs (``--full``: also 2 000
+and 5 000), each in a fresh process, CPU and wall seconds, against the commit ``REF``, :mod:`benchmarks._nlp_scaling`).
 """
 
 from __future__ import annotations
@@ -700,6 +702,12 @@ def run(quick: bool) -> dict[str, Any]:
 def main(argv: list[str] | None = None) -> None:
     if argv is not None and "--crossing" in argv or argv is None and "--crossing" in __import__("sys").argv:
         print_crossing(bench_crossing_storm())  # section 4's storm crossing alone
+        return
+    args = list(__import__("sys").argv[1:] if argv is None else argv)
+    if "--scaling" in args:  # §2b's whole call at 21 … 5 000 legs in fresh processes, against --baseline REF
+        from benchmarks._nlp_scaling import main as scaling_main
+
+        scaling_main(args)
         return
     if argv is not None and "--jit" in argv or argv is None and "--jit" in __import__("sys").argv:
         jit_whole_call()  # §2b's whole call at ~100 and ~300 legs, jit off and on alternated

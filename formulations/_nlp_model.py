@@ -30,16 +30,17 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 import casadi as ca
 import numpy as np
 
+from formulations._buffers import Buffered, MemoCallback
 from formulations.common import Band, PowerModel, spline_weights
+from formulations.splines import spline_weight_derivatives
 
 __all__ = [
     "ABS_EPS_KN",
-    "WeatherValues",
     "power_ratio",
     "row_blocks",
     "sample_physics",
@@ -74,6 +75,61 @@ def power_ratio(col: dict[str, Any], v: Any, heading_dev_deg: Any, axes: tuple |
     return total
 
 
+#: Length of a sample's power-ratio Taylor block (:func:`ratio_taylor_data`): the expansion point ``(V*, δ*)`` and
+#: the coefficients ``R, R_V, R_δ, R_t, R_y, R_VV, R_Vδ, R_Vt, R_Vy, R_δδ, R_δt, R_δy`` (first derivatives of the
+#: weather only), then ``R_tt, R_ty, R_yy`` (with the weather's second derivatives).
+RATIO_BLOCK = {1: 14, 2: 17}
+
+
+def ratio_taylor_data(fields: np.ndarray, v: np.ndarray, heading_dev_deg: np.ndarray, axes: tuple) -> np.ndarray:
+    """The second-order Taylor coefficients of :func:`power_ratio` at K samples, numpy: (``RATIO_BLOCK[order]``, K).
+
+    ``fields`` holds the table's values ``ratio_j_k`` and their partial derivatives in time and across-track
+    position at the samples, (blocks, nv, nd, K) with blocks ``F, F_t, F_y`` (order 1) or also ``F_tt, F_ty, F_yy``
+    (order 2; :meth:`formulations.splines.TensorSpline.evaluate`'s order); ``v`` [kn] and ``heading_dev_deg``
+    [deg] the samples' speed through water and heading relative to the centreline (the expansion point). ``R`` is
+    bilinear in the speed and heading weights (:func:`formulations.splines.spline_weights`) and linear in the
+    table, so every coefficient is one weighted sum of the table's derivatives with the weights' derivatives
+    (:func:`formulations.splines.spline_weight_derivatives`).
+    """
+    v0, dv, nv, d0, dd, nd = axes
+    wv = spline_weight_derivatives(v, v0, dv, nv)  # (3, nv, K)
+    wd = spline_weight_derivatives(heading_dev_deg, d0, dd, nd)  # (3, nd, K)
+    second = fields.shape[0] == 6
+
+    def r(a: int, b: int, blk: int) -> np.ndarray:  # Σ_jk ∂^a w_j ∂^b w_k ∂F_jk
+        return np.einsum("jK,kK,jkK->K", wv[a], wd[b], fields[blk])
+
+    rows = [v, heading_dev_deg, r(0, 0, 0), r(1, 0, 0), r(0, 1, 0), r(0, 0, 1), r(0, 0, 2)]
+    rows += [r(2, 0, 0), r(1, 1, 0), r(1, 0, 1), r(1, 0, 2), r(0, 2, 0), r(0, 1, 1), r(0, 1, 2)]
+    if second:
+        rows += [r(0, 0, 3), r(0, 0, 4), r(0, 0, 5)]
+    return np.vstack(rows)
+
+
+def ratio_taylor(block: Any, d_t: Any, d_y: Any) -> Callable[[Any, Any], Any]:
+    """``(v, heading_dev_deg) ↦ R``: the Taylor polynomial of :func:`ratio_taylor_data`'s coefficients ``block``
+    (SX), the sample's time and offset being ``d_t`` [h] and ``d_y`` [nm] from the expansion point.
+
+    It shares the value, gradient and Hessian of :func:`power_ratio` at the expansion point, so the leg
+    functions' derivatives there are exact (:func:`structured_derivatives`), at a fraction of the work of
+    evaluating the whole table in SX (8 speeds × 5 headings of weather Taylor polynomials per sample).
+    """
+    second = block.shape[0] == RATIO_BLOCK[2]
+
+    def ratio_of(v: Any, dev: Any) -> Any:
+        c = [block[i] for i in range(block.shape[0])]
+        d_v, d_d = v - c[0], dev - c[1]
+        out = c[2] + c[3] * d_v + c[4] * d_d + c[5] * d_t + c[6] * d_y
+        out = out + 0.5 * c[7] * d_v**2 + c[8] * d_v * d_d + c[9] * d_v * d_t + c[10] * d_v * d_y
+        out = out + 0.5 * c[11] * d_d**2 + c[12] * d_d * d_t + c[13] * d_d * d_y
+        if second:
+            out = out + 0.5 * c[14] * d_t**2 + c[15] * d_t * d_y + 0.5 * c[16] * d_y**2
+        return out
+
+    return ratio_of
+
+
 def sample_physics(
     v: Any,
     cos_d: Any,
@@ -86,6 +142,7 @@ def sample_physics(
     bands: tuple[Band, ...],
     g_over_2pi: float,
     ratio_axes: tuple | None = None,
+    ratio_of: Callable[[Any, Any], Any] | None = None,
 ) -> dict[str, Any]:
     """Symbolic quantities at one sample (see :mod:`formulations.speed_nlp` for the model).
 
@@ -108,13 +165,17 @@ def sample_physics(
     ratio_axes : tuple, optional
         :attr:`formulations.common.WeatherGrid.ratio_axes`: the tabulated ship power ratio is read from
         ``col`` (:func:`power_ratio`); None: ``R = 1``.
+    ratio_of : callable, optional
+        ``ratio_of(v, heading_dev_deg)``: the power ratio from elsewhere than ``col`` (the leg functions of
+        :func:`structured_derivatives`: its second-order Taylor polynomial, :func:`ratio_taylor`).
 
     Returns
     -------
     dict
         ``dt`` [h], ``fuel`` [t], ``load``, ``power`` [kW], ``rate`` [t/h], ``cos_chi``, ``sog`` [kn],
-        ``h_perp`` (sine of the drift angle), ``res`` (B scaled band residuals, ``≤ 0`` on the lower
-        side and ``≥ 0`` on the upper side when satisfied), ``ratio`` (B band ratios).
+        ``h_perp`` (sine of the drift angle), ``dev_deg`` (heading minus the centreline direction [deg, to
+        port +]), ``res`` (B scaled band residuals, ``≤ 0`` on the lower side and ``≥ 0`` on the upper side when
+        satisfied), ``ratio`` (B band ratios).
     """
     pw = power
     per = col["period_s"]
@@ -136,7 +197,8 @@ def sample_physics(
     p_calm = sum(cj * v**nj for cj, nj in zip(pw.calm_coef, pw.calm_exp, strict=True))
     # heading relative to the centreline: the leg's course (δ) turned by the crab angle against the current
     dev_deg = (ca.atan2(sin_d, cos_d) + ca.asin(h_perp)) * (180.0 / np.pi)
-    pwr = factor * p_calm * power_ratio(col, v, dev_deg, ratio_axes, ca)
+    r_ship = power_ratio(col, v, dev_deg, ratio_axes, ca) if ratio_of is None else ratio_of(v, dev_deg)
+    pwr = factor * p_calm * r_ship
     load = pwr / pw.mcr_kw
     a2, a1, a0 = pw.sfc_quad
     rate = pwr * pw.sfc_base_gpkwh * (a2 * load**2 + a1 * load + a0) * 1e-6  # t/h
@@ -164,6 +226,7 @@ def sample_physics(
         "cos_chi": cos_chi,
         "sog": sog,
         "h_perp": h_perp,
+        "dev_deg": dev_deg,
         "res": res,
         "ratio": ratio,
     }
@@ -264,11 +327,20 @@ def structured_derivatives(
     nx, ng = nlp._nx, nlp._ng
     cor = nlp.corridor
     names = nlp.weather.field_names
-    nf = len(names)
     has_excl = nlp.exclusion is not None
     layout = nlp.sample_layout  # fractions and quadrature weights (N, m): per-leg inputs of the leg function
     # ---- per-leg SX function of z_k -------------------------------------------------
-    n_theta = 2 + 6 * nf + (18 if has_excl else 0)  # t0, y0, weather Taylor, exclusion Taylor
+    # Taylor coefficients per field: (F, F_t, F_y), and (F_tt, F_ty, F_yy) only for the exact Hessian (without it
+    # they would be inputs that are always 0: the same numbers, half the data and the leg functions' work)
+    n_blk = 6 if exact_hessian else 3
+    # with the weather read in numpy, the power-ratio table (speeds × headings of fields) comes contracted: one
+    # Taylor polynomial of the ratio per sample (ratio_taylor_data) instead of the table's fields
+    contract = bool(nlp.numeric_weather and nlp.weather.ratio_axes is not None)
+    plain = tuple(nm for nm in names if not (contract and nm.startswith("ratio_")))
+    nf_p = len(plain)
+    n_rat = RATIO_BLOCK[n_blk // 3] if contract else 0
+    r0 = 2 + n_blk * nf_p  # where the ratio block begins, then the exclusion's
+    n_theta = r0 + n_rat + (3 * n_blk if has_excl else 0)  # t0, y0, weather Taylor, ratio Taylor, exclusion Taylor
     z = ca.SX.sym("z", _N_Z)
     # c_k, c_k+1, n_k, n_k+1, tangent, the static power factor f_k, the samples' fractions and weights
     geo = ca.SX.sym("geo", 11 + 2 * m)
@@ -284,7 +356,7 @@ def structured_derivatives(
     sin_d = (geo[8] * dy - geo[9] * dx) / length
     dt_sum = 0.0
     fuel_sum = 0.0
-    loads, bands_res, drifts, sogs, excls = [], [[] for _ in range(nb)], [], [], []
+    loads, bands_res, drifts, sogs, excls, devs = [], [[] for _ in range(nb)], [], [], [], []
     for j in range(m):
         fj, wj = geo[11 + j], geo[11 + m + j]
         th = theta[j * n_theta : (j + 1) * n_theta]
@@ -294,15 +366,20 @@ def structured_derivatives(
 
         def taylor(block: Any, count: int, d_t: Any = d_t, d_y: Any = d_y) -> Any:
             f0, ft, fy = block[0:count], block[count : 2 * count], block[2 * count : 3 * count]
+            if n_blk == 3:
+                return f0 + ft * d_t + fy * d_y
             ftt, fty, fyy = block[3 * count : 4 * count], block[4 * count : 5 * count], block[5 * count : 6 * count]
             return f0 + ft * d_t + fy * d_y + 0.5 * ftt * d_t**2 + fty * d_t * d_y + 0.5 * fyy * d_y**2
 
-        wvals = taylor(th[2 : 2 + 6 * nf], nf)
-        col = {name: wvals[i] for i, name in enumerate(names)}
+        wvals = taylor(th[2:r0], nf_p)
+        col = {name: wvals[i] for i, name in enumerate(plain)}
         b_j = [beta[b * m + j] for b in range(nb)]
+        ratio_of = ratio_taylor(th[r0 : r0 + n_rat], d_t, d_y) if contract else None
         phys = sample_physics(
-            v, cos_d, sin_d, length * wj, factor, col, b_j, nlp.power, nlp.bands, nlp.g_over_2pi, nlp.weather.ratio_axes
-        )
+            v, cos_d, sin_d, length * wj, factor, col, b_j, nlp.power, nlp.bands, nlp.g_over_2pi,
+            nlp.weather.ratio_axes, ratio_of,
+        )  # fmt: skip
+        devs.append(phys["dev_deg"])
         dt_sum = dt_sum + phys["dt"]
         fuel_sum = fuel_sum + phys["fuel"]
         loads.append(phys["load"])
@@ -312,7 +389,7 @@ def structured_derivatives(
         drifts.append(phys["h_perp"])
         sogs.append(phys["sog"])
         if has_excl:
-            ex = taylor(th[2 + 6 * nf : 2 + 6 * nf + 18], 3)
+            ex = taylor(th[r0 + n_rat : r0 + n_rat + 3 * n_blk], 3)
             xs, yfs = pxa + fj * dx, pya + fj * dy
             excls.append(((xs - ex[0]) ** 2 + (yfs - ex[1]) ** 2 - ex[2] ** 2) / nlp.exclusion.radius_scale_nm**2)
     g_parts = [tb - ta - dt_sum, *loads]
@@ -359,7 +436,13 @@ def structured_derivatives(
     lam_g = ca.MX.sym("lam_g", ng)
     zmat = ca.reshape(x[z_idx.T.ravel().tolist()], _N_Z, n)
     beta_mat = ca.reshape(p[beta_idx.T.ravel().tolist()], nb * m, n) if nb else ca.MX.zeros(m, n)
-    memo = _taylor_source(nlp, x, zmat, z_idx, n_theta, exact_hessian)
+    dev_at = None
+    if contract:  # the samples' heading deviations at a point, as the leg functions compute them
+        leg_dev = ca.Function("leg_dev", [z, geo, theta], [ca.vertcat(*devs)]).map(n)
+        geo_dev = ca.vertcat(geo_fixed, ca.DM.zeros(1, n), ca.DM(np.vstack([layout.fraction.T, layout.weight.T])))
+        th_dev = ca.MX.sym("theta", n_theta * m, n)
+        dev_at = ca.Function("dev_at", [x, th_dev], [leg_dev(zmat, geo_dev, th_dev)])
+    memo = _taylor_source(nlp, x, zmat, n_theta, exact_hessian, _RatioLayout(plain, r0, n_rat, dev_at))
     th = ca.MX.sym("theta", n_theta * m, n)
     th_h = ca.MX.sym("theta_h", n_theta * m, n)
     args = [zmat, geo_dm, th, beta_mat]
@@ -394,9 +477,9 @@ def structured_derivatives(
     hess_full = ca.MX(sp_h, ca.mtimes(gat_h, ca.vec(h_k)))
     hess_core = ca.Function("hess_lag_core", [x, p, lam_f, lam_g, th_h], [hess_full])
     return {
-        "grad_f": _MemoCallback("grad_f", grad_core, memo.first, ["x", "p"], ["f", "grad_f_x"], cache=True),
-        "jac_g": _MemoCallback("jac_g", jac_core, memo.first, ["x", "p"], ["g", "jac_g_x"]),
-        "hess_lag": _MemoCallback(
+        "grad_f": MemoCallback("grad_f", grad_core, memo.first, ["x", "p"], ["f", "grad_f_x"], cache=True),
+        "jac_g": MemoCallback("jac_g", jac_core, memo.first, ["x", "p"], ["g", "jac_g_x"]),
+        "hess_lag": MemoCallback(
             "hess_lag", hess_core, memo.hessian, ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]
         ),
     }
@@ -418,7 +501,16 @@ def _sample_coordinates(nlp: Any, zmat: Any) -> tuple[Any, Any, np.ndarray]:
     return t_s, y_s, s_s
 
 
-def _taylor_source(nlp: Any, x: Any, zmat: Any, z_idx: np.ndarray, n_theta: int, exact_hessian: bool) -> Any:
+class _RatioLayout(NamedTuple):
+    """Where the leg functions read what in a sample's Taylor data (:func:`structured_derivatives`)."""
+
+    plain: tuple[str, ...]  # the weather fields read one by one (all of them unless the ratio table is contracted)
+    start: int  # first row of the power-ratio block (ratio_taylor_data), after t0, y0 and the plain fields
+    size: int  # its length (0: the ratio table is read field by field, or there is none)
+    dev_at: Any  # CasADi function (x, theta) ↦ the samples' heading deviations (m × N) [deg], with a ratio block
+
+
+def _taylor_source(nlp: Any, x: Any, zmat: Any, n_theta: int, exact_hessian: bool, lay: _RatioLayout) -> Any:
     """The per-sample Taylor data ``theta`` (n_theta·m × N) at a point x, memoised: from the weather's numpy
     :class:`~formulations.splines.TensorSpline` when the NLP reads its weather that way (no CasADi spline is
     built), else from CasADi's mapped ``WeatherGrid.taylor_function``."""
@@ -433,13 +525,16 @@ def _taylor_source(nlp: Any, x: Any, zmat: Any, z_idx: np.ndarray, n_theta: int,
             excl[order] = efun.map(k_)
     if nlp.numeric_weather:
         coords = ca.Function("coords", [x], [ca.vertcat(t_s, y_s)])
-        return _NumericTaylor(nlp, coords, s_s, excl, n_theta, exact_hessian)
+        return _NumericTaylor(nlp, coords, s_s, excl, n_theta, exact_hessian, lay)
     m, n = nlp.samples_per_leg, nlp.n_legs
 
+    n_blk = 6 if exact_hessian else 3  # Taylor blocks the leg functions read (structured_derivatives)
+    nf = len(nlp.weather.field_names)
+
     def theta_at(order: int) -> Any:
-        parts = [t_s, y_s, nlp.weather.taylor_function(order).map(k_)(pts)]
+        parts = [t_s, y_s, nlp.weather.taylor_function(order).map(k_)(pts)[: n_blk * nf, :]]
         if has_excl:
-            parts.append(excl[order](pts))
+            parts.append(excl[order](pts)[: 3 * n_blk, :])
         return ca.reshape(ca.vertcat(*parts), n_theta * m, n)
 
     theta1 = ca.Function("theta1", [x], [theta_at(1)])  # first derivatives: gradient and Jacobian
@@ -454,11 +549,24 @@ class _NumericTaylor:
     for the first two, as :func:`_taylor_source`'s CasADi branch gives them)."""
 
     def __init__(
-        self, nlp: Any, coords: Any, s_s: np.ndarray, excl: dict[int, Any], n_theta: int, exact_hessian: bool
+        self,
+        nlp: Any,
+        coords: Any,
+        s_s: np.ndarray,
+        excl: dict[int, Any],
+        n_theta: int,
+        exact_hessian: bool,
+        lay: _RatioLayout,
     ) -> None:
         self._spline = nlp.weather.tensor_spline()
-        self._nf = len(nlp.weather.field_names)
-        self._coords, self._s, self._excl = coords, s_s, excl
+        names = nlp.weather.field_names
+        self._plain = np.array([names.index(nm) for nm in lay.plain])
+        self._lay, self._axes = lay, nlp.weather.ratio_axes
+        if lay.size:
+            nv, nd = self._axes[2], self._axes[5]
+            self._table = np.array([[names.index(f"ratio_{j}_{k}") for k in range(nd)] for j in range(nv)])
+        self._coords, self._s, self._excl = Buffered(coords), s_s, excl
+        self._dev_at = Buffered(lay.dev_at) if lay.size else None
         self._n, self._m, self._n_theta = nlp.n_legs, nlp.samples_per_leg, n_theta
         self._order = 2 if exact_hessian else 1
         self._last: tuple[bytes, Any, Any] | None = None
@@ -467,23 +575,36 @@ class _NumericTaylor:
         key = np.asarray(x).tobytes()
         if self._last is not None and self._last[0] == key:
             return self._last[1], self._last[2]
-        nf, k_ = self._nf, self._n * self._m
-        ts_ys = np.asarray(self._coords(x), dtype=float)  # (2, K)
+        k_, order, lay = self._n * self._m, self._order, self._lay
+        nf_p = self._plain.size
+        ts_ys = self._coords(x)[0].reshape(k_, 2).T  # (2, K): the (2, K) output's nonzeros, column-major
         pts = np.vstack([ts_ys[0], self._s, ts_ys[1]])
         full = np.zeros((self._n_theta, k_))
         full[:2] = ts_ys
-        full[2 : 2 + 3 * self._order * nf] = self._spline.evaluate(pts, self._order)
+        vals = self._spline.evaluate(pts, order).reshape(3 * order, -1, k_)  # (blocks, fields, K)
+        full[2 : lay.start] = vals[:, self._plain].reshape(3 * order * nf_p, k_)
+        e0 = lay.start + lay.size
         if self._excl:
-            full[2 + 6 * nf :] = np.asarray(self._excl[self._order](pts), dtype=float)
+            full[e0:] = np.asarray(self._excl[order](pts), dtype=float)[: 9 * order]
+        if lay.size:
+            dev = self._dev_at(x, self._shaped(full))[0].copy()  # (m, N) column-major: sample k·m + j
+            v = np.repeat(np.asarray(x, dtype=float).ravel()[self._n + 1 : 2 * self._n + 1], self._m)
+            full[lay.start : e0] = ratio_taylor_data(vals[:, self._table], v, dev, self._axes)
         first = full
-        if self._order == 2:
+        if order == 2:  # the gradient's and the Jacobian's data: no second derivatives of the weather
             first = full.copy()
-            first[2 + 3 * nf : 2 + 6 * nf] = 0.0
+            first[2 + 3 * nf_p : 2 + 6 * nf_p] = 0.0
+            first[e0 - 3 if lay.size else e0 : e0] = 0.0
             if self._excl:
-                first[2 + 6 * nf + 9 :] = 0.0
-        shaped = [ca.DM(a.T.reshape(self._n, self._m * self._n_theta).T) for a in (first, full)]
+                first[e0 + 9 :] = 0.0
+        shaped = [self._shaped(a) for a in (first, full)]
         self._last = (key, shaped[0], shaped[1])
         return shaped[0], shaped[1]
+
+    def _shaped(self, a: np.ndarray) -> np.ndarray:
+        """(n_theta, K) → the nonzeros of the leg functions' dense (n_theta·m, N) input, column-major (leg k's
+        column is its m samples' data one after the other)."""
+        return np.ascontiguousarray(a.T).ravel()
 
     def first(self, x: Any) -> Any:
         return self._theta(x)[0]
@@ -504,7 +625,7 @@ class _TaylorMemo:
         key = np.asarray(x).tobytes()
         hit = self._last.get(which)
         if hit is None or hit[0] != key:
-            hit = (key, self._fns[which](x))
+            hit = (key, np.asarray(self._fns[which](x), dtype=float).ravel(order="F"))  # nonzeros, column-major
             self._last[which] = hit
         return hit[1]
 
@@ -515,88 +636,6 @@ class _TaylorMemo:
         if self._fns["hessian"] is self._fns["first"]:
             return self._get("first", x)
         return self._get("hessian", x)
-
-
-class _MemoCallback(ca.Callback):
-    """A derivative function for ``nlpsol`` that feeds the memoised Taylor data to a core function."""
-
-    def __init__(
-        self,
-        name: str,
-        core: Any,
-        theta: Callable[[Any], Any],
-        names_in: list[str],
-        names_out: list[str],
-        cache: bool = False,
-    ) -> None:
-        ca.Callback.__init__(self)
-        self._core, self._theta, self._names = core, theta, (names_in, names_out)
-        self._cache = cache
-        self._last: tuple[bytes, Any] | None = None
-        self.construct(name, {})
-
-    def get_n_in(self) -> int:
-        return len(self._names[0])
-
-    def get_n_out(self) -> int:
-        return len(self._names[1])
-
-    def get_name_in(self, i: int) -> str:
-        return self._names[0][i]
-
-    def get_name_out(self, i: int) -> str:
-        return self._names[1][i]
-
-    def get_sparsity_in(self, i: int) -> Any:
-        return self._core.sparsity_in(i)
-
-    def get_sparsity_out(self, i: int) -> Any:
-        return self._core.sparsity_out(i)
-
-    def eval(self, arg: list[Any]) -> list[Any]:
-        key = b"".join(np.asarray(a).tobytes() for a in arg) if self._cache else b""
-        if self._cache and self._last is not None and self._last[0] == key:
-            return self._last[1]
-        out = self._core.call([*arg, self._theta(arg[0])])
-        if self._cache:
-            self._last = (key, out)
-        return out
-
-
-class WeatherValues(ca.Callback):
-    """The weather fields at K points, ``(3, K) [t; s; y] ↦ (n_fields, K)``, as a CasADi function evaluated in
-    numpy (:meth:`formulations.common.WeatherGrid.tensor_spline`): the values of CasADi's
-    ``WeatherGrid.interpolant`` without building it. No derivatives: the NLP built with it takes its
-    derivatives from :func:`structured_derivatives`."""
-
-    def __init__(self, weather: Any, n_points: int) -> None:
-        ca.Callback.__init__(self)
-        self._spline = weather.tensor_spline()
-        self._k = int(n_points)
-        self.construct("weather_values", {})
-
-    def get_n_in(self) -> int:
-        return 1
-
-    def get_n_out(self) -> int:
-        return 1
-
-    def get_sparsity_in(self, i: int) -> Any:
-        return ca.Sparsity.dense(3, self._k)
-
-    def get_sparsity_out(self, i: int) -> Any:
-        return ca.Sparsity.dense(self._spline.n_fields, self._k)
-
-    def has_eval_buffer(self) -> bool:
-        return True
-
-    def eval_buffer(self, arg: list[Any], res: list[Any]) -> int:
-        """Read the points from and write the fields into CasADi's own buffers (column-major): no DM conversion,
-        which costs more than the spline itself on a few thousand points."""
-        pts = np.frombuffer(arg[0], dtype=float).reshape(self._k, 3).T
-        out = np.frombuffer(res[0], dtype=float).reshape(self._k, self._spline.n_fields).T
-        out[:] = self._spline.evaluate(pts, 0)
-        return 0
 
 
 def row_blocks(mdl: dict[str, Any], t: Any, *, bands: bool, current: bool, exclusion: bool) -> tuple[list[Any], dict]:

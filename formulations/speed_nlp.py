@@ -75,8 +75,8 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
+from formulations._buffers import SharedMap, WeatherValues
 from formulations._nlp_model import (
-    WeatherValues,
     jit_compiler,
     row_blocks,
     sample_physics,
@@ -412,6 +412,8 @@ class SpeedNLP:
         else:
             self._interp_map = self.weather.interpolant().map(k_)
         self._sample_map = self._sample_function().map(k_)
+        if self.numeric_weather:  # nothing differentiates the graph: f and g at one point share one evaluation
+            self._sample_map = SharedMap(self._sample_map)
         if self.exclusion is not None:
             self.exclusion_function = self.exclusion.interpolant()
             self._excl_map = self.exclusion_function.map(k_)

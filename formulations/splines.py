@@ -31,6 +31,7 @@ __all__ = [
     "quasi_spline",
     "resample_linear",
     "spline_derivative",
+    "spline_weight_derivatives",
     "spline_weights",
 ]
 
@@ -57,11 +58,42 @@ def spline_weights(x: Any, x0: float, h: float, n: int, lib: Any) -> list[Any]:
         p = [lib.fmax(d + k, 0.0) ** 3 for k in (2.0, 1.0, 0.0, -1.0)]
         return (p[0] - 4.0 * p[1] + 6.0 * p[2] - 4.0 * p[3]) / 6.0
 
-    basis = [b(u - i) for i in range(-1, n + 1)]  # f_{-1} … f_n
+    return _end_extended([b(u - i) for i in range(-1, n + 1)], n)  # f_{-1} … f_n
+
+
+def _end_extended(basis: list[Any], n: int) -> list[Any]:
+    """The n weights of the data from the n + 2 basis values of ``f_{-1} … f_n`` (``f_{-1} = 2f_0 − f_1``)."""
     w = basis[1 : n + 1]
     w[0], w[1] = w[0] + 2.0 * basis[0], w[1] - basis[0]
     w[n - 1], w[n - 2] = w[n - 1] + 2.0 * basis[n + 1], w[n - 2] - basis[n + 1]
     return w
+
+
+def spline_weight_derivatives(x: np.ndarray, x0: float, h: float, n: int) -> np.ndarray:
+    """The weights of :func:`spline_weights` and their first and second derivatives in ``x``, numpy: (3, n, K).
+
+    The derivatives of the same truncated-power expression, ``B'(u) = [3(u+2)₊² − 12(u+1)₊² + 18u₊² −
+    12(u−1)₊²]/6`` and ``B''(u) = [6(u+2)₊ − 24(u+1)₊ + 36u₊ − 24(u−1)₊]/6``, chained through ``u = (x − x0)/h``;
+    where ``x`` is held at an end node the derivative is that of CasADi's ``fmin``/``fmax`` (0 outside, ½ on the
+    node itself), so that these are the numbers CasADi's automatic derivatives of :func:`spline_weights` give.
+    """
+    x = np.asarray(x, dtype=float)
+    out = np.zeros((3, n, x.size))
+    out[0] = np.asarray(np.broadcast_arrays(*spline_weights(x, x0, h, n, np), x)[:n])
+    if n == 1:
+        return out
+    xe = x0 + (n - 1) * h
+    slope = np.where((x > x0) & (x < xe), 1.0, np.where((x == x0) | (x == xe), 0.5, 0.0)) / h
+    u = (np.minimum(np.maximum(x, x0), xe) - x0) / h
+    coef = ((3.0, -12.0, 18.0, -12.0), (6.0, -24.0, 36.0, -24.0))
+    for order, c in ((1, coef[0]), (2, coef[1])):
+        basis = []
+        for i in range(-1, n + 1):
+            d = np.minimum(np.maximum(u - i, -2.0), 2.0)
+            p = [np.maximum(d + k, 0.0) ** (3 - order) for k in (2.0, 1.0, 0.0, -1.0)]
+            basis.append(sum(ci * pi for ci, pi in zip(c, p, strict=True)) / 6.0)
+        out[order] = np.asarray(_end_extended(basis, n)) * slope**order
+    return out
 
 
 def is_uniform(g: np.ndarray) -> bool:

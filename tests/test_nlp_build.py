@@ -3,7 +3,9 @@
 References: the quasi-interpolant reproduces linear data exactly (Schoenberg; ``formulations.splines``), so its
 derivatives on a linear field are the field's slopes; CasADi's ``Function.bspline`` of the same control points
 and its derivative splines (de Boor 1978, ch. X) are the independent evaluation of the rest; a fresh build of
-the same problem is the reference of a re-solve.
+the same problem is the reference of a re-solve. The structured derivatives' contracted power-ratio table
+(``formulations._nlp_model.ratio_taylor_data``) is checked against CasADi's automatic differentiation of the
+table's own formula (``power_ratio``, ``spline_weights``).
 """
 
 from __future__ import annotations
@@ -13,8 +15,10 @@ import numpy as np
 import pytest
 
 import formulations.speed_nlp as speed_nlp
+from formulations._nlp_model import power_ratio, ratio_taylor_data
 from formulations.common import Band, CorridorGeometry, PowerModel, WeatherGrid
 from formulations.speed_nlp import SpeedNLP
+from formulations.splines import spline_weight_derivatives, spline_weights
 
 T_AXIS, S_AXIS, Y_AXIS = np.arange(0.0, 49.0, 6.0), np.linspace(0.0, 300.0, 7), np.linspace(-20.0, 20.0, 5)
 
@@ -92,3 +96,36 @@ def test_the_numpy_weather_and_casadis_give_the_same_solution() -> None:
     assert a.success and b.success
     assert a.objective == pytest.approx(b.objective, rel=1e-7)
     np.testing.assert_allclose(a.stw_kn, b.stw_kn, rtol=1e-5)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 8])
+def test_spline_weight_derivatives_equal_casadis_automatic_derivatives(n: int) -> None:
+    x0, h = 3.0, 3.3634679611247966  # the speed axis of a corridor's power table: 3 kn, 8 nodes
+    xs = np.concatenate([np.linspace(0.0, x0 + (n + 1) * h, 97), x0 + h * np.arange(n)])  # nodes and ends included
+    x = ca.SX.sym("x")
+    w = ca.vertcat(*spline_weights(x, x0, h, n, ca))
+    ref_fn = ca.Function("w", [x], [w, ca.jacobian(w, x), ca.jacobian(ca.jacobian(w, x), x)])
+    ref = np.array([[np.array(ca.densify(a)).ravel() for a in ref_fn(xi)] for xi in xs]).transpose(1, 2, 0)
+    np.testing.assert_allclose(spline_weight_derivatives(xs, x0, h, n), ref, rtol=0.0, atol=1e-13)
+
+
+def test_contracted_ratio_has_the_value_gradient_and_hessian_of_the_table() -> None:
+    rng = np.random.default_rng(5)
+    axes = (6.0, 6.0, 4, -30.0, 30.0, 3)  # 4 speeds × 3 headings
+    v, dev, t, y = ca.SX.sym("v"), ca.SX.sym("dev"), ca.SX.sym("t"), ca.SX.sym("y")
+    # a table whose every entry is a quadratic in (t, y): its Taylor coefficients are known exactly
+    c = rng.uniform(-1.0, 1.0, (6, 4, 3))
+    col = {f"ratio_{j}_{k}": c[0, j, k] + c[1, j, k] * t + c[2, j, k] * y + 0.5 * c[3, j, k] * t**2
+           + c[4, j, k] * t * y + 0.5 * c[5, j, k] * y**2 for j in range(4) for k in range(3)}  # fmt: skip
+    r = power_ratio(col, v, dev, axes, ca)
+    z = ca.vertcat(v, dev, t, y)
+    ref_fn = ca.Function("r", [z], [r, ca.gradient(r, z), ca.hessian(r, z)[0]])
+    for point in ([7.5, 12.0], [6.0, -30.0], [20.0, 3.0], [25.0, 40.0]):  # inside, on the first nodes, outside
+        val, grad, hess = (np.array(a) for a in ref_fn([*point, 0.0, 0.0]))
+        blk = ratio_taylor_data(c[:, :, :, None], np.array(point[:1]), np.array(point[1:]), axes)[:, 0]
+        np.testing.assert_allclose(blk[:2], point, rtol=0, atol=0)
+        np.testing.assert_allclose(blk[2], val.item(), rtol=1e-13)
+        np.testing.assert_allclose(blk[3:7], grad.ravel(), rtol=1e-12, atol=1e-13)
+        order = [(0, 0), (0, 1), (0, 2), (0, 3), (1, 1), (1, 2), (1, 3), (2, 2), (2, 3), (3, 3)]  # R_VV … R_yy
+        want = [hess[a, b] for a, b in order]
+        np.testing.assert_allclose(blk[7:], want, rtol=1e-12, atol=1e-13)

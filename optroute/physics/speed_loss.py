@@ -544,12 +544,12 @@ def calm_speed_for_weather_kn(
     c_bf = kwon_direction_coefficient(weather_angle_deg, beaufort) * kwon_form_coefficient(
         beaufort, volume_m3, ship_type, loading
     )
+    # C_U's coefficients and 1/√(gL) are fixed along the root search: compute them once, and elementwise on Cb as
+    # given (one ship: one Cb), before it is broadcast to the weather's shape
+    a, b, c = _cu_coefficients(np.asarray(cb, dtype=float), load)
     v2, length, cb, c_bf = np.broadcast_arrays(v2, length, cb, c_bf)
     # the bound itself is admitted up to rounding, so a V1 at exactly Fn = fn_max inverts
     v_max = fn_max * units.ms_to_kn(np.sqrt(G_MS2 * length)) * (1.0 + 1e-12)
-
-    # C_U's coefficients and 1/√(gL) are fixed along the root search: compute them once
-    a, b, c = _cu_coefficients(cb, load)
     loss_per_cu = c_bf / 100.0
     inv_sqrt_gl_kn = 1.0 / units.ms_to_kn(np.sqrt(G_MS2 * length))
 
