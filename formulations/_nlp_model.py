@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
@@ -43,6 +44,8 @@ __all__ = [
     "power_ratio",
     "row_blocks",
     "sample_physics",
+    "StructuredCores",
+    "structured_cores",
     "structured_derivatives",
 ]
 
@@ -222,6 +225,9 @@ def _scatter(n_rows: int, n_cols: int, rows: np.ndarray, cols: np.ndarray, n_src
 def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool = False) -> dict[str, Any]:
     """``grad_f``, ``jac_g`` and ``hess_lag`` functions for ``nlpsol``, exact and assembled per leg.
 
+    :func:`structured_cores` with the Taylor data of ``nlp.weather``, each core wrapped as a function of
+    ``(x, p[, lam_f, lam_g])``.
+
     Parameters
     ----------
     nlp : SpeedNLP
@@ -240,6 +246,46 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
     dict
         Options ``{"grad_f": ..., "jac_g": ..., "hess_lag": ...}`` for ``casadi.nlpsol``.
     """
+    cores = structured_cores(nlp, jit=jit, exact_hessian=exact_hessian)
+    memo = cores.taylor(nlp.weather)
+    return {
+        "grad_f": _MemoCallback("grad_f", cores.grad, memo.first, ["x", "p"], ["f", "grad_f_x"], cache=True),
+        "jac_g": _MemoCallback("jac_g", cores.jac, memo.first, ["x", "p"], ["g", "jac_g_x"]),
+        "hess_lag": _MemoCallback(
+            "hess_lag", cores.hess, memo.hessian, ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]
+        ),
+    }
+
+
+@dataclass(frozen=True)
+class StructuredCores:
+    """The weather-independent parts of :func:`structured_derivatives` (:func:`structured_cores`).
+
+    Attributes
+    ----------
+    grad : casadi.Function
+        ``(x, p, theta) ↦ (f, ∇f)``: objective and its gradient (dense, length ``nx``).
+    jac : casadi.Function
+        ``(x, p, theta) ↦ (g, ∂g/∂x)``: the rows and their sparse Jacobian.
+    hess : casadi.Function
+        ``(x, p, lam_f, lam_g, theta_h) ↦ triu ∇²(lam_f f + lam_g·g)``: upper triangle, sparse.
+    taylor : callable
+        ``taylor(weather, numeric=None)`` → an object whose ``first(x)`` and ``hessian(x)`` give the ``theta`` and
+        ``theta_h`` inputs for a :class:`~formulations.common.WeatherGrid` with the NLP's fields and axes
+        (so that one set of cores serves several weathers: the members of :mod:`formulations.robust_nlp`);
+        ``numeric`` (default: as the NLP reads its own weather) evaluates a ``"smooth"`` weather in numpy
+        (:meth:`WeatherGrid.tensor_spline`), else through CasADi's ``WeatherGrid.taylor_function``.
+    """
+
+    grad: Any
+    jac: Any
+    hess: Any
+    taylor: Callable[[Any], Any]
+
+
+def structured_cores(nlp: Any, *, jit: bool = False, exact_hessian: bool = False) -> StructuredCores:
+    """The per-leg derivative functions of :func:`structured_derivatives` with the weather's Taylor data as an
+    input (:class:`StructuredCores`); parameters as :func:`structured_derivatives`."""
     n, m, nb = nlp.n_legs, nlp.samples_per_leg, nlp.n_bands
     k_ = n * m
     nx, ng = nlp._nx, nlp._ng
@@ -339,7 +385,6 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
     lam_g = ca.MX.sym("lam_g", ng)
     zmat = ca.reshape(x[z_idx.T.ravel().tolist()], _N_Z, n)
     beta_mat = ca.reshape(p[beta_idx.T.ravel().tolist()], nb * m, n) if nb else ca.MX.zeros(m, n)
-    memo = _taylor_source(nlp, x, zmat, z_idx, n_theta, exact_hessian)
     th = ca.MX.sym("theta", n_theta * m, n)
     th_h = ca.MX.sym("theta_h", n_theta * m, n)
     args = [zmat, geo_dm, th, beta_mat]
@@ -373,13 +418,12 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
     sp_h, gat_h = _scatter(nx, nx, np.array(hr), np.array(hc), len(hr))
     hess_full = ca.MX(sp_h, ca.mtimes(gat_h, ca.vec(h_k)))
     hess_core = ca.Function("hess_lag_core", [x, p, lam_f, lam_g, th_h], [hess_full])
-    return {
-        "grad_f": _MemoCallback("grad_f", grad_core, memo.first, ["x", "p"], ["f", "grad_f_x"], cache=True),
-        "jac_g": _MemoCallback("jac_g", jac_core, memo.first, ["x", "p"], ["g", "jac_g_x"]),
-        "hess_lag": _MemoCallback(
-            "hess_lag", hess_core, memo.hessian, ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]
-        ),
-    }
+
+    def taylor(weather: Any, numeric: bool | None = None) -> Any:
+        numeric = nlp.numeric_weather if numeric is None else bool(numeric and weather.method == "smooth")
+        return _taylor_source(nlp, x, zmat, z_idx, n_theta, exact_hessian, weather, numeric)
+
+    return StructuredCores(grad_core, jac_core, hess_core, taylor)
 
 
 def _sample_coordinates(nlp: Any, zmat: Any) -> tuple[Any, Any, np.ndarray]:
@@ -398,10 +442,12 @@ def _sample_coordinates(nlp: Any, zmat: Any) -> tuple[Any, Any, np.ndarray]:
     return t_s, y_s, s_s
 
 
-def _taylor_source(nlp: Any, x: Any, zmat: Any, z_idx: np.ndarray, n_theta: int, exact_hessian: bool) -> Any:
-    """The per-sample Taylor data ``theta`` (n_theta·m × N) at a point x, memoised: from the weather's numpy
-    :class:`~formulations.splines.TensorSpline` when the NLP reads its weather that way (no CasADi spline is
-    built), else from CasADi's mapped ``WeatherGrid.taylor_function``."""
+def _taylor_source(
+    nlp: Any, x: Any, zmat: Any, z_idx: np.ndarray, n_theta: int, exact_hessian: bool, weather: Any, numeric: bool
+) -> Any:
+    """The per-sample Taylor data ``theta`` (n_theta·m × N) of ``weather`` at a point x, memoised: from the
+    weather's numpy :class:`~formulations.splines.TensorSpline` when the NLP reads its weather that way (no CasADi
+    spline is built), else from CasADi's mapped ``WeatherGrid.taylor_function``."""
     k_ = nlp.n_legs * nlp.samples_per_leg
     has_excl = nlp.exclusion is not None
     t_s, y_s, s_s = _sample_coordinates(nlp, zmat)
@@ -411,13 +457,13 @@ def _taylor_source(nlp: Any, x: Any, zmat: Any, z_idx: np.ndarray, n_theta: int,
         for order in (1, 2) if exact_hessian else (1,):
             efun = _taylor_function(nlp.exclusion_function, 3, "excl_taylor", time_only=True, order=order)
             excl[order] = efun.map(k_)
-    if nlp.numeric_weather:
+    if numeric:
         coords = ca.Function("coords", [x], [ca.vertcat(t_s, y_s)])
-        return _NumericTaylor(nlp, coords, s_s, excl, n_theta, exact_hessian)
+        return _NumericTaylor(nlp, coords, s_s, excl, n_theta, exact_hessian, weather)
     m, n = nlp.samples_per_leg, nlp.n_legs
 
     def theta_at(order: int) -> Any:
-        parts = [t_s, y_s, nlp.weather.taylor_function(order).map(k_)(pts)]
+        parts = [t_s, y_s, weather.taylor_function(order).map(k_)(pts)]
         if has_excl:
             parts.append(excl[order](pts))
         return ca.reshape(ca.vertcat(*parts), n_theta * m, n)
@@ -434,10 +480,17 @@ class _NumericTaylor:
     for the first two, as :func:`_taylor_source`'s CasADi branch gives them)."""
 
     def __init__(
-        self, nlp: Any, coords: Any, s_s: np.ndarray, excl: dict[int, Any], n_theta: int, exact_hessian: bool
+        self,
+        nlp: Any,
+        coords: Any,
+        s_s: np.ndarray,
+        excl: dict[int, Any],
+        n_theta: int,
+        exact_hessian: bool,
+        weather: Any,
     ) -> None:
-        self._spline = nlp.weather.tensor_spline()
-        self._nf = len(nlp.weather.field_names)
+        self._spline = weather.tensor_spline()
+        self._nf = len(weather.field_names)
         self._coords, self._s, self._excl = coords, s_s, excl
         self._n, self._m, self._n_theta = nlp.n_legs, nlp.samples_per_leg, n_theta
         self._order = 2 if exact_hessian else 1
