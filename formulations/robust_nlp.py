@@ -240,9 +240,10 @@ class RobustSpeedNLP:
     exact_hessian : bool
         Ipopt's exact Hessian of the Lagrangian (default) or its limited-memory (L-BFGS) approximation.
     weather_curvature : bool
-        With the exact Hessian, keep the weather's second derivatives in t and y in it (exact second
-        derivatives); the default leaves them out, as :class:`SpeedNLP` does (``exact_hessian=False`` there):
-        gradients and Jacobians are exact either way, so Ipopt converges to the same KKT point.
+        With the exact Hessian, keep the weather's second derivatives in t and y in it (default: the exact Hessian);
+        False leaves them out, as :class:`SpeedNLP` does by default. Gradients and Jacobians are exact either way,
+        so Ipopt converges to the same KKT point; on ``benchmarks.bench_robust``'s storm case the curvature saved
+        iterations (12/15/15 against 19/18/19 at 1/2/4 members, same optimum).
     ipopt_options : dict, optional
         Overrides of the Ipopt/CasADi options.
     """
@@ -263,7 +264,7 @@ class RobustSpeedNLP:
         g_over_2pi_kn_s: float = G_OVER_2PI_KN_S,
         sog_min_kn: float = 1.0,
         exact_hessian: bool = True,
-        weather_curvature: bool = False,
+        weather_curvature: bool = True,
         ipopt_options: dict[str, Any] | None = None,
     ) -> None:
         started = time.perf_counter()
