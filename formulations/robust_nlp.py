@@ -74,6 +74,7 @@ from formulations.common import (
     broadcast_legs,
 )
 from formulations.disjunctive import select_sides
+from formulations.sample_layout import SampleLayout
 from formulations.speed_nlp import IPOPT_DEFAULTS, SampleState, SpeedNLP
 
 __all__ = ["MAX_DROP_CHOICES", "RobustResult", "RobustSpeedNLP"]
@@ -246,6 +247,9 @@ class RobustSpeedNLP:
         iterations (12/15/15 against 19/18/19 at 1/2/4 members, same optimum).
     ipopt_options : dict, optional
         Overrides of the Ipopt/CasADi options.
+    sample_layout : SampleLayout, optional
+        Where every leg is sampled, as in :class:`SpeedNLP` (the same for every member): the quadrature and
+        row-only points (weight 0) where the rows are imposed too; replaces ``samples_per_leg``.
     """
 
     def __init__(
@@ -266,6 +270,7 @@ class RobustSpeedNLP:
         exact_hessian: bool = True,
         weather_curvature: bool = True,
         ipopt_options: dict[str, Any] | None = None,
+        sample_layout: SampleLayout | None = None,
     ) -> None:
         started = time.perf_counter()
         weathers = list(weathers)
@@ -293,6 +298,7 @@ class RobustSpeedNLP:
             g_over_2pi_kn_s=g_over_2pi_kn_s,
             sog_min_kn=sog_min_kn,
             build_solver=False,
+            sample_layout=sample_layout,
         )
         tpl = self.template
         self.corridor, self.power, self.bands = corridor, power, tpl.bands

@@ -256,6 +256,7 @@ def test_ensemble_without_robust_names_the_fix(three_storms: xr.Dataset, corrido
         ({"robust": "all", "cvar_alpha": 0.5}, "only used with robust='cvar'"),
         ({"robust": "all", "eta_mode": "eq"}, "eta_mode='eq'"),
         ({"robust": "all", "jit": True}, "jit is not available"),
+        ({"robust": "all", "constraint_rows": "everywhere"}, "constraint_rows='everywhere' is not known"),
     ],
 )
 def test_bad_robust_options(three_storms: xr.Dataset, corridor: orx.Corridor, kwargs: dict, match: str) -> None:
@@ -352,3 +353,15 @@ def test_member_derivatives_equal_casadi_automatic_differentiation(risk: str) ->
     np.testing.assert_allclose(np.asarray(fn["nlp_jac_g"](x, p)[1].full()), jac, rtol=1e-9, atol=1e-12)
     mine = np.asarray(fn["nlp_hess_l"](x, p, lam_f, lam_g).full())
     np.testing.assert_allclose(mine, np.triu(hess), rtol=1e-8, atol=1e-10 * np.abs(hess).max())
+
+
+def test_referee_rows_plan_verifies_in_every_member(three_storms: xr.Dataset, corridor: orx.Corridor) -> None:
+    """``constraint_rows="referee"``: row-only samples at every member's referee check points (more samples a leg
+    than the quadrature's 3); the plan is still clean in every member by the referee."""
+    plan = orx.optimise_corridor(
+        corridor, three_storms, SHIP, departure=T0, eta=ETA, robust="all", constraint_rows="referee", **OPTS
+    )
+    for m in member_datasets(three_storms):
+        assert plan.verify(weather=m) == []
+    assert plan.arrival <= ETA
+    assert plan.solver_stats["nlp_samples_per_leg"] > OPTS["samples_per_leg"]
