@@ -176,6 +176,10 @@ def run_case(case: Case, res: dict[str, float]) -> dict[str, Any]:
                                                       v_max_kn=ship.max_calm_speed_kn)  # fmt: skip
         out["3-D DP mended"] = (_scored("3-D DP mended", mended, dp_s, eta_h) if mended is not None else
                                 Outcome.failed("3-D DP mended", runtime_s=dp_s, error="a band or the ETA broken"))  # fmt: skip
+    if case.kind == "storm":  # does a band-safe passage by the ETA exist at all? (brute force on fixed tracks)
+        from benchmarks._bands_reach import earliest_safe_arrival
+
+        row["reach"] = earliest_safe_arrival(ship, rules, wx, start, end, T0)
     corridor = orx.Corridor.from_waypoints([start, end], width_nm=2 * HALF_WIDTH_NM)
     t0 = time.perf_counter()
     try:
@@ -279,6 +283,16 @@ def print_suite(s: dict[str, Any]) -> None:
     for r in s["rows"]:
         if r.get("reason"):
             print(f"- {r['case']}: {r['status']}: {r['reason']}")
+    for r in s["rows"]:
+        if r.get("reach") is not None:
+            x = r["reach"]
+            tracks = ", ".join(f"{k}: {'none' if v is None else f'{v:.2f} h'}" for k, v in x["tracks"].items())
+            closed = x.get("closed_at_end_h")
+            print(f"- {r['case']}: earliest band-safe arrival by brute force on fixed tracks ({tracks}; "
+                  f"`benchmarks/_bands_reach.py`) against the ETA {r['eta_h']:.2f} h; the destination closed "
+                  f"(no speed allowed) {'never' if closed is None else f'{closed[0]:.2f}–{closed[1]:.2f} h'}"
+                  + (" — the ETA is out of reach: the NLP's answer should be InfeasibleETA, not a plan"
+                     if x["earliest_h"] > r["eta_h"] else ""))  # fmt: skip
 
 
 def run(quick: bool) -> dict[str, Any]:

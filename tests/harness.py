@@ -386,12 +386,13 @@ def check_plan(
 
 
 def _solve(
-    res: CaseResult, name: str, corridor, wx, ship, *, eta=None, objective="fuel", max_leg_nm=50.0
+    res: CaseResult, name: str, corridor, wx, ship, *, eta=None, objective="fuel", max_leg_nm=50.0, rows="referee"
 ) -> orx.Plan | None:
     try:
         plan = orx.optimise_corridor(
-            corridor, wx, ship, departure=T0, eta=eta, objective=objective, max_leg_nm=max_leg_nm
-        )
+            corridor, wx, ship, departure=T0, eta=eta, objective=objective, max_leg_nm=max_leg_nm,
+            constraint_rows=rows,
+        )  # fmt: skip
     except SolverFailure as exc:
         res.outcomes[name] = "SolverFailure"
         res.messages[name] = str(exc)[:300]
@@ -430,24 +431,27 @@ def fuel_not_worse(plan: orx.Plan, verified: list[orx.Plan], eta, rtol: float = 
     return out
 
 
-def run_case(case: Case, *, max_leg_nm: float = 50.0) -> CaseResult:
+def run_case(case: Case, *, max_leg_nm: float = 50.0, constraint_rows: str = "referee") -> CaseResult:
     """Minimum time, then least fuel with the case's ETA; every plan checked (:func:`check_plan`).
 
     A case is *feasible* when a verified plan exists: the minimum-time plan, or a SolverFailure's
     ``best_plan``.  An :class:`InfeasibleETA` of the fuel solve is then itself a finding
     (``honest_eta``): the minimum-time plan meets that ETA; so is a fuel plan using more fuel than
     the minimum-time plan when that one passed the check (``fuel_worse``, :func:`fuel_not_worse`).
+    ``constraint_rows`` is :func:`optroute.optimise_corridor`'s (where the NLP's rows sit).
     """
     start = time.process_time()
     res = CaseResult(case)
     ship = orx.Ship.preset(case.ship)
     wx = case_weather(case)
     corridor = orx.Corridor.from_waypoints(np.array(case.waypoints), width_nm=case.width_nm)
-    fastest = _solve(res, "time", corridor, wx, ship, objective="time", max_leg_nm=max_leg_nm)
+    fastest = _solve(res, "time", corridor, wx, ship, objective="time", max_leg_nm=max_leg_nm, rows=constraint_rows)
     if fastest is not None:
         res.feasible = True
         eta = T0 + np.timedelta64(int(round(fastest.duration_h * case.eta_factor * 3600.0)), "s")
-        least = _solve(res, "fuel", corridor, wx, ship, eta=eta, objective="fuel", max_leg_nm=max_leg_nm)
+        least = _solve(
+            res, "fuel", corridor, wx, ship, eta=eta, objective="fuel", max_leg_nm=max_leg_nm, rows=constraint_rows
+        )
         returned = all(res.outcomes.get(k, "").startswith("plan") for k in ("time", "fuel"))
         if least is not None and returned and not res.findings.get("time"):
             res.findings.setdefault("fuel", []).extend(fuel_not_worse(least, [fastest], eta))

@@ -301,3 +301,91 @@ def test_rows_at_the_leg_ends_keep_a_band_that_applies_only_at_a_waypoint() -> N
     np.testing.assert_allclose(out["midpoints"], 13.0, atol=1e-4)  # legs 0 and 1 inside the band at s = 40 nm
     assert np.all(out["leg ends"][:2] >= 14.4 - 1e-6)  # outside it, on the upper side
     assert 13.0 * 4 <= np.sum(out["leg ends"]) + 1e-6  # and the ETA still met: 160 nm in 160 / 13 h
+
+
+# --------------------------------------------------------------------------- the exclusion in the flat frame
+
+
+def test_a_centre_beyond_the_corridor_end_keeps_its_distance_in_the_flat_frame() -> None:
+    """The cyclone voyage of test_voyage_cyclone: a centre 90 nm past the destination and 100-150 nm abeam.
+
+    Reference: WGS84 geodesic distances from the corridor's ends (:func:`optroute.geodesy.distance_nm`).
+    The developed frame is flat, so distances agree to its O((d/R)^2) stretch (< 0.5 % at 170 nm);
+    held at the end (the old ``to_xy``), the centre lost its 90 nm past the destination (error ~ 20 %).
+    """
+    import optroute as orx
+    from optroute import geodesy as geo
+    from optroute.optimise.nlp_inputs import build_frame
+
+    frame = build_frame(orx.Corridor.from_waypoints([(15.5, 138.0), (17.0, 138.0), (18.5, 138.0)], width_nm=240.0))
+    lat = np.array([20.0, 20.0, 20.0, 14.0, 17.5])
+    lon = np.array([140.5, 139.7, 136.0, 138.9, 140.0])  # past the end (three), before the start, abeam leg 1
+    xy = frame.to_xy(lat, lon)
+    for end in (0, -1):
+        flat = np.linalg.norm(xy - frame.centre_xy_nm[end], axis=1)
+        true = geo.distance_nm(frame.corridor.waypoints[end, 0], frame.corridor.waypoints[end, 1], lat, lon)
+        np.testing.assert_allclose(flat, true, rtol=5e-3)
+
+
+# --------------------------------------------------------------------------- only the rows that can bind
+
+
+def test_band_rows_only_on_legs_where_a_band_can_apply() -> None:
+    """By hand: 4 legs of 40 nm, grid nodes every 10 nm; Hs 5 m at s = 70 nm at one time only, 2 m elsewhere.
+
+    The bands apply from 4 m; a node's cubic B-spline reaches two cells (20 nm) either side of it, 50–90 nm for the
+    5 m node, and each leg looks three nodes beyond its ends: leg 0 (0–40 nm, nodes 0–60 nm) does not see it, legs 1
+    (40–80 nm, nodes 20–100 nm) and 2 (80–120 nm, nodes 60–140 nm) do, leg 3 (120–160 nm, nodes 100–160 nm) does not.
+    Without bands no leg does; the exclusion mask is kept as given.
+    """
+    from optroute.optimise.rows import legs_that_can_bind, only_where_binding
+
+    s_nm = np.arange(5) * 40.0
+    gs = np.arange(0.0, 160.1, 10.0)
+    hs = np.full((3, gs.size, 2), 2.0)
+    hs[1, 7, 0] = 5.0
+    np.testing.assert_array_equal(legs_that_can_bind(s_nm, gs, hs, 4.0), [False, True, True, False])
+    np.testing.assert_array_equal(legs_that_can_bind(s_nm, gs, hs, 7.0), [False] * 4)  # 5 m < 0.8 * 7 m
+    near = np.array([False, False, False, True])
+    np.testing.assert_array_equal(legs_that_can_bind(s_nm, gs, hs, None, near), near)
+    pts = [np.array([0.0, 0.3, 1.0])] * 4
+    kept = only_where_binding(pts, np.array([True, False, True, False]))
+    np.testing.assert_allclose(kept[0], [0.0, 0.3, 1.0])
+    np.testing.assert_allclose(kept[1], [0.0, 1.0])
+
+
+def test_exclusion_rows_only_on_legs_the_circle_comes_near() -> None:
+    """By hand: legs along the x axis 0–40, 40–80, 80–120 nm, half-width 10 nm; a circle of 20 nm radius at
+    (100, 70) then (100, 55): its nearest approach to the corridor is 55 − 10 − 20 = 25 nm from leg 2 (within the
+    30 nm reach) and sqrt(20² + 55²) − 30 = 28.5 nm from leg 1's corridor end (within reach), leg 0's 60 nm away."""
+    from optroute.optimise.rows import legs_near_exclusion
+
+    c = np.column_stack([np.arange(4) * 40.0, np.zeros(4)])
+    near = legs_near_exclusion(c, np.full(4, 10.0), np.array([[100.0, 70.0], [100.0, 55.0]]), np.array([20.0, 20.0]))
+    np.testing.assert_array_equal(near, [False, True, True])
+    far = legs_near_exclusion(c, np.full(4, 10.0), np.array([[100.0, 70.0]]), np.array([20.0]))
+    np.testing.assert_array_equal(far, [False, False, False])  # 70 − 10 − 20 = 40 nm from leg 2
+
+
+def test_the_exclusion_back_off_is_the_flat_frames_measured_error() -> None:
+    """The cyclone voyage's circle (test_voyage_cyclone): its back-off bounds the flat frame's error at points
+    near the circle, checked here at independent points (random, not the function's grid) by WGS84 geodesics."""
+    import optroute as orx
+    from optroute import geodesy as geo
+    from optroute.geo.tracks import Exclusion
+    from optroute.optimise.nlp_inputs import build_frame, exclusion_frame_error_nm
+
+    frame = build_frame(orx.Corridor.from_waypoints([(15.5, 138.0), (17.0, 138.0), (18.5, 138.0)], width_nm=240.0))
+    t = np.datetime64("2022-10-13T00:00", "ns") + np.arange(0, 61, 6) * np.timedelta64(1, "h")
+    lon = 140.5 - 8.0 * np.arange(0, 61, 6) / (60.0 * np.cos(np.radians(17.5)))
+    excl = Exclusion(t, np.full(t.size, 20.0), lon, 127.0)
+    err = exclusion_frame_error_nm(excl, frame)
+    assert 0.0 < err < 1.0  # a fraction of a nm at ~200 nm from the centreline
+    rng = np.random.default_rng(3)
+    s, y = rng.uniform(0.0, frame.s_nm[-1], 400), rng.uniform(-120.0, 120.0, 400)
+    lat, la = frame.points(s, y)[:2]
+    for i in range(t.size):
+        true = geo.distance_nm(lat, la, 20.0, lon[i])
+        near = np.abs(true - 127.0) <= 20.0
+        flat = np.linalg.norm(frame.to_xy(lat[near], la[near]) - frame.to_xy(20.0, lon[i]), axis=-1)
+        assert np.all(np.abs(flat - true[near]) <= 1.2 * err + 1e-3)

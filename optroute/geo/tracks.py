@@ -56,7 +56,7 @@ def gc_points(
 
 
 def project_to_polyline(
-    waypoints: np.ndarray, lat_deg: ArrayLike, lon_deg: ArrayLike, *, refine: int = 2
+    waypoints: np.ndarray, lat_deg: ArrayLike, lon_deg: ArrayLike, *, refine: int = 2, clamp: bool = True
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Nearest point of a geodesic polyline on WGS84: along-track position and cross-track distance.
 
@@ -78,11 +78,17 @@ def project_to_polyline(
         Points [deg].
     refine : int
         Newton steps of the foot on the ellipsoid (0: the sphere's foot, scaled to the leg's length).
+    clamp : bool
+        True: ``s_nm`` is the nearest point *of the polyline* (a foot beyond the nearest leg's end is
+        held at that end). False: the foot on the nearest leg's geodesic or its extension, the same
+        foot ``xt_nm`` is measured from (``s_nm`` may then lie before 0 or past the leg's end), so that
+        (``s_nm``, ``xt_nm``) place a point beyond the polyline's ends at its true distance from them.
 
     Returns
     -------
     s_nm : ndarray
-        Along-track position of the nearest polyline point [nm from the first waypoint].
+        Along-track position of the nearest polyline point [nm from the first waypoint] (``clamp=False``:
+        of the foot on the nearest leg's extension).
     xt_nm : ndarray
         Signed cross-track offset [nm], positive to starboard of the direction of travel
         (measured to the nearest leg's geodesic, or to its extension for a point beyond its end).
@@ -130,7 +136,7 @@ def project_to_polyline(
     inside = (s >= 0.0) & (s <= length)
     out_dist = np.where(inside, np.abs(xt), np.minimum(d_start, d_stop))
     s_start = np.concatenate([[0.0], np.cumsum(d_leg)])[:-1]
-    at_k = np.clip(s, 0.0, length)
+    at_k = np.clip(s, 0.0, length) if clamp else s
     return (
         (s_start[k] + at_k).reshape(shape),
         xt.reshape(shape),

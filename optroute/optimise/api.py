@@ -80,7 +80,7 @@ def optimise_corridor(
     robust: Literal["all", "cvar", "chance"] | None = None,
     cvar_alpha: float = 0.0,
     violation_fraction: float = 0.0,
-    constraint_rows: Literal["referee", "midpoints"] = "midpoints",
+    constraint_rows: Literal["referee", "midpoints"] = "referee",
 ) -> Plan:
     """Optimise the waypoints and leg speeds inside a corridor: the corridor NLP, verified.
 
@@ -118,15 +118,15 @@ def optimise_corridor(
         Longest NLP leg [nm]; the corridor is resampled on its great circles.
     samples_per_leg : int
         NLP samples per leg of the midpoint-rule time and fuel (every constraint is imposed there too).
-    constraint_rows : {"midpoints", "referee"}
-        Where the NLP's engine-load, band and exclusion rows sit. ``"midpoints"`` (default): at the
-        quadrature's midpoints. ``"referee"``: also at the referee's check points of a canonical start —
-        the centreline at the speed of the latest ETA (leg ends, weather-grid crossings, points near band
-        edges; :func:`optroute.optimise.rows.canonical_rows`), the same for every ETA of a prepared
-        corridor — aimed at plans that pass :meth:`Plan.verify` on the first try
-        (``solver_stats["first_solve"]``). Not yet the default: it costs about 3–5× the call time, did
-        not raise the first-try share on the storm crossing, and makes the minimum-time solve infeasible
-        in a cyclone-exclusion case (tests/test_voyage_cyclone.py's CLI voyage).
+    constraint_rows : {"referee", "midpoints"}
+        Where the NLP's engine-load, band and exclusion rows sit. ``"referee"`` (default): at the
+        quadrature's midpoints and at the referee's check points of a canonical start — the centreline
+        at the speed of the latest ETA (leg ends, weather-grid crossings, points near band edges;
+        :func:`optroute.optimise.rows.canonical_rows`), the same for every ETA of a prepared corridor —
+        on the legs where a band or the exclusion can bind (elsewhere the leg ends only, for the engine
+        load; :func:`optroute.optimise.rows.binding_legs`), aimed at plans that pass
+        :meth:`Plan.verify` on the first try (``solver_stats["first_solve"]``). ``"midpoints"``: at the
+        quadrature's midpoints only (fewer samples per leg, a plan the referee rejects more often).
     fuel_price_per_t, hourly_cost_per_h : float
         For ``"cost"`` [currency/t], [currency/h].
     exclusion : Exclusion, optional

@@ -37,6 +37,7 @@ from optroute.optimise.certificate import certificate_stats, dual_schedule
 from optroute.optimise.corridor_setup import ProgressFn, emit, prepare_corridor
 from optroute.optimise.corridor_stats import solution_stats, table_error
 from optroute.optimise.min_time import clean_start
+from optroute.optimise.nlp_inputs import exclusion_frame_error_nm
 from optroute.optimise.nlp_solve import (
     Solved,
     Tightening,
@@ -54,7 +55,7 @@ from optroute.optimise.rescue import (
     tighten,
     to_plan,
 )
-from optroute.optimise.rows import ROW_PLACEMENTS, canonical_rows, points_of
+from optroute.optimise.rows import ROW_PLACEMENTS, binding_legs, canonical_rows, only_where_binding, points_of
 from optroute.optimise.starts import (
     ENGINE_KINDS,
     Candidate,
@@ -161,7 +162,7 @@ class PreparedCorridor:
         jit: bool = False,
         discrete_start: bool = False,
         dp_options: Mapping[str, Any] | None = None,
-        constraint_rows: str = "midpoints",
+        constraint_rows: str = "referee",
     ) -> None:
         if constraint_rows not in ROW_PLACEMENTS:
             raise ConfigError(
@@ -216,6 +217,9 @@ class PreparedCorridor:
         self.discrete_start, self.dp_options = bool(discrete_start), dict(dp_options or {})
         self.verify_step_nm = float(verify_step_nm)
         self.problem = su.problem
+        # the flat frame's measured distance error near the exclusion's circle: the NLP's circle grows by it, so
+        # that a plan on its edge is outside the referee's (WGS84) circle on the first solve
+        self.exclusion_backoff_nm = 0.0 if exclusion is None else exclusion_frame_error_nm(exclusion, self.frame)
 
     # ------------------------------------------------------------------ one ETA
 
@@ -246,6 +250,7 @@ class PreparedCorridor:
             y_lo=self.y_lo.copy(),
             y_hi=self.y_hi.copy(),
             row_points=self._rows_from(),
+            extra_radius_nm=self.exclusion_backoff_nm,
         )
 
     # ------------------------------------------------------------------ stage: start
@@ -523,7 +528,9 @@ class PreparedCorridor:
             speed = self.length_nm / cap_h if cap_h is not None and np.isfinite(cap_h) else self.ship.design_speed_kn
             rows = canonical_rows(self.plan_context(), self.frame, (self.y_lo, self.y_hi), float(np.clip(
                 speed, self.v_min, self.v_max)), self.departure, self.verify_step_nm)  # fmt: skip
-            self._row_points = (rows,)
+            self._binding = binding_legs(self.frame, self.grid.s_nm, self.grid.hs_m, self.plan_context(),
+                                         self.hs_margin0, self.departure)  # fmt: skip
+            self._row_points = (only_where_binding(rows, self._binding),)
         return self._row_points[0]
 
     def _solve_from(self, call: _Call, cand: Candidate, *, diagnose: bool) -> _Found | None:
@@ -566,7 +573,9 @@ class PreparedCorridor:
             st.retries += 1
             tighten(st, violations, plan, sol.res)
             if self.constraint_rows == "referee" and getattr(violations, "points", None) is not None:
-                st.row_points = points_of(violations.points, plan.waypoints)  # the rejected plan's check points
+                binding = self._binding.copy()  # the rejected plan's check points, and every leg it was rejected on
+                binding[[v.leg for v in violations if 0 <= v.leg < binding.size]] = True
+                st.row_points = only_where_binding(points_of(violations.points, plan.waypoints), binding)
             call.retries, call.samples_per_leg = st.retries, st.samples_per_leg
             warm = {"offset_nm": sol.res.offset_nm, "stw_kn": sol.res.stw_kn}
         return None

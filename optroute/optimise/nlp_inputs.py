@@ -63,6 +63,7 @@ __all__ = [
     "build_frame",
     "formulation_bands",
     "lateral_bounds",
+    "exclusion_frame_error_nm",
     "moving_exclusion",
     "weather_grid",
 ]
@@ -153,8 +154,15 @@ class CorridorFrame:
         return lat, lon, along
 
     def to_xy(self, lat_deg: ArrayLike, lon_deg: ArrayLike) -> np.ndarray:
-        """Flat-frame position [nm] (…, 2) of points: foot on the centreline plus the signed offset along its normal."""
-        s, xt, _, k = project_to_polyline(self.corridor.waypoints, lat_deg, lon_deg)
+        """Flat-frame position [nm] (…, 2) of points: foot on the centreline plus the signed offset along its normal.
+
+        The foot is taken on the nearest leg's geodesic *extended* past its ends (the one the offset is
+        measured from), so that a point beyond the corridor's ends (a cyclone centre past the destination)
+        keeps its distance from them: held at the end, its along-track distance past it was lost (a centre
+        90 nm past the destination was put 90 nm nearer the last leg, and the NLP found the cyclone voyage
+        of ``tests/test_voyage_cyclone.py`` infeasible once rows sat where the referee checks).
+        """
+        s, xt, _, k = project_to_polyline(self.corridor.waypoints, lat_deg, lon_deg, clamp=False)
         tau = self.tangent_xy[k]
         normal = np.stack([-tau[..., 1], tau[..., 0]], axis=-1)  # port
         base = self.centre_xy_nm[k] + (s - self.s_nm[k])[..., None] * tau
@@ -474,3 +482,30 @@ def dataset_spacing(dataset: xr.Dataset | None) -> tuple[float | None, float | N
     if "lat" in dataset.coords and dataset["lat"].size > 1:
         ds = float(np.min(np.abs(np.diff(dataset["lat"].values)))) * 60.0
     return dt, ds
+
+
+def exclusion_frame_error_nm(
+    exclusion: Exclusion, frame: CorridorFrame, *, n_along: int = 64, n_across: int = 9, reach_nm: float = 20.0
+) -> float:
+    """Largest error of the flat frame's distance to the exclusion's centre near its circle [nm].
+
+    The NLP keeps out of the circle in its flat frame (:func:`moving_exclusion`); the referee measures WGS84
+    geodesics. At corridor points (``n_along`` × ``n_across`` over its length and width,
+    :meth:`CorridorFrame.points`) whose geodesic distance from the centre at one of the track's times is within
+    ``reach_nm`` of the radius, the flat distance ``|to_xy(p) − to_xy(c)|`` is compared with the geodesic one;
+    the largest difference is the back-off (``extra_radius_nm``) under which a plan on the flat circle's edge
+    stays outside the true one. 0 where no corridor point comes near the circle.
+    """
+    s = np.linspace(frame.s_nm[0], frame.s_nm[-1], n_along)
+    hw = float(np.max(frame.corridor.half_width_nm))
+    y = np.linspace(-hw, hw, n_across)
+    ss, yy = np.meshgrid(s, y, indexing="ij")
+    lat, lon, _ = frame.points(ss.ravel(), yy.ravel())
+    pxy = frame.to_xy(lat, lon)
+    cxy = frame.to_xy(exclusion.lat_deg, exclusion.lon_deg)
+    rad = np.broadcast_to(np.asarray(exclusion.radius_nm, dtype=float), np.shape(exclusion.lat_deg))
+    true = geo.distance_nm(lat[None, :], lon[None, :], np.asarray(exclusion.lat_deg)[:, None],
+                           np.asarray(exclusion.lon_deg)[:, None])  # fmt: skip
+    flat = np.linalg.norm(pxy[None, :, :] - cxy[:, None, :], axis=-1)
+    near = np.abs(true - rad[:, None]) <= reach_nm
+    return float(np.max(np.abs(flat - true)[near])) if np.any(near) else 0.0

@@ -15,6 +15,12 @@ and keeps them as fractions of each leg (:func:`optroute.plan.checkpoints.row_po
 (:func:`formulations.sample_layout.with_points`). As fractions of the leg they move with its ends
 when Ipopt moves the offsets; the crossings of the time slices move with the schedule, so after a
 rejected solve the rows are taken again from the rejected plan's check points.
+
+Only rows that can bind are kept (:func:`binding_legs`): every leg keeps its ends (the engine load is checked
+there with the leg's own speed), and the crossings and refinement points only where a danger band can apply
+(Hs in the NLP's weather grid reaches the bands' threshold near the leg at some time) or the exclusion circle
+comes within :data:`EXCLUSION_REACH_NM` of the leg's corridor. The NLP's arrays have as many samples on every
+leg as on its busiest one, so this trims the legs' row points, not always the per-leg sample count.
 """
 
 from __future__ import annotations
@@ -26,11 +32,22 @@ import numpy as np
 from formulations.sample_layout import SampleLayout, midpoint_layout, with_points
 from optroute import geodesy as geo
 from optroute.errors import OptrouteError
-from optroute.optimise.nlp_inputs import CorridorFrame
+from optroute.optimise.nlp_inputs import CorridorFrame, formulation_bands, moving_exclusion
 from optroute.plan.checkpoints import CheckPoints, row_points
 from optroute.plan.result import Plan, PlanContext
 
-__all__ = ["MAX_ROW_POINTS", "ROW_PLACEMENTS", "canonical_rows", "points_of", "referee_rows", "sample_layout"]
+__all__ = [
+    "MAX_ROW_POINTS",
+    "ROW_PLACEMENTS",
+    "canonical_rows",
+    "binding_legs",
+    "legs_near_exclusion",
+    "legs_that_can_bind",
+    "only_where_binding",
+    "points_of",
+    "referee_rows",
+    "sample_layout",
+]
 
 #: Row-only points per leg at most (:func:`formulations.sample_layout.with_points`).
 MAX_ROW_POINTS = 16
@@ -91,6 +108,117 @@ def canonical_rows(
     n = frame.n_legs
     warm = {"offset_nm": np.clip(np.zeros(n + 1), *bounds_nm), "stw_kn": np.full(n, float(speed_kn))}
     return referee_rows(ctx, frame, warm, departure, step_nm)
+
+
+#: Slack on the bands' Hs threshold when deciding where a band can apply at all [-]: the NLP's weather is a cubic
+#: B-spline quasi-interpolant of the grid nodes (it can rise above the largest node nearby, by far less than this).
+HS_SLACK = 0.2
+#: Distance beyond the exclusion's radius within which a leg keeps its exclusion rows [nm].
+EXCLUSION_REACH_NM = 30.0
+
+
+def legs_that_can_bind(
+    s_nm: np.ndarray,
+    grid_s_nm: np.ndarray,
+    grid_hs_m: np.ndarray,
+    hs_apply_m: float | None,
+    near_exclusion: np.ndarray | None = None,
+) -> np.ndarray:
+    """Per leg, whether a band or the exclusion can bind anywhere on it; elsewhere the engine load alone can.
+
+    Parameters
+    ----------
+    s_nm : ndarray, shape (N+1,)
+        Along-track position of the centreline waypoints [nm].
+    grid_s_nm : ndarray, shape (ns,)
+        Along-track nodes of the NLP's weather grid [nm].
+    grid_hs_m : ndarray, shape (nt, ns, ny)
+        Hs at the grid's nodes [m], every time and lateral offset.
+    hs_apply_m : float or None
+        Hs from which the NLP applies a band [m] (the rules' threshold with the applicability back-off);
+        None: no band enabled.
+    near_exclusion : ndarray of bool, shape (N,), optional
+        Legs within reach of the exclusion (:func:`legs_near_exclusion`).
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+        A band can apply on leg k when Hs at some node within two grid cells of the leg (the support of the
+        cubic B-spline the NLP reads the weather through), at any time and offset, reaches
+        ``(1 − HS_SLACK) · hs_apply_m``. On a leg where none can, the NLP's band rows are inactive (its outer
+        loop applies a band only where its own Hs reaches the threshold) and rows at the weather's crossings
+        and near band edges constrain nothing the midpoints and leg ends do not.
+    """
+    s = np.asarray(s_nm, dtype=float)
+    n = s.size - 1
+    out = np.zeros(n, dtype=bool) if near_exclusion is None else np.asarray(near_exclusion, dtype=bool).copy()
+    if hs_apply_m is None:
+        return out
+    gs = np.asarray(grid_s_nm, dtype=float)
+    peak = np.max(np.asarray(grid_hs_m, dtype=float), axis=(0, 2))  # (ns,): over every time and offset
+    lo = np.clip(np.searchsorted(gs, s[:-1], side="right") - 3, 0, gs.size - 1)
+    hi = np.clip(np.searchsorted(gs, s[1:], side="left") + 3, 1, gs.size)
+    for k in range(n):
+        if np.nanmax(peak[lo[k] : hi[k]]) >= (1.0 - HS_SLACK) * hs_apply_m:
+            out[k] = True
+    return out
+
+
+def legs_near_exclusion(
+    centre_xy_nm: np.ndarray, half_width_nm: np.ndarray, circle_xy_nm: np.ndarray, radius_nm: np.ndarray
+) -> np.ndarray:
+    """Per leg, whether the exclusion circle comes within :data:`EXCLUSION_REACH_NM` of the leg's corridor at any time.
+
+    ``centre_xy_nm`` (N+1, 2) are the centreline's waypoints and ``half_width_nm`` (N+1,) the corridor's half-widths
+    [nm] in the NLP's flat frame; ``circle_xy_nm`` (nc, 2) and ``radius_nm`` (nc,) the circle's track in the same
+    frame, sampled densely enough that the centre moves less than the reach between samples.
+    """
+    a, b = centre_xy_nm[:-1], centre_xy_nm[1:]
+    ab = b - a
+    c = np.asarray(circle_xy_nm, dtype=float)[:, None, :]
+    t = np.clip(np.sum((c - a) * ab, axis=-1) / np.maximum(np.sum(ab * ab, axis=-1), 1e-12), 0.0, 1.0)
+    dist = np.linalg.norm(c - (a + t[..., None] * ab), axis=-1)  # (nc, N)
+    hw = np.maximum(half_width_nm[:-1], half_width_nm[1:])
+    return np.any(dist - hw[None, :] <= np.asarray(radius_nm, dtype=float)[:, None] + EXCLUSION_REACH_NM, axis=0)
+
+
+def binding_legs(
+    frame: CorridorFrame,
+    grid_s_nm: np.ndarray,
+    grid_hs_m: np.ndarray,
+    ctx: PlanContext,
+    hs_margin: float,
+    departure: np.datetime64,
+) -> np.ndarray:
+    """Per leg of a prepared corridor, whether a band or the exclusion can bind on it (:func:`legs_that_can_bind`).
+
+    ``grid_s_nm`` and ``grid_hs_m`` are the NLP's weather grid (along-track nodes [nm], Hs (t, s, y) [m]), ``ctx``
+    the plan context (ship, rules, exclusion), ``hs_margin`` the applicability back-off [-]
+    (:func:`optroute.optimise.nlp_inputs.formulation_bands`).
+    """
+    bands, _, _ = formulation_bands(ctx.ship, ctx.rules, hs_margin=hs_margin)
+    hs_apply = min((float(b.hs_min_m) for b in bands), default=None)
+    near = None
+    if ctx.exclusion is not None:
+        mv = moving_exclusion(ctx.exclusion, frame, departure)
+        t = mv.t_h
+        if t.size > 1:  # densely: the centre moves at most a tenth of the reach between samples
+            step = np.linalg.norm(np.diff(mv.centre_xy_nm, axis=0), axis=1)
+            n_sub = max(2, int(np.ceil(np.max(step) / (0.1 * EXCLUSION_REACH_NM))) + 1)
+            t = np.unique(np.concatenate([np.linspace(a, b, n_sub) for a, b in zip(t[:-1], t[1:], strict=True)]))
+        xy = np.column_stack([np.interp(t, mv.t_h, mv.centre_xy_nm[:, j]) for j in range(2)])
+        near = legs_near_exclusion(
+            frame.centre_xy_nm, np.asarray(frame.corridor.half_width_nm, dtype=float), xy,
+            np.interp(t, mv.t_h, mv.radius_nm),
+        )  # fmt: skip
+    return legs_that_can_bind(frame.s_nm, grid_s_nm, grid_hs_m, hs_apply, near)
+
+
+def only_where_binding(points: list[np.ndarray] | None, binding: np.ndarray) -> list[np.ndarray] | None:
+    """``points`` with the legs where nothing but the engine load can bind reduced to their ends (0 and 1)."""
+    if points is None:
+        return None
+    return [p if binding[k] else np.array([0.0, 1.0]) for k, p in enumerate(points)]
 
 
 def sample_layout(points: list[np.ndarray] | None, n_legs: int, samples_per_leg: int) -> SampleLayout:
