@@ -61,7 +61,14 @@ from optroute.errors import ConfigError, NoSafePassage, SolverFailure
 from optroute.optimise.nlp_inputs import formulation_bands, moving_exclusion
 from optroute.optimise.nlp_solve import VIOLATION_TOL, route_warm_start
 from optroute.optimise.rescue import LIMIT_STATUSES, plan_warm_start
-from optroute.optimise.rows import ROW_PLACEMENTS, canonical_rows, points_of, sample_layout
+from optroute.optimise.rows import (
+    ROW_PLACEMENTS,
+    binding_legs,
+    canonical_rows,
+    only_where_binding,
+    points_of,
+    sample_layout,
+)
 from optroute.plan.result import Plan, Violation
 from optroute.search.route import Corridor, Route
 from optroute.units import as_utc_time, format_utc, timedelta_to_h
@@ -241,10 +248,11 @@ def optimise_robust(
     reference_member : int
         The member whose context the returned plan is evaluated in (its ``legs``, ``total_fuel_t``).
     constraint_rows : {"midpoints", "referee"}
-        As :func:`optroute.optimise_corridor`: ``"referee"`` adds row-only samples at the referee's check points of
-        the canonical start (the centreline at the ETA's speed) in every member (:func:`_member_rows`, the union
-        over the members, at most :data:`~optroute.optimise.rows.MAX_ROW_POINTS` a leg); after a plan fails a
-        member, the rows move to that plan's check points in the failing members.
+        As :func:`optroute.optimise_corridor` (whose default, ``"referee"``, it receives from there): ``"referee"``
+        adds row-only samples at the referee's check points of the canonical start (the centreline at the ETA's
+        speed) in every member, on the legs where a band or the exclusion can bind in that member
+        (:func:`_member_rows`, the union over the members, at most :data:`~optroute.optimise.rows.MAX_ROW_POINTS`
+        a leg); after a plan fails a member, the rows move to that plan's check points in the failing members.
     band_solves : int
         Solves of the band re-imposition loop (:meth:`RobustSpeedNLP.solve_sides`) per tightening.
     solver_options : mapping, optional
@@ -471,10 +479,12 @@ def _member_rows(prepared: list, eta_t: Any, y_lo: np.ndarray, y_hi: np.ndarray,
     ref = prepared[0]
     speed = ref.length_nm / eta_h if eta_h is not None and np.isfinite(eta_h) else ref.ship.design_speed_kn
     speed = float(np.clip(speed, np.max(ref.v_min), np.min(ref.v_max)))
-    per = [
-        canonical_rows(p.plan_context(eta_t, "le"), p.frame, (y_lo, y_hi), speed, p.departure, p.verify_step_nm)
-        for p in prepared
-    ]
+    per = []
+    for p in prepared:  # each member's rows only where a band or the exclusion can bind in it (as a single weather's)
+        ctx = p.plan_context(eta_t, "le")
+        rows = canonical_rows(ctx, p.frame, (y_lo, y_hi), speed, p.departure, p.verify_step_nm)
+        binding = binding_legs(p.frame, p.grid.s_nm, p.grid.hs_m, ctx, p.hs_margin0, p.departure)
+        per.append(only_where_binding(rows, binding))
     per = [r for r in per if r is not None]
     if not per:
         return None
