@@ -13,8 +13,11 @@ blind; the table gives the time sailed inside a danger band of the truth, the ti
 met a band, the ETA miss, the fuel, the re-plans, and the simulation wall time per simulated day,
 with (a) as the baseline of the fuel and wall times (same process, same truth); (c)'s wall time is
 the robust planning plus the sailing, and its row says how many members the robust plan was checked
-in (all of them clean, by :meth:`optroute.Plan.verify` with ``weather=member``). Full mode: 10
-members; quick mode: 4.
+in (all of them clean, by :meth:`optroute.Plan.verify` with ``weather=member``), how often robust.py's tightening
+loop fired, and whether the ensemble's spread covers the truth (:func:`coverage`: the true storm centre inside the
+hull of the members' at the crossing hour, the nearest member's distance). Full mode: 10 members, on the 150 nm
+spread and on a spread as large as the case's forecast error (:func:`covering_spread`); quick mode: 4 members, the
+150 nm spread. CPU [s] is this process's (the machine is shared: compare CPU, not wall).
 
 Run ``python -m benchmarks.bench_voyage [--quick]``; the reduced full mode (the first case only, with the cold
 re-plans and the 10-member robust plan) is ``python -c "from benchmarks.bench_voyage import run; run(False, n_cases=1)"``.

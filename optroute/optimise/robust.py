@@ -33,8 +33,8 @@
   ``max_retries`` times; a plan that fails any member is never returned
   (:class:`~optroute.errors.SolverFailure`, whose ``best_plan`` is the warm plan when that verifies in every member).
   Kept although ``constraint_rows="referee"`` is available: on tests/test_robust.py's three-storm ensemble the
-  loop fires twice for ``"all"`` and ``"cvar"`` with the midpoint rows and twice with the referee's (10 samples a
-  leg instead of 3), the same plans: what fails is the engine's MCR where the NLP's smooth power table is below the
+  loop fires twice for ``"all"`` and ``"cvar"`` with the midpoint rows and twice with the referee's, the same
+  plans: what fails is the engine's MCR where the NLP's smooth power table is below the
   performance model's peak in the storm's core — a table error that rows at the referee's points do not see, but
   the loop's per-leg power factor corrects.
 
