@@ -11,7 +11,7 @@ west-north-west at 9 kn across the route east of Luzon, written as an ATCF b-dec
 ``general_cargo_25k_dwt`` (the patent's test ship is "fully loaded, 20–30 kt") at 12 kn.
 
 Rows: (naive) the great circle at 12 kn with Boeing's forced slow-downs; (APF) the patent's
-dynamic APF (k_a = 10, η_X = 10, η_V = 12, d_n = 30 km), sailed with the same physics; (optroute)
+dynamic APF (k_a = 10, η_X = 10, η_V = 12, d_n = R + 30 km as its [0104] states), sailed with the same physics; (optroute)
 :func:`optroute.search_route` for the earliest arrival at 12 kn and :func:`optroute.plan_voyage`
 for least fuel by the APF's arrival, both with the moving exclusion R + 30 km (in the search, the
 NLP and the referee).  The weather is synthetic geography (no coastline is applied to any row).  Fuel and arrival are the referee's (:class:`optroute.Plan`),
@@ -55,7 +55,7 @@ from benchmarks._cyclone_suite import b_deck as suite_b_deck
 from benchmarks._cyclone_suite import weather as suite_weather
 from benchmarks._measure import FAILED, UNVERIFIED, Outcome, compare, comparison_lines, load_line
 from optroute import errors
-from optroute.geo.encounter import encounter, risk_degree
+from optroute.geo.encounter import best_closest_approach, encounter, local_xy_nm, risk_degree
 from optroute.geo.tracks import Exclusion
 from optroute.voyage.apf import apf_avoidance, sail_track
 from optroute.weather.cyclone import Cyclone, straight_track, tropical_cyclone
@@ -137,7 +137,7 @@ def nesat_rows(quick: bool, ds: Any, track: CycloneTrack) -> tuple[list[dict[str
     _, row = _attempt("naive great circle (forced slow-downs)", lambda: (None, sail_track(
         QINGDAO, TUBAY, ds, SHIP, track=track, avoid=False, **sail).plan, ""), track)  # fmt: skip
     rows.append(row)
-    apf, row = _attempt("patent APF (k_a 10, eta_X 10, eta_V 12, d_n 30 km)", lambda: (
+    apf, row = _attempt("patent APF (k_a 10, eta_X 10, eta_V 12, d_n R + 30 km)", lambda: (
         (run := apf_avoidance(QINGDAO, TUBAY, ds, SHIP, track, **sail)), run.plan, ""), track)  # fmt: skip
     rows.append(row)
     excl = Exclusion.from_track(track, margin_km=30.0, cone_km_per_h=0.0)
@@ -217,7 +217,7 @@ def run(quick: bool) -> dict[str, Any]:
 
 # --------------------------------------------------------------------------- the suite of synthetic crossings
 SUITE_WHAT = (
-    "The patent's APF (its gains, d_n 30 km, trigger at R + 30 km) against optroute's plan_voyage (least fuel "
+    "The patent's APF (its gains, d_n R + 30 km, trigger at R + 30 km) against optroute's plan_voyage (least fuel "
     "by the APF's arrival, moving exclusion R + 30 km) on the same weather, ship and track; fuel and verify() "
     "by the referee (Plan), the APF's plan checked against R, optroute's against R + 30 km"
 )
@@ -248,7 +248,52 @@ def _apf_case(case: CrossingCase, track: CycloneTrack, ds: Any, ship: orx.Ship) 
         return None, Outcome.failed("APF", runtime_s=time.perf_counter() - t, error=f"{type(exc).__name__}: {exc}"), {}
     wall = time.perf_counter() - t
     out = Outcome.scored("APF", fuel_t=float(run.plan.total_fuel_t), runtime_s=wall, violations=len(run.plan.verify()))
-    return run.plan, out, {"triggered": run.trigger_time is not None, "trigger": str(run.trigger_time)}
+    gap, bound = trigger_bound_km(run, track, case.speed_kn)
+    return run.plan, out, {"triggered": run.trigger_time is not None, "trigger": str(run.trigger_time),
+                           "trigger_gap_km": gap, "trigger_bound_km": bound}  # fmt: skip
+
+
+def trigger_bound_km(run: Any, track: CycloneTrack, speed_kn: float) -> tuple[float, float]:
+    """Where the APF's trigger fired: (distance − R, the best closest approach any heading at ``speed_kn`` achieves − R) [km].
+
+    :func:`optroute.geo.encounter.best_closest_approach` with the centre's position, motion and R at the
+    trigger (NaN, NaN when the trigger never fired).  A bound below the first figure: no heading holds the
+    distance (the centre held its velocity); below 0: none keeps out of R.
+    """
+    if run.trigger_time is None:
+        return math.nan, math.nan
+    k = int(np.argmin(np.abs(run.plan.times - run.trigger_time)))
+    lat, lon = (float(x) for x in run.plan.waypoints[k])
+    s = track.at(run.plan.times[k])
+    rel = local_xy_nm(lat, lon, s["lat"], s["lon"])
+    best_nm = best_closest_approach(rel, [float(s["u_kn"]), float(s["v_kn"])], speed_kn)
+    r_km = float(s["r7_km"])
+    return float(orx.geodesy.distance_nm(lat, lon, s["lat"], s["lon"])) * 1.852 - r_km, best_nm * 1.852 - r_km
+
+
+def apf_entry_reasons(rows: list[dict[str, Any]]) -> list[str]:
+    """Why each APF track that enters R + 30 km does so, with the figures (the patent's paragraphs cited)."""
+    out = []
+    for r in rows:
+        b = r.get("apf_brute")
+        if b is None or b["inside_safe_h"] <= 0.0:
+            continue
+        gap, bound = r["apf"].get("trigger_gap_km", math.nan), r["apf"].get("trigger_bound_km", math.nan)
+        head = (f"{r['case']}: the APF spends {b['inside_safe_h']:.1f} h inside R + 30 km ({b['inside_r_h']:.1f} h "
+                f"inside R, closest {b['closest_r_km']:.0f} km from R)")  # fmt: skip
+        where = (f"the trigger (DCPA ≤ R and the centre within R + 30 km, [0076]/[0124]) fired {gap:.0f} km from R; "
+                 f"from there the best heading at {r['speed_kn']:.1f} kn against the centre's {r['advance_kn']:.1f} kn "
+                 f"passes {bound:.0f} km from R")  # fmt: skip
+        if bound < 0.0:
+            why = "so no heading at the kept speed ([0077]) keeps out of R: geometry, not the field"
+        elif bound < gap - 1.0:
+            why = "so no heading holds even that distance: geometry takes the ship deeper into R + 30 km"
+        else:
+            why = ("a heading that holds that distance exists; the field's heading is the sum of the attraction to the "
+                   "destination and the repulsion ([0104]–[0121]), not the heading that opens the distance, so the "
+                   "track dips in by the field's design")  # fmt: skip
+        out.append(f"- {head}: {where}, {why}.")
+    return out
 
 
 def _optroute_case(case: CrossingCase, track: CycloneTrack, ds: Any, ship: orx.Ship, eta: Any, settings: dict):
@@ -347,6 +392,10 @@ def print_suite(rows: list[dict[str, Any]], summary: dict[str, Any], settings: d
     print(f"\ntarget met in {len(rows) - len(missed)} of {len(rows)} cases")
     for r in missed:
         print(f"- {r['case']}: " + "; ".join(r["misses"]))
+    reasons = apf_entry_reasons(rows)
+    if reasons:
+        print("\nWhy the APF enters R + 30 km (the patent's trigger fires on that circle; d_n = R + 30 km, [0104]):")
+        print("\n".join(reasons))
 
 
 def run_suite(quick: bool) -> dict[str, Any]:

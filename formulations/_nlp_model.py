@@ -44,6 +44,7 @@ __all__ = [
     "power_ratio",
     "row_blocks",
     "sample_physics",
+    "side_free_row",
     "StructuredCores",
     "structured_cores",
     "structured_derivatives",
@@ -171,6 +172,19 @@ def sample_physics(
     }
 
 
+def side_free_row(band: Band, ratio: Any, res: Any) -> Any:
+    """A band's row without a side, ``≤ 0`` exactly where the ratio is outside the band (the elastic phase-1 problem).
+
+    Both edges finite: ``4 (ρ − lower)(upper − ρ) / (upper − lower)²`` [-] (0 at either edge, 1 at the band's
+    centre, negative outside); one edge: that side's scaled residual ``res`` (:func:`sample_physics`'s, ``β`` the
+    finite edge), negated for a band with only its upper side allowed. ``ratio`` and ``res`` are the band's ratio
+    and residual at the samples (SX or MX); one formula for the phase-1 rows and their leg-by-leg derivatives.
+    """
+    if np.isfinite(band.lower) and np.isfinite(band.upper):
+        return 4.0 * (ratio - band.lower) * (band.upper - ratio) / (band.upper - band.lower) ** 2
+    return res if np.isfinite(band.lower) else -res
+
+
 def jit_compiler() -> str:
     """The C compiler of ``jit=True``: ``$CC``, else ``gcc`` (CasADi's ``"shell"`` plugin default)."""
     return os.environ.get("CC") or "gcc"
@@ -222,7 +236,9 @@ def _scatter(n_rows: int, n_cols: int, rows: np.ndarray, cols: np.ndarray, n_src
     return sp, gather
 
 
-def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool = False) -> dict[str, Any]:
+def structured_derivatives(
+    nlp: Any, *, jit: bool = False, exact_hessian: bool = False, side_free_bands: bool = False
+) -> dict[str, Any]:
     """``grad_f``, ``jac_g`` and ``hess_lag`` functions for ``nlpsol``, exact and assembled per leg.
 
     :func:`structured_cores` with the Taylor data of ``nlp.weather``, each core wrapped as a function of
@@ -240,13 +256,16 @@ def structured_derivatives(nlp: Any, *, jit: bool = False, exact_hessian: bool =
         multilinear interpolant); gradients and Jacobians are exact either way, so Ipopt converges
         to the same KKT point, and on the benchmark corridors in about half the iterations (the
         weather curvature makes the exact Hessian more indefinite).
+    side_free_bands : bool
+        The band rows are :func:`side_free_row`'s (the elastic phase-1 problem, :mod:`formulations.phase1`)
+        instead of the sided residuals.
 
     Returns
     -------
     dict
         Options ``{"grad_f": ..., "jac_g": ..., "hess_lag": ...}`` for ``casadi.nlpsol``.
     """
-    cores = structured_cores(nlp, jit=jit, exact_hessian=exact_hessian)
+    cores = structured_cores(nlp, jit=jit, exact_hessian=exact_hessian, side_free_bands=side_free_bands)
     memo = cores.taylor(nlp.weather)
     return {
         "grad_f": _MemoCallback("grad_f", cores.grad, memo.first, ["x", "p"], ["f", "grad_f_x"], cache=True),
@@ -283,7 +302,9 @@ class StructuredCores:
     taylor: Callable[[Any], Any]
 
 
-def structured_cores(nlp: Any, *, jit: bool = False, exact_hessian: bool = False) -> StructuredCores:
+def structured_cores(
+    nlp: Any, *, jit: bool = False, exact_hessian: bool = False, side_free_bands: bool = False
+) -> StructuredCores:
     """The per-leg derivative functions of :func:`structured_derivatives` with the weather's Taylor data as an
     input (:class:`StructuredCores`); parameters as :func:`structured_derivatives`."""
     n, m, nb = nlp.n_legs, nlp.samples_per_leg, nlp.n_bands
@@ -333,8 +354,9 @@ def structured_cores(nlp: Any, *, jit: bool = False, exact_hessian: bool = False
         dt_sum = dt_sum + phys["dt"]
         fuel_sum = fuel_sum + phys["fuel"]
         loads.append(phys["load"])
-        for b in range(nb):
-            bands_res[b].append(phys["res"][b])
+        for b, band in enumerate(nlp.bands):
+            row = phys["res"][b]
+            bands_res[b].append(side_free_row(band, phys["ratio"][b], row) if side_free_bands else row)
         drifts.append(phys["h_perp"])
         sogs.append(phys["sog"])
         if has_excl:

@@ -386,13 +386,13 @@ def check_plan(
 
 
 def _solve(
-    res: CaseResult, name: str, corridor, wx, ship, *, eta=None, objective="fuel", max_leg_nm=50.0, rows="referee"
+    res: CaseResult, name: str, corridor, wx, ship, *, eta=None, objective="fuel", max_leg_nm=50.0, rows=None
 ) -> orx.Plan | None:
+    placement = {} if rows is None else {"constraint_rows": rows}
     try:
         plan = orx.optimise_corridor(
-            corridor, wx, ship, departure=T0, eta=eta, objective=objective, max_leg_nm=max_leg_nm,
-            constraint_rows=rows,
-        )  # fmt: skip
+            corridor, wx, ship, departure=T0, eta=eta, objective=objective, max_leg_nm=max_leg_nm, **placement
+        )
     except SolverFailure as exc:
         res.outcomes[name] = "SolverFailure"
         res.messages[name] = str(exc)[:300]
@@ -431,14 +431,14 @@ def fuel_not_worse(plan: orx.Plan, verified: list[orx.Plan], eta, rtol: float = 
     return out
 
 
-def run_case(case: Case, *, max_leg_nm: float = 50.0, constraint_rows: str = "referee") -> CaseResult:
+def run_case(case: Case, *, max_leg_nm: float = 50.0, constraint_rows: str | None = None) -> CaseResult:
     """Minimum time, then least fuel with the case's ETA; every plan checked (:func:`check_plan`).
 
     A case is *feasible* when a verified plan exists: the minimum-time plan, or a SolverFailure's
     ``best_plan``.  An :class:`InfeasibleETA` of the fuel solve is then itself a finding
     (``honest_eta``): the minimum-time plan meets that ETA; so is a fuel plan using more fuel than
     the minimum-time plan when that one passed the check (``fuel_worse``, :func:`fuel_not_worse`).
-    ``constraint_rows`` is :func:`optroute.optimise_corridor`'s (where the NLP's rows sit).
+    ``constraint_rows`` is :func:`optroute.optimise_corridor`'s (where the NLP's rows sit; None: its default).
     """
     start = time.process_time()
     res = CaseResult(case)

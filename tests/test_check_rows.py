@@ -234,11 +234,6 @@ def test_phase1_leaves_a_band_for_a_side_without_being_told_which() -> None:
 # --------------------------------------------------------------------------- harness seed 10's cause, in small
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="since the merge of nlpfast the corridor's weather is read through a numpy spline whose CasADi wrapper "
-    "has no MX derivatives: phase-1's automatic derivatives of SpeedNLP.symbolic_model fail to build (passed before)",
-)
 def test_a_first_leg_closed_at_departure_is_no_safe_passage_naming_it() -> None:
     # harness seed 10: no speed is allowed on the first leg when the ship must enter it (at departure), though the
     # sea opens later (so no cross-section is closed at every time: not the blocked-section rule). Head seas of
@@ -247,7 +242,7 @@ def test_a_first_leg_closed_at_departure_is_no_safe_passage_naming_it() -> None:
     import optroute as orx
     from optroute.errors import NoSafePassage
     from optroute.optimise.corridor_problem import PreparedCorridor
-    from optroute.optimise.phase1 import diagnose
+    from optroute.optimise.phase1 import phase1_point
 
     t0 = np.datetime64("2024-01-10T00:00", "ns")
     box = {"bbox": (-5.0, 5.0, -35.0, -20.0), "start": t0, "duration_h": 48.0, "resolution_deg": 1.0}
@@ -260,11 +255,9 @@ def test_a_first_leg_closed_at_departure_is_no_safe_passage_naming_it() -> None:
     prob = pc.problem
     nlp = prob.build(pc._tightening())
     warm = {"offset_nm": np.zeros(pc.frame.n_legs + 1), "stw_kn": np.full(pc.frame.n_legs, 12.0)}
-    kw = {"eta_mode": "le", "objective": "time", "fuel_price": 600.0, "hourly_cost": 0.0}
     log: list[str] = []
     with pytest.raises(NoSafePassage, match=r"all along leg 0 entered at 2024-01-10T00:00:00Z") as err:
-        diagnose(prob, nlp, ctx=pc.plan_context(), warm=warm, cap_h=None, eta_user_h=None, t0=t0, budget=4,
-                 solve_kw=kw, log=log)  # fmt: skip
+        phase1_point(prob, nlp, ctx=pc.plan_context(), warm=warm, cap_h=None, t0=t0, log=log)
     assert "no safe passage" in str(err.value) and log[0].startswith("phase-1: Ipopt Solve_Succeeded")
 
 
@@ -389,3 +382,31 @@ def test_the_exclusion_back_off_is_the_flat_frames_measured_error() -> None:
         near = np.abs(true - 127.0) <= 20.0
         flat = np.linalg.norm(frame.to_xy(lat[near], la[near]) - frame.to_xy(20.0, lon[i]), axis=-1)
         assert np.all(np.abs(flat - true[near]) <= 1.2 * err + 1e-3)
+
+
+def test_the_cyclone_voyage_with_referee_rows_keeps_out_of_the_circle_on_the_first_solve() -> None:
+    """tests/test_voyage_cyclone.py's CLI voyage (15.5 N → 18.5 N on 138 E, calm sea, 240 nm corridor, 90 nm legs)
+    round the forecast circle (centre on 20 N moving west at 8 kn, radius R7 + 30 km = 127.04 nm): with the rows
+    where the referee checks the NLP was Infeasible_Problem_Detected (the centre, past the destination, was held at
+    it in the flat frame). Checked by brute force every 0.5 nm along the plan's geodesics against the circle."""
+    import optroute as orx
+    from optroute import geodesy as geo
+    from optroute.geo.tracks import Exclusion
+    from optroute.weather import scenarios as sc
+
+    t0 = np.datetime64("2022-10-13T00:00", "ns")
+    hours = np.arange(0.0, 61.0, 6.0)
+    lon_c = 140.5 - 8.0 * hours / (60.0 * np.cos(np.radians(17.5)))
+    excl = Exclusion(t0 + (hours * 3600).astype("timedelta64[s]"), np.full(hours.size, 20.0), lon_c, 127.04)
+    wx = sc.calm(start=t0, duration_h=60.0, step_h=6.0, resolution_deg=1.0, bbox=(10, 24, 132, 144))
+    cor = orx.Corridor.from_waypoints([(15.5, 138.0), (18.5, 138.0)], width_nm=240.0)
+    plan = orx.optimise_corridor(cor, wx, orx.Ship.preset("general_cargo_25k_dwt"), departure=t0, exclusion=excl,
+                                 max_leg_nm=90.0, use_land_mask=False, constraint_rows="referee")  # fmt: skip
+    assert plan.solver_stats["first_solve"] == "verified" and plan.verify() == []
+    wp, t_h = np.asarray(plan.waypoints), (plan.times - plan.times[0]) / np.timedelta64(1, "h")
+    for k in range(wp.shape[0] - 1):
+        d = float(geo.distance_nm(*wp[k], *wp[k + 1]))
+        f = np.linspace(0.0, 1.0, int(d / 0.5) + 2)
+        lat, lon = geo.intermediate_points(*wp[k], *wp[k + 1], f)
+        h = t_h[k] + f * (t_h[k + 1] - t_h[k])
+        assert np.all(geo.distance_nm(lat, lon, 20.0, np.interp(h, hours, lon_c)) >= 127.04 - 1e-6)

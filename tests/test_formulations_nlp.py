@@ -344,3 +344,40 @@ def test_jit_writes_nothing_into_the_working_directory(tmp_path, monkeypatch):
     f = ca.Function("f", [x], [x**2 + ca.sin(x)], jit_options(True))
     assert float(f(1.0)) == pytest.approx(1.0 + np.sin(1.0), rel=1e-12)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_phase1_derivatives_equal_central_differences_of_its_rows() -> None:
+    # the elastic phase-1 problem on the NLP's numpy-spline weather (no CasADi derivatives of the weather): its
+    # Jacobian and Lagrangian Hessian, assembled from the leg-by-leg derivatives and the slack matrix, against
+    # central differences of its rows as stated (the MX expression Ipopt evaluates, nlp_g) and of the
+    # Jacobian-transpose product, on a sample of columns
+    from formulations.phase1 import Phase1Problem
+
+    nlp, _ = _rich_problem()
+    assert nlp.numeric_weather
+    ph = Phase1Problem(nlp)
+    solver = ph._solver
+    n = nlp.n_legs
+    rng = np.random.default_rng(5)
+    nz = 3 * n + 2 + ph._ns
+    x = np.concatenate([rng.uniform(-20, 20, n + 1), rng.uniform(10, 20, n), np.linspace(0, 40, n + 1)])
+    x = np.concatenate([x, rng.uniform(0.0, 1.0, ph._ns)])
+    p = np.concatenate([[0.0, 0.0], np.full(n * 3 * 2, 0.8), np.ones(n)])
+    lam = rng.normal(size=ph._ng + 1)
+    jac_fn, hess_fn = solver.get_function("nlp_jac_g"), solver.get_function("nlp_hess_l")
+    rows = solver.get_function("nlp_g")
+    g, jac = jac_fn(x, p)
+    np.testing.assert_allclose(np.asarray(g).ravel(), np.asarray(rows(x, p)).ravel(), rtol=1e-12, atol=1e-12)
+    jac = np.asarray(jac.full())
+    hess = np.asarray(hess_fn(x, p, 1.0, lam).full())
+    hess = np.triu(hess) + np.triu(hess, 1).T
+    h = 1e-6
+    cols = np.concatenate([rng.choice(3 * n + 2, 10, replace=False), 3 * n + 2 + rng.choice(ph._ns, 3, replace=False)])
+    for c in cols:
+        e = np.zeros(nz)
+        e[c] = h
+        up, down = jac_fn(x + e, p), jac_fn(x - e, p)
+        fd_g = (np.asarray(rows(x + e, p)).ravel() - np.asarray(rows(x - e, p)).ravel()) / (2 * h)
+        np.testing.assert_allclose(jac[:, c], fd_g, atol=1e-5 * max(1.0, np.abs(fd_g).max()), err_msg=f"column {c}")
+        fd_h = (np.asarray(up[1].full()).T @ lam - np.asarray(down[1].full()).T @ lam) / (2 * h)
+        np.testing.assert_allclose(hess[:, c], fd_h, atol=1e-5 * max(1.0, np.abs(fd_h).max()), err_msg=f"column {c}")

@@ -72,3 +72,26 @@ def test_dp_is_never_worse_than_the_baselines_own_route_and_speed(ship):
     for arrival, base in zip(curve["arrival_h"], curve["fuel_t"], strict=True):
         eta = math.ceil(arrival - 1e-9)  # the end of the 1 h arrival bin (end - 1, end] the baseline lands in
         assert se.dp_at(end_h, fuel, eta) <= base * (1.0 + 1e-12)
+
+
+def test_dp_keeps_the_baselines_candidate_on_case_ii_at_240_h(ship):
+    """Case II at 240 h on the paper's lattice (three speeds): the 23 kn constant-speed route is one of the DP's candidates.
+
+    With one label per 1 h bin the DP lost it (a cheaper, later label won a bin on the way): 1 140.68 t
+    against the candidate's 1 140.11 t. With the bins' Pareto sets on (fuel, time) it is kept.
+    """
+    wx = orx.scenarios.shao_case(2)
+    t0 = wx.time.values[0]
+    dp = {**se.dp_options(), "horizon_h": 260.0}
+    speeds = [22.0, 23.0, 24.0]
+    curve = se.baseline_curve(wx, ship, t0, dp, np.array([23.0]), 240.0, referee=False)  # 22 kn is late, 24 costlier
+    assert curve["arrival_h"][0] <= 240.0
+    base = float(curve["fuel_t"][0])
+    out = {}
+    for labels in (1, 16):
+        r = se.search(wx, ship, t0, {**dp, "labels_per_bin": labels}, speeds_kn=speeds)
+        out[labels] = se.dp_at(
+            np.asarray(r.stats["curve_bin_end_h"], float), np.asarray(r.stats["curve_fuel_t"]), 240.0
+        )
+    assert out[16] <= base * (1.0 + 1e-12)
+    assert out[1] > base + 0.1  # the artefact this guards against

@@ -41,7 +41,15 @@ from optroute._checks import finite
 from optroute.errors import ConfigError
 from optroute.weather.cyclone_tracks import CycloneTrack
 
-__all__ = ["Encounter", "dcpa_tcpa", "encounter", "local_xy_nm", "patent_trigger", "risk_degree"]
+__all__ = [
+    "Encounter",
+    "best_closest_approach",
+    "dcpa_tcpa",
+    "encounter",
+    "local_xy_nm",
+    "patent_trigger",
+    "risk_degree",
+]
 
 KM_PER_NM = 1.852
 PATENT_MARGIN_KM = 30.0
@@ -80,6 +88,45 @@ def dcpa_tcpa(rel_pos: ArrayLike, rel_vel: ArrayLike) -> tuple[np.ndarray, np.nd
         tcpa = np.where(ww > 0, -np.sum(p * w, axis=-1) / np.where(ww > 0, ww, 1.0), 0.0)
     closest = p + w * tcpa[..., None]
     return np.sqrt(np.sum(closest * closest, axis=-1)), tcpa
+
+
+def best_closest_approach(rel_pos: ArrayLike, centre_vel: ArrayLike, speed: float) -> float:
+    """The largest closest approach to a centre moving at constant velocity that any heading at ``speed`` achieves.
+
+    Hand-worked bound for "can any heading keep out of the circle?": in the centre's frame the
+    ship's velocity is w = u − V (V the centre's, |u| ≤ ``speed``), a disk of radius ``speed`` about
+    −V.  If ``speed`` ≥ |V| some w opens (or holds) the distance, and the best closest approach is
+    the present distance d.  Otherwise every w lies within θ_m = asin(speed / |V|) of −V, and a
+    straight relative track in a direction φ from the centre's bearing passes d·sin φ from it
+    (d if φ ≥ 90°); the widest φ is β + θ_m, β the angle between the bearing of the centre and −V.
+    Steering instead of holding a heading does not help: every later position lies in the cone of
+    those directions from the ship, so a circle that every such ray meets bars every path to
+    infinity within it.
+
+    Parameters
+    ----------
+    rel_pos : array_like, (2,)
+        Centre minus ship on the local plane (east, north), any length unit.
+    centre_vel : array_like, (2,)
+        Centre's velocity (east, north) in that unit per time unit.
+    speed : float
+        The ship's largest speed over ground, same unit per time unit.
+
+    Returns
+    -------
+    float
+        The best closest approach (the length unit): the circle of radius R can be kept out of
+        iff R ≤ this.
+    """
+    p = np.asarray(rel_pos, dtype=float)
+    v = np.asarray(centre_vel, dtype=float)
+    d, vc = float(np.hypot(*p)), float(np.hypot(*v))
+    s = float(finite("speed", speed, minimum=0.0, error=ConfigError))
+    if s >= vc or d == 0.0:
+        return d
+    beta = float(np.arccos(np.clip(np.dot(p, -v) / (d * vc), -1.0, 1.0)))
+    phi = beta + float(np.arcsin(s / vc))
+    return d if phi >= 0.5 * np.pi else d * float(np.sin(phi))
 
 
 @dataclass(frozen=True)

@@ -80,7 +80,7 @@ def optimise_corridor(
     robust: Literal["all", "cvar", "chance"] | None = None,
     cvar_alpha: float = 0.0,
     violation_fraction: float = 0.0,
-    constraint_rows: Literal["referee", "midpoints"] = "referee",
+    constraint_rows: Literal["referee", "midpoints"] = "midpoints",
 ) -> Plan:
     """Optimise the waypoints and leg speeds inside a corridor: the corridor NLP, verified.
 
@@ -118,15 +118,18 @@ def optimise_corridor(
         Longest NLP leg [nm]; the corridor is resampled on its great circles.
     samples_per_leg : int
         NLP samples per leg of the midpoint-rule time and fuel (every constraint is imposed there too).
-    constraint_rows : {"referee", "midpoints"}
-        Where the NLP's engine-load, band and exclusion rows sit. ``"referee"`` (default): at the
-        quadrature's midpoints and at the referee's check points of a canonical start — the centreline
-        at the speed of the latest ETA (leg ends, weather-grid crossings, points near band edges;
-        :func:`optroute.optimise.rows.canonical_rows`), the same for every ETA of a prepared corridor —
-        on the legs where a band or the exclusion can bind (elsewhere the leg ends only, for the engine
-        load; :func:`optroute.optimise.rows.binding_legs`), aimed at plans that pass
-        :meth:`Plan.verify` on the first try (``solver_stats["first_solve"]``). ``"midpoints"``: at the
-        quadrature's midpoints only (fewer samples per leg, a plan the referee rejects more often).
+    constraint_rows : {"midpoints", "referee"}
+        Where the NLP's engine-load, band and exclusion rows sit. ``"midpoints"`` (default): at the
+        quadrature's midpoints. ``"referee"``: also at the referee's check points of a canonical start —
+        the centreline at the speed of the latest ETA (leg ends, weather-grid crossings, points near band
+        edges; :func:`optroute.optimise.rows.canonical_rows`), the same for every ETA of a prepared
+        corridor — on the legs where a band or the exclusion can bind (elsewhere the leg ends only, for
+        the engine load; :func:`optroute.optimise.rows.binding_legs`), aimed at plans that pass
+        :meth:`Plan.verify` on the first try (``solver_stats["first_solve"]``). Not yet the default:
+        measured side by side it costs 1.3–3.7× the call, raised the first-try share on the cyclone
+        voyage and one harness seed only, and turns harness seed 0's minimum-time solve from a verified
+        plan into a SolverFailure (cause not established; a candidate: the band outer loop flips all
+        samples of a leg together, and more samples per leg can leave it no common side).
     fuel_price_per_t, hourly_cost_per_h : float
         For ``"cost"`` [currency/t], [currency/h].
     exclusion : Exclusion, optional
@@ -206,22 +209,19 @@ def optimise_corridor(
     Raises
     ------
     InfeasibleETA
-        The ETA cannot be met; ``earliest_arrival`` is the minimum-time solve's arrival (tried from
-        several warm starts, on a weather grid covering its passage).
+        The ETA cannot be met; ``earliest_arrival`` is the minimum-time plan's arrival (its solve started from
+        the elastic phase-1 problem's point where no start verifies, on a weather grid covering its passage).
     SolverFailure
         Ipopt fails (``status`` verbatim) or no tightened re-solve gives a plan that passes
-        verification; ``best_plan`` is the best plan known that passes verification (the minimum-time
-        solve's, the search route's, the safe warm start's, or the timed safe start's passage,
-        :func:`optroute.optimise.min_time.timed_safe_start`), else None. When the timed search finds no passage
-        along the centreline, the message begins with where and when it found no allowed speed.
+        verification, and no verified plan meets the ETA (one that does, the minimum-time plan included, is
+        returned with ``status="start"``); ``best_plan`` is the search route's plan when it verifies, else None.
     WeatherCoverageError
         The corridor or the ETA lies outside the weather.
     NoSafePassage, OnLandError
         No navigable channel joins the corridor's ends (the message names the leg where it closes;
         :func:`optroute.optimise.lateral.lateral_bounds`), or it starts or ends on land; or, after a failed
-        solve, the elastic phase-1 problem leaves a leg that the true model allows no constant speed on, entered
-        where and when phase-1 enters it (the message names the leg, position and time;
-        :mod:`optroute.optimise.phase1`).
+        solve, the elastic phase-1 problem keeps a slack on the first leg and the true model allows no constant
+        speed on it from departure (the message names the leg, position and time; :mod:`optroute.optimise.phase1`).
     """
     from optroute.optimise.corridor_problem import PreparedCorridor
 

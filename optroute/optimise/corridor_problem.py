@@ -162,7 +162,7 @@ class PreparedCorridor:
         jit: bool = False,
         discrete_start: bool = False,
         dp_options: Mapping[str, Any] | None = None,
-        constraint_rows: str = "referee",
+        constraint_rows: str = "midpoints",
     ) -> None:
         if constraint_rows not in ROW_PLACEMENTS:
             raise ConfigError(
@@ -598,7 +598,6 @@ class PreparedCorridor:
             budget=self.band_solves,
             step_nm=self.verify_step_nm,
             solve_kw=call.solve_kw,
-            warm_rules=warm_rules(self.rules, st),
             first_warm=warm,
             log=call.log,
         )

@@ -134,11 +134,16 @@ class Problem:
 
     trial_max_iter = 150
 
-    def _count(self, res: NLPResult) -> None:
+    def _count(self, res: NLPResult | Any) -> None:
         """Count one Ipopt call: its iterations and its wall-clock time [s] (every solve, the side flips' too)."""
         self.solves += 1
         self.iterations += int(res.iterations)
         self.solve_time_s += float(res.solve_time_s)
+
+    def count(self, res: Any) -> None:
+        """Count one Ipopt call of another problem made for this one (the elastic phase-1 problem,
+        :mod:`optroute.optimise.phase1`): ``res`` has ``iterations`` and ``solve_time_s``."""
+        self._count(res)
 
     def absorb_counts(self, other: Problem) -> None:
         """Add the builds and solves of ``other`` (a problem made for this one, e.g. on a longer grid) to these."""

@@ -2,27 +2,25 @@
 
 What :func:`optroute.optimise.api.optimise_corridor` and
 :meth:`optroute.optimise.corridor_problem.PreparedCorridor.solve` do when a solve fails or its plan
-does not verify: the minimum-time starts, the diagnosis of a failed first solve (infeasible ETA or
-a solver problem), the tightening of the rows the referee flagged, and the plan built from an NLP
-solution with the true model.
+does not verify: the diagnosis of a failed first solve by the elastic phase-1 problem (a safe start,
+an infeasible ETA, no safe passage, or a solver problem), the tightening of the rows the referee
+flagged, and the plan built from an NLP solution with the true model.
 """
 
 from __future__ import annotations
 
 import math
-import time as _time
 from collections.abc import Callable, Mapping
 from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
+from formulations.phase1 import SLACK_TOL
 from formulations.speed_nlp import NLPResult, SpeedNLP
 from optroute import geodesy as geo
-from optroute import units
-from optroute.errors import InfeasibleETA, OptrouteError, SolverFailure, WeatherCoverageError
+from optroute.errors import OptrouteError, SolverFailure
 from optroute.optimise.lateral import avoid_point
-from optroute.optimise.min_time import DeadEnd, TimedStart, timed_safe_start
 from optroute.optimise.nlp_inputs import (
     CorridorFrame,
     weather_grid,
@@ -33,14 +31,11 @@ from optroute.optimise.nlp_solve import (
     Solved,
     Tightening,
     clear_of_exclusion,
-    route_warm_start,
     safe_warm_start,
 )
-from optroute.optimise.phase1 import diagnose
-from optroute.physics.safety import BandRules
+from optroute.optimise.phase1 import infeasible_eta, phase1_point
 from optroute.plan.result import Exclusion, Plan, PlanContext, Violation
 from optroute.search.route import Route
-from optroute.units import h_to_timedelta as _h_to_td
 from optroute.weather.sample import WeatherSampler
 
 __all__ = [
@@ -204,86 +199,6 @@ def route_plan(route: Route | None, ctx: PlanContext, step_nm: float) -> Plan | 
     return plan if not plan.verify(step_nm=step_nm) else None
 
 
-def _minimum_time(
-    prob: Problem,
-    nlp: SpeedNLP,
-    *,
-    ctx: PlanContext,
-    t0: np.datetime64,
-    route: Route | None,
-    budget: int,
-    solve_kw: Mapping[str, Any],
-    warm_rules: BandRules,
-    first_warm: Mapping[str, np.ndarray],
-    log: list[str],
-    passages: list[TimedStart] | None = None,
-) -> Solved | None:
-    """The minimum-time solve of the corridor, tried from several warm starts; None when every one fails.
-
-    Ipopt's minimum-time solve is local and can fail from one start and succeed from another (a storm
-    that follows the ship, bands whose sides are fixed from the start's timing, a minimum load that
-    leaves a narrow speed window between it and a band). The starts, cheapest and most often right
-    first: the fastest allowed speed leg by leg with the true model (Boeing's reduction from the top
-    speed) when a speed is allowed at every point of it; the earliest passage of the time-expanded
-    search (:func:`optroute.optimise.min_time.timed_safe_start`: its timing avoids the places and times where
-    no speed is allowed, which the point-by-point reduction meets at the lowest speed, below the
-    minimum load, on band sides no speed keeps); the search route's speeds, the failed solve's own
-    (safe) start, and safe starts from 3/4 and 1/2 of the top speed (they reach a storm later, so
-    their band sides are other ones).
-    """
-    kw = dict(solve_kw)
-    kw["objective"] = "time"
-    frame = prob.frame
-
-    def safe(fraction: float) -> dict[str, np.ndarray]:
-        return safe_warm_start(ctx, frame, t0, fraction * prob.v_max, prob.v_min, rules=warm_rules)
-
-    def timed() -> Mapping[str, np.ndarray] | None:
-        started = _time.perf_counter()
-        found = timed_safe_start(ctx, frame, t0, v_min_kn=prob.v_min, v_max_kn=prob.v_max, rules=warm_rules)
-        log.append(
-            f"timed safe start ({_time.perf_counter() - started:.2f} s): "
-            + (f"{found.arrival_h:.3f} h" if isinstance(found, TimedStart) else f"no passage found: {found}")
-        )
-        if isinstance(found, DeadEnd):
-            return None
-        if passages is not None:
-            passages.append(found)
-        return found.warm()
-
-    top = safe(1.0)
-    # a leg at the lowest speed is where no speed was allowed: that start's sides cannot be kept
-    top_clean = bool(np.all(top["stw_kn"] > prob.v_min + 1e-9))
-    starts: list[tuple[str, Callable[[], Mapping[str, np.ndarray] | None]]] = []
-    if top_clean:
-        starts.append(("top speed", lambda: top))
-    starts.append(("timed safe start", timed))
-    if route is not None:
-        starts.append(("search route", lambda: route_warm_start(route, frame)))
-    # a dead end of the timed search is no proof (its speed ladder and blocks may miss a narrow window): the other
-    # starts are still tried
-    starts += [
-        ("first start", lambda: first_warm),
-        ("3/4 top speed", lambda: safe(0.75)),
-        ("1/2 top speed", lambda: safe(0.5)),
-    ]
-    if not top_clean:
-        starts.append(("top speed", lambda: top))
-    for name, make in starts:
-        made = make()
-        if made is None:
-            continue
-        warm = clear_of_exclusion(dict(made), frame, prob.exclusion, t0, prob.y_lo, prob.y_hi)
-        fast = prob.solve(nlp, eta_h=None, warm=warm, budget=budget, **kw)
-        log.append(
-            f"minimum time from {name}: Ipopt {fast.res.status}"
-            + (f", {fast.res.duration_total_h:.3f} h" if fast.ok else "")
-        )
-        if fast.ok:
-            return fast
-    return None
-
-
 def longer_horizon(
     prob: Problem, st: Tightening, sampler: WeatherSampler, data_end_h: float, horizon_h: float
 ) -> tuple[Problem, SpeedNLP]:
@@ -356,25 +271,31 @@ def first_failure(
     budget: int,
     step_nm: float,
     solve_kw: Mapping[str, Any],
-    warm_rules: BandRules,
     first_warm: Mapping[str, np.ndarray],
     log: list[str],
 ) -> Solved:
-    """The first solve failed: find out why, and recover when the problem is solvable after all.
+    """The first solve failed and no start verifies: find out why from the elastic phase-1 problem, and solve from it.
 
-    The minimum-time solve (:func:`_minimum_time`, several warm starts) decides:
+    Ipopt's last iterate is kept where it stopped at a limit on a plan that verifies (:func:`feasible_iterate`).
+    Else the elastic phase-1 problem (:func:`optroute.optimise.phase1.phase1_point`, the ETA row elastic) decides,
+    started from the other end of the schedule than the failed solve (whose start was ``first_warm``): the
+    fastest speeds the true model allows leg by leg (Boeing's reduction from the top speed,
+    :func:`~optroute.optimise.nlp_solve.safe_warm_start` with the call's rules, moved clear of an exclusion circle;
+    on the beam-seas case of tests/test_band_suite.py the fuel solve from phase-1's point found 18.90 t from this
+    start, as the minimum-time rescue did, and 21.64 t from the failed solve's start; from the reduction with the
+    NLP's back-offs (:func:`~optroute.optimise.nlp_solve.warm_rules`) phase-1 stayed in the synchronous-roll band
+    there):
 
-    * it arrives after the ETA (or after the weather's end without an ETA): :class:`InfeasibleETA`
-      carrying its arrival (:class:`WeatherCoverageError`);
-    * it meets the ETA: the ETA is reachable and the minimum-time solution is a feasible start, so
-      the problem is solved again from it (for ``objective="time"`` it *is* the solution) and the
-      new solve is returned; when that fails too, :class:`SolverFailure` carries the minimum-time
-      plan as the best verified plan;
-    * it fails from every start: the elastic phase-1 problem (:func:`optroute.optimise.phase1.diagnose`)
-      raises :class:`~optroute.errors.NoSafePassage` or :class:`InfeasibleETA` where it proves one, or
-      gives a feasible start that is solved from; else :class:`SolverFailure` with the first solve's
-      Ipopt status and the best verified plan known (the search route's, the safe warm start's, the
-      timed passage's).
+    * a leg the true model closes: :class:`~optroute.errors.NoSafePassage` (raised there);
+    * safe, but the ETA (or, without one, the weather's end) missed from its point: the minimum-time solve from
+      that point (on a weather grid covering the passage, ``longer``) gives the earliest arrival,
+      :class:`InfeasibleETA` (:class:`WeatherCoverageError`); where it meets the ETA after all, it is the start;
+    * safe and on time: the problem is solved again from its point (for ``objective="time"`` from the
+      minimum-time point it *is* the solution).
+
+    Where phase-1 finds no safe point that the true model confirms closed, or the solve from its point fails
+    too, :class:`SolverFailure` with Ipopt's status (``best_plan``: the search route's plan when it verifies;
+    :func:`optroute.optimise.api.optimise_corridor` adds the minimum-time plan).
     """
     if feasible_iterate(sol.res, ctx, prob.frame, t0, step_nm):
         log.append(
@@ -382,155 +303,72 @@ def first_failure(
             "its plan passes verification; a feasible, not optimal, solution"
         )
         return replace(sol, ok=True)
-    passages: list[TimedStart] = []
-    fast = _minimum_time(
-        prob,
-        nlp,
-        ctx=ctx,
-        t0=t0,
-        route=route,
-        budget=budget,
-        solve_kw=solve_kw,
-        warm_rules=warm_rules,
-        first_warm=first_warm,
-        log=log,
-        passages=passages,
-    )
-    t_grid = np.asarray(prob.grid.t_h, dtype=float)
-    if fast is not None and cap_h is not None and t_grid.size > 1 and fast.res.duration_total_h > t_grid[-1]:
-        # it arrives after the ETA's weather grid ends: again on a grid that covers the passage
-        p_long, nlp_long = longer()
-        if p_long is not prob:
-            again = p_long.solve(
-                nlp_long,
-                eta_h=None,
-                warm={"offset_nm": fast.res.offset_nm, "stw_kn": fast.res.stw_kn},
-                budget=budget,
-                **{**solve_kw, "objective": "time"},
-            )
-            prob.absorb_counts(p_long)  # its build and solve are this call's too (solver_stats counts every solve)
-            log.append(f"minimum time on a grid to {float(p_long.grid.t_h[-1]):.1f} h: Ipopt {again.res.status}")
-            if again.ok:
-                fast = again
-    if fast is not None and cap_h is not None and fast.res.duration_total_h > cap_h + 1e-6:
-        earliest = t0 + _h_to_td(fast.res.duration_total_h)
-        if eta_user_h is None:
-            raise WeatherCoverageError(
-                f"the passage cannot be completed within the weather's time span ({cap_h:.1f} h after departure): "
-                f"the minimum-time solve arrives {fast.res.duration_total_h:.1f} h after departure, at {units.format_utc(earliest)}; "
-                "extend the forecast or pass an ETA"
-            )
-        raise InfeasibleETA(
-            f"the ETA {cap_h:.2f} h after departure cannot be met: the minimum-time solve of this corridor arrives "
-            f"{fast.res.duration_total_h:.2f} h after departure, at {units.format_utc(earliest)} (Ipopt: {fast.res.status}); give an "
-            "ETA at or after that, or widen the corridor",
-            earliest_arrival=earliest,
-        )
-    status = sol.res.status
-    candidates = [sol]
-    if fast is not None:
+    frame = prob.frame
+    top = safe_warm_start(ctx, frame, t0, prob.v_max, prob.v_min, rules=prob.rules)
+    top = clear_of_exclusion(top, frame, prob.exclusion, t0, prob.y_lo, prob.y_hi)
+    log.append(f"phase-1 from the fastest safe speeds, not the failed solve's start ({np.mean(first_warm['stw_kn']):.1f} kn "
+               "on average)")  # fmt: skip
+    point = phase1_point(prob, nlp, ctx=ctx, warm=top, cap_h=cap_h, t0=t0, log=log)
+    if point is None:
+        raise _failure(sol, route, ctx, step_nm, log, "the elastic phase-1 problem found no safe start either")
+    warm = {"offset_nm": point.offset_nm, "stw_kn": point.stw_kn}
+    if cap_h is not None and point.eta_slack_h > SLACK_TOL:
+        fast = _fastest(prob, nlp, warm, float(point.time_h[-1]), longer=longer, budget=budget, solve_kw=solve_kw,
+                        log=log)  # fmt: skip
+        kw = {"cap_h": cap_h, "eta_user_h": eta_user_h, "t0": t0}
+        if fast is None:
+            infeasible_eta(float(point.time_h[-1]), **kw, what="the earliest safe passage the elastic phase-1 "
+                           "problem found (the minimum-time solve from it failed)")  # fmt: skip
+        arrival_h = fast.res.duration_total_h
+        if arrival_h > cap_h + 1e-6:
+            infeasible_eta(arrival_h, **kw, what=f"the minimum-time solve of this corridor (Ipopt: {fast.res.status})")
         if solve_kw["objective"] == "time":
             return fast
-        again = prob.solve(
-            nlp,
-            eta_h=cap_h,
-            warm={"offset_nm": fast.res.offset_nm, "stw_kn": fast.res.stw_kn},
-            budget=budget,
-            **solve_kw,
-        )
-        log.append(f"attempt 0 again from the minimum-time solution: Ipopt {again.res.status}")
-        if again.ok:
-            return again
-        status = again.res.status
-        candidates.insert(0, again)
-    for cand in candidates:
-        if feasible_iterate(cand.res, ctx, prob.frame, t0, step_nm):
-            # Ipopt stopped on its iteration or time limit at a point that satisfies every constraint: a
-            # usable, not an optimal, solution. It goes through verify() like any other; the plan's status
-            # is "feasible" and solver_stats keeps Ipopt's status verbatim.
-            log.append(
-                f"kept Ipopt's last iterate ({cand.res.status}, largest violation "
-                f"{cand.res.max_violation:.2g}) as a feasible, not optimal, solution"
-            )
-            return replace(cand, ok=True)
-    # the elastic phase-1 problem: a feasible start after all, or where (and whether) the passage is closed
-    found = diagnose(
-        prob, nlp, ctx=ctx, warm=first_warm, cap_h=cap_h, eta_user_h=eta_user_h, t0=t0, budget=budget,
-        solve_kw=solve_kw, log=log,
-    )  # fmt: skip
-    if found is not None:
-        return found
-    dead = next(
-        (
-            line.split("no passage found: ", 1)[1]
-            for line in log
-            if line.startswith("timed safe start") and "no passage found: " in line
-        ),
-        None,
+        warm = {"offset_nm": fast.res.offset_nm, "stw_kn": fast.res.stw_kn}
+    again = prob.solve(nlp, eta_h=cap_h, warm=warm, budget=budget, **solve_kw)
+    log.append(f"solve from the phase-1 point: Ipopt {again.res.status}")
+    if again.ok:
+        return again
+    if feasible_iterate(again.res, ctx, prob.frame, t0, step_nm):
+        log.append(f"kept Ipopt's last iterate ({again.res.status}) from the phase-1 point: its plan verifies")
+        return replace(again, ok=True)
+    raise _failure(again, route, ctx, step_nm, log, "nor from the elastic phase-1 problem's safe point")
+
+
+def _fastest(
+    prob: Problem,
+    nlp: SpeedNLP,
+    warm: Mapping[str, np.ndarray],
+    arrival_h: float,
+    *,
+    longer: Callable[[], tuple[Problem, SpeedNLP]],
+    budget: int,
+    solve_kw: Mapping[str, Any],
+    log: list[str],
+) -> Solved | None:
+    """The minimum-time solve from ``warm`` (phase-1's point, arriving ``arrival_h`` [h]); on a weather grid that covers
+    the passage when phase-1 arrives after this one's end (:func:`longer_horizon`). None when it fails."""
+    p, n = prob, nlp
+    if arrival_h > float(np.asarray(prob.grid.t_h, dtype=float)[-1]):
+        p, n = longer()
+    fast = p.solve(n, eta_h=None, warm=warm, budget=budget, **{**solve_kw, "objective": "time"})
+    prob.absorb_counts(p)  # its build and solves are this call's too (solver_stats counts every solve)
+    log.append(
+        f"minimum time from the phase-1 point on a grid to {float(p.grid.t_h[-1]):.1f} h: Ipopt {fast.res.status}"
+        + (f", {fast.res.duration_total_h:.3f} h" if fast.ok else "")
     )
-    raise SolverFailure(
-        (
-            f"the timed search along the centreline found no passage: {dead} (the bands, the engine's load range "
-            f"[{prob.power.min_load:g}, 1] of MCR and speeds of {prob.v_min:g}–{prob.v_max:.1f} kn, on its "
-            "speed ladder), and the NLP found none from any start: a wider corridor, another route or another "
-            "departure may pass. "
-            if dead is not None
-            else ""
-        )
-        + f"Ipopt did not solve the corridor problem: status {status!r} (best of {sol.n_solves} solves of the band "
-        f"outer loop, {sol.res.iterations} iterations, largest constraint violation {sol.res.max_violation:.3g}); "
-        + (
-            "the minimum-time solve meets the ETA (its plan is the error's best_plan); "
-            if fast is not None
-            else "the minimum-time solve failed from every warm start too; "
-        )
-        + "raise ipopt.max_iter in solver_options or band_solves, use shorter legs, or check the corridor and ETA "
-        f"(tried: {'; '.join(log)})",
-        status=status,
-        best_plan=_best_known_plan(fast, route, ctx, prob.frame, t0, first_warm, step_nm, passages),
+    return fast if fast.ok else None
+
+
+def _failure(
+    sol: Solved, route: Route | None, ctx: PlanContext, step_nm: float, log: list[str], why: str
+) -> SolverFailure:
+    """:class:`SolverFailure` with Ipopt's status and what was tried."""
+    return SolverFailure(
+        f"Ipopt did not solve the corridor problem: status {sol.res.status!r} (best of {sol.n_solves} solves of the "
+        f"band outer loop, {sol.res.iterations} iterations, largest constraint violation "
+        f"{sol.res.max_violation:.3g}); {why}; raise ipopt.max_iter in solver_options or band_solves, use shorter "
+        f"legs, or check the corridor and ETA (tried: {'; '.join(log)})",
+        status=sol.res.status,
+        best_plan=route_plan(route, ctx, step_nm),
     )
-
-
-def _best_known_plan(
-    fast: Solved | None,
-    route: Route | None,
-    ctx: PlanContext,
-    frame: CorridorFrame,
-    t0: np.datetime64,
-    safe: Mapping[str, np.ndarray],
-    step_nm: float,
-    passages: list[TimedStart] | None = None,
-) -> Plan | None:
-    """The best plan that passes verification: the minimum-time solve's, the search route's, the safe start's,
-    the timed safe start's passage (:func:`optroute.optimise.min_time.timed_safe_start`)."""
-
-    def own(stw: np.ndarray, offsets: np.ndarray, status: str) -> Plan:
-        return Plan.from_context(
-            ctx,
-            frame.waypoints(np.asarray(offsets, dtype=float)),
-            np.asarray(stw, dtype=float),
-            departure=t0,
-            status=status,
-            step_nm=step_nm,
-        )
-
-    if fast is not None:
-        try:
-            plan = to_plan(ctx, frame, fast.res, t0, step_nm=step_nm)
-            if not plan.verify(step_nm=step_nm):
-                return replace(plan, status="minimum time")
-        except OptrouteError:  # a fallback plan is optional; the failure being reported is what matters
-            pass
-    candidates: list[Callable[[], Plan | None]] = [
-        lambda: route_plan(route, ctx, step_nm),
-        lambda: own(safe["stw_kn"], safe["offset_nm"], "safe warm start"),
-    ]
-    candidates += [lambda p=p: own(p.stw_kn, p.offset_nm, "timed safe start") for p in (passages or [])]
-    for make in candidates:
-        try:
-            plan = make()
-        except OptrouteError:  # a fallback plan is optional; the failure being reported is what matters
-            continue
-        if plan is not None and not plan.verify(step_nm=step_nm):
-            return plan
-    return None

@@ -13,11 +13,23 @@ route and speed profile for a required ETA.
 Time discretisation (documented choice)
 ---------------------------------------
 Arrival times are grouped in bins of ``dt_h`` (1 h as in the paper).  Each
-(stage, lateral, bin) state keeps one label: the least fuel reaching it, with
-the *exact* arrival time of that label (ties: the earlier one) and a back
-pointer; times are never rounded, so the reported times and ETAs are exact
-for the path returned.  Keeping one label per bin discards, within a bin, an
-earlier-but-costlier label: the error this causes vanishes as ``dt_h`` → 0.
+(stage, lateral, bin) state keeps up to ``labels_per_bin`` labels (default
+one: :data:`DEFAULT_LABELS_PER_BIN`), each with the *exact* arrival time of its
+path and a back pointer: the bin's Pareto set on (fuel, time) — the least-fuel
+label (ties: the earlier one), then the least-fuel label strictly earlier than
+it, and so on.  A label is dropped only when another in its bin is no costlier
+*and* no later, or when the set is full (the earliest, costliest labels go
+first); times are never rounded, so the reported times and ETAs are exact for
+the path returned.  One label per bin lets a cheaper but later label win a bin
+and lose the path that, continued, arrives by the ETA: on Shao et al.'s case
+II at 240 h the DP burnt 1 140.68 t against 1 140.11 t for its own 23 kn
+constant-speed candidate (16 labels: 1 140.11 t).  With the whole set
+(``labels_per_bin=None``) and costs that do not depend on when a leg is
+sailed, the DP equals enumeration of its lattice at every bin end, whatever
+the bin width; in time-varying weather and no-go areas dominance on (fuel,
+time) is the usual label-setting assumption (waiting is not allowed, so an
+earlier label cannot always imitate a later one).
+
 The bins are aligned so that the required ETA is a bin edge, and they are
 closed at their end: a bin holds the arrivals after its start up to *and at*
 its end (``(end - dt_h, end]``), i.e. an arrival time is rounded up to the end
@@ -57,6 +69,7 @@ Sources: Shao et al. (3-D DP vs the IMO MEPC method; ΔX = 360 nm, ΔY = 75 nm,
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -75,6 +88,15 @@ LegCostFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray
 NoGoFn = Callable[[np.ndarray, np.ndarray, np.ndarray], ArrayLike]
 
 _SPEED_TOL = 1e-9
+DEFAULT_LABELS_PER_BIN = 1
+"""Labels kept per (stage, lateral, arrival-time bin) by default: the cheapest only.
+
+The bin's whole Pareto set (``labels_per_bin=None``) makes the DP exact against every path of its
+lattice when the legs' costs do not depend on the time, but it grows with the stages: on Shao et
+al.'s case II (15 legs, 75 nm, three speeds) it had not finished after 90 CPU-s where one label took
+1 CPU-s and 16 labels 3.7 CPU-s.  A capped set keeps the cheapest labels of it and is a heuristic:
+it is not even monotone in the cap (a cheaper, later label can push out of the set the label a
+smaller cap kept: 4 labels ended 0.01 t above 1 label at 336 h on case II's full lattice)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -304,6 +326,7 @@ def solve_dp(
     max_lateral_step: int | None = None,
     horizon_h: float | None = None,
     max_batch: int = 400_000,
+    labels_per_bin: int | None = DEFAULT_LABELS_PER_BIN,
 ) -> DPResult:
     """Forward 3-D DP: least fuel for every arrival time, and the route for ``eta_h``.
 
@@ -341,6 +364,10 @@ def solve_dp(
         reach the end by then, even at the top speed, are dropped.
     max_batch : int
         Legs costed per callback call (memory bound).
+    labels_per_bin : int or None
+        Labels kept per (stage, lateral, bin): the bin's Pareto set on (fuel, arrival time), cheapest
+        first, each next one strictly earlier and costlier (see the module docstring); None keeps
+        the whole set, 1 only the cheapest.
 
     Returns
     -------
@@ -372,6 +399,11 @@ def solve_dp(
     if eta_h is not None:
         eta_h = float(finite("eta_h", eta_h, minimum=0.0, strict=True, error=ConfigError))
     step = None if max_lateral_step is None else int(max_lateral_step)
+    n_labels = None
+    if labels_per_bin is not None:
+        n_labels = int(finite("labels_per_bin", labels_per_bin, minimum=1.0, error=ConfigError))
+        if n_labels != labels_per_bin:
+            raise ConfigError(f"labels_per_bin={labels_per_bin} must be a whole number >= 1, or None (every label)")
     if step is not None and step < 0:
         raise ConfigError(f"max_lateral_step={max_lateral_step} must be >= 0")
     nogo_step = (
@@ -403,11 +435,9 @@ def solve_dp(
     valid = np.ones((n_stages + 1, n_lat), dtype=bool)
     valid[0], valid[-1] = False, False
     valid[0, c], valid[-1, c] = True, True
-    fuel_t = [np.full((n_lat, n_bins), np.inf) for _ in range(n_stages + 1)]
-    time_t = [np.full((n_lat, n_bins), np.nan) for _ in range(n_stages + 1)]
-    back_l = [np.full((n_lat, n_bins), -1, dtype=np.int32) for _ in range(n_stages + 1)]
-    back_b = [np.full((n_lat, n_bins), -1, dtype=np.int32) for _ in range(n_stages + 1)]
-    speed_i = [np.full((n_lat, n_bins), -1, dtype=np.int16) for _ in range(n_stages + 1)]
+    # per stage (n_lat, n_bins × width) tables, column bin × width + slot; a stage's width is its largest Pareto set
+    fuel_t, time_t, back_l, back_b, speed_i = ([a] for a in _empty_stage(n_lat, n_bins)[:-1])
+    widths = [1]
     # the earliest-arrival labels, one per (stage, lateral), propagated alongside (exact under FIFO)
     early_t = np.full((n_stages + 1, n_lat), np.inf)
     early_f = np.full((n_stages + 1, n_lat), np.inf)
@@ -423,7 +453,7 @@ def solve_dp(
         raise NoSafePassage(f"the start {s} is in a no-go area at departure; move it or change the no-go mask")
     step_fn = _Transition(lat, lon, dists, speeds, leg_cost, navigable, nogo_step, rem_nm, vmax, horizon)
     kernel = getattr(leg_cost, "dp_kernel", None)
-    stages = None if kernel is None else _CompiledStages(kernel, step_fn, (t_ref, dt, n_bins))
+    stages = None if kernel is None else _CompiledStages(kernel, step_fn, (t_ref, dt, n_bins), n_labels)
     step_fn.stages = stages
     for k in range(n_stages):
         src_l, src_b = np.nonzero(np.isfinite(fuel_t[k]))
@@ -448,11 +478,17 @@ def solve_dp(
         # the binned fuel labels
         if stages is not None:
             src = (src_l, time_t[k][src_l, src_b], fuel_t[k][src_l, src_b])
-            for dl, db, f1, tt, w_src, w_v in stages.stage(k, src, dest, step, max_batch, rem_nm[k + 1]):
-                fuel_t[k + 1][dl, db], time_t[k + 1][dl, db] = f1, tt
-                back_l[k + 1][dl, db], back_b[k + 1][dl, db], speed_i[k + 1][dl, db] = src_l[w_src], src_b[w_src], w_v
+            won = list(stages.stage(k, src, dest, step, max_batch, rem_nm[k + 1]))
+            dl, db, slot, f1, tt, w_src, w_v = (np.concatenate(x) for x in zip(*won, strict=True)) if won else (
+                np.zeros(0, int), np.zeros(0, int), np.zeros(0, int), np.zeros(0), np.zeros(0), np.zeros(0, int),
+                np.zeros(0, int))  # fmt: skip
+            _append(
+                (fuel_t, time_t, back_l, back_b, speed_i), widths,
+                _stage_tables(n_lat, n_bins, dl, db, slot, f1, tt, src_l[w_src], src_b[w_src], w_v),
+            )  # fmt: skip
             continue
         chunk = max(1, max_batch // max(dest.size * speeds.size, 1))
+        parts = []
         for a in range(0, src_l.size, chunk):
             sl, sb = src_l[a : a + chunk], src_b[a : a + chunk]
             pos, lj, vi = _combos(np.arange(sl.size), dest, speeds.size, None)
@@ -469,27 +505,30 @@ def solve_dp(
             tt = t1[sel]
             b1 = np.ceil((tt - t_ref) / dt - BIN_TOL_H / dt).astype(np.int64) - 1
             inside = (b1 >= 0) & (b1 < n_bins)
-            sel, f1, tt, b1 = sel[inside], f1[inside], tt[inside], b1[inside]
-            dl = lj[sel]
-            cur_f, cur_t = fuel_t[k + 1][dl, b1], time_t[k + 1][dl, b1]
-            better = (f1 < cur_f) | ((f1 == cur_f) & (tt < cur_t))
-            sel, f1, tt, b1 = sel[better], f1[better], tt[better], b1[better]
-            cl0, clj, ct0, cdur = l0[sel], lj[sel], t0[sel], dur[sel]
-            win = _lazy_winners(
-                clj * n_bins + b1,
-                f1,
-                tt,
-                lambda q, k=k, a=cl0, b=clj, c=ct0, d=cdur: step_fn.clear(k, a[q], b[q], c[q], d[q]),
-            )
-            w = sel[win]
-            dl, db = lj[w], b1[win]
-            fuel_t[k + 1][dl, db] = f1[win]
-            time_t[k + 1][dl, db] = tt[win]
-            back_l[k + 1][dl, db] = l0[w]
-            back_b[k + 1][dl, db] = b_src[w]
-            speed_i[k + 1][dl, db] = vi[w]
+            sel = sel[inside]
+            parts.append((f1[inside], tt[inside], b1[inside], l0[sel], lj[sel], vi[sel], b_src[sel], t0[sel], dur[sel]))
+        if not parts:
+            _append((fuel_t, time_t, back_l, back_b, speed_i), widths, _empty_stage(n_lat, n_bins))
+            continue
+        f1, tt, b1, cl0, clj, cvi, cb, ct0, cdur = (np.concatenate(x) for x in zip(*parts, strict=True))
+        win, slot = _pareto_winners(
+            clj * n_bins + b1,
+            f1,
+            tt,
+            lambda q, k=k, a=cl0, b=clj, c=ct0, d=cdur: step_fn.clear(k, a[q], b[q], c[q], d[q]),
+            n_labels,
+        )
+        _append(
+            (fuel_t, time_t, back_l, back_b, speed_i), widths,
+            _stage_tables(n_lat, n_bins, clj[win], b1[win], slot, f1[win], tt[win], cl0[win], cb[win], cvi[win]),
+        )  # fmt: skip
+    while len(fuel_t) < n_stages + 1:  # stages never reached
+        _append((fuel_t, time_t, back_l, back_b, speed_i), widths, _empty_stage(n_lat, n_bins))
 
-    final_f = fuel_t[-1][c]
+    final_all = fuel_t[-1][c].reshape(n_bins, widths[-1])
+    best_slot = np.argmin(final_all, axis=1)
+    final_f = final_all[np.arange(n_bins), best_slot]
+    final_t = time_t[-1][c].reshape(n_bins, widths[-1])[np.arange(n_bins), best_slot]
     if not np.isfinite(early_t[-1, c]):
         k_reach = max(k for k in range(n_stages + 1) if np.isfinite(early_t[k]).any())
         reach_l = np.nonzero(np.isfinite(early_t[k_reach]))[0]
@@ -525,7 +564,7 @@ def solve_dp(
         path=path,
         eta_h=eta_h,
         curve_bin_end_h=bin_end,
-        curve_arrival_h=time_t[-1][c].copy(),
+        curve_arrival_h=final_t,
         curve_fuel_t=by_eta,
         curve_fuel_in_bin_t=final_f.copy(),
         earliest_arrival_h=tables.earliest(),
@@ -535,6 +574,63 @@ def solve_dp(
         n_transitions=step_fn.count,
         _tables=tables,
     )
+
+
+def _stage_tables(n_lat, n_bins, lateral, bins, slot, fuel, time, back_l, back_b, speed_i) -> tuple:
+    """One stage's (fuel, time, back lateral, back column, speed index) tables, (n_lat, n_bins × width), and the width.
+
+    A label in bin ``b``, slot ``j`` (its place in the bin's Pareto set) is column ``b × width + j``,
+    the width the largest slot + 1.
+    """
+    width = int(slot.max()) + 1 if slot.size else 1
+    col = bins * width + slot
+    out = (np.full((n_lat, n_bins * width), np.inf), np.full((n_lat, n_bins * width), np.nan),
+           np.full((n_lat, n_bins * width), -1, dtype=np.int32), np.full((n_lat, n_bins * width), -1, dtype=np.int64),
+           np.full((n_lat, n_bins * width), -1, dtype=np.int16))  # fmt: skip
+    for table, values in zip(out, (fuel, time, back_l, back_b, speed_i), strict=True):
+        table[lateral, col] = values
+    return (*out, width)
+
+
+def _empty_stage(n_lat: int, n_bins: int) -> tuple:
+    """A stage's tables without a label (width 1)."""
+    none_i, none_f = np.zeros(0, dtype=np.int64), np.zeros(0)
+    return _stage_tables(n_lat, n_bins, none_i, none_i, none_i, none_f, none_f, none_i, none_i, none_i)
+
+
+def _append(tables: tuple, widths: list[int], stage: tuple) -> None:
+    for table, new in zip(tables, stage[:-1], strict=True):
+        table.append(new)
+    widths.append(stage[-1])
+
+
+def _pareto_winners(
+    key: np.ndarray, f: np.ndarray, t: np.ndarray, clear: Callable[[np.ndarray], np.ndarray], labels: int | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per key, up to ``labels`` candidates of its Pareto set on (f, t) that pass ``clear``: (indices, slot).
+
+    Slot 0 is the least (f, t) candidate that is clear (:func:`_lazy_winners`); slot j + 1 the least
+    (f, t) clear one strictly earlier than slot j's.
+    """
+    alive = np.ones(key.size, dtype=bool)
+    won, slots = [], []
+    for slot in itertools.count() if labels is None else range(labels):
+        q = np.nonzero(alive)[0]
+        if q.size == 0:
+            break
+        w = q[_lazy_winners(key[q], f[q], t[q], lambda r, q=q: clear(q[r]))]
+        if w.size == 0:
+            break
+        won.append(w)
+        slots.append(np.full(w.size, slot, dtype=np.int64))
+        cut_keys, cut_t = key[w], t[w]
+        o = np.argsort(cut_keys)
+        i = np.searchsorted(cut_keys[o], key)
+        has = (i < o.size) & (cut_keys[o][np.minimum(i, o.size - 1)] == key)
+        alive &= has & (t < cut_t[o][np.minimum(i, o.size - 1)])
+    if not won:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    return np.concatenate(won), np.concatenate(slots)
 
 
 def _lazy_winners(
@@ -689,8 +785,10 @@ class _CompiledStages:
     transition of least (fuel, time, order) that is feasible and clear of the no-go areas.
     """
 
-    def __init__(self, kernel: DPLegKernel, step_fn: _Transition, bins: tuple[float, float, int]) -> None:
-        self.kernel, self.step_fn = kernel, step_fn
+    def __init__(
+        self, kernel: DPLegKernel, step_fn: _Transition, bins: tuple[float, float, int], labels: int | None
+    ) -> None:
+        self.kernel, self.step_fn, self.labels = kernel, step_fn, labels
         self.t_ref, self.dt, self.n_bins = bins
         self.speeds = np.ascontiguousarray(step_fn.speeds, dtype=float)
         self.floor = kernel.floor_tph(self.speeds)
@@ -754,8 +852,32 @@ class _CompiledStages:
         costed = np.zeros(key.size, dtype=bool)
         fuel1 = np.full(key.size, np.nan)
         rejected = np.zeros(key.size, dtype=bool)
-        winner = np.full(n_groups, -1, dtype=np.int64)
+        won, slots = [], []
         todo = np.arange(n_groups, dtype=np.int64)
+        for slot in itertools.count() if self.labels is None else range(self.labels):
+            winner = self._round(k, todo, src_l, src_t, src_f, geom, geom_of, order, group_start, ptr, costed, fuel1,
+                                 rejected, c_src, c_lj, c_vi, t1, lb)  # fmt: skip
+            has = winner >= 0
+            todo, w = todo[has], winner[has]
+            if w.size == 0:
+                break
+            won.append(w)
+            slots.append(np.full(w.size, slot, dtype=np.int64))
+            # the next label of the bin's Pareto set must be strictly earlier than this (cheapest) one
+            grp_of = np.repeat(np.arange(n_groups), np.diff(group_start))
+            t_cut = np.full(n_groups, np.inf)
+            t_cut[todo] = t1[w]
+            rejected[order] |= t1[order] >= t_cut[grp_of]
+        if not won:
+            return None
+        w, slot = np.concatenate(won), np.concatenate(slots)
+        return c_lj[w], key[w] - c_lj[w] * self.n_bins, slot, fuel1[w], t1[w], c_src[w], c_vi[w]
+
+    def _round(self, k, todo, src_l, src_t, src_f, geom, geom_of, order, group_start, ptr, costed, fuel1, rejected,
+               c_src, c_lj, c_vi, t1, lb):  # fmt: skip
+        """Per group in ``todo``, its least (fuel, time, order) candidate not struck out and clear of the no-go areas (-1: none)."""
+        winner = np.full(todo.size, -1, dtype=np.int64)
+        pos = np.arange(todo.size)
         while todo.size:
             best, n_costed, unc = resolve(
                 *self.inputs, geom.lat_deg, geom.lon_deg, geom.course_deg, geom.frac, geom.n_pieces, geom.dist_nm,
@@ -765,16 +887,13 @@ class _CompiledStages:
             self.step_fn.count += int(n_costed)
             self.kernel.uncovered(int(unc))
             has = best >= 0
-            todo, best = todo[has], best[has]
+            todo, best, pos = todo[has], best[has], pos[has]
             if best.size == 0:
                 break
             s = c_src[best]
             dur = geom.dist_nm[geom_of[src_l[s], c_lj[best]]] / self.speeds[c_vi[best]]  # the leg kernel's
             clear = self.step_fn.clear(k, src_l[s], c_lj[best], src_t[s], dur)
-            winner[todo[clear]] = best[clear]
+            winner[pos[clear]] = best[clear]
             rejected[best[~clear]] = True
-            todo = todo[~clear]
-        w = winner[winner >= 0]
-        if w.size == 0:
-            return None
-        return c_lj[w], key[w] - c_lj[w] * self.n_bins, fuel1[w], t1[w], c_src[w], c_vi[w]
+            todo, pos = todo[~clear], pos[~clear]
+        return winner

@@ -1,7 +1,9 @@
 """Compiled stage-to-stage transitions of the 3-D DP (Shao et al.), best first under a fuel floor.
 
 :func:`optroute.search.dp.solve_dp` keeps, per (stage, lateral, arrival-time
-bin), the label of least (fuel, arrival time); the transitions into one bin
+bin), the bin's Pareto set on (fuel, arrival time), cheapest first; each
+label of it is the least (fuel, time) one among the candidates left once those
+no earlier than the previous label are struck out; the transitions into one bin
 come from every source state and speed whose leg ends in it.  With the
 compiled leg costing (:func:`optroute.search.passage_kernels.cost_dp_leg`,
 the physics functions the referee uses) the DP costed *every* such
@@ -20,7 +22,9 @@ transition, and spent as long again finding each leg's piece geometry
    lost; ties of (fuel, time) go to the first candidate in the order
    (source state, destination, speed), as the DP's stable sort does;
 3. the caller checks the winner against the no-go areas (a Python callable)
-   and, where it fails, :func:`resolve` resumes with it struck out.
+   and, where it fails, :func:`resolve` resumes with it struck out; for the
+   bin's next Pareto label the caller strikes out every candidate no earlier
+   than the winner and resumes (struck-out candidates are never costed).
 
 The winner of each bin is therefore the candidate of least (fuel, time,
 order) that is feasible and clear of the no-go areas, as with every
@@ -234,6 +238,9 @@ def resolve(
         r = ptr[grp]
         while r < hi and lb[order[r]] <= bf:
             c = order[r]
+            if rejected[c]:  # struck out before costing (a later label of a bin's Pareto set): never costed
+                r += 1
+                continue
             s = src[c]
             g = geom_of[src_l[s], lj[c]]
             sog = speeds[vi[c]]

@@ -17,10 +17,33 @@ written here in the form the text describes, the dynamic APF of Ge and Cui (2002
 * repulsion by relative velocity, while the ship closes on the centre (V_RO = (V_R − V_O)·e_RO > 0)
   within d_n: U_repV = η_V V_RO, force F_repV = −∇_V U_repV = −η_V e_RO (away from the centre).
 
-Gains k_a = 10, η_X = 10, η_V = 12 and d_n = 30 km as the patent ([0139], [0104]).  The gains
-are dimensional; the patent plots and steps in degrees, so positions here are in degrees of
-latitude on the ship's local plane (60 nm), a choice without which the published gains do
-nothing (in km the attraction outweighs the repulsion by orders of magnitude).
+Gains k_a = 10, η_X = 10, η_V = 12 as the patent ([0139]).  The gains are dimensional; the patent
+plots and steps in degrees, so positions here are in degrees of latitude on the ship's local plane
+(60 nm), a choice without which the published gains do nothing (in km the attraction outweighs the
+repulsion by orders of magnitude).
+
+The influence range d_n.  [0104] says d_n "is the R + 30 km safe distance set in the model" and
+that the ship avoids "only when d(X_R, X_O, R) ≤ d_n", d being the distance to the circle (centre
+distance minus R, [0112]); [0113] (c) calls it "the safe distance between the ship and the wind
+circle"; the trigger ([0084], [0124]) fires when the *centre* is within R + 30 km.  The text is
+not consistent, and the two readings differ by an order of magnitude:
+
+* ``d_n_km=None`` (default): the number [0104] states, d_n = R + margin (R + 30 km) on ρ.  At the
+  trigger (ρ = 30 km) the repulsion already acts, so the ship turns away on the circle R + 30 km;
+* ``d_n_km=30``: the margin alone (ρ ≤ 30 km, the trigger's own circle), our first reconstruction.
+  The repulsion is zero at the trigger and grows only as the ship sails into R + 30 km, so the
+  track enters R + 30 km by design and, where the typhoon outruns the turn, R itself.
+
+On the 14 synthetic crossings of ``bench_cyclone``'s suite (1° weather) the first reading spends
+0–1.7 h inside R + 30 km on 11 of them, where the second spent 0–37 h (2.8–37 h on the 10 where
+it triggered); on the antimeridian crossing (a 17.9 kn typhoon, the ship at 14 kn) 9.9 h, outside R
+(the second: 14.2 h, 3.4 h inside R); on the overtaking crossing with a 24.5 kn typhoon both spend
+13.3 h inside R, where no heading at the kept 12.5 kn can keep out
+(:func:`optroute.geo.encounter.best_closest_approach`); on the 13th (a typhoon on the route) the first
+reading steers onto a heading where no speed down to 3 kn is allowed (NoSafePassage), which the second
+did not.  Both readings dip into R + 30 km:
+the trigger fires on that circle with the centre closing, and the field's heading is the sum of the
+attraction to the destination and the repulsion, not the heading that opens the distance fastest.
 
 The ship holds its speed through the water (the patent: "keep speed, change course") with Boeing's
 speed reduction (:func:`optroute.physics.passage.best_speed`) where the weather does not allow it
@@ -60,16 +83,32 @@ KM_PER_DEG = 60.0 * 1.852
 
 @dataclass(frozen=True)
 class APFGains:
-    """Gains of the patent's dynamic APF ([0139]) and its influence range d_n [km] ([0104])."""
+    """Gains of the patent's dynamic APF ([0139]) and its influence range d_n ([0104]).
+
+    Attributes
+    ----------
+    k_a, eta_x, eta_v : float
+        Attraction, position-repulsion and velocity-repulsion gains (the patent: 10, 10, 12).
+    d_n_km : float or None
+        Influence range beyond the circle R [km]; None (default): the safe distance R + margin,
+        as [0104] states it (see the module docstring for the two readings).
+    """
 
     k_a: float = 10.0
     eta_x: float = 10.0
     eta_v: float = 12.0
-    d_n_km: float = 30.0
+    d_n_km: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("k_a", "eta_x", "eta_v", "d_n_km"):
+        for name in ("k_a", "eta_x", "eta_v"):
             finite(name, getattr(self, name), minimum=0.0, strict=True, error=ConfigError)
+        if self.d_n_km is not None:
+            finite("d_n_km", self.d_n_km, minimum=0.0, strict=True, error=ConfigError)
+
+    def d_n_deg(self, r7_km: float, margin_km: float) -> float:
+        """The influence range on the distance to the circle [deg of latitude]: R + margin, or ``d_n_km``."""
+        d_n = float(r7_km) + float(margin_km) if self.d_n_km is None else float(self.d_n_km)
+        return d_n / KM_PER_DEG
 
 
 @dataclass(frozen=True)
@@ -114,15 +153,16 @@ def _goal_vector_deg(lat: float, lon: float, goal: tuple[float, float]) -> np.nd
 
 
 def _apf_heading(
-    lat: float, lon: float, v_ship_kn: np.ndarray, goal: tuple[float, float], st: dict, gains: APFGains
-) -> float:
+    lat: float, lon: float, v_ship_kn: np.ndarray, goal: tuple[float, float], st: dict, gains: APFGains,
+    margin_km: float,
+) -> float:  # fmt: skip
     """Direction of the total force F_att + F_repX + F_repV [deg true]."""
     force = gains.k_a * _goal_vector_deg(lat, lon, goal)
     rel = local_xy_nm(lat, lon, st["lat"], st["lon"]) / 60.0  # centre − ship [deg]
     dist = float(np.hypot(*rel))
     e_ro = rel / dist if dist > 0 else np.array([0.0, 1.0])
     rho = dist - float(st["r7_km"]) / KM_PER_DEG
-    d_n = gains.d_n_km / KM_PER_DEG
+    d_n = gains.d_n_deg(float(st["r7_km"]), margin_km)
     if rho <= d_n:
         rho = max(rho, 1e-6)
         force = force - gains.eta_x * (1.0 / rho - 1.0 / d_n) / rho**2 * e_ro
@@ -195,7 +235,7 @@ def sail_track(
             if mode != "avoid" and patent_trigger(enc.dcpa_km, enc.distance_km, enc.r7_km, margin_km):
                 mode, trig = "avoid", trig if trig is not None else when
             if mode == "avoid":
-                course = _apf_heading(lat, lon, v_ship, end, st, g)
+                course = _apf_heading(lat, lon, v_ship, end, st, g, margin_km)
                 last_heading = (last_heading + [course])[-int(round(1.0 / dt)) - 1 :]
                 settled = len(last_heading) > 1 and np.ptp(np.unwrap(np.radians(last_heading))) <= np.radians(
                     settle_deg
@@ -268,10 +308,10 @@ def apf_avoidance(
     speed_kn : float, optional
         Speed through the water held [kn]; default the ship's design speed.
     margin_km : float
-        Safe distance beyond R [km] (the patent: 30); also the APF's influence range d_n unless
-        ``gains`` says otherwise.
+        Safe distance beyond R [km] (the patent: 30): the trigger's circle R + margin and, unless
+        ``gains`` says otherwise, the APF's influence range d_n = R + margin ([0104]).
     gains : APFGains, optional
-        Default k_a = 10, η_X = 10, η_V = 12, d_n = ``margin_km``.
+        Default k_a = 10, η_X = 10, η_V = 12, d_n = R + ``margin_km``.
     **kwargs
         Of :func:`sail_track` (``step_h``, ``model``, ``rules``, ...).
 
@@ -281,7 +321,7 @@ def apf_avoidance(
         The APF track; its plan's exclusion is the circle R (the APF's own limit), so
         ``run.plan.verify()`` reports any entry into R.
     """
-    g = gains if gains is not None else APFGains(d_n_km=float(margin_km))
+    g = gains if gains is not None else APFGains()
     v = float(speed_kn) if speed_kn is not None else float(ship.design_speed_kn)
     return sail_track(
         start, end, weather, ship, departure=departure, speed_kn=v, track=track, avoid=True, margin_km=margin_km,
