@@ -13,8 +13,11 @@ blind; the table gives the time sailed inside a danger band of the truth, the ti
 met a band, the ETA miss, the fuel, the re-plans, and the simulation wall time per simulated day,
 with (a) as the baseline of the fuel and wall times (same process, same truth); (c)'s wall time is
 the robust planning plus the sailing, and its row says how many members the robust plan was checked
-in (all of them clean, by :meth:`optroute.Plan.verify` with ``weather=member``). Full mode: 10
-members; quick mode: 4.
+in (all of them clean, by :meth:`optroute.Plan.verify` with ``weather=member``), how often robust.py's tightening
+loop fired, and whether the ensemble's spread covers the truth (:func:`coverage`: the true storm centre inside the
+hull of the members' at the crossing hour, the nearest member's distance). Full mode: 10 members, on the 150 nm
+spread and on a spread as large as the case's forecast error (:func:`covering_spread`); quick mode: 4 members, the
+150 nm spread. CPU [s] is this process's (the machine is shared: compare CPU, not wall).
 
 Run ``python -m benchmarks.bench_voyage [--quick]``; the reduced full mode (the first case only, with the cold
 re-plans and the 10-member robust plan) is ``python -c "from benchmarks.bench_voyage import run; run(False, n_cases=1)"``.
@@ -23,6 +26,7 @@ re-plans and the 10-member robust plan) is ``python -c "from benchmarks.bench_vo
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -58,6 +62,60 @@ CASES = (
 #: The robust plan's ensemble spread about the first forecast's storm and its corridor (total width [nm]).
 ENSEMBLE = {"position_sigma_nm": 150.0, "timing_sigma_h": 3.0, "intensity_sigma": 0.1}
 ROBUST_WIDTH_NM = 400.0
+#: Hour [h since departure] at which the storms' centres are compared (the true storm crosses 30° N then).
+CROSSING_H = 24.0
+
+
+def covering_spread(spec: tuple) -> dict[str, float]:
+    """An ensemble spread as large as the case's forecast error: the distance between the first forecast's and the
+    true storm centre at :data:`CROSSING_H` (displacement and timing error together) as the position sigma [nm], the
+    delay as the timing sigma (at least 3 h), |ln intensity factor| as the intensity sigma (at least 0.1)."""
+    from optroute.geodesy import inverse
+
+    _, dist, brg, delay, fac, _, _ = spec
+    first = fc.displaced_storms([_storm()], displacement_nm=dist, bearing_deg=brg, delay_h=delay, intensity_factor=fac)
+    (la, lo), (lb, lb_lon) = _centre(first[0].track, CROSSING_H), _centre(_storm().track, CROSSING_H)
+    error_nm = float(inverse(la, lo, lb, lb_lon)[0])
+    return {
+        "position_sigma_nm": max(150.0, error_nm),
+        "timing_sigma_h": max(3.0, abs(float(delay))),
+        "intensity_sigma": max(0.1, abs(float(np.log(fac)))),
+    }
+
+
+def _centre(track: Any, hour: float) -> tuple[float, float]:
+    tr = np.asarray(track, dtype=float)
+    return float(np.interp(hour, tr[:, 0], tr[:, 1])), float(np.interp(hour, tr[:, 0], tr[:, 2]))
+
+
+def coverage(ens: Any) -> dict[str, Any]:
+    """Whether the ensemble's spread covers the truth: its members' storm centres at :data:`CROSSING_H` (timing
+    errors included: a late storm is further north) against the true storm's, in a local east/north frame [nm].
+
+    ``inside``: the truth's centre lies inside the convex hull of the members' (``scipy.spatial.Delaunay``);
+    ``nearest_nm``: the distance from the truth's centre to the nearest member's; ``intensity``: whether the true
+    peak lies within the members' peaks.
+    """
+    import json
+
+    from scipy.spatial import Delaunay
+
+    truth = _storm()
+    lat0, lon0 = _centre(truth.track, CROSSING_H)
+    members = json.loads(ens.attrs["ensemble"])["members"]
+    xy, peaks = [], []
+    for m in members:
+        st = m["storms"][0]
+        lat, lon = _centre(st["track"], CROSSING_H)
+        xy.append(((lon - lon0) * 60.0 * np.cos(np.radians(lat0)), (lat - lat0) * 60.0))
+        peaks.append(float(st["peak_hs_m"]))
+    pts = np.array(xy)
+    inside = bool(len(pts) >= 3 and Delaunay(pts).find_simplex(np.zeros((1, 2)))[0] >= 0)
+    return {
+        "inside": inside,
+        "nearest_nm": float(np.min(np.hypot(pts[:, 0], pts[:, 1]))),
+        "intensity": bool(min(peaks) <= truth.peak_hs_m <= max(peaks)),
+    }
 
 
 def _storm() -> Any:
@@ -68,18 +126,20 @@ def _storm_dataset(storms: list, **kwargs: Any) -> Any:
     return stm.storm_dataset(storms, **kwargs)
 
 
-def _robust_plan(spec: tuple, members: int) -> dict[str, Any]:
+def _robust_plan(spec: tuple, members: int, spread: dict[str, float]) -> dict[str, Any]:
     """(c): the robust plan on an ensemble about the first forecast (issued at departure), and its wall time."""
     _, dist, brg, delay, fac, _, _ = spec
     first = fc.displaced_storms([_storm()], displacement_nm=dist, bearing_deg=brg, delay_h=delay, intensity_factor=fac)
-    t = time.perf_counter()
-    ens = sc.ensemble(_storm_dataset, members, seed=1, storms=first, background_hs_m=1.5, **ENSEMBLE, **KW)
+    t, cpu = time.perf_counter(), time.process_time()
+    ens = sc.ensemble(_storm_dataset, members, seed=1, storms=first, background_hs_m=1.5, **spread, **KW)
     corridor = orx.Corridor.from_waypoints([A, B], width_nm=ROBUST_WIDTH_NM)
+    cover = coverage(ens)
     try:
         plan = orx.optimise_corridor(corridor, ens, SHIP, departure=T0, eta=ETA, robust="all", **OPTS)
     except orx.OptrouteError as exc:
-        return {"error": f"{type(exc).__name__}: {str(exc)[:200]}", "wall_s": time.perf_counter() - t}
-    return {"plan": plan, "ensemble": ens, "wall_s": time.perf_counter() - t}
+        return {"error": f"{type(exc).__name__}: {str(exc)[:200]}", "wall_s": time.perf_counter() - t,
+                "cpu_s": time.process_time() - cpu, "coverage": cover}  # fmt: skip
+    return {"plan": plan, "ensemble": ens, "wall_s": time.perf_counter() - t, "coverage": cover}
 
 
 def _case(spec: tuple) -> tuple[Any, list]:
@@ -94,15 +154,16 @@ def _case(spec: tuple) -> tuple[Any, list]:
 
 
 def _sail(truth: Any, fcs: list, policy: ReplanPolicy, warm: bool = True, plan: Any = None) -> dict[str, Any]:
-    t = time.perf_counter()
+    t, cpu = time.perf_counter(), time.process_time()
     try:
         res = orx.simulate_voyage(
             plan if plan is not None else (A, B), truth, SHIP, forecasts=fcs, replan=policy,
             departure=T0, eta=ETA, optimise_options=OPTS, corridor_width_nm=400.0, step_h=0.5, warm_start=warm,
         )  # fmt: skip
     except orx.OptrouteError as exc:
-        return {"error": f"{type(exc).__name__}: {str(exc)[:200]}", "wall_s": time.perf_counter() - t}
-    wall = time.perf_counter() - t
+        return {"error": f"{type(exc).__name__}: {str(exc)[:200]}", "wall_s": time.perf_counter() - t,
+                "cpu_s": time.process_time() - cpu}  # fmt: skip
+    wall, cpu = time.perf_counter() - t, time.process_time() - cpu
     o = res.outcome
     failed = [str(s) for s in res.log["replan_status"].values if str(s).startswith("failed")]
     return {
@@ -115,8 +176,71 @@ def _sail(truth: Any, fcs: list, policy: ReplanPolicy, warm: bool = True, plan: 
         "failed_replans": len(failed),
         "wall_s": wall,
         "wall_s_per_sim_day": wall / (o.duration_h / 24.0),
+        "cpu_s": cpu,
+        "cpu_s_per_sim_day": cpu / (o.duration_h / 24.0),
         "sim_days": o.duration_h / 24.0,
     }
+
+
+def _robust_row(spec: tuple, truth: Any, fcs: list, members: int, name: str, spread: dict) -> tuple[str, dict]:
+    """(c) on one ensemble spread: the robust plan, checked in every member, sailed blind through the truth."""
+    cpu = time.process_time()
+    robust = _robust_plan(spec, members, spread)
+    robust_cpu = time.process_time() - cpu
+    cov = robust["coverage"]
+    covers = (
+        f"truth {'inside' if cov['inside'] else 'outside'} the members' hull, nearest member {cov['nearest_nm']:.0f} nm"
+        f"{'' if cov['intensity'] else ', intensity outside'}"
+    )
+    label = f"(c) robust, {members} members, spread {name} ({covers})"
+    if "error" in robust:
+        return label, robust
+    checked = sum(1 for m in range(members) if not robust["plan"].verify(weather=sc.member(robust["ensemble"], m)))
+    sailed = _sail(truth, fcs, ReplanPolicy.never(), plan=robust["plan"])
+    if "error" not in sailed:
+        sailed["wall_s"] += robust["wall_s"]  # planning included: (a)'s wall includes its first plan too
+        sailed["wall_s_per_sim_day"] = sailed["wall_s"] / sailed["sim_days"]
+        sailed["cpu_s"] += robust_cpu
+        sailed["cpu_s_per_sim_day"] = sailed["cpu_s"] / sailed["sim_days"]
+    sailed["robust_plan_wall_s"], sailed["robust_plan_cpu_s"] = robust["wall_s"], robust_cpu
+    sailed["members_clean"] = f"{checked}/{members}"
+    stats = robust["plan"].solver_stats
+    sailed["tightenings"] = int(stats.get("retries", 0))
+    sailed["robust_solves"] = int(stats.get("nlp_solves", 0))
+    sailed["robust_iterations"] = int(stats.get("iterations", 0))
+    return (
+        f"{label}, {checked}/{members} clean, {sailed['tightenings']} tightening(s), {sailed['robust_solves']} NLP "
+        f"solves, {sailed['robust_iterations']} Ipopt iterations, {robust_cpu:.0f} CPU-s to plan, sailed blind"
+    ), sailed
+
+
+def _case_rows(spec: tuple, quick: bool) -> Iterator[tuple[str, dict[str, Any]]]:
+    """Every policy's row of one case, each as soon as it is measured ((a) first: the baseline)."""
+    truth, fcs = _case(spec)
+    yield "(a) plan once", _sail(truth, fcs, ReplanPolicy.never())
+    yield "(b) re-plan on each forecast (warm)", _sail(truth, fcs, ReplanPolicy())
+    if not quick:
+        yield "(b') re-plan on each forecast (cold)", _sail(truth, fcs, ReplanPolicy(), warm=False)
+    members = 4 if quick else 10
+    for name, spread in [("150 nm", ENSEMBLE)] + ([] if quick else [("= forecast error", covering_spread(spec))]):
+        yield _robust_row(spec, truth, fcs, members, name, spread)
+
+
+def _print_row(case: str, label: str, r: dict, base: dict) -> None:
+    if "error" in r or "error" in base:
+        print(
+            f"| {case} | {label} | {r.get('error', base.get('error'))} | | | | | | "
+            f"{r.get('wall_s', float('nan')):.1f} | {r.get('cpu_s', float('nan')):.1f} | | |",
+            flush=True,
+        )
+        return
+    print(
+        f"| {case} | {label} | {r['time_in_band_h']:.1f} | {r['time_band_met_h']:.1f} | "
+        f"{r['eta_miss_h']:+.2f} | {r['fuel_t']:.1f} | {r['fuel_t'] / base['fuel_t']:.3f} | "
+        f"{r['replans']} ({r['failed_replans']}) | {r['wall_s']:.1f} | {r['cpu_s']:.1f} | "
+        f"{r['cpu_s_per_sim_day']:.1f} | {r['cpu_s'] / base['cpu_s']:.2f} |",
+        flush=True,
+    )
 
 
 def run(quick: bool, *, n_cases: int | None = None) -> dict[str, Any]:
@@ -124,40 +248,14 @@ def run(quick: bool, *, n_cases: int | None = None) -> dict[str, Any]:
     cases = CASES[:1] if quick else CASES[: n_cases or len(CASES)]
     rows = []
     print("| forecast error | policy | in band [h] | band met [h] | ETA miss [h] | fuel [t] | fuel / (a) | re-plans "
-          "(failed) | wall [s] | wall per sim. day [s] | wall / (a) |")  # fmt: skip
-    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+          "(failed) | wall [s] | CPU [s] | CPU per sim. day [s] | CPU / (a) |")  # fmt: skip
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for spec in cases:
-        truth, fcs = _case(spec)
-        base = _sail(truth, fcs, ReplanPolicy.never())
-        runs = [("(a) plan once", base), ("(b) re-plan on each forecast (warm)", _sail(truth, fcs, ReplanPolicy()))]
-        if not quick:
-            runs.append(("(b') re-plan on each forecast (cold)", _sail(truth, fcs, ReplanPolicy(), warm=False)))
-        members = 4 if quick else 10
-        robust = _robust_plan(spec, members)
-        if "error" in robust:
-            runs.append((f"(c) robust plan on {members} members, sailed blind", robust))
-        else:
-            checked = sum(
-                1 for m in range(members) if not robust["plan"].verify(weather=sc.member(robust["ensemble"], m))
-            )
-            sailed = _sail(truth, fcs, ReplanPolicy.never(), plan=robust["plan"])
-            if "error" not in sailed:
-                sailed["wall_s"] += robust["wall_s"]  # planning included: (a)'s wall includes its first plan too
-                sailed["wall_s_per_sim_day"] = sailed["wall_s"] / sailed["sim_days"]
-            sailed["robust_plan_wall_s"] = robust["wall_s"]
-            sailed["members_clean"] = f"{checked}/{members}"
-            runs.append((f"(c) robust plan on {members} members ({checked}/{members} clean), sailed blind", sailed))
-        for label, r in runs:
+        base: dict[str, Any] = {}
+        for label, r in _case_rows(spec, quick):
+            base = base or r
             rows.append({"case": spec[0], "policy": label, **r})
-            if "error" in r or "error" in base:
-                print(f"| {spec[0]} | {label} | {r.get('error', base.get('error'))} |")
-                continue
-            print(
-                f"| {spec[0]} | {label} | {r['time_in_band_h']:.1f} | {r['time_band_met_h']:.1f} | "
-                f"{r['eta_miss_h']:+.2f} | {r['fuel_t']:.1f} | {r['fuel_t'] / base['fuel_t']:.3f} | "
-                f"{r['replans']} ({r['failed_replans']}) | {r['wall_s']:.1f} | {r['wall_s_per_sim_day']:.1f} | "
-                f"{r['wall_s'] / base['wall_s']:.2f} |"
-            )
+            _print_row(spec[0], label, r, base)
     print(
         "\n(b) warm-starts every re-plan from the plan being sailed (optimise_corridor's warm_plan); (b') starts cold"
         + (" (full mode only)." if quick else ".")
@@ -166,7 +264,15 @@ def run(quick: bool, *, n_cases: int | None = None) -> dict[str, Any]:
         by = {r["policy"][:4]: r for r in rows if r["case"] == case and "error" not in r}
         if "(b) " in by and "(b')" in by:
             ratio = by["(b')"]["wall_s"] / by["(b) "]["wall_s"]
-            print(f"{case}: cold re-planning wall / warm = {ratio:.2f} (same process, same truth and forecasts)")
+            ratio_cpu = by["(b')"]["cpu_s"] / by["(b) "]["cpu_s"]
+            print(
+                f"{case}: cold re-planning / warm = {ratio_cpu:.2f} in CPU, {ratio:.2f} in wall (same process, same "
+                "truth and forecasts)"
+            )
+    robust_rows = [r for r in rows if r["policy"].startswith("(c)") and "tightenings" in r]
+    if robust_rows:
+        fired = sum(1 for r in robust_rows if r["tightenings"] > 0)
+        print(f"robust.py's tightening loop fired on {fired} of {len(robust_rows)} robust plans made.")
     print(
         "(c) plans once on the ensemble (robust='all': bands, engine range and ETA in every member, mean fuel) and "
         "sails blind; its wall includes building the ensemble and the robust plan."

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import casadi as ca
@@ -45,6 +46,8 @@ __all__ = [
     "row_blocks",
     "sample_physics",
     "side_free_row",
+    "StructuredCores",
+    "structured_cores",
     "structured_derivatives",
 ]
 
@@ -301,6 +304,9 @@ def structured_derivatives(
 ) -> dict[str, Any]:
     """``grad_f``, ``jac_g`` and ``hess_lag`` functions for ``nlpsol``, exact and assembled per leg.
 
+    :func:`structured_cores` with the Taylor data of ``nlp.weather``, each core wrapped as a function of
+    ``(x, p[, lam_f, lam_g])``.
+
     Parameters
     ----------
     nlp : SpeedNLP
@@ -322,6 +328,48 @@ def structured_derivatives(
     dict
         Options ``{"grad_f": ..., "jac_g": ..., "hess_lag": ...}`` for ``casadi.nlpsol``.
     """
+    cores = structured_cores(nlp, jit=jit, exact_hessian=exact_hessian, side_free_bands=side_free_bands)
+    memo = cores.taylor(nlp.weather)
+    return {
+        "grad_f": MemoCallback("grad_f", cores.grad, memo.first, ["x", "p"], ["f", "grad_f_x"], cache=True),
+        "jac_g": MemoCallback("jac_g", cores.jac, memo.first, ["x", "p"], ["g", "jac_g_x"]),
+        "hess_lag": MemoCallback(
+            "hess_lag", cores.hess, memo.hessian, ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]
+        ),
+    }
+
+
+@dataclass(frozen=True)
+class StructuredCores:
+    """The weather-independent parts of :func:`structured_derivatives` (:func:`structured_cores`).
+
+    Attributes
+    ----------
+    grad : casadi.Function
+        ``(x, p, theta) ↦ (f, ∇f)``: objective and its gradient (dense, length ``nx``).
+    jac : casadi.Function
+        ``(x, p, theta) ↦ (g, ∂g/∂x)``: the rows and their sparse Jacobian.
+    hess : casadi.Function
+        ``(x, p, lam_f, lam_g, theta_h) ↦ triu ∇²(lam_f f + lam_g·g)``: upper triangle, sparse.
+    taylor : callable
+        ``taylor(weather, numeric=None)`` → an object whose ``first(x)`` and ``hessian(x)`` give the ``theta`` and
+        ``theta_h`` inputs for a :class:`~formulations.common.WeatherGrid` with the NLP's fields and axes
+        (so that one set of cores serves several weathers: the members of :mod:`formulations.robust_nlp`);
+        ``numeric`` (default: as the NLP reads its own weather) evaluates a ``"smooth"`` weather in numpy
+        (:meth:`WeatherGrid.tensor_spline`), else through CasADi's ``WeatherGrid.taylor_function``.
+    """
+
+    grad: Any
+    jac: Any
+    hess: Any
+    taylor: Callable[[Any], Any]
+
+
+def structured_cores(
+    nlp: Any, *, jit: bool = False, exact_hessian: bool = False, side_free_bands: bool = False
+) -> StructuredCores:
+    """The per-leg derivative functions of :func:`structured_derivatives` with the weather's Taylor data as an
+    input (:class:`StructuredCores`); parameters as :func:`structured_derivatives`."""
     n, m, nb = nlp.n_legs, nlp.samples_per_leg, nlp.n_bands
     k_ = n * m
     nx, ng = nlp._nx, nlp._ng
@@ -442,7 +490,7 @@ def structured_derivatives(
         geo_dev = ca.vertcat(geo_fixed, ca.DM.zeros(1, n), ca.DM(np.vstack([layout.fraction.T, layout.weight.T])))
         th_dev = ca.MX.sym("theta", n_theta * m, n)
         dev_at = ca.Function("dev_at", [x, th_dev], [leg_dev(zmat, geo_dev, th_dev)])
-    memo = _taylor_source(nlp, x, zmat, n_theta, exact_hessian, _RatioLayout(plain, r0, n_rat, dev_at))
+    lay = _RatioLayout(plain, r0, n_rat, dev_at)
     th = ca.MX.sym("theta", n_theta * m, n)
     th_h = ca.MX.sym("theta_h", n_theta * m, n)
     args = [zmat, geo_dm, th, beta_mat]
@@ -476,13 +524,12 @@ def structured_derivatives(
     sp_h, gat_h = _scatter(nx, nx, np.array(hr), np.array(hc), len(hr))
     hess_full = ca.MX(sp_h, ca.mtimes(gat_h, ca.vec(h_k)))
     hess_core = ca.Function("hess_lag_core", [x, p, lam_f, lam_g, th_h], [hess_full])
-    return {
-        "grad_f": MemoCallback("grad_f", grad_core, memo.first, ["x", "p"], ["f", "grad_f_x"], cache=True),
-        "jac_g": MemoCallback("jac_g", jac_core, memo.first, ["x", "p"], ["g", "jac_g_x"]),
-        "hess_lag": MemoCallback(
-            "hess_lag", hess_core, memo.hessian, ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]
-        ),
-    }
+
+    def taylor(weather: Any, numeric: bool | None = None) -> Any:
+        numeric = nlp.numeric_weather if numeric is None else bool(numeric and weather.method == "smooth")
+        return _taylor_source(nlp, x, zmat, n_theta, exact_hessian, lay, weather, numeric)
+
+    return StructuredCores(grad_core, jac_core, hess_core, taylor)
 
 
 def _sample_coordinates(nlp: Any, zmat: Any) -> tuple[Any, Any, np.ndarray]:
@@ -510,10 +557,12 @@ class _RatioLayout(NamedTuple):
     dev_at: Any  # CasADi function (x, theta) ↦ the samples' heading deviations (m × N) [deg], with a ratio block
 
 
-def _taylor_source(nlp: Any, x: Any, zmat: Any, n_theta: int, exact_hessian: bool, lay: _RatioLayout) -> Any:
-    """The per-sample Taylor data ``theta`` (n_theta·m × N) at a point x, memoised: from the weather's numpy
-    :class:`~formulations.splines.TensorSpline` when the NLP reads its weather that way (no CasADi spline is
-    built), else from CasADi's mapped ``WeatherGrid.taylor_function``."""
+def _taylor_source(
+    nlp: Any, x: Any, zmat: Any, n_theta: int, exact_hessian: bool, lay: _RatioLayout, weather: Any, numeric: bool
+) -> Any:
+    """The per-sample Taylor data ``theta`` (n_theta·m × N) of ``weather`` at a point x, memoised: from the
+    weather's numpy :class:`~formulations.splines.TensorSpline` when ``numeric`` (no CasADi spline is built), else
+    from CasADi's mapped ``WeatherGrid.taylor_function``."""
     k_ = nlp.n_legs * nlp.samples_per_leg
     has_excl = nlp.exclusion is not None
     t_s, y_s, s_s = _sample_coordinates(nlp, zmat)
@@ -523,16 +572,16 @@ def _taylor_source(nlp: Any, x: Any, zmat: Any, n_theta: int, exact_hessian: boo
         for order in (1, 2) if exact_hessian else (1,):
             efun = _taylor_function(nlp.exclusion_function, 3, "excl_taylor", time_only=True, order=order)
             excl[order] = efun.map(k_)
-    if nlp.numeric_weather:
+    if numeric:
         coords = ca.Function("coords", [x], [ca.vertcat(t_s, y_s)])
-        return _NumericTaylor(nlp, coords, s_s, excl, n_theta, exact_hessian, lay)
+        return _NumericTaylor(nlp, coords, s_s, excl, n_theta, exact_hessian, lay, weather)
     m, n = nlp.samples_per_leg, nlp.n_legs
 
     n_blk = 6 if exact_hessian else 3  # Taylor blocks the leg functions read (structured_derivatives)
     nf = len(nlp.weather.field_names)
 
     def theta_at(order: int) -> Any:
-        parts = [t_s, y_s, nlp.weather.taylor_function(order).map(k_)(pts)[: n_blk * nf, :]]
+        parts = [t_s, y_s, weather.taylor_function(order).map(k_)(pts)[: n_blk * nf, :]]
         if has_excl:
             parts.append(excl[order](pts)[: 3 * n_blk, :])
         return ca.reshape(ca.vertcat(*parts), n_theta * m, n)
@@ -557,11 +606,12 @@ class _NumericTaylor:
         n_theta: int,
         exact_hessian: bool,
         lay: _RatioLayout,
+        weather: Any,
     ) -> None:
-        self._spline = nlp.weather.tensor_spline()
-        names = nlp.weather.field_names
+        self._spline = weather.tensor_spline()
+        names = weather.field_names
         self._plain = np.array([names.index(nm) for nm in lay.plain])
-        self._lay, self._axes = lay, nlp.weather.ratio_axes
+        self._lay, self._axes = lay, weather.ratio_axes
         if lay.size:
             nv, nd = self._axes[2], self._axes[5]
             self._table = np.array([[names.index(f"ratio_{j}_{k}") for k in range(nd)] for j in range(nv)])

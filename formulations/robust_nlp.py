@@ -8,20 +8,21 @@ arrival-time vector ``t^m`` per member. Every row of :class:`formulations.speed_
 engine load, danger bands with their sides, drift and SOG, moving exclusion) is imposed in every member, with that
 member's weather, and the ETA bounds every member's arrival ``t^m_N``.
 
-**One member function, mapped.** The model of one member is one CasADi function of the plan, that member's times,
-band edges and the member's index, which selects its weather through one ``Function.conditional`` node;
-``Function.map`` applies it to the M members. Each member's weather is a callback whose first and second
-derivatives in t and y are stated from the spline's own derivative splines (:meth:`WeatherGrid.taylor_function`),
-so CasADi never differentiates the B-spline node itself. The expression graph, its derivatives and ``nlpsol``'s
-build therefore do not grow with M; what does is building each member's splines (value and derivative splines:
-:meth:`WeatherGrid.interpolant`, :meth:`WeatherGrid.taylor_function`) and evaluating them. Measured on the
-18-leg, 44-field storm case of ``benchmarks.bench_robust`` at two members, under the same load: letting CasADi
-differentiate the members' spline nodes cost 79 s of build (about 35 s per member and derivative function: it copies
-the 2.4 million control points for each); passing the control points as a parameter of one ``casadi.bspline``
-grew past 4 GB; the stated derivatives build in 42 s (of which ``nlpsol`` 9 s). The exact Hessian of the
-Lagrangian is used by default: with Ipopt's limited-memory approximation the stacked problem needed about ten times
-the iterations (151 against 14 at two members, the same optimum), the cause of the 10-member plan stopping at the
-iteration limit. The members must carry the same fields and power-table axes (an ensemble's members do).
+**One member function, mapped, for the values; the single-weather derivatives, per member.** The model of one
+member is one CasADi function of the plan, that member's times, band edges and the member's index, which selects
+its weather through one ``Function.conditional`` node; ``Function.map`` applies it to the M members. It gives the
+values (objective, rows, diagnostics); each member's weather is read in numpy
+(:class:`formulations._nlp_model.WeatherValues`, the grid's :meth:`WeatherGrid.tensor_spline`), so no member needs
+a CasADi spline. The derivatives Ipopt asks for are not CasADi's of that graph: they are the single-weather NLP's
+exact leg-by-leg derivative cores (:func:`formulations._nlp_model.structured_cores`, built once from the template
+:class:`SpeedNLP`), evaluated per member at its variables ``(y, V, t^m)`` with its own weather's Taylor data and
+scattered into the stacked gradient, Jacobian and Hessian (:meth:`RobustSpeedNLP._member_derivatives`). Measured on
+``benchmarks.bench_robust``'s 18-leg, 44-field storm case at two members, same machine, same run: the build fell
+from 2.6 to 0.4 CPU-s (the previous stated-derivative splines: six CasADi B-splines per member) and the band loop's
+Ipopt from 4.5 to 0.8 CPU-s (CasADi's Hessian through the members' derivative callbacks took 0.21 s a call), same
+optimum to 1e-12 relative. The exact Hessian of the Lagrangian is used by default: with Ipopt's limited-memory
+approximation the stacked problem needed about ten times the iterations (135 against 18 at two members, the same
+optimum). The members must carry the same fields and power-table axes (an ensemble's members do).
 
 With ``J_m = w_f · fuel_m + w_t · t^m_N`` (fuel [t], time [h], or cost) the objective is
 
@@ -61,7 +62,8 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
-from formulations._nlp_model import row_blocks
+from formulations._buffers import WeatherValues
+from formulations._nlp_model import row_blocks, structured_cores
 from formulations.common import (
     G_OVER_2PI_KN_S,
     Band,
@@ -73,6 +75,7 @@ from formulations.common import (
     broadcast_legs,
 )
 from formulations.disjunctive import select_sides
+from formulations.sample_layout import SampleLayout
 from formulations.speed_nlp import IPOPT_DEFAULTS, SampleState, SpeedNLP
 
 __all__ = ["MAX_DROP_CHOICES", "RobustResult", "RobustSpeedNLP"]
@@ -145,91 +148,14 @@ class RobustResult:
     x_opt: np.ndarray = field(repr=False)
 
 
-def _pattern(n_rows: int, n_cols: int, rows: np.ndarray, cols: np.ndarray) -> tuple[Any, np.ndarray]:
-    """Sparsity of the entries (rows, cols) and the order that lists them column-major (CasADi's nonzero order)."""
-    order = np.lexsort((rows, cols))
-    return ca.Sparsity.triplet(n_rows, n_cols, rows[order].tolist(), cols[order].tolist()), order
-
-
-class _Stated(ca.Callback):
-    """A numeric function of its first input whose Jacobian is another such function: CasADi never differentiates
-    through it (its derivatives are stated, not derived)."""
-
-    def __init__(self, name: str, fn: Any, sp_in: list, sp_out: list, jac: Any = None) -> None:
-        ca.Callback.__init__(self)
-        self._fn, self._jac, self._sp_in, self._sp_out, self._keep = fn, jac, sp_in, sp_out, []
-        self.construct(name, {"enable_fd": False})
-
-    def get_n_in(self) -> int:
-        return len(self._sp_in)
-
-    def get_n_out(self) -> int:
-        return len(self._sp_out)
-
-    def get_sparsity_in(self, i: int) -> Any:
-        return self._sp_in[i]
-
-    def get_sparsity_out(self, i: int) -> Any:
-        return self._sp_out[i]
-
-    def eval(self, arg: list) -> list:
-        return self._fn(arg[0])
-
-    def has_jacobian(self) -> bool:
-        return self._jac is not None
-
-    def get_jacobian(self, name: str, inames: Any, onames: Any, opts: Any) -> Any:
-        self._keep.append(self._jac(name))  # CasADi holds no Python reference: keep it alive here
-        return self._keep[-1]
-
-
-def _stated_weather(grid: WeatherGrid, name: str, k_: int) -> _Stated:
-    """``(3, K) sample points (t [h], s [nm], y [nm]) ↦ (n_fields, K)`` fields of one member, derivatives stated.
-
-    The value is :meth:`WeatherGrid.interpolant`; its first and second derivatives in t and y are those of
-    :meth:`WeatherGrid.taylor_function` (explicit derivative splines: the same spline's exact derivatives, built from
-    differenced control points in numpy), handed to CasADi as the Jacobian and the Jacobian's Jacobian. Letting CasADi
-    differentiate the spline node instead costs tens of seconds per member and derivative on a large grid (it copies
-    the 2.4 million control points of ``benchmarks.bench_robust``'s grid for every derivative function). The
-    derivative in ``s`` is left structurally zero: ``s`` is fixed at every sample of the corridor model.
-    """
-    nf = len(grid.field_names)
-    value, taylor = grid.interpolant().map(k_), grid.taylor_function(order=2).map(k_)
-    f_idx, k_idx = (a.ravel() for a in np.meshgrid(np.arange(nf), np.arange(k_), indexing="ij"))
-    out_row = f_idx + nf * k_idx  # out[f, k] among the output's entries (column-major)
-    sp_j, ord_j = _pattern(
-        nf * k_, 3 * k_, np.concatenate([out_row, out_row]), np.concatenate([3 * k_idx, 3 * k_idx + 2])
-    )
-    n_j = nf * k_ * 3 * k_  # entries of the Jacobian; its Jacobian: d J[(f, k), (a, k)] / d P[b, k]
-    pairs = ((0, 0), (0, 2), (2, 0), (2, 2))  # (a, b): F_tt, F_ty, F_yt, F_yy
-    hr = np.concatenate([out_row + nf * k_ * (3 * k_idx + a) for a, _ in pairs])
-    sp_h, ord_h = _pattern(n_j, 3 * k_, hr, np.concatenate([3 * k_idx + b for _, b in pairs]))
-    sp_p, sp_o = ca.Sparsity.dense(3, k_), ca.Sparsity.dense(nf, k_)
-
-    def blocks(p: Any) -> list[np.ndarray]:
-        b = np.asarray(taylor(p))  # (6 nf, K): F, F_t, F_y, F_tt, F_ty, F_yy
-        return [b[i * nf : (i + 1) * nf][f_idx, k_idx] for i in range(6)]
-
-    def jac_num(p: Any) -> list:
-        b = blocks(p)
-        return [ca.DM(sp_j, np.concatenate([b[1], b[2]])[ord_j])]
-
-    def hess_num(p: Any) -> list:
-        b = blocks(p)
-        return [ca.DM(sp_h, np.concatenate([b[3], b[4], b[4], b[5]])[ord_h]), ca.DM(n_j, nf * k_)]
-
-    def hess(nm: str) -> _Stated:
-        return _Stated(nm, hess_num, [sp_p, sp_o, sp_j], [sp_h, ca.Sparsity(n_j, nf * k_)])
-
-    def jac(nm: str) -> _Stated:
-        return _Stated(nm, jac_num, [sp_p, sp_o], [sp_j], hess)
-
-    return _Stated(name, lambda p: [value(p)], [sp_p], [sp_o], jac)
-
-
 def _member_weather(weathers: Sequence[WeatherGrid], k_: int) -> tuple[Any, list]:
-    """``(member index, (3, K) points) ↦ (n_fields, K)``: the members' stated-derivative weathers behind one
-    ``Function.conditional``; and the callbacks (to be kept alive)."""
+    """``(member index, (3, K) points) ↦ (n_fields, K)``: the members' weather values behind one
+    ``Function.conditional``; and the per-member functions (to be kept alive).
+
+    Values only: the NLP's derivatives come from :class:`_MemberDerivatives`, so no member needs a CasADi spline.
+    A ``"smooth"`` member is read in numpy (:class:`formulations._nlp_model.WeatherValues`, its
+    :meth:`WeatherGrid.tensor_spline`), any other through its CasADi interpolant.
+    """
     first = weathers[0]
     for k, w in enumerate(weathers):
         if w.field_names != first.field_names or w.ratio_axes != first.ratio_axes:
@@ -238,8 +164,56 @@ def _member_weather(weathers: Sequence[WeatherGrid], k_: int) -> tuple[Any, list
                 f"against {len(first.field_names)} fields): the members of one robust NLP must carry the same fields "
                 "and tabulate the ship's power at the same speeds and headings"
             )
-    cases = [_stated_weather(w, f"member_weather_{k}", k_) for k, w in enumerate(weathers)]
+    cases = [WeatherValues(w, k_) if w.method == "smooth" else w.interpolant().map(k_) for w in weathers]
     return ca.Function.conditional("member_weather", cases, cases[0]), cases
+
+
+class _MemberDerivatives(ca.Callback):
+    """``grad_f``, ``jac_g`` or ``hess_lag`` of the robust NLP for ``nlpsol``: the single-weather NLP's leg-by-leg
+    derivative cores (:func:`formulations._nlp_model.structured_cores`) evaluated per member at that member's
+    variables and with that member's weather Taylor data, scattered into the stacked problem.
+
+    ``core`` is an MX function of ``(*inputs, theta_1, …, theta_M)``; ``taylors[m]`` gives member ``m``'s Taylor
+    data at its variables ``x[index[m]]`` (``first`` for the gradient and Jacobian, ``hessian`` for the Hessian).
+    """
+
+    def __init__(
+        self, name: str, core: Any, taylors: list, index: list[np.ndarray], names: tuple[list, list], hessian: bool
+    ) -> None:
+        ca.Callback.__init__(self)
+        self._core, self._taylors, self._index, self._names, self._hessian = core, taylors, index, names, hessian
+        self.construct(name, {})
+
+    def get_n_in(self) -> int:
+        return len(self._names[0])
+
+    def get_n_out(self) -> int:
+        return len(self._names[1])
+
+    def get_name_in(self, i: int) -> str:
+        return self._names[0][i]
+
+    def get_name_out(self, i: int) -> str:
+        return self._names[1][i]
+
+    def get_sparsity_in(self, i: int) -> Any:
+        return self._core.sparsity_in(i)
+
+    def get_sparsity_out(self, i: int) -> Any:
+        return self._core.sparsity_out(i)
+
+    def eval(self, arg: list[Any]) -> list[Any]:
+        x = np.asarray(arg[0], dtype=float).ravel()
+        which = "hessian" if self._hessian else "first"
+        thetas = [getattr(tay, which)(x[idx]) for tay, idx in zip(self._taylors, self._index, strict=True)]
+        first = len(arg)  # the Taylor data may come flat, column-major (formulations._buffers): shape it
+        thetas = [
+            ca.DM(self._core.sparsity_in(first + k), np.asarray(t, dtype=float).ravel(order="F"))
+            if np.size(t) == self._core.sparsity_in(first + k).nnz() and np.ndim(t) != 2
+            else t
+            for k, t in enumerate(thetas)
+        ]
+        return self._core.call([*arg, *thetas])
 
 
 def _current_rows(weathers: Sequence[WeatherGrid], v_min_kn: np.ndarray, sog_min_kn: float) -> bool:
@@ -274,8 +248,16 @@ class RobustSpeedNLP:
         As in :class:`formulations.speed_nlp.SpeedNLP`.
     exact_hessian : bool
         Ipopt's exact Hessian of the Lagrangian (default) or its limited-memory (L-BFGS) approximation.
+    weather_curvature : bool
+        With the exact Hessian, keep the weather's second derivatives in t and y in it (default: the exact Hessian);
+        False leaves them out, as :class:`SpeedNLP` does by default. Gradients and Jacobians are exact either way,
+        so Ipopt converges to the same KKT point; on ``benchmarks.bench_robust``'s storm case the curvature saved
+        iterations (12/15/15 against 19/18/19 at 1/2/4 members, same optimum).
     ipopt_options : dict, optional
         Overrides of the Ipopt/CasADi options.
+    sample_layout : SampleLayout, optional
+        Where every leg is sampled, as in :class:`SpeedNLP` (the same for every member): the quadrature and
+        row-only points (weight 0) where the rows are imposed too; replaces ``samples_per_leg``.
     """
 
     def __init__(
@@ -294,7 +276,9 @@ class RobustSpeedNLP:
         g_over_2pi_kn_s: float = G_OVER_2PI_KN_S,
         sog_min_kn: float = 1.0,
         exact_hessian: bool = True,
+        weather_curvature: bool = True,
         ipopt_options: dict[str, Any] | None = None,
+        sample_layout: SampleLayout | None = None,
     ) -> None:
         started = time.perf_counter()
         weathers = list(weathers)
@@ -305,9 +289,14 @@ class RobustSpeedNLP:
         if not (np.isfinite(alpha) and 0.0 <= float(alpha) < 1.0):
             raise FormulationInputError(f"alpha must be in [0, 1), got {alpha!r}")
         self.risk, self.alpha = risk, float(alpha)
-        self.template = SpeedNLP(  # member 0's NLP: its model is every member's, read with a member's spline
+        v_lo = broadcast_legs(v_min_kn, corridor.n_legs, "v_min_kn")
+        self.has_current_rows = _current_rows(weathers, v_lo, float(sog_min_kn))
+        # the template's model is every member's, read with that member's weather; its weather decides whether
+        # it has the current rows, so it is a member whose currents need them when any member's do
+        lead = next((k for k, w in enumerate(weathers) if _current_rows([w], v_lo, float(sog_min_kn))), 0)
+        self.template = SpeedNLP(
             corridor,
-            weathers[0],
+            weathers[lead],
             power,
             bands=bands,
             exclusion=exclusion,
@@ -317,15 +306,16 @@ class RobustSpeedNLP:
             g_over_2pi_kn_s=g_over_2pi_kn_s,
             sog_min_kn=sog_min_kn,
             build_solver=False,
+            sample_layout=sample_layout,
         )
         tpl = self.template
         self.corridor, self.power, self.bands = corridor, power, tpl.bands
         self.n_members, self.n_legs = len(weathers), tpl.n_legs
         self.samples_per_leg, self.n_bands = tpl.samples_per_leg, tpl.n_bands
         self.v_min_kn, self.v_max_kn, self.sog_min_kn = tpl.v_min_kn, tpl.v_max_kn, float(sog_min_kn)
-        self.has_current_rows = _current_rows(weathers, self.v_min_kn, self.sog_min_kn)
+        self._weathers = weathers
         self._weather, self._weather_cases = _member_weather(weathers, self.n_legs * self.samples_per_leg)
-        self.exact_hessian = bool(exact_hessian)
+        self.exact_hessian, self.weather_curvature = bool(exact_hessian), bool(weather_curvature)
         self._build(dict(ipopt_options or {}))
         self.build_time_s = time.perf_counter() - started
 
@@ -350,6 +340,10 @@ class RobustSpeedNLP:
         n, mm, nb = self.n_legs, self.n_members, self.n_bands
         kb = n * self.samples_per_leg * nb
         member, diag = self._member_functions()
+        if self._rows != self.template._rows:
+            raise FormulationInputError(  # cannot happen with the template chosen above: the cores would misread
+                f"the member rows {self._rows} differ from the template NLP's {self.template._rows}"
+            )
         cvar = self.risk == "cvar"
         nx = (n + 1) + n + mm * (n + 1) + ((1 + mm) if cvar else 0)
         x = ca.MX.sym("x", nx)
@@ -371,10 +365,75 @@ class RobustSpeedNLP:
         opts = dict(IPOPT_DEFAULTS)
         opts["ipopt.hessian_approximation"] = "exact" if self.exact_hessian else "limited-memory"
         opts.update(ipopt_options)
+        self._derivatives = self._member_derivatives(nx, self._ng)  # keep alive: nlpsol holds no Python reference
+        opts.update(self._derivatives if self.exact_hessian else {k: self._derivatives[k] for k in ("grad_f", "jac_g")})
         param = ca.vertcat(weights, beta, fac)
         self._solver = ca.nlpsol("robust_speed_nlp", "ipopt", {"x": x, "p": param, "f": objective, "g": g}, opts)
         self._objectives = ca.Function("member_objectives", [x, param], [j])
         self._diag = diag.map("member_diags", "serial", mm, [0, 1, 4], [])
+
+    def _member_derivatives(self, nx: int, ng: int) -> dict[str, Any]:
+        """``grad_f``, ``jac_g`` and ``hess_lag`` for ``nlpsol`` from the template's per-leg cores, per member.
+
+        Member ``m`` sees the variables ``x_m = (y, V, t^m)`` (the single-weather layout) and the parameters
+        ``(w, β_m, f)``; its gradient, Jacobian rows and Hessian are the template's cores at ``x_m`` with its own
+        weather's Taylor data, scattered by the constant selection ``P_m`` (``x_m = P_mᵀ x``): ``∇f = Σ_m c_m P_m
+        ∇J_m``, rows ``J_m P_mᵀ``, ``∇²L = Σ_m P_m ∇²L_m P_mᵀ`` (``P_m`` keeps the variables' order, so the upper
+        triangle stays upper). Mean: ``c_m = 1/M``; CVaR: the objective is ``z + Σ u_m/((1−α)M)`` and ``J_m`` enters
+        the rows ``u_m − J_m + z`` (their multipliers weight ``∇²J_m``).
+        """
+        n, mm, kb = self.n_legs, self.n_members, self._kb
+        cores = structured_cores(self.template, exact_hessian=self.weather_curvature)
+        nxm, ngm = 3 * n + 2, self._ng_member
+        index = [np.concatenate([np.arange(2 * n + 1), 2 * n + 1 + k * (n + 1) + np.arange(n + 1)]) for k in range(mm)]
+        sel = [ca.DM(ca.Sparsity.triplet(nx, nxm, idx.tolist(), list(range(nxm))), 1.0) for idx in index]
+        x, p = ca.MX.sym("x", nx), ca.MX.sym("p", 2 + mm * kb + n)
+        lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", ng)
+        th = [ca.MX.sym(f"theta_{k}", cores.grad.sparsity_in(2)) for k in range(mm)]
+        th_h = [ca.MX.sym(f"theta_h_{k}", cores.hess.sparsity_in(4)) for k in range(mm)]
+        pm = [ca.vertcat(p[:2], p[2 + k * kb : 2 + (k + 1) * kb], p[2 + mm * kb :]) for k in range(mm)]
+        xm = [x[idx.tolist()] for idx in index]
+        cvar = self.risk == "cvar"
+        jm, grads, gs, jacs = [], [], [], []
+        for k in range(mm):
+            f_k, grad_k = cores.grad(xm[k], pm[k], th[k])
+            g_k, jac_k = cores.jac(xm[k], pm[k], th[k])
+            jm.append(f_k)
+            grads.append(ca.mtimes(sel[k], grad_k))
+            gs.append(g_k)
+            jacs.append(ca.mtimes(jac_k, sel[k].T))
+        if cvar:
+            z_col, u_cols = nx - 1 - mm, nx - mm + np.arange(mm)
+            e = np.zeros((mm, nx))
+            e[np.arange(mm), u_cols], e[:, z_col] = 1.0, 1.0
+            u, z = x[nx - mm :], x[nx - 1 - mm]
+            f = z + ca.sum1(u) / ((1.0 - self.alpha) * mm)
+            c_obj = np.zeros(nx)
+            c_obj[u_cols], c_obj[z_col] = 1.0 / ((1.0 - self.alpha) * mm), 1.0
+            grad = ca.DM(c_obj)
+            gs.append(u - ca.vertcat(*jm) + z)
+            jacs.append(ca.sparsify(ca.DM(e)) - ca.horzcat(*grads).T)
+            lam_obj = [-lam_g[ngm * mm + k] for k in range(mm)]
+        else:
+            f = sum(jm) / mm
+            grad = sum(grads) / mm
+            lam_obj = [lam_f / mm] * mm
+        hess = 0
+        for k in range(mm):
+            h_k = cores.hess(xm[k], pm[k], lam_obj[k], lam_g[k * ngm : (k + 1) * ngm], th_h[k])
+            hess = hess + ca.mtimes(ca.mtimes(sel[k], h_k), sel[k].T)
+        taylors = [cores.taylor(w, numeric=True) for w in self._weathers]
+        first = ca.Function("robust_grad_f", [x, p, *th], [f, ca.densify(grad)])
+        jac = ca.Function("robust_jac_g", [x, p, *th], [ca.vertcat(*gs), ca.vertcat(*jacs)])
+        hess_fn = ca.Function("robust_hess_lag", [x, p, lam_f, lam_g, *th_h], [ca.triu(hess)])
+        io = (["x", "p"], ["f", "grad_f_x"]), (["x", "p"], ["g", "jac_g_x"])
+        return {
+            "grad_f": _MemberDerivatives("grad_f", first, taylors, index, io[0], hessian=False),
+            "jac_g": _MemberDerivatives("jac_g", jac, taylors, index, io[1], hessian=False),
+            "hess_lag": _MemberDerivatives(
+                "hess_lag", hess_fn, taylors, index, (["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]), True
+            ),
+        }
 
     # ------------------------------------------------------------------ helpers
     def _split(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

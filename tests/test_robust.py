@@ -256,6 +256,7 @@ def test_ensemble_without_robust_names_the_fix(three_storms: xr.Dataset, corrido
         ({"robust": "all", "cvar_alpha": 0.5}, "only used with robust='cvar'"),
         ({"robust": "all", "eta_mode": "eq"}, "eta_mode='eq'"),
         ({"robust": "all", "jit": True}, "jit is not available"),
+        ({"robust": "all", "constraint_rows": "everywhere"}, "constraint_rows='everywhere' is not known"),
     ],
 )
 def test_bad_robust_options(three_storms: xr.Dataset, corridor: orx.Corridor, kwargs: dict, match: str) -> None:
@@ -276,3 +277,91 @@ def test_verify_in_an_ensemble_asks_for_a_member(plans: dict[str, orx.Plan], thr
         orx.member_violations({}, three_storms)
     with pytest.raises(ConfigError, match="not optroute Plans"):
         orx.member_violations({"x": 1}, three_storms)  # type: ignore[dict-item]
+
+
+# --------------------------------------------------------------------------- derivatives against CasADi's own
+
+
+def _member_weather(scale: float, shift_kn: float) -> WeatherGrid:
+    """A small time-varying sea with waves, current and a power table; members differ in height and current."""
+    tg, sg, yg = np.arange(0.0, 48.0, 8.0), np.linspace(0.0, 160.0, 5), np.linspace(-30.0, 30.0, 4)
+    tt, ss, yy = np.meshgrid(tg, sg, yg, indexing="ij")
+    hs = scale * (2.0 + 3.0 * np.exp(-(((ss - 80 - 2 * tt) / 60) ** 2 + ((yy - 5) / 20) ** 2)))
+    th = np.radians(20 + tt + ss / 10)
+    return WeatherGrid(
+        t_h=tg, s_nm=sg, y_nm=yg, hs_m=hs, period_s=4.5 * np.sqrt(hs) + 1, wave_to_along=np.cos(th),
+        wave_to_across=np.sin(th), current_along_kn=shift_kn + 1.5 * np.sin(ss / 50),
+        current_across_kn=2.0 * np.cos(tt / 10),
+        power_ratio=1.0 + 0.02 * hs[..., None, None] ** 2 * (1.0 + 0.01 * np.array([8.0, 16.0])[:, None])
+        * (0.8 + 0.2 * np.cos(np.radians(np.array([-30.0, 30.0])) + th[..., None, None])),
+        ratio_speed_kn=[8.0, 16.0], ratio_heading_deg=[-30.0, 30.0],
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("risk", ["mean", "cvar"])
+def test_member_derivatives_equal_casadi_automatic_differentiation(risk: str) -> None:
+    """The robust NLP's gradient, Jacobian and Hessian (the single-weather leg cores per member, scattered) equal
+    CasADi's automatic derivatives of each member's whole single-weather model (``SpeedNLP(structured=False)``),
+    stacked by hand: mean objective ``(1/M) Σ J_m``, member-major rows, ``∇²L = Σ_m ∇²L_m``; CVaR rows
+    ``u_m − J_m + z``."""
+    from formulations.common import Band
+    from formulations.speed_nlp import SpeedNLP
+
+    cor = CorridorGeometry.straight([40.0] * 4, half_width_nm=25.0)
+    weathers = [_member_weather(1.0, 0.0), _member_weather(1.4, -2.0)]
+    pw = PowerModel(calm_coef=[2.2], calm_exp=[3.0], mcr_kw=36000, min_load=0.1)
+    bands = (Band("te_over_tr", 0.8, 1.2, param=20.0, hs_min_m=3.0),)
+    kw = {"bands": bands, "samples_per_leg": 2, "v_min_kn": 6.0, "v_max_kn": 24.0}
+    nlp = RobustSpeedNLP(cor, weathers, pw, risk=risk, alpha=0.3, weather_curvature=True, **kw)  # type: ignore[arg-type]
+    auto = [SpeedNLP(cor, w, pw, structured=False, **kw) for w in weathers]  # type: ignore[arg-type]
+    n, mm, ngm, kb = 4, 2, auto[0]._ng, 4 * 2
+    rng = np.random.default_rng(5)
+    yv = np.concatenate([[0.0], rng.uniform(-15, 15, n - 1), [0.0], rng.uniform(10, 18, n)])  # one plan
+    xm = [np.concatenate([yv, np.linspace(0, 20 + 3 * k, n + 1)]) for k in range(mm)]  # each member's times
+    x = np.concatenate([yv, xm[0][2 * n + 1 :], xm[1][2 * n + 1 :]])
+    if risk == "cvar":
+        x = np.concatenate([x, [0.4], rng.uniform(0, 1, mm)])
+    betas = [rng.uniform(0.5, 1.5, kb) for _ in range(mm)]
+    fac = rng.uniform(0.8, 1.2, n)
+    p = np.concatenate([[1.3, 0.7], *betas, fac])
+    pm = [np.concatenate([[1.3, 0.7], b, fac]) for b in betas]
+    lam_g, lam_f = rng.normal(size=nlp._ng), 0.8
+    fn = {k: nlp._solver.get_function(k) for k in ("nlp_grad_f", "nlp_jac_g", "nlp_hess_l")}
+    ref = [{k: s._solver.get_function(k) for k in fn} for s in auto]
+    col = [np.concatenate([np.arange(2 * n + 1), 2 * n + 1 + k * (n + 1) + np.arange(n + 1)]) for k in range(mm)]
+    j_m = [float(ref[k]["nlp_grad_f"](xm[k], pm[k])[0]) for k in range(mm)]
+    grad_m = [np.asarray(ref[k]["nlp_grad_f"](xm[k], pm[k])[1]).ravel() for k in range(mm)]
+    jac = np.zeros((nlp._ng, x.size))
+    grad = np.zeros(x.size)
+    hess = np.zeros((x.size, x.size))
+    for k in range(mm):
+        jk = np.asarray(ref[k]["nlp_jac_g"](xm[k], pm[k])[1].full())
+        jac[np.ix_(k * ngm + np.arange(ngm), col[k])] = jk
+        weight = lam_f / mm if risk == "mean" else -lam_g[mm * ngm + k]  # the CVaR rows' multipliers weight J_m
+        hk = np.asarray(ref[k]["nlp_hess_l"](xm[k], pm[k], weight, lam_g[k * ngm : (k + 1) * ngm]).full())
+        hess[np.ix_(col[k], col[k])] += hk
+        if risk == "mean":
+            grad[col[k]] += grad_m[k] / mm
+        else:
+            jac[mm * ngm + k, col[k]] = -grad_m[k]
+            jac[mm * ngm + k, x.size - mm + k] = jac[mm * ngm + k, x.size - 1 - mm] = 1.0
+    if risk == "cvar":
+        grad[x.size - 1 - mm], grad[x.size - mm :] = 1.0, 1.0 / ((1 - 0.3) * mm)
+        g_cvar = np.asarray(fn["nlp_jac_g"](x, p)[0]).ravel()[mm * ngm :]
+        np.testing.assert_allclose(g_cvar, x[x.size - mm :] - np.array(j_m) + x[x.size - 1 - mm], rtol=1e-10)
+    np.testing.assert_allclose(np.asarray(fn["nlp_grad_f"](x, p)[1]).ravel(), grad, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(fn["nlp_jac_g"](x, p)[1].full()), jac, rtol=1e-9, atol=1e-12)
+    mine = np.asarray(fn["nlp_hess_l"](x, p, lam_f, lam_g).full())
+    np.testing.assert_allclose(mine, np.triu(hess), rtol=1e-8, atol=1e-10 * np.abs(hess).max())
+
+
+def test_referee_rows_plan_verifies_in_every_member(three_storms: xr.Dataset, corridor: orx.Corridor) -> None:
+    """``constraint_rows="referee"``: row-only samples at every member's referee check points (more samples a leg
+    than the quadrature's 3); the plan is still clean in every member by the referee."""
+    plan = orx.optimise_corridor(
+        corridor, three_storms, SHIP, departure=T0, eta=ETA, robust="all", constraint_rows="referee", **OPTS
+    )
+    for m in member_datasets(three_storms):
+        assert plan.verify(weather=m) == []
+    assert plan.arrival <= ETA
+    assert plan.solver_stats["nlp_samples_per_leg"] > OPTS["samples_per_leg"]

@@ -374,7 +374,7 @@ def _robust(robust: Any, weather: Any, args: dict[str, Any]) -> Plan:
             "(optroute.weather.scenarios.member(ds, k) or ds.isel(member=k)), or pass robust='all' (or 'cvar') for "
             "one plan that is safe in every member"
         )
-    skip = ("corridor", "weather", "ship", "PreparedCorridor", "constraint_rows")
+    skip = ("corridor", "weather", "ship", "PreparedCorridor")
     kw = {k: v for k, v in args.items() if k not in skip}
     return optimise_robust(args["corridor"], weather, args["ship"], **kw)
 

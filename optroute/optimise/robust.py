@@ -32,6 +32,11 @@
   edges and threshold backed off, load limits, exclusion radius, the ETA) and solved again, at most
   ``max_retries`` times; a plan that fails any member is never returned
   (:class:`~optroute.errors.SolverFailure`, whose ``best_plan`` is the warm plan when that verifies in every member).
+  Kept although ``constraint_rows="referee"`` is available: on tests/test_robust.py's three-storm ensemble the
+  loop fires twice for ``"all"`` and ``"cvar"`` with the midpoint rows and twice with the referee's, the same
+  plans: what fails is the engine's MCR where the NLP's smooth power table is below the
+  performance model's peak in the storm's core — a table error that rows at the referee's points do not see, but
+  the loop's per-leg power factor corrects.
 
 The returned :class:`~optroute.plan.result.Plan` is evaluated in the reference member (``reference_member``,
 default 0: :func:`optroute.weather.scenarios.ensemble`'s control): its ``legs`` and ``total_fuel_t`` are that
@@ -56,6 +61,14 @@ from optroute.errors import ConfigError, NoSafePassage, SolverFailure
 from optroute.optimise.nlp_inputs import formulation_bands, moving_exclusion
 from optroute.optimise.nlp_solve import VIOLATION_TOL, route_warm_start
 from optroute.optimise.rescue import LIMIT_STATUSES, plan_warm_start
+from optroute.optimise.rows import (
+    ROW_PLACEMENTS,
+    binding_legs,
+    canonical_rows,
+    only_where_binding,
+    points_of,
+    sample_layout,
+)
 from optroute.plan.result import Plan, Violation
 from optroute.search.route import Corridor, Route
 from optroute.units import as_utc_time, format_utc, timedelta_to_h
@@ -215,6 +228,7 @@ def optimise_robust(
     solver_options: Mapping[str, Any] | None = None,
     use_land_mask: bool | None = None,
     reference_member: int = 0,
+    constraint_rows: str = "midpoints",
     progress: Any = None,
     jit: bool = False,
     discrete_start: bool = False,
@@ -233,6 +247,12 @@ def optimise_robust(
         ``"chance"`` only: the share of members in (0, 1) whose constraints the plan may break.
     reference_member : int
         The member whose context the returned plan is evaluated in (its ``legs``, ``total_fuel_t``).
+    constraint_rows : {"midpoints", "referee"}
+        As :func:`optroute.optimise_corridor` (whose default, ``"referee"``, it receives from there): ``"referee"``
+        adds row-only samples at the referee's check points of the canonical start (the centreline at the ETA's
+        speed) in every member, on the legs where a band or the exclusion can bind in that member
+        (:func:`_member_rows`, the union over the members, at most :data:`~optroute.optimise.rows.MAX_ROW_POINTS`
+        a leg); after a plan fails a member, the rows move to that plan's check points in the failing members.
     band_solves : int
         Solves of the band re-imposition loop (:meth:`RobustSpeedNLP.solve_sides`) per tightening.
     solver_options : mapping, optional
@@ -256,6 +276,7 @@ def optimise_robust(
         ``reference_member``, ``member_fuel_t`` and ``member_arrival`` (referee, per member), ``fuel_mean_t``,
         ``fuel_cvar_t`` (referee), ``nlp_objective``, ``nlp_member_fuel_t``, ``nlp_var``; and ``ipopt_status``,
         ``nlp_solves``, ``iterations``, ``solve_time_s``, ``build_time_s``, ``retries``, ``tightening``,
+        ``nlp_samples_per_leg`` (with ``constraint_rows="referee"`` the row-only samples too),
         ``total_time_s``.
 
     Raises
@@ -276,6 +297,11 @@ def optimise_robust(
         eta_mode,
         {"jit": jit, "discrete_start": discrete_start, "dp_options": dp_options},
     )
+    if constraint_rows not in ROW_PLACEMENTS:
+        raise ConfigError(
+            f"constraint_rows={constraint_rows!r} is not known; use 'midpoints' (the NLP's rows at its quadrature "
+            "points) or 'referee' (also at the referee's check points in every member)"
+        )
     members = member_datasets(weather)
     n_drop = int(np.floor(fraction * len(members) + 1e-9))  # members that may be violated
     if robust == "chance" and math.comb(len(members), n_drop) > MAX_DROP_CHOICES:
@@ -317,15 +343,22 @@ def optimise_robust(
         "eta_shift_h": 0.0,
         "leg_factor": np.ones(frame.n_legs),
     }
+    points = _member_rows(prepared, eta_t, y_lo, y_hi, eta_h) if constraint_rows == "referee" else None
     log: list[str] = []
     counts = {"solves": 0, "iterations": 0, "solve_time_s": 0.0, "build_time_s": 0.0}
     last: RobustResult | None = None
     options = dict(solver_options or {})
     builds: dict[tuple[float, float, float], RobustSpeedNLP] = {}
     for retry in range(int(max_retries) + 1):
-        key = (state["widen"], state["hs_margin"], state["extra_radius_nm"])  # what shapes a build (the rest is data)
+        layout = sample_layout(points, frame.n_legs, ref.samples_per_leg)
+        key = (
+            state["widen"],
+            state["hs_margin"],
+            state["extra_radius_nm"],
+            layout.fraction.tobytes(),
+        )  # shapes a build
         if key not in builds:
-            builds[key] = _build(prepared, ref, frame, y_lo, y_hi, state, exclusion, t0, options, robust, alpha)
+            builds[key] = _build(prepared, ref, frame, y_lo, y_hi, state, exclusion, t0, options, robust, alpha, layout)
             counts["build_time_s"] += builds[key].build_time_s
         nlp = builds[key]
         nlp.power = replace(nlp.power, max_load=state["max_load"], min_load=state["min_load"])
@@ -359,12 +392,15 @@ def optimise_robust(
                 drop_choices_solved=len(candidates),
             )
             stats.update(counts, retries=retry, tightening=log, ipopt_status=res.status, nlp_solves=counts["solves"])
+            stats["nlp_samples_per_leg"] = nlp.samples_per_leg  # the quadrature's and any row-only samples
             stats["total_time_s"] = _time.perf_counter() - started
             return replace(plan, status=status, solver_stats=stats)
         if failing is None:  # no usable solve: nothing the verification could say, tightening would not help
             break
         res, failing = failing
         warm = {"offset_nm": res.offset_nm, "stw_kn": res.stw_kn}
+        if points is not None:  # the rows move to the rejected plan's check points in the members it failed
+            points = _failing_points(failing, frame.waypoints(res.offset_nm), frame.n_legs)
         if not _tighten(state, [v for f in failing.values() for v in f], log):
             break
     raise _failure(members, warm_plan, last, log, counts["solves"])
@@ -437,7 +473,35 @@ def _failure(members: list, warm_plan: Plan | None, last: RobustResult | None, l
     )
 
 
-def _build(prepared, ref, frame, y_lo, y_hi, state, exclusion, t0, solver_options, robust, alpha) -> RobustSpeedNLP:
+def _member_rows(prepared: list, eta_t: Any, y_lo: np.ndarray, y_hi: np.ndarray, eta_h: float | None):
+    """Per leg, the union over the members of the referee's check points of the canonical start
+    (:func:`optroute.optimise.rows.canonical_rows`: the centreline at the ETA's speed), or None if no member gives any."""
+    ref = prepared[0]
+    speed = ref.length_nm / eta_h if eta_h is not None and np.isfinite(eta_h) else ref.ship.design_speed_kn
+    speed = float(np.clip(speed, np.max(ref.v_min), np.min(ref.v_max)))
+    per = []
+    for p in prepared:  # each member's rows only where a band or the exclusion can bind in it (as a single weather's)
+        ctx = p.plan_context(eta_t, "le")
+        rows = canonical_rows(ctx, p.frame, (y_lo, y_hi), speed, p.departure, p.verify_step_nm)
+        binding = binding_legs(p.frame, p.grid.s_nm, p.grid.hs_m, ctx, p.hs_margin0, p.departure)
+        per.append(only_where_binding(rows, binding))
+    per = [r for r in per if r is not None]
+    if not per:
+        return None
+    return [np.unique(np.concatenate([r[k] for r in per])) for k in range(ref.frame.n_legs)]
+
+
+def _failing_points(failing: dict[int, list], waypoints: np.ndarray, n_legs: int) -> list[np.ndarray] | None:
+    """Per leg, the union of the check points of the members a plan failed (their verifications' ``points``)."""
+    found = [points_of(f.points, waypoints) for f in failing.values() if getattr(f, "points", None) is not None]
+    if not found:
+        return None
+    return [np.unique(np.concatenate([r[k] for r in found])) for k in range(n_legs)]
+
+
+def _build(
+    prepared, ref, frame, y_lo, y_hi, state, exclusion, t0, solver_options, robust, alpha, layout
+) -> RobustSpeedNLP:
     """The stacked NLP for one tightening state."""
     bands, _, a = formulation_bands(ref.ship, ref.rules, widen=state["widen"], hs_margin=state["hs_margin"])
     hs_top = max(float(np.max(p.grid.hs_m)) for p in prepared)
@@ -459,6 +523,7 @@ def _build(prepared, ref, frame, y_lo, y_hi, state, exclusion, t0, solver_option
         v_max_kn=ref.v_max,
         g_over_2pi_kn_s=a,
         ipopt_options=dict(solver_options),
+        sample_layout=layout,
     )
 
 
