@@ -32,10 +32,10 @@ import numpy as np
 import xarray as xr
 
 from optroute._checks import finite
-from optroute.errors import ConfigError, SolverFailure, WeatherCoverageError
-from optroute.optimise.certificate import certificate_stats, dual_schedule
+from optroute.errors import ConfigError, OptrouteError, SolverFailure, WeatherCoverageError
+from optroute.optimise.certificate import dual_schedule
 from optroute.optimise.corridor_setup import ProgressFn, emit, prepare_corridor
-from optroute.optimise.corridor_stats import solution_stats, table_error
+from optroute.optimise.corridor_stats import CorridorReport
 from optroute.optimise.min_time import clean_start
 from optroute.optimise.nlp_inputs import exclusion_frame_error_nm
 from optroute.optimise.nlp_solve import (
@@ -110,7 +110,7 @@ class _Call:
     first_solve: str | None = None  # the first solve's verdict: "verified", "mended", "rejected: ...", "Ipopt ..."
 
 
-class PreparedCorridor:
+class PreparedCorridor(CorridorReport):
     """The corridor NLP set up once for a range of ETAs; :meth:`solve` solves one ETA.
 
     Parameters
@@ -514,7 +514,7 @@ class PreparedCorridor:
                 if best is not None and self._score(best[0], call) <= start.score:
                     break
                 call.log.append(f"again from the verified {cand.label}")
-            found = self._solve_from(call, cand, diagnose=k == 0 and start.plan is None)
+            found = self._solve_from(call, cand, diagnose=k == 0, verified_start=start.plan is not None)
             if found is not None and (best is None or self._score(found[0], call) < self._score(best[0], call)):
                 best = found
         return best
@@ -533,11 +533,14 @@ class PreparedCorridor:
             self._row_points = (only_where_binding(rows, self._binding),)
         return self._row_points[0]
 
-    def _solve_from(self, call: _Call, cand: Candidate, *, diagnose: bool) -> _Found | None:
+    def _solve_from(
+        self, call: _Call, cand: Candidate, *, diagnose: bool, verified_start: bool = False
+    ) -> _Found | None:
         """Solve from one candidate; where the referee rejects the plan, tighten the rows it flagged and solve again.
 
-        ``diagnose``: no candidate verifies, so a failed first solve is diagnosed (:func:`first_failure`:
-        an unreachable ETA raises :class:`~optroute.errors.InfeasibleETA`).
+        ``diagnose``: a failed first solve goes to :func:`first_failure` (the elastic phase-1 problem): without a
+        verified start an unreachable ETA raises :class:`~optroute.errors.InfeasibleETA`; with one
+        (``verified_start``) only phase-1's start is taken, and a diagnosis leaves the verified start standing.
         """
         prob, st = self.problem, self._tightening()
         st.log = call.log
@@ -554,7 +557,8 @@ class PreparedCorridor:
                 call.log.append(f"attempt {attempt}: kept Ipopt's last iterate ({sol.res.status}): its plan verifies")
                 sol = replace(sol, ok=True)
             if not sol.ok and attempt == 0 and diagnose:
-                sol = self._first_failure(call, nlp, sol, st, warm)
+                call.first_solve = call.first_solve or f"Ipopt {sol.res.status}"
+                sol = self._first_failure(call, nlp, sol, st, warm, verified_start=verified_start)
             call.last = sol
             at_limit = sol.res.status in LIMIT_STATUSES and not np.any(sol.res.samples.inside)
             if not sol.ok and not at_limit:
@@ -581,9 +585,27 @@ class PreparedCorridor:
         return None
 
     def _first_failure(
-        self, call: _Call, nlp: Any, sol: Solved, st: Tightening, warm: Mapping[str, np.ndarray]
+        self,
+        call: _Call,
+        nlp: Any,
+        sol: Solved,
+        st: Tightening,
+        warm: Mapping[str, np.ndarray],
+        *,
+        verified_start: bool = False,
     ) -> Solved:
-        """A failed first solve without a verified start: an unreachable ETA, or a hard problem (:func:`first_failure`)."""
+        """A failed first solve: an unreachable ETA, or a hard problem (:func:`first_failure`). With a verified start
+        (a discrete plan that meets the ETA) a diagnosis is not the outcome: the start stands, and only phase-1's
+        solve, when it gives one, can improve on it."""
+        if not verified_start:
+            return self._diagnosed(call, nlp, sol, st, warm)
+        try:
+            return self._diagnosed(call, nlp, sol, st, warm)
+        except OptrouteError as exc:  # InfeasibleETA, NoSafePassage or SolverFailure: the verified start stands
+            call.log.append(f"phase-1 after the failed first solve: {type(exc).__name__}; the verified start stands")
+            return sol
+
+    def _diagnosed(self, call: _Call, nlp: Any, sol: Solved, st: Tightening, warm: Mapping[str, np.ndarray]) -> Solved:
         prob = self.problem
         return first_failure(
             prob,
@@ -736,80 +758,5 @@ class PreparedCorridor:
         """Whether the corridor has no lateral freedom (every waypoint's bounds at the centreline)."""
         return bool(np.all(self.y_lo == 0.0) and np.all(self.y_hi == 0.0))
 
-    def _ship_certificate(
-        self, plan: Plan, stats: dict[str, Any], cap_h: float | None, eta_mode: str, objective: str
-    ) -> dict[str, Any]:
-        """The certificate of the ship itself for the returned plan (:mod:`optroute.optimise.certificate`).
-
-        The Lagrangian dual bound of the true model, IMO SFOC and danger bands on a fixed path in static
-        weather; the NLP model's own dual bound, where it was computed, is kept under ``"nlp_model"``.
-        """
-        nlp_model = stats.get("certificate", {"method": "not applicable", "gap": float("nan")})
-        return certificate_stats(
-            nlp_model,
-            plan,
-            fixed=self.fixed_path,
-            objective=objective,
-            eta_h=cap_h,
-            eta_mode=eta_mode,
-            fuel_price=self.fuel_price,
-            hourly_cost=self.hourly,
-            v_min_kn=self.v_min,
-            v_max_kn=self.v_max,
-            step_nm=self.verify_step_nm,
-        )
-
-    def _table_at(self, ctx: PlanContext, warm: Mapping[str, np.ndarray]) -> dict[str, float]:
-        """The NLP's fuel [t] at its warm start against the referee's for the same track and schedule.
-
-        Where the start sits on the cheap side of one of the model's steps (Kwon's Beaufort numbers and
-        direction sectors) the smooth table misjudges it, and Ipopt may leave a start that is better by the
-        referee: this figure says by how much the NLP's model sees the start differently.
-        """
-        nlp = self.problem.build(self._tightening())
-        y = np.clip(np.asarray(warm["offset_nm"], dtype=float), *nlp.corridor.offset_bounds())
-        v = np.clip(np.asarray(warm["stw_kn"], dtype=float), nlp.v_min_kn, nlp.v_max_kn)
-        t = nlp.consistent_times(y, v)
-        fuel = float(np.sum(nlp.leg_fuel_t(y, v, t)))
-        return table_error(
-            ctx,
-            self.frame,
-            offset_nm=y,
-            stw_kn=v,
-            time_h=t,
-            nlp_fuel_t=fuel,
-            departure=self.departure,
-            step_nm=self.verify_step_nm,
-        )
-
     def _usable_iterate(self, sol: Solved, ctx: PlanContext) -> bool:
         return feasible_iterate(sol.res, ctx, self.frame, self.departure, self.verify_step_nm)
-
-    def _table_stats(self) -> dict[str, Any]:
-        tb = self.table
-        return {
-            "speeds_kn": tb.speeds_kn.tolist(),
-            "headings_deg": tb.headings_deg.tolist(),
-            "capped_share": tb.capped_share,
-            "evaluations": tb.evaluations,
-            "sfoc_max_rel_error": tb.sfoc_max_rel_error,
-        }
-
-    def _solution_stats(self, call: _Call, sol: Solved, eta_solve: float | None) -> dict[str, Any]:
-        """Statistics of the returned NLP solution (:func:`optroute.optimise.corridor_stats.solution_stats`)."""
-        return solution_stats(
-            call.ctx,
-            self.frame,
-            sol,
-            eta_solve=eta_solve,
-            eta_mode=call.eta_mode,
-            objective=call.objective,
-            fixed=self.fixed_path,
-            samples=self.samples,
-            exclusion=self.exclusion,
-            fuel_price=self.fuel_price,
-            hourly_cost=self.hourly,
-            band_names=tuple(self.problem.band_names),
-            departure=self.departure,
-            step_nm=self.verify_step_nm,
-        )

@@ -9,18 +9,20 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
 from optroute.errors import OptrouteError
+from optroute.optimise.certificate import certificate_stats
 from optroute.optimise.nlp_inputs import CorridorFrame
 from optroute.optimise.nlp_solve import Solved, certificate
 from optroute.optimise.rescue import certificate_reason
 from optroute.plan.result import Exclusion, Plan, PlanContext
 from optroute.units import h_to_timedelta
 
-__all__ = ["solution_stats", "table_error"]
+__all__ = ["CorridorReport", "solution_stats", "table_error"]
 
 
 def table_error(
@@ -137,3 +139,87 @@ def solution_stats(
         "certificate": cert,
         "eta_h_solved": eta_solve,
     }
+
+
+class CorridorReport:
+    """The report stage of :class:`~optroute.optimise.corridor_problem.PreparedCorridor` (a base class): the ship's
+    certificate of the returned plan, the power table's measured error at a start and the NLP solution's
+    statistics, each read from the prepared corridor's own attributes (``problem``, ``frame``, ``table``,
+    ``departure``, ``verify_step_nm``, prices and speed limits)."""
+
+    fixed_path: bool
+
+    def _ship_certificate(
+        self, plan: Plan, stats: dict[str, Any], cap_h: float | None, eta_mode: str, objective: str
+    ) -> dict[str, Any]:
+        """The certificate of the ship itself for the returned plan (:mod:`optroute.optimise.certificate`).
+
+        The Lagrangian dual bound of the true model, IMO SFOC and danger bands on a fixed path in static
+        weather; the NLP model's own dual bound, where it was computed, is kept under ``"nlp_model"``.
+        """
+        nlp_model = stats.get("certificate", {"method": "not applicable", "gap": float("nan")})
+        return certificate_stats(
+            nlp_model,
+            plan,
+            fixed=self.fixed_path,
+            objective=objective,
+            eta_h=cap_h,
+            eta_mode=eta_mode,
+            fuel_price=self.fuel_price,
+            hourly_cost=self.hourly,
+            v_min_kn=self.v_min,
+            v_max_kn=self.v_max,
+            step_nm=self.verify_step_nm,
+        )
+
+    def _table_at(self, ctx: PlanContext, warm: Mapping[str, np.ndarray]) -> dict[str, float]:
+        """The NLP's fuel [t] at its warm start against the referee's for the same track and schedule.
+
+        Where the start sits on the cheap side of one of the model's steps (Kwon's Beaufort numbers and
+        direction sectors) the smooth table misjudges it, and Ipopt may leave a start that is better by the
+        referee: this figure says by how much the NLP's model sees the start differently.
+        """
+        nlp = self.problem.build(self._tightening())
+        y = np.clip(np.asarray(warm["offset_nm"], dtype=float), *nlp.corridor.offset_bounds())
+        v = np.clip(np.asarray(warm["stw_kn"], dtype=float), nlp.v_min_kn, nlp.v_max_kn)
+        t = nlp.consistent_times(y, v)
+        fuel = float(np.sum(nlp.leg_fuel_t(y, v, t)))
+        return table_error(
+            ctx,
+            self.frame,
+            offset_nm=y,
+            stw_kn=v,
+            time_h=t,
+            nlp_fuel_t=fuel,
+            departure=self.departure,
+            step_nm=self.verify_step_nm,
+        )
+
+    def _table_stats(self) -> dict[str, Any]:
+        tb = self.table
+        return {
+            "speeds_kn": tb.speeds_kn.tolist(),
+            "headings_deg": tb.headings_deg.tolist(),
+            "capped_share": tb.capped_share,
+            "evaluations": tb.evaluations,
+            "sfoc_max_rel_error": tb.sfoc_max_rel_error,
+        }
+
+    def _solution_stats(self, call: Any, sol: Solved, eta_solve: float | None) -> dict[str, Any]:
+        """Statistics of the returned NLP solution (:func:`optroute.optimise.corridor_stats.solution_stats`)."""
+        return solution_stats(
+            call.ctx,
+            self.frame,
+            sol,
+            eta_solve=eta_solve,
+            eta_mode=call.eta_mode,
+            objective=call.objective,
+            fixed=self.fixed_path,
+            samples=self.samples,
+            exclusion=self.exclusion,
+            fuel_price=self.fuel_price,
+            hourly_cost=self.hourly,
+            band_names=tuple(self.problem.band_names),
+            departure=self.departure,
+            step_nm=self.verify_step_nm,
+        )
