@@ -22,7 +22,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-__all__ = ["Buffered", "MemoCallback", "SharedMap", "WeatherValues"]
+__all__ = ["Buffered", "CoreCallback", "MemoCallback", "SharedMap", "WeatherValues"]
 
 
 class Buffered:
@@ -55,24 +55,12 @@ class Buffered:
         return outs
 
 
-class MemoCallback(ca.Callback):
-    """A derivative function for ``nlpsol`` that feeds the memoised Taylor data to a core function."""
+class CoreCallback(ca.Callback):
+    """A CasADi callback with the inputs, outputs and sparsities of a core function (``self._core``) under the
+    names ``self._names = (names_in, names_out)``: the shared shape of the NLP's derivative callbacks."""
 
-    def __init__(
-        self,
-        name: str,
-        core: Any,
-        theta: Callable[[Any], Any],
-        names_in: list[str],
-        names_out: list[str],
-        cache: bool = False,
-    ) -> None:
-        ca.Callback.__init__(self)
-        self._core, self._theta, self._names = core, theta, (names_in, names_out)
-        self._run = Buffered(core)
-        self._cache = cache
-        self._last: tuple[bytes, Any] | None = None
-        self.construct(name, {})
+    _core: Any
+    _names: tuple[list[str], list[str]]
 
     def get_n_in(self) -> int:
         return len(self._names[0])
@@ -91,6 +79,26 @@ class MemoCallback(ca.Callback):
 
     def get_sparsity_out(self, i: int) -> Any:
         return self._core.sparsity_out(i)
+
+
+class MemoCallback(CoreCallback):
+    """A derivative function for ``nlpsol`` that feeds the memoised Taylor data to a core function."""
+
+    def __init__(
+        self,
+        name: str,
+        core: Any,
+        theta: Callable[[Any], Any],
+        names_in: list[str],
+        names_out: list[str],
+        cache: bool = False,
+    ) -> None:
+        ca.Callback.__init__(self)
+        self._core, self._theta, self._names = core, theta, (names_in, names_out)
+        self._run = Buffered(core)
+        self._cache = cache
+        self._last: tuple[bytes, Any] | None = None
+        self.construct(name, {})
 
     def has_eval_buffer(self) -> bool:
         return True

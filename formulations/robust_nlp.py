@@ -62,7 +62,7 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
-from formulations._buffers import WeatherValues
+from formulations._buffers import CoreCallback, WeatherValues
 from formulations._nlp_model import row_blocks, structured_cores
 from formulations.common import (
     G_OVER_2PI_KN_S,
@@ -168,7 +168,7 @@ def _member_weather(weathers: Sequence[WeatherGrid], k_: int) -> tuple[Any, list
     return ca.Function.conditional("member_weather", cases, cases[0]), cases
 
 
-class _MemberDerivatives(ca.Callback):
+class _MemberDerivatives(CoreCallback):
     """``grad_f``, ``jac_g`` or ``hess_lag`` of the robust NLP for ``nlpsol``: the single-weather NLP's leg-by-leg
     derivative cores (:func:`formulations._nlp_model.structured_cores`) evaluated per member at that member's
     variables and with that member's weather Taylor data, scattered into the stacked problem.
@@ -183,24 +183,6 @@ class _MemberDerivatives(ca.Callback):
         ca.Callback.__init__(self)
         self._core, self._taylors, self._index, self._names, self._hessian = core, taylors, index, names, hessian
         self.construct(name, {})
-
-    def get_n_in(self) -> int:
-        return len(self._names[0])
-
-    def get_n_out(self) -> int:
-        return len(self._names[1])
-
-    def get_name_in(self, i: int) -> str:
-        return self._names[0][i]
-
-    def get_name_out(self, i: int) -> str:
-        return self._names[1][i]
-
-    def get_sparsity_in(self, i: int) -> Any:
-        return self._core.sparsity_in(i)
-
-    def get_sparsity_out(self, i: int) -> Any:
-        return self._core.sparsity_out(i)
 
     def eval(self, arg: list[Any]) -> list[Any]:
         x = np.asarray(arg[0], dtype=float).ravel()
