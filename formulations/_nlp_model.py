@@ -44,6 +44,7 @@ __all__ = [
     "ABS_EPS_KN",
     "power_ratio",
     "row_blocks",
+    "row_bounds",
     "sample_physics",
     "side_free_row",
     "StructuredCores",
@@ -713,3 +714,33 @@ def row_blocks(mdl: dict[str, Any], t: Any, *, bands: bool, current: bool, exclu
     if exclusion:
         add("excl", mdl["excl_res"])
     return parts, rows
+
+
+def row_bounds(
+    rows: dict[str, tuple[int, int]],
+    n_rows: int,
+    power: Any,
+    *,
+    band: tuple[Any, Any] | None,
+    sog_min_kn: float | None,
+    exclusion: bool,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper bounds of :func:`row_blocks`' rows: the dynamics equal 0, the engine load in
+    [``power.min_load``, ``power.max_load``], the band residuals in ``band`` (lower, upper; None: no band rows),
+    the drift angle within 60° (``|sin| ≤ √0.75``) and SOG ≥ ``sog_min_kn`` [kn] (None: no current rows), the
+    exclusion residuals ≥ 0. Rows past the blocks (``n_rows`` beyond the last block: a caller's own rows) are 0."""
+    lbg, ubg = np.zeros(n_rows), np.zeros(n_rows)
+
+    def set_rows(name: str, lo: Any, hi: Any) -> None:
+        a, b = rows[name]
+        lbg[a:b], ubg[a:b] = lo, hi
+
+    set_rows("load", power.min_load, power.max_load)
+    if band is not None:
+        set_rows("band", *band)
+    if sog_min_kn is not None:
+        set_rows("drift", -np.sqrt(0.75), np.sqrt(0.75))
+        set_rows("sog", sog_min_kn, np.inf)
+    if exclusion:
+        set_rows("excl", 0.0, np.inf)
+    return lbg, ubg

@@ -39,7 +39,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from formulations._nlp_model import row_blocks, side_free_row, structured_derivatives
+from formulations._nlp_model import row_blocks, row_bounds, side_free_row, structured_derivatives
 from formulations.common import FormulationInputError, broadcast_legs
 from formulations.speed_nlp import IPOPT_DEFAULTS, SpeedNLP
 
@@ -254,21 +254,10 @@ class Phase1Problem:
         t0 = nlp.consistent_times(y0, v0) if time0_h is None else broadcast_legs(time0_h, n + 1, "time0_h")
         edge = [b.lower if np.isfinite(b.lower) else b.upper for b in nlp.bands]  # a one-edge band's residual
         p = np.concatenate([[0.0, 0.0], np.repeat(edge, k_), nlp.leg_power_factor])
-        lbg, ubg = np.zeros(self._ng + 1), np.zeros(self._ng + 1)
-
-        def set_rows(name: str, lo: Any, hi: Any) -> None:
-            a, b = self._rows[name]
-            lbg[a:b], ubg[a:b] = lo, hi
-
-        pw = nlp.power
-        set_rows("load", pw.min_load, pw.max_load)
-        if nb:
-            set_rows("band", -np.inf, np.where(np.transpose(app.reshape(k_, nb)).ravel(), 0.0, np.inf))
-        if nlp.has_current_rows:
-            set_rows("drift", -np.sqrt(0.75), np.sqrt(0.75))
-            set_rows("sog", nlp.sog_min_kn, np.inf)
-        if ne:
-            set_rows("excl", 0.0, np.inf)
+        band = (-np.inf, np.where(np.transpose(app.reshape(k_, nb)).ravel(), 0.0, np.inf)) if nb else None
+        lbg, ubg = row_bounds(self._rows, self._ng + 1, nlp.power, band=band,
+                              sog_min_kn=nlp.sog_min_kn if nlp.has_current_rows else None,
+                              exclusion=bool(ne))  # fmt: skip
         lbg[-1], ubg[-1] = -np.inf, (np.inf if eta_h is None else float(eta_h))
         t_hi = np.full(n + 1, np.inf)
         t_hi[0] = 0.0

@@ -63,7 +63,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from formulations._buffers import CoreCallback, WeatherValues
-from formulations._nlp_model import row_blocks, structured_cores
+from formulations._nlp_model import row_blocks, row_bounds, structured_cores
 from formulations.common import (
     G_OVER_2PI_KN_S,
     Band,
@@ -478,19 +478,14 @@ class RobustSpeedNLP:
             base = k * self._ng_member
             beta, band_lo, band_hi = self.template.band_edges(sides[k], applies[k])
             betas.append(beta)
-            bounds = {"load": (self.power.min_load, self.power.max_load), "band": (band_lo, band_hi)}
-            bounds |= {
-                "drift": (-np.sqrt(0.75), np.sqrt(0.75)),
-                "sog": (self.sog_min_kn, np.inf),
-                "excl": (0.0, np.inf),
-            }
-            for name, (a, b) in self._rows.items():
-                if name == "dyn":
-                    continue
-                lo, hi = bounds[name]
-                if dropped[k] and name in _SAFETY_ROWS:
-                    lo, hi = -np.inf, np.inf
-                lbg[base + a : base + b], ubg[base + a : base + b] = lo, hi
+            rows = self._rows
+            lo, hi = row_bounds(rows, self._ng_member, self.power, band=(band_lo, band_hi) if "band" in rows else None,
+                                sog_min_kn=self.sog_min_kn if "sog" in rows else None,
+                                exclusion="excl" in rows)  # fmt: skip
+            for name in _SAFETY_ROWS if dropped[k] else ():
+                r0, r1 = rows.get(name, (0, 0))
+                lo[r0:r1], hi[r0:r1] = -np.inf, np.inf
+            lbg[base : base + self._ng_member], ubg[base : base + self._ng_member] = lo, hi
         if self.risk == "cvar":
             a, b = self._cvar_rows
             lbg[a:b], ubg[a:b] = 0.0, np.inf

@@ -79,6 +79,7 @@ from formulations._buffers import SharedMap, WeatherValues
 from formulations._nlp_model import (
     jit_compiler,
     row_blocks,
+    row_bounds,
     sample_physics,
     structured_derivatives,
 )
@@ -381,8 +382,13 @@ class SpeedNLP:
         if not np.isin(side_arr, (-1, 1)).all():
             raise FormulationInputError("sides must be -1 (ratio <= lower) or +1 (ratio >= upper)")
         beta3 = np.where(side_arr < 0, lower[None, None, :], upper[None, None, :])
-        if (app_arr & ~np.isfinite(beta3)).any():
-            raise FormulationInputError("a band constraint is imposed on a side whose edge is infinite")
+        bad = app_arr & ~np.isfinite(beta3)
+        if bad.any():
+            k, j, b = np.argwhere(bad)[0]
+            raise FormulationInputError(
+                f"band {self.bands[b].name or b} has no side {int(side_arr[k, j, b])} (its edge is infinite): "
+                f"leg {k}, sample {j}"
+            )
         beta3 = np.where(np.isfinite(beta3), beta3, 0.0)
         beta = np.transpose(beta3.reshape(k_, nb)).ravel()
         s_flat = np.transpose(side_arr.reshape(k_, nb)).ravel()
@@ -684,27 +690,7 @@ class SpeedNLP:
             applies = d_app if applies is None else applies
         side_arr = np.zeros((n, m, nb), dtype=np.int8) if nb == 0 else np.asarray(sides).astype(np.int8)
         app_arr = np.zeros((n, m, nb), dtype=bool) if nb == 0 else np.asarray(applies, dtype=bool)
-        if side_arr.shape != (n, m, nb) or app_arr.shape != (n, m, nb):
-            raise FormulationInputError(
-                f"sides and applies must have shape {(n, m, nb)}, got {side_arr.shape} and {app_arr.shape}"
-            )
-        lower = np.array([b.lower for b in self.bands])
-        upper = np.array([b.upper for b in self.bands])
-        if nb:
-            if not np.isin(side_arr, (-1, 1)).all():
-                raise FormulationInputError("sides must be -1 (ratio <= lower) or +1 (ratio >= upper)")
-            beta3 = np.where(side_arr < 0, lower[None, None, :], upper[None, None, :])
-            bad = app_arr & ~np.isfinite(beta3)
-            if bad.any():
-                k, j, b = np.argwhere(bad)[0]
-                raise FormulationInputError(
-                    f"band {self.bands[b].name or b} has no side {int(side_arr[k, j, b])} (its edge is infinite): "
-                    f"leg {k}, sample {j}"
-                )
-            beta3 = np.where(np.isfinite(beta3), beta3, 0.0)
-        else:
-            beta3 = np.zeros((n, m, 0))
-        beta = np.transpose(beta3.reshape(k_, nb)).ravel()  # band-major
+        beta, band_lo, band_hi = self.band_edges(side_arr, app_arr)  # band-major
         # variable bounds
         cor = self.corridor
         y_lo, y_hi = cor.offset_bounds()
@@ -720,26 +706,9 @@ class SpeedNLP:
         lbx = np.concatenate([y_lo, self.v_min_kn, t_lo])
         ubx = np.concatenate([y_hi, self.v_max_kn, t_hi])
         x0 = np.clip(x0, lbx, ubx)
-        lbg = np.zeros(self._ng)
-        ubg = np.zeros(self._ng)
-
-        def set_rows(name: str, lo: Any, hi: Any) -> None:
-            a, b = self._rows[name]
-            lbg[a:b], ubg[a:b] = lo, hi
-
-        pw = self.power
-        set_rows("load", pw.min_load, pw.max_load)
-        if nb:
-            s_flat = np.transpose(side_arr.reshape(k_, nb)).ravel()
-            a_flat = np.transpose(app_arr.reshape(k_, nb)).ravel()
-            set_rows(
-                "band", np.where(a_flat & (s_flat > 0), 0.0, -np.inf), np.where(a_flat & (s_flat < 0), 0.0, np.inf)
-            )
-        if self._has_current:
-            set_rows("drift", -np.sqrt(0.75), np.sqrt(0.75))  # drift angle ≤ 60°
-            set_rows("sog", self.sog_min_kn, np.inf)
-        if self.exclusion is not None:
-            set_rows("excl", 0.0, np.inf)
+        lbg, ubg = row_bounds(self._rows, self._ng, self.power, band=(band_lo, band_hi) if nb else None,
+                              sog_min_kn=self.sog_min_kn if self._has_current else None,
+                              exclusion=self.exclusion is not None)  # fmt: skip
         p = np.concatenate([weights, beta, self._factor_parameter()])
         started = time.perf_counter()
         sol = self._solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
