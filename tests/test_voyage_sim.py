@@ -231,6 +231,18 @@ def test_the_replanning_voyage_avoids_the_band_and_keeps_the_eta(storm_voyages):
     assert o.eta_met or (o.earliest_arrival is not None and o.arrival <= o.earliest_arrival + np.timedelta64(1, "h"))
 
 
+def test_the_replan_minimises_fuel_to_the_eta_rather_than_racing(storm_voyages):
+    # Fuel per mile rises with the speed, so a least-fuel plan by an ETA that can be met uses the time it has: the
+    # re-plan (its fuel solve fails in the storm; the minimum-time plan, racing south of it at 25-26 kn, arrives
+    # 17.5 h early on 139 t) is solved again from the 3-D DP's start, which passes the other side by the ETA.
+    _, _, blind, replanned = storm_voyages
+    o, eta = replanned.outcome, T0 + np.timedelta64(42, "h")
+    last = replanned.plans[-1]
+    assert o.eta_met and o.arrival >= eta - np.timedelta64(1, "h")
+    assert last.verify() == [] and last.solver_stats["start"] == "3-D DP" and "after_failure" in last.solver_stats
+    assert o.fuel_t < 2.0 * blind.outcome.fuel_t
+
+
 # --------------------------------------------------------------------------- the command line and the files
 
 

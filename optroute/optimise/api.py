@@ -529,18 +529,47 @@ def _from_minimum_time(prepared: Any, eta: Any, fast: Plan, route, kw: dict[str,
     return _restamp(prepared, fast, eta, kw["eta_mode"], f"the minimum-time plan, which meets the ETA: {why}")
 
 
+def _with_discrete_start(prepared: Any, eta: Any, route, kw: dict[str, Any], exc: SolverFailure) -> Plan | None:
+    """The ETA solved again with the 3-D DP among the starts (:mod:`optroute.optimise.starts`), when the call had
+    not asked for it and the corridor allows it; its verified plan (or its failure's), else None."""
+    from optroute.optimise.starts import great_circle_corridor
+
+    if prepared.discrete_start or not great_circle_corridor(prepared.frame):
+        return None
+    prepared.discrete_start = True
+    try:
+        plan = prepared.solve(eta, route=route, **kw)
+    except (InfeasibleETA, SolverFailure) as again:
+        plan = again.best_plan
+    finally:
+        prepared.discrete_start = False
+    if plan is None or not _meets(plan, prepared, eta, kw["eta_mode"]):
+        return None
+    stats = dict(plan.solver_stats)
+    stats["after_failure"] = f"solved again with the 3-D DP's start after SolverFailure: {exc}"
+    return replace(plan, solver_stats=stats)
+
+
 def _after_failure(prepared: Any, eta: Any, exc: SolverFailure, route, kw: dict[str, Any]) -> Plan:
     """A SolverFailure turned into the truth: a verified plan, InfeasibleETA, NoSafePassage or coverage."""
     from optroute.optimise.starts import score
 
     eta_mode, objective = kw["eta_mode"], kw["objective"]
     verified = [p for p in (exc.best_plan,) if p is not None and _meets(p, prepared, None, "le")]
+    resolved = None
     if objective != "time":
         fast = _minimum_time_plan(prepared, route)
         verified += [fast] if fast is not None else []
+        if fast is not None and eta is not None and _meets(fast, prepared, eta, eta_mode):
+            # the ETA can be met, but only the race to the minimum-time plan's early arrival was found: solved
+            # again from the 3-D DP's start, which can take another side of a storm than the local starts
+            resolved = _with_discrete_start(prepared, eta, route, kw, exc)
+            verified += [resolved] if resolved is not None else []
     meeting = [p for p in verified if eta is None or _meets(p, prepared, eta, eta_mode)]
     if meeting:
         best = min(meeting, key=lambda p: score(p, objective, prepared.fuel_price, prepared.hourly))
+        if best is resolved:  # its own status and reason: the solve from the DP's start
+            return best
         return _restamp(prepared, best, eta, eta_mode, f"the best verified plan the call found; SolverFailure: {exc}")
     if eta is not None and verified and eta_mode == "le":
         raise _infeasible(prepared, eta, verified) from exc
