@@ -46,13 +46,7 @@ def _members(n: int) -> tuple[Any, list, Any, Any]:
     )
     ens = sc.ensemble(bv._storm_dataset, n, seed=1, storms=first, background_hs_m=1.5, **bv.ENSEMBLE, **bv.KW)
     corridor = orx.Corridor.from_waypoints([bv.A, bv.B], width_nm=bv.ROBUST_WIDTH_NM)
-    o = bv.OPTS
-    shared = {
-        "departure": bv.T0, "latest_eta": bv.ETA, "objective": "fuel", "model": None, "rules": None,
-        "max_leg_nm": o["max_leg_nm"], "samples_per_leg": o["samples_per_leg"], "fuel_price_per_t": 600.0,
-        "hourly_cost_per_h": 0.0, "exclusion": None, "speed_range_kn": None, "band_margin": o["band_margin"],
-        "band_hs_margin": o["band_hs_margin"], "verify_step_nm": 5.0, "use_land_mask": False,
-    }  # fmt: skip
+    shared = bv.shared_options()
     cpu = time.process_time()
     prepared, y_lo, y_hi = prepare_members(corridor, member_datasets(ens), bv.SHIP, shared, 0)
     print(
