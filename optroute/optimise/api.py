@@ -410,8 +410,10 @@ def _solve_honestly(prepared: Any, eta: Any, *, eta_mode: str, objective: str, w
       (verified); when that plan meets the ETA after all, the ETA is solved again from it and the
       better of the two is returned (never the error).
     * :class:`SolverFailure`: a verified plan that meets the ETA (the error's best plan, the
-      minimum-time plan) is returned with ``status="start"`` and the failure in
-      ``solver_stats["status_reason"]``; when the minimum-time plan arrives after the ETA it is
+      minimum-time plan, or — when the minimum-time plan meets the ETA and the call had not asked
+      for it — the ETA solved again with the 3-D DP among the starts, its failure in
+      ``solver_stats["after_failure"]``) is returned, the best by the objective; the first two with
+      ``status="start"`` and the failure in ``solver_stats["status_reason"]``; when the minimum-time plan arrives after the ETA it is
       :class:`InfeasibleETA`; a cross-section where no speed is allowed at any time is
       :class:`NoSafePassage`; weather-coverage violations are :class:`WeatherCoverageError`.
     """
