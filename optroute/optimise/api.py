@@ -410,8 +410,8 @@ def _solve_honestly(prepared: Any, eta: Any, *, eta_mode: str, objective: str, w
       (verified); when that plan meets the ETA after all, the ETA is solved again from it and the
       better of the two is returned (never the error).
     * :class:`SolverFailure`: a verified plan that meets the ETA (the error's best plan, the
-      minimum-time plan, or — when the minimum-time plan meets the ETA and the call had not asked
-      for it — the ETA solved again with the 3-D DP among the starts, its failure in
+      minimum-time plan, or — when the minimum-time plan meets the ETA or there is none, and the call
+      had not asked for it — the ETA solved again with the 3-D DP among the starts, its failure in
       ``solver_stats["after_failure"]``) is returned, the best by the objective; the first two with
       ``status="start"`` and the failure in ``solver_stats["status_reason"]``; when the minimum-time plan arrives after the ETA it is
       :class:`InfeasibleETA`; a cross-section where no speed is allowed at any time is
@@ -562,9 +562,10 @@ def _after_failure(prepared: Any, eta: Any, exc: SolverFailure, route, kw: dict[
     if objective != "time":
         fast = _minimum_time_plan(prepared, route)
         verified += [fast] if fast is not None else []
-        if fast is not None and eta is not None and _meets(fast, prepared, eta, eta_mode):
-            # the ETA can be met, but only the race to the minimum-time plan's early arrival was found: solved
-            # again from the 3-D DP's start, which can take another side of a storm than the local starts
+        if eta is not None and (fast is None or _meets(fast, prepared, eta, eta_mode)):
+            # the ETA can be met but only by the race to the minimum-time plan's early arrival, or no passage was
+            # found at all: solved again from the 3-D DP's start, which can take another side of a storm than the
+            # local starts
             resolved = _with_discrete_start(prepared, eta, route, kw, exc)
             verified += [resolved] if resolved is not None else []
     meeting = [p for p in verified if eta is None or _meets(p, prepared, eta, eta_mode)]
