@@ -54,3 +54,36 @@ def test_table_on_reach_windows_equals_the_whole_grid_table_wherever_the_ship_ca
     late = np.vstack([np.full(50, whole.t_h[-1]), np.linspace(0.0, 40.0, 50), np.zeros(50)])
     assert np.isfinite(part.tensor_spline().evaluate(late)).all()
     assert not np.allclose(part.tensor_spline().evaluate(late), whole.tensor_spline().evaluate(late))
+
+
+def test_sample_error_weighs_each_legs_samples_by_their_time_worked_by_hand() -> None:
+    # two legs of two samples; the model's power at each sample worked from its own arguments (IMO relative wave
+    # angle from heading and wave direction), the NLP's power off it by chosen factors
+    from optroute.optimise.power_table import sample_error
+    from optroute.physics.passage import SeaState
+
+    model = KwonModel(SHIP)
+    base, _ = baseline_power_model(model, v_min_kn=3.0, v_max_kn=24.0, min_load=0.1)
+    sea = SeaState.from_sample({"hs_m": np.full((2, 2), 4.0), "tp_s": 9.0, "wave_from_deg": 0.0})  # wind unknown
+    heading = np.array([[0.0, 40.0], [180.0, 100.0]])  # α = 0 (head), 320 (bow, folded 40), 180, 260 (beam)
+    stw = np.array([14.0, 18.0])
+    alpha = (0.0 - heading) % 360.0
+    p_model = np.array(
+        [
+            [float(model.brake_power_kw(stw[i], hs_m=4.0, wave_angle_deg=alpha[i, j])) for j in range(2)]
+            for i in range(2)
+        ]
+    )
+    factor = np.array([[1.10, 1.00], [0.95, 0.90]])
+    power = p_model * factor
+    rate = np.asarray(model.fuel_rate_tph(power), dtype=float)
+    w = np.array([[0.5 / 12.0, 0.5 / 16.0], [0.25 / 17.0, 0.75 / 19.0]])  # weight over SOG [h/nm]
+    got = sample_error(model, base, sea, heading, stw, power, rate, w)
+    model_rate = np.asarray(model.fuel_rate_tph(p_model), dtype=float)
+    legs = (rate * w).sum(axis=1) / (model_rate * w).sum(axis=1) - 1.0
+    assert got["max_leg_rel_error"] == pytest.approx(legs[np.argmax(np.abs(legs))], rel=1e-12)
+    assert got["worst_leg"] == int(np.argmax(np.abs(legs)))
+    assert got["mean_abs_leg_rel_error"] == pytest.approx(np.mean(np.abs(legs)), rel=1e-12)
+    assert got["max_sample_rel_error"] == pytest.approx(0.10, rel=1e-9)
+    assert got["mean_abs_sample_rel_error"] == pytest.approx(0.0625, rel=1e-9)
+    assert got["capped_samples"] == 0 and got["samples"] == 4
