@@ -150,11 +150,11 @@ def test_storm_crossing_nlp_from_the_dp_is_no_worse_than_the_finest_dp_by_the_re
 
 @pytest.mark.xfail(
     strict=True,
-    reason="not done: from the centreline alone Ipopt stays in the storm's other basin (77.3 t, the table accurate "
-    "there to -0.14 %); the DP's basin (74.6 t by the referee) looks worse to the NLP because the smooth table "
-    "overestimates the model there: 79.8 t against the referee's 75.6 t on the DP's own track, up to +34 % on the "
-    "legs that sail at alpha 31-37 deg, just on the bow side of Kwon's head/bow sector edge at 30 deg, where the "
-    "spline over +-2 heading nodes (+-30 deg) mixes in head-sea power (benchmarks.bench_nlp --crossing)",
+    reason="not done: from the centreline alone Ipopt stays in the storm's other basin (78.65 t against the DP's "
+    "77.68 t by the referee); the DP's basin looks worse to the NLP because the smooth table overestimates the model "
+    "there: 80.53 t against the referee's 76.97 t on the DP's own track, +30 % on its worst leg at the NLP's own "
+    "samples (solver_stats['start_tabulation']); its legs at alpha 31-37 deg sit just on the bow side of Kwon's "
+    "head/bow sector edge at 30 deg, where the spline over +-2 heading nodes (+-30 deg) mixes in head-sea power",
 )
 def test_storm_crossing_nlp_from_the_centreline_is_no_worse_than_the_finest_dp_by_the_referee(crossing: dict) -> None:
     assert crossing["alone"].total_fuel_t <= crossing["dp_plan"].total_fuel_t
