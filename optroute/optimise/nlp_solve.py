@@ -2,8 +2,9 @@
 
 * :class:`Problem` holds the domain → formulation adapters of one call (:mod:`optroute.optimise.nlp_inputs`)
   and builds and solves :class:`formulations.speed_nlp.SpeedNLP` with the disjunctive outer loop
-  (:func:`formulations.disjunctive.improve_sides`); :class:`Tightening` is what the verification
-  loop changes between solves.
+  (:func:`formulations.disjunctive.improve_sides`), which tries only the side flips the Lagrangian
+  estimate of each solve (:func:`flip_gains`) does not rule out; :class:`Tightening` is what the
+  verification loop changes between solves.
 * Warm starts: a search route's speeds (:func:`route_warm_start`), Boeing's speed reduction leg by
   leg with the true model (:func:`safe_warm_start`), moved clear of an exclusion circle
   (:func:`clear_of_exclusion`).
