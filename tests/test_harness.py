@@ -110,3 +110,25 @@ def test_a_fuel_plan_is_not_worse_than_the_minimum_time_plan_at_its_eta():
     r = run_case(make_case(51))
     assert r.outcomes == {"time": "plan:mended", "fuel": "plan:optimal"}, r.messages
     assert all(not f for f in r.findings.values()), r.findings  # fuel_worse included
+
+
+def test_a_passage_the_backed_off_bands_close_still_gets_a_verified_start():
+    """Harness seed 22 (the 25k dwt cargo ship by a moving storm, minimum time): with the NLP's backed-off bands the
+    timed centreline start met a dead end 139-186 nm along, no start verified, and the call ended in SolverFailure
+    with no plan. With the true bands the timed start arrives 20.58 h and passes the referee and the independent
+    0.1 nm check; an independent brute force (every 0.25 kn, 2 nm, 0.25 h, the engine's range included) finds the
+    earliest safe arrival on the centreline at 20.53 h, so nothing much earlier was missed."""
+    from optroute.optimise.corridor_problem import PreparedCorridor
+    from tests.harness import case_weather
+
+    case = make_case(22)
+    ship, wx = orx.Ship.preset(case.ship), case_weather(case)
+    corridor = orx.Corridor.from_waypoints(np.array(case.waypoints), width_nm=case.width_nm)
+    prepared = PreparedCorridor(corridor, wx, ship, departure=T0, objective="time")
+    cands = prepared.starts(
+        prepared.plan_context(), cap_h=None, objective="time", warm_plan=None, route=None, st=prepared._tightening()
+    )
+    plan = cands[0].plan
+    assert plan is not None and plan.verify() == []
+    assert check_plan(plan, wx, ship) == ([], 0)
+    assert 20.53 <= plan.duration_h <= 20.53 + 0.5
