@@ -414,6 +414,11 @@ def _solve_honestly(prepared: Any, eta: Any, *, eta_mode: str, objective: str, w
       ``solver_stats["status_reason"]``; when the minimum-time plan arrives after the ETA it is
       :class:`InfeasibleETA`; a cross-section where no speed is allowed at any time is
       :class:`NoSafePassage`; weather-coverage violations are :class:`WeatherCoverageError`.
+    * A plan for an ETA on which the NLP did not improve on its start (status ``"start"``) is never worse
+      than the minimum-time plan when that meets the ETA (:func:`_not_worse_than_minimum_time`).
+
+    The minimum-time plan is the one :func:`optimise_corridor` gives for ``objective="time"`` without an ETA
+    (:meth:`PreparedCorridor.minimum_time_twin`), solved once per prepared corridor.
     """
     _check_time_span(prepared, eta, objective)
     kw = {"eta_mode": eta_mode, "objective": objective, "progress": progress}
