@@ -444,24 +444,47 @@ def _solve_honestly(prepared: Any, eta: Any, *, eta_mode: str, objective: str, w
     return _not_worse_than_minimum_time(prepared, eta, plan, route, kw)
 
 
+#: A start arriving earlier than the ETA by more than this share of its passage is a race (fuel per mile rises with
+#: speed): the DP's start is tried against it.
+RACE_SPARE = 0.05
+
+
 def _not_worse_than_minimum_time(prepared: Any, eta: Any, plan: Plan, route, kw: dict[str, Any]) -> Plan:
     """An ETA's plan where the NLP did not improve on its start (status ``"start"``), checked against the
     minimum-time plan: when that one meets the ETA on a better score, the ETA is solved again from it and the
     better of the two returned (:func:`_from_minimum_time`). The audit's case (issue 14 failure 5): a least-fuel
-    plan of 300.4 t arriving 38 h later than the minimum-time plan, which met the same ETA on 288.2 t.
+    plan of 300.4 t arriving 38 h later than the minimum-time plan, which met the same ETA on 288.2 t. Then the
+    ETA is solved again with the 3-D DP among the starts (:func:`_with_discrete_start`) and the better kept, when
+    the start races (arrives more than :data:`RACE_SPARE` of its passage before the ETA).
     """
     from optroute.optimise.starts import score
 
     if eta is None or kw["objective"] == "time" or plan.status != "start":
         return plan
-    fast = _minimum_time_plan(prepared, route)
-    if fast is None or not _meets(fast, prepared, eta, kw["eta_mode"]):
-        return plan
     objective, price, hourly = kw["objective"], prepared.fuel_price, prepared.hourly
-    if score(fast, objective, price, hourly) >= score(plan, objective, price, hourly):
+    fast = _minimum_time_plan(prepared, route)
+    if (
+        fast is not None
+        and _meets(fast, prepared, eta, kw["eta_mode"])
+        and score(fast, objective, price, hourly) < score(plan, objective, price, hourly)
+    ):
+        why = f"the minimum-time plan meets the ETA on less than the start the NLP did not improve on ({plan.total_fuel_t:.6g} t)"
+        plan = _from_minimum_time(prepared, eta, fast, route, kw, why)
+    # a start the NLP could not improve on, often a race past a storm: solved again from the 3-D DP's start, which
+    # can take the other side of it (bench_voyage's 300 nm north re-plan: 119.2 t arriving 20 h early, DP 56.9 t)
+    spare_h = units.timedelta_to_h(units.as_utc_time(eta, "eta") - plan.arrival)
+    if spare_h <= RACE_SPARE * plan.duration_h:  # it uses the time it has: no race to replace
         return plan
-    why = f"the minimum-time plan meets the ETA on less than the start the NLP did not improve on ({plan.total_fuel_t:.6g} t)"
-    return _from_minimum_time(prepared, eta, fast, route, kw, why)
+    again = _with_discrete_start(
+        prepared,
+        eta,
+        route,
+        kw,
+        f"the NLP did not improve on its start ({plan.total_fuel_t:.6g} t, {spare_h:.3g} h early)",
+    )
+    if again is not None and score(again, objective, price, hourly) < score(plan, objective, price, hourly):
+        return again
+    return plan
 
 
 def _check_time_span(prepared: Any, eta: Any, objective: str) -> None:
@@ -586,7 +609,7 @@ def _from_minimum_time(prepared: Any, eta: Any, fast: Plan, route, kw: dict[str,
     return _restamp(prepared, fast, eta, kw["eta_mode"], f"the minimum-time plan, which meets the ETA: {why}")
 
 
-def _with_discrete_start(prepared: Any, eta: Any, route, kw: dict[str, Any], exc: SolverFailure) -> Plan | None:
+def _with_discrete_start(prepared: Any, eta: Any, route, kw: dict[str, Any], exc: Any) -> Plan | None:
     """The ETA solved again with the 3-D DP among the starts (:mod:`optroute.optimise.starts`), when the call had
     not asked for it and the corridor allows it; its verified plan (or its failure's), else None."""
     from optroute.optimise.starts import great_circle_corridor
@@ -603,7 +626,7 @@ def _with_discrete_start(prepared: Any, eta: Any, route, kw: dict[str, Any], exc
     if plan is None or not _meets(plan, prepared, eta, kw["eta_mode"]):
         return None
     stats = dict(plan.solver_stats)
-    stats["after_failure"] = f"solved again with the 3-D DP's start after SolverFailure: {exc}"
+    stats["after_failure"] = f"solved again with the 3-D DP's start after: {exc}"
     return replace(plan, solver_stats=stats)
 
 
