@@ -31,7 +31,7 @@ import numpy as np
 from optroute import units
 from optroute._numba import jit
 from optroute.physics.pointwise import allowed_speed, cost_rate_floor, evaluate_speed, stw_for_sog
-from optroute.search.edge_geometry import piece_point
+from optroute.search.edge_geometry import frame_point, piece_frame
 from optroute.search.refine_kernels import piece_clear
 from optroute.search.refine_kernels import workspace as refine_workspace
 from optroute.weather.sample import N_POINT_FIELDS, sample_at
@@ -215,7 +215,7 @@ def cost_leg(
     there [deg true] and ``length`` [nm] (:func:`optroute.search.edge_geometry.edge_pieces`);
     ``check_nm`` <= 0 proposes and keeps each piece's speed at its midpoint
     only, else the speed is checked at :func:`check_count` points along the
-    piece (:func:`optroute.search.edge_geometry.piece_point`) and between them by the referee's rules
+    piece (:func:`optroute.search.edge_geometry.frame_point`, one frame per piece) and between them by the referee's rules
     (``refine``: :func:`optroute.search.refine_kernels.workspace`).  See :func:`cost_legs`.
     """
     checked = check_nm > 0.0
@@ -246,8 +246,9 @@ def cost_leg(
             fu += f0 * d
             continue
         npts = check_count(length[k], check_nm)
+        frame = piece_frame(lat[k], lon[k], course[k])
         for j in range(npts):
-            la[j], lo[j], crs[j] = piece_point(lat[k], lon[k], course[k], (j / (npts - 1.0) - 0.5) * length[k])
+            la[j], lo[j], crs[j] = frame_point(frame, (j / (npts - 1.0) - 0.5) * length[k])
         s_pts[0] = 0.0
         for j in range(npts - 1):
             seg[j] = ((j + 1.0) / (npts - 1.0) - j / (npts - 1.0)) * length[k]
@@ -386,13 +387,14 @@ def _dp_piece_clear(p, w, la, lo, crs, length, t_mid, sog_kn, work):  # pragma: 
     _, sea_pts, pts, ws, sl, scratch = work
     s_pts, t_pts, la_pts, lo_pts, crs_pts = pts[0], pts[1], pts[2], pts[3], pts[4]
     uncovered = 0
+    frame = piece_frame(la, lo, crs)
     for j in range(3):
         s_pts[j] = 0.5 * length * j
         t_pts[j] = t_mid + (s_pts[j] - 0.5 * length) / sog_kn
         if j == 1:
             la_pts[j], lo_pts[j], crs_pts[j] = la, lo, crs
         else:
-            la_pts[j], lo_pts[j], crs_pts[j] = piece_point(la, lo, crs, s_pts[j] - 0.5 * length)
+            la_pts[j], lo_pts[j], crs_pts[j] = frame_point(frame, s_pts[j] - 0.5 * length)
         sea = sea_pts[j]
         if not sample_at(w[0], w[1], w[2], w[3], w[4], w[5], t_pts[j], la_pts[j], lo_pts[j], sea):
             uncovered += 1
