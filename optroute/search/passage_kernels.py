@@ -207,9 +207,16 @@ def check_count(length_nm, check_nm):  # pragma: no cover - compiled
 
 @jit
 def cost_leg(
-    p, w, mode, check_nm, speeds, lam, desired, step, vmin, lat, lon, course, length, n_pieces, t0_h, refine
+    p, w, mode, check_nm, speeds, lam, desired, step, vmin, lat, lon, course, length, n_pieces, t0_h, refine, stop
 ):  # pragma: no cover - compiled
     """Duration [h], fuel [t], feasibility and uncovered points of one leg, walked piece by piece in time.
+
+    ``stop = (label_u, label_v, time_objective, rest_h_per_nm)`` lets the search drop a leg that cannot
+    improve its destination: once ``label_u`` + the cost so far (the duration, or fuel + λ·duration)
+    + ``rest_h_per_nm`` times the length still to sail exceeds ``label_v``, the leg's full cost would too
+    (both parts only grow; ``rest_h_per_nm`` a lower bound on the hours per nm of any piece, 0 for the cost
+    objectives), so the search's label update (strictly better only) would not take it: it is returned
+    infeasible.  ``label_v = inf`` costs every leg in full.
 
     The leg's pieces are given by their midpoints ``lat, lon`` [deg], the course
     there [deg true] and ``length`` [nm] (:func:`optroute.search.edge_geometry.edge_pieces`);
@@ -232,7 +239,11 @@ def cost_leg(
     t = t0_h
     fu = 0.0
     uncovered = 0
+    label_u, label_v, time_obj, rest_rate = stop
     for k in range(n_pieces):
+        rest = 0.0
+        for q in range(k + 1, n_pieces):
+            rest += length[q]  # (summed afresh: exactly 0 after the last piece)
         stw0, sog0, f0, go, cov = _first_choice(
             p, w, mode, speeds, lam, desired, step, vmin, lat[k], lon[k], course[k], t, sea
         )
@@ -244,6 +255,8 @@ def cost_leg(
             d = length[k] / sog0
             t += d
             fu += f0 * d
+            if label_u + ((t - t0_h) if time_obj else fu + lam * (t - t0_h)) + rest_rate * rest > label_v:
+                return np.nan, np.nan, False, uncovered
             continue
         npts = check_count(length[k], check_nm)
         frame = piece_frame(lat[k], lon[k], course[k])
@@ -262,6 +275,8 @@ def cost_leg(
             return np.nan, np.nan, False, uncovered
         t += d
         fu += f
+        if label_u + ((t - t0_h) if time_obj else fu + lam * (t - t0_h)) + rest_rate * rest > label_v:
+            return np.nan, np.nan, False, uncovered
     return t - t0_h, fu, True, uncovered
 
 
@@ -305,10 +320,11 @@ def cost_legs(
     feas = np.zeros(n, dtype=np.bool_)
     uncovered = 0
     refine = refine_workspace(check_nm > 0.0)
+    full = (0.0, np.inf, True, 0.0)  # every leg costed in full
     for i in range(n):
         d, f, ok, unc = cost_leg(
             p, w, mode, check_nm, speeds, lam, desired, step, vmin, mid_lat[i], mid_lon[i], mid_course[i],
-            length[i], n_pieces[i], t0_h[i], refine,
+            length[i], n_pieces[i], t0_h[i], refine, full,
         )  # fmt: skip
         uncovered += unc
         if ok:
