@@ -205,7 +205,12 @@ def optimise_corridor(
         ``start``, ``start_score``, ``starts`` (every candidate's score by the referee, inf unverified),
         ``nlp_score``; ``power_table`` (its speed and heading nodes, capped share, evaluations, the SFOC
         curve's error) and, for an NLP plan, ``tabulation`` (the NLP's fuel at its solution against the
-        referee's fuel of the same track and schedule: the measured tabulation error), ``outer_solves``,
+        referee's fuel of the same track and schedule: the measured tabulation error; and at the NLP's own
+        samples, its power and leg fuel against the model's in the referee's weather,
+        ``max_leg_rel_error``, ``worst_leg``, ``mean_abs_leg_rel_error``, ``max_sample_rel_error``,
+        ``mean_abs_sample_rel_error``, ``capped_samples``, ``samples``: the per-leg error of
+        :func:`optroute.optimise.power_table.sample_error`, stated bound
+        :data:`~optroute.optimise.power_table.LEG_BOUND`), ``outer_solves``,
         ``outer_flips``, ``outer_history``, ``sides_settled``, ``nlp_objective``, ``nlp_fuel_t``,
         ``nlp_max_violation``, ``frame_max_rel_distance_error``, ``bands``, ``certificate`` (fixed path
         in static weather without current: ``method`` ``"lagrangian dual"``, ``bound_t`` (``bound`` for
