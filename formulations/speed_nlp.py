@@ -635,6 +635,8 @@ class SpeedNLP:
         stw0_kn: ArrayLike | None = None,
         time0_h: ArrayLike | None = None,
         fix_offsets: bool = False,
+        time_lo_h: ArrayLike | None = None,
+        time_hi_h: ArrayLike | None = None,
     ) -> NLPResult:
         """Solve for one ETA, objective, band sides and warm start.
 
@@ -660,6 +662,10 @@ class SpeedNLP:
             speed that makes the ETA (clipped to the speed bounds), consistent times.
         fix_offsets : bool
             Hold the offsets at ``offset0_nm`` (a fixed path).
+        time_lo_h, time_hi_h : array_like, shape (N+1,), optional
+            Bounds on the waypoint times [h since departure] (``-inf`` / ``inf`` where none), beside
+            departure at 0 and the ETA: time windows, e.g. leave a leg before a moving no-go area
+            reaches it or enter it after the area has gone.
 
         Returns
         -------
@@ -707,6 +713,18 @@ class SpeedNLP:
             t_hi[n] = eta_h
             if eta_mode == "eq":
                 t_lo[n] = eta_h
+        if time_lo_h is not None:
+            t_lo = np.maximum(t_lo, broadcast_legs(time_lo_h, n + 1, "time_lo_h", finite=False))
+        if time_hi_h is not None:
+            t_hi = np.minimum(t_hi, broadcast_legs(time_hi_h, n + 1, "time_hi_h", finite=False))
+        if np.any(np.isnan(t_lo) | np.isnan(t_hi)):
+            raise FormulationInputError("time_lo_h / time_hi_h hold NaN; give -inf / inf where a waypoint has no bound")
+        if np.any(t_lo > t_hi):
+            k = int(np.argmax(t_lo > t_hi))
+            raise FormulationInputError(
+                f"waypoint {k}'s time bounds are empty: {t_lo[k]:.6g} h > {t_hi[k]:.6g} h (time_lo_h / time_hi_h "
+                "against departure and the ETA); relax the time windows or give a later ETA"
+            )
         lbx = np.concatenate([y_lo, self.v_min_kn, t_lo])
         ubx = np.concatenate([y_hi, self.v_max_kn, t_hi])
         x0 = np.clip(x0, lbx, ubx)

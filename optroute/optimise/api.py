@@ -81,6 +81,7 @@ def optimise_corridor(
     cvar_alpha: float = 0.0,
     violation_fraction: float = 0.0,
     constraint_rows: Literal["referee", "midpoints"] = "midpoints",
+    timed_no_passage: bool = False,
 ) -> Plan:
     """Optimise the waypoints and leg speeds inside a corridor: the corridor NLP, verified.
 
@@ -134,6 +135,13 @@ def optimise_corridor(
         For ``"cost"`` [currency/t], [currency/h].
     exclusion : Exclusion, optional
         A moving circle (storm, cyclone) to stay out of.
+    timed_no_passage : bool
+        The weather's no-passage cells that are NaN at some times only (a moving no-go area, as in
+        ``scenarios.shao_case``) become time windows on the NLP's waypoint times — leave each leg they
+        cross before they reach it, or enter it after they have gone, on the side the start passes
+        (:mod:`optroute.optimise.timed_no_go`) — instead of lateral bounds blocked over every time a
+        ship could be on the leg, which close a track that clears the area by its timing alone. Needs
+        ``weather`` as a dataset. Default False (lateral bounds).
     progress : callable, optional
         ``progress(stage, fraction)`` with ``fraction`` in [0, 1].
     speed_range_kn : (float, float), optional
@@ -267,6 +275,7 @@ def optimise_corridor(
         progress=progress,
         jit=jit,
         constraint_rows=constraint_rows,
+        timed_no_passage=timed_no_passage,
     )
     plan = _solve_honestly(
         prepared, eta, eta_mode=eta_mode, objective=objective, warm_plan=warm_plan, route=route, progress=progress

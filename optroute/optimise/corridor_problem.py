@@ -118,7 +118,7 @@ class PreparedCorridor(CorridorReport):
     corridor, weather, ship, departure, model, rules, max_leg_nm, samples_per_leg, fuel_price_per_t,
     hourly_cost_per_h, exclusion, speed_range_kn, band_solves, max_retries,
     band_margin, band_hs_margin, verify_step_nm, solver_options, use_land_mask, jit, discrete_start, dp_options,
-    constraint_rows
+    constraint_rows, timed_no_passage
         As in :func:`optroute.optimise_corridor`.
     latest_eta : datetime64 or str, optional
         The latest ETA to be solved [UTC]: the weather grid (and the ship's power table on it) runs
@@ -163,6 +163,7 @@ class PreparedCorridor(CorridorReport):
         discrete_start: bool = False,
         dp_options: Mapping[str, Any] | None = None,
         constraint_rows: str = "midpoints",
+        timed_no_passage: bool = False,
     ) -> None:
         # every argument, for the free-arrival minimum-time twin of this corridor (minimum_time_twin)
         self._arguments = {k: v for k, v in locals().items() if k not in ("self", "__class__")}
@@ -196,7 +197,7 @@ class PreparedCorridor(CorridorReport):
         su = prepare_corridor(
             corridor, weather, ship, t0=t0, eta_t=eta_t, objective=objective, model=model, rules=rules,
             max_leg_nm=max_leg_nm, exclusion=exclusion, speed_range_kn=speed_range_kn, use_land_mask=use_land_mask,
-            solver_options=solver_options, jit=jit, progress=progress,
+            solver_options=solver_options, jit=jit, progress=progress, timed_no_passage=bool(timed_no_passage),
         )  # fmt: skip
         self.setup = su
         self.corridor, self.ship, self.model, self.rules = corridor, ship, su.model, su.rules

@@ -27,6 +27,7 @@ from optroute import units
 from optroute.geo.tracks import Exclusion, gc_points, project_to_polyline
 from optroute.optimise.nlp_inputs import CorridorFrame, formulation_bands, moving_exclusion
 from optroute.optimise.rows import sample_layout
+from optroute.optimise.timed_no_go import NoPassageWindows
 from optroute.physics.passage import best_speed
 from optroute.physics.safety import BandRules
 from optroute.physics.ship import Ship
@@ -119,8 +120,10 @@ class Problem:
         departure: np.datetime64,
         solver_options: Mapping[str, Any] | None,
         jit: bool = False,
+        windows: NoPassageWindows | None = None,
     ) -> None:
         self.frame, self.grid, self.samples, self.power = frame, grid, samples, power
+        self.windows = windows  # a moving no-go area's time windows (optroute.optimise.timed_no_go), or None
         self.jit = bool(jit)
         self.ship, self.rules = ship, rules
         self.y_lo, self.y_hi = y_lo, y_hi
@@ -269,6 +272,8 @@ class Problem:
             v0 = np.clip(np.full(n, guess), nlp.v_min_kn, nlp.v_max_kn)
         t0 = nlp.consistent_times(y0, v0)
         kwargs.update(offset0_nm=y0, stw0_kn=v0, time0_h=t0)
+        if self.windows is not None and self.windows.legs.size:  # each leg passed on the warm start's side
+            kwargs["time_lo_h"], kwargs["time_hi_h"] = self.windows.time_bounds(self.windows.sides(t0))
         if nlp.n_bands == 0:
             res = nlp.solve(**kwargs)
             ok = bool(res.success and res.max_violation <= VIOLATION_TOL)
