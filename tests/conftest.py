@@ -124,3 +124,16 @@ def pytest_configure(config):
         config.issue_config_time_warning(
             pytest.PytestWarning(f"numba warm-up failed (tests/warm_kernels.py):\n{tail}"), 2
         )
+
+
+# ---------------------------------------------------------------------------
+# Weather built once per test process and shared by the files that need the same one (read only: the tests
+# sample it, none changes it). Under ``--dist loadfile`` two files on one worker share it; on two workers
+# each builds it once.
+# ---------------------------------------------------------------------------
+@pytest.fixture(scope="session")
+def north_pacific_storms():
+    """Boeing EP 2145155's San Diego -> Tokyo storms, ``scenarios.north_pacific_storms()`` at its defaults."""
+    from optroute.weather import scenarios
+
+    return scenarios.north_pacific_storms()
