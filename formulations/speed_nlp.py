@@ -77,6 +77,7 @@ from numpy.typing import ArrayLike
 
 from formulations._buffers import SharedMap, WeatherValues
 from formulations._nlp_model import (
+    heading_dev_deg,
     jit_compiler,
     row_blocks,
     row_bounds,
@@ -325,6 +326,7 @@ class SpeedNLP:
             "dt_leg": _leg_sum(col["dt"], n, m),
             "fuel_leg": _leg_sum(col["fuel"], n, m),
             **{k_name: col[k_name] for k_name in ("load", "power", "rate", "cos_chi", "sog", "h_perp")},
+            "dev_deg": heading_dev_deg(_rep(sin_d, m), _rep(cos_d, m), col["h_perp"]),
         }
         if nb:
             res["band_res"] = ca.vec(out[:, 8 : 8 + nb])  # band-major: b·K + sample
@@ -352,7 +354,9 @@ class SpeedNLP:
         return self._model(y, v, t, beta, fac, weather)
 
     #: The keys of :meth:`symbolic_model` that :meth:`sample_state` reads.
-    STATE_KEYS = ("t_s", "s_s", "y_s", "x_s", "yf_s", "hs", "per", "sog", "power", "load", "rate", "cos_chi")
+    STATE_KEYS = (
+        "t_s", "s_s", "y_s", "x_s", "yf_s", "hs", "per", "sog", "power", "load", "rate", "cos_chi", "dev_deg",
+    )  # fmt: skip
 
     def sample_state(self, values: dict[str, np.ndarray]) -> SampleState:
         """The :class:`SampleState` of numeric values of :meth:`symbolic_model`'s outputs (keys :attr:`STATE_KEYS`,
@@ -449,8 +453,7 @@ class SpeedNLP:
             if build_solver
             else None
         )
-        names = ["t_s", "s_s", "y_s", "x_s", "yf_s", "hs", "per", "sog", "power", "load", "rate", "cos_chi"]
-        names += ["length", "dt_leg", "fuel_leg", "px", "py"]
+        names = [*self.STATE_KEYS, "length", "dt_leg", "fuel_leg", "px", "py"]
         outs = [mdl[k] for k in names]
         if nb:
             names.append("ratio")
@@ -558,6 +561,7 @@ class SpeedNLP:
             load=sh(ev["load"]),
             fuel_rate_tph=sh(ev["rate"]),
             cos_chi=sh(ev["cos_chi"]),
+            dev_deg=sh(ev["dev_deg"]),
             ratio=ratio,
             applies=applies,
             inside=inside,
@@ -631,6 +635,8 @@ class SpeedNLP:
         stw0_kn: ArrayLike | None = None,
         time0_h: ArrayLike | None = None,
         fix_offsets: bool = False,
+        time_lo_h: ArrayLike | None = None,
+        time_hi_h: ArrayLike | None = None,
     ) -> NLPResult:
         """Solve for one ETA, objective, band sides and warm start.
 
@@ -656,6 +662,10 @@ class SpeedNLP:
             speed that makes the ETA (clipped to the speed bounds), consistent times.
         fix_offsets : bool
             Hold the offsets at ``offset0_nm`` (a fixed path).
+        time_lo_h, time_hi_h : array_like, shape (N+1,), optional
+            Bounds on the waypoint times [h since departure] (``-inf`` / ``inf`` where none), beside
+            departure at 0 and the ETA: time windows, e.g. leave a leg before a moving no-go area
+            reaches it or enter it after the area has gone.
 
         Returns
         -------
@@ -703,6 +713,18 @@ class SpeedNLP:
             t_hi[n] = eta_h
             if eta_mode == "eq":
                 t_lo[n] = eta_h
+        if time_lo_h is not None:
+            t_lo = np.maximum(t_lo, broadcast_legs(time_lo_h, n + 1, "time_lo_h", finite=False))
+        if time_hi_h is not None:
+            t_hi = np.minimum(t_hi, broadcast_legs(time_hi_h, n + 1, "time_hi_h", finite=False))
+        if np.any(np.isnan(t_lo) | np.isnan(t_hi)):
+            raise FormulationInputError("time_lo_h / time_hi_h hold NaN; give -inf / inf where a waypoint has no bound")
+        if np.any(t_lo > t_hi):
+            k = int(np.argmax(t_lo > t_hi))
+            raise FormulationInputError(
+                f"waypoint {k}'s time bounds are empty: {t_lo[k]:.6g} h > {t_hi[k]:.6g} h (time_lo_h / time_hi_h "
+                "against departure and the ETA); relax the time windows or give a later ETA"
+            )
         lbx = np.concatenate([y_lo, self.v_min_kn, t_lo])
         ubx = np.concatenate([y_hi, self.v_max_kn, t_hi])
         x0 = np.clip(x0, lbx, ubx)

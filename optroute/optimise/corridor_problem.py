@@ -118,7 +118,7 @@ class PreparedCorridor(CorridorReport):
     corridor, weather, ship, departure, model, rules, max_leg_nm, samples_per_leg, fuel_price_per_t,
     hourly_cost_per_h, exclusion, speed_range_kn, band_solves, max_retries,
     band_margin, band_hs_margin, verify_step_nm, solver_options, use_land_mask, jit, discrete_start, dp_options,
-    constraint_rows
+    constraint_rows, timed_no_passage
         As in :func:`optroute.optimise_corridor`.
     latest_eta : datetime64 or str, optional
         The latest ETA to be solved [UTC]: the weather grid (and the ship's power table on it) runs
@@ -163,7 +163,11 @@ class PreparedCorridor(CorridorReport):
         discrete_start: bool = False,
         dp_options: Mapping[str, Any] | None = None,
         constraint_rows: str = "midpoints",
+        timed_no_passage: bool = False,
     ) -> None:
+        # every argument, for the free-arrival minimum-time twin of this corridor (minimum_time_twin)
+        self._arguments = {k: v for k, v in locals().items() if k not in ("self", "__class__")}
+        self._twin: PreparedCorridor | None = None
         if constraint_rows not in ROW_PLACEMENTS:
             raise ConfigError(
                 f"constraint_rows={constraint_rows!r} is not known; use 'referee' (the NLP's rows at the referee's "
@@ -193,7 +197,7 @@ class PreparedCorridor(CorridorReport):
         su = prepare_corridor(
             corridor, weather, ship, t0=t0, eta_t=eta_t, objective=objective, model=model, rules=rules,
             max_leg_nm=max_leg_nm, exclusion=exclusion, speed_range_kn=speed_range_kn, use_land_mask=use_land_mask,
-            solver_options=solver_options, jit=jit, progress=progress,
+            solver_options=solver_options, jit=jit, progress=progress, timed_no_passage=bool(timed_no_passage),
         )  # fmt: skip
         self.setup = su
         self.corridor, self.ship, self.model, self.rules = corridor, ship, su.model, su.rules
@@ -220,6 +224,19 @@ class PreparedCorridor(CorridorReport):
         # the flat frame's measured distance error near the exclusion's circle: the NLP's circle grows by it, so
         # that a plan on its edge is outside the referee's (WGS84) circle on the first solve
         self.exclusion_backoff_nm = 0.0 if exclusion is None else exclusion_frame_error_nm(exclusion, self.frame)
+
+    def minimum_time_twin(self) -> PreparedCorridor:
+        """This corridor prepared as :func:`optroute.optimise_corridor` prepares it for ``objective="time"`` without an
+        ETA (its weather grid to the free-arrival horizon; this corridor itself when prepared so): its minimum-time
+        plan is the one that call gives, which an ETA's weather grid, ending just after the ETA, can change
+        (harness seed 51: 11.17 h and 125.40 t against 11.48 h and 128.53 t). Prepared once; its builds and solves
+        count in this corridor's problem."""
+        args = self._arguments
+        if args["latest_eta"] is None and args["objective"] == "time":
+            return self
+        if self._twin is None:
+            self._twin = PreparedCorridor(**{**args, "latest_eta": None, "objective": "time", "progress": None})
+        return self._twin
 
     # ------------------------------------------------------------------ one ETA
 

@@ -29,6 +29,7 @@ from optroute.optimise.lateral import reach_windows
 from optroute.optimise.nlp_inputs import CorridorFrame, build_frame, dataset_spacing, lateral_bounds, weather_grid
 from optroute.optimise.nlp_solve import Problem
 from optroute.optimise.power_table import PowerTable, baseline_power_model, heading_nodes, speed_nodes
+from optroute.optimise.timed_no_go import no_passage_windows
 from optroute.physics.performance import PerformanceModel, default_model
 from optroute.physics.safety import BandRules
 from optroute.physics.ship import Ship
@@ -210,11 +211,14 @@ def prepare_corridor(
     solver_options: Mapping[str, Any] | None,
     jit: bool,
     progress: ProgressFn | None,
+    timed_no_passage: bool = False,
 ) -> CorridorSetup:
     """Check the weather and speeds, build the NLP's weather grid, power table, lateral bounds and problem.
 
     Parameters as in :class:`~optroute.optimise.corridor_problem.PreparedCorridor` (``t0`` its
-    departure [UTC], ``eta_t`` its latest ETA [UTC] or None).
+    departure [UTC], ``eta_t`` its latest ETA [UTC] or None). With ``timed_no_passage`` the lateral bounds
+    keep off the weather's fixed no-passage cells only, and the moving ones become the problem's time
+    windows (:func:`~optroute.optimise.timed_no_go.no_passage_windows`).
     """
     sampler, ds = _weather(weather)
     n_wp = len(corridor.waypoints)
@@ -239,9 +243,13 @@ def prepare_corridor(
     speeds = speed_nodes(v_min, v_max)
     fixed_path = bool(np.all(np.asarray(cor.half_width_nm) == 0.0))
     headings = heading_nodes(fixed_path, any(v.startswith("current") for v in sampler.variables))
+    # the ship can be on each leg only between its reach windows: the grid's weather and power table are
+    # evaluated only where a reachable sample's spline reads them (nlp_inputs.reachable_nodes)
+    windows = _leg_windows(frame, sampler, ds, t0, cap_h, v_max)
+    windows_h = None if windows is None else _hours(windows - t0)
     grid, samples = weather_grid(
         frame, sampler, departure=t0, t_end_h=horizon, dt_h=dt_h, ds_nm=ds_nm, dy_nm=dy_nm,
-        model=model, base=base, speeds_kn=speeds, headings_deg=headings,
+        model=model, base=base, speeds_kn=speeds, headings_deg=headings, leg_windows_h=windows_h,
     )  # fmt: skip
     table = PowerTable(speeds, headings, samples.power_capped_share, samples.power_evaluations, sfoc_err)
     n_window = int(min(25, max(2, horizon / dt_h + 1)))
@@ -250,12 +258,13 @@ def prepare_corridor(
     step_nm = max(1.0, min(5.0, hw_max / 10.0)) if hw_max > 0 else 1.0
     y_lo, y_hi = lateral_bounds(
         frame, sampler=sampler, dataset=ds, times=window, use_land_mask=use_land_mask, step_nm=step_nm,
-        leg_windows=_leg_windows(frame, sampler, ds, t0, cap_h, v_max),
+        leg_windows=windows, static_only=timed_no_passage,
     )  # fmt: skip
+    no_passage = no_passage_windows(frame, ds, t0, y_lo, y_hi) if timed_no_passage and ds is not None else None
     problem = Problem(
         frame=frame, grid=grid, samples=samples, power=base, ship=ship, rules=rules, y_lo=y_lo, y_hi=y_hi,
         v_min=v_min, v_max=v_max, exclusion=exclusion, departure=t0, solver_options=solver_options,
-        jit=check_jit(jit),
+        jit=check_jit(jit), windows=no_passage,
     )  # fmt: skip
     return CorridorSetup(
         sampler, ds, model, rules, v_min, v_max, data_end_h, cap_h, horizon, frame, grid, samples, base, table,
