@@ -20,7 +20,7 @@ from optroute import geodesy as geo
 from optroute.errors import ConfigError, NoSafePassage
 from optroute.physics.passage import SeaState, evaluate_speeds
 from optroute.physics.performance import KwonModel
-from optroute.physics.pointwise import least_cost_per_nm, point_params
+from optroute.physics.pointwise import cached_point_params, least_cost_per_nm
 from optroute.physics.safety import BandRules
 from optroute.physics.speed_loss import KWON_BISECTIONS, KWON_SCAN_STEPS, calm_speed_point, kwon_cu_coefficients
 from optroute.search import RouteGrid, compass, shortest_path
@@ -57,7 +57,7 @@ def _without_loop_kernel(cb):
 
 
 def _floor(lam, current_kn=2.0):
-    return least_cost_per_nm(point_params(CARGO, KwonModel(CARGO), BandRules()), SPEEDS, lam, current_kn)
+    return least_cost_per_nm(cached_point_params(CARGO, KwonModel(CARGO), BandRules()), SPEEDS, lam, current_kn)
 
 
 # ------------------------------------------------------------------ the loop
@@ -113,7 +113,7 @@ def test_fuel_bound_keeps_astar_at_dijkstras_label(grid, seed, lam, method):
 # ------------------------------------------------------------------ the fuel floor
 def test_fuel_floor_is_the_calm_water_minimum_and_below_every_allowed_speed_anywhere():
     model = KwonModel(CARGO)
-    p = point_params(CARGO, model, BandRules())
+    p = cached_point_params(CARGO, model, BandRules())
     # hand-worked: calm water, no current, every speed of the set above the minimum load
     v = SPEEDS
     power = np.maximum(CARGO.displacement_t ** (2 / 3) * v**3 / CARGO.admiralty_coefficient, CARGO.min_power_kw)
