@@ -540,7 +540,8 @@ def nlp_band_solver(
         applicability re-checks), e.g. the same problem with an iteration cap so that hopeless
         flips fail fast; called when needed. Default: ``nlp`` throughout.
     **solve_kwargs
-        ETA, objective, prices and the initial warm start, passed to ``nlp.solve``.
+        ETA, objective, prices and the initial warm start, passed to ``nlp.solve`` (multipliers
+        ``lam_x0``/``lam_g0``, if given, to its first solve only).
 
     Returns
     -------
@@ -557,6 +558,9 @@ def nlp_band_solver(
         which = nlp if calls[0] == 0 or later is None else later()
         calls[0] += 1
         res = which.solve(sides=sides, applies=applies, **kwargs)
+        # a primal-dual warm start's multipliers belong to the first solve's start; later ones start from a solution
+        kwargs.pop("lam_x0", None)
+        kwargs.pop("lam_g0", None)
         feasible = bool(res.success and res.max_violation <= violation_tol)
         st = res.samples
         out = InnerOutcome(

@@ -128,6 +128,19 @@ _IPOPT_DEFAULTS: dict[str, Any] = {
 }
 #: Ipopt/CasADi options of the corridor NLPs (public: :mod:`formulations.robust_nlp` uses the same).
 IPOPT_DEFAULTS = _IPOPT_DEFAULTS
+#: Ipopt options of a primal-dual warm start (:meth:`SpeedNLP.solve` with ``lam_x0``/``lam_g0``): the given point
+#: and multipliers are pushed only 1e-6 into the bounds' interior (Ipopt's defaults, 1e-3 for the warm start and
+#: 1e-2 for a cold one, move a converged neighbour's iterate off its active bounds), and the barrier parameter
+#: starts at 1e-4 instead of 0.1 so that the first iterations do not leave the neighbour's central path.
+WARM_START_OPTIONS: dict[str, Any] = {
+    "ipopt.warm_start_init_point": "yes",
+    "ipopt.warm_start_bound_push": 1e-6,
+    "ipopt.warm_start_bound_frac": 1e-6,
+    "ipopt.warm_start_slack_bound_push": 1e-6,
+    "ipopt.warm_start_slack_bound_frac": 1e-6,
+    "ipopt.warm_start_mult_bound_push": 1e-6,
+    "ipopt.mu_init": 1e-4,
+}
 
 
 def _rep(col: Any, m: int) -> Any:
@@ -444,11 +457,12 @@ class SpeedNLP:
             self._derivatives = structured_derivatives(self, jit=jit, exact_hessian=exact_hessian)  # keep alive
             opts.update(self._derivatives)
         param = ca.vertcat(weights, beta, fac)
-        self._solver = (
-            ca.nlpsol("speed_nlp", "ipopt", {"x": x, "p": param, "f": objective, "g": g}, opts)
-            if build_solver
-            else None
-        )
+        self._nlp_def = {"x": x, "p": param, "f": objective, "g": g}
+        # the primal-dual warm start's solver (made on its first use): the same functions, WARM_START_OPTIONS
+        # under the caller's options
+        self._warm_opts = {**opts, **{k: v for k, v in WARM_START_OPTIONS.items() if k not in ipopt_options}}
+        self._warm_solver: Any = None
+        self._solver = ca.nlpsol("speed_nlp", "ipopt", self._nlp_def, opts) if build_solver else None
         names = ["t_s", "s_s", "y_s", "x_s", "yf_s", "hs", "per", "sog", "power", "load", "rate", "cos_chi"]
         names += ["length", "dt_leg", "fuel_leg", "px", "py"]
         outs = [mdl[k] for k in names]
@@ -617,6 +631,35 @@ class SpeedNLP:
         return select_sides(state.ratio, lower, upper), state.applies.copy()
 
     # ------------------------------------------------------------------ solve
+    def dual_key(self) -> tuple[Any, ...]:
+        """What the meaning of the multipliers depends on: the variables, the row blocks and the sample layout.
+
+        Two problems with equal keys (the same corridor's NLP for two ETAs) can share ``lam_x``/``lam_g``
+        (:meth:`solve`'s ``lam_x0``/``lam_g0``).
+        """
+        layout = self.sample_layout
+        rows = tuple(sorted((k, tuple(np.ravel(v).tolist())) for k, v in self._rows.items()))
+        return (self._nx, self._ng, rows, layout.fraction.tobytes(), layout.weight.tobytes(), self.n_bands)
+
+    def _duals(self, lam_x0: ArrayLike | None, lam_g0: ArrayLike | None) -> dict[str, np.ndarray]:
+        """The checked multipliers of a primal-dual warm start (``{}`` without them)."""
+        if lam_x0 is None and lam_g0 is None:
+            return {}
+        if lam_x0 is None or lam_g0 is None:
+            raise FormulationInputError("a primal-dual warm start needs both lam_x0 and lam_g0; give both or neither")
+        lam_x = np.asarray(lam_x0, dtype=float).ravel()
+        lam_g = np.asarray(lam_g0, dtype=float).ravel()
+        if (
+            lam_x.size != self._nx
+            or lam_g.size != self._ng
+            or not (np.isfinite(lam_x).all() and np.isfinite(lam_g).all())
+        ):
+            raise FormulationInputError(
+                f"lam_x0 ({lam_x.size} values) and lam_g0 ({lam_g.size}) must be finite, of {self._nx} and {self._ng} "
+                "values: the multipliers of a problem with the same dual_key()"
+            )
+        return {"lam_x0": lam_x, "lam_g0": lam_g}
+
     def solve(
         self,
         *,
@@ -631,6 +674,8 @@ class SpeedNLP:
         stw0_kn: ArrayLike | None = None,
         time0_h: ArrayLike | None = None,
         fix_offsets: bool = False,
+        lam_x0: ArrayLike | None = None,
+        lam_g0: ArrayLike | None = None,
     ) -> NLPResult:
         """Solve for one ETA, objective, band sides and warm start.
 
@@ -656,6 +701,11 @@ class SpeedNLP:
             speed that makes the ETA (clipped to the speed bounds), consistent times.
         fix_offsets : bool
             Hold the offsets at ``offset0_nm`` (a fixed path).
+        lam_x0, lam_g0 : array_like, optional
+            Multipliers of the variable bounds, shape (3N+2,), and of the rows, shape (ng,), of an earlier
+            solve of a problem with the same rows (:meth:`dual_key`), e.g. the neighbouring ETA's
+            ``NLPResult.lam_x``/``lam_g`` [objective units per variable/row unit]: with both, Ipopt starts from
+            them and the warm start (``warm_start_init_point``, :data:`WARM_START_OPTIONS`).
 
         Returns
         -------
@@ -710,10 +760,15 @@ class SpeedNLP:
                               sog_min_kn=self.sog_min_kn if self._has_current else None,
                               exclusion=self.exclusion is not None)  # fmt: skip
         p = np.concatenate([weights, beta, self._factor_parameter()])
+        solver, duals = self._solver, self._duals(lam_x0, lam_g0)
+        if duals:
+            if self._warm_solver is None:
+                self._warm_solver = ca.nlpsol("speed_nlp_warm", "ipopt", self._nlp_def, self._warm_opts)
+            solver = self._warm_solver
         started = time.perf_counter()
-        sol = self._solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        sol = solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **duals)
         elapsed = time.perf_counter() - started
-        stats = self._solver.stats()
+        stats = solver.stats()
         x = np.asarray(sol["x"], dtype=float).ravel()
         lam_x = np.asarray(sol["lam_x"], dtype=float).ravel()
         lam_g = np.asarray(sol["lam_g"], dtype=float).ravel()

@@ -134,8 +134,8 @@ def test_a_rising_point_keeps_the_earlier_plan_beside_its_own_solve_and_is_count
     real = points_mod.solve_point
     solved = []
 
-    def spoiled(spec, eta_h, kind, warm, route=None):
-        p = real(spec, eta_h, kind, warm, route)
+    def spoiled(spec, eta_h, kind, warm, route=None, **kw):
+        p = real(spec, eta_h, kind, warm, route, **kw)
         solved.append((kind, eta_h))
         if kind == "eta" and eta_h == 35.0:  # planted: the 35 h solve ends above the 30 h point's fuel
             p = points_mod.replace_fields(p, totals={**p.totals, "fuel_t": 1e6})
@@ -176,6 +176,19 @@ def test_one_solve_per_point_and_the_slow_neighbour_sped_up_to_arrive_by_the_nex
     arrival = float((legs.leg_distance_nm / sped.stw_kn).sum())
     assert 35.0 * (1 - 2e-6) < arrival <= 35.0
     assert points_mod.retimed_start(later, 45.0) is later.carry  # a later ETA: the plan arrives by it as it is
+
+
+def test_each_point_starts_from_its_neighbours_plan_and_multipliers_and_reaches_the_cold_front(calm_front):
+    """The continuation's primal-dual warm start: every point between the ends starts Ipopt from its neighbour's
+    plan (the referee accepts it, so the optimiser's own centreline start is not built) and multipliers (the
+    same rows); the cold front (each point from the optimiser's own start) is the independent reference."""
+    interior = calm_front.solve.values == "eta"
+    assert (calm_front.warm_start.values[interior] == "warm plan").all()
+    assert (calm_front.dual_starts.values[interior] >= 1).all()
+    assert (calm_front.dual_starts.values[~interior] == 0).all()  # the ends start from their own candidates
+    cold = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, n=5, warm_start=False, **KW)
+    assert (cold.dual_starts.values == 0).all() and (cold.warm_start.values[interior] != "warm plan").all()
+    np.testing.assert_allclose(calm_front.fuel_t.values, cold.fuel_t.values, rtol=1e-7)
 
 
 def test_a_retimed_start_below_the_minimum_load_is_mended_up_to_it_by_the_propeller_law():
