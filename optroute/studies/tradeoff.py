@@ -30,8 +30,9 @@ ETA is ever dropped.
 
 The continuation
 ----------------
-The ETAs between the two ends are swept from the slow-steaming end, where the problem is
-easiest (loads far from the engine's limits), towards the fast one: each point's
+The ETAs between the two ends are swept from the slow-steaming end towards the fast one (a later
+neighbour's plan, sped up, arrives by the next ETA; near the slow end the engine's minimum load binds
+on many legs and those points take the most iterations): each point's
 :meth:`~optroute.optimise.corridor_problem.PreparedCorridor.solve` starts from its later
 neighbour's plan sped up to arrive by its own ETA (speeds through the water times
 ``arrival / ETA``, then each leg the referee finds outside the engine's range moved to the limit:
