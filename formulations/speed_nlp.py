@@ -93,6 +93,7 @@ from formulations.common import (
     WeatherGrid,
     broadcast_legs,
 )
+from formulations.ipopt_options import IPOPT_DEFAULTS, WARM_START_OPTIONS, checked_duals
 from formulations.nlp_result import NLPResult, SampleState
 from formulations.sample_layout import SampleLayout, midpoint_layout
 
@@ -109,38 +110,6 @@ __all__ = [
 ]
 
 Objective = Literal["time", "fuel", "cost"]
-
-_IPOPT_DEFAULTS: dict[str, Any] = {
-    "ipopt.print_level": 0,
-    "ipopt.sb": "yes",
-    "print_time": False,
-    "ipopt.tol": 1e-9,
-    "ipopt.acceptable_tol": 1e-6,
-    "ipopt.max_iter": 500,
-    "ipopt.linear_solver": "mumps",
-    "ipopt.mu_strategy": "adaptive",
-    "ipopt.bound_relax_factor": 0.0,
-    # no gradient of the Lagrangian in CasADi's Nlpsol (Ipopt returns the bound multipliers lam_x itself, and
-    # nothing reads the parameters' lam_p): building it differentiates the whole graph by reverse mode at
-    # construction, through the weather splines, which was most of a build's time on a corridor's grid
-    "calc_lam_p": False,
-    "no_nlp_grad": True,
-}
-#: Ipopt/CasADi options of the corridor NLPs (public: :mod:`formulations.robust_nlp` uses the same).
-IPOPT_DEFAULTS = _IPOPT_DEFAULTS
-#: Ipopt options of a primal-dual warm start (:meth:`SpeedNLP.solve` with ``lam_x0``/``lam_g0``): the given point
-#: and multipliers are pushed only 1e-6 into the bounds' interior (Ipopt's defaults, 1e-3 for the warm start and
-#: 1e-2 for a cold one, move a converged neighbour's iterate off its active bounds), and the barrier parameter
-#: starts at 1e-4 instead of 0.1 so that the first iterations do not leave the neighbour's central path.
-WARM_START_OPTIONS: dict[str, Any] = {
-    "ipopt.warm_start_init_point": "yes",
-    "ipopt.warm_start_bound_push": 1e-6,
-    "ipopt.warm_start_bound_frac": 1e-6,
-    "ipopt.warm_start_slack_bound_push": 1e-6,
-    "ipopt.warm_start_slack_bound_frac": 1e-6,
-    "ipopt.warm_start_mult_bound_push": 1e-6,
-    "ipopt.mu_init": 1e-4,
-}
 
 
 def _rep(col: Any, m: int) -> Any:
@@ -450,7 +419,7 @@ class SpeedNLP:
         )
         g = ca.vertcat(*parts)
         self._rows, self._ng, self._nx = rows, g.shape[0], nx
-        opts = dict(_IPOPT_DEFAULTS)
+        opts = dict(IPOPT_DEFAULTS)
         opts.update(ipopt_options)
         opts["expand"] = expand
         if structured:
@@ -641,25 +610,6 @@ class SpeedNLP:
         rows = tuple(sorted((k, tuple(np.ravel(v).tolist())) for k, v in self._rows.items()))
         return (self._nx, self._ng, rows, layout.fraction.tobytes(), layout.weight.tobytes(), self.n_bands)
 
-    def _duals(self, lam_x0: ArrayLike | None, lam_g0: ArrayLike | None) -> dict[str, np.ndarray]:
-        """The checked multipliers of a primal-dual warm start (``{}`` without them)."""
-        if lam_x0 is None and lam_g0 is None:
-            return {}
-        if lam_x0 is None or lam_g0 is None:
-            raise FormulationInputError("a primal-dual warm start needs both lam_x0 and lam_g0; give both or neither")
-        lam_x = np.asarray(lam_x0, dtype=float).ravel()
-        lam_g = np.asarray(lam_g0, dtype=float).ravel()
-        if (
-            lam_x.size != self._nx
-            or lam_g.size != self._ng
-            or not (np.isfinite(lam_x).all() and np.isfinite(lam_g).all())
-        ):
-            raise FormulationInputError(
-                f"lam_x0 ({lam_x.size} values) and lam_g0 ({lam_g.size}) must be finite, of {self._nx} and {self._ng} "
-                "values: the multipliers of a problem with the same dual_key()"
-            )
-        return {"lam_x0": lam_x, "lam_g0": lam_g}
-
     def solve(
         self,
         *,
@@ -760,7 +710,7 @@ class SpeedNLP:
                               sog_min_kn=self.sog_min_kn if self._has_current else None,
                               exclusion=self.exclusion is not None)  # fmt: skip
         p = np.concatenate([weights, beta, self._factor_parameter()])
-        solver, duals = self._solver, self._duals(lam_x0, lam_g0)
+        solver, duals = self._solver, checked_duals(lam_x0, lam_g0, self._nx, self._ng)
         if duals:
             if self._warm_solver is None:
                 self._warm_solver = ca.nlpsol("speed_nlp_warm", "ipopt", self._nlp_def, self._warm_opts)
