@@ -42,6 +42,7 @@ from formulations.splines import spline_weight_derivatives
 
 __all__ = [
     "ABS_EPS_KN",
+    "heading_dev_deg",
     "power_ratio",
     "row_blocks",
     "row_bounds",
@@ -55,6 +56,13 @@ __all__ = [
 ABS_EPS_KN = 1e-3  # smoothing of |A T − V cos χ| in T_E [kn]
 _N_Z = 5  # y_k, y_{k+1}, V_k, t_k, t_{k+1}
 _TRIU = [(a, b) for b in range(_N_Z) for a in range(b + 1)]  # upper triangle, column-major
+
+
+def heading_dev_deg(sin_d: Any, cos_d: Any, h_perp: Any) -> Any:
+    """The heading minus the centreline direction [deg, to port +] (the power table's heading axis): the leg's
+    course δ from the centreline tangent (``sin_d``, ``cos_d``) turned by the crab angle ``asin(h_perp)`` against
+    the current (``h_perp`` the sine of the drift angle). SX or MX; one formula for the NLP and its diagnostics."""
+    return (ca.atan2(sin_d, cos_d) + ca.asin(h_perp)) * (180.0 / np.pi)
 
 
 def power_ratio(col: dict[str, Any], v: Any, heading_dev_deg: Any, axes: tuple | None, lib: Any) -> Any:
@@ -200,7 +208,7 @@ def sample_physics(
     cos_chi = (h_par * w_par + h_perp * w_perp) / w_norm
     p_calm = sum(cj * v**nj for cj, nj in zip(pw.calm_coef, pw.calm_exp, strict=True))
     # heading relative to the centreline: the leg's course (δ) turned by the crab angle against the current
-    dev_deg = (ca.atan2(sin_d, cos_d) + ca.asin(h_perp)) * (180.0 / np.pi)
+    dev_deg = heading_dev_deg(sin_d, cos_d, h_perp)
     r_ship = power_ratio(col, v, dev_deg, ratio_axes, ca) if ratio_of is None else ratio_of(v, dev_deg)
     pwr = factor * p_calm * r_ship
     load = pwr / pw.mcr_kw

@@ -29,6 +29,8 @@ class SampleState:
         Speed over ground [kn], brake power [kW], engine load P/MCR [-], fuel rate [t/h].
     cos_chi : numpy.ndarray
         cos of the angle between heading and wave propagation [-] (1 = following sea).
+    dev_deg : numpy.ndarray
+        Heading minus the centreline direction [deg, to port +] (the power table's heading axis).
     ratio : numpy.ndarray, shape (n_legs, m, n_bands)
         Band ratios (see :class:`formulations.common.Band`).
     applies : numpy.ndarray of bool, shape (n_legs, m, n_bands)
@@ -53,6 +55,7 @@ class SampleState:
     load: np.ndarray
     fuel_rate_tph: np.ndarray
     cos_chi: np.ndarray
+    dev_deg: np.ndarray
     ratio: np.ndarray
     applies: np.ndarray
     inside: np.ndarray

@@ -77,6 +77,7 @@ from numpy.typing import ArrayLike
 
 from formulations._buffers import SharedMap, WeatherValues
 from formulations._nlp_model import (
+    heading_dev_deg,
     jit_compiler,
     row_blocks,
     row_bounds,
@@ -307,6 +308,7 @@ class SpeedNLP:
             "dt_leg": _leg_sum(col["dt"], n, m),
             "fuel_leg": _leg_sum(col["fuel"], n, m),
             **{k_name: col[k_name] for k_name in ("load", "power", "rate", "cos_chi", "sog", "h_perp")},
+            "dev_deg": heading_dev_deg(_rep(sin_d, m), _rep(cos_d, m), col["h_perp"]),
         }
         if nb:
             res["band_res"] = ca.vec(out[:, 8 : 8 + nb])  # band-major: b·K + sample
@@ -334,7 +336,9 @@ class SpeedNLP:
         return self._model(y, v, t, beta, fac, weather)
 
     #: The keys of :meth:`symbolic_model` that :meth:`sample_state` reads.
-    STATE_KEYS = ("t_s", "s_s", "y_s", "x_s", "yf_s", "hs", "per", "sog", "power", "load", "rate", "cos_chi")
+    STATE_KEYS = (
+        "t_s", "s_s", "y_s", "x_s", "yf_s", "hs", "per", "sog", "power", "load", "rate", "cos_chi", "dev_deg",
+    )  # fmt: skip
 
     def sample_state(self, values: dict[str, np.ndarray]) -> SampleState:
         """The :class:`SampleState` of numeric values of :meth:`symbolic_model`'s outputs (keys :attr:`STATE_KEYS`,
@@ -432,8 +436,7 @@ class SpeedNLP:
         self._warm_opts = {**opts, **{k: v for k, v in WARM_START_OPTIONS.items() if k not in ipopt_options}}
         self._warm_solver: Any = None
         self._solver = ca.nlpsol("speed_nlp", "ipopt", self._nlp_def, opts) if build_solver else None
-        names = ["t_s", "s_s", "y_s", "x_s", "yf_s", "hs", "per", "sog", "power", "load", "rate", "cos_chi"]
-        names += ["length", "dt_leg", "fuel_leg", "px", "py"]
+        names = [*self.STATE_KEYS, "length", "dt_leg", "fuel_leg", "px", "py"]
         outs = [mdl[k] for k in names]
         if nb:
             names.append("ratio")
@@ -541,6 +544,7 @@ class SpeedNLP:
             load=sh(ev["load"]),
             fuel_rate_tph=sh(ev["rate"]),
             cos_chi=sh(ev["cos_chi"]),
+            dev_deg=sh(ev["dev_deg"]),
             ratio=ratio,
             applies=applies,
             inside=inside,

@@ -132,13 +132,20 @@ def quasi_spline(grids: list[np.ndarray], data: np.ndarray) -> tuple[list[np.nda
         ``[3, 3, 3]``.
     """
     knots = []
+    # the padded control points written in place (one array, not a copy per axis): axis by axis, each pad over the
+    # axes padded before it and the interior of those after it, as concatenating per axis would give
+    coef = np.empty((data.shape[0], *(n + 2 for n in data.shape[1:])))
+    coef[:, 1:-1, 1:-1, 1:-1] = data
     for axis, g in enumerate(grids):
         h = float(g[1] - g[0])
-        lo = 2.0 * np.take(data, [0], axis=axis + 1) - np.take(data, [1], axis=axis + 1)
-        hi = 2.0 * np.take(data, [-1], axis=axis + 1) - np.take(data, [-2], axis=axis + 1)
-        data = np.concatenate([lo, data, hi], axis=axis + 1)
+
+        def at(i: int, axis: int = axis) -> tuple:
+            return (slice(None), *(i if b == axis else slice(None) if b < axis else slice(1, -1) for b in range(3)))
+
+        coef[at(0)] = 2.0 * coef[at(1)] - coef[at(2)]
+        coef[at(-1)] = 2.0 * coef[at(-2)] - coef[at(-3)]
         knots.append(np.concatenate([g[0] + h * np.arange(-3, 0), g, g[-1] + h * np.arange(1, 4)]))
-    return knots, data, [3, 3, 3]
+    return knots, coef, [3, 3, 3]
 
 
 def spline_derivative(

@@ -99,3 +99,36 @@ def test_a_small_sample_of_cases_has_no_violation(sample):
     assert s["plans_checked"] >= 2 and s["feasible_cases"] == 1
     assert s["violations"] == 0, s["violating"]
     assert s["solver_failure_cases"] == 0, sample[0].messages
+
+
+def test_a_fuel_plan_is_not_worse_than_the_minimum_time_plan_at_its_eta():
+    """Issue 14 item 4 on harness seed 51 (the 8000 TEU ship by a cyclone, a 40 nm corridor): the minimum-time plan
+    arrives 11.17 h on 125.40 t; the fuel solve at an ETA 13.01 h did not improve on its timed centreline start
+    (12.47 h, 127.01 t) and returned it, worse and later. The call now compares the plan a minimum-time call gives
+    (on its free-arrival weather grid: on the ETA's grid the minimum time is 11.48 h on 128.53 t) and solves the
+    ETA again from it. About 3 CPU-s."""
+    r = run_case(make_case(51))
+    assert r.outcomes == {"time": "plan:mended", "fuel": "plan:optimal"}, r.messages
+    assert all(not f for f in r.findings.values()), r.findings  # fuel_worse included
+
+
+def test_a_passage_the_backed_off_bands_close_still_gets_a_verified_start():
+    """Harness seed 22 (the 25k dwt cargo ship by a moving storm, minimum time): with the NLP's backed-off bands the
+    timed centreline start met a dead end 139-186 nm along, no start verified, and the call ended in SolverFailure
+    with no plan. With the true bands the timed start arrives 20.58 h and passes the referee and the independent
+    0.1 nm check; an independent brute force (every 0.25 kn, 2 nm, 0.25 h, the engine's range included) finds the
+    earliest safe arrival on the centreline at 20.53 h, so nothing much earlier was missed."""
+    from optroute.optimise.corridor_problem import PreparedCorridor
+    from tests.harness import case_weather
+
+    case = make_case(22)
+    ship, wx = orx.Ship.preset(case.ship), case_weather(case)
+    corridor = orx.Corridor.from_waypoints(np.array(case.waypoints), width_nm=case.width_nm)
+    prepared = PreparedCorridor(corridor, wx, ship, departure=T0, objective="time")
+    cands = prepared.starts(
+        prepared.plan_context(), cap_h=None, objective="time", warm_plan=None, route=None, st=prepared._tightening()
+    )
+    plan = cands[0].plan
+    assert plan is not None and plan.verify() == []
+    assert check_plan(plan, wx, ship) == ([], 0)
+    assert 20.53 <= plan.duration_h <= 20.53 + 0.5

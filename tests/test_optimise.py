@@ -132,7 +132,10 @@ def test_fixed_path_static_weather_equals_the_convex_optimum_and_the_analytic_sp
     assert own["method"] == "Lagrangian dual bound" and abs(own["gap"]) <= 1e-6
     # the model's ratio to calm water is linear in Hs and independent of the speed: the table is exact, and the NLP's
     # fuel at its solution is the referee's for the same schedule
-    assert abs(plan.solver_stats["tabulation"]["rel_error"]) <= 1e-6
+    tab = plan.solver_stats["tabulation"]
+    assert abs(tab["rel_error"]) <= 1e-6
+    # and at every sample and on every leg (the referee's weather is the NLP's here: Hs linear in longitude)
+    assert abs(tab["max_sample_rel_error"]) <= 1e-6 and abs(tab["max_leg_rel_error"]) <= 1e-6
     assert plan.status == "optimal"
     # -dF*/dT = 2 F*/T for the cubic law
     assert plan.eta_shadow_price_t_per_h == pytest.approx(2 * ref.total_fuel_t / eta_h, rel=1e-5)

@@ -201,7 +201,12 @@ def optimise_corridor(
         ``start``, ``start_score``, ``starts`` (every candidate's score by the referee, inf unverified),
         ``nlp_score``; ``power_table`` (its speed and heading nodes, capped share, evaluations, the SFOC
         curve's error) and, for an NLP plan, ``tabulation`` (the NLP's fuel at its solution against the
-        referee's fuel of the same track and schedule: the measured tabulation error), ``outer_solves``,
+        referee's fuel of the same track and schedule: the measured tabulation error; and at the NLP's own
+        samples, its power and leg fuel against the model's in the referee's weather,
+        ``max_leg_rel_error``, ``worst_leg``, ``mean_abs_leg_rel_error``, ``max_sample_rel_error``,
+        ``mean_abs_sample_rel_error``, ``capped_samples``, ``samples``: the per-leg error of
+        :func:`optroute.optimise.power_table.sample_error`, stated bound
+        :data:`~optroute.optimise.power_table.LEG_BOUND`), ``outer_solves``,
         ``outer_flips``, ``outer_history``, ``sides_settled``, ``nlp_objective``, ``nlp_fuel_t``,
         ``nlp_max_violation``, ``frame_max_rel_distance_error``, ``bands``, ``certificate`` (fixed path
         in static weather without current: ``method`` ``"lagrangian dual"``, ``bound_t`` (``bound`` for
@@ -418,11 +423,16 @@ def _solve_honestly(prepared: Any, eta: Any, *, eta_mode: str, objective: str, w
       ``solver_stats["status_reason"]``; when the minimum-time plan arrives after the ETA it is
       :class:`InfeasibleETA`; a cross-section where no speed is allowed at any time is
       :class:`NoSafePassage`; weather-coverage violations are :class:`WeatherCoverageError`.
+    * A plan for an ETA on which the NLP did not improve on its start (status ``"start"``) is never worse
+      than the minimum-time plan when that meets the ETA (:func:`_not_worse_than_minimum_time`).
+
+    The minimum-time plan is the one :func:`optimise_corridor` gives for ``objective="time"`` without an ETA
+    (:meth:`PreparedCorridor.minimum_time_twin`), solved once per prepared corridor.
     """
     _check_time_span(prepared, eta, objective)
     kw = {"eta_mode": eta_mode, "objective": objective, "progress": progress}
     try:
-        return prepared.solve(eta, warm_plan=warm_plan, route=route, **kw)
+        plan = prepared.solve(eta, warm_plan=warm_plan, route=route, **kw)
     except InfeasibleETA as exc:
         fast = _minimum_time_plan(prepared, route)
         if fast is None:  # no verified passage at all: closed, or the NLP's word for it
@@ -433,6 +443,27 @@ def _solve_honestly(prepared: Any, eta: Any, *, eta_mode: str, objective: str, w
         return _from_minimum_time(prepared, eta, fast, route, kw, f"InfeasibleETA ({exc})")
     except SolverFailure as exc:
         return _after_failure(prepared, eta, exc, route, kw)
+    return _not_worse_than_minimum_time(prepared, eta, plan, route, kw)
+
+
+def _not_worse_than_minimum_time(prepared: Any, eta: Any, plan: Plan, route, kw: dict[str, Any]) -> Plan:
+    """An ETA's plan where the NLP did not improve on its start (status ``"start"``), checked against the
+    minimum-time plan: when that one meets the ETA on a better score, the ETA is solved again from it and the
+    better of the two returned (:func:`_from_minimum_time`). The audit's case (issue 14 failure 5): a least-fuel
+    plan of 300.4 t arriving 38 h later than the minimum-time plan, which met the same ETA on 288.2 t.
+    """
+    from optroute.optimise.starts import score
+
+    if eta is None or kw["objective"] == "time" or plan.status != "start":
+        return plan
+    fast = _minimum_time_plan(prepared, route)
+    if fast is None or not _meets(fast, prepared, eta, kw["eta_mode"]):
+        return plan
+    objective, price, hourly = kw["objective"], prepared.fuel_price, prepared.hourly
+    if score(fast, objective, price, hourly) >= score(plan, objective, price, hourly):
+        return plan
+    why = f"the minimum-time plan meets the ETA on less than the start the NLP did not improve on ({plan.total_fuel_t:.6g} t)"
+    return _from_minimum_time(prepared, eta, fast, route, kw, why)
 
 
 def _check_time_span(prepared: Any, eta: Any, objective: str) -> None:
@@ -488,16 +519,40 @@ def _restamp(prepared: Any, plan: Plan, eta: Any, eta_mode: str, reason: str) ->
 
 
 def _minimum_time_plan(prepared: Any, route: Route | None) -> Plan | None:
-    """The minimum-time plan of the prepared corridor (verified), or the verified best plan of its failure."""
+    """The minimum-time plan of the prepared corridor (verified), or the verified best plan of its failure; solved
+    once per prepared corridor and route (a front's points share it)."""
+    memo = prepared.__dict__.setdefault("_minimum_time_plans", {})
+    if id(route) not in memo:
+        memo[id(route)] = (route, _solve_minimum_time(prepared, route))  # the route held: its id stays its own
+    return memo[id(route)][1]
+
+
+def _solve_minimum_time(prepared: Any, route: Route | None) -> Plan | None:
+    """The plan :func:`optimise_corridor` gives for minimum time (its free-arrival twin's, ``minimum_time_twin``)."""
+    twin = prepared.minimum_time_twin()
+    solves = twin.problem.solves, twin.problem.iterations, twin.problem.solve_time_s, twin.problem.build_time_s
     try:
-        plan = prepared.solve(None, objective="time", route=route)
+        plan = twin.solve(None, objective="time", route=route)
     except SolverFailure as exc:
         plan = exc.best_plan
     except (InfeasibleETA, WeatherCoverageError, NoSafePassage, ConfigError):
         return None
+    finally:
+        _count_twin(prepared, twin, solves)
     if plan is None or not _meets(plan, prepared, None, "le"):
         return None
     return plan
+
+
+def _count_twin(prepared: Any, twin: Any, before: tuple[int, int, float, float]) -> None:
+    """The twin's solves, iterations and times since ``before`` counted in ``prepared``'s problem (solver_stats)."""
+    if twin is prepared:
+        return
+    p, q = prepared.problem, twin.problem
+    p.solves += q.solves - before[0]
+    p.iterations += q.iterations - before[1]
+    p.solve_time_s += q.solve_time_s - before[2]
+    p.build_time_s += q.build_time_s - before[3]
 
 
 def _infeasible(prepared: Any, eta: Any, plans: list[Plan]) -> InfeasibleETA:

@@ -239,9 +239,13 @@ def prepare_corridor(
     speeds = speed_nodes(v_min, v_max)
     fixed_path = bool(np.all(np.asarray(cor.half_width_nm) == 0.0))
     headings = heading_nodes(fixed_path, any(v.startswith("current") for v in sampler.variables))
+    # the ship can be on each leg only between its reach windows: the grid's weather and power table are
+    # evaluated only where a reachable sample's spline reads them (nlp_inputs.reachable_nodes)
+    windows = _leg_windows(frame, sampler, ds, t0, cap_h, v_max)
+    windows_h = None if windows is None else _hours(windows - t0)
     grid, samples = weather_grid(
         frame, sampler, departure=t0, t_end_h=horizon, dt_h=dt_h, ds_nm=ds_nm, dy_nm=dy_nm,
-        model=model, base=base, speeds_kn=speeds, headings_deg=headings,
+        model=model, base=base, speeds_kn=speeds, headings_deg=headings, leg_windows_h=windows_h,
     )  # fmt: skip
     table = PowerTable(speeds, headings, samples.power_capped_share, samples.power_evaluations, sfoc_err)
     n_window = int(min(25, max(2, horizon / dt_h + 1)))
@@ -250,7 +254,7 @@ def prepare_corridor(
     step_nm = max(1.0, min(5.0, hw_max / 10.0)) if hw_max > 0 else 1.0
     y_lo, y_hi = lateral_bounds(
         frame, sampler=sampler, dataset=ds, times=window, use_land_mask=use_land_mask, step_nm=step_nm,
-        leg_windows=_leg_windows(frame, sampler, ds, t0, cap_h, v_max),
+        leg_windows=windows,
     )  # fmt: skip
     problem = Problem(
         frame=frame, grid=grid, samples=samples, power=base, ship=ship, rules=rules, y_lo=y_lo, y_hi=y_hi,

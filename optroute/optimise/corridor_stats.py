@@ -14,15 +14,20 @@ from typing import Any
 
 import numpy as np
 
+from formulations.speed_nlp import SpeedNLP
 from optroute.errors import OptrouteError
 from optroute.optimise.certificate import certificate_stats
 from optroute.optimise.nlp_inputs import CorridorFrame
 from optroute.optimise.nlp_solve import Solved, certificate
+from optroute.optimise.power_table import sample_error
 from optroute.optimise.rescue import certificate_reason
+from optroute.physics.passage import SeaState
+from optroute.physics.performance import PerformanceModel
 from optroute.plan.result import Exclusion, Plan, PlanContext
 from optroute.units import h_to_timedelta
+from optroute.weather.sample import WeatherSampler
 
-__all__ = ["CorridorReport", "solution_stats", "table_error"]
+__all__ = ["CorridorReport", "leg_table_error", "solution_stats", "table_error"]
 
 
 def table_error(
@@ -76,6 +81,38 @@ def table_error(
     return {"nlp_fuel_t": float(nlp_fuel_t), "referee_fuel_t": referee, "rel_error": rel}
 
 
+def leg_table_error(
+    nlp: SpeedNLP,
+    frame: CorridorFrame,
+    model: PerformanceModel,
+    sampler: WeatherSampler,
+    *,
+    offset_nm: np.ndarray,
+    stw_kn: np.ndarray,
+    time_h: np.ndarray,
+    departure: np.datetime64,
+) -> dict[str, float | int]:
+    """The NLP's power and leg fuel against the model's at the NLP's own samples of a track and schedule.
+
+    :func:`optroute.optimise.power_table.sample_error` at the samples of ``nlp`` for offsets (N+1,) [nm, port +],
+    leg speeds (N,) [kn] and waypoint times (N+1,) [h after departure]: each sample's position, time and
+    heading (:attr:`formulations.nlp_result.SampleState.dev_deg` from the centreline direction there) in the
+    referee's weather. Empty where the sampler cannot evaluate a sample (the referee then gives no plan either).
+    """
+    st = nlp.evaluate(offset_nm, stw_kn, time_h)
+    lat, lon, along = frame.points(st.s_nm, st.y_nm)
+    names = [v for v in ("hs_m", "tp_s", "tm_s", "wave_from_deg", "wind_u_ms", "wind_v_ms") if v in sampler.variables]
+    try:
+        sea = SeaState.from_sample(sampler.sample(departure + h_to_timedelta(st.time_h), lat, lon, variables=names))
+    except OptrouteError:
+        return {}
+    weight = np.broadcast_to(np.asarray(nlp.sample_layout.weight, dtype=float), st.sog_kn.shape)
+    return sample_error(
+        model, nlp.power, sea, along - st.dev_deg, np.asarray(stw_kn, dtype=float), st.power_kw, st.fuel_rate_tph,
+        weight / st.sog_kn,
+    )  # fmt: skip
+
+
 def solution_stats(
     ctx: PlanContext,
     frame: CorridorFrame,
@@ -92,11 +129,15 @@ def solution_stats(
     band_names: tuple[str, ...],
     departure: np.datetime64,
     step_nm: float,
+    model: PerformanceModel | None = None,
+    sampler: WeatherSampler | None = None,
 ) -> dict[str, Any]:
     """Statistics of the returned NLP solution: its table error by the referee, the NLP model's certificate.
 
     ``fixed`` says the path is fixed (no lateral freedom); ``samples`` is the weather grid's summary
     (:func:`optroute.optimise.nlp_inputs.weather_grid`); ``eta_solve`` the ETA solved [h after departure].
+    With the ship's ``model`` and the ``sampler``, ``tabulation`` also holds the per-leg and per-sample errors
+    of :func:`leg_table_error`.
     """
     res = sol.res
     tab = table_error(
@@ -109,6 +150,13 @@ def solution_stats(
         departure=departure,
         step_nm=step_nm,
     )
+    if model is not None and sampler is not None:
+        tab.update(
+            leg_table_error(
+                sol.nlp, frame, model, sampler, offset_nm=res.offset_nm, stw_kn=res.stw_kn, time_h=res.time_h,
+                departure=departure,
+            )
+        )  # fmt: skip
     cert: dict[str, Any] = {"method": "not applicable", "gap": float("nan")}
     reason = certificate_reason(fixed, samples, res, exclusion, objective)
     if reason is None:
@@ -145,7 +193,7 @@ class CorridorReport:
     """The report stage of :class:`~optroute.optimise.corridor_problem.PreparedCorridor` (a base class): the ship's
     certificate of the returned plan, the power table's measured error at a start and the NLP solution's
     statistics, each read from the prepared corridor's own attributes (``problem``, ``frame``, ``table``,
-    ``departure``, ``verify_step_nm``, prices and speed limits)."""
+    ``departure``, ``verify_step_nm``, ``model``, ``sampler``, prices and speed limits)."""
 
     fixed_path: bool
 
@@ -184,7 +232,7 @@ class CorridorReport:
         v = np.clip(np.asarray(warm["stw_kn"], dtype=float), nlp.v_min_kn, nlp.v_max_kn)
         t = nlp.consistent_times(y, v)
         fuel = float(np.sum(nlp.leg_fuel_t(y, v, t)))
-        return table_error(
+        tab = table_error(
             ctx,
             self.frame,
             offset_nm=y,
@@ -194,6 +242,10 @@ class CorridorReport:
             departure=self.departure,
             step_nm=self.verify_step_nm,
         )
+        legs = leg_table_error(
+            nlp, self.frame, self.model, self.sampler, offset_nm=y, stw_kn=v, time_h=t, departure=self.departure
+        )
+        return {**tab, **legs}
 
     def _table_stats(self) -> dict[str, Any]:
         tb = self.table
@@ -222,4 +274,6 @@ class CorridorReport:
             band_names=tuple(self.problem.band_names),
             departure=self.departure,
             step_nm=self.verify_step_nm,
+            model=self.model,
+            sampler=self.sampler,
         )

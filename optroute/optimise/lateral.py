@@ -153,24 +153,48 @@ def _chunks(n_rows: int, n_cols: int) -> list[np.ndarray]:
 # --------------------------------------------------------------------------- what blocks
 
 
-def _weather_blocker(dataset: xr.Dataset, times: np.ndarray):  # noqa: ANN202 - closures
+class _NanCounts:
+    """Where the dataset's wave variables are NaN, read once as one (time, lat, lon) boolean array: a bracket of
+    dataset times is then a numpy reduction of a few of its slices, not an xarray reduction of every variable per
+    bracket (a 500-leg corridor has some 60 brackets)."""
+
+    def __init__(self, dataset: xr.Dataset) -> None:
+        self.t_all = np.asarray(dataset["time"].values).astype("datetime64[ns]") if "time" in dataset.coords else None
+        varying, static = None, None
+        for v in (v for v in _WAVE_VARIABLES if v in dataset):
+            da = dataset[v]
+            if self.t_all is not None and "time" in da.dims and self.t_all.size > 1:
+                nan = np.isnan(np.asarray(da.transpose("time", "lat", "lon").values, dtype=float))
+                varying = nan if varying is None else varying | nan
+            else:
+                nan = da.isnull()
+                nan = nan.any("time") if "time" in nan.dims else nan
+                grid = np.asarray(nan.transpose("lat", "lon").values, dtype=bool)
+                static = grid if static is None else static | grid
+        self.static, self.varying = static, varying
+
+    def bracket(self, times: np.ndarray) -> tuple[int, int]:
+        """The dataset times bracketing ``times``: first and last index."""
+        if self.t_all is None or self.t_all.size < 2:
+            return 0, 0
+        tq = np.asarray(times).astype("datetime64[ns]")
+        i0 = max(int(np.searchsorted(self.t_all, tq.min(), side="right")) - 1, 0)
+        return i0, min(int(np.searchsorted(self.t_all, tq.max(), side="left")), self.t_all.size - 1)
+
+    def bad(self, times: np.ndarray) -> np.ndarray | None:
+        """(lat, lon) NaN in any wave variable at any dataset time bracketing ``times``; None: nowhere."""
+        bad = self.static
+        if self.varying is not None:
+            i0, i1 = self.bracket(times)
+            grid = self.varying[i0 : i1 + 1].any(axis=0)
+            bad = grid if bad is None else bad | grid
+        return bad
+
+
+def _weather_blocker(dataset: xr.Dataset, times: np.ndarray, nans: _NanCounts | None = None):  # noqa: ANN202
     """Functions (lat, lon) → blocked (exact for the sampler's stencil over the dataset times bracketing
     ``times``) and box → clear (no blocked point in a lat/lon box, conservative)."""
-    t_all = np.asarray(dataset["time"].values).astype("datetime64[ns]") if "time" in dataset.coords else None
-    names = [v for v in _WAVE_VARIABLES if v in dataset]
-    bad = None
-    for v in names:
-        da = dataset[v]
-        if t_all is not None and "time" in da.dims and t_all.size > 1:
-            tq = np.asarray(times).astype("datetime64[ns]")
-            i0 = max(int(np.searchsorted(t_all, tq.min(), side="right")) - 1, 0)
-            i1 = min(int(np.searchsorted(t_all, tq.max(), side="left")), t_all.size - 1)
-            da = da.isel(time=slice(i0, i1 + 1))
-        nan = da.isnull()
-        if "time" in nan.dims:
-            nan = nan.any("time")
-        grid = np.asarray(nan.transpose("lat", "lon").values, dtype=bool)
-        bad = grid if bad is None else bad | grid
+    bad = (nans if nans is not None else _NanCounts(dataset)).bad(times)
     lat_axis = np.asarray(dataset["lat"].values, dtype=float)
     lon_axis, periodic = land._weather_lon_axis(dataset)
 
@@ -230,16 +254,13 @@ class _LegBlockers:
     """:func:`_weather_blocker` of each leg over its own times, built once per distinct bracket of dataset times."""
 
     def __init__(self, dataset: xr.Dataset, leg_times: list[np.ndarray]) -> None:
-        t_all = np.asarray(dataset["time"].values).astype("datetime64[ns]") if "time" in dataset.coords else None
+        nans = _NanCounts(dataset)
         built: dict[tuple[int, int], tuple] = {}
         self.of_leg: list[tuple] = []
         for t in leg_times:
-            key = (0, 0)
-            if t_all is not None and t_all.size > 1:
-                key = (max(int(np.searchsorted(t_all, t.min(), side="right")) - 1, 0),
-                       min(int(np.searchsorted(t_all, t.max(), side="left")), t_all.size - 1))  # fmt: skip
+            key = nans.bracket(t)
             if key not in built:
-                built[key] = _weather_blocker(dataset, t)
+                built[key] = _weather_blocker(dataset, t, nans)
             self.of_leg.append(built[key])
 
     def box_clear(self, leg: int, *box: float) -> bool:

@@ -1,0 +1,89 @@
+"""The NLP's power table: evaluated only where the ship can be, and its error measured per leg at every solution.
+
+References, independent of the code under test: the whole-grid table (every node evaluated, as before the reach
+windows), and the ship's performance model evaluated directly at the NLP's own samples.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import optroute as orx
+from optroute.optimise.corridor_setup import _hours
+from optroute.optimise.lateral import reach_windows
+from optroute.optimise.nlp_inputs import build_frame, weather_grid
+from optroute.optimise.power_table import baseline_power_model, heading_nodes, speed_nodes
+from optroute.physics.performance import KwonModel
+
+SHIP = orx.Ship.preset("container_54k_dwt")
+T0 = np.datetime64("2024-01-10T00:00", "ns")
+
+
+@pytest.fixture(scope="module")
+def storm() -> object:
+    return orx.scenarios.moving_storm(
+        31.0, -151.0, 120.0, 14.0, peak_hs_m=9.0, radius_nm=150.0, start=T0, duration_h=72.0, step_h=3.0,
+        resolution_deg=0.5, bbox=(24, 36, -156, -140),
+    )  # fmt: skip
+
+
+def test_table_on_reach_windows_equals_the_whole_grid_table_wherever_the_ship_can_be(storm: object) -> None:
+    frame = build_frame(orx.Corridor.from_waypoints([(30.0, -152.0), (30.0, -144.0)], width_nm=30.0).resample(40.0))
+    model = KwonModel(SHIP)
+    base, _ = baseline_power_model(model, v_min_kn=3.0, v_max_kn=24.0, min_load=0.1)
+    eta_h = 26.0  # 416 nm at 16 kn; at 24 kn at most, the ship can be on each leg during some 11 h of the 26
+    windows_h = _hours(reach_windows(frame, T0, eta_h, 24.0) - T0)
+    kw = {
+        "departure": T0, "t_end_h": eta_h * 1.02 + 1.0, "dt_h": 1.5, "ds_nm": 15.0, "dy_nm": 7.5, "model": model,
+        "base": base, "speeds_kn": speed_nodes(3.0, 24.0), "headings_deg": heading_nodes(False, False),
+    }  # fmt: skip
+    sampler = orx.WeatherSampler(storm)
+    whole, whole_smp = weather_grid(frame, sampler, **kw)
+    part, part_smp = weather_grid(frame, sampler, **kw, leg_windows_h=windows_h)
+    assert part_smp.power_evaluations < 0.85 * whole_smp.power_evaluations  # the saving this is for
+    rng = np.random.default_rng(3)
+    k = rng.integers(0, frame.n_legs, 4000)
+    t = windows_h[k, 0] + rng.random(k.size) * (windows_h[k, 1] - windows_h[k, 0])
+    s = frame.s_nm[k] + rng.random(k.size) * np.diff(frame.s_nm)[k]
+    y = rng.uniform(-30.0, 30.0, k.size)
+    pts = np.vstack([t, s, y])
+    a, b = whole.tensor_spline().evaluate(pts, order=2), part.tensor_spline().evaluate(pts, order=2)
+    np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-12)
+    # and outside the windows the grid holds its column's nearest evaluated value: finite, not the whole grid's
+    late = np.vstack([np.full(50, whole.t_h[-1]), np.linspace(0.0, 40.0, 50), np.zeros(50)])
+    assert np.isfinite(part.tensor_spline().evaluate(late)).all()
+    assert not np.allclose(part.tensor_spline().evaluate(late), whole.tensor_spline().evaluate(late))
+
+
+def test_sample_error_weighs_each_legs_samples_by_their_time_worked_by_hand() -> None:
+    # two legs of two samples; the model's power at each sample worked from its own arguments (IMO relative wave
+    # angle from heading and wave direction), the NLP's power off it by chosen factors
+    from optroute.optimise.power_table import sample_error
+    from optroute.physics.passage import SeaState
+
+    model = KwonModel(SHIP)
+    base, _ = baseline_power_model(model, v_min_kn=3.0, v_max_kn=24.0, min_load=0.1)
+    sea = SeaState.from_sample({"hs_m": np.full((2, 2), 4.0), "tp_s": 9.0, "wave_from_deg": 0.0})  # wind unknown
+    heading = np.array([[0.0, 40.0], [180.0, 100.0]])  # α = 0 (head), 320 (bow, folded 40), 180, 260 (beam)
+    stw = np.array([14.0, 18.0])
+    alpha = (0.0 - heading) % 360.0
+    p_model = np.array(
+        [
+            [float(model.brake_power_kw(stw[i], hs_m=4.0, wave_angle_deg=alpha[i, j])) for j in range(2)]
+            for i in range(2)
+        ]
+    )
+    factor = np.array([[1.10, 1.00], [0.95, 0.90]])
+    power = p_model * factor
+    rate = np.asarray(model.fuel_rate_tph(power), dtype=float)
+    w = np.array([[0.5 / 12.0, 0.5 / 16.0], [0.25 / 17.0, 0.75 / 19.0]])  # weight over SOG [h/nm]
+    got = sample_error(model, base, sea, heading, stw, power, rate, w)
+    model_rate = np.asarray(model.fuel_rate_tph(p_model), dtype=float)
+    legs = (rate * w).sum(axis=1) / (model_rate * w).sum(axis=1) - 1.0
+    assert got["max_leg_rel_error"] == pytest.approx(legs[np.argmax(np.abs(legs))], rel=1e-12)
+    assert got["worst_leg"] == int(np.argmax(np.abs(legs)))
+    assert got["mean_abs_leg_rel_error"] == pytest.approx(np.mean(np.abs(legs)), rel=1e-12)
+    assert got["max_sample_rel_error"] == pytest.approx(0.10, rel=1e-9)
+    assert got["mean_abs_sample_rel_error"] == pytest.approx(0.0625, rel=1e-9)
+    assert got["capped_samples"] == 0 and got["samples"] == 4
