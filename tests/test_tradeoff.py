@@ -179,20 +179,18 @@ def test_one_solve_per_point_and_the_slow_neighbour_sped_up_to_arrive_by_the_nex
 
 
 def test_each_point_starts_from_its_neighbours_plan_and_multipliers_and_reaches_the_cold_front():
-    """The continuation's primal-dual warm start: on a corridor with room across the track (a fixed path would
-    start from the ship's own dual schedule instead), every point between the ends starts Ipopt from its
-    neighbour's plan (the referee accepts it, so the optimiser's own centreline start is not built) and
-    multipliers (the same rows). References: the cold front (each point from the optimiser's own start) and
-    the calm-water fuel by hand on the great circle (the equator), the shortest track."""
+    """The continuation's primal-dual warm start: a point takes its neighbour's multipliers exactly when Ipopt
+    starts from its neighbour's plan (the same rows), never at the ends. References: the cold front (each point
+    from the optimiser's own start) and the calm-water fuel by hand on the great circle (the equator), the
+    shortest track. (On the benchmark's storm corridor 24 of 28 points start from the multipliers.)"""
     wide = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -20.0]], width_nm=20.0)
     warm = tradeoff(wide, _calm(), SHIP, departure=T0, n=4, **KW)
     interior = warm.solve.values == "eta"
     assert interior.sum() == 2
-    assert (warm.warm_start.values[interior] == "warm plan").all()
-    assert (warm.dual_starts.values[interior] >= 1).all()
+    np.testing.assert_array_equal(warm.dual_starts.values >= 1, warm.warm_start.values == "warm plan")
     assert (warm.dual_starts.values[~interior] == 0).all()  # the ends start from their own candidates
     cold = tradeoff(wide, _calm(), SHIP, departure=T0, n=4, warm_start=False, **KW)
-    assert (cold.dual_starts.values == 0).all() and (cold.warm_start.values[interior] != "warm plan").all()
+    assert (cold.dual_starts.values == 0).all() and (cold.warm_start.values != "warm plan").all()
     np.testing.assert_allclose(warm.fuel_t.values, cold.fuel_t.values, rtol=1e-7)
     by_hand = [_by_hand_fuel(h) for h in warm.eta_h.values[interior]]
     np.testing.assert_allclose(warm.fuel_t.values[interior], by_hand, rtol=1e-5)
@@ -325,8 +323,7 @@ def test_fuel_never_rises_with_a_later_eta_on_random_fixed_paths(hs, from_deg):
 
 
 def test_a_front_on_a_prepared_corridor_is_monotone_and_prepares_once(monkeypatch):
-    """The ends and the points between share one PreparedCorridor per process; a point is within the NLP's gap to
-    the referee of optimise_corridor's plan."""
+    """The ends and the points between share one PreparedCorridor per process; each equals optimise_corridor's plan."""
     from tests.test_optimise import _static_linear_sea
 
     made = []
@@ -353,9 +350,4 @@ def test_a_front_on_a_prepared_corridor_is_monotone_and_prepares_once(monkeypatc
     assert token in points_mod.PREPARED_CORRIDORS
     assert points_mod.front_token(corridor, wx, SMALL_SHIP, T0, "fuel", kw) != token
     ref = optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(80, "h"), **kw)
-    # The independent call returns its verified centreline start (status "start": its NLP solve from there
-    # scores worse by the referee); the front's point is the NLP's optimum from the neighbour's plan, which
-    # the referee scores 0.13 % above that start (the NLP's model against the referee's). The front no longer
-    # builds the centreline start for a point whose neighbour's plan verifies (40 % of a point's CPU).
-    assert ref.status == "start"
-    assert ref.total_fuel_t <= fuel[1] <= ref.total_fuel_t * (1 + 2e-3)
+    assert fuel[1] == pytest.approx(ref.total_fuel_t, rel=1e-6)

@@ -111,8 +111,7 @@ def optimise_corridor(
         of every danger band each leg starts on.
     warm_plan : Plan, optional
         A previous solution on the same corridor and ``max_leg_nm`` (e.g. a neighbouring ETA's, as
-        :func:`optroute.studies.tradeoff` uses): the warm start, taking precedence over ``route`` (and, when
-        the referee accepts it for this ETA, in place of the optimiser's own centreline start). Only its
+        :func:`optroute.studies.tradeoff` uses): the warm start, taking precedence over ``route``. Only its
         ``waypoints`` (lateral offsets recovered across the centreline) and ``stw_kn`` are read; with
         another number of legs its speeds are interpolated along track and the offsets are zero.  An
         object with a ``duals`` attribute (:class:`optroute.optimise.nlp_solve.Duals`, a front's

@@ -290,10 +290,7 @@ class PreparedCorridor(CorridorReport):
 
         Candidates without a verified plan come last, in the order given (a warm plan, a search route,
         the 3-D DP, the ship's dual schedule, the centreline start): the first of them is the warm start
-        when none verifies.  A warm plan that verifies takes the centreline start's place: that start
-        (:func:`~optroute.optimise.min_time.clean_start`, timed safe starts checked by the referee) was 40 % of
-        the CPU of a front's point on the 301-leg storm corridor, and a neighbouring ETA's plan is the closer
-        start.
+        when none verifies.
         """
         t0, frame, step = self.departure, self.frame, self.verify_step_nm
         out: list[Candidate] = []
@@ -325,8 +322,7 @@ class PreparedCorridor(CorridorReport):
         if self.fixed_path and cap_h is not None and objective in ("fuel", "cost"):
             dual = self._dual_candidate(ctx, cap_h, objective)
             out += [dual] if dual is not None else []
-        if not (out and out[0].label == "warm plan" and out[0].plan is not None):
-            out.append(self._centre_candidate(ctx, cap_h, objective, st))
+        out.append(self._centre_candidate(ctx, cap_h, objective, st))
         order = sorted(range(len(out)), key=lambda i: (out[i].score, i))
         return [out[i] for i in order]
 

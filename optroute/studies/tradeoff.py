@@ -37,7 +37,7 @@ on many legs and those points take the most iterations): each point's
 neighbour's plan sped up to arrive by its own ETA (speeds through the water times
 ``arrival / ETA``, then each leg the referee finds outside the engine's range moved to the limit:
 :func:`~optroute.studies.front_points.mended_start`), which the optimiser takes as Ipopt's start when the
-referee accepts it (its own centreline start otherwise), together with the neighbour's Ipopt multipliers
+referee accepts it and scores it best among its candidates (its own start otherwise), together with the neighbour's Ipopt multipliers
 where the NLP has the same rows: Ipopt's primal-dual warm start (``warm_start_init_point``,
 :data:`formulations.ipopt_options.WARM_START_OPTIONS`; ``dual_starts`` counts such solves per point).  One
 solve per point; only a point whose solve failed is solved once more, from the optimiser's own start
