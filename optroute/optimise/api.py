@@ -114,7 +114,10 @@ def optimise_corridor(
         A previous solution on the same corridor and ``max_leg_nm`` (e.g. a neighbouring ETA's, as
         :func:`optroute.studies.tradeoff` uses): the warm start, taking precedence over ``route``. Only its
         ``waypoints`` (lateral offsets recovered across the centreline) and ``stw_kn`` are read; with
-        another number of legs its speeds are interpolated along track and the offsets are zero.
+        another number of legs its speeds are interpolated along track and the offsets are zero.  An
+        object with a ``duals`` attribute (:class:`optroute.optimise.nlp_solve.Duals`, a front's
+        neighbouring solve's multipliers) also starts Ipopt's multipliers when it is the start chosen and
+        the NLP has the same rows (``solver_stats["dual_starts"]`` counts such solves).
     max_leg_nm : float
         Longest NLP leg [nm]; the corridor is resampled on its great circles.
     samples_per_leg : int
