@@ -2,15 +2,17 @@
 
 One front (:func:`optroute.studies.tradeoff`) of 30 ETAs on a 300-leg, ~3 300 nm corridor (±20 nm lateral
 freedom) through time-varying weather — a storm of 6 m peak H_s moving east at 8 kn across the
-track — for ``container_54k_dwt``, three ways, alternated in the same process after one untimed run of
+track — for ``container_54k_dwt``, four ways, alternated in the same process after one untimed run of
 each (:func:`benchmarks._measure.alternate`, issue 22):
 
-1. serial, the continuation (the default, the baseline): solves per point (optimiser calls and Ipopt
-   calls), the share of points whose Ipopt start was the neighbour's plan, the points that rose;
+1. serial, the continuation (the default, the baseline): each point from its neighbour's plan and Ipopt
+   multipliers; solves per point (optimiser calls and Ipopt calls), the share of points whose Ipopt start
+   was the neighbour's plan and of those that took its multipliers too, the points that rose;
 2. on a 2-worker :class:`distributed.LocalCluster` on 127.0.0.1 started once (its start-up timed apart),
    reached through ``scheduler_address`` as an existing cluster is: the speed-up over (1), target
    >= 1.6×, and whether the front is bit-identical to (1);
-3. serial, each point from the optimiser's own start (``warm_start=False``).
+3. serial, each point from its neighbour's plan alone (``warm_start="primal"``);
+4. serial, each point from the optimiser's own start (``warm_start=False``).
 
 The warm-up runs are the first of each: there each process prepares the corridor once (weather grid, power
 table, CasADi functions — the build is most of a cold front: 83 % of the samples of a 16-leg serial front
@@ -95,6 +97,7 @@ def _continuation(front: Any) -> dict[str, Any]:
         "ipopt_calls_per_point": float(front.nlp_solves.values[interior].sum()) / k,
         "iterations_per_point": float(front.iterations.values[interior].sum()) / k,
         "started_from_neighbour": float(np.mean(front.warm_start.values[interior] == "warm plan")),
+        "started_from_multipliers": float(np.mean(front.dual_starts.values[interior] >= 1)),
         "risen_points": int(front.attrs["risen_points"]),
         "interior_s": float(front.runtime_s.values[interior].sum()),
         "end_solves_s": float(front.runtime_s.values[~interior].sum()),
@@ -102,7 +105,7 @@ def _continuation(front: Any) -> dict[str, Any]:
 
 
 def run(quick: bool) -> dict[str, Any]:
-    """Compute the front the three ways, alternated; print markdown tables; return the figures."""
+    """Compute the front the four ways, alternated; print markdown tables; return the figures."""
     import distributed
 
     n_legs, n, repeats = QUICK if quick else FULL
@@ -133,15 +136,16 @@ def run(quick: bool) -> dict[str, Any]:
             {
                 "serial": serial,
                 "parallel": lambda: orx.tradeoff(**common, scheduler_address=address),
+                "primal": lambda: orx.tradeoff(**common, warm_start="primal"),
                 "cold": lambda: orx.tradeoff(**common, warm_start=False),
             },
             repeats=repeats,
         )
     finally:
         cluster.close()
-    warm, par, cold = (alt.results[k] for k in ("serial", "parallel", "cold"))
+    warm, par, primal, cold = (alt.results[k] for k in ("serial", "parallel", "primal", "cold"))
     ok = np.isfinite(warm.fuel_t.values)
-    cont, cont_cold = _continuation(warm), _continuation(cold)
+    cont, cont_primal, cont_cold = _continuation(warm), _continuation(primal), _continuation(cold)
     out = {
         "n_legs": int(warm.sizes["leg"]),
         "n_points": int(warm.sizes["eta"]),
@@ -159,7 +163,9 @@ def run(quick: bool) -> dict[str, Any]:
         "speedup_2_workers_min": 1.0 / alt.ratio("parallel", "serial", "min_s"),
         "speedup_2_workers_first": alt.warmup_s["serial"] / alt.warmup_s["parallel"],
         "warm_over_cold": alt.ratio("serial", "cold"),
+        "warm_over_primal": alt.ratio("serial", "primal"),
         "continuation": cont,
+        "primal": cont_primal,
         "cold": cont_cold,
         "bit_identical_parallel": _identical(warm, par),
         "serial_cpu_s": cpu_serial,
@@ -180,10 +186,11 @@ def run(quick: bool) -> dict[str, Any]:
     labels = {
         "serial": "serial, the continuation",
         "parallel": "2 workers (a cluster started once, by address)",
+        "primal": "serial, from the neighbour's plan alone",
         "cold": "serial, cold-started",
     }
     what = (
-        "The same front (corridor, ETAs, ship, weather) three ways, each run's whole `tradeoff` call; after the "
+        "The same front (corridor, ETAs, ship, weather) four ways, each run's whole `tradeoff` call; after the "
         "warm-up each process keeps the prepared corridor (the fingerprint of the inputs is the key)"
     )
     print("\n".join(timing_table(alt, "serial", what, labels)))
@@ -194,19 +201,19 @@ def run(quick: bool) -> dict[str, Any]:
     )
     print(
         "| points between the ends | solves per point | Ipopt calls per point | iterations per point | "
-        "Ipopt started from the neighbour | risen points | their solves [s] |"
+        "Ipopt started from the neighbour | and its multipliers | risen points | their solves [s] |"
     )
-    print("|---|---:|---:|---:|---:|---:|---:|")
-    for name, c in (("continuation (baseline)", cont), ("cold", cont_cold)):
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    for name, c in (("continuation (baseline)", cont), ("plan alone", cont_primal), ("cold", cont_cold)):
         print(
             f"| {name} | {c['optimiser_solves_per_point']:.2f} | {c['ipopt_calls_per_point']:.2f} | "
-            f"{c['iterations_per_point']:.1f} | {100 * c['started_from_neighbour']:.0f} % | {c['risen_points']} | "
-            f"{c['interior_s']:.1f} |"
+            f"{c['iterations_per_point']:.1f} | {100 * c['started_from_neighbour']:.0f} % | "
+            f"{100 * c['started_from_multipliers']:.0f} % | {c['risen_points']} | {c['interior_s']:.1f} |"
         )
     print(
         f"\nspeed-up on 2 workers {out['speedup_2_workers']:.2f}× (medians; minima {out['speedup_2_workers_min']:.2f}×; "
         f"target 1.6×); bit-identical to serial: {out['bit_identical_parallel']}; warm/cold "
-        f"{out['warm_over_cold']:.2f}; max rel. fuel diff cold vs warm {out['max_rel_fuel_diff_cold']:.1e}; "
+        f"{out['warm_over_cold']:.2f}; warm/plan alone {out['warm_over_primal']:.2f}; max rel. fuel diff cold vs warm {out['max_rel_fuel_diff_cold']:.1e}; "
         f"end solves {cont['end_solves_s']:.1f} s of the last serial run; monotone: {out['monotone']}; "
         f"statuses: {', '.join(out['statuses'])}"
     )

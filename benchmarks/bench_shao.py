@@ -18,9 +18,12 @@ the paper's quoted ETA, side by side in one process:
 (c) **the 3-D DP**: one ``search_route(method="dp", objective="fuel", eta=<the paper's ETA>)`` run,
     whose least fuel per arrival bin is the whole fuel-versus-ETA curve (the DP's fuel at an ETA
     is the least over the bins that end by it), and whose route for the paper's ETA is refereed;
-(d) **the NLP**: ``optimise_corridor(objective="fuel", eta=)`` on the DP's route for the paper's ETA
-    (its track fixed, :data:`NLP_WIDTH_NM`; the NLP sets the speed of every ≤ 60 nm leg), warm-started from
-    it (one ETA per case: the DP returns one route per run).
+(d) **the NLP**: ``optimise_corridor(objective="fuel", eta=, timed_no_passage=True)`` on the DP's route
+    for the paper's ETA (its track fixed, :data:`NLP_WIDTH_NM`; the NLP sets the speed of every ≤ 60 nm
+    leg), warm-started from it, and on case II also at :data:`NLP_ETAS_H` from the same DP run's routes
+    for those ETAs (``dp_options["routes_for_eta_h"]``). The moving bad weather is the NLP's time
+    windows: each leg it crosses is left before the box reaches it or entered after it has gone, on the
+    DP's side (:mod:`optroute.optimise.timed_no_go`), by the referee's own no-passage rule.
 
 The DP and the baseline are compared in the DP's own fuel accounting (the same lattice and model);
 the DP's route, the baseline and the NLP are also scored by the referee (``Plan.from_schedule``
@@ -43,37 +46,25 @@ over the great circle and its clearance from the storm and the islands at the ho
 Absolute fuel differs: the paper's ship model and sea are not given (``shao_case`` uses a
 Beaufort 5 head sea, H_s 2 m from the east). ``shao_case<k>.png`` plots the curves.
 
-Measured (``python -m benchmarks --only shao``, both cases on the paper's lattice, 15 + 1 ETAs, 2 Dec 2026,
-load 24-27 on 2 cores): the whole experiment 604 s wall, 167 s CPU; per case (wall / CPU) baseline
-227 / 62 s and 237 / 66 s (~25 one-speed searches each), DP 39 / 11 s and 34 / 10 s (one run, 1.15 M
-transitions costed by dp_kernels' compiled stages: the 779 s and 8.0 M of the earlier measurement
-predate them), IMO f_w < 0.1 s, NLP 47 / 13 s (case I) and 4 / 1 s (case II, failed). No window in
-either case: case I, the DP uses 0.12-0.79 % more than the exact constant speed at every ETA (the
-baseline's route, 14.3 nm over the great circle, keeps 179-366 nm from the storm; nothing binds);
-case II, the storm shapes the baseline's route at 13 of 16 ETAs (14-87 nm clearance) and the DP's
-best saving is 0.22 % (256 h), below the 0.5 % the window needs; the DP is above its lattice-speed
+Measured (``python -m benchmarks --only shao``, both cases on the paper's lattice, 15 + 1 ETAs, 2 Dec 2026):
+no window in either case. Case I: the DP uses 0.12-0.79 % more than the exact constant speed at every
+ETA (the baseline's route, 14.3 nm over the great circle, keeps 179-366 nm from the storm; nothing
+binds). Case II: the storm shapes the baseline's route at 13 of 16 ETAs (14-87 nm clearance) and the
+DP's best saving is 0.22 % (256 h), below the 0.5 % the window needs; the DP is above its lattice-speed
 candidate at one ETA (240 h, 1140.7 against 1140.1 t: one label per 1 h bin). The NLP on the DP's
-track at 264 h (case I): 945.7 t, verified, equal to the exact constant speed (945.7 t) and 0.4 %
-under the DP's 949.6 t (it makes the DP's 1 kn speed steps continuous). Case II at 278 h:
-NoSafePassage, because the NLP has no time-dependent no-go constraint: its lateral bounds are static
-per leg, blocked over every time a ship could be on the leg (113-189 h at 49.8° E), and the storm's
-south edge passes the DP's track there (−7.55°) only at ~149 h; the DP's route clears it by its
-timing alone, which fixed bounds cannot express (even over the DP's own hours abreast of 50-70° E
-the track is closed, at 61.3° E; the formulation's moving exclusion is a circle). Re-measured after
-main's faster NLP build (nlpfast), load 14 falling to 5: 453 s wall, 153 s CPU; NLP 15 / 6 s (case I);
-every fuel figure the same.
+track, all verified ("optimal"), each at or under the DP's route by the referee: case I 264 h 945.7 t
+(DP 949.6 t; the exact constant speed 945.7 t); case II 264 h 980.3 t (DP 981.3 t), 278 h 908.4 t (DP
+908.9 t, the baseline 910.8 t: the largest saving, 0.27 %), 296 h 825.2 t (DP 830.2 t, baseline
+825.2 t) — it makes the DP's 1 kn speed steps continuous, passing the storm on the DP's side. Time:
+the whole experiment 486 CPU-s (2 901 s wall at load 34 on 2 cores; baseline 190 / 228 CPU-s per case,
+DP 29 / 30, NLP 1.3 / 6.2 for one and three ETAs). At that load the CPU seconds themselves are
+inflated: four one-speed searches and the full DP of case I cost 28.1 and 32.8 CPU-s on main's code
+and 25.9 and 27.7 on this one, run one after the other in the same hour (the same 949.57 t), against
+about 14 and 11 CPU-s at low load.
 
 Run ``python -m benchmarks.bench_shao [--quick]`` (quick: case I only, 5 legs of ~1 080 nm, 300 nm
 lateral spacing, speeds every 2 kn, four ETAs, no NLP: its CasADi build over 105 legs alone takes
 ~10 CPU-s).
-
-Why the NLP failed before (NoSafePassage after > 3 GB): (1) the memory was ``prepare_corridor``'s
-weather grid and power table over a 150 nm corridor (:data:`NLP_WIDTH_NM`), before any build or
-solve; (2) the NoSafePassage came from the corridor's lateral bounds, which blocked every leg by the
-weather's no-passage cells at *any* time of the passage: the storm's sweep (lat −1° southwards from
-60 h) beside the islands (−1° to 7°) closed all of ±75 nm at 3 000 nm along the corridor
-(49.8° E), where no ship can be before 111 h. The bounds now block each leg over the times a
-ship can be on it (``optroute.optimise.lateral.reach_windows``).
 """
 
 from __future__ import annotations
@@ -108,6 +99,11 @@ over 8 speeds × 5 headings held 3.6 GB and over 85 CPU-s before the first solve
 heading, 0.5 CPU-s and 1.1 GB for the whole call (measured 2 Dec 2026, case I at 264 h)."""
 
 
+NLP_ETAS_H = {1: (), 2: (264.0, 296.0)}
+"""ETAs [h] where the NLP also runs, beside the paper's: from the same DP run's route for that ETA
+(``dp_options["routes_for_eta_h"]``). Case II's storm shapes the DP's route at these."""
+
+
 def settings(quick: bool) -> dict[str, Any]:
     """Lattice, speeds and ETAs of the run (the paper's lattice in full mode)."""
     if quick:
@@ -116,20 +112,23 @@ def settings(quick: bool) -> dict[str, Any]:
                 "nlp_width_nm": NLP_WIDTH_NM}  # fmt: skip
     return {"cases": (1, 2), "dp": se.dp_options(), "speeds_kn": se.PAPER_SPEEDS_KN,
             "etas_h": tuple(float(e) for e in np.arange(224.0, 336.1, 8.0)), "nlp": True,
-            "nlp_width_nm": NLP_WIDTH_NM}  # fmt: skip
+            "nlp_width_nm": NLP_WIDTH_NM, "nlp_etas_h": NLP_ETAS_H}  # fmt: skip
 
 
 def _nlp(row: dict[str, Any], route: orx.Route, wx: Any, ship: orx.Ship, t0: np.datetime64, eta_h: float,
          width_nm: float) -> None:  # fmt: skip
     """The NLP in a corridor of ``width_nm`` about ``route`` (the DP's), warm-started from it, scored by the referee.
 
-    Fills the row's ``nlp_*`` fields.
+    The moving bad weather is the NLP's time windows (``timed_no_passage``: each leg it crosses is
+    passed before it arrives or after it has gone, on the DP's side). Fills the row's ``nlp_*``
+    fields and ``dp_ref_t``, the referee's fuel of the DP's route [t].
     """
     eta = t0 + np.timedelta64(int(round(eta_h * 3600)), "s")
     t = time.perf_counter()
+    row["dp_ref_t"], _ = se.refereed(route, wx, ship, t0)
     try:
-        plan = orx.optimise_corridor(route.corridor(width_nm=width_nm), wx, ship, departure=t0,
-                                     eta=eta, objective="fuel", route=route, max_leg_nm=60.0)  # fmt: skip
+        plan = orx.optimise_corridor(route.corridor(width_nm=width_nm), wx, ship, departure=t0, eta=eta,
+                                     objective="fuel", route=route, max_leg_nm=60.0, timed_no_passage=True)  # fmt: skip
     except orx.OptrouteError as exc:
         row.update(nlp_state=FAILED, nlp_violations=None, nlp_status=f"failed: {type(exc).__name__}",
                    nlp_error=str(exc)[:300])  # fmt: skip
@@ -161,8 +160,8 @@ def _row(
             "baseline_violations": None if not np.isfinite(viol) else int(viol), "fw_t": ex["fw_fuel_t"],
             "lattice_t": nan if k is None else float(curve["fuel_t"][k]),
             "lattice_speed_kn": nan if k is None else float(curve["speed_kn"][k]),
-            "dp_t": dp_at(end_h, dp_fuel, eta_h), "nlp_t": nan, "nlp_arrival_h": nan, "nlp_state": "",
-            "nlp_status": ""}  # fmt: skip
+            "dp_t": dp_at(end_h, dp_fuel, eta_h), "dp_ref_t": nan, "nlp_t": nan, "nlp_arrival_h": nan,
+            "nlp_state": "", "nlp_status": ""}  # fmt: skip
 
 
 class _Clock:
@@ -205,9 +204,11 @@ def run_case(case: int, cfg: dict[str, Any]) -> dict[str, Any]:
     with clock("baseline"):  # every lattice speed's route, then the exact constant speed of each ETA (refereed)
         curve = se.baseline_curve(wx, ship, t0, dp, speeds, max(etas), referee=False)
         exact = [se.exact_baseline(wx, ship, t0, dp, e, guess_nm=_guess_nm(curve, e)) for e in etas]
-    with clock("dp"):  # one DP run: its route for the paper's ETA, and its least fuel per arrival bin (the whole curve)
-        dp_route = se.search(wx, ship, t0, dp, eta=t0 + np.timedelta64(int(round(paper_eta * 3600)), "s"),
-                             speeds_kn=speeds)  # fmt: skip
+    nlp_etas = (paper_eta, *cfg.get("nlp_etas_h", {}).get(case, ())) if cfg["nlp"] else ()
+    with clock("dp"):  # one DP run: its routes for the NLP's ETAs, and its least fuel per arrival bin (the whole curve)
+        dp_route = se.search(wx, ship, t0, {**dp, "routes_for_eta_h": nlp_etas[1:]}, speeds_kn=speeds,
+                             eta=t0 + np.timedelta64(int(round(paper_eta * 3600)), "s"))  # fmt: skip
+    dp_routes = {paper_eta: dp_route, **dp_route.stats.get("routes_for_eta_h", {})}
     end_h = np.asarray(dp_route.stats["curve_bin_end_h"], float)
     dp_fuel = np.asarray(dp_route.stats["curve_fuel_t"], float)
     rows = [_row(e, ex, curve, end_h, dp_fuel) for e, ex in zip(etas, exact, strict=True)]
@@ -216,8 +217,8 @@ def run_case(case: int, cfg: dict[str, Any]) -> dict[str, Any]:
             r["fw_t"] = se.fw_fuel_t(ship, ex["speed_kn"], ex["arrival_h"]) if ex["route"] is not None else float("nan")
     with clock("nlp"):
         for row in rows:
-            if cfg["nlp"] and row["eta_h"] == paper_eta:
-                _nlp(row, dp_route, wx, ship, t0, paper_eta, cfg["nlp_width_nm"])
+            if row["eta_h"] in nlp_etas and dp_routes.get(row["eta_h"]) is not None:
+                _nlp(row, dp_routes[row["eta_h"]], wx, ship, t0, row["eta_h"], cfg["nlp_width_nm"])
     evidence = [{"eta_h": e, "speed_kn": ex["speed_kn"], **se.storm_clearance(ex["route"], case, t0)}
                 for e, ex in zip(etas, exact, strict=True) if ex["route"] is not None]  # fmt: skip
     curve.pop("routes")
@@ -335,15 +336,16 @@ def _print_case(res: dict[str, Any], cfg: dict[str, Any], png: Any) -> None:
           f"counted; IMO f_w: MEPC.1/Circ.796's estimate of the baseline's schedule (f_w = {res['fw']:.3f})._\n")  # fmt: skip
     print("| ETA [h] | baseline [t] (speed [kn]) | IMO f_w [t] | lattice-speed baseline [t] (speed [kn]) | DP [t] | "
           "DP / baseline | DP / lattice baseline | baseline by referee [t] (violations) | NLP [t] | "
-          "NLP / baseline by referee | NLP plan |")  # fmt: skip
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
+          "NLP / baseline by referee | NLP / DP by referee | NLP plan |")  # fmt: skip
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     for r in res["rows"]:
         b, bref = r["baseline_t"], r["baseline_ref_t"]
         bv = "–" if r["baseline_violations"] is None else r["baseline_violations"]
         print(f"| {r['eta_h']:g} | {_f(b, '.1f')} ({_f(r['baseline_speed_kn'], '.2f')}) | {_f(r['fw_t'], '.1f')} | "
               f"{_f(r['lattice_t'], '.1f')} ({_f(r['lattice_speed_kn'], 'g')}) | {_f(r['dp_t'], '.1f')} | "
               f"{_f(r['dp_t'] / b, '.4f')} | {_f(r['dp_t'] / r['lattice_t'], '.4f')} | {_f(bref, '.1f')} ({bv}) | "
-              f"{_f(r['nlp_t'], '.1f')} | {_f(r['nlp_t'] / bref, '.3f')} | {_nlp_cell(r)} |")  # fmt: skip
+              f"{_f(r['nlp_t'], '.1f')} | {_f(r['nlp_t'] / bref, '.3f')} | {_f(r['nlp_t'] / r['dp_ref_t'], '.4f')} | "
+              f"{_nlp_cell(r)} |")  # fmt: skip
     print()
     print("\n".join(comparison_lines(res["comparison"])))
     print(f"\nETAs without a DP curve point (DP failures): {res['dp_missing']} of {len(res['rows'])}; ETAs where the DP "

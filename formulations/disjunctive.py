@@ -570,7 +570,8 @@ def nlp_band_solver(
         ``gains(result) -> array (N, m, B) or None``: the estimated change of flipping each group from a
         feasible solve (``InnerOutcome.gain``). Default: none (every move is tried).
     **solve_kwargs
-        ETA, objective, prices and the initial warm start, passed to ``nlp.solve``.
+        ETA, objective, prices and the initial warm start, passed to ``nlp.solve`` (multipliers
+        ``lam_x0``/``lam_g0``, if given, to its first solve only).
 
     Returns
     -------
@@ -587,6 +588,9 @@ def nlp_band_solver(
         which = nlp if calls[0] == 0 or later is None else later()
         calls[0] += 1
         res = which.solve(sides=sides, applies=applies, **kwargs)
+        # a primal-dual warm start's multipliers belong to the first solve's start; later ones start from a solution
+        kwargs.pop("lam_x0", None)
+        kwargs.pop("lam_g0", None)
         feasible = bool(res.success and res.max_violation <= violation_tol)
         st = res.samples
         out = InnerOutcome(

@@ -41,7 +41,8 @@ import numpy as np
 
 from formulations._nlp_model import row_blocks, row_bounds, side_free_row, structured_derivatives
 from formulations.common import FormulationInputError, broadcast_legs
-from formulations.speed_nlp import IPOPT_DEFAULTS, SpeedNLP
+from formulations.ipopt_options import IPOPT_DEFAULTS
+from formulations.speed_nlp import SpeedNLP
 
 __all__ = ["ETA_WEIGHT", "SLACK_TOL", "Phase1Problem", "Phase1Result", "solve_phase1"]
 

@@ -75,8 +75,9 @@ from formulations.common import (
     broadcast_legs,
 )
 from formulations.disjunctive import select_sides
+from formulations.ipopt_options import IPOPT_DEFAULTS
 from formulations.sample_layout import SampleLayout
-from formulations.speed_nlp import IPOPT_DEFAULTS, SampleState, SpeedNLP
+from formulations.speed_nlp import SampleState, SpeedNLP
 
 __all__ = ["MAX_DROP_CHOICES", "RobustResult", "RobustSpeedNLP"]
 

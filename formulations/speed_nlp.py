@@ -94,6 +94,7 @@ from formulations.common import (
     WeatherGrid,
     broadcast_legs,
 )
+from formulations.ipopt_options import IPOPT_DEFAULTS, WARM_START_OPTIONS, checked_duals
 from formulations.nlp_result import NLPResult, SampleState
 from formulations.sample_layout import SampleLayout, midpoint_layout
 
@@ -110,25 +111,6 @@ __all__ = [
 ]
 
 Objective = Literal["time", "fuel", "cost"]
-
-_IPOPT_DEFAULTS: dict[str, Any] = {
-    "ipopt.print_level": 0,
-    "ipopt.sb": "yes",
-    "print_time": False,
-    "ipopt.tol": 1e-9,
-    "ipopt.acceptable_tol": 1e-6,
-    "ipopt.max_iter": 500,
-    "ipopt.linear_solver": "mumps",
-    "ipopt.mu_strategy": "adaptive",
-    "ipopt.bound_relax_factor": 0.0,
-    # no gradient of the Lagrangian in CasADi's Nlpsol (Ipopt returns the bound multipliers lam_x itself, and
-    # nothing reads the parameters' lam_p): building it differentiates the whole graph by reverse mode at
-    # construction, through the weather splines, which was most of a build's time on a corridor's grid
-    "calc_lam_p": False,
-    "no_nlp_grad": True,
-}
-#: Ipopt/CasADi options of the corridor NLPs (public: :mod:`formulations.robust_nlp` uses the same).
-IPOPT_DEFAULTS = _IPOPT_DEFAULTS
 
 
 def _rep(col: Any, m: int) -> Any:
@@ -441,18 +423,19 @@ class SpeedNLP:
         )
         g = ca.vertcat(*parts)
         self._rows, self._ng, self._nx = rows, g.shape[0], nx
-        opts = dict(_IPOPT_DEFAULTS)
+        opts = dict(IPOPT_DEFAULTS)
         opts.update(ipopt_options)
         opts["expand"] = expand
         if structured:
             self._derivatives = structured_derivatives(self, jit=jit, exact_hessian=exact_hessian)  # keep alive
             opts.update(self._derivatives)
         param = ca.vertcat(weights, beta, fac)
-        self._solver = (
-            ca.nlpsol("speed_nlp", "ipopt", {"x": x, "p": param, "f": objective, "g": g}, opts)
-            if build_solver
-            else None
-        )
+        self._nlp_def = {"x": x, "p": param, "f": objective, "g": g}
+        # the primal-dual warm start's solver (made on its first use): the same functions, WARM_START_OPTIONS
+        # under the caller's options
+        self._warm_opts = {**opts, **{k: v for k, v in WARM_START_OPTIONS.items() if k not in ipopt_options}}
+        self._warm_solver: Any = None
+        self._solver = ca.nlpsol("speed_nlp", "ipopt", self._nlp_def, opts) if build_solver else None
         names = [*self.STATE_KEYS, "length", "dt_leg", "fuel_leg", "px", "py"]
         outs = [mdl[k] for k in names]
         if nb:
@@ -621,6 +604,16 @@ class SpeedNLP:
         return select_sides(state.ratio, lower, upper), state.applies.copy()
 
     # ------------------------------------------------------------------ solve
+    def dual_key(self) -> tuple[Any, ...]:
+        """What the meaning of the multipliers depends on: the variables, the row blocks and the sample layout.
+
+        Two problems with equal keys (the same corridor's NLP for two ETAs) can share ``lam_x``/``lam_g``
+        (:meth:`solve`'s ``lam_x0``/``lam_g0``).
+        """
+        layout = self.sample_layout
+        rows = tuple(sorted((k, tuple(np.ravel(v).tolist())) for k, v in self._rows.items()))
+        return (self._nx, self._ng, rows, layout.fraction.tobytes(), layout.weight.tobytes(), self.n_bands)
+
     def solve(
         self,
         *,
@@ -635,6 +628,10 @@ class SpeedNLP:
         stw0_kn: ArrayLike | None = None,
         time0_h: ArrayLike | None = None,
         fix_offsets: bool = False,
+        time_lo_h: ArrayLike | None = None,
+        time_hi_h: ArrayLike | None = None,
+        lam_x0: ArrayLike | None = None,
+        lam_g0: ArrayLike | None = None,
     ) -> NLPResult:
         """Solve for one ETA, objective, band sides and warm start.
 
@@ -660,6 +657,15 @@ class SpeedNLP:
             speed that makes the ETA (clipped to the speed bounds), consistent times.
         fix_offsets : bool
             Hold the offsets at ``offset0_nm`` (a fixed path).
+        time_lo_h, time_hi_h : array_like, shape (N+1,), optional
+            Bounds on the waypoint times [h since departure] (``-inf`` / ``inf`` where none), beside
+            departure at 0 and the ETA: time windows, e.g. leave a leg before a moving no-go area
+            reaches it or enter it after the area has gone.
+        lam_x0, lam_g0 : array_like, optional
+            Multipliers of the variable bounds, shape (3N+2,), and of the rows, shape (ng,), of an earlier
+            solve of a problem with the same rows (:meth:`dual_key`), e.g. the neighbouring ETA's
+            ``NLPResult.lam_x``/``lam_g`` [objective units per variable/row unit]: with both, Ipopt starts from
+            them and the warm start (``warm_start_init_point``, :data:`WARM_START_OPTIONS`).
 
         Returns
         -------
@@ -707,6 +713,18 @@ class SpeedNLP:
             t_hi[n] = eta_h
             if eta_mode == "eq":
                 t_lo[n] = eta_h
+        if time_lo_h is not None:
+            t_lo = np.maximum(t_lo, broadcast_legs(time_lo_h, n + 1, "time_lo_h", finite=False))
+        if time_hi_h is not None:
+            t_hi = np.minimum(t_hi, broadcast_legs(time_hi_h, n + 1, "time_hi_h", finite=False))
+        if np.any(np.isnan(t_lo) | np.isnan(t_hi)):
+            raise FormulationInputError("time_lo_h / time_hi_h hold NaN; give -inf / inf where a waypoint has no bound")
+        if np.any(t_lo > t_hi):
+            k = int(np.argmax(t_lo > t_hi))
+            raise FormulationInputError(
+                f"waypoint {k}'s time bounds are empty: {t_lo[k]:.6g} h > {t_hi[k]:.6g} h (time_lo_h / time_hi_h "
+                "against departure and the ETA); relax the time windows or give a later ETA"
+            )
         lbx = np.concatenate([y_lo, self.v_min_kn, t_lo])
         ubx = np.concatenate([y_hi, self.v_max_kn, t_hi])
         x0 = np.clip(x0, lbx, ubx)
@@ -714,10 +732,15 @@ class SpeedNLP:
                               sog_min_kn=self.sog_min_kn if self._has_current else None,
                               exclusion=self.exclusion is not None)  # fmt: skip
         p = np.concatenate([weights, beta, self._factor_parameter()])
+        solver, duals = self._solver, checked_duals(lam_x0, lam_g0, self._nx, self._ng)
+        if duals:
+            if self._warm_solver is None:
+                self._warm_solver = ca.nlpsol("speed_nlp_warm", "ipopt", self._nlp_def, self._warm_opts)
+            solver = self._warm_solver
         started = time.perf_counter()
-        sol = self._solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        sol = solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **duals)
         elapsed = time.perf_counter() - started
-        stats = self._solver.stats()
+        stats = solver.stats()
         x = np.asarray(sol["x"], dtype=float).ravel()
         lam_x = np.asarray(sol["lam_x"], dtype=float).ravel()
         lam_g = np.asarray(sol["lam_g"], dtype=float).ravel()

@@ -435,8 +435,13 @@ def _combine_variable(
     return xr.Variable(axis_dims + own_dims, data, attrs=dict(first.attrs))
 
 
-def combine(store: Path, manifest: Mapping[str, Any]) -> xr.Dataset:
+def combine(
+    store: Path, manifest: Mapping[str, Any], decoded: Mapping[tuple[int, ...], xr.Dataset] | None = None
+) -> xr.Dataset:
     """Combine the case files of ``store`` into one dataset with the study's axes as dimensions.
+
+    ``decoded``: cases already decoded from the bytes of their files (as :func:`read_case` would load them, by
+    the worker that wrote them), used instead of reading those files again.
 
     Each case's variables gain the axes as leading dimensions.  Cases that are
     missing or failed hold NaN (NaT for times, "" for text; integer and boolean
@@ -458,8 +463,9 @@ def combine(store: Path, manifest: Mapping[str, Any]) -> xr.Dataset:
     status = np.full(shape, "missing", dtype=object)
     runtime = np.full(shape, np.nan)
     cases: dict[tuple[int, ...], xr.Dataset] = {}
+    decoded = decoded or {}
     for index, path in sorted(list_cases(store, shape).items()):
-        ds = read_case(path)
+        ds = decoded[index] if index in decoded else read_case(path)
         status[index] = str(ds.attrs[STATUS_ATTR])
         runtime[index] = float(ds.attrs.get(RUNTIME_ATTR, np.nan))
         if status[index] == "ok":

@@ -19,15 +19,18 @@ if os.environ.get("CI"):
 
 # ---------------------------------------------------------------------------
 # CPU time per test: ``python -m pytest --cpu-durations=N`` lists the N tests that cost the most CPU
-# (this process and its waited-for children, setup + call + teardown, so fixtures and subprocesses
-# count). Wall time on a shared machine says little about cost; CPU time is what the budget counts. Serial
-# runs only: under pytest-xdist the times stay in the workers.
+# (the process that ran the test and its waited-for children, setup + call + teardown, so fixtures and
+# subprocesses count). Wall time on a shared machine says little about cost; CPU time is what the budget
+# counts. Under pytest-xdist each worker measures its own tests and sends the figure to the controller on
+# the test's reports (``user_properties``), so ``-n 2 --cpu-durations=N`` ranks the whole run.
+# A module-scoped fixture is charged to the first test that builds it.
 # ---------------------------------------------------------------------------
 import resource  # noqa: E402
 
 import pytest  # noqa: E402
 
 _CPU_S: dict[str, float] = {}
+_CPU_KEY = "cpu_s"
 
 
 def _cpu_now_s() -> float:
@@ -42,18 +45,47 @@ def pytest_addoption(parser):
         type=int,
         default=None,
         metavar="N",
-        help="list the N tests with the most CPU time (process + children, fixtures included); 0 for all; serial runs only (without -n)",
+        help="list the N tests with the most CPU time (process + children, fixtures included); 0 for all",
     )
 
 
-@pytest.hookimpl(hookwrapper=True)
-def pytest_runtest_protocol(item, nextitem):
+def _timed_phase(item):
     if item.config.getoption("--cpu-durations") is None:
         yield
         return
     start_s = _cpu_now_s()
     yield
-    _CPU_S[item.nodeid] = _cpu_now_s() - start_s
+    item._cpu_phase_s = _cpu_now_s() - start_s
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_setup(item):
+    yield from _timed_phase(item)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_call(item):
+    yield from _timed_phase(item)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_teardown(item):
+    yield from _timed_phase(item)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    outcome = yield
+    cpu_s = getattr(item, "_cpu_phase_s", None)
+    if cpu_s is not None:
+        outcome.get_result().user_properties.append((_CPU_KEY, cpu_s))
+        item._cpu_phase_s = None
+
+
+def pytest_runtest_logreport(report):
+    for key, value in report.user_properties:
+        if key == _CPU_KEY:
+            _CPU_S[report.nodeid] = _CPU_S.get(report.nodeid, 0.0) + value
 
 
 def pytest_terminal_summary(terminalreporter, exitstatus, config):
@@ -62,9 +94,15 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
         return
     ranked = sorted(_CPU_S.items(), key=lambda kv: kv[1], reverse=True)
     shown = ranked if n == 0 else ranked[:n]
+    per_file: dict[str, float] = {}
+    for nodeid, cpu_s in ranked:
+        per_file[nodeid.split("::")[0]] = per_file.get(nodeid.split("::")[0], 0.0) + cpu_s
     terminalreporter.write_sep("=", f"CPU time per test (total {sum(_CPU_S.values()):.1f} CPU-s)")
     for nodeid, cpu_s in shown:
         terminalreporter.write_line(f"{cpu_s:8.2f} CPU-s  {nodeid}")
+    terminalreporter.write_sep("=", "CPU time per file")
+    for path, cpu_s in sorted(per_file.items(), key=lambda kv: kv[1], reverse=True):
+        terminalreporter.write_line(f"{cpu_s:8.2f} CPU-s  {path}")
 
 
 # ---------------------------------------------------------------------------
@@ -86,3 +124,16 @@ def pytest_configure(config):
         config.issue_config_time_warning(
             pytest.PytestWarning(f"numba warm-up failed (tests/warm_kernels.py):\n{tail}"), 2
         )
+
+
+# ---------------------------------------------------------------------------
+# Weather built once per test process and shared by the files that need the same one (read only: the tests
+# sample it, none changes it). Under ``--dist loadfile`` two files on one worker share it; on two workers
+# each builds it once.
+# ---------------------------------------------------------------------------
+@pytest.fixture(scope="session")
+def north_pacific_storms():
+    """Boeing EP 2145155's San Diego -> Tokyo storms, ``scenarios.north_pacific_storms()`` at its defaults."""
+    from optroute.weather import scenarios
+
+    return scenarios.north_pacific_storms()

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 import optroute as orx
 from optroute.physics.performance import KwonModel
-from optroute.physics.pointwise import allowed_speed, brake_power, brake_power_bound, point_params
+from optroute.physics.pointwise import allowed_speed, brake_power, brake_power_bound, cached_point_params
 from optroute.physics.safety import BandRules
 from optroute.physics.seaway import BEAUFORT_WAVE_HEIGHT_M
 from optroute.search import passage_kernels as pk
@@ -28,7 +28,9 @@ from optroute.weather.sample import sample_at
 from optroute.weather.schema import canonical_dataset
 from tests.test_search_kernels import CARGO, T0, _physics, sea_fields
 
-PARAMS = point_params(CARGO, KwonModel(CARGO), BandRules())  # bands where Hs >= 6.8 m
+# the search's own (read-only) parameter vector: a writable copy is another numba signature, and every kernel
+# it reaches would be compiled a second time on a clean cache
+PARAMS = cached_point_params(CARGO, KwonModel(CARGO), BandRules())  # bands where Hs >= 6.8 m
 
 
 @pytest.fixture(scope="module")
@@ -142,7 +144,7 @@ def test_the_pieces_box_holds_every_point_sampled_along_it(weather):
 
 @pytest.mark.parametrize("ship", [CARGO, orx.Ship.preset("container_8000teu")])
 def test_power_bound_is_above_the_power_at_every_angle_and_beaufort_number(ship):
-    p = point_params(ship, KwonModel(ship), BandRules())
+    p = cached_point_params(ship, KwonModel(ship), BandRules())
     angles = np.arange(0.0, 360.0, 7.5)
     for bn_max in range(0, 13):
         for v in (6.0, 12.0, 18.0, 22.0):

@@ -180,7 +180,7 @@ def test_plan_searches_optimises_and_meets_the_eta(capsys, files, tmp_path):
         "--search",
         "dp",
         "--cell-nm",
-        "60",
+        "120",
         "--eta",
         "2024-01-11T16:00",
         "--out",

@@ -20,7 +20,7 @@ from optroute import geodesy as geo
 from optroute.errors import ConfigError, NoSafePassage
 from optroute.physics.passage import SeaState, evaluate_speeds
 from optroute.physics.performance import KwonModel
-from optroute.physics.pointwise import least_cost_per_nm, point_params
+from optroute.physics.pointwise import cached_point_params, least_cost_per_nm
 from optroute.physics.safety import BandRules
 from optroute.physics.speed_loss import KWON_BISECTIONS, KWON_SCAN_STEPS, calm_speed_point, kwon_cu_coefficients
 from optroute.search import RouteGrid, compass, shortest_path
@@ -57,7 +57,7 @@ def _without_loop_kernel(cb):
 
 
 def _floor(lam, current_kn=2.0):
-    return least_cost_per_nm(point_params(CARGO, KwonModel(CARGO), BandRules()), SPEEDS, lam, current_kn)
+    return least_cost_per_nm(cached_point_params(CARGO, KwonModel(CARGO), BandRules()), SPEEDS, lam, current_kn)
 
 
 # ------------------------------------------------------------------ the loop
@@ -113,7 +113,7 @@ def test_fuel_bound_keeps_astar_at_dijkstras_label(grid, seed, lam, method):
 # ------------------------------------------------------------------ the fuel floor
 def test_fuel_floor_is_the_calm_water_minimum_and_below_every_allowed_speed_anywhere():
     model = KwonModel(CARGO)
-    p = point_params(CARGO, model, BandRules())
+    p = cached_point_params(CARGO, model, BandRules())
     # hand-worked: calm water, no current, every speed of the set above the minimum load
     v = SPEEDS
     power = np.maximum(CARGO.displacement_t ** (2 / 3) * v**3 / CARGO.admiralty_coefficient, CARGO.min_power_kw)
@@ -216,3 +216,52 @@ def test_search_route_fuel_objective_uses_the_floor_and_matches_dijkstra():
     np.testing.assert_array_equal(a.waypoints, d.waypoints)
     assert a.cost == pytest.approx(d.cost, rel=1e-12)
     assert a.stats["expanded"] < d.stats["expanded"]
+
+
+@pytest.mark.parametrize("objective", ["time", "cost"])
+def test_a_dropped_leg_is_one_whose_full_cost_cannot_improve_the_label(rough, grid, objective):
+    """``cost_leg``'s ``stop`` (the compiled loop's early drop) against the leg costed in full (``label_v = inf``).
+
+    A leg is returned only with its full cost, bit for bit, and dropped only where ``label_u`` + its full cost
+    exceeds ``label_v``: the search's strictly-better update would not take it either.
+    """
+    from optroute.search.costs import LegEvaluator
+    from optroute.search.edge_geometry import edge_piece_arrays
+    from optroute.search.passage_kernels import cost_leg
+    from optroute.search.refine_kernels import workspace
+
+    ph = _physics(rough)
+    cb = ph.segment_time(14.0, 0.5, 3.0, 10.0) if objective == "time" else ph.segment_cheapest(SPEEDS, 0.6, 10.0)
+    k = cb.leg_kernel
+    nb = compass(16)
+    ev = LegEvaluator(grid, nb, segment_cost=cb)
+    rng = np.random.default_rng(3)
+    u = rng.integers(0, grid.n_nodes, 400)
+    o = rng.integers(0, nb.m, 400)
+    i, j = grid.unflat(u)
+    i1, j1 = i + nb.offsets[o, 0], j + nb.offsets[o, 1]
+    on = (i1 >= 0) & (i1 < grid.ny) & (j1 >= 0) & (j1 < grid.nx)
+    u, o, v = u[on], o[on], grid.flat(i1[on], j1[on])
+    lat, lon, crs, length = edge_piece_arrays(ev.tangent, u, v, ev.piece_f0[o], ev.piece_f1[o], ev.piece_n[o])
+    npc = ev.piece_n[o].astype(np.int64)
+    args = (k.params, k.weather, k.mode, k.check_nm, k.speeds, k.lam, k.desired, k.step, k.vmin)
+    ws = workspace(True)
+    inv_v = (1.0 - 1e-5) / (14.0 + 2.0) if objective == "time" else 0.0
+    dropped = kept = 0
+    for e in range(u.size):
+        row = (lat[e], lon[e], crs[e], length[e], npc[e], rng.uniform(0.0, 100.0))
+        d, f, ok, _ = cost_leg(*args, *row, ws, (0.0, np.inf, True, 0.0))
+        if not ok:
+            continue
+        c = d if objective == "time" else f + k.lam * d
+        label_u = rng.uniform(0.0, 50.0)
+        for factor in (0.3, 0.9, 0.999, 1.0, 1.001, 2.0):
+            label_v = label_u + factor * c
+            d2, f2, ok2, _ = cost_leg(*args, *row, ws, (label_u, label_v, objective == "time", inv_v))
+            if ok2:
+                assert (d2, f2) == (d, f)
+                kept += 1
+            else:
+                assert label_u + c > label_v
+                dropped += 1
+    assert dropped > 100 and kept > 100

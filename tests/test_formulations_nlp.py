@@ -383,3 +383,38 @@ def test_phase1_derivatives_equal_central_differences_of_its_rows() -> None:
         np.testing.assert_allclose(jac[:, c], fd_g, atol=1e-5 * max(1.0, np.abs(fd_g).max()), err_msg=f"column {c}")
         fd_h = (np.asarray(up[1].full()).T @ lam - np.asarray(down[1].full()).T @ lam) / (2 * h)
         np.testing.assert_allclose(hess[:, c], fd_h, atol=1e-5 * max(1.0, np.abs(fd_h).max()), err_msg=f"column {c}")
+
+
+def test_primal_dual_warm_start_reaches_the_cold_optimum_of_the_next_eta_in_fewer_iterations() -> None:
+    """Ipopt's warm start from a neighbouring ETA's point and multipliers (a front's continuation).
+
+    Independent reference: the same problem solved cold. The warm solve must reach the same optimum (a
+    local solver, the same basin), in fewer iterations than the cold one and than from the point alone; and
+    the solution's own multipliers restart it at its optimum in a handful of iterations.
+    """
+    nlp, eta = _rich_problem()
+    base = nlp.solve(eta_h=eta * 1.05)
+    assert base.success, base.status
+    cold = nlp.solve(eta_h=eta, sides=base.sides, applies=base.applies)
+    start = dict(offset0_nm=base.offset_nm, stw0_kn=base.stw_kn * 1.05, sides=base.sides, applies=base.applies)
+    primal = nlp.solve(eta_h=eta, **start)
+    warm = nlp.solve(eta_h=eta, lam_x0=base.lam_x, lam_g0=base.lam_g, **start)
+    assert cold.success and primal.success and warm.success
+    assert warm.objective == pytest.approx(cold.objective, rel=1e-7)
+    assert warm.iterations < min(cold.iterations, primal.iterations), (warm, primal, cold)
+    again = nlp.solve(
+        eta_h=eta,
+        offset0_nm=warm.offset_nm,
+        stw0_kn=warm.stw_kn,
+        time0_h=warm.time_h,
+        sides=warm.sides,
+        applies=warm.applies,
+        lam_x0=warm.lam_x,
+        lam_g0=warm.lam_g,
+    )
+    assert again.success and again.iterations <= 5 and again.objective == pytest.approx(warm.objective, rel=1e-9)
+    assert nlp.dual_key() == _rich_problem()[0].dual_key()
+    with pytest.raises(FormulationInputError, match="lam_g0"):
+        nlp.solve(eta_h=eta, lam_x0=base.lam_x, lam_g0=base.lam_g[:-1])
+    with pytest.raises(FormulationInputError, match="both"):
+        nlp.solve(eta_h=eta, lam_x0=base.lam_x)

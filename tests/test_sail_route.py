@@ -25,10 +25,10 @@ def test_calm_sea_takes_distance_over_speed_and_calm_fuel():
 
 
 @pytest.fixture(scope="module")
-def boeing_2008_north_pacific():
+def boeing_2008_north_pacific(north_pacific_storms):
     """Seed 000 (EP 2145155 Figs. 23-26) under the patent's own assumptions: bands and top speed only."""
     ship = orx.Ship.preset("container_8000teu").replace(min_load_fraction=0.0)
-    return ship, orx.CalmWaterModel(ship), orx.scenarios.north_pacific_storms()
+    return ship, orx.CalmWaterModel(ship), north_pacific_storms  # built once per process (tests/conftest.py)
 
 
 def test_boeing_2008_great_circle_slows_below_10_kn_and_takes_over_12_days(boeing_2008_north_pacific):

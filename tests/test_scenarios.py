@@ -148,8 +148,8 @@ SHIP = Ship.preset("container_8000teu")
 
 
 @pytest.fixture(scope="module")
-def npac():
-    return sc.north_pacific_storms()
+def npac(north_pacific_storms):
+    return north_pacific_storms  # the suite's one copy (tests/conftest.py), shared with test_sail_route
 
 
 def _gc(n=241):

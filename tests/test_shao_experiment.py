@@ -95,3 +95,18 @@ def test_dp_keeps_the_baselines_candidate_on_case_ii_at_240_h(ship):
         )
     assert out[16] <= base * (1.0 + 1e-12)
     assert out[1] > base + 0.1  # the artefact this guards against
+
+
+def test_one_dp_run_gives_the_routes_of_other_etas_as_runs_for_them(ship):
+    """``dp_options["routes_for_eta_h"]``: the routes of other ETAs from one run are those of a run for each ETA."""
+    wx = orx.scenarios.shao_case(1)
+    t0 = wx.time.values[0]
+    dp = {**se.dp_options(legs=LEGS, dy_nm=300.0), "horizon_h": 360.0}
+    one = se.search(wx, ship, t0, {**dp, "routes_for_eta_h": [300.0, 1.0]}, speeds_kn=list(SPEEDS_KN),
+                    eta=t0 + np.timedelta64(280, "h"))  # fmt: skip
+    assert one.stats["routes_for_eta_h"][1.0] is None  # nothing arrives within an hour
+    alone = se.search(wx, ship, t0, dp, speeds_kn=list(SPEEDS_KN), eta=t0 + np.timedelta64(300, "h"))
+    got = one.stats["routes_for_eta_h"][300.0]
+    assert got.total_fuel_t == pytest.approx(alone.total_fuel_t, rel=1e-12)
+    np.testing.assert_allclose(got.waypoints, alone.waypoints, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(got.times, alone.times)

@@ -134,8 +134,8 @@ def test_a_rising_point_keeps_the_earlier_plan_beside_its_own_solve_and_is_count
     real = points_mod.solve_point
     solved = []
 
-    def spoiled(spec, eta_h, kind, warm, route=None):
-        p = real(spec, eta_h, kind, warm, route)
+    def spoiled(spec, eta_h, kind, warm, route=None, **kw):
+        p = real(spec, eta_h, kind, warm, route, **kw)
         solved.append((kind, eta_h))
         if kind == "eta" and eta_h == 35.0:  # planted: the 35 h solve ends above the 30 h point's fuel
             p = points_mod.replace_fields(p, totals={**p.totals, "fuel_t": 1e6})
@@ -176,6 +176,24 @@ def test_one_solve_per_point_and_the_slow_neighbour_sped_up_to_arrive_by_the_nex
     arrival = float((legs.leg_distance_nm / sped.stw_kn).sum())
     assert 35.0 * (1 - 2e-6) < arrival <= 35.0
     assert points_mod.retimed_start(later, 45.0) is later.carry  # a later ETA: the plan arrives by it as it is
+
+
+def test_each_point_starts_from_its_neighbours_plan_and_multipliers_and_reaches_the_cold_front():
+    """The continuation's primal-dual warm start: a point takes its neighbour's multipliers exactly when Ipopt
+    starts from its neighbour's plan (the same rows), never at the ends. References: the cold front (each point
+    from the optimiser's own start) and the calm-water fuel by hand on the great circle (the equator), the
+    shortest track. (On the benchmark's storm corridor 24 of 28 points start from the multipliers.)"""
+    wide = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -20.0]], width_nm=20.0)
+    warm = tradeoff(wide, _calm(), SHIP, departure=T0, n=4, **KW)
+    interior = warm.solve.values == "eta"
+    assert interior.sum() == 2
+    np.testing.assert_array_equal(warm.dual_starts.values >= 1, warm.warm_start.values == "warm plan")
+    assert (warm.dual_starts.values[~interior] == 0).all()  # the ends start from their own candidates
+    cold = tradeoff(wide, _calm(), SHIP, departure=T0, n=4, warm_start=False, **KW)
+    assert (cold.dual_starts.values == 0).all() and (cold.warm_start.values != "warm plan").all()
+    np.testing.assert_allclose(warm.fuel_t.values, cold.fuel_t.values, rtol=1e-7)
+    by_hand = [_by_hand_fuel(h) for h in warm.eta_h.values[interior]]
+    np.testing.assert_allclose(warm.fuel_t.values[interior], by_hand, rtol=1e-5)
 
 
 def test_a_retimed_start_below_the_minimum_load_is_mended_up_to_it_by_the_propeller_law():

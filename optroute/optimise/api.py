@@ -81,6 +81,7 @@ def optimise_corridor(
     cvar_alpha: float = 0.0,
     violation_fraction: float = 0.0,
     constraint_rows: Literal["referee", "midpoints"] = "midpoints",
+    timed_no_passage: bool = False,
 ) -> Plan:
     """Optimise the waypoints and leg speeds inside a corridor: the corridor NLP, verified.
 
@@ -113,7 +114,10 @@ def optimise_corridor(
         A previous solution on the same corridor and ``max_leg_nm`` (e.g. a neighbouring ETA's, as
         :func:`optroute.studies.tradeoff` uses): the warm start, taking precedence over ``route``. Only its
         ``waypoints`` (lateral offsets recovered across the centreline) and ``stw_kn`` are read; with
-        another number of legs its speeds are interpolated along track and the offsets are zero.
+        another number of legs its speeds are interpolated along track and the offsets are zero.  An
+        object with a ``duals`` attribute (:class:`optroute.optimise.nlp_solve.Duals`, a front's
+        neighbouring solve's multipliers) also starts Ipopt's multipliers when it is the start chosen and
+        the NLP has the same rows (``solver_stats["dual_starts"]`` counts such solves).
     max_leg_nm : float
         Longest NLP leg [nm]; the corridor is resampled on its great circles.
     samples_per_leg : int
@@ -134,6 +138,13 @@ def optimise_corridor(
         For ``"cost"`` [currency/t], [currency/h].
     exclusion : Exclusion, optional
         A moving circle (storm, cyclone) to stay out of.
+    timed_no_passage : bool
+        The weather's no-passage cells that are NaN at some times only (a moving no-go area, as in
+        ``scenarios.shao_case``) become time windows on the NLP's waypoint times — leave each leg they
+        cross before they reach it, or enter it after they have gone, on the side the start passes
+        (:mod:`optroute.optimise.timed_no_go`) — instead of lateral bounds blocked over every time a
+        ship could be on the leg, which close a track that clears the area by its timing alone. Needs
+        ``weather`` as a dataset. Default False (lateral bounds).
     progress : callable, optional
         ``progress(stage, fraction)`` with ``fraction`` in [0, 1].
     speed_range_kn : (float, float), optional
@@ -267,6 +278,7 @@ def optimise_corridor(
         progress=progress,
         jit=jit,
         constraint_rows=constraint_rows,
+        timed_no_passage=timed_no_passage,
     )
     plan = _solve_honestly(
         prepared, eta, eta_mode=eta_mode, objective=objective, warm_plan=warm_plan, route=route, progress=progress

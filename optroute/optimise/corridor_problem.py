@@ -39,6 +39,7 @@ from optroute.optimise.corridor_stats import CorridorReport
 from optroute.optimise.min_time import clean_start
 from optroute.optimise.nlp_inputs import exclusion_frame_error_nm
 from optroute.optimise.nlp_solve import (
+    Duals,
     Solved,
     Tightening,
     clear_of_exclusion,
@@ -100,6 +101,7 @@ class _Call:
     progress: ProgressFn | None
     started: float
     counts0: tuple[float, int, int, float]  # the problem's build time, solves, iterations and Ipopt time before
+    dual_starts0: int  # the problem's primal-dual warm starts before
     samples_per_leg: int
     log: list[str] = field(default_factory=list)
     stage_s: dict[str, float] = field(default_factory=dict)
@@ -118,7 +120,7 @@ class PreparedCorridor(CorridorReport):
     corridor, weather, ship, departure, model, rules, max_leg_nm, samples_per_leg, fuel_price_per_t,
     hourly_cost_per_h, exclusion, speed_range_kn, band_solves, max_retries,
     band_margin, band_hs_margin, verify_step_nm, solver_options, use_land_mask, jit, discrete_start, dp_options,
-    constraint_rows
+    constraint_rows, timed_no_passage
         As in :func:`optroute.optimise_corridor`.
     latest_eta : datetime64 or str, optional
         The latest ETA to be solved [UTC]: the weather grid (and the ship's power table on it) runs
@@ -163,6 +165,7 @@ class PreparedCorridor(CorridorReport):
         discrete_start: bool = False,
         dp_options: Mapping[str, Any] | None = None,
         constraint_rows: str = "midpoints",
+        timed_no_passage: bool = False,
     ) -> None:
         # every argument, for the free-arrival minimum-time twin of this corridor (minimum_time_twin)
         self._arguments = {k: v for k, v in locals().items() if k not in ("self", "__class__")}
@@ -196,7 +199,7 @@ class PreparedCorridor(CorridorReport):
         su = prepare_corridor(
             corridor, weather, ship, t0=t0, eta_t=eta_t, objective=objective, model=model, rules=rules,
             max_leg_nm=max_leg_nm, exclusion=exclusion, speed_range_kn=speed_range_kn, use_land_mask=use_land_mask,
-            solver_options=solver_options, jit=jit, progress=progress,
+            solver_options=solver_options, jit=jit, progress=progress, timed_no_passage=bool(timed_no_passage),
         )  # fmt: skip
         self.setup = su
         self.corridor, self.ship, self.model, self.rules = corridor, ship, su.model, su.rules
@@ -218,6 +221,9 @@ class PreparedCorridor(CorridorReport):
         self.samples_per_leg = int(samples_per_leg)
         self.band_solves, self.max_retries = int(band_solves), int(max_retries)
         self.discrete_start, self.dp_options = bool(discrete_start), dict(dp_options or {})
+        #: the multipliers of the last solve's plan when it is the NLP's (None when a start's): a neighbouring
+        #: ETA's primal-dual warm start (``warm_plan.duals``), read right after the solve
+        self.last_duals: Duals | None = None
         self.verify_step_nm = float(verify_step_nm)
         self.problem = su.problem
         # the flat frame's measured distance error near the exclusion's circle: the NLP's circle grows by it, so
@@ -292,7 +298,11 @@ class PreparedCorridor(CorridorReport):
         if warm_plan is not None:
             stw = np.asarray(warm_plan.stw_kn, dtype=float)
             plan = verified_plan(ctx, warm_plan.waypoints, stw, t0, step, "start")
-            out.append(self._candidate("warm plan", plan_warm_start(warm_plan, frame), plan, objective))
+            warm = plan_warm_start(warm_plan, frame)
+            duals = getattr(warm_plan, "duals", None)  # a neighbour's multipliers (a front's WarmStart), if any
+            out.append(
+                self._candidate("warm plan", warm if duals is None else {**warm, "duals": duals}, plan, objective)
+            )
         if route is not None:
             out.append(self._discrete("search route", ctx, route, objective, st.log, own=False))
         if self.discrete_start and ctx.eta is not None and objective != "time" and great_circle_corridor(frame):
@@ -465,6 +475,7 @@ class PreparedCorridor(CorridorReport):
         InfeasibleETA, SolverFailure, WeatherCoverageError
             As :func:`optimise_corridor`.
         """
+        self.last_duals = None
         call = self._inputs(eta, eta_mode, objective, route, progress)  # stage: inputs
         emit(progress, "start", 0.15)  # stage: start
         t_s = _time.perf_counter()
@@ -511,6 +522,7 @@ class PreparedCorridor(CorridorReport):
             progress=progress,
             started=started,
             counts0=(prob.build_time_s, prob.solves, prob.iterations, prob.solve_time_s),
+            dual_starts0=prob.dual_starts,
             samples_per_leg=self.samples_per_leg,
         )
 
@@ -707,6 +719,7 @@ class PreparedCorridor(CorridorReport):
             shadow = float(sol.res.eta_multiplier) / (1.0 if objective == "fuel" else self.fuel_price)
         stats["certificate"] = self._ship_certificate(plan, stats, cap_h, mode, objective)
         stats["total_time_s"] = _time.perf_counter() - call.started
+        self.last_duals = Duals.of(sol.res, sol.nlp)
         emit(call.progress, "done", 1.0)
         return replace(plan, status=status, solver_stats=stats, eta_shadow_price_t_per_h=shadow)
 
@@ -746,6 +759,7 @@ class PreparedCorridor(CorridorReport):
         return {
             "ipopt_status": call.last.res.status if call.last is not None else "not run",
             "nlp_solves": prob.solves - s0,
+            "dual_starts": prob.dual_starts - call.dual_starts0,
             "iterations": prob.iterations - i0,
             "build_time_s": prob.build_time_s - b0,
             "solve_time_s": prob.solve_time_s - t0,

@@ -29,6 +29,7 @@ from optroute.optimise.lateral import reach_windows
 from optroute.optimise.nlp_inputs import CorridorFrame, build_frame, dataset_spacing, lateral_bounds, weather_grid
 from optroute.optimise.nlp_solve import Problem
 from optroute.optimise.power_table import PowerTable, baseline_power_model, heading_nodes, speed_nodes
+from optroute.optimise.timed_no_go import no_passage_windows
 from optroute.physics.performance import PerformanceModel, default_model
 from optroute.physics.safety import BandRules
 from optroute.physics.ship import Ship
@@ -210,11 +211,14 @@ def prepare_corridor(
     solver_options: Mapping[str, Any] | None,
     jit: bool,
     progress: ProgressFn | None,
+    timed_no_passage: bool = False,
 ) -> CorridorSetup:
     """Check the weather and speeds, build the NLP's weather grid, power table, lateral bounds and problem.
 
     Parameters as in :class:`~optroute.optimise.corridor_problem.PreparedCorridor` (``t0`` its
-    departure [UTC], ``eta_t`` its latest ETA [UTC] or None).
+    departure [UTC], ``eta_t`` its latest ETA [UTC] or None). With ``timed_no_passage`` the lateral bounds
+    keep off the weather's fixed no-passage cells only, and the moving ones become the problem's time
+    windows (:func:`~optroute.optimise.timed_no_go.no_passage_windows`).
     """
     sampler, ds = _weather(weather)
     n_wp = len(corridor.waypoints)
@@ -254,12 +258,13 @@ def prepare_corridor(
     step_nm = max(1.0, min(5.0, hw_max / 10.0)) if hw_max > 0 else 1.0
     y_lo, y_hi = lateral_bounds(
         frame, sampler=sampler, dataset=ds, times=window, use_land_mask=use_land_mask, step_nm=step_nm,
-        leg_windows=windows,
+        leg_windows=windows, static_only=timed_no_passage,
     )  # fmt: skip
+    no_passage = no_passage_windows(frame, ds, t0, y_lo, y_hi) if timed_no_passage and ds is not None else None
     problem = Problem(
         frame=frame, grid=grid, samples=samples, power=base, ship=ship, rules=rules, y_lo=y_lo, y_hi=y_hi,
         v_min=v_min, v_max=v_max, exclusion=exclusion, departure=t0, solver_options=solver_options,
-        jit=check_jit(jit),
+        jit=check_jit(jit), windows=no_passage,
     )  # fmt: skip
     return CorridorSetup(
         sampler, ds, model, rules, v_min, v_max, data_end_h, cap_h, horizon, frame, grid, samples, base, table,

@@ -18,7 +18,8 @@ Method (:func:`lateral_bounds`)
 2. **Blocked points.** A point is blocked when it is on land (:func:`optroute.geo.land.is_land`), or
    when the weather blocks it: its interpolation stencil holds a NaN of ``hs_m``/``tp_s``/``tm_s``/
    ``wave_from_deg`` at any dataset time bracketing ``times`` (moving no-go areas block their whole
-   sweep: conservative, because the bounds are static), or it lies outside the dataset's area. Land
+   sweep: conservative, because the bounds are static; with ``static_only`` they are left to the NLP's
+   time windows, :mod:`optroute.optimise.timed_no_go`), or it lies outside the dataset's area. Land
    points are then dilated by one mask cell diagonal (in lattice steps), because a leg can cut the
    corner of a land cell between lattice points: the bounds keep about 0.65 nm (GLOBE) off the
    coastline — except within that distance (plus one step) of the two pinned ends, where the
@@ -158,13 +159,16 @@ class _NanCounts:
     dataset times is then a numpy reduction of a few of its slices, not an xarray reduction of every variable per
     bracket (a 500-leg corridor has some 60 brackets)."""
 
-    def __init__(self, dataset: xr.Dataset) -> None:
+    def __init__(self, dataset: xr.Dataset, static_only: bool = False) -> None:
         self.t_all = np.asarray(dataset["time"].values).astype("datetime64[ns]") if "time" in dataset.coords else None
         varying, static = None, None
         for v in (v for v in _WAVE_VARIABLES if v in dataset):
             da = dataset[v]
             if self.t_all is not None and "time" in da.dims and self.t_all.size > 1:
                 nan = np.isnan(np.asarray(da.transpose("time", "lat", "lon").values, dtype=float))
+                if static_only:  # only the cells NaN at every time: the moving ones go to the NLP's time windows
+                    static = nan.all(axis=0) if static is None else static | nan.all(axis=0)
+                    continue
                 varying = nan if varying is None else varying | nan
             else:
                 nan = da.isnull()
@@ -253,8 +257,8 @@ def _groups(leg_times: list[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
 class _LegBlockers:
     """:func:`_weather_blocker` of each leg over its own times, built once per distinct bracket of dataset times."""
 
-    def __init__(self, dataset: xr.Dataset, leg_times: list[np.ndarray]) -> None:
-        nans = _NanCounts(dataset)
+    def __init__(self, dataset: xr.Dataset, leg_times: list[np.ndarray], static_only: bool = False) -> None:
+        nans = _NanCounts(dataset, static_only)
         built: dict[tuple[int, int], tuple] = {}
         self.of_leg: list[tuple] = []
         for t in leg_times:
@@ -463,6 +467,7 @@ def lateral_bounds(
     step_nm: float = 2.0,
     reference_port_nm: ArrayLike | None = None,
     leg_windows: np.ndarray | None = None,
+    static_only: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Navigable lateral range [nm, port +] of every waypoint, such that every leg stays navigable.
 
@@ -495,6 +500,10 @@ def lateral_bounds(
         rows are blocked by the weather's no-passage cells over its own window instead of over all
         of ``times`` (a moving no-go area then blocks only where it is while the ship can be there).
         Default: every leg over ``times``.
+    static_only : bool
+        Block only the weather's cells that are NaN at every time of ``dataset`` (land, fixed no-go
+        areas): a moving no-go area is then left to the NLP's time windows
+        (:mod:`optroute.optimise.timed_no_go`). Needs ``dataset``.
 
     Returns
     -------
@@ -526,7 +535,12 @@ def lateral_bounds(
     blocked_land = np.zeros((n_rows, n_cols), dtype=bool)
     blocked_wx = np.zeros((n_rows, n_cols), dtype=bool)
     leg_times = _leg_times(times, leg_windows, n)
-    wx = _LegBlockers(dataset, leg_times) if dataset is not None else None
+    if static_only and dataset is None:
+        raise ConfigError(
+            "static_only=True tells the weather's fixed no-passage cells from the moving ones by the dataset's NaN "
+            "over time; pass the canonical dataset (optimise_corridor with an xarray.Dataset, not a WeatherSampler)"
+        )
+    wx = _LegBlockers(dataset, leg_times, static_only) if dataset is not None else None
     diag = float(mask.resolution_nm) * math.sqrt(2.0) if mask is not None else 0.0
     # legs whose whole (padded) sweep is clear need no lattice: a box look-up on the mask and the weather grid
     boxes = lat_.leg_boxes(frame, diag + 2.0 * step)

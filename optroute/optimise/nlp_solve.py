@@ -27,6 +27,7 @@ from optroute import units
 from optroute.geo.tracks import Exclusion, gc_points, project_to_polyline
 from optroute.optimise.nlp_inputs import CorridorFrame, formulation_bands, moving_exclusion
 from optroute.optimise.rows import sample_layout
+from optroute.optimise.timed_no_go import NoPassageWindows
 from optroute.physics.passage import best_speed
 from optroute.physics.safety import BandRules
 from optroute.physics.ship import Ship
@@ -35,6 +36,7 @@ from optroute.search.route import Route
 from optroute.units import NS_PER_H as _NS_PER_H
 
 __all__ = [
+    "Duals",
     "Problem",
     "Solved",
     "Tightening",
@@ -53,6 +55,24 @@ VIOLATION_TOL = 1e-6  # largest scaled constraint violation accepted from Ipopt
 
 
 # --------------------------------------------------------------------------- tightening state
+
+
+@dataclass(frozen=True)
+class Duals:
+    """A solve's multipliers for the primal-dual warm start of a neighbouring solve (a front's next ETA).
+
+    ``lam_x`` and ``lam_g`` are Ipopt's bound and row multipliers (:class:`formulations.speed_nlp.NLPResult`);
+    ``key`` is :meth:`formulations.speed_nlp.SpeedNLP.dual_key` of the problem they belong to: they start
+    only a problem with the same key (:meth:`Problem.solve`), others start from the primal point alone.
+    """
+
+    lam_x: np.ndarray
+    lam_g: np.ndarray
+    key: tuple[Any, ...]
+
+    @classmethod
+    def of(cls, res: NLPResult, nlp: SpeedNLP) -> Duals:
+        return cls(np.asarray(res.lam_x, dtype=float), np.asarray(res.lam_g, dtype=float), nlp.dual_key())
 
 
 @dataclass
@@ -119,8 +139,10 @@ class Problem:
         departure: np.datetime64,
         solver_options: Mapping[str, Any] | None,
         jit: bool = False,
+        windows: NoPassageWindows | None = None,
     ) -> None:
         self.frame, self.grid, self.samples, self.power = frame, grid, samples, power
+        self.windows = windows  # a moving no-go area's time windows (optroute.optimise.timed_no_go), or None
         self.jit = bool(jit)
         self.ship, self.rules = ship, rules
         self.y_lo, self.y_hi = y_lo, y_hi
@@ -132,6 +154,7 @@ class Problem:
         self.solves = 0  # every Ipopt call of every solve (outer loop included)
         self.iterations = 0  # and all their iterations
         self.solve_time_s = 0.0  # and all their Ipopt time [s]
+        self.dual_starts = 0  # solves started from a given solution's multipliers too (Duals)
         self._cache: dict[tuple[Any, ...], tuple[SpeedNLP, tuple[str, ...]]] = {}
 
     trial_max_iter = 150
@@ -247,7 +270,7 @@ class Problem:
         objective: str,
         fuel_price: float,
         hourly_cost: float,
-        warm: Mapping[str, np.ndarray] | None,
+        warm: Mapping[str, Any] | None,
         budget: int,
     ) -> Solved:
         """One solve with the band outer loop (side selection from the warm start, flips, applicability)."""
@@ -269,6 +292,12 @@ class Problem:
             v0 = np.clip(np.full(n, guess), nlp.v_min_kn, nlp.v_max_kn)
         t0 = nlp.consistent_times(y0, v0)
         kwargs.update(offset0_nm=y0, stw0_kn=v0, time0_h=t0)
+        if self.windows is not None and self.windows.legs.size:  # each leg passed on the warm start's side
+            kwargs["time_lo_h"], kwargs["time_hi_h"] = self.windows.time_bounds(self.windows.sides(t0))
+        duals = warm.get("duals") if warm is not None else None
+        if duals is not None and duals.key == nlp.dual_key():  # a neighbour's multipliers on the same rows
+            kwargs.update(lam_x0=duals.lam_x, lam_g0=duals.lam_g)
+            self.dual_starts += 1
         if nlp.n_bands == 0:
             res = nlp.solve(**kwargs)
             ok = bool(res.success and res.max_violation <= VIOLATION_TOL)

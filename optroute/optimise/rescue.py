@@ -233,6 +233,7 @@ def longer_horizon(
         departure=prob.departure,
         solver_options=prob.solver_options,
         jit=prob.jit,
+        windows=prob.windows,
     )
     return p, p.build(st)
 

@@ -233,6 +233,7 @@ def optimise_robust(
     jit: bool = False,
     discrete_start: bool = False,
     dp_options: Mapping[str, Any] | None = None,
+    timed_no_passage: bool = False,
 ) -> Plan:
     """One plan for every member of an ensemble (module docstring); called by ``optimise_corridor(robust=...)``.
 
@@ -261,8 +262,8 @@ def optimise_robust(
         ``benchmarks.bench_voyage`` stopping at Ipopt's iteration limit); ``{"ipopt.hessian_approximation":
         "limited-memory"}`` restores it.
     Other parameters
-        As :func:`optroute.optimise_corridor`; ``eta_mode`` must be ``"le"``; ``jit``, ``discrete_start`` and
-        ``dp_options`` are not available (ConfigError); ``progress`` is not called.
+        As :func:`optroute.optimise_corridor`; ``eta_mode`` must be ``"le"``; ``jit``, ``discrete_start``,
+        ``dp_options`` and ``timed_no_passage`` are not available (ConfigError); ``progress`` is not called.
 
     Returns
     -------
@@ -295,7 +296,7 @@ def optimise_robust(
         cvar_alpha,
         violation_fraction,
         eta_mode,
-        {"jit": jit, "discrete_start": discrete_start, "dp_options": dp_options},
+        {"jit": jit, "discrete_start": discrete_start, "dp_options": dp_options, "timed_no_passage": timed_no_passage},
     )
     if constraint_rows not in ROW_PLACEMENTS:
         raise ConfigError(

@@ -56,7 +56,7 @@ from optroute.weather.sample import grid_coordinates_at
 
 __all__ = ["NO_BOUNDS", "node_bounds", "piece_certified", "weather_with_bounds"]
 
-NO_BOUNDS = np.zeros((3, 0))
+NO_BOUNDS = np.zeros((0, 3))
 """The node table of a weather without bounds: :func:`piece_certified` then certifies nothing."""
 _B_HS, _B_WIND, _B_CUR = 0, 1, 2
 _REL = 1e-9  # relative margin over the interpolation's rounding
@@ -68,23 +68,23 @@ _META_PERIODIC = 12  # PointWeather.meta's periodic-longitude flag (optroute.wea
 
 @jit
 def _node_table(fields):  # pragma: no cover - compiled
-    n = fields.shape[1]
-    out = np.empty((3, n))
+    n = fields.shape[0]
+    out = np.empty((n, 3))
     for i in range(n):
         ok = True
         for r in (0, 1, 2, 3, 6, 7):  # Hs, period, wave direction's sin and cos, current u and v
-            if not math.isfinite(fields[r, i]):
+            if not math.isfinite(fields[i, r]):
                 ok = False
-        out[_B_HS, i] = fields[0, i] if ok else np.inf
-        out[_B_WIND, i] = math.hypot(fields[4, i], fields[5, i])
-        out[_B_CUR, i] = math.hypot(fields[6, i], fields[7, i]) if ok else np.inf
+        out[i, _B_HS] = fields[i, 0] if ok else np.inf
+        out[i, _B_WIND] = math.hypot(fields[i, 4], fields[i, 5])
+        out[i, _B_CUR] = math.hypot(fields[i, 6], fields[i, 7]) if ok else np.inf
     return out
 
 
 def node_bounds(fields: np.ndarray) -> np.ndarray:
     """Per grid node of :attr:`~optroute.weather.sample.PointWeather.fields`: Hs (inf: no sea state), wind and current speed.
 
-    Shape (3, n_nodes): Hs [m] where Hs, the period, the wave direction and the current are finite, else
+    Shape (n_nodes, 3), node-major as the fields: Hs [m] where Hs, the period, the wave direction and the current are finite, else
     ``inf``; the wind speed [m/s] (NaN where the wind is unknown); the current speed [m/s].
     """
     return _node_table(np.ascontiguousarray(fields, dtype=float))
@@ -100,7 +100,7 @@ def weather_with_bounds(pw: tuple) -> tuple:
     if hit is None or hit[0]() is not fields:
         for key in [k for k, (ref, _) in _TABLES.items() if ref() is None]:
             del _TABLES[key]
-        table = node_bounds(fields) if fields.ndim == 2 and fields.shape[0] >= 8 else NO_BOUNDS
+        table = node_bounds(fields) if fields.ndim == 2 and fields.shape[1] >= 8 else NO_BOUNDS
         hit = (weakref.ref(fields), table)
         _TABLES[id(fields)] = hit
     return (*tuple(pw)[:6], hit[1])
@@ -137,9 +137,9 @@ def _box_maxima(table, time_s, lat_deg, lon_deg, meta, c_lo, c_hi):  # pragma: n
                 if x >= nx:
                     x -= nx
                 i = row + x
-                hs = max(hs, table[_B_HS, i])
-                cur = max(cur, table[_B_CUR, i])
-                wv = table[_B_WIND, i]
+                hs = max(hs, table[i, _B_HS])
+                cur = max(cur, table[i, _B_CUR])
+                wv = table[i, _B_WIND]
                 if math.isfinite(wv):
                     wind = max(wind, wv)
                 else:
@@ -212,7 +212,7 @@ def piece_certified(
         theirs) has the speed allowed and the refinement cannot overflow; False where that is not certain.
     """
     table = w[6]
-    if table.shape[1] == 0 or n0 < 2 or not spd > 0.0:
+    if table.shape[0] == 0 or n0 < 2 or not spd > 0.0:
         return False
     c_lo, c_hi = scratch[0:3], scratch[3:6]
     inside, lines = _box(w, la0, lo0, t0, s0, n0, lat_mid, lon_mid, c_lo, c_hi)

@@ -70,8 +70,17 @@ class LegKernel:
 
 
 @jit
-def _cost_batch(k, u, v, o, tarr, tangent, piece_f0, piece_f1, piece_n, buf, refine):  # pragma: no cover - compiled
-    """Cost edges ``u → v`` (``refine``: :func:`optroute.search.refine_kernels.workspace`); returns (duration, fuel, feasible, uncovered points)."""
+def _cost_batch(
+    k, u, v, o, tarr, tangent, piece_f0, piece_f1, piece_n, buf, refine, label, time_obj, inv_v
+):  # pragma: no cover - compiled
+    """Cost edges ``u → v`` (``refine``: :func:`optroute.search.refine_kernels.workspace`); returns (duration, fuel,
+    feasible, uncovered points).
+
+    An edge that cannot improve ``label[v]`` (the labels before the batch) is dropped as soon as its cost so far
+    plus ``inv_v`` times the length still to sail (time objective; the cost objectives: its cost so far) shows it
+    (:func:`~optroute.search.passage_kernels.cost_leg`'s ``stop``): returned infeasible, which the label update
+    (strictly better only) treats as it would the edge's full cost.
+    """
     n = u.size
     dur, fu = np.empty(n), np.empty(n)
     feas = np.zeros(n, dtype=np.bool_)
@@ -80,9 +89,10 @@ def _cost_batch(k, u, v, o, tarr, tangent, piece_f0, piece_f1, piece_n, buf, ref
     for e in range(n):
         q = o[e]
         edge_pieces(tangent[u[e]], tangent[v[e]], piece_f0[q], piece_f1[q], piece_n[q], buf[0], buf[1], buf[2], buf[3])
+        stop = (label[u[e]], label[v[e]], time_obj, inv_v if time_obj else 0.0)
         d, f, ok, c = cost_leg(
             p, w, mode, check_nm, speeds, lam, desired, step, vmin, buf[0], buf[1], buf[2], buf[3], piece_n[q],
-            tarr[u[e]], refine,
+            tarr[u[e]], refine, stop,
         )  # fmt: skip
         unc += c
         dur[e], fu[e], feas[e] = d, f, ok
@@ -139,7 +149,7 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state, touched):  # p
         )  # fmt: skip
         if u.size == 0:
             continue
-        dur, fu, feas, unc = _cost_batch(k, u, v, o, tarr, tangent, pf0, pf1, pn, buf, refine)
+        dur, fu, feas, unc = _cost_batch(k, u, v, o, tarr, tangent, pf0, pf1, pn, buf, refine, label, time_obj, inv_v)
         counts[1] += u.size
         counts[3] += unc
         new = np.empty(u.size)

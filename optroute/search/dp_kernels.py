@@ -108,7 +108,7 @@ class DPLegKernel:
     def current_kn(self) -> float:
         """The strongest current of the weather [kn] (interpolation never exceeds its grid's largest)."""
         fields = self.weather[0]
-        speed = np.hypot(fields[6], fields[7])
+        speed = np.hypot(fields[:, 6], fields[:, 7])  # node-major (PointWeather.fields)
         return float(np.nanmax(speed)) / units.MS_PER_KN if np.isfinite(speed).any() else 0.0
 
     def floor_tph(self, speeds_kn: np.ndarray) -> np.ndarray:

@@ -23,13 +23,16 @@ def search_dp(
     """``search_route(method="dp")``: :func:`optroute.search.dp.solve_dp` on :meth:`PassagePhysics.dp_leg`, as a Route.
 
     ``opts`` are the caller's ``dp_options`` (``piece_nm`` [nm] is taken out for
-    the leg costing); nodes are navigable where the weather allows passage,
+    the leg costing; ``routes_for_eta_h``, ETAs [h from departure] on the run's bin
+    edges, for the run's least-fuel routes for them too, in ``stats["routes_for_eta_h"]``
+    by ETA, None where no route arrives by it: :meth:`optroute.search.dp.DPResult.path_for_eta`); nodes are navigable where the weather allows passage,
     outside the moving ``exclusion`` and (``coast``) off land; ``eta_h`` [h from
     departure] or None.  Errors name the ETA's UTC time and the weather's extent.
     """
     if objective == "time" and eta_h is not None:
         raise ConfigError("the DP minimises fuel for an ETA; use objective='fuel' with method='dp'")
     piece_nm = float(opts.pop("piece_nm", 30.0))
+    also = [float(e) for e in opts.pop("routes_for_eta_h", ())]
     sampler = physics.sampler
 
     def navigable(lat, lon, t_h):  # the weather's no-passage cells, and the coastline as in the grid search
@@ -48,12 +51,30 @@ def search_dp(
         raise explain_uncovered(exc, physics) from None
     except InfeasibleETA as exc:
         raise eta_as_time(exc, physics.departure) from None
-    p = res.path
+    stats = {
+        "n_states": res.n_states,
+        "n_transitions": res.n_transitions,
+        "earliest_arrival_h": res.earliest_arrival_h,
+        "curve_bin_end_h": res.curve_bin_end_h,
+        "curve_fuel_t": res.curve_fuel_t,
+    }
+    if also:  # the same run's least-fuel routes for other ETAs (bin edges of this run's lattice); None: none arrives
+        stats["routes_for_eta_h"] = {}
+        for e in also:
+            try:
+                stats["routes_for_eta_h"][e] = _route(res.path_for_eta(e), physics.departure, dict(stats))
+            except InfeasibleETA:
+                stats["routes_for_eta_h"][e] = None
+    stats["runtime_s"] = _time.perf_counter() - t_start
+    return _route(res.path, physics.departure, stats)
+
+
+def _route(p, departure: np.datetime64, stats: dict) -> Route:
+    """A :class:`Route` of a DP path (:class:`optroute.search.dp.DPPath`) departing at ``departure`` [UTC]."""
     n_legs = p.lat_deg.size - 1
-    wp = np.column_stack([p.lat_deg, p.lon_deg])
     return Route(
-        waypoints=wp,
-        times=physics.departure + _h_to_td(p.times_h),
+        waypoints=np.column_stack([p.lat_deg, p.lon_deg]),
+        times=departure + _h_to_td(p.times_h),
         sog_kn=p.sog_kn,
         stw_kn=np.asarray(p.extra.get("stw_kn", np.full(n_legs, np.nan)), dtype=float),
         power_kw=np.asarray(p.extra.get("power_kw", np.full(n_legs, np.nan)), dtype=float),
@@ -64,12 +85,5 @@ def search_dp(
         objective="fuel",
         method="dp",
         band_side={b: np.zeros(n_legs, dtype=np.int8) for b in BANDS},
-        stats={
-            "n_states": res.n_states,
-            "n_transitions": res.n_transitions,
-            "earliest_arrival_h": res.earliest_arrival_h,
-            "curve_bin_end_h": res.curve_bin_end_h,
-            "curve_fuel_t": res.curve_fuel_t,
-            "runtime_s": _time.perf_counter() - t_start,
-        },
+        stats=stats,
     )

@@ -31,7 +31,9 @@ from optroute._numba import jit
 __all__ = [
     "edge_piece_arrays",
     "edge_pieces",
+    "frame_point",
     "latlon_of",
+    "piece_frame",
     "piece_point",
     "piece_points_flat",
     "sphere_course",
@@ -121,6 +123,39 @@ def edge_pieces(tu, tv, f0, f1, n_pieces, lat, lon, course, length):  # pragma: 
 
 
 @jit
+def piece_frame(lat_deg, lon_deg, course_deg):  # pragma: no cover - compiled
+    """The frame :func:`frame_point` walks a piece's great circle in, computed once per piece.
+
+    Returns ``(mx, my, mz, tx, ty, tz, r_nm)``: the unit vector of the point (lat, lon) [deg], the unit
+    tangent of the great circle on the ellipsoid's ``course_deg`` [deg true] turned into the sphere's
+    (:func:`sphere_course`), and the sphere's radius times the local WGS84 factor [nm per radian].
+    """
+    c_sphere = sphere_course(lat_deg, course_deg)
+    phi, lam, c = math.radians(lat_deg), math.radians(lon_deg), math.radians(c_sphere)
+    sp, cp, sl, cl = math.sin(phi), math.cos(phi), math.sin(lam), math.cos(lam)
+    sc, cc = math.sin(c), math.cos(c)
+    tx = sc * -sl + cc * -sp * cl  # east sin c + north cos c
+    ty = sc * cl + cc * -sp * sl
+    tz = cc * cp
+    return cp * cl, cp * sl, sp, tx, ty, tz, _R_NM * wgs84_scale(lat_deg, c_sphere)
+
+
+@jit
+def frame_point(frame, s_nm):  # pragma: no cover - compiled
+    """The point ``s_nm`` [nm, WGS84] along the great circle of a :func:`piece_frame` (negative: behind), and its course.
+
+    Returns ``(lat, lon, course)`` [deg, deg, deg true]; see :func:`piece_point`.
+    """
+    mx, my, mz, tx, ty, tz, r_nm = frame
+    a = s_nm / r_nm
+    sa, ca = math.sin(a), math.cos(a)
+    px, py, pz = ca * mx + sa * tx, ca * my + sa * ty, ca * mz + sa * tz
+    dx, dy, dz = -sa * mx + ca * tx, -sa * my + ca * ty, -sa * mz + ca * tz
+    la, lo = latlon_of(px, py, pz)
+    return la, lo, wgs84_course(la, _course(px, py, pz, dx, dy, dz))
+
+
+@jit
 def piece_point(lat_deg, lon_deg, course_deg, s_nm):  # pragma: no cover - compiled
     """The point ``s_nm`` along the great circle through (lat, lon) on ``course_deg`` (negative: behind), and the course there.
 
@@ -129,22 +164,10 @@ def piece_point(lat_deg, lon_deg, course_deg, s_nm):  # pragma: no cover - compi
     ``s_nm`` is a WGS84 length and the courses are the ellipsoid's, as the pieces' of :func:`edge_pieces`:
     they are turned into the sphere's arc and course by the same local factor (:func:`sphere_course`),
     so that ``±length / 2`` from a piece's midpoint reaches its ends on the grid's great circle.
-    Returns ``(lat, lon, course)`` [deg, deg, deg true].
+    Returns ``(lat, lon, course)`` [deg, deg, deg true].  Several points of one piece: build its
+    :func:`piece_frame` once and call :func:`frame_point` (the same numbers).
     """
-    c_sphere = sphere_course(lat_deg, course_deg)
-    phi, lam, c = math.radians(lat_deg), math.radians(lon_deg), math.radians(c_sphere)
-    sp, cp, sl, cl = math.sin(phi), math.cos(phi), math.sin(lam), math.cos(lam)
-    mx, my, mz = cp * cl, cp * sl, sp
-    sc, cc = math.sin(c), math.cos(c)
-    tx = sc * -sl + cc * -sp * cl  # east sin c + north cos c
-    ty = sc * cl + cc * -sp * sl
-    tz = cc * cp
-    a = s_nm / (_R_NM * wgs84_scale(lat_deg, c_sphere))
-    sa, ca = math.sin(a), math.cos(a)
-    px, py, pz = ca * mx + sa * tx, ca * my + sa * ty, ca * mz + sa * tz
-    dx, dy, dz = -sa * mx + ca * tx, -sa * my + ca * ty, -sa * mz + ca * tz
-    la, lo = latlon_of(px, py, pz)
-    return la, lo, wgs84_course(la, _course(px, py, pz, dx, dy, dz))
+    return frame_point(piece_frame(lat_deg, lon_deg, course_deg), s_nm)
 
 
 @jit

@@ -31,7 +31,7 @@ import numpy as np
 from optroute import units
 from optroute._numba import jit
 from optroute.physics.pointwise import allowed_speed, cost_rate_floor, evaluate_speed, stw_for_sog
-from optroute.search.edge_geometry import piece_point
+from optroute.search.edge_geometry import frame_point, piece_frame
 from optroute.search.refine_kernels import piece_clear
 from optroute.search.refine_kernels import workspace as refine_workspace
 from optroute.weather.sample import N_POINT_FIELDS, sample_at
@@ -207,15 +207,22 @@ def check_count(length_nm, check_nm):  # pragma: no cover - compiled
 
 @jit
 def cost_leg(
-    p, w, mode, check_nm, speeds, lam, desired, step, vmin, lat, lon, course, length, n_pieces, t0_h, refine
+    p, w, mode, check_nm, speeds, lam, desired, step, vmin, lat, lon, course, length, n_pieces, t0_h, refine, stop
 ):  # pragma: no cover - compiled
     """Duration [h], fuel [t], feasibility and uncovered points of one leg, walked piece by piece in time.
+
+    ``stop = (label_u, label_v, time_objective, rest_h_per_nm)`` lets the search drop a leg that cannot
+    improve its destination: once ``label_u`` + the cost so far (the duration, or fuel + λ·duration)
+    + ``rest_h_per_nm`` times the length still to sail exceeds ``label_v``, the leg's full cost would too
+    (both parts only grow; ``rest_h_per_nm`` a lower bound on the hours per nm of any piece, 0 for the cost
+    objectives), so the search's label update (strictly better only) would not take it: it is returned
+    infeasible.  ``label_v = inf`` costs every leg in full.
 
     The leg's pieces are given by their midpoints ``lat, lon`` [deg], the course
     there [deg true] and ``length`` [nm] (:func:`optroute.search.edge_geometry.edge_pieces`);
     ``check_nm`` <= 0 proposes and keeps each piece's speed at its midpoint
     only, else the speed is checked at :func:`check_count` points along the
-    piece (:func:`optroute.search.edge_geometry.piece_point`) and between them by the referee's rules
+    piece (:func:`optroute.search.edge_geometry.frame_point`, one frame per piece) and between them by the referee's rules
     (``refine``: :func:`optroute.search.refine_kernels.workspace`).  See :func:`cost_legs`.
     """
     checked = check_nm > 0.0
@@ -232,7 +239,11 @@ def cost_leg(
     t = t0_h
     fu = 0.0
     uncovered = 0
+    label_u, label_v, time_obj, rest_rate = stop
     for k in range(n_pieces):
+        rest = 0.0
+        for q in range(k + 1, n_pieces):
+            rest += length[q]  # (summed afresh: exactly 0 after the last piece)
         stw0, sog0, f0, go, cov = _first_choice(
             p, w, mode, speeds, lam, desired, step, vmin, lat[k], lon[k], course[k], t, sea
         )
@@ -244,10 +255,13 @@ def cost_leg(
             d = length[k] / sog0
             t += d
             fu += f0 * d
+            if label_u + ((t - t0_h) if time_obj else fu + lam * (t - t0_h)) + rest_rate * rest > label_v:
+                return np.nan, np.nan, False, uncovered
             continue
         npts = check_count(length[k], check_nm)
+        frame = piece_frame(lat[k], lon[k], course[k])
         for j in range(npts):
-            la[j], lo[j], crs[j] = piece_point(lat[k], lon[k], course[k], (j / (npts - 1.0) - 0.5) * length[k])
+            la[j], lo[j], crs[j] = frame_point(frame, (j / (npts - 1.0) - 0.5) * length[k])
         s_pts[0] = 0.0
         for j in range(npts - 1):
             seg[j] = ((j + 1.0) / (npts - 1.0) - j / (npts - 1.0)) * length[k]
@@ -261,6 +275,8 @@ def cost_leg(
             return np.nan, np.nan, False, uncovered
         t += d
         fu += f
+        if label_u + ((t - t0_h) if time_obj else fu + lam * (t - t0_h)) + rest_rate * rest > label_v:
+            return np.nan, np.nan, False, uncovered
     return t - t0_h, fu, True, uncovered
 
 
@@ -304,10 +320,11 @@ def cost_legs(
     feas = np.zeros(n, dtype=np.bool_)
     uncovered = 0
     refine = refine_workspace(check_nm > 0.0)
+    full = (0.0, np.inf, True, 0.0)  # every leg costed in full
     for i in range(n):
         d, f, ok, unc = cost_leg(
             p, w, mode, check_nm, speeds, lam, desired, step, vmin, mid_lat[i], mid_lon[i], mid_course[i],
-            length[i], n_pieces[i], t0_h[i], refine,
+            length[i], n_pieces[i], t0_h[i], refine, full,
         )  # fmt: skip
         uncovered += unc
         if ok:
@@ -386,13 +403,14 @@ def _dp_piece_clear(p, w, la, lo, crs, length, t_mid, sog_kn, work):  # pragma: 
     _, sea_pts, pts, ws, sl, scratch = work
     s_pts, t_pts, la_pts, lo_pts, crs_pts = pts[0], pts[1], pts[2], pts[3], pts[4]
     uncovered = 0
+    frame = piece_frame(la, lo, crs)
     for j in range(3):
         s_pts[j] = 0.5 * length * j
         t_pts[j] = t_mid + (s_pts[j] - 0.5 * length) / sog_kn
         if j == 1:
             la_pts[j], lo_pts[j], crs_pts[j] = la, lo, crs
         else:
-            la_pts[j], lo_pts[j], crs_pts[j] = piece_point(la, lo, crs, s_pts[j] - 0.5 * length)
+            la_pts[j], lo_pts[j], crs_pts[j] = frame_point(frame, s_pts[j] - 0.5 * length)
         sea = sea_pts[j]
         if not sample_at(w[0], w[1], w[2], w[3], w[4], w[5], t_pts[j], la_pts[j], lo_pts[j], sea):
             uncovered += 1

@@ -6,7 +6,7 @@ compiled from that very function) to one piece of the route search whose speed i
 at its check points (:func:`optroute.search.passage_kernels.cost_leg`), with the one-point
 functions of the referee's model: :func:`optroute.physics.pointwise.band_state` and
 :func:`~optroute.physics.pointwise.allowed_speed`, :func:`optroute.weather.sample.sample_at` and
-:func:`~optroute.weather.sample.grid_coordinates_at`, :func:`optroute.search.edge_geometry.piece_point`.
+:func:`~optroute.weather.sample.grid_coordinates_at`, :func:`optroute.search.edge_geometry.frame_point`.
 The numpy callbacks do the same with :mod:`optroute.search.band_refine` itself
 (:meth:`optroute.search.passage_physics.PassagePhysics.segment_checked`).
 
@@ -24,7 +24,7 @@ from optroute.physics.pointwise import allowed_speed, band_state, stw_for_sog
 from optroute.search import band_refine
 from optroute.search.band_bounds import piece_certified
 from optroute.search.band_refine import BAND_TOL_NM, CROSSING_PASSES, CROSSING_TOL_NM, MAX_ROUNDS, TURN_DEG
-from optroute.search.edge_geometry import piece_point
+from optroute.search.edge_geometry import frame_point, piece_frame
 from optroute.weather.sample import grid_coordinates_at, sample_at
 
 __all__ = ["CAPACITY", "N_FIELDS", "piece_clear", "workspace"]
@@ -49,9 +49,10 @@ def workspace(checked):  # pragma: no cover - compiled
 
 
 @jit
-def _place(w, lat, lon, course, length, row, scratch):  # pragma: no cover - compiled
-    """Position, course and grid coordinates of the point at ``row[_S]``, ``row[_T]``."""
-    row[_LAT], row[_LON], row[_CRS] = piece_point(lat, lon, course, row[_S] - 0.5 * length)
+def _place(w, frame, length, row, scratch):  # pragma: no cover - compiled
+    """Position, course and grid coordinates of the point at ``row[_S]``, ``row[_T]`` (``frame``: the piece's
+    :func:`~optroute.search.edge_geometry.piece_frame` at its midpoint)."""
+    row[_LAT], row[_LON], row[_CRS] = frame_point(frame, row[_S] - 0.5 * length)
     row[_PROBED] = 0.0
     grid_coordinates_at(w[1], w[2], w[3], w[4], w[5], row[_T], row[_LAT], row[_LON], scratch[13:16])
     row[_C0], row[_C0 + 1], row[_C0 + 2] = scratch[13], scratch[14], scratch[15]
@@ -80,11 +81,11 @@ def _probe(p, w, spd, sog_mode, row, scratch):  # pragma: no cover - compiled
 
 
 @jit
-def _between(a, i, s_new, out, w, lat, lon, course, length, scratch):  # pragma: no cover - compiled
+def _between(a, i, s_new, out, w, frame, length, scratch):  # pragma: no cover - compiled
     """The point at ``s_new`` inside the interval (i, i + 1) of ``a``, its time linear in distance, placed."""
     out[_S] = s_new
     out[_T] = a[i, _T] + (s_new - a[i, _S]) / (a[i + 1, _S] - a[i, _S]) * (a[i + 1, _T] - a[i, _T])
-    _place(w, lat, lon, course, length, out, scratch)
+    _place(w, frame, length, out, scratch)
 
 
 @jit
@@ -100,7 +101,7 @@ def _crossing_fraction(ca, cb):  # pragma: no cover - compiled
 
 
 @jit
-def _crossings(a, b, n, w, lat, lon, course, length, scratch):  # pragma: no cover - compiled
+def _crossings(a, b, n, w, frame, length, scratch):  # pragma: no cover - compiled
     """Both sides of every cell change added (as :func:`~optroute.search.band_refine.crossing_nodes`); the count, -1 if full."""
     half = 0.45 * _XTOL
     for _ in range(CROSSING_PASSES):
@@ -129,8 +130,8 @@ def _crossings(a, b, n, w, lat, lon, course, length, scratch):  # pragma: no cov
             hi_s = min(max(mid + half, a[i, _S] + 0.25 * half), a[i + 1, _S] - 0.25 * half)
             if k + 3 > a.shape[0]:
                 return -1
-            _between(a, i, lo_s, b[k], w, lat, lon, course, length, scratch)
-            _between(a, i, hi_s, b[k + 1], w, lat, lon, course, length, scratch)
+            _between(a, i, lo_s, b[k], w, frame, length, scratch)
+            _between(a, i, hi_s, b[k + 1], w, frame, length, scratch)
             k += 2
             added = True
         a[:k, :] = b[:k, :]
@@ -244,7 +245,8 @@ def piece_clear(
         for q in range(4):
             row[_M0 + q] = scratch[9 + q]
         row[_PROBED] = 1.0
-    n = _crossings(a, b, n0, w, lat, lon, course, length, scratch)
+    frame = piece_frame(lat, lon, course)
+    n = _crossings(a, b, n0, w, frame, length, scratch)
     if n < 0:
         return False
     for j in range(n):
@@ -261,7 +263,7 @@ def piece_clear(
                 continue
             if k + 2 > a.shape[0]:
                 return False
-            _between(a, i, 0.5 * (a[i, _S] + a[i + 1, _S]), b[k], w, lat, lon, course, length, scratch)
+            _between(a, i, 0.5 * (a[i, _S] + a[i + 1, _S]), b[k], w, frame, length, scratch)
             if not _probe(p, w, spd, sog_mode, b[k], scratch):
                 return False
             k += 1

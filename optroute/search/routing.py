@@ -165,7 +165,10 @@ def search_route(
         between midpoints.
     dp_options : dict, optional
         Passed to :func:`optroute.search.dp.solve_dp` (``dx_nm``, ``dy_nm``,
-        ``half_width_nm``, ``dt_h`` …) for ``method="dp"``.
+        ``half_width_nm``, ``dt_h`` …) for ``method="dp"``; besides,
+        ``piece_nm`` (the leg costing's piece [nm]) and ``routes_for_eta_h``
+        (ETAs [h from departure]: the same run's least-fuel routes for them,
+        in ``route.stats["routes_for_eta_h"]``).
     compiled : bool
         Cost the legs with the compiled kernels of
         :mod:`optroute.search.passage_kernels` where they apply (the built-in

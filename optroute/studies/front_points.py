@@ -30,6 +30,7 @@ from optroute.errors import (
 )
 from optroute.optimise.api import optimise_corridor, solve_prepared
 from optroute.optimise.corridor_problem import PreparedCorridor
+from optroute.optimise.nlp_solve import Duals
 from optroute.optimise.starts import repaired_plan
 from optroute.physics.ship import Ship
 from optroute.plan.result import Plan
@@ -75,10 +76,15 @@ FORBIDDEN_OPTIONS = ("eta", "eta_mode", "objective", "warm_plan", "route", "depa
 
 @dataclass(frozen=True)
 class WarmStart:
-    """What :func:`optroute.optimise_corridor` reads of a ``warm_plan``."""
+    """What :func:`optroute.optimise_corridor` reads of a ``warm_plan``: the track, its speeds and its solve's multipliers.
+
+    ``duals`` (the NLP's multipliers of the plan, when the plan is the NLP's on a prepared corridor) start Ipopt's
+    multipliers too where the next solve has the same rows: the primal-dual warm start of the continuation.
+    """
 
     waypoints: np.ndarray
     stw_kn: np.ndarray
+    duals: Duals | None = None
 
 
 @dataclass(frozen=True)
@@ -108,6 +114,7 @@ class FrontPoint:
     carry: WarmStart | None = None  # the warm start for the next point of a chain
     nlp_solves: int = 0  # Ipopt calls of the point's solve (band outer loop and verification re-solves included)
     warm_start: str = ""  # the candidate Ipopt started from ("warm plan", "centreline start", ...)
+    dual_starts: int = 0  # Ipopt calls of the solve started from the neighbour's multipliers too
     own_fuel_t: float | None = None  # a risen point's own solve's fuel [t] (its plan is an earlier ETA's)
 
     @property
@@ -141,6 +148,7 @@ def point_from_plan(plan: Plan, eta_h: float, kind: str, runtime_s: float) -> Fr
         iterations=int(plan.solver_stats.get("iterations", 0)),
         nlp_solves=int(plan.solver_stats.get("nlp_solves", 0)),
         warm_start=str(plan.solver_stats.get("warm_start", "")),
+        dual_starts=int(plan.solver_stats.get("dual_starts", 0)),
         totals=totals,
         waypoints=wp,
         times_h=times_h,
@@ -150,12 +158,23 @@ def point_from_plan(plan: Plan, eta_h: float, kind: str, runtime_s: float) -> Fr
 
 
 def solve_point(
-    spec: FrontSpec, eta_h: float | None, kind: str, warm: FrontPoint | WarmStart | None, route: Any = None
+    spec: FrontSpec,
+    eta_h: float | None,
+    kind: str,
+    warm: FrontPoint | WarmStart | None,
+    route: Any = None,
+    duals: bool = True,
 ) -> FrontPoint:
-    """One solve; an unreachable ETA or a solver failure becomes the point's status, not an exception."""
+    """One solve; an unreachable ETA or a solver failure becomes the point's status, not an exception.
+
+    ``duals=False``: start from the warm plan's track and speeds alone, not its multipliers (a benchmark's
+    primal-only continuation).
+    """
     pin_solver_threads()  # one BLAS thread for Ipopt, in this process as on a Dask worker: the same rounding
     started = _time.perf_counter()
     carry = retimed_start(warm, eta_h) if kind == "eta" else warm.carry if isinstance(warm, FrontPoint) else warm
+    if not duals and carry is not None and carry.duals is not None:
+        carry = WarmStart(carry.waypoints, carry.stw_kn)
     objective = "time" if kind == "minimum_time" else spec.objective if kind == "eta" else "fuel"
     eta = None if eta_h is None else spec.departure + h_to_timedelta(eta_h)
 
@@ -164,6 +183,7 @@ def solve_point(
             math.nan if eta_h is None else eta_h, kind, status, _time.perf_counter() - started, carry=carry
         )
 
+    plan_duals: Duals | None = None
     try:
         prepared, lock = prepared_corridor(spec) if spec.token else (None, None)
         if prepared is None or lock is None or not _covers(prepared, eta_h):
@@ -190,6 +210,7 @@ def solve_point(
                     warm_plan=carry,  # type: ignore[arg-type]
                     route=route,
                 )
+                plan_duals = prepared.last_duals  # this solve's multipliers, when its plan is the NLP's
     except InfeasibleETA as exc:
         if exc.earliest_arrival is not None:
             earliest = as_utc_time(exc.earliest_arrival, "earliest_arrival")
@@ -215,7 +236,10 @@ def solve_point(
     except WeatherCoverageError as exc:
         return failed(f"infeasible: {exc}")
     arrival_h = float(plan.duration_h)
-    return point_from_plan(plan, arrival_h if eta_h is None else eta_h, kind, _time.perf_counter() - started)
+    point = point_from_plan(plan, arrival_h if eta_h is None else eta_h, kind, _time.perf_counter() - started)
+    if plan_duals is not None and point.carry is not None:
+        point = replace_fields(point, carry=replace_fields(point.carry, duals=plan_duals))
+    return point
 
 
 def retimed_start(warm: FrontPoint | WarmStart | None, eta_h: float | None) -> WarmStart | None:
@@ -233,7 +257,8 @@ def retimed_start(warm: FrontPoint | WarmStart | None, eta_h: float | None) -> W
     arrival_h = warm.totals.get("duration_h", math.nan)
     if carry is None or eta_h is None or not math.isfinite(arrival_h) or arrival_h <= eta_h:
         return carry
-    return WarmStart(carry.waypoints, np.asarray(carry.stw_kn, dtype=float) * (arrival_h / eta_h * (1.0 + 1e-6)))
+    stw = np.asarray(carry.stw_kn, dtype=float) * (arrival_h / eta_h * (1.0 + 1e-6))
+    return WarmStart(carry.waypoints, stw, carry.duals)
 
 
 def mended_start(prepared: PreparedCorridor, carry: WarmStart, eta: np.datetime64) -> WarmStart:
@@ -258,14 +283,22 @@ def mended_start(prepared: PreparedCorridor, carry: WarmStart, eta: np.datetime6
         v_min_kn=prepared.v_min,
         v_max_kn=prepared.v_max,
     )
-    return carry if plan is None else WarmStart(np.asarray(plan.waypoints, dtype=float), np.asarray(plan.stw_kn))
+    if plan is None:
+        return carry
+    return WarmStart(np.asarray(plan.waypoints, dtype=float), np.asarray(plan.stw_kn), carry.duals)
 
 
-def solve_chain(spec: FrontSpec, etas: Sequence[float], warm: FrontPoint | None, cold: bool) -> list[FrontPoint]:
-    """One chain of ETAs, each point started from the one before (the chain's first from ``warm``)."""
+def solve_chain(
+    spec: FrontSpec, etas: Sequence[float], warm: FrontPoint | None, cold: bool, duals: bool = True
+) -> list[FrontPoint]:
+    """One chain of ETAs, each point started from the one before (the chain's first from ``warm``).
+
+    ``cold``: every point from the optimiser's own start; ``duals=False``: from the neighbour's plan without its
+    multipliers.
+    """
     out = []
     for eta_h in etas:
-        p = solve_point(spec, eta_h, "eta", None if cold else warm)
+        p = solve_point(spec, eta_h, "eta", None if cold else warm, duals=duals)
         warm = p if p.ok else warm
         out.append(p)
     return out
@@ -310,9 +343,11 @@ def spec_of(token: str) -> FrontSpec:
     return spec
 
 
-def solve_chain_by_token(token: str, etas: Sequence[float], warm: FrontPoint | None, cold: bool) -> list[FrontPoint]:
+def solve_chain_by_token(
+    token: str, etas: Sequence[float], warm: FrontPoint | None, cold: bool, duals: bool = True
+) -> list[FrontPoint]:
     """:func:`solve_chain` on the front inputs installed in this process under ``token``."""
-    return solve_chain(spec_of(token), etas, warm, cold)
+    return solve_chain(spec_of(token), etas, warm, cold, duals)
 
 
 def solve_point_by_token(

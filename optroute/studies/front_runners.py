@@ -48,10 +48,11 @@ class SerialRunner:
         chains: list[tuple[list[float], FrontPoint | None]],
         cold: bool,
         report: Callable[[FrontPoint], None],
+        duals: bool = True,
     ) -> list[FrontPoint]:
         out = []
         for etas, warm in chains:
-            for p in solve_chain(spec, etas, warm, cold):
+            for p in solve_chain(spec, etas, warm, cold, duals):
                 out.append(p)
                 report(p)
         return out
@@ -115,21 +116,40 @@ class DaskRunner:
         chains: list[tuple[list[float], FrontPoint | None]],
         cold: bool,
         report: Callable[[FrontPoint], None],
+        duals: bool = True,
     ) -> list[FrontPoint]:
         from distributed import as_completed
 
-        # one task per chain (a chain's points run one after the other anyway): few, long tasks, streamed back
-        args, futures = {}, []
-        for etas, warm in chains:
-            futures.append(self._submit(solve_chain_by_token, etas, warm, cold))
-            args[futures[-1].key] = (etas, warm, cold)
+        # one task per chain (a chain's points run one after the other anyway): few, long tasks, streamed back.
+        # Only as many in flight as the workers have threads, the next given out when one finishes, in the
+        # order of ``chains`` (the costliest first): all submitted at once, the scheduler had placed them on the
+        # workers in turn before knowing their cost, and the slow end's chain waited behind another on one
+        # worker while the other worker ran out of work
+        todo = list(chains)
+        args: dict[str, tuple[Any, ...]] = {}
+        running = as_completed(loop=self.client.loop)
+
+        def submit_next() -> None:
+            etas, warm = todo.pop(0)
+            fut = self._submit(solve_chain_by_token, etas, warm, cold, duals)
+            args[fut.key] = (etas, warm, cold, duals)
+            running.add(fut)
+
+        for _ in range(min(self._slots(), len(todo))):
+            submit_next()
         out = []
-        for fut in as_completed(futures, loop=self.client.loop):
-            for p in self._result(fut, solve_chain_by_token, *args[fut.key]):
+        for fut in running:
+            for p in self._result(fut, solve_chain_by_token, *args.pop(fut.key)):
                 out.append(p)
                 report(p)
             fut.release()
+            if todo:
+                submit_next()
         return out
+
+    def _slots(self) -> int:
+        """The threads of the workers holding the inputs (at least 1)."""
+        return max(1, sum(int(n) for n in self.client.nthreads(self.workers).values()))
 
 
 def split_chains(etas: list[float], k: int, from_slow: bool) -> list[list[float]]:

@@ -42,21 +42,18 @@ Examples
 from __future__ import annotations
 
 import contextlib
-import datetime as _dt
-import functools
+import io
 import math
 import numbers
 import time
 import traceback
 import uuid
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
 import dask
 import numpy as np
-import pandas as pd
 import xarray as xr
 
 from optroute import _store
@@ -72,6 +69,7 @@ from optroute.studies.cluster import (
 )
 from optroute.studies.fingerprint import CaseInput
 from optroute.studies.progress import TextProgress
+from optroute.studies.study_axes import axes_difference, make_axes, study_manifest
 
 __all__ = [
     "SYNCHRONOUS",
@@ -90,140 +88,6 @@ CaseFunction = Callable[[dict[str, Any]], CaseResult]
 ProgressCallback = Callable[[int, int], None]
 
 
-# --------------------------------------------------------------------------- axes
-
-
-@dataclass(frozen=True)
-class _Axis:
-    name: str
-    labels: np.ndarray  # what the combined dataset uses as coordinate, and the manifest records
-    values: tuple[Any, ...]  # what case_fn receives
-
-
-_PRIMITIVE = (numbers.Number, np.number, np.bool_, np.datetime64, np.timedelta64, _dt.datetime, _dt.timedelta)
-_LABEL_TYPES = (str, *_PRIMITIVE)
-
-
-def _object_label(axis: str, value: Any) -> str:
-    if isinstance(value, _LABEL_TYPES):
-        return str(value)
-    name = getattr(value, "name", None)
-    if isinstance(name, str) and name:
-        return name
-    if isinstance(value, tuple) and all(isinstance(v, _LABEL_TYPES) for v in value):
-        return str(value)
-    raise ConfigError(
-        f"axis {axis!r} holds a value of type {type(value).__name__} with no `name` to label it by; "
-        f"pass the axis as a mapping {{label: value}} (e.g. {{'storm_a': ds_a, 'storm_b': ds_b}}) "
-        "so that every case has a stable label"
-    )
-
-
-def _labels(axis: str, items: Sequence[Any]) -> np.ndarray:
-    if all(isinstance(v, str) for v in items):
-        labels = np.array(items, dtype=str)
-    elif all(isinstance(v, _PRIMITIVE) and not isinstance(v, complex | np.complexfloating) for v in items):
-        index = pd.Index(list(items))
-        if isinstance(index.dtype, pd.DatetimeTZDtype):
-            index = index.tz_convert("UTC").tz_localize(None)
-        kind = index.dtype.kind
-        if kind == "M":
-            labels = index.to_numpy().astype("datetime64[ns]")
-        elif kind == "m":
-            labels = index.to_numpy().astype("timedelta64[ns]")
-        elif kind in "biuf":
-            labels = index.to_numpy()
-            if kind == "f" and not np.isfinite(labels).all():
-                raise ConfigError(f"axis {axis!r} has a non-finite value {labels.tolist()}; give finite values")
-        else:
-            raise ConfigError(
-                f"axis {axis!r} mixes values of several kinds ({sorted({type(v).__name__ for v in items})}); "
-                "give values of one kind: numbers, strings or times"
-            )
-    else:
-        labels = np.array([_object_label(axis, v) for v in items], dtype=str)
-    if labels.dtype.kind in "mM" and np.isnat(labels).any():
-        raise ConfigError(f"axis {axis!r} holds NaT; give valid times")
-    seen: set[Any] = set()
-    for label in labels.tolist():
-        if label in seen:
-            raise ConfigError(
-                f"axis {axis!r} has the label {label!r} twice; every case needs a distinct key: drop the duplicate "
-                "or pass a mapping {label: value} with distinct labels"
-            )
-        seen.add(label)
-    return labels
-
-
-def _make_axes(axes: Mapping[str, Any]) -> list[_Axis]:
-    if not isinstance(axes, Mapping) or not axes:
-        raise ConfigError(
-            f"axes={axes!r} must be a non-empty mapping of axis name → sequence of values, "
-            "e.g. {'ship': ships, 'eta': etas}"
-        )
-    out = []
-    for name, values in axes.items():
-        if not isinstance(name, str) or not name.isidentifier():
-            raise ConfigError(f"axis name {name!r} must be a string usable as a variable name, e.g. 'eta'")
-        if name in _store.RESERVED_VARS:
-            raise ConfigError(f"axis name {name!r} is reserved for the study's own variable; rename the axis")
-        if isinstance(values, Mapping):
-            keys = list(values.keys())
-            vals = tuple(values.values())
-        elif isinstance(values, str | bytes) or not isinstance(values, Iterable):
-            raise ConfigError(
-                f"axis {name!r} must be a sequence of values, got {type(values).__name__} {values!r}; "
-                f"wrap a single value in a list: [{values!r}]"
-            )
-        elif isinstance(values, set | frozenset):
-            raise ConfigError(
-                f"axis {name!r} is a {type(values).__name__}, whose order is not stable between runs and would "
-                "change the case keys; pass a list (e.g. sorted(values))"
-            )
-        else:
-            keys = list(values)
-            vals = tuple(keys)
-        if not keys:
-            raise ConfigError(f"axis {name!r} is empty; give it at least one value")
-        out.append(_Axis(name, _labels(name, keys), vals))
-    return out
-
-
-def _manifest(axes: list[_Axis], case_fn: Callable[..., Any]) -> dict[str, Any]:
-    while isinstance(case_fn, functools.partial):
-        case_fn = case_fn.func
-    qualname = getattr(case_fn, "__qualname__", None) or type(case_fn).__qualname__
-    module = getattr(case_fn, "__module__", None) or type(case_fn).__module__
-    return {
-        "format": _store.FORMAT,
-        "axes": [{"name": a.name, **_store.encode_labels(a.labels)} for a in axes],
-        "shape": [len(a.values) for a in axes],
-        "n_cases": math.prod(len(a.values) for a in axes),
-        "case_fn": f"{module}.{qualname}",
-        "created_utc": _dt.datetime.now(_dt.UTC).replace(tzinfo=None).isoformat(timespec="seconds"),
-    }
-
-
-def _axes_difference(old: list[dict[str, Any]], new: list[dict[str, Any]]) -> str | None:
-    old_names = [a["name"] for a in old]
-    new_names = [a["name"] for a in new]
-    if old_names != new_names:
-        return f"axes {old_names} in the store but {new_names} in this call"
-    for a, b in zip(old, new, strict=True):
-        if a["dtype"] != b["dtype"]:
-            return f"axis {a['name']!r} holds {a['dtype']} labels in the store but {b['dtype']} in this call"
-        if a["labels"] != b["labels"]:
-            if len(a["labels"]) != len(b["labels"]):
-                return (
-                    f"axis {a['name']!r} has {len(a['labels'])} values in the store but {len(b['labels'])} in this call"
-                )
-            i = next(i for i, (x, y) in enumerate(zip(a["labels"], b["labels"], strict=True)) if x != y)
-            return (
-                f"axis {a['name']!r} value #{i} is {a['labels'][i]!r} in the store but {b['labels'][i]!r} in this call"
-            )
-    return None
-
-
 # --------------------------------------------------------------------------- one case (runs on a worker)
 
 
@@ -232,6 +96,7 @@ class _Outcome(NamedTuple):
     status: str
     payload: bytes | None  # the encoded case file, or None once a worker has stored it
     runtime_s: float
+    case: xr.Dataset | None = None  # the stored file decoded by the worker that wrote it (what read_case gives)
 
 
 class _WorkerStoreError(StudyError):
@@ -278,6 +143,12 @@ def _encode(ds: xr.Dataset) -> bytes:
     # fails for an in-memory target; the local synchronous scheduler gives it a plain process lock.
     with dask.config.set(scheduler="synchronous"):
         return bytes(ds.to_netcdf(engine="h5netcdf"))
+
+
+def _decode(payload: bytes) -> xr.Dataset:
+    """A case file's bytes loaded as :func:`optroute._store.read_case` loads the file (same engine)."""
+    with dask.config.set(scheduler="synchronous"):  # as _encode: no distributed lock inside a worker
+        return xr.load_dataset(io.BytesIO(payload), engine="h5netcdf")
 
 
 def _failure(
@@ -358,7 +229,9 @@ def _run_case(
         raise _WorkerStoreError(
             f"a worker could not write case {index} into {store!r} ({type(exc).__name__}: {exc})"
         ) from exc
-    return outcome._replace(payload=None)
+    # decoded here, on the worker, for the combined dataset: reading every case file back was half of a study's
+    # CPU on the client (1 200 calm-water cases), which no number of workers shortened
+    return outcome._replace(payload=None, case=_decode(outcome.payload))
 
 
 # --------------------------------------------------------------------------- execution
@@ -672,7 +545,7 @@ def run_study(
     synchronous = scheduler_address == SYNCHRONOUS or n_workers == 0
     out_path = Path(output) if output is not None else store / _store.DEFAULT_OUTPUT
     _store.output_format(out_path)
-    study_axes = _make_axes(axes)
+    study_axes = make_axes(axes)
     if not synchronous:
         import_distributed()
         check_picklable(case_fn)
@@ -697,10 +570,10 @@ def run_study(
 
     with _writable_store(store), _store.locked(store):
         _store.remove_temporaries(store)
-        manifest = _manifest(study_axes, case_fn)
+        manifest = study_manifest(study_axes, case_fn)
         stored = _store.read_manifest(store)
         if stored is not None and resume:
-            diff = _axes_difference(stored["axes"], manifest["axes"])
+            diff = axes_difference(stored["axes"], manifest["axes"])
             if diff is not None:
                 raise StudyError(
                     f"study store {str(store)!r} holds a study with other axes: {diff}; use another store, or pass "
@@ -732,8 +605,12 @@ def run_study(
         if progress is not None:
             progress(n_done, total)
 
+        fresh: dict[tuple[int, ...], xr.Dataset] = {}  # cases decoded by the workers that stored them
+
         def on_outcome(outcome: _Outcome) -> None:
             nonlocal n_done
+            if outcome.case is not None:
+                fresh[outcome.index] = outcome.case
             try:
                 if outcome.payload is not None:  # else a worker has stored it
                     _store.write_case(store, outcome.index, outcome.payload)
@@ -760,7 +637,7 @@ def run_study(
                 retried = {index for index in pending if index in existing}
                 _run_distributed(client, case_fn, pending, params, reserved, on_outcome, store_arg, retried, inputs_of)
 
-        ds = _store.combine(store, manifest)
+        ds = _store.combine(store, manifest, fresh)
         try:
             _store.write_dataset(ds, out_path)
         except OSError as exc:

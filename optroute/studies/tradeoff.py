@@ -30,15 +30,18 @@ ETA is ever dropped.
 
 The continuation
 ----------------
-The ETAs between the two ends are swept from the slow-steaming end, where the problem is
-easiest (loads far from the engine's limits), towards the fast one: each point's
+The ETAs between the two ends are swept from the slow-steaming end towards the fast one (a later
+neighbour's plan, sped up, arrives by the next ETA; near the slow end the engine's minimum load binds
+on many legs and those points take the most iterations): each point's
 :meth:`~optroute.optimise.corridor_problem.PreparedCorridor.solve` starts from its later
 neighbour's plan sped up to arrive by its own ETA (speeds through the water times
 ``arrival / ETA``, then each leg the referee finds outside the engine's range moved to the limit:
-:func:`~optroute.studies.front_points.mended_start`), which the optimiser takes as Ipopt's start when the referee accepts it and scores it best among
-its candidates (its own start otherwise).  One solve per point; only a point whose solve failed is
-solved once more, from the optimiser's own start (``attrs["monotonicity_resolves"]``).  The
-primal solution only: the optimiser's public interface (``warm_plan``) carries no multipliers.
+:func:`~optroute.studies.front_points.mended_start`), which the optimiser takes as Ipopt's start when the
+referee accepts it and scores it best among its candidates (its own start otherwise), together with the neighbour's Ipopt multipliers
+where the NLP has the same rows: Ipopt's primal-dual warm start (``warm_start_init_point``,
+:data:`formulations.ipopt_options.WARM_START_OPTIONS`; ``dual_starts`` counts such solves per point).  One
+solve per point; only a point whose solve failed is solved once more, from the optimiser's own start
+(``attrs["monotonicity_resolves"]``).
 
 Monotonicity
 ------------
@@ -58,7 +61,9 @@ serial, the chains run one after the other; with ``n_workers >= 2`` (a
 :class:`distributed.LocalCluster` on the loopback interface, for this call) or
 ``scheduler_address=`` (an existing Dask cluster: the address its ``dask scheduler`` printed,
 e.g. ``"tcp://10.0.0.5:8786"``; the workers need optroute installed) the two end solves run side
-by side and each chain is one Dask task, its points streamed back as it finishes.  Every chain
+by side and each chain is one Dask task, its points streamed back as it finishes; the chains are handed
+out one per free worker thread, the slow end's (the costliest: its points sit at the engine's minimum
+load) first.  Every chain
 starts from the slow-steaming plan whatever ran it, and Ipopt's BLAS runs one thread in every
 process (:mod:`optroute.studies.threads`), so the front is the same to the last bit serial, on
 a cluster and run to run (``runtime_s`` aside).
@@ -248,7 +253,7 @@ def tradeoff(
     progress: FrontProgress | None = None,
     n_workers: int | None = None,
     scheduler_address: str | None = None,
-    warm_start: bool = True,
+    warm_start: bool | str = True,
     chains: int = 4,
     monotone_rtol: float = 1e-6,
     corridor_width_nm: float = 60.0,
@@ -286,9 +291,9 @@ def tradeoff(
         An existing Dask scheduler (``"tcp://host:port"``); one chain per worker.  An address that
         does not answer within ``timeout_s`` raises :class:`~optroute.studies.study.SchedulerUnreachable`
         naming it.
-    warm_start : bool
-        Warm-start each point from its neighbour (default).  ``False`` solves every ETA from the
-        optimiser's own start (for benchmarks).
+    warm_start : bool or "primal"
+        Warm-start each point from its neighbour's plan and multipliers (default).  ``"primal"``: from its
+        plan alone; ``False``: every ETA from the optimiser's own start (both for benchmarks).
     chains : int
         The warm-start chains the ETAs between the two ends are split into (contiguous, each swept from
         its slow end).  The front depends on this number and never on the workers: it is the same,
@@ -319,7 +324,8 @@ def tradeoff(
         solve's fuel: above ``fuel_t`` where it rose), ``solve`` (``"minimum_time"``,
         ``"slow_steaming"`` or ``"eta"``), ``runtime_s`` [s], ``iterations`` (Ipopt),
         ``nlp_solves`` (Ipopt calls of the point's solve: band outer loop and verification re-solves)
-        and ``warm_start`` (the candidate Ipopt started from, e.g. ``"warm plan"``) of the point; the plans on ``(eta, waypoint)`` —
+        ``warm_start`` (the candidate Ipopt started from, e.g. ``"warm plan"``) and ``dual_starts`` (its
+        Ipopt calls started from the neighbour's multipliers too) of the point; the plans on ``(eta, waypoint)`` —
         ``waypoint_lat_deg``, ``waypoint_lon_deg``, ``waypoint_time_h`` [h after departure] — and
         on ``(eta, leg)`` — ``leg_<v>`` for ``v`` in :data:`LEG_VARIABLES` — NaN where a point has
         no plan.  ``attrs``: departure, objective, ship, earliest arrival and slow-steaming limit
@@ -354,6 +360,11 @@ def tradeoff(
         raise ConfigError(
             f"n_workers={n_workers} applies to a local cluster; with scheduler_address="
             f"{scheduler_address!r} the cluster's own workers are used: drop n_workers"
+        )
+    if warm_start not in (True, False, "primal"):
+        raise ConfigError(
+            f"warm_start={warm_start!r} is not a warm start; use True (the neighbour's plan and multipliers), "
+            "'primal' (its plan alone) or False (the optimiser's own start)"
         )
     if isinstance(chains, bool) or not isinstance(chains, numbers.Integral) or chains < 1:
         raise ConfigError(f"chains={chains!r} must be an integer >= 1 (the warm-start chains the ETAs are split into)")
@@ -391,7 +402,7 @@ def _front(
     n: int,
     progress: FrontProgress | None,
     runner: SerialRunner | DaskRunner,
-    warm_start: bool,
+    warm_start: bool | str,
     rtol: float,
     n_chains: int,
 ) -> TradeoffFront:
@@ -445,7 +456,7 @@ def _rest(
     fast: FrontPoint,
     progress: FrontProgress | None,
     runner: SerialRunner | DaskRunner,
-    warm_start: bool,
+    warm_start: bool | str,
     rtol: float,
     n_chains: int,
 ) -> TradeoffFront:
@@ -464,7 +475,12 @@ def _rest(
     # the continuation: from the slow-steaming end (its plan, sped up, starts each chain) towards the fast one
     from_slow = slow is not None and spec.objective == "fuel"
     chains = [(etas, slow if from_slow else fast) for etas in split_chains(todo, n_chains, from_slow)]
-    for p in runner.chains(spec, chains, not warm_start, report):
+    if from_slow:
+        # the costliest chain first, so that a cluster never starts it last: the one at the slow end, whose points
+        # sit at the engine's minimum load (on the benchmark's storm corridor 2.6 times the CPU of the chain at
+        # the fast end); each chain is independent, so the order changes nothing in the front
+        chains.reverse()
+    for p in runner.chains(spec, chains, warm_start is False, report, warm_start is True):
         done[p.eta_h] = p
     points = [done[h] for h in grid.tolist()]
     resolves = _resolve_failed(spec, points, runner)
@@ -506,6 +522,7 @@ def _monotone(points: list[FrontPoint], rtol: float) -> int:
                 iterations=p.iterations,
                 nlp_solves=p.nlp_solves,
                 warm_start=p.warm_start,
+                dual_starts=p.dual_starts,
                 carry=p.carry,
                 own_fuel_t=p.fuel_t,
                 status=f"{best_point.status}; the plan of the earlier ETA {best_point.eta_h:.6g} h (arrives earlier): "
@@ -555,6 +572,11 @@ def _dataset(
             {"long_name": "Ipopt calls of the point's solve (band outer loop and verification re-solves)"},
         ),
         "warm_start": ("eta", np.array([p.warm_start for p in points], dtype=str)),
+        "dual_starts": (
+            "eta",
+            np.array([p.dual_starts for p in points], dtype=np.int64),
+            {"long_name": "Ipopt calls of the point's solve started from the neighbour's multipliers too"},
+        ),
         "own_fuel_t": (
             "eta",
             np.array([p.fuel_t if p.own_fuel_t is None else p.own_fuel_t for p in points], dtype=float),

@@ -105,6 +105,22 @@ def trilinear_at(flat, b, x0, x1, nx, dt, wt, wy, wx):  # pragma: no cover - com
     return (1.0 - wt) * lo + wt * hi
 
 
+@jit(inline="always")
+def _node_field(fields, b, x0, x1, nx, dt, wt, wy, wx, k):  # pragma: no cover - compiled
+    """:func:`trilinear_at` of field ``k`` in node-major ``fields`` (shape (n_nodes, n_fields)): the same arithmetic,
+    with every field of a grid node in one place, so the 8 corners' cache lines serve all the fields of a point."""
+    lo = (1.0 - wy) * ((1.0 - wx) * fields[b + x0, k] + wx * fields[b + x1, k]) + wy * (
+        (1.0 - wx) * fields[b + nx + x0, k] + wx * fields[b + nx + x1, k]
+    )
+    if dt == 0:
+        return lo
+    c = b + dt
+    hi = (1.0 - wy) * ((1.0 - wx) * fields[c + x0, k] + wx * fields[c + x1, k]) + wy * (
+        (1.0 - wx) * fields[c + nx + x0, k] + wx * fields[c + nx + x1, k]
+    )
+    return (1.0 - wt) * lo + wt * hi
+
+
 def _trilinear_body(flat, base, xi, xj, nx, dt, tw, yw, xw, out, p):  # pragma: no cover - compiled
     out[p] = trilinear_at(flat, base[p], xi[p], xj[p], nx, dt, tw[p], yw[p], xw[p])
 
@@ -159,10 +175,11 @@ class PointWeather(NamedTuple):
 
     Attributes
     ----------
-    fields : ndarray, shape (9, n_time * n_lat * n_lon)
-        Raveled fields: Hs [m], the band period [s] (``tp_s``, else ``tm_s``),
+    fields : ndarray, shape (n_time * n_lat * n_lon, 9)
+        Node-major (all fields of one grid node together; nodes raveled as (time, lat, lon)):
+        Hs [m], the band period [s] (``tp_s``, else ``tm_s``),
         sin and cos of the wave direction, wind u, v [m/s], current u, v [m/s]
-        (NaN rows for a wind and zero rows for a current the dataset does not have), and a zero row.
+        (NaN columns for a wind and zero columns for a current the dataset does not have), and a zero column.
     time_s, lat_deg, lon_deg : ndarray
         The axes (time in seconds since the first time).
     meta : ndarray
@@ -243,13 +260,13 @@ def sample_at(fields, time_s, lat_deg, lon_deg, meta, offset_ns, t_h, lat, lon, 
     ny = lat_deg.size
     dt = ny * nx if time_s.size > 1 else 0
     b = (ti * ny + yi) * nx
-    out[0] = trilinear_at(fields[0], b, xi, xj, nx, dt, tw, yw, xw)
-    out[1] = trilinear_at(fields[1], b, xi, xj, nx, dt, tw, yw, xw)
-    s = trilinear_at(fields[2], b, xi, xj, nx, dt, tw, yw, xw)
-    c = trilinear_at(fields[3], b, xi, xj, nx, dt, tw, yw, xw)
+    out[0] = _node_field(fields, b, xi, xj, nx, dt, tw, yw, xw, 0)
+    out[1] = _node_field(fields, b, xi, xj, nx, dt, tw, yw, xw, 1)
+    s = _node_field(fields, b, xi, xj, nx, dt, tw, yw, xw, 2)
+    c = _node_field(fields, b, xi, xj, nx, dt, tw, yw, xw, 3)
     out[2] = np.degrees(np.arctan2(s, c)) % 360.0
     for k in range(4, 8):
-        out[k - 1] = trilinear_at(fields[k], b, xi, xj, nx, dt, tw, yw, xw)
+        out[k - 1] = _node_field(fields, b, xi, xj, nx, dt, tw, yw, xw, k)
     return True
 
 
@@ -598,12 +615,12 @@ class WeatherSampler:
         if getattr(self, "_point", None) is None:
             size = self._time.n * self._lat.n * self._lon.n
             rows = ["hs_m", period, _DIR + ":sin", _DIR + ":cos", *schema.OPTIONAL]
-            fields = np.zeros((N_POINT_FIELDS, size))
+            fields = np.zeros((size, N_POINT_FIELDS))  # node-major: one gather of a node gives every field
             for k, name in enumerate(rows):
                 if name in self._arrays:
-                    fields[k] = self._arrays[name].ravel()
+                    fields[:, k] = self._arrays[name].ravel()
                 elif name in schema.OPTIONAL_UNKNOWN:
-                    fields[k] = np.nan
+                    fields[:, k] = np.nan
             meta = np.zeros(14)
             for at, ax in ((_M_T_START, self._time), (_M_Y_START, self._lat), (_M_X_START, self._lon)):
                 meta[at : at + 4] = (ax.start, ax.step, 1.0 if ax.uniform else 0.0, ax.stop)

@@ -131,8 +131,7 @@ class Storm:
     def fields(self, hours: float, lat: np.ndarray, lon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The storm's own H_s [m] and the direction its waves come from [deg true] at one time."""
         lat_c, lon_c = self.centre(hours)
-        d = geo.distance_nm(lat_c, lon_c, lat, lon)
-        brg = geo.initial_course_deg(np.full(lat.shape, lat_c), np.full(lat.shape, lon_c), lat, lon)
+        d, brg, _ = geo.inverse(lat_c, lon_c, lat, lon)  # one geodesic solve gives both
         rel = np.radians(brg - self.major_axis_deg)
         rho2 = (d * np.cos(rel) / self.semi_major_nm) ** 2 + (d * np.sin(rel) / self.semi_minor_nm) ** 2
         hs = self.peak_hs_m * self.strength(hours) * np.exp(-0.5 * rho2**self.shape_order)
