@@ -511,10 +511,47 @@ def _recover_primal(
                 v[k] = d[k] / t_new
                 r[k] = float(s.rate(np.array([k]), np.array([v[k]]))[0])
                 s.evaluations += 1
-            if slack > 1e-9 * eta_h:
-                return nan
+            if slack > 1e-9 * eta_h:  # the chosen intervals cannot take T: choose intervals that can
+                exact = _exact_time_schedule(s, eta_h, w, c)
+                if exact is None:
+                    return nan
+                v, r = exact
     t = d / v
     return v, t, float((t * (w * r + c)).sum())
+
+
+#: Most combinations of the legs' allowed intervals :func:`_exact_time_schedule` enumerates.
+MAX_INTERVAL_COMBINATIONS = 4096
+
+
+def _exact_time_schedule(s: _Samples, eta_h: float, w: float, c: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """A schedule with ``Σ t = T`` exactly, where the greedy steps' intervals cannot absorb the slack.
+
+    Every combination of one allowed interval per leg whose passage times bracket ``T`` is feasible:
+    each leg's time moves the same fraction θ from its fastest to its slowest end of the interval so that
+    ``Σ t = T``; the cheapest such schedule is returned (the re-solve with the intervals held,
+    ``polish_primal``, settles the speeds inside them). ``None`` when no combination brackets ``T``, or
+    when there are more than :data:`MAX_INTERVAL_COMBINATIONS` of them.
+    """
+    d, n = s.d, s.d.size
+    per_leg = [np.flatnonzero(s.ivl_leg == k) for k in range(n)]
+    if math.prod(len(p) for p in per_leg) > MAX_INTERVAL_COMBINATIONS:
+        return None
+    combos = np.stack(np.meshgrid(*per_leg, indexing="ij"), axis=-1).reshape(-1, n)
+    t_lo, t_hi = d / s.ivl_hi[combos], d / s.ivl_lo[combos]
+    lo_sum, hi_sum = t_lo.sum(axis=1), t_hi.sum(axis=1)
+    ok = (lo_sum <= eta_h) & (eta_h <= hi_sum)
+    if not ok.any():
+        return None
+    t_lo, t_hi, lo_sum, hi_sum = t_lo[ok], t_hi[ok], lo_sum[ok], hi_sum[ok]
+    span = hi_sum - lo_sum
+    theta = np.where(span > 0, (eta_h - lo_sum) / np.where(span > 0, span, 1.0), 0.0)
+    t = t_lo + theta[:, None] * (t_hi - t_lo)
+    v = d / t
+    r = np.asarray(s.rate(np.tile(np.arange(n), v.shape[0]), v.ravel()), dtype=float).reshape(v.shape)
+    s.evaluations += v.size
+    k = int(np.argmin((t * (w * r + c)).sum(axis=1)))
+    return v[k].copy(), r[k].copy()
 
 
 # --------------------------------------------------------------------------- the bound

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from formulations.common import FormulationInputError, PowerLawFuel
@@ -185,6 +185,8 @@ def test_tabulated_rate_gives_the_exact_bound_of_its_interpolant():
     convex=st.booleans(),
     mode=st.sampled_from(["le", "eq"]),
 )
+# found by CI: the greedy steps' intervals could not absorb the slack, while other intervals bracket T exactly
+@example(seed=204736474, n=3, n_bands=2, convex=False, mode="eq")
 def test_bound_is_below_every_feasible_schedule(seed, n, n_bands, convex, mode):
     rng = np.random.default_rng(seed)
     d, allowed, rate, eta = _random_instance(rng, n, n_bands, convex)
