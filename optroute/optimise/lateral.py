@@ -61,6 +61,7 @@ from scipy.optimize import linprog
 from optroute import geodesy as geo
 from optroute.errors import ConfigError, NoSafePassage, OnLandError
 from optroute.geo import land
+from optroute.search.grid import unit_xyz
 from optroute.weather.sample import WeatherSampler
 
 if TYPE_CHECKING:
@@ -76,12 +77,6 @@ _CHUNK_POINTS = 300_000
 
 
 # --------------------------------------------------------------------------- lattice
-
-
-def _unit_xyz(lat_deg: np.ndarray, lon_deg: np.ndarray) -> np.ndarray:
-    lat, lon = np.radians(lat_deg), np.radians(lon_deg)
-    c = np.cos(lat)
-    return np.stack([c * np.cos(lon), c * np.sin(lon), np.sin(lat)], axis=-1)
 
 
 class _Lattice:
@@ -107,7 +102,7 @@ class _Lattice:
         kk = np.repeat(np.arange(n + 1), self.y_nm.size)
         yy = np.tile(self.y_nm, n + 1)
         lat, lon = frame.normal_points(kk, yy)
-        self._station_xyz = _unit_xyz(lat, lon).reshape(n + 1, self.y_nm.size, 3)
+        self._station_xyz = unit_xyz(lat, lon).reshape(n + 1, self.y_nm.size, 3)
 
     def leg_boxes(self, frame: CorridorFrame, pad_nm: float) -> np.ndarray:
         """Per leg, (lat_min, lat_max, lon_min, lon_max) [deg] holding its sweep padded by ``pad_nm``.

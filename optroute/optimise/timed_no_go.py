@@ -35,8 +35,8 @@ import xarray as xr
 
 from optroute.errors import ConfigError
 from optroute.geo import land
-from optroute.optimise.lateral import _unit_xyz
 from optroute.optimise.nlp_inputs import CorridorFrame
+from optroute.search.grid import unit_xyz
 from optroute.units import timedelta_to_h as _td_to_h
 
 __all__ = ["PAD_H", "NoPassageWindows", "no_passage_windows", "time_varying_nan"]
@@ -116,7 +116,7 @@ def _sweep_points(frame: CorridorFrame, y_lo: np.ndarray, y_hi: np.ndarray, k: i
     width = max(float(y_hi[k] - y_lo[k]), float(y_hi[k + 1] - y_lo[k + 1]))
     u = np.linspace(0.0, 1.0, int(np.ceil(width / step_nm)) + 1 if width > 0 else 1)
     ends = [frame.normal_points(np.full(u.size, j), y_lo[j] + u * (y_hi[j] - y_lo[j])) for j in (k, k + 1)]
-    xyz = [_unit_xyz(*e) for e in ends]
+    xyz = [unit_xyz(*e) for e in ends]
     d = float(frame.s_nm[k + 1] - frame.s_nm[k]) + width
     f = np.linspace(0.0, 1.0, int(np.ceil(d / step_nm)) + 1)[:, None, None]
     p = (1.0 - f) * xyz[0][None] + f * xyz[1][None]  # normalised chords: the great circles to O(leg angle²)

@@ -52,7 +52,8 @@ NavigableFn = Callable[[np.ndarray, np.ndarray], ArrayLike]
 MAX_NODES = 4_000_000
 
 
-def _unit_xyz(lat_deg: np.ndarray, lon_deg: np.ndarray) -> np.ndarray:
+def unit_xyz(lat_deg: np.ndarray, lon_deg: np.ndarray) -> np.ndarray:
+    """Unit 3-vectors ``(..., 3)`` of points (lat, lon) [deg] on the sphere (x towards 0° N 0° E, z to the pole)."""
     lat, lon = np.radians(lat_deg), np.radians(lon_deg)
     return np.stack([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)], axis=-1)
 
@@ -196,7 +197,7 @@ class RouteGrid:
             )
         # the plane is the gnomonic projection of the sphere: its centre and axis are spherical too,
         # so that the start->end line is exactly a grid row (true lengths are measured on WGS84)
-        mid = _unit_xyz(np.array(lat_s), np.array(lon_s)) + _unit_xyz(np.array(lat_e), np.array(lon_e))
+        mid = unit_xyz(np.array(lat_s), np.array(lon_s)) + unit_xyz(np.array(lat_e), np.array(lon_e))
         lat0, lon0 = (float(v) for v in xyz_to_latlon(mid))
         gamma = float(geo.sphere_initial_course_deg(lat0, lon0, lat_e, lon_e))
         es, ns = geo.gnomonic_forward(lat_s, lon_s, lat0, lon0)
@@ -337,7 +338,7 @@ class RouteGrid:
         and a straight plane segment ``(1-f) T_a + f T_b`` is the great circle
         between them.  Units: Earth radii.
         """
-        c = _unit_xyz(np.array(self.centre_lat_deg), np.array(self.centre_lon_deg))
+        c = unit_xyz(np.array(self.centre_lat_deg), np.array(self.centre_lon_deg))
         lat0, lon0 = np.radians(self.centre_lat_deg), np.radians(self.centre_lon_deg)
         east = np.array([-np.sin(lon0), np.cos(lon0), 0.0])
         north = np.array([-np.sin(lat0) * np.cos(lon0), -np.sin(lat0) * np.sin(lon0), np.cos(lat0)])
