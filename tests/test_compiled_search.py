@@ -227,7 +227,7 @@ def test_a_dropped_leg_is_one_whose_full_cost_cannot_improve_the_label(rough, gr
     """
     from optroute.search.costs import LegEvaluator
     from optroute.search.edge_geometry import edge_piece_arrays
-    from optroute.search.passage_kernels import cost_leg
+    from optroute.search.passage_kernels import cost_leg, leg_workspace
     from optroute.search.refine_kernels import workspace
 
     ph = _physics(rough)
@@ -246,18 +246,20 @@ def test_a_dropped_leg_is_one_whose_full_cost_cannot_improve_the_label(rough, gr
     npc = ev.piece_n[o].astype(np.int64)
     args = (k.params, k.weather, k.mode, k.check_nm, k.speeds, k.lam, k.desired, k.step, k.vmin)
     ws = workspace(True)
-    inv_v = (1.0 - 1e-5) / (14.0 + 2.0) if objective == "time" else 0.0
+    lws = leg_workspace(1, k.speeds.size)  # reused from leg to leg, grown by cost_leg where a leg needs more
+    # the search's bound per nm still to sail: 1 / v_max for time, the cost floor ρ for fuel + λ·time
+    rest_rate = (1.0 - 1e-5) * ((1.0 / (14.0 + 2.0)) if objective == "time" else _floor(k.lam))
     dropped = kept = 0
     for e in range(u.size):
         row = (lat[e], lon[e], crs[e], length[e], npc[e], rng.uniform(0.0, 100.0))
-        d, f, ok, _ = cost_leg(*args, *row, ws, (0.0, np.inf, True, 0.0))
+        d, f, ok, _ = cost_leg(*args, *row, ws, (0.0, np.inf, True, 0.0), lws)
         if not ok:
             continue
         c = d if objective == "time" else f + k.lam * d
         label_u = rng.uniform(0.0, 50.0)
         for factor in (0.3, 0.9, 0.999, 1.0, 1.001, 2.0):
             label_v = label_u + factor * c
-            d2, f2, ok2, _ = cost_leg(*args, *row, ws, (label_u, label_v, objective == "time", inv_v))
+            d2, f2, ok2, _ = cost_leg(*args, *row, ws, (label_u, label_v, objective == "time", rest_rate), lws)
             if ok2:
                 assert (d2, f2) == (d, f)
                 kept += 1

@@ -22,7 +22,7 @@ import numpy as np
 from optroute._numba import jit
 from optroute.search import _kernels
 from optroute.search.edge_geometry import edge_pieces
-from optroute.search.passage_kernels import cost_leg
+from optroute.search.passage_kernels import cost_leg, leg_points, leg_workspace
 from optroute.search.refine_kernels import workspace as refine_workspace
 
 __all__ = ["LegKernel", "run"]
@@ -71,15 +71,17 @@ class LegKernel:
 
 @jit
 def _cost_batch(
-    k, u, v, o, tarr, tangent, piece_f0, piece_f1, piece_n, buf, refine, label, time_obj, inv_v
+    k, u, v, o, tarr, tangent, piece_f0, piece_f1, piece_n, buf, refine, label, time_obj, rest_rate, ws
 ):  # pragma: no cover - compiled
-    """Cost edges ``u → v`` (``refine``: :func:`optroute.search.refine_kernels.workspace`); returns (duration, fuel,
-    feasible, uncovered points).
+    """Cost edges ``u → v`` (``refine``: :func:`optroute.search.refine_kernels.workspace`, ``ws``:
+    :func:`~optroute.search.passage_kernels.leg_workspace`); returns (duration, fuel, feasible, uncovered points,
+    the work arrays, grown to the batch's largest piece).
 
     An edge that cannot improve ``label[v]`` (the labels before the batch) is dropped as soon as its cost so far
-    plus ``inv_v`` times the length still to sail (time objective; the cost objectives: its cost so far) shows it
-    (:func:`~optroute.search.passage_kernels.cost_leg`'s ``stop``): returned infeasible, which the label update
-    (strictly better only) treats as it would the edge's full cost.
+    plus ``rest_rate`` times the length still to sail shows it (:func:`~optroute.search.passage_kernels.cost_leg`'s
+    ``stop``): returned infeasible, which the label update (strictly better only) treats as it would the edge's
+    full cost.  ``rest_rate`` is the search's lower bound of the objective per nm of any leg, less the speed
+    check's tolerance: 1 / ``v_max`` [h/nm] for time, the cost floor ρ [t/nm] for the cost objectives.
     """
     n = u.size
     dur, fu = np.empty(n), np.empty(n)
@@ -89,14 +91,17 @@ def _cost_batch(
     for e in range(n):
         q = o[e]
         edge_pieces(tangent[u[e]], tangent[v[e]], piece_f0[q], piece_f1[q], piece_n[q], buf[0], buf[1], buf[2], buf[3])
-        stop = (label[u[e]], label[v[e]], time_obj, inv_v if time_obj else 0.0)
+        m = leg_points(buf[3], piece_n[q], check_nm)
+        if ws[1].shape[0] < m:
+            ws = leg_workspace(m, speeds.size)
+        stop = (label[u[e]], label[v[e]], time_obj, rest_rate)
         d, f, ok, c = cost_leg(
             p, w, mode, check_nm, speeds, lam, desired, step, vmin, buf[0], buf[1], buf[2], buf[3], piece_n[q],
-            tarr[u[e]], refine, stop,
+            tarr[u[e]], refine, stop, ws,
         )  # fmt: skip
         unc += c
         dur[e], fu[e], feas[e] = d, f, ok
-    return dur, fu, feas, unc
+    return dur, fu, feas, unc, ws
 
 
 @jit
@@ -128,11 +133,14 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state, touched):  # p
     """
     ii, jj, di, dj, off, ny, nx, nav_pad, base_pad, cell_off, cell_n, all_nav, xyz, tangent, pf0, pf1, pn = graph
     s, g, h, delta, slack, mode, rho, two_r, time_obj, lam, vmax, tol, t_goal, t_limit, inv_v = search
+    # a lower bound on the objective per nm still to sail on any leg (the bound every costed edge is checked against)
+    rest = inv_v if time_obj else rho * (1.0 - tol)
     counts = np.zeros(6, dtype=np.int64)
     bad = np.zeros(3)
     kmax = pf0.shape[1]
     buf = np.empty((4, kmax))
     refine = refine_workspace(k[3] > 0.0)
+    ws = leg_workspace(1, k[4].size)  # grown to the largest piece met (leg_points)
     open_nodes = np.array([s], dtype=np.int64)
     relaxed = 0
     while open_nodes.size:
@@ -149,7 +157,9 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state, touched):  # p
         )  # fmt: skip
         if u.size == 0:
             continue
-        dur, fu, feas, unc = _cost_batch(k, u, v, o, tarr, tangent, pf0, pf1, pn, buf, refine, label, time_obj, inv_v)
+        dur, fu, feas, unc, ws = _cost_batch(
+            k, u, v, o, tarr, tangent, pf0, pf1, pn, buf, refine, label, time_obj, rest, ws
+        )  # fmt: skip
         counts[1] += u.size
         counts[3] += unc
         new = np.empty(u.size)

@@ -206,36 +206,56 @@ def check_count(length_nm, check_nm):  # pragma: no cover - compiled
 
 
 @jit
+def leg_points(length, n_pieces, check_nm):  # pragma: no cover - compiled
+    """The most check points of any of a leg's ``n_pieces`` pieces (:func:`check_count`; 1 unchecked)."""
+    m = 1
+    if check_nm > 0.0:
+        for k in range(n_pieces):
+            m = max(m, check_count(length[k], check_nm))
+    return m
+
+
+@jit
+def leg_workspace(m, n_speeds):  # pragma: no cover - compiled
+    """Work arrays of :func:`cost_leg` for pieces of up to ``m`` check points, allocated once per batch of legs.
+
+    ``(work (5, max(m, n_speeds)), the sea at the points (m, N_POINT_FIELDS), vectors (7, max(m, N_POINT_FIELDS)))``:
+    the vectors' rows hold the segment lengths, latitudes, longitudes, courses and distances of the points,
+    the sea at one point and the piece's midpoint.
+    """
+    return np.zeros((5, max(m, n_speeds))), np.empty((m, N_POINT_FIELDS)), np.empty((7, max(m, N_POINT_FIELDS)))
+
+
+@jit
 def cost_leg(
-    p, w, mode, check_nm, speeds, lam, desired, step, vmin, lat, lon, course, length, n_pieces, t0_h, refine, stop
+    p, w, mode, check_nm, speeds, lam, desired, step, vmin, lat, lon, course, length, n_pieces, t0_h, refine, stop, ws
 ):  # pragma: no cover - compiled
     """Duration [h], fuel [t], feasibility and uncovered points of one leg, walked piece by piece in time.
 
-    ``stop = (label_u, label_v, time_objective, rest_h_per_nm)`` lets the search drop a leg that cannot
+    ``stop = (label_u, label_v, time_objective, rest_per_nm)`` lets the search drop a leg that cannot
     improve its destination: once ``label_u`` + the cost so far (the duration, or fuel + λ·duration)
-    + ``rest_h_per_nm`` times the length still to sail exceeds ``label_v``, the leg's full cost would too
-    (both parts only grow; ``rest_h_per_nm`` a lower bound on the hours per nm of any piece, 0 for the cost
-    objectives), so the search's label update (strictly better only) would not take it: it is returned
-    infeasible.  ``label_v = inf`` costs every leg in full.
+    + ``rest_per_nm`` times the length still to sail exceeds ``label_v``, the leg's full cost would too
+    (both parts only grow; ``rest_per_nm`` a lower bound on the objective per nm of any piece: hours per nm
+    for time, the cost floor ρ for fuel + λ·time, which bounds a checked piece's trapezoid sums too since
+    (a + b)(1/s + 1/t) / 4 >= ρ when a >= ρ s and b >= ρ t), so the search's label update (strictly better
+    only) would not take it: it is returned infeasible.  ``label_v = inf`` costs every leg in full.
 
     The leg's pieces are given by their midpoints ``lat, lon`` [deg], the course
     there [deg true] and ``length`` [nm] (:func:`optroute.search.edge_geometry.edge_pieces`);
     ``check_nm`` <= 0 proposes and keeps each piece's speed at its midpoint
     only, else the speed is checked at :func:`check_count` points along the
     piece (:func:`optroute.search.edge_geometry.frame_point`, one frame per piece) and between them by the referee's rules
-    (``refine``: :func:`optroute.search.refine_kernels.workspace`).  See :func:`cost_legs`.
+    (``refine``: :func:`optroute.search.refine_kernels.workspace`).  ``ws`` is :func:`leg_workspace` (the
+    caller's, reused from leg to leg; a larger one is allocated here if the leg needs more points).
+    See :func:`cost_legs`.
     """
     checked = check_nm > 0.0
-    m = 1
-    if checked:
-        for k in range(n_pieces):
-            m = max(m, check_count(length[k], check_nm))
-    work = np.zeros((5, max(m, speeds.size)))
-    sea = np.empty(N_POINT_FIELDS)
-    sea_pts = np.empty((m, N_POINT_FIELDS))
-    seg = np.empty(max(m - 1, 1))
-    la, lo, crs = np.empty(m), np.empty(m), np.empty(m)
-    s_pts, mid = np.empty(m), np.empty(4)
+    m = leg_points(length, n_pieces, check_nm)
+    work, sea_pts, vec = ws
+    if sea_pts.shape[0] < m or work.shape[1] < max(m, speeds.size):
+        work, sea_pts, vec = leg_workspace(m, speeds.size)
+    seg, la, lo, crs, s_pts = vec[0], vec[1], vec[2], vec[3], vec[4]
+    sea, mid = vec[5], vec[6]
     t = t0_h
     fu = 0.0
     uncovered = 0
@@ -321,10 +341,14 @@ def cost_legs(
     uncovered = 0
     refine = refine_workspace(check_nm > 0.0)
     full = (0.0, np.inf, True, 0.0)  # every leg costed in full
+    m = 1
+    for i in range(n):
+        m = max(m, leg_points(length[i], n_pieces[i], check_nm))
+    ws = leg_workspace(m, speeds.size)
     for i in range(n):
         d, f, ok, unc = cost_leg(
             p, w, mode, check_nm, speeds, lam, desired, step, vmin, mid_lat[i], mid_lon[i], mid_course[i],
-            length[i], n_pieces[i], t0_h[i], refine, full,
+            length[i], n_pieces[i], t0_h[i], refine, full, ws,
         )  # fmt: skip
         uncovered += unc
         if ok:
