@@ -10,10 +10,11 @@ power model) on a dense resampling of every leg, and :meth:`Plan.verify`
 re-checks every constraint on such a resampling with code that shares
 nothing with the NLP:
 
-* each leg is a great circle between its waypoints, cut into pieces of at
-  most ``step_nm``; the ship is at a piece at the time the plan's schedule
-  puts it there (the leg's duration shared out in proportion to the piece
-  times at the planned speed);
+* each leg is a geodesic between its waypoints, cut into pieces of at
+  most ``step_nm`` that are halved where the fuel or time integral needs it
+  (every leg's fuel to about 0.1 %, :mod:`optroute.plan.evaluate`); the ship is
+  at a piece at the time the plan's schedule puts it there (the leg's duration
+  shared out in proportion to the piece times at the planned speed);
 * the sea state there comes from :class:`~optroute.weather.WeatherSampler`;
   the heading is crabbed against the current
   (:func:`optroute.physics.currents.heading_for_course`), the brake power is the
@@ -251,7 +252,8 @@ class Plan:
         status, solver_stats, eta_shadow_price_t_per_h
             Stored as given.
         step_nm : float
-            Longest piece of the dense resampling [nm].
+            Longest piece of the dense resampling [nm], before the fuel integration halves pieces
+            where it needs (:func:`optroute.plan.evaluate.evaluate_track`).
         """
         wp = np.asarray(waypoints, dtype=float)
         if wp.ndim != 2 or wp.shape[1] != 2 or wp.shape[0] < 2:
