@@ -243,6 +243,18 @@ def _uniform_pieces(d_nm: np.ndarray, step_nm: float) -> tuple[np.ndarray, np.nd
     return leg, j / m[leg], (j + 1) / m[leg]
 
 
+def step_midpoints(d_nm: np.ndarray, step_nm: float) -> tuple[np.ndarray, np.ndarray]:
+    """(leg, fraction) of the midpoints of every leg cut into equal pieces of at most ``step_nm``, leg ends included.
+
+    The first check points of :meth:`~optroute.plan.result.Plan.verify` besides its even spacing
+    (:func:`optroute.plan.checkpoints.check_points`): fixed by ``step_nm``, not by where the fuel
+    integration halved its pieces.
+    """
+    leg, a, b = _uniform_pieces(np.asarray(d_nm, dtype=float), float(step_nm))
+    n = np.asarray(d_nm).size
+    return np.concatenate([np.arange(n), leg, np.arange(n)]), np.concatenate([np.zeros(n), 0.5 * (a + b), np.ones(n)])
+
+
 def _piece_points(waypoints: np.ndarray, d_nm: np.ndarray, pieces: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
     """Leg ends (length 0) and piece midpoints (length = the piece's [nm]), sorted by (leg, fraction)."""
     pleg, a, b = pieces
