@@ -61,18 +61,18 @@ from scipy.optimize import linprog
 from optroute import geodesy as geo
 from optroute.errors import ConfigError, NoSafePassage, OnLandError
 from optroute.geo import land
+from optroute.physics.passage import navigability_variables
 from optroute.search.grid import unit_xyz
 from optroute.weather.sample import WeatherSampler
 
 if TYPE_CHECKING:
     from optroute.optimise.nlp_inputs import CorridorFrame
 
-__all__ = ["LAND_STEP_MIN_NM", "avoid_point", "lateral_bounds", "reach_windows"]
+__all__ = ["LAND_STEP_MIN_NM", "avoid_point", "lateral_bounds", "reach_windows", "wave_nan"]
 
 LAND_STEP_MIN_NM = 0.15
 """Finest lattice spacing used for the land mask [nm] (the GSHHG backend is finer than this)."""
 
-_WAVE_VARIABLES = ("hs_m", "tp_s", "tm_s", "wave_from_deg")
 _CHUNK_POINTS = 300_000
 
 
@@ -149,28 +149,47 @@ def _chunks(n_rows: int, n_cols: int) -> list[np.ndarray]:
 # --------------------------------------------------------------------------- what blocks
 
 
+def wave_nan(dataset: xr.Dataset) -> np.ndarray:
+    """Where the weather marks no passage: a (time, lat, lon) boolean array of the dataset's nodes.
+
+    A node is no passage at a dataset time when any wave variable the referee reads
+    (:func:`optroute.physics.passage.navigability_variables`: Hs, the band period, the wave direction)
+    is NaN there, the referee's rule (:attr:`optroute.physics.passage.SeaState.navigable`; the sampler
+    returns NaN wherever such a node is in its stencil). The variables are combined *before* any
+    reduction over time, so a node NaN in Hs at some times and in the period at the others is no
+    passage at every time: a fixed obstacle. A dataset without times gives one slice.
+
+    Raises
+    ------
+    ConfigError
+        The dataset has no wave variable.
+    """
+    names = navigability_variables(dataset.data_vars)
+    if "hs_m" not in names:
+        raise ConfigError("the weather dataset has no wave variable (hs_m); open it with optroute.open_weather")
+    nan = None
+    for v in names:
+        da = dataset[v].isnull()
+        da = (da if "time" in da.dims else da.expand_dims("time")).transpose("time", "lat", "lon")
+        nan = da.values if nan is None else nan | da.values
+    return np.asarray(nan, dtype=bool)
+
+
 class _NanCounts:
-    """Where the dataset's wave variables are NaN, read once as one (time, lat, lon) boolean array: a bracket of
-    dataset times is then a numpy reduction of a few of its slices, not an xarray reduction of every variable per
-    bracket (a 500-leg corridor has some 60 brackets)."""
+    """Where the weather marks no passage (:func:`wave_nan`), read once: a bracket of dataset times is then a
+    numpy reduction of a few of its slices, not an xarray reduction of every variable per bracket (a 500-leg
+    corridor has some 60 brackets). ``static_only``: only the nodes no passage at every dataset time (the
+    moving ones go to the NLP's time windows, :mod:`optroute.optimise.timed_no_go`)."""
 
     def __init__(self, dataset: xr.Dataset, static_only: bool = False) -> None:
         self.t_all = np.asarray(dataset["time"].values).astype("datetime64[ns]") if "time" in dataset.coords else None
-        varying, static = None, None
-        for v in (v for v in _WAVE_VARIABLES if v in dataset):
-            da = dataset[v]
-            if self.t_all is not None and "time" in da.dims and self.t_all.size > 1:
-                nan = np.isnan(np.asarray(da.transpose("time", "lat", "lon").values, dtype=float))
-                if static_only:  # only the cells NaN at every time: the moving ones go to the NLP's time windows
-                    static = nan.all(axis=0) if static is None else static | nan.all(axis=0)
-                    continue
-                varying = nan if varying is None else varying | nan
-            else:
-                nan = da.isnull()
-                nan = nan.any("time") if "time" in nan.dims else nan
-                grid = np.asarray(nan.transpose("lat", "lon").values, dtype=bool)
-                static = grid if static is None else static | grid
-        self.static, self.varying = static, varying
+        nan = wave_nan(dataset)
+        if self.t_all is None or self.t_all.size < 2 or nan.shape[0] < 2:
+            self.static, self.varying = nan.any(axis=0), None
+        elif static_only:
+            self.static, self.varying = nan.all(axis=0), None
+        else:
+            self.static, self.varying = None, nan
 
     def bracket(self, times: np.ndarray) -> tuple[int, int]:
         """The dataset times bracketing ``times``: first and last index."""
@@ -281,7 +300,7 @@ def _sampler_blocked(sampler: WeatherSampler, times: np.ndarray, lat: np.ndarray
     lo = np.broadcast_to(lon[None, :], when.shape)
     ok = sampler.covers(when, la, lo).all(axis=0)
     if ok.any():
-        names = [v for v in _WAVE_VARIABLES if v in sampler.variables]
+        names = list(navigability_variables(sampler.variables))
         idx = np.flatnonzero(ok)
         got = sampler.sample(when[:, idx], la[:, idx], lo[:, idx], variables=names)
         ok[idx] = np.all([np.isfinite(got[v]).all(axis=0) for v in names], axis=0)

@@ -33,8 +33,8 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
-from optroute.errors import ConfigError
 from optroute.geo import land
+from optroute.optimise.lateral import wave_nan
 from optroute.optimise.nlp_inputs import CorridorFrame
 from optroute.search.grid import unit_xyz
 from optroute.units import timedelta_to_h as _td_to_h
@@ -44,21 +44,11 @@ __all__ = ["PAD_H", "NoPassageWindows", "no_passage_windows", "time_varying_nan"
 PAD_H = 0.01
 """Margin [h] between a waypoint's time bound and the edge of a blocked interval (36 s: rounding only)."""
 
-_WAVE_VARIABLES = ("hs_m", "tp_s", "tm_s", "wave_from_deg")
-
 
 def time_varying_nan(dataset: xr.Dataset) -> tuple[np.ndarray, np.ndarray]:
-    """The weather's NaN nodes, shape (time, lat, lon), and which nodes are NaN at some times but not all (lat, lon).
-
-    A node is NaN when any wave variable is (the sampler reads them together).
-    """
-    nan = None
-    for v in (v for v in _WAVE_VARIABLES if v in dataset):
-        da = dataset[v].isnull()
-        da = da.transpose("time", "lat", "lon") if "time" in da.dims else da.expand_dims("time")
-        nan = da.values if nan is None else nan | da.values
-    if nan is None:
-        raise ConfigError("the weather dataset has no wave variable (hs_m); open it with optroute.open_weather")
+    """The weather's no-passage nodes, shape (time, lat, lon) (:func:`optroute.optimise.lateral.wave_nan`), and
+    which nodes are no passage at some times but not all (lat, lon)."""
+    nan = wave_nan(dataset)
     return nan, nan.any(axis=0) & ~nan.all(axis=0)
 
 

@@ -20,7 +20,7 @@ points in one vectorised pass and keeps the fastest allowed one.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -246,6 +246,50 @@ def power_at_heading(
         wind_speed_ms=wind_speed,
         wind_angle_deg=units.wrap_360(wind_from - heading),
     )
+
+
+def navigability_variables(names: Iterable[str]) -> tuple[str, ...]:
+    """The weather variables among ``names`` whose NaN makes a point not navigable (:attr:`SeaState.navigable`).
+
+    ``hs_m``, the band period (``tp_s`` where present, else ``tm_s``: :meth:`SeaState.from_sample`)
+    and ``wave_from_deg``: the referee calls a point no passage when any of them is NaN there, and
+    everything that keeps a plan off no-passage cells reads the same ones
+    (:func:`optroute.optimise.lateral.wave_nan`).
+    """
+    have = set(names)
+    period = "tp_s" if "tp_s" in have else "tm_s"
+    return tuple(v for v in ("hs_m", period, "wave_from_deg") if v in have)
+
+
+def power_regime(model: PerformanceModel, heading_deg: ArrayLike, sea: SeaState) -> np.ndarray:
+    """Where a model's brake power may jump along a track: an int key per point, the same key, smooth power.
+
+    The model's own ``power_regime`` (:meth:`optroute.physics.performance.KwonModel.power_regime`: Kwon's
+    Beaufort number and direction sector) of the sea state as :func:`power_at_heading` hands it to the
+    model; 0 for a model that declares none (its power is continuous in the sea state); -1 where the
+    sea is not navigable (no power: the fuel rate is infinite there).
+
+    Parameters
+    ----------
+    model : PerformanceModel
+    heading_deg : array_like, shape (N,)
+        Heading [deg true, to] (the course where the course cannot be held).
+    sea : SeaState
+        Sea state at the N points.
+    """
+    navigable = np.asarray(sea.navigable)
+    fn = getattr(model, "power_regime", None)
+    if fn is None:
+        return np.where(navigable, 0, -1).astype(np.int64)
+    heading = np.asarray(heading_deg, dtype=float)
+    wave_from = np.where(navigable, np.asarray(sea.wave_from_deg, dtype=float), 0.0)
+    wind_speed, _ = units.wind_uv_to_speed_from_deg(sea.wind_u_ms, sea.wind_v_ms)
+    key = fn(
+        hs_m=np.where(navigable, np.asarray(sea.hs_m, dtype=float), 0.0),
+        wave_angle_deg=seaway.relative_wave_angle_deg(heading, wave_from),
+        wind_speed_ms=np.where(navigable, wind_speed, np.nan),
+    )
+    return np.where(navigable, key, -1).astype(np.int64)
 
 
 def _pick(choice_idx: np.ndarray, feasible: np.ndarray, arrays: tuple[np.ndarray, ...]) -> list[np.ndarray]:

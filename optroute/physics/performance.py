@@ -154,6 +154,22 @@ class KwonModel(_ShipEngine):
         bn_wind = seaway.beaufort_from_wind(np.where(known, wind, 0.0))
         return np.where(known, bn_wind, bn_hs)
 
+    def power_regime(self, *, hs_m=0.0, wave_angle_deg=0.0, wind_speed_ms=None) -> np.ndarray:
+        """Which of Kwon's tabulated cases applies: ``4 · BN + sector`` (int); the power jumps only where it changes.
+
+        Kwon (2008) takes the Beaufort number as an integer (from the wind where known, else from Hs:
+        :meth:`beaufort`) and the direction coefficient C_β by sector of the weather angle (head
+        [0°, 30°], bow (30°, 60°], beam (60°, 150°], following (150°, 180°]:
+        :func:`optroute.physics.speed_loss.kwon_direction_coefficient`); between changes of either the
+        brake power is smooth in the sea state.  The plan's fuel integration
+        (:func:`optroute.plan.evaluate.evaluate_track`) refines its pieces where this changes.
+        """
+        bn = self.beaufort(hs_m, wind_speed_ms)
+        a = _fold_angle_deg(wave_angle_deg, "wave_angle_deg")
+        bn, a = np.broadcast_arrays(bn, a)
+        sector = np.select([a <= 30.0, a <= 60.0, a <= 150.0], [0, 1, 2], default=3)
+        return (4 * np.asarray(bn, dtype=np.int64) + sector).astype(np.int64)
+
     def calm_equivalent_speed_kn(
         self, stw_kn, *, hs_m=0.0, wave_angle_deg=0.0, wind_speed_ms=None, wind_angle_deg=None
     ):

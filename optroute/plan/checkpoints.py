@@ -7,7 +7,8 @@ climbs over the bands' threshold (Boeing EP 2145155: Hs >= 0.04 L) a speed can s
 for 1–3 nm between two midpoints. :func:`check_points` finds every such stretch longer than
 :data:`BAND_TOL_NM`:
 
-1. **Start**: every leg end, the dense evaluation's own points and points at most
+1. **Start**: every leg end, the dense evaluation's own points (``Plan.verify`` gives the
+   midpoints of its equal ``step_nm`` pieces instead: ``nodes``) and points at most
    :data:`INITIAL_SPACING_NM` apart.
 2. **Regime changes**: where the weather's interpolation cell changes along the track (a latitude
    row, a longitude column or a time slice of the data is crossed, at the time the ship is there;
@@ -260,7 +261,7 @@ def _to_halve(ctx, pts: CheckPoints, tol_nm: float) -> np.ndarray:
 
 def check_points(
     ctx, waypoints: np.ndarray, stw_kn: np.ndarray, departure: np.datetime64, d_nm: np.ndarray, dense,
-    *, tol_nm: float = BAND_TOL_NM, spacing_nm: float = INITIAL_SPACING_NM,
+    *, tol_nm: float = BAND_TOL_NM, spacing_nm: float = INITIAL_SPACING_NM, nodes: tuple | None = None,
 ) -> CheckPoints:  # fmt: skip
     """The referee's check points of a plan: regime changes and adaptive refinement (see the module text).
 
@@ -283,6 +284,8 @@ def check_points(
         Every band stretch longer than this contains a check point [nm].
     spacing_nm : float
         Longest spacing of the first check points [nm].
+    nodes : (ndarray, ndarray), optional
+        (leg, fraction of the leg) of further first check points (default: ``dense``'s points).
 
     Returns
     -------
@@ -291,7 +294,8 @@ def check_points(
     wp = np.asarray(waypoints, dtype=float)
     stw = np.asarray(stw_kn, dtype=float)
     clock = track_clock(dense.leg, dense.frac, dense.time_h, d_nm)
-    leg0, s0 = _start_nodes(dense.leg, dense.frac, d_nm, float(spacing_nm))
+    n_leg, n_frac = (dense.leg, dense.frac) if nodes is None else nodes
+    leg0, s0 = _start_nodes(np.asarray(n_leg), np.asarray(n_frac, dtype=float), d_nm, float(spacing_nm))
     leg, s = _crossings(ctx, wp, d_nm, clock, departure, leg0, s0, min(CROSSING_TOL_NM, tol_nm))
     pts = replace(evaluate_at(ctx, wp, stw, departure, d_nm, clock, leg, s), origin=_origins(leg0, s0, leg, s, d_nm))
     rounds = 0

@@ -10,10 +10,11 @@ power model) on a dense resampling of every leg, and :meth:`Plan.verify`
 re-checks every constraint on such a resampling with code that shares
 nothing with the NLP:
 
-* each leg is a great circle between its waypoints, cut into pieces of at
-  most ``step_nm``; the ship is at a piece at the time the plan's schedule
-  puts it there (the leg's duration shared out in proportion to the piece
-  times at the planned speed);
+* each leg is a geodesic between its waypoints, cut into pieces of at
+  most ``step_nm`` that are halved where the fuel or time integral needs it
+  (every leg's fuel to about 0.1 %, :mod:`optroute.plan.evaluate`); the ship is
+  at a piece at the time the plan's schedule puts it there (the leg's duration
+  shared out in proportion to the piece times at the planned speed);
 * the sea state there comes from :class:`~optroute.weather.WeatherSampler`;
   the heading is crabbed against the current
   (:func:`optroute.physics.currents.heading_for_course`), the brake power is the
@@ -53,7 +54,7 @@ from optroute.physics.performance import PerformanceModel, default_model
 from optroute.physics.safety import BandRules, band_margins, is_speed_forbidden
 from optroute.physics.ship import Ship
 from optroute.plan.checkpoints import BAND_TOL_NM, CheckPoints, check_points
-from optroute.plan.evaluate import PlanContext, Violation, evaluate_track, legs_table
+from optroute.plan.evaluate import PlanContext, Violation, evaluate_track, legs_table, step_midpoints
 from optroute.search.route import Corridor
 from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
@@ -251,7 +252,8 @@ class Plan:
         status, solver_stats, eta_shadow_price_t_per_h
             Stored as given.
         step_nm : float
-            Longest piece of the dense resampling [nm].
+            Longest piece of the dense resampling [nm], before the fuel integration halves pieces
+            where it needs (:func:`optroute.plan.evaluate.evaluate_track`).
         """
         wp = np.asarray(waypoints, dtype=float)
         if wp.ndim != 2 or wp.shape[1] != 2 or wp.shape[0] < 2:
@@ -409,7 +411,8 @@ class Plan:
         """Re-check every constraint on a dense resampling, independently of the optimiser.
 
         The checks are made at the referee's check points (:func:`optroute.plan.checkpoints.check_points`):
-        both ends of every leg, every piece midpoint of the dense evaluation, points at most 1 nm
+        both ends of every leg, the midpoints of equal pieces of at most ``step_nm``
+        (:func:`optroute.plan.evaluate.step_midpoints`, not the fuel integration's halved pieces), points at most 1 nm
         apart, both sides of every change of the weather's interpolation cell (grid row, column, time
         slice) and, halved adaptively, wherever a band's ratio or Hs nears the band's edge or
         threshold or the wave direction turns fast: **every stretch of a leg longer than**
@@ -418,8 +421,8 @@ class Plan:
         Parameters
         ----------
         step_nm : float
-            Longest piece of the dense evaluation [nm] (the schedule's timing inside each leg; its
-            midpoints are check points too). Land is also checked every
+            Longest piece of the dense evaluation [nm] (the schedule's timing inside each leg; the
+            midpoints of equal pieces this long are check points too). Land is also checked every
             :data:`optroute.geo.land.DEFAULT_LEG_RESOLUTION_NM` (0.5 nm, about one GLOBE cell) along the legs.
         time_tol_h : float
             Tolerance of the ETA and of the schedule [h] (default one minute).
@@ -468,7 +471,7 @@ class Plan:
         ev = evaluate_track(ctx, self.waypoints, stw, t0, sched, step)
         wp = np.asarray(self.waypoints, dtype=float)
         d = geo.distance_nm(wp[:-1, 0], wp[:-1, 1], wp[1:, 0], wp[1:, 1])
-        pts = check_points(ctx, wp, stw, t0, d, ev, tol_nm=tol_nm)
+        pts = check_points(ctx, wp, stw, t0, d, ev, tol_nm=tol_nm, nodes=step_midpoints(d, step))
         found: dict[tuple[str, int], tuple[float, Violation]] = {}
 
         def report(kind: str, mask: np.ndarray, value: np.ndarray, limit: Any, badness: np.ndarray) -> None:
