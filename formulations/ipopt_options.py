@@ -34,8 +34,10 @@ IPOPT_DEFAULTS: dict[str, Any] = {
 }
 #: Ipopt options of a primal-dual warm start (:meth:`formulations.speed_nlp.SpeedNLP.solve` with ``lam_x0``/``lam_g0``): the given point
 #: and multipliers are pushed only 1e-6 into the bounds' interior (Ipopt's defaults, 1e-3 for the warm start and
-#: 1e-2 for a cold one, move a converged neighbour's iterate off its active bounds), and the barrier parameter
-#: starts at 1e-4 instead of 0.1 so that the first iterations do not leave the neighbour's central path.
+#: 1e-2 for a cold one, move a converged neighbour's iterate off its active bounds).  The barrier parameter is left
+#: to :data:`IPOPT_DEFAULTS`' adaptive strategy: Ipopt reads ``mu_init`` only with ``mu_strategy="monotone"``
+#: (Ipopt's options reference), and a monotone barrier started small from a neighbouring ETA's point takes more
+#: iterations, not fewer, because that point is not on the new problem's central path.
 WARM_START_OPTIONS: dict[str, Any] = {
     "ipopt.warm_start_init_point": "yes",
     "ipopt.warm_start_bound_push": 1e-6,
@@ -43,7 +45,6 @@ WARM_START_OPTIONS: dict[str, Any] = {
     "ipopt.warm_start_slack_bound_push": 1e-6,
     "ipopt.warm_start_slack_bound_frac": 1e-6,
     "ipopt.warm_start_mult_bound_push": 1e-6,
-    "ipopt.mu_init": 1e-4,
 }
 
 

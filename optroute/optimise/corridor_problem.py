@@ -291,10 +291,13 @@ class PreparedCorridor(CorridorReport):
 
         Candidates without a verified plan come last, in the order given (a warm plan, a search route,
         the 3-D DP, the ship's dual schedule, the centreline start): the first of them is the warm start
-        when none verifies.
+        when none verifies.  A warm plan with ``sole_start`` set (a front's neighbour,
+        :class:`optroute.studies.front_points.WarmStart`) that verifies leaves out the ship's dual schedule
+        and the centreline start.
         """
         t0, frame, step = self.departure, self.frame, self.verify_step_nm
         out: list[Candidate] = []
+        neighbour = False  # a continuation's verified neighbour (a front's point, ``sole_start``)
         if warm_plan is not None:
             stw = np.asarray(warm_plan.stw_kn, dtype=float)
             plan = verified_plan(ctx, warm_plan.waypoints, stw, t0, step, "start")
@@ -303,6 +306,7 @@ class PreparedCorridor(CorridorReport):
             out.append(
                 self._candidate("warm plan", warm if duals is None else {**warm, "duals": duals}, plan, objective)
             )
+            neighbour = plan is not None and bool(getattr(warm_plan, "sole_start", False))
         if route is not None:
             out.append(self._discrete("search route", ctx, route, objective, st.log, own=False))
         if self.discrete_start and ctx.eta is not None and objective != "time" and great_circle_corridor(frame):
@@ -320,6 +324,11 @@ class PreparedCorridor(CorridorReport):
             )
             if dp is not None:
                 out.append(self._discrete("3-D DP", ctx, dp, objective, st.log, own=True))
+        if neighbour:
+            # a continuation's verified neighbour is the start and the floor: the ship's dual schedule and the
+            # centreline's safe start (a timed search around a storm: 28 % of a front's time on the benchmark's
+            # storm corridor) are the starts of a solve without one
+            return sorted(out, key=lambda c: c.score)
         if self.fixed_path and cap_h is not None and objective in ("fuel", "cost"):
             dual = self._dual_candidate(ctx, cap_h, objective)
             out += [dual] if dual is not None else []

@@ -73,6 +73,10 @@ FORBIDDEN_OPTIONS = ("eta", "eta_mode", "objective", "warm_plan", "route", "depa
 
 # --------------------------------------------------------------------------- one point (runs on a worker)
 
+#: A chain's point takes its previous point's verified plan as its only start (:attr:`WarmStart.sole_start`); a
+#: chain's first point, started from an end's plan, is also compared with the centreline's start.
+SOLE_START = True
+
 
 @dataclass(frozen=True)
 class WarmStart:
@@ -80,11 +84,14 @@ class WarmStart:
 
     ``duals`` (the NLP's multipliers of the plan, when the plan is the NLP's on a prepared corridor) start Ipopt's
     multipliers too where the next solve has the same rows: the primal-dual warm start of the continuation.
+    ``sole_start``: when the referee accepts the plan for the new ETA it is the solve's only start and its floor
+    (:meth:`~optroute.optimise.corridor_problem.PreparedCorridor.starts` builds no centreline start beside it).
     """
 
     waypoints: np.ndarray
     stw_kn: np.ndarray
     duals: Duals | None = None
+    sole_start: bool = False
 
 
 @dataclass(frozen=True)
@@ -202,7 +209,10 @@ def solve_point(
         else:
             with lock:  # one solve at a time: its cached builds are set up per solve (a worker may have threads)
                 if kind == "eta" and isinstance(warm, FrontPoint) and carry is not None and eta is not None:
-                    carry = mended_start(prepared, carry, eta)
+                    # a chain's previous point is the only start; an end's plan, sped up across a whole chain's
+                    # span, is compared with the centreline's start
+                    sole = SOLE_START and warm.kind == "eta"
+                    carry = replace_fields(mended_start(prepared, carry, eta), sole_start=sole)
                 plan = solve_prepared(
                     prepared,
                     eta,

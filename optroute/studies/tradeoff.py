@@ -37,7 +37,11 @@ on many legs and those points take the most iterations): each point's
 neighbour's plan sped up to arrive by its own ETA (speeds through the water times
 ``arrival / ETA``, then each leg the referee finds outside the engine's range moved to the limit:
 :func:`~optroute.studies.front_points.mended_start`), which the optimiser takes as Ipopt's start when the
-referee accepts it and scores it best among its candidates (its own start otherwise), together with the neighbour's Ipopt multipliers
+referee accepts it — inside a chain as its only start (no centreline start is built beside a verified
+neighbour: on the benchmark's storm corridor that safe start, a timed search around the storm, was 28 % of a
+front's time; the neighbour is also the floor of the point's result), for a chain's first point (an end's plan
+sped up across the chain's span) when it also scores best against the centreline's start — its own start
+otherwise, together with the neighbour's Ipopt multipliers
 where the NLP has the same rows: Ipopt's primal-dual warm start (``warm_start_init_point``,
 :data:`formulations.ipopt_options.WARM_START_OPTIONS`; ``dual_starts`` counts such solves per point).  One
 solve per point; only a point whose solve failed is solved once more, from the optimiser's own start

@@ -1,0 +1,50 @@
+"""The front's continuation: a verified neighbour is a point's only start.
+
+Reference, independent of the NLP: calm water on a fixed path, where the least fuel to arrive by T is at
+the constant speed D/T, fuel T · fuel_rate(calm_power(D/T)) from the Ship's own curves.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+import numpy as np
+
+import optroute as orx
+from optroute.optimise.corridor_problem import PreparedCorridor
+from optroute.studies.tradeoff import tradeoff
+
+points_mod = importlib.import_module("optroute.studies.front_points")
+SHIP = orx.Ship.preset("container_54k_dwt")
+T0 = np.datetime64("2024-01-10T00:00", "ns")
+KW = {"max_leg_nm": 150.0, "use_land_mask": False}
+CORRIDOR = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -20.0]], width_nm=0.0)
+
+
+def test_a_verified_neighbour_is_the_only_start_and_the_front_stays_the_calm_optimum(monkeypatch):
+    """Inside a chain each point starts from its neighbour's verified plan without building the centreline's
+    safe start (only the two end solves and a chain's first point, whose warm plan is an end's, do); every
+    point is still the calm-water optimum by hand."""
+    built: list[float | None] = []
+    original = PreparedCorridor._centre_candidate
+
+    def counting(self, ctx, cap_h, objective, st):
+        built.append(cap_h)
+        return original(self, ctx, cap_h, objective, st)
+
+    monkeypatch.setattr(PreparedCorridor, "_centre_candidate", counting)
+    front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, n=6, chains=1, **KW)
+    interior = front.solve.values == "eta"
+    assert len(built) <= 2 + 1  # the ends, and at most the chain's first point (main built one for every point)
+    # the chain runs from the slow end: its first point is the latest ETA between the ends, the rest start from
+    # the point before them
+    assert interior.sum() == 4 and (front.warm_start.values[interior][:-1] == "warm plan").all()
+    v = CORRIDOR.length_nm / front.eta_h.values[interior]
+    by_hand = front.eta_h.values[interior] * SHIP.fuel_rate_tph(SHIP.calm_power_kw(v))
+    np.testing.assert_allclose(front.fuel_t.values[interior], by_hand, rtol=1e-5)
+
+
+def _calm():
+    return orx.scenarios.uniform(
+        hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240, resolution_deg=1.0
+    )
