@@ -21,6 +21,7 @@ from hypothesis import strategies as st
 import optroute as orx
 from formulations._nlp_model import power_ratio
 from formulations.common import spline_weights
+from formulations.splines import SECTOR_RAMP_DEG
 from optroute.optimise.api import optimise_corridor
 from optroute.optimise.power_table import LEG_BOUND, TABULATION_BOUND, baseline_power_model, tabulate_ratio
 from optroute.optimise.starts import repaired_plan
@@ -70,7 +71,8 @@ def test_table_is_the_models_power_at_the_node_worked_by_hand() -> None:
             # 70, 55 deg here: every sector, and both edges 30 and 150 exactly)
             q = int(np.searchsorted([30.0, 60.0, 150.0], folded, side="left"))
             np.testing.assert_allclose(tab.ratio[i, :, 0, q] * base.calm_power_kw(speeds), p, rtol=1e-12)
-            if min(abs(folded - e) for e in (30.0, 60.0, 150.0)) > 3.0:  # away from the ramps: the blend is exact
+            # away from the ramps the blend is exact (15, 45, 165, 135, 85 deg: every sector)
+            if min(abs(folded - e) for e in (30.0, 60.0, 150.0)) > 1.3 * SECTOR_RAMP_DEG:
                 cos_a = np.cos(np.radians(alpha))
                 cols = [{f"ratio_0_0_s{k}": tab.ratio[i, j, 0, k] for k in range(4)} for j in range(3)]
                 r = [power_ratio(col, v, psi, axes, np, cos_a) for col, v in zip(cols, speeds, strict=True)]
@@ -155,7 +157,7 @@ def test_storm_crossing_nlp_from_the_dp_is_no_worse_than_the_finest_dp_by_the_re
 
 
 def test_storm_crossing_nlp_from_the_centreline_is_no_worse_than_the_finest_dp_by_the_referee(crossing: dict) -> None:
-    # with one table per Kwon sector the DP's basin no longer looks dearer to the NLP than it is (measured: 76.59 t
+    # with one table per Kwon sector the DP's basin no longer looks dearer to the NLP than it is (measured: 76.89 t
     # against the DP's 77.68 t by the referee; 78.65 t with the heading-node table, which mixed head-sea power into
     # the DP's bow-sea legs at alpha 31-37 deg)
     plan = crossing["alone"]
@@ -165,15 +167,13 @@ def test_storm_crossing_nlp_from_the_centreline_is_no_worse_than_the_finest_dp_b
 def test_nlp_objective_equals_the_referee_within_the_tabulation_bound(crossing: dict) -> None:
     tab = crossing["alone"].solver_stats["tabulation"]
     assert abs(tab["rel_error"]) <= TABULATION_BOUND
-    # the largest measured: +0.98 % at the NLP's solution from the 3-D DP's start (benchmarks.bench_nlp --crossing;
-    # +3.6 % there with the heading-node table, which spread Kwon's sector steps over +-30 deg)
+    # the largest measured: +1.9 % at the NLP's solution from the 3-D DP's start (+3.6 % there with the
+    # heading-node table, which spread Kwon's sector steps over +-30 deg)
     from_dp = crossing["from_dp"].solver_stats["tabulation"]
     assert abs(from_dp["rel_error"]) <= TABULATION_BOUND
-    # and on the DP's own track, a start and not a solution, the whole plan too (+0.99 %; +4.6 % before)
-    assert abs(crossing["from_dp"].solver_stats["start_tabulation"]["rel_error"]) <= TABULATION_BOUND
-    # per leg, at the NLP's own samples against the model in the referee's weather (measured +7.5 % from the
-    # centreline, +12.2 % from the DP's start: what is left is the Beaufort number's steps in Hs, smoothed over the
-    # (t, s, y) grid)
+    # per leg, at the NLP's own samples against the model in the referee's weather (measured +5.4 % from the
+    # centreline, +6.8 % from the DP's start, against -10.7 % and +7.8 % with the heading-node table: what is left
+    # is the Beaufort number's steps in Hs, smoothed over the (t, s, y) grid, and the sector ramps)
     for tab in (crossing["alone"].solver_stats["tabulation"], from_dp):
         assert tab["samples"] == 75 and tab["capped_samples"] == 0
         assert abs(tab["max_leg_rel_error"]) <= LEG_BOUND and tab["mean_abs_leg_rel_error"] <= abs(

@@ -11,7 +11,7 @@ import pytest
 
 import optroute as orx
 from formulations._nlp_model import power_ratio
-from formulations.splines import sector_weights
+from formulations.splines import SECTOR_RAMP_DEG, sector_weights
 from optroute.optimise.corridor_setup import _hours
 from optroute.optimise.lateral import reach_windows
 from optroute.optimise.nlp_inputs import build_frame, weather_grid
@@ -101,14 +101,15 @@ def test_sector_weights_sum_to_one_are_one_hot_off_the_ramps_and_c2_by_finite_di
     w = np.array(sector_weights(np.cos(np.radians(alpha)), edges, np))  # (4, n)
     np.testing.assert_allclose(w.sum(axis=0), 1.0, rtol=0, atol=1e-15)
     assert (w >= 0.0).all() and (w <= 1.0).all()
-    # off the ramps (2 deg either side, to first order), Kwon's own sector has weight 1 exactly
-    far = np.min(np.abs(alpha[:, None] - np.array(edges)), axis=1) > 2.1
+    # off the ramps (SECTOR_RAMP_DEG either side to first order, 1.3 times that with the cosine's curvature),
+    # Kwon's own sector has weight 1 exactly
+    far = np.min(np.abs(alpha[:, None] - np.array(edges)), axis=1) > 1.3 * SECTOR_RAMP_DEG
     sector = np.searchsorted(edges, alpha, side="left")
     np.testing.assert_array_equal(w[:, far], (sector[far] == np.arange(4)[:, None]).astype(float))
     # C^2 in x = cos(alpha) across the ramp of this edge: the finite-difference first and second derivatives are
     # continuous (no jump between neighbouring points beyond the step's own change) and vanish at the ramp's ends
     q = edges.index(edge)
-    h = np.sin(np.radians(edge)) * np.radians(2.0)
+    h = np.sin(np.radians(edge)) * np.radians(SECTOR_RAMP_DEG)
     x = np.cos(np.radians(edge)) + np.linspace(-1.5 * h, 1.5 * h, 3001)
     eps = x[1] - x[0]
     wq = np.array(sector_weights(x, edges, np))[q]
@@ -150,7 +151,7 @@ def test_table_through_its_spline_is_the_model_away_from_the_sector_ramps() -> N
     wind = float(np.hypot(wx["wind_u_ms"].values.flat[0], wx["wind_v_ms"].values.flat[0]))
     p = np.asarray(model.brake_power_kw(v, hs_m=5.0, wave_angle_deg=alpha, wind_speed_ms=wind))
     ok = np.isfinite(p) & (p < 1.5 * model.mcr_kw)  # the table caps beyond 1.5 MCR
-    far = np.min(np.abs(alpha[:, None] - np.array([30.0, 60.0, 150.0])), axis=1) > 2.1
+    far = np.min(np.abs(alpha[:, None] - np.array([30.0, 60.0, 150.0])), axis=1) > 1.3 * SECTOR_RAMP_DEG
     err = table[far & ok] / p[far & ok] - 1.0
-    assert (far & ok).sum() > 0.8 * k and {0, 1, 2, 3} <= set(np.searchsorted([30.0, 60.0, 150.0], alpha[far]))
+    assert (far & ok).sum() > 0.4 * k and {0, 1, 2, 3} <= set(np.searchsorted([30.0, 60.0, 150.0], alpha[far]))
     assert np.max(np.abs(err)) < SPEED_TOL
