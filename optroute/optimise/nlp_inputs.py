@@ -425,7 +425,8 @@ def weather_grid(
         sea = SeaState.from_sample({k: np.ravel(hold.take(v)) for k, v in sample.items()})
         along_all = np.ravel(hold.take(np.broadcast_to(along[None], shape)))
         tab = tabulate_ratio(model, base, sea, along_all, speeds_kn, headings_deg)
-        ratio, capped = tab.ratio, tab.capped_share
+        # one field per sector where the model declares its sectors, else the plain (nt, ns, ny, nv, nd) table
+        ratio, capped = (tab.ratio if tab.sector_edges_deg else tab.ratio[..., 0]), tab.capped_share
         evaluations = ratio.size
         table = {
             "power_ratio": hold.spread(ratio.reshape(-1, y_axis.size, *ratio.shape[1:])),
