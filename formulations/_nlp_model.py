@@ -38,7 +38,7 @@ import numpy as np
 
 from formulations._buffers import Buffered, MemoCallback
 from formulations.common import Band, PowerModel, spline_weights
-from formulations.splines import spline_weight_derivatives
+from formulations.splines import ratio_field_names, sector_weights, spline_weight_derivatives
 
 __all__ = [
     "ABS_EPS_KN",
@@ -65,25 +65,35 @@ def heading_dev_deg(sin_d: Any, cos_d: Any, h_perp: Any) -> Any:
     return (ca.atan2(sin_d, cos_d) + ca.asin(h_perp)) * (180.0 / np.pi)
 
 
-def power_ratio(col: dict[str, Any], v: Any, heading_dev_deg: Any, axes: tuple | None, lib: Any) -> Any:
+def power_ratio(
+    col: dict[str, Any], v: Any, heading_dev_deg: Any, axes: tuple | None, lib: Any, cos_alpha: Any = None
+) -> Any:
     """The tabulated ``R = P_ship / P_calm`` [-] at a sample (:class:`formulations.common.WeatherGrid`).
 
-    ``col`` holds the table's values ``ratio_j_k`` interpolated to the sample's (t, s, y);
-    ``v`` the speed through water [kn], ``heading_dev_deg`` the heading minus the centreline
-    direction [deg, to port +]; ``axes`` is :attr:`WeatherGrid.ratio_axes` (None: ``R = 1``);
-    ``lib`` is ``numpy`` or ``casadi``. One formula for the NLP and its numeric checks.
+    ``col`` holds the table's values ``ratio_j_k`` (``ratio_j_k_sq`` per wave-angle sector q) interpolated to the
+    sample's (t, s, y); ``v`` the speed through water [kn], ``heading_dev_deg`` the heading minus the centreline
+    direction [deg, to port +]; ``axes`` is :attr:`WeatherGrid.ratio_axes` (None: ``R = 1``); ``cos_alpha`` the
+    cosine of the wave angle from the bow (0 = head sea), which blends the sectors' tables
+    (:func:`formulations.splines.sector_weights`); ``lib`` is ``numpy`` or ``casadi``. One formula for the NLP
+    and its numeric checks.
     """
     if axes is None:
         return 1.0
-    v0, dv, nv, d0, dd, nd = axes
+    v0, dv, nv, d0, dd, nd = axes[:6]
+    edges = axes[6] if len(axes) > 6 else ()
     wv = spline_weights(v, v0, dv, nv, lib)
     wd = spline_weights(heading_dev_deg, d0, dd, nd, lib)
+    names = ratio_field_names(axes)
+    ws = sector_weights(cos_alpha, edges, lib) if edges else [1.0]
     total = 0.0
-    for j in range(nv):
-        inner = 0.0
-        for k in range(nd):
-            inner = inner + wd[k] * col[f"ratio_{j}_{k}"]
-        total = total + wv[j] * inner
+    for q, w_q in enumerate(ws):
+        part = 0.0
+        for j in range(nv):
+            inner = 0.0
+            for k in range(nd):
+                inner = inner + wd[k] * col[names[(q * nv + j) * nd + k]]
+            part = part + wv[j] * inner
+        total = total + w_q * part
     return total
 
 
@@ -104,7 +114,7 @@ def ratio_taylor_data(fields: np.ndarray, v: np.ndarray, heading_dev_deg: np.nda
     table, so every coefficient is one weighted sum of the table's derivatives with the weights' derivatives
     (:func:`formulations.splines.spline_weight_derivatives`).
     """
-    v0, dv, nv, d0, dd, nd = axes
+    v0, dv, nv, d0, dd, nd = axes[:6]
     wv = spline_weight_derivatives(v, v0, dv, nv)  # (3, nv, K)
     wd = spline_weight_derivatives(heading_dev_deg, d0, dd, nd)  # (3, nd, K)
     second = fields.shape[0] == 6
@@ -119,18 +129,28 @@ def ratio_taylor_data(fields: np.ndarray, v: np.ndarray, heading_dev_deg: np.nda
     return np.vstack(rows)
 
 
-def ratio_taylor(block: Any, d_t: Any, d_y: Any) -> Callable[[Any, Any], Any]:
-    """``(v, heading_dev_deg) ↦ R``: the Taylor polynomial of :func:`ratio_taylor_data`'s coefficients ``block``
-    (SX), the sample's time and offset being ``d_t`` [h] and ``d_y`` [nm] from the expansion point.
+def ratio_taylor(block: Any, d_t: Any, d_y: Any, edges: tuple = ()) -> Callable[[Any, Any, Any], Any]:
+    """``(v, heading_dev_deg, cos_alpha) ↦ R``: the Taylor polynomials of :func:`ratio_taylor_data`'s coefficients
+    ``block`` (SX; one block per wave-angle sector between ``edges``, one after the other) blended by the sectors'
+    weights (:func:`formulations.splines.sector_weights`), the sample's time and offset being ``d_t`` [h] and
+    ``d_y`` [nm] from the expansion point.
 
     It shares the value, gradient and Hessian of :func:`power_ratio` at the expansion point, so the leg
     functions' derivatives there are exact (:func:`structured_derivatives`), at a fraction of the work of
     evaluating the whole table in SX (8 speeds × 5 headings of weather Taylor polynomials per sample).
     """
-    second = block.shape[0] == RATIO_BLOCK[2]
+    nq = len(edges) + 1
+    size = block.shape[0] // nq
+    second = size == RATIO_BLOCK[2]
 
-    def ratio_of(v: Any, dev: Any) -> Any:
-        c = [block[i] for i in range(block.shape[0])]
+    def ratio_of(v: Any, dev: Any, cos_alpha: Any = None) -> Any:
+        parts = [one(block[q * size : (q + 1) * size], v, dev) for q in range(nq)]
+        if not edges:
+            return parts[0]
+        return sum(w * p for w, p in zip(sector_weights(cos_alpha, edges, ca), parts, strict=True))
+
+    def one(blk: Any, v: Any, dev: Any) -> Any:
+        c = [blk[i] for i in range(size)]
         d_v, d_d = v - c[0], dev - c[1]
         out = c[2] + c[3] * d_v + c[4] * d_d + c[5] * d_t + c[6] * d_y
         out = out + 0.5 * c[7] * d_v**2 + c[8] * d_v * d_d + c[9] * d_v * d_t + c[10] * d_v * d_y
@@ -209,7 +229,11 @@ def sample_physics(
     p_calm = sum(cj * v**nj for cj, nj in zip(pw.calm_coef, pw.calm_exp, strict=True))
     # heading relative to the centreline: the leg's course (δ) turned by the crab angle against the current
     dev_deg = heading_dev_deg(sin_d, cos_d, h_perp)
-    r_ship = power_ratio(col, v, dev_deg, ratio_axes, ca) if ratio_of is None else ratio_of(v, dev_deg)
+    cos_alpha = -cos_chi  # Kwon's weather angle from the bow: 0 = head sea, χ = 0 following
+    if ratio_of is None:
+        r_ship = power_ratio(col, v, dev_deg, ratio_axes, ca, cos_alpha)
+    else:
+        r_ship = ratio_of(v, dev_deg, cos_alpha)
     pwr = factor * p_calm * r_ship
     load = pwr / pw.mcr_kw
     a2, a1, a0 = pw.sfc_quad
@@ -395,7 +419,8 @@ def structured_cores(
     contract = bool(nlp.numeric_weather and nlp.weather.ratio_axes is not None)
     plain = tuple(nm for nm in names if not (contract and nm.startswith("ratio_")))
     nf_p = len(plain)
-    n_rat = RATIO_BLOCK[n_blk // 3] if contract else 0
+    edges = nlp.weather.ratio_axes[6] if contract else ()
+    n_rat = RATIO_BLOCK[n_blk // 3] * (len(edges) + 1) if contract else 0
     r0 = 2 + n_blk * nf_p  # where the ratio block begins, then the exclusion's
     n_theta = r0 + n_rat + (3 * n_blk if has_excl else 0)  # t0, y0, weather Taylor, ratio Taylor, exclusion Taylor
     z = ca.SX.sym("z", _N_Z)
@@ -431,7 +456,7 @@ def structured_cores(
         wvals = taylor(th[2:r0], nf_p)
         col = {name: wvals[i] for i, name in enumerate(plain)}
         b_j = [beta[b * m + j] for b in range(nb)]
-        ratio_of = ratio_taylor(th[r0 : r0 + n_rat], d_t, d_y) if contract else None
+        ratio_of = ratio_taylor(th[r0 : r0 + n_rat], d_t, d_y, edges) if contract else None
         phys = sample_physics(
             v, cos_d, sin_d, length * wj, factor, col, b_j, nlp.power, nlp.bands, nlp.g_over_2pi,
             nlp.weather.ratio_axes, ratio_of,
@@ -622,8 +647,9 @@ class _NumericTaylor:
         self._plain = np.array([names.index(nm) for nm in lay.plain])
         self._lay, self._axes = lay, weather.ratio_axes
         if lay.size:
-            nv, nd = self._axes[2], self._axes[5]
-            self._table = np.array([[names.index(f"ratio_{j}_{k}") for k in range(nd)] for j in range(nv)])
+            nv, nd, nq = self._axes[2], self._axes[5], len(self._axes[6]) + 1
+            where = [names.index(nm) for nm in ratio_field_names(self._axes)]
+            self._table = np.array(where).reshape(nq, nv, nd)
         self._coords, self._s, self._excl = Buffered(coords), s_s, excl
         self._dev_at = Buffered(lay.dev_at) if lay.size else None
         self._n, self._m, self._n_theta = nlp.n_legs, nlp.samples_per_leg, n_theta
@@ -648,12 +674,14 @@ class _NumericTaylor:
         if lay.size:
             dev = self._dev_at(x, self._shaped(full))[0].copy()  # (m, N) column-major: sample k·m + j
             v = np.repeat(np.asarray(x, dtype=float).ravel()[self._n + 1 : 2 * self._n + 1], self._m)
-            full[lay.start : e0] = ratio_taylor_data(vals[:, self._table], v, dev, self._axes)
+            full[lay.start : e0] = np.vstack([ratio_taylor_data(vals[:, tq], v, dev, self._axes) for tq in self._table])
         first = full
         if order == 2:  # the gradient's and the Jacobian's data: no second derivatives of the weather
             first = full.copy()
             first[2 + 3 * nf_p : 2 + 6 * nf_p] = 0.0
-            first[e0 - 3 if lay.size else e0 : e0] = 0.0
+            size = lay.size // max(len(self._table), 1) if lay.size else 0
+            for q in range(len(self._table) if lay.size else 0):  # each sector's R_tt, R_ty, R_yy
+                first[lay.start + (q + 1) * size - 3 : lay.start + (q + 1) * size] = 0.0
             if self._excl:
                 first[e0 + 9 :] = 0.0
         shaped = [self._shaped(a) for a in (first, full)]

@@ -19,6 +19,7 @@ from formulations.splines import (
     bspline_function,
     is_uniform,
     quasi_spline,
+    ratio_field_names,
     resample_linear,
     spline_derivative,
     spline_weights,
@@ -438,6 +439,10 @@ class WeatherGrid:
     ratio_heading_deg : array_like, shape (nd,), optional
         Heading deviations of the table [deg]: the ship's heading minus the centreline direction
         at the node, positive to port (counter-clockwise), uniformly spaced and increasing.
+    ratio_sector_edges_deg : tuple of float, optional
+        Edges of the wave-angle sectors of a model that steps there (Kwon's 30°, 60°, 150°), increasing in
+        (0°, 180°): ``power_ratio`` then has a last axis of one field per sector, ``(nt, ns, ny, nv, nd, nq)``,
+        nq = edges + 1, blended by the sample's wave angle (:func:`formulations.splines.sector_weights`).
     method : {"smooth", "linear", "bspline"}
         ``"smooth"`` (default): cubic B-spline quasi-interpolant (``casadi.Function.bspline`` with the
         data as control points; C², no overshoot inside the grid, built instantly; non-uniform axes are first
@@ -461,6 +466,7 @@ class WeatherGrid:
     power_ratio: ArrayLike | None = None
     ratio_speed_kn: ArrayLike | None = None
     ratio_heading_deg: ArrayLike | None = None
+    ratio_sector_edges_deg: tuple[float, ...] = ()
     method: str = "smooth"
 
     def __post_init__(self) -> None:
@@ -509,30 +515,38 @@ class WeatherGrid:
                 raise FormulationInputError(f"{name} must be non-empty, increasing and uniformly spaced, got {ax}")
             object.__setattr__(self, name, ax)
             axes.append(ax)
+        edges = tuple(float(e) for e in self.ratio_sector_edges_deg)
+        if edges and not (0.0 < edges[0] and edges[-1] < 180.0 and np.all(np.diff(edges) > 0)):
+            raise FormulationInputError(f"ratio_sector_edges_deg must increase inside (0, 180) deg, got {edges}")
+        object.__setattr__(self, "ratio_sector_edges_deg", edges)
         shape = (np.size(self.t_h), np.size(self.s_nm), np.size(self.y_nm), axes[0].size, axes[1].size)
+        shape += (len(edges) + 1,) if edges else ()
         r = as_float_array(self.power_ratio, "power_ratio")
         if r.shape != shape:
-            raise FormulationInputError(f"power_ratio must have shape (nt, ns, ny, nv, nd) = {shape}, got {r.shape}")
+            raise FormulationInputError(
+                f"power_ratio must have shape (nt, ns, ny, nv, nd[, nq]) = {shape}, got {r.shape}"
+            )
         if (r <= 0).any():
             k = tuple(int(i) for i in np.argwhere(r <= 0)[0])
             raise FormulationInputError(f"power_ratio must be > 0; it is {r[k]!r} at index {k}")
         object.__setattr__(self, "power_ratio", r)
 
     @property
-    def ratio_axes(self) -> tuple[float, float, int, float, float, int] | None:
-        """``(V_0, ΔV, nv, δ_0, Δδ, nd)`` of the power-ratio table [kn, deg], None without one."""
+    def ratio_axes(self) -> tuple | None:
+        """``(V_0, ΔV, nv, δ_0, Δδ, nd, sector edges)`` of the power-ratio table [kn, deg], None without one."""
         if self.power_ratio is None:
             return None
         v, d = np.asarray(self.ratio_speed_kn), np.asarray(self.ratio_heading_deg)
         dv = float(v[1] - v[0]) if v.size > 1 else 1.0
         dd = float(d[1] - d[0]) if d.size > 1 else 1.0
-        return float(v[0]), dv, int(v.size), float(d[0]), dd, int(d.size)
+        return float(v[0]), dv, int(v.size), float(d[0]), dd, int(d.size), self.ratio_sector_edges_deg
 
     @property
     def field_names(self) -> tuple[str, ...]:
         """Names of the fields present, in the interpolant's output order.
 
-        The power-ratio table contributes ``ratio_j_k`` (speed node j, heading node k).
+        The power-ratio table contributes ``ratio_j_k`` (speed node j, heading node k), or ``ratio_j_k_sq`` per
+        wave-angle sector q.
         """
         names = ["hs_m", "period_s"]
         for pair in (("wave_to_along", "wave_to_across"), ("current_along_kn", "current_across_kn")):
@@ -541,8 +555,7 @@ class WeatherGrid:
         if self.wind_along_kn is not None:
             names += ["wind_along_kn", "wind_across_kn"]
         if self.power_ratio is not None:
-            r = np.asarray(self.power_ratio)
-            names += [f"ratio_{j}_{k}" for j in range(r.shape[3]) for k in range(r.shape[4])]
+            names += list(ratio_field_names(self.ratio_axes))
         return tuple(names)
 
     def _field_data(self) -> np.ndarray:
@@ -551,7 +564,8 @@ class WeatherGrid:
         data = [np.asarray(getattr(self, f)) for f in plain]
         if self.power_ratio is not None:
             c = np.asarray(self.power_ratio)
-            data += [c[..., j, k] for j in range(c.shape[3]) for k in range(c.shape[4])]
+            c = c if c.ndim == 6 else c[..., None]
+            data += [c[..., j, k, q] for q in range(c.shape[5]) for j in range(c.shape[3]) for k in range(c.shape[4])]
         return np.stack(data, axis=0)
 
     def _prepared(self) -> tuple[list[np.ndarray], np.ndarray]:

@@ -251,7 +251,9 @@ def prepare_corridor(
         frame, sampler, departure=t0, t_end_h=horizon, dt_h=dt_h, ds_nm=ds_nm, dy_nm=dy_nm,
         model=model, base=base, speeds_kn=speeds, headings_deg=headings, leg_windows_h=windows_h,
     )  # fmt: skip
-    table = PowerTable(speeds, headings, samples.power_capped_share, samples.power_evaluations, sfoc_err)
+    table = PowerTable(
+        speeds, np.asarray(grid.ratio_heading_deg), samples.power_capped_share, samples.power_evaluations, sfoc_err
+    )
     n_window = int(min(25, max(2, horizon / dt_h + 1)))
     window = t0 + np.array([_h_to_td(h) for h in np.linspace(0.0, horizon, n_window)])
     emit(progress, "lateral bounds", 0.1)

@@ -424,12 +424,15 @@ def weather_grid(
                 sample[name] = _fill_nearest(np.where(bad, np.nan, raw), bad)
         sea = SeaState.from_sample({k: np.ravel(hold.take(v)) for k, v in sample.items()})
         along_all = np.ravel(hold.take(np.broadcast_to(along[None], shape)))
-        ratio, capped = tabulate_ratio(model, base, sea, along_all, speeds_kn, headings_deg)
+        tab = tabulate_ratio(model, base, sea, along_all, speeds_kn, headings_deg)
+        # one field per sector where the model declares its sectors, else the plain (nt, ns, ny, nv, nd) table
+        ratio, capped = (tab.ratio if tab.sector_edges_deg else tab.ratio[..., 0]), tab.capped_share
         evaluations = ratio.size
         table = {
-            "power_ratio": hold.spread(ratio.reshape(-1, y_axis.size, ratio.shape[1], ratio.shape[2])),
+            "power_ratio": hold.spread(ratio.reshape(-1, y_axis.size, *ratio.shape[1:])),
             "ratio_speed_kn": np.asarray(speeds_kn, dtype=float),
-            "ratio_heading_deg": np.asarray(headings_deg, dtype=float),
+            "ratio_heading_deg": tab.headings_deg,
+            "ratio_sector_edges_deg": tab.sector_edges_deg,
         }
     varying = fields + ([np.asarray(table["power_ratio"])] if table else [])
     static = t_axis.size > 1 and all(np.ptp(f, axis=0).max() <= 1e-12 * max(1.0, np.abs(f).max()) for f in varying)

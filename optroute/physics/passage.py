@@ -228,6 +228,7 @@ def power_at_heading(
     wave_from_deg: ArrayLike,
     wind_u_ms: ArrayLike,
     wind_v_ms: ArrayLike,
+    wave_sector_deg: tuple[float, float] | None = None,
 ) -> np.ndarray:
     """Brake power [kW] of ``model`` at a speed through water [kn] and heading [deg true, to] in a sea.
 
@@ -236,13 +237,23 @@ def power_at_heading(
     the 10 m wind speed [m/s] and its angle off the bow from the wind vector (east/north, blowing
     to, [m/s]). :func:`evaluate_speeds` (the plan's referee) and the corridor NLP's power table
     (:mod:`optroute.optimise.power_table`) both call it.
+
+    ``wave_sector_deg = (lo, hi)`` (0 ≤ lo < hi ≤ 180) evaluates the model as if the waves came from inside
+    that sector of the folded wave angle: α is clamped into it on its own side of the ship (the power table's
+    sector fields; a model that steps at the sector's edges is then smooth in the heading). The edge ``lo > 0``
+    is excluded, 10⁻⁶° inside, as Kwon's sectors give each edge to the sector nearer the bow.
     """
     heading = np.asarray(heading_deg, dtype=float)
     wind_speed, wind_from = units.wind_uv_to_speed_from_deg(wind_u_ms, wind_v_ms)
+    alpha = seaway.relative_wave_angle_deg(heading, wave_from_deg)
+    if wave_sector_deg is not None:
+        lo, hi = float(wave_sector_deg[0]), float(wave_sector_deg[1])
+        folded = np.clip(np.where(alpha > 180.0, 360.0 - alpha, alpha), lo + (1e-6 if lo > 0 else 0.0), hi)
+        alpha = np.where(alpha > 180.0, 360.0 - folded, folded)
     return model.brake_power_kw(
         stw_kn,
         hs_m=hs_m,
-        wave_angle_deg=seaway.relative_wave_angle_deg(heading, wave_from_deg),
+        wave_angle_deg=alpha,
         wind_speed_ms=wind_speed,
         wind_angle_deg=units.wrap_360(wind_from - heading),
     )

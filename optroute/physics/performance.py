@@ -143,6 +143,10 @@ class KwonModel(_ShipEngine):
 
     ship: Ship
 
+    #: Edges of the wave-angle sectors [deg] where the model steps (Kwon's direction coefficient; constant inside
+    #: each sector): the corridor NLP's power table keeps one field per sector (:mod:`optroute.optimise.power_table`).
+    wave_sector_edges_deg = speed_loss.KWON_SECTOR_EDGES_DEG
+
     def beaufort(self, hs_m: ArrayLike, wind_speed_ms: ArrayLike | None) -> np.ndarray:
         """Beaufort number [-] from the wind [m/s] where known, else from Hs [m]."""
         hs = finite("hs_m", hs_m, minimum=0.0)

@@ -83,6 +83,7 @@ __all__ = [
     "calm_speed_point",
     "imo_fw",
     "imo_fw_capacity",
+    "KWON_SECTOR_EDGES_DEG",
     "kwon_cu_coefficients",
     "kwon_direction_coefficient",
     "kwon_form_coefficient",
@@ -98,6 +99,11 @@ LOADINGS: tuple[str, ...] = ("normal", "loaded", "ballast")
 
 BLOCK_COEFFICIENT_RANGE: tuple[float, float] = (0.55, 0.85)
 """The block coefficients Kwon's speed-coefficient table covers [-]."""
+
+KWON_SECTOR_EDGES_DEG: tuple[float, float, float] = (30.0, 60.0, 150.0)
+"""Edges of Kwon's (2008) direction sectors in the weather angle from the bow [deg]: head [0°, 30°], bow
+(30°, 60°], beam (60°, 150°], following (150°, 180°] (:func:`kwon_direction_coefficient`); C_β is constant
+inside each sector and steps at each edge."""
 
 KWON_FROUDE_RANGE: tuple[float, float] = (0.05, 0.30)
 """Kwon's stated range of validity in Froude number [-]; outside it the
@@ -216,8 +222,9 @@ def kwon_direction_coefficient(weather_angle_deg: ArrayLike, beaufort: ArrayLike
     a = _folded_angle(weather_angle_deg)
     bn = _beaufort(beaufort)
     a, bn = np.broadcast_arrays(a, bn)
+    head, bow, beam = KWON_SECTOR_EDGES_DEG
     two_c = np.select(
-        [a <= 30.0, a <= 60.0, a <= 150.0],
+        [a <= head, a <= bow, a <= beam],
         [np.full_like(bn, 2.0), 1.7 - 0.03 * (bn - 4.0) ** 2, 0.9 - 0.06 * (bn - 6.0) ** 2],
         default=0.4 - 0.03 * (bn - 8.0) ** 2,
     )
