@@ -221,7 +221,7 @@ def _guess_nm(curve: dict[str, Any], eta_h: float) -> float | None:
 
 
 def run_case(case: int, cfg: dict[str, Any]) -> dict[str, Any]:
-    """Baselines, one DP run (its curve and its route for the paper's ETA), the NLP from that route."""
+    """One DP run (its curve and its route for the paper's ETA), the baselines, the referee, the NLP from the DP's route."""
     ship = orx.Ship.preset(SHIP)
     wx = orx.scenarios.shao_case(case)
     t0 = wx.time.values[0]
@@ -233,15 +233,16 @@ def run_case(case: int, cfg: dict[str, Any]) -> dict[str, Any]:
     }  # a bin of slack: a schedule arriving at the last ETA
     speeds = se.lattice_speeds(ship, *cfg["speeds_kn"])
     clock = _Clock()
-    with clock("baseline"):  # every lattice speed's route, then the exact constant speed of each ETA (refereed)
+    nlp_etas = (paper_eta, *cfg.get("nlp_etas_h", {}).get(case, ())) if cfg["nlp"] else ()
+    # first, so that the baseline's forked workers inherit the DP's compiled kernels instead of loading them each
+    with clock("dp"):  # one DP run: its routes for the NLP's ETAs, and its least fuel per arrival bin (the whole curve)
+        dp_route = se.search(wx, ship, t0, {**dp, "routes_for_eta_h": nlp_etas[1:]}, speeds_kn=speeds,
+                             eta=t0 + np.timedelta64(int(round(paper_eta * 3600)), "s"))  # fmt: skip
+    with clock("baseline"):  # every lattice speed's route, then the exact constant speed of each ETA (scored below)
         curve = se.baseline_curve(wx, ship, t0, dp, speeds, max(etas), referee=False)
         exact = se.pool_map(
             lambda e: se.exact_baseline(wx, ship, t0, dp, e, guess_nm=_guess_nm(curve, e), referee=False), etas
         )
-    nlp_etas = (paper_eta, *cfg.get("nlp_etas_h", {}).get(case, ())) if cfg["nlp"] else ()
-    with clock("dp"):  # one DP run: its routes for the NLP's ETAs, and its least fuel per arrival bin (the whole curve)
-        dp_route = se.search(wx, ship, t0, {**dp, "routes_for_eta_h": nlp_etas[1:]}, speeds_kn=speeds,
-                             eta=t0 + np.timedelta64(int(round(paper_eta * 3600)), "s"))  # fmt: skip
     with clock("referee"):  # the referee's fuel and findings of each ETA's constant-speed plan and the DP's route
         for ex in exact:
             if ex["route"] is not None:
