@@ -64,7 +64,7 @@ Why no window — the paper re-read for the assumption that differs (2 Dec 2026)
   may not enter the bad weather ("for safety reasons"), so it is the constant-speed shortest safe route
   above. The great circle itself crosses the islands (latitude 0 in −1…7°): no reading sails it. The
   "MEPC regression" fuel is the IMO f_w row: one factor on the calm-water power at every ETA, so it moves
-  the whole curve (31-36 % above the DP where it is defined: quick run, 256-272 h) and opens no window.
+  the whole curve (25-43 % above the DP where it is defined: case I, 240-336 h) and opens no window.
   No second baseline row is added.
 * **The storm's timing is.** The paper's own window edges say when its passage south of the islands
   opens in case I: above 272 h the constant speed (19.85 kn on its 5 400 nm) passes freely, reaching
