@@ -4,7 +4,8 @@ CI runs ``python -m benchmarks --quick --only compare,shao,seed000`` after the s
 check, which asserts what the published figures must carry (issue 22): every comparison's counts of
 clean, unverified and failed plans adding up to its cases, the NLP's own fuel finite and its ratio
 to itself 1, and the quotes of the sources (Boeing EP 2145155: more than 12 days against 8 d 8 h;
-Shao et al.: the window of arrival times 233–272 h of case I). Exit 1 naming the first failed check.
+Shao et al.: the window of arrival times 233–272 h of case I, and at least one NLP plan set against its
+baseline). Exit 1 naming the first failed check.
 """
 
 from __future__ import annotations
@@ -46,6 +47,10 @@ def check(folder: Path) -> None:
         raise AssertionError(f"shao: the paper's window of case I is {shao['cases'][0]['paper']['window_h']}")
     for case in shao["cases"]:
         _counts_add_up(case["comparison"], "shao")
+    if shao["cases"][0]["comparison"]["cases"] < 1:
+        raise AssertionError(
+            "shao: the quick run compared no NLP plan with the baseline (NLP against the baseline 0 of 0)"
+        )
 
 
 if __name__ == "__main__":

@@ -19,7 +19,12 @@ The pieces :mod:`benchmarks.bench_shao` runs and prints, importable by the tests
 
 from __future__ import annotations
 
+import multiprocessing
+import os
+import resource
+import time
 import warnings
+from collections.abc import Callable, Iterable
 from typing import Any
 
 import numpy as np
@@ -57,6 +62,48 @@ def lattice_speeds(ship: orx.Ship, lo_kn: float = PAPER_SPEEDS_KN[0], hi_kn: flo
     """The DP's speed set [kn]: ``lo_kn`` to ``min(hi_kn, calm speed at MCR)`` every ``step_kn``."""
     top = min(hi_kn, ship.max_calm_speed_kn)
     return np.arange(lo_kn, top + 1e-9, step_kn)
+
+
+WORKERS = max(1, int(os.environ.get("OPTROUTE_BENCH_WORKERS", "0")) or min(2, os.cpu_count() or 1))
+"""Processes the baseline's one-speed searches run in (``$OPTROUTE_BENCH_WORKERS``, default 2 or the cores).
+
+Each search is independent of the others (its own speed, its own labels), so they run side by side
+with the same figures as one after the other (:func:`pool_map`)."""
+
+_JOB: list[tuple[Callable[[Any], Any], list[Any]]] = []
+"""The function and items of the running :func:`pool_map` (inherited by the forked workers, not pickled)."""
+
+
+def _run_job(i: int) -> Any:
+    fn, items = _JOB[0]
+    return fn(items[i])
+
+
+def pool_map(fn: Callable[[Any], Any], items: Iterable[Any], workers: int = WORKERS) -> list[Any]:
+    """``[fn(x) for x in items]``, in ``workers`` forked processes when there is more than one item.
+
+    ``fn`` and the items reach the workers by ``fork`` (a closure over a 158 MB dataset needs no
+    pickling); only the results are pickled back. Without ``fork`` (or one worker) it runs here.
+    """
+    items = list(items)
+    if workers <= 1 or len(items) <= 1 or "fork" not in multiprocessing.get_all_start_methods():
+        return [fn(x) for x in items]
+    _JOB[:] = [(fn, items)]
+    try:
+        pool = multiprocessing.get_context("fork").Pool(min(workers, len(items)))
+        try:
+            return pool.map(_run_job, range(len(items)), chunksize=1)
+        finally:
+            pool.close()
+            pool.join()  # reaped: their CPU time is in :func:`cpu_s`
+    finally:
+        _JOB.clear()
+
+
+def cpu_s() -> float:
+    """CPU time [s] of this process and of its reaped children (the :func:`pool_map` workers): user + system."""
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + kids.ru_utime + kids.ru_stime
 
 
 _SAMPLER: list[tuple[Any, orx.WeatherSampler]] = []
@@ -105,8 +152,8 @@ def refereed(route: orx.Route, wx: Any, ship: orx.Ship, t0: np.datetime64) -> tu
 
 
 def baseline_curve(wx: Any, ship: orx.Ship, t0: np.datetime64, dp: dict[str, float], speeds_kn: np.ndarray,
-                   latest_eta_h: float, *, referee: bool = True) -> dict[str, Any]:  # fmt: skip
-    """Per lattice speed: the shortest safe route sailed at that one speed.
+                   latest_eta_h: float, *, referee: bool = True, workers: int = WORKERS) -> dict[str, Any]:  # fmt: skip
+    """Per lattice speed: the shortest safe route sailed at that one speed (one search per speed, ``workers`` at a time).
 
     Returns arrival [h], the DP's own fuel [t], distance [nm], the referee's fuel [t] and its number of
     violations (NaN without ``referee``), the IMO f_w estimate [t] (:func:`fw_fuel_t`) and the route
@@ -116,14 +163,18 @@ def baseline_curve(wx: Any, ship: orx.Ship, t0: np.datetime64, dp: dict[str, flo
     speeds = np.asarray(speeds_kn, dtype=float)
     speeds = speeds[great_circle_nm() / speeds <= latest_eta_h]
     arrival, fuel, dist, ref, viol, fw = (np.full(speeds.size, np.nan) for _ in range(6))
-    routes: list[orx.Route | None] = []
-    for k, v in enumerate(speeds):
+    sampler_of(wx)  # built once, before the workers fork
+
+    def one(v: float) -> orx.Route | None:
         try:
-            r = search(wx, ship, t0, dp, speeds_kn=[float(v)])
+            return search(wx, ship, t0, dp, speeds_kn=[v])
         except orx.OptrouteError:  # no safe passage at this speed (or beyond the weather's span)
-            routes.append(None)
+            return None
+
+    routes: list[orx.Route | None] = pool_map(one, [float(v) for v in speeds], workers)
+    for k, (v, r) in enumerate(zip(speeds, routes, strict=True)):
+        if r is None:
             continue
-        routes.append(r)
         arrival[k], fuel[k], dist[k] = r.total_duration_h, r.total_fuel_t, r.total_distance_nm
         fw[k] = fw_fuel_t(ship, float(v), r.total_duration_h)
         if referee:

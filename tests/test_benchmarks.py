@@ -100,3 +100,28 @@ def test_an_unknown_section_is_a_usage_error(capsys, tmp_path, monkeypatch):
         bench_main.main(["--only", "weather,nonsense", "--results", str(tmp_path)])
     assert exc.value.code == 2 and "unknown benchmark(s) ['nonsense']" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def _quick_results(folder, shao_nlp_cases: int) -> None:
+    """The three JSON files ``check_quick`` reads, with the figures it requires and ``shao_nlp_cases`` NLP comparisons."""
+    counts = {"ok": shao_nlp_cases, "unverified": 0, "failed": 0}
+    files = {
+        "compare": {"cases": [{"rows": [{"method": "NLP", "fuel_t": 10.0, "fuel_ratio": 1.0}]}],
+                    "comparison": {"cases": 1, "methods": {"NLP": {"ok": 1, "unverified": 0, "failed": 0}}}},
+        "seed000": {"seed_time_ratio_min": 288.0 / 200.0},
+        "shao": {"cases": [{"paper": {"window_h": [233.0, 272.0]},
+                            "comparison": {"cases": shao_nlp_cases, "methods": {"baseline": counts, "NLP": counts}}}]},
+    }  # fmt: skip
+    for name, result in files.items():
+        (folder / f"{name}.json").write_text(json.dumps({"result": result}))
+
+
+def test_check_quick_requires_the_shao_quick_run_to_compare_an_nlp_plan(tmp_path):
+    """CI's quick Shao et al. run must set at least one NLP plan against its baseline ("0 of 0" fails the check)."""
+    from benchmarks import check_quick
+
+    _quick_results(tmp_path, 1)
+    check_quick.check(tmp_path)
+    _quick_results(tmp_path, 0)
+    with pytest.raises(AssertionError, match="no NLP plan"):
+        check_quick.check(tmp_path)

@@ -6,12 +6,15 @@ Cheap on purpose: 3 legs of ~1 800 nm, three speeds, 300 nm lateral spacing.
 from __future__ import annotations
 
 import math
+import resource
+import time
 
 import numpy as np
 import pytest
 
 import optroute as orx
 from benchmarks import shao_experiment as se
+from optroute.weather.scenarios import SHAO_START_END
 
 LEGS = 3
 SPEEDS_KN = (16.0, 20.0, 24.0)
@@ -110,3 +113,38 @@ def test_one_dp_run_gives_the_routes_of_other_etas_as_runs_for_them(ship):
     assert got.total_fuel_t == pytest.approx(alone.total_fuel_t, rel=1e-12)
     np.testing.assert_allclose(got.waypoints, alone.waypoints, rtol=0, atol=1e-12)
     np.testing.assert_array_equal(got.times, alone.times)
+
+
+def test_the_baseline_in_two_workers_is_each_speeds_own_search_route(ship):
+    """The baseline's searches in forked workers: each speed's route is ``search_route`` at that speed alone, to the bit."""
+    wx = orx.scenarios.shao_case(1)
+    t0 = wx.time.values[0]
+    dp = {**se.dp_options(legs=LEGS, dy_nm=300.0), "horizon_h": 360.0}
+    speeds = np.array([16.0, 24.0])
+    curve = se.baseline_curve(wx, ship, t0, dp, speeds, 360.0, referee=False, workers=2)
+    for k, v in enumerate(speeds):
+        alone = orx.search_route(*SHAO_START_END, wx, ship, departure=t0, method="dp", objective="fuel",
+                                 dp_options=dict(dp), speeds_kn=[float(v)], use_land_mask=False)  # fmt: skip
+        got = curve["routes"][k]
+        assert curve["fuel_t"][k] == alone.total_fuel_t
+        assert curve["arrival_h"][k] == alone.total_duration_h
+        np.testing.assert_array_equal(got.waypoints, alone.waypoints)
+        np.testing.assert_array_equal(got.times, alone.times)
+        np.testing.assert_array_equal(got.sog_kn, alone.sog_kn)
+
+
+def test_pool_map_keeps_the_order_and_counts_the_workers_cpu():
+    """``pool_map`` returns ``fn`` of each item in order; the workers' CPU time reaches ``cpu_s`` once they are reaped."""
+
+    def spin(n: int) -> int:
+        t = time.process_time()
+        while time.process_time() - t < 0.2:
+            pass
+        return n * n
+
+    before = se.cpu_s()
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    assert se.pool_map(spin, [3, 1, 2], workers=2) == [9, 1, 4]
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    assert after.ru_utime + after.ru_stime - kids.ru_utime - kids.ru_stime >= 0.5  # three spins of 0.2 s elsewhere
+    assert se.cpu_s() - before >= 0.5
