@@ -17,8 +17,8 @@ candidates (:func:`start_stage`) and never returns a plan worse by the referee t
   on either side of it and a local start can hold Ipopt on the worse side (harness seed 51: the timed centreline
   start at 127.01 t, the minimum-time plan 125.40 t at the same ETA; a storm crossing raced to the south at 139 t
   where the 3-D DP passes north on 57 t). The minimum-time plan is computed only where the DP gives no verified
-  plan (the DP does not apply — no ETA, not a great circle, the time objective — or finds none): the DP's plan is
-  the least fuel by the ETA on its grid, and the minimum-time plan, a race, rarely beats it (the storm crossing of
+  plan (the DP does not apply — no ETA, not a great circle, the time objective — or finds none; a given search
+  route that is the DP's counts as the DP's): the DP's plan is the least fuel by the ETA on its grid, and the minimum-time plan, a race, rarely beats it (the storm crossing of
   ``benchmarks.bench_nlp``: 183.5 t against the DP's 75.4 t, and 0.7–1.0 CPU-s to solve).
 
 The stage's record (``solver_stats["starts"]``) holds every candidate's score by the referee (``inf``
@@ -138,8 +138,10 @@ def start_stage(
         dp = _timed(lambda: _dp_candidate(prepared, ctx, objective, st.log))
         if dp is not None:
             found["3-D DP"] = dp
-    # the DP's verified plan, least fuel by the ETA on its grid, stands in for the minimum-time plan
-    if reason.startswith("computed") and (found.get("3-D DP") is None or found["3-D DP"].plan is None):
+    # the DP's verified plan (its own, or the given search route when that is the DP's), least fuel by the ETA on its
+    # grid, stands in for the minimum-time plan
+    dp = found.get("3-D DP") or (found.get("search route") if route is not None and route.method == "dp" else None)
+    if reason.startswith("computed") and (dp is None or dp.plan is None):
         fast = _timed(lambda: _minimum_time_candidate(prepared, ctx, objective, route))
         if fast is not None:
             found["minimum-time plan"] = fast
