@@ -485,8 +485,9 @@ def bench_crossing_storm() -> dict[str, Any]:
     rows = {}
     runs = []
     for label, extra in (
-        ("NLP from the centreline", {}),
+        ("NLP from the centreline", {"discrete_start": False}),
         ("NLP from the 3-D DP", {"discrete_start": True, "dp_options": {**dp_res, "speed_step_kn": 1.0}}),
+        ("default call (the start stage's own DP)", {}),
     ):
         # the rows where the referee checks (the default) beside the former placement at the midpoints only
         runs += [(label, {**extra, "constraint_rows": "referee"})]

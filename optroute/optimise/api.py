@@ -3,9 +3,10 @@
 :func:`optimise_corridor` turns a corridor, the weather and a ship into the arrays of the corridor NLP
 (:mod:`optroute.optimise.nlp_inputs` → :class:`formulations.speed_nlp.SpeedNLP`) with the ship's own
 performance model tabulated on the corridor's weather grid (:mod:`optroute.optimise.power_table`: the
-NLP optimises the model that scores the plan, not a fit of it); starts it from the best verified
-discrete plan on the corridor (:mod:`optroute.optimise.starts`: the search route, the 3-D DP, the
-centreline start); solves it with the disjunctive outer loop over the danger-band sides
+NLP optimises the model that scores the plan, not a fit of it); starts it from the best candidate by the
+referee, chosen before the first solve (:mod:`optroute.optimise.start_stage`: the search route, the
+centreline start and, where a band or the exclusion can bind or no other start verifies, the 3-D DP and the
+minimum-time plan); solves it with the disjunctive outer loop over the danger-band sides
 (:func:`formulations.disjunctive.improve_sides`); turns the solution into a
 :class:`~optroute.plan.result.Plan` computed with the *true* performance model, and verifies it
 (:meth:`Plan.verify`). A plan that fails verification is never returned: the problem is tightened where
@@ -75,7 +76,7 @@ def optimise_corridor(
     solver_options: Mapping[str, Any] | None = None,
     jit: bool = False,
     use_land_mask: bool | None = None,
-    discrete_start: bool = False,
+    discrete_start: bool | Literal["auto"] = "auto",
     dp_options: Mapping[str, Any] | None = None,
     robust: Literal["all", "cvar", "chance"] | None = None,
     cvar_alpha: float = 0.0,
@@ -173,11 +174,12 @@ def optimise_corridor(
         solves dominate and a build is reused.
     use_land_mask : bool, optional
         Apply the real coastline (default: unless the weather declares synthetic geography).
-    discrete_start : bool
-        Also run the 3-D DP (:mod:`optroute.search.dp`) on the corridor as a start candidate when its
-        centreline is one great circle and there is an ETA (objective fuel or cost); see
-        :mod:`optroute.optimise.starts`. Off by default: on the storm crossing of ``benchmarks.bench_nlp``
-        the DP at its default resolution takes about 4× the rest of the call.
+    discrete_start : {"auto", True, False}
+        The 3-D DP (:mod:`optroute.search.dp`) on the corridor as a start candidate, when its centreline is one
+        great circle and there is an ETA (objective fuel or cost): ``"auto"`` (default) where the start stage
+        computes its global starts — a danger band or the exclusion can bind on some leg, or no other start
+        verifies (:func:`optroute.optimise.start_stage.global_starts_reason`) — and not when ``route`` is the DP's
+        own; True always; False never (the minimum-time plan stays a candidate where the stage computes it).
     dp_options : mapping, optional
         Resolution of that DP (``dx_nm``, ``dy_nm``, ``dt_h``, ``speed_step_kn``; :func:`optroute.optimise.starts.dp_route`).
     robust : {"all", "cvar", "chance"}, optional
@@ -200,13 +202,14 @@ def optimise_corridor(
         iterate's plan verifies), ``"mended"`` (converged; the referee found the engine outside its range
         between the NLP's samples and the speeds of those legs were moved to the limit,
         :func:`optroute.optimise.starts.repaired_plan`; ``solver_stats["mended_legs"]``) or ``"start"`` (the
-        verified start, because the NLP's plan was worse or failed; ``solver_stats["status_reason"]`` says
-        which). ``solver_stats`` holds: ``ipopt_status`` (verbatim), ``nlp_solves``, ``iterations`` and
-        ``solve_time_s`` (every Ipopt call of the whole call — side flips, re-solves, rescue solves — with all
-        their iterations and wall-clock time [s]), ``build_time_s``, ``stage_time_s`` (start, solve and verify),
-        ``total_time_s``;
-        ``start``, ``start_score``, ``starts`` (every candidate's score by the referee, inf unverified),
-        ``nlp_score``; ``power_table`` (its speed and heading nodes, capped share, evaluations, the SFOC
+        best verified start candidate, because the NLP's plan was worse or failed, or the best verified plan
+        after a SolverFailure; ``solver_stats["status_reason"]`` says which). ``solver_stats`` holds: ``ipopt_status`` (verbatim), ``nlp_solves``, ``iterations`` and
+        ``solve_time_s`` (every Ipopt call of the whole call — side flips, re-solves, phase-1, the minimum-time
+        plan's solves — with all their iterations and wall-clock time [s]), ``build_time_s``, ``total_time_s``;
+        ``start``, ``start_score``, ``warm_start``, ``starts`` (per candidate: ``score`` by the referee, inf
+        unverified, ``verified``, its own ``estimate``, ``cpu_s`` to make and score it, ``chosen``, ``warm_start``),
+        ``global_starts`` (why the 3-D DP and the minimum-time plan were candidates, or why not), ``stage_time_s``
+        and ``stage_cpu_s`` (wall and CPU seconds of the stages start, solve and verify, plan), ``nlp_score``; ``power_table`` (its speed and heading nodes, capped share, evaluations, the SFOC
         curve's error) and, for an NLP plan, ``tabulation`` (the NLP's fuel at its solution against the
         referee's fuel of the same track and schedule: the measured tabulation error; and at the NLP's own
         samples, its power and leg fuel against the model's in the referee's weather,
@@ -420,83 +423,38 @@ def solve_prepared(
 def _solve_honestly(prepared: Any, eta: Any, *, eta_mode: str, objective: str, warm_plan, route, progress) -> Plan:
     """``prepared.solve`` with outcomes that tell the truth about the plans the call found.
 
+    The solve itself starts from the best candidate by the referee and never returns a plan worse than a verified
+    one, the 3-D DP's and the minimum-time plan's included where the start stage computes them
+    (:mod:`optroute.optimise.start_stage`). Its errors are checked here:
+
     * A free-arrival minimum-time passage that cannot end inside the weather's time span is a
       :class:`WeatherCoverageError` naming the span needed (before any solve: the fastest conceivable
       passage, the corridor's end-to-end great circle at the top speed plus the strongest current).
-    * :class:`InfeasibleETA`: its ``earliest_arrival`` is the arrival of the minimum-time *plan*
-      (verified); when that plan meets the ETA after all, the ETA is solved again from it and the
-      better of the two is returned (never the error).
-    * :class:`SolverFailure`: a verified plan that meets the ETA (the error's best plan, the
-      minimum-time plan, or — when the minimum-time plan meets the ETA or there is none, and the call
-      had not asked for it — the ETA solved again with the 3-D DP among the starts, its failure in
-      ``solver_stats["after_failure"]``) is returned, the best by the objective; the first two with
-      ``status="start"`` and the failure in ``solver_stats["status_reason"]``; when the minimum-time plan arrives after the ETA it is
+    * :class:`InfeasibleETA`: its ``earliest_arrival`` is the arrival of the minimum-time *plan* (verified,
+      :meth:`PreparedCorridor.minimum_time_plan`, the plan :func:`optimise_corridor` gives for
+      ``objective="time"`` without an ETA).
+    * :class:`SolverFailure`: a verified plan that meets the ETA (the error's best plan, or the minimum-time plan)
+      is returned, the better by the objective, with ``status="start"`` and the failure in
+      ``solver_stats["status_reason"]``; when the minimum-time plan arrives after the ETA it is
       :class:`InfeasibleETA`; a cross-section where no speed is allowed at any time is
       :class:`NoSafePassage`; weather-coverage violations are :class:`WeatherCoverageError`.
-    * A plan for an ETA on which the NLP did not improve on its start (status ``"start"``) is never worse
-      than the minimum-time plan when that meets the ETA (:func:`_not_worse_than_minimum_time`).
-
-    The minimum-time plan is the one :func:`optimise_corridor` gives for ``objective="time"`` without an ETA
-    (:meth:`PreparedCorridor.minimum_time_twin`), solved once per prepared corridor.
     """
     _check_time_span(prepared, eta, objective)
     kw = {"eta_mode": eta_mode, "objective": objective, "progress": progress}
     try:
-        plan = prepared.solve(eta, warm_plan=warm_plan, route=route, **kw)
+        return prepared.solve(eta, warm_plan=warm_plan, route=route, **kw)
     except InfeasibleETA as exc:
-        fast = _minimum_time_plan(prepared, route)
+        fast = prepared.minimum_time_plan(route)
         if fast is None:  # no verified passage at all: closed, or the NLP's word for it
             _raise_if_blocked(prepared, exc)
             raise
         if not _meets(fast, prepared, eta, "le"):
             raise _infeasible(prepared, eta, [fast]) from exc
-        return _from_minimum_time(prepared, eta, fast, route, kw, f"InfeasibleETA ({exc})")
+        # the minimum-time plan was a candidate of the start stage (no local start verified): it arrives before an
+        # ETA that is to be met exactly, and no plan arriving at it was found
+        raise
     except SolverFailure as exc:
         return _after_failure(prepared, eta, exc, route, kw)
-    return _not_worse_than_minimum_time(prepared, eta, plan, route, kw)
-
-
-#: A start arriving earlier than the ETA by more than this share of its passage is a race (fuel per mile rises with
-#: speed): the DP's start is tried against it.
-RACE_SPARE = 0.05
-
-
-def _not_worse_than_minimum_time(prepared: Any, eta: Any, plan: Plan, route, kw: dict[str, Any]) -> Plan:
-    """An ETA's plan where the NLP did not improve on its start (status ``"start"``), checked against the
-    minimum-time plan: when that one meets the ETA on a better score, the ETA is solved again from it and the
-    better of the two returned (:func:`_from_minimum_time`). The audit's case (issue 14 failure 5): a least-fuel
-    plan of 300.4 t arriving 38 h later than the minimum-time plan, which met the same ETA on 288.2 t. Then the
-    ETA is solved again with the 3-D DP among the starts (:func:`_with_discrete_start`) and the better kept, when
-    the start races (arrives more than :data:`RACE_SPARE` of its passage before the ETA).
-    """
-    from optroute.optimise.starts import score
-
-    if eta is None or kw["objective"] == "time" or plan.status != "start":
-        return plan
-    objective, price, hourly = kw["objective"], prepared.fuel_price, prepared.hourly
-    fast = _minimum_time_plan(prepared, route)
-    if (
-        fast is not None
-        and _meets(fast, prepared, eta, kw["eta_mode"])
-        and score(fast, objective, price, hourly) < score(plan, objective, price, hourly)
-    ):
-        why = f"the minimum-time plan meets the ETA on less than the start the NLP did not improve on ({plan.total_fuel_t:.6g} t)"
-        plan = _from_minimum_time(prepared, eta, fast, route, kw, why)
-    # a start the NLP could not improve on, often a race past a storm: solved again from the 3-D DP's start, which
-    # can take the other side of it (bench_voyage's 300 nm north re-plan: 119.2 t arriving 20 h early, DP 56.9 t)
-    spare_h = units.timedelta_to_h(units.as_utc_time(eta, "eta") - plan.arrival)
-    if spare_h <= RACE_SPARE * plan.duration_h:  # it uses the time it has: no race to replace
-        return plan
-    again = _with_discrete_start(
-        prepared,
-        eta,
-        route,
-        kw,
-        f"the NLP did not improve on its start ({plan.total_fuel_t:.6g} t, {spare_h:.3g} h early)",
-    )
-    if again is not None and score(again, objective, price, hourly) < score(plan, objective, price, hourly):
-        return again
-    return plan
 
 
 def _check_time_span(prepared: Any, eta: Any, objective: str) -> None:
@@ -551,43 +509,6 @@ def _restamp(prepared: Any, plan: Plan, eta: Any, eta_mode: str, reason: str) ->
     return replace(plan, status="start", solver_stats=stats, context=ctx)
 
 
-def _minimum_time_plan(prepared: Any, route: Route | None) -> Plan | None:
-    """The minimum-time plan of the prepared corridor (verified), or the verified best plan of its failure; solved
-    once per prepared corridor and route (a front's points share it)."""
-    memo = prepared.__dict__.setdefault("_minimum_time_plans", {})
-    if id(route) not in memo:
-        memo[id(route)] = (route, _solve_minimum_time(prepared, route))  # the route held: its id stays its own
-    return memo[id(route)][1]
-
-
-def _solve_minimum_time(prepared: Any, route: Route | None) -> Plan | None:
-    """The plan :func:`optimise_corridor` gives for minimum time (its free-arrival twin's, ``minimum_time_twin``)."""
-    twin = prepared.minimum_time_twin()
-    solves = twin.problem.solves, twin.problem.iterations, twin.problem.solve_time_s, twin.problem.build_time_s
-    try:
-        plan = twin.solve(None, objective="time", route=route)
-    except SolverFailure as exc:
-        plan = exc.best_plan
-    except (InfeasibleETA, WeatherCoverageError, NoSafePassage, ConfigError):
-        return None
-    finally:
-        _count_twin(prepared, twin, solves)
-    if plan is None or not _meets(plan, prepared, None, "le"):
-        return None
-    return plan
-
-
-def _count_twin(prepared: Any, twin: Any, before: tuple[int, int, float, float]) -> None:
-    """The twin's solves, iterations and times since ``before`` counted in ``prepared``'s problem (solver_stats)."""
-    if twin is prepared:
-        return
-    p, q = prepared.problem, twin.problem
-    p.solves += q.solves - before[0]
-    p.iterations += q.iterations - before[1]
-    p.solve_time_s += q.solve_time_s - before[2]
-    p.build_time_s += q.build_time_s - before[3]
-
-
 def _infeasible(prepared: Any, eta: Any, plans: list[Plan]) -> InfeasibleETA:
     """InfeasibleETA whose earliest arrival is the earliest verified plan's."""
     first = min(plans, key=lambda p: p.arrival)
@@ -601,68 +522,18 @@ def _infeasible(prepared: Any, eta: Any, plans: list[Plan]) -> InfeasibleETA:
     )
 
 
-def _from_minimum_time(prepared: Any, eta: Any, fast: Plan, route, kw: dict[str, Any], why: str) -> Plan:
-    """The ETA solved again from a minimum-time plan that meets it; never worse than that plan."""
-    from optroute.optimise.starts import score
-
-    try:
-        plan = prepared.solve(eta, warm_plan=fast, route=route, **kw)
-    except (InfeasibleETA, SolverFailure):
-        if not _meets(fast, prepared, eta, kw["eta_mode"]):  # arriving before an ETA that is to be met exactly
-            raise
-        plan = None
-    objective = kw["objective"]
-    if plan is not None and (
-        not _meets(fast, prepared, eta, kw["eta_mode"])
-        or score(plan, objective, prepared.fuel_price, prepared.hourly)
-        <= score(fast, objective, prepared.fuel_price, prepared.hourly)
-    ):
-        return plan
-    return _restamp(prepared, fast, eta, kw["eta_mode"], f"the minimum-time plan, which meets the ETA: {why}")
-
-
-def _with_discrete_start(prepared: Any, eta: Any, route, kw: dict[str, Any], exc: Any) -> Plan | None:
-    """The ETA solved again with the 3-D DP among the starts (:mod:`optroute.optimise.starts`), when the call had
-    not asked for it and the corridor allows it; its verified plan (or its failure's), else None."""
-    from optroute.optimise.starts import great_circle_corridor
-
-    if prepared.discrete_start or not great_circle_corridor(prepared.frame):
-        return None
-    prepared.discrete_start = True
-    try:
-        plan = prepared.solve(eta, route=route, **kw)
-    except (InfeasibleETA, SolverFailure) as again:
-        plan = again.best_plan
-    finally:
-        prepared.discrete_start = False
-    if plan is None or not _meets(plan, prepared, eta, kw["eta_mode"]):
-        return None
-    stats = dict(plan.solver_stats)
-    stats["after_failure"] = f"solved again with the 3-D DP's start after: {exc}"
-    return replace(plan, solver_stats=stats)
-
-
 def _after_failure(prepared: Any, eta: Any, exc: SolverFailure, route, kw: dict[str, Any]) -> Plan:
     """A SolverFailure turned into the truth: a verified plan, InfeasibleETA, NoSafePassage or coverage."""
     from optroute.optimise.starts import score
 
     eta_mode, objective = kw["eta_mode"], kw["objective"]
     verified = [p for p in (exc.best_plan,) if p is not None and _meets(p, prepared, None, "le")]
-    resolved = None
     if objective != "time":
-        fast = _minimum_time_plan(prepared, route)
+        fast = prepared.minimum_time_plan(route)  # solved already when the start stage computed it
         verified += [fast] if fast is not None else []
-        if eta is not None and (fast is None or _meets(fast, prepared, eta, eta_mode)):
-            # the ETA can be met but only by the race to the minimum-time plan's early arrival, or no passage was
-            # found at all: solved again from the 3-D DP's start, which can take another side of a storm than the
-            # local starts
-            resolved = _with_discrete_start(prepared, eta, route, kw, exc)
-            verified += [resolved] if resolved is not None else []
     meeting = [p for p in verified if eta is None or _meets(p, prepared, eta, eta_mode)]
     if meeting:
         best = min(meeting, key=lambda p: score(p, objective, prepared.fuel_price, prepared.hourly))
-        if best is resolved:  # its own status and reason: the solve from the DP's start
-            return best
         return _restamp(prepared, best, eta, eta_mode, f"the best verified plan the call found; SolverFailure: {exc}")
     if eta is not None and verified and eta_mode == "le":
         raise _infeasible(prepared, eta, verified) from exc

@@ -8,9 +8,10 @@ solve parameter of the NLP), so a fuel-versus-ETA front (:func:`optroute.studies
 prepares the corridor once, for a horizon covering all its ETAs, and solves each ETA with
 :meth:`PreparedCorridor.solve`.
 
-A solve, in stages: **start** — the best verified discrete plan on the corridor
-(:mod:`optroute.optimise.starts`: a given warm plan or search route, the 3-D DP on the corridor, the
-centreline start; scored by the referee); **solve** — Ipopt from it with the band outer loop
+A solve, in stages: **start** — every candidate scored by the referee before the first solve
+(:mod:`optroute.optimise.start_stage`: a given warm plan or search route, the ship's dual schedule, the
+centreline start, and where a band or the exclusion can bind or none of those verifies the 3-D DP on the
+corridor and its minimum-time plan); **solve** — Ipopt from it with the band outer loop
 (:meth:`~optroute.optimise.nlp_solve.Problem.solve`), the load, band and exclusion rows also at the
 referee's check points of a canonical start (:mod:`optroute.optimise.rows`); **verify** — the plan of the solution by the
 referee; where it finds only the engine outside its range (the smooth power table cannot follow the
@@ -26,48 +27,42 @@ import math
 import time as _time
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Any, Literal
 
 import numpy as np
 import xarray as xr
 
 from optroute._checks import finite
-from optroute.errors import ConfigError, OptrouteError, SolverFailure, WeatherCoverageError
-from optroute.optimise.certificate import dual_schedule
+from optroute.errors import (
+    ConfigError,
+    InfeasibleETA,
+    NoSafePassage,
+    OptrouteError,
+    SolverFailure,
+    WeatherCoverageError,
+)
 from optroute.optimise.corridor_setup import ProgressFn, emit, prepare_corridor
 from optroute.optimise.corridor_stats import CorridorReport
-from optroute.optimise.min_time import clean_start
 from optroute.optimise.nlp_inputs import exclusion_frame_error_nm
 from optroute.optimise.nlp_solve import (
     Duals,
     Solved,
     Tightening,
     clear_of_exclusion,
-    desired_speed,
-    warm_rules,
 )
 from optroute.optimise.rescue import (
     LIMIT_STATUSES,
     feasible_iterate,
     first_failure,
     longer_horizon,
-    plan_warm_start,
     route_plan,
     tighten,
     to_plan,
 )
 from optroute.optimise.rows import ROW_PLACEMENTS, binding_legs, canonical_rows, only_where_binding, points_of
-from optroute.optimise.starts import (
-    ENGINE_KINDS,
-    Candidate,
-    dp_route,
-    great_circle_corridor,
-    repaired_plan,
-    route_stw,
-    score,
-    track_warm_start,
-    verified_plan,
-)
+from optroute.optimise.start_stage import Starts, discrete_start_mode, start_stage, warm_candidate
+from optroute.optimise.starts import ENGINE_KINDS, Candidate, repaired_plan, score
 from optroute.physics.performance import PerformanceModel
 from optroute.physics.safety import BandRules
 from optroute.physics.ship import Ship
@@ -110,6 +105,18 @@ class _Call:
     last_violations: list[Violation] = field(default_factory=list)
     retries: int = 0
     first_solve: str | None = None  # the first solve's verdict: "verified", "mended", "rejected: ...", "Ipopt ..."
+    starts: Starts | None = None  # the start stage's candidates and why the global starts ran
+    stage_cpu_s: dict[str, float] = field(default_factory=dict)
+    _stage: tuple[str, float, float] | None = None  # the running stage: name, wall and CPU clocks at its start
+
+    def begin(self, stage: str | None) -> None:
+        """End the running stage (its wall and CPU seconds into ``stage_s`` and ``stage_cpu_s``) and begin ``stage``."""
+        wall, cpu = _time.perf_counter(), _time.process_time()
+        if self._stage is not None:
+            name, w0, c0 = self._stage
+            self.stage_s[name] = self.stage_s.get(name, 0.0) + wall - w0
+            self.stage_cpu_s[name] = self.stage_cpu_s.get(name, 0.0) + cpu - c0
+        self._stage = None if stage is None else (stage, wall, cpu)
 
 
 class PreparedCorridor(CorridorReport):
@@ -162,7 +169,7 @@ class PreparedCorridor(CorridorReport):
         use_land_mask: bool | None = None,
         progress: ProgressFn | None = None,
         jit: bool = False,
-        discrete_start: bool = False,
+        discrete_start: bool | str = "auto",
         dp_options: Mapping[str, Any] | None = None,
         constraint_rows: str = "midpoints",
         timed_no_passage: bool = False,
@@ -220,7 +227,12 @@ class PreparedCorridor(CorridorReport):
         )
         self.samples_per_leg = int(samples_per_leg)
         self.band_solves, self.max_retries = int(band_solves), int(max_retries)
-        self.discrete_start, self.dp_options = bool(discrete_start), dict(dp_options or {})
+        #: the 3-D DP among the starts: True, False or "auto" (:mod:`optroute.optimise.start_stage`)
+        self.discrete_start = discrete_start_mode(discrete_start)
+        self.dp_options = dict(dp_options or {})
+        #: the minimum-time plans solved so far, one per route given (None: no route), held with the route itself
+        #: (:meth:`minimum_time_plan`; a front's points share them)
+        self.minimum_time_plans: list[tuple[Route | None, Plan | None]] = []
         #: the multipliers of the last solve's plan when it is the NLP's (None when a start's): a neighbouring
         #: ETA's primal-dual warm start (``warm_plan.duals``), read right after the solve
         self.last_duals: Duals | None = None
@@ -287,137 +299,43 @@ class PreparedCorridor(CorridorReport):
         route: Route | None,
         st: Tightening,
     ) -> list[Candidate]:
-        """The NLP's start candidates (:mod:`optroute.optimise.starts`), each scored by the referee, best first.
+        """The NLP's start candidates scored by the referee, best first (:func:`~optroute.optimise.start_stage.start_stage`)."""
+        return start_stage(
+            self, ctx, cap_h=cap_h, objective=objective, warm_plan=warm_plan, route=route, st=st
+        ).candidates
 
-        Candidates without a verified plan come last, in the order given (a warm plan, a search route,
-        the 3-D DP, the ship's dual schedule, the centreline start): the first of them is the warm start
-        when none verifies.  A warm plan with ``sole_start`` set (a front's neighbour,
-        :class:`optroute.studies.front_points.WarmStart`) that verifies leaves out the ship's dual schedule
-        and the centreline start.
-        """
-        t0, frame, step = self.departure, self.frame, self.verify_step_nm
-        out: list[Candidate] = []
-        neighbour = False  # a continuation's verified neighbour (a front's point, ``sole_start``)
-        if warm_plan is not None:
-            stw = np.asarray(warm_plan.stw_kn, dtype=float)
-            plan = verified_plan(ctx, warm_plan.waypoints, stw, t0, step, "start")
-            warm = plan_warm_start(warm_plan, frame)
-            duals = getattr(warm_plan, "duals", None)  # a neighbour's multipliers (a front's WarmStart), if any
-            out.append(
-                self._candidate("warm plan", warm if duals is None else {**warm, "duals": duals}, plan, objective)
-            )
-            neighbour = plan is not None and bool(getattr(warm_plan, "sole_start", False))
-        if route is not None:
-            out.append(self._discrete("search route", ctx, route, objective, st.log, own=False))
-        if self.discrete_start and ctx.eta is not None and objective != "time" and great_circle_corridor(frame):
-            dp = dp_route(
-                ctx,
-                frame,
-                departure=t0,
-                eta=ctx.eta,
-                objective=objective,
-                v_min_kn=self.v_min,
-                v_max_kn=self.v_max,
-                fuel_price=self.fuel_price,
-                hourly=self.hourly,
-                options=self.dp_options,
-            )
-            if dp is not None:
-                out.append(self._discrete("3-D DP", ctx, dp, objective, st.log, own=True))
-        if neighbour:
-            # a continuation's verified neighbour is the start and the floor: the ship's dual schedule and the
-            # centreline's safe start (a timed search around a storm: 28 % of a front's time on the benchmark's
-            # storm corridor) are the starts of a solve without one
-            return sorted(out, key=lambda c: c.score)
-        if self.fixed_path and cap_h is not None and objective in ("fuel", "cost"):
-            dual = self._dual_candidate(ctx, cap_h, objective)
-            out += [dual] if dual is not None else []
-        out.append(self._centre_candidate(ctx, cap_h, objective, st))
-        order = sorted(range(len(out)), key=lambda i: (out[i].score, i))
-        return [out[i] for i in order]
+    @cached_property
+    def binding(self) -> np.ndarray:
+        """Per leg, whether a danger band or the exclusion can bind on it (:func:`optroute.optimise.rows.binding_legs`,
+        at the first solve's Hs back-off); computed once. The start stage computes the global starts where any does."""
+        return binding_legs(self.frame, self.grid.s_nm, self.grid.hs_m, self.plan_context(), self.hs_margin0,
+                            self.departure)  # fmt: skip
 
-    def _candidate(
-        self, label: str, warm: dict[str, np.ndarray], plan: Plan | None, objective: str, own: float = float("inf")
-    ) -> Candidate:
-        """A start candidate: its score by the referee (inf unverified) and its estimate (the lower of that and ``own``)."""
-        val = score(plan, objective, self.fuel_price, self.hourly) if plan is not None else float("inf")
-        return Candidate(label, warm, plan, val, min(val, own))
-
-    def _discrete(
-        self, label: str, ctx: PlanContext, route: Route, objective: str, log: list[str], *, own: bool
-    ) -> Candidate:
-        """A discrete plan (a search route, the 3-D DP) as a candidate, its engine range mended where the referee
-        finds it out between the search's own points (:func:`~optroute.optimise.starts.repaired_plan`); ``own``:
-        its own figure of the objective orders the warm starts too."""
-        stw = route_stw(route)
-        plan, legs = repaired_plan(
-            ctx,
-            route.waypoints,
-            stw,
-            self.departure,
-            self.verify_step_nm,
-            "start",
-            v_min_kn=self.v_min,
-            v_max_kn=self.v_max,
-        )
-        if plan is not None and legs:
-            log.append(f"{label}: the referee found the engine outside its range; speeds mended on {legs} legs")
-        warm = track_warm_start(route.waypoints, plan.stw_kn if plan is not None else stw, self.frame)
-        figure = float("inf")
-        if own and objective in ("fuel", "cost"):
-            figure = float(route.total_fuel_t) if objective == "fuel" else float(route.cost)
-        return self._candidate(label, warm, plan, objective, figure)
-
-    def _dual_candidate(self, ctx: PlanContext, cap_h: float, objective: str) -> Candidate | None:
-        """On a fixed path in static weather: the ship's own dual bound's schedule, a near-optimal discrete plan
-        with its band sides (:func:`optroute.optimise.certificate.dual_schedule`); None where it has none."""
-        frame, t0, step = self.frame, self.departure, self.verify_step_nm
-        centre_wp = frame.waypoints(np.zeros(frame.n_legs + 1))
-        stw = dual_schedule(
-            ctx,
-            centre_wp,
-            departure=t0,
-            eta_h=cap_h,
-            eta_mode=ctx.eta_mode,
-            objective=objective,
-            fuel_price=self.fuel_price,
-            hourly_cost=self.hourly,
-            v_min_kn=self.v_min,
-            v_max_kn=self.v_max,
-            step_nm=step,
-        )
-        if stw is None:
-            return None
-        plan = verified_plan(ctx, centre_wp, stw, t0, step, "start")
-        return self._candidate("ship dual", track_warm_start(centre_wp, stw, frame), plan, objective)
-
-    def _centre_candidate(self, ctx: PlanContext, cap_h: float | None, objective: str, st: Tightening) -> Candidate:
-        """The NLP's own safe start on the centreline (:func:`optroute.optimise.min_time.clean_start`)."""
-        t0, frame, step = self.departure, self.frame, self.verify_step_nm
-
-        def verify(warm: dict[str, np.ndarray]) -> Plan | None:
-            return verified_plan(ctx, frame.waypoints(warm["offset_nm"]), warm["stw_kn"], t0, step, "start")
-
-        centre, plan = clean_start(
-            ctx,
-            frame,
-            t0,
-            desired_kn=desired_speed(self.length_nm, cap_h, self.v_max, objective),
-            v_min_kn=self.v_min,
-            v_max_kn=self.v_max,
-            eta_h=cap_h,
-            rules=warm_rules(self.rules, st),
-            log=st.log,
-            verify=verify,
-        )
-        return self._candidate("centreline start", centre, plan, objective)
-
-    @staticmethod
-    def warm_candidate(cands: list[Candidate]) -> Candidate:
-        """The candidate to start Ipopt from: the best by the referee, or by its own figure where that is lower
-        (an unverified DP route that claims less fuel than every verified candidate: the NLP repairs and
-        improves it, and the verified best remains the floor of the result)."""
-        return min(cands, key=lambda c: (c.estimate, c.plan is None))
+    def minimum_time_plan(self, route: Route | None = None) -> Plan | None:
+        """The corridor's minimum-time plan (verified, any arrival): the plan :func:`optroute.optimise_corridor` gives
+        for ``objective="time"`` without an ETA (:meth:`minimum_time_twin`), from ``route`` when given; None when that
+        call gives no verified plan. Solved once per route (:attr:`minimum_time_plans`); the twin's builds and solves
+        count in this corridor's problem (``solver_stats``)."""
+        for held, plan in self.minimum_time_plans:
+            if held is route:
+                return plan
+        fresh = self._twin is None
+        twin = self.minimum_time_twin()
+        q = twin.problem
+        before = (0.0, 0, 0, 0.0) if fresh else (q.build_time_s, q.solves, q.iterations, q.solve_time_s)
+        try:
+            plan = twin.solve(None, objective="time", route=route)
+        except SolverFailure as exc:
+            plan = exc.best_plan
+        except (InfeasibleETA, WeatherCoverageError, NoSafePassage, ConfigError):
+            plan = None
+        finally:
+            if twin is not self:
+                self.problem.add_counts(q, before)
+        if plan is not None and plan.verify(step_nm=self.verify_step_nm):
+            plan = None
+        self.minimum_time_plans.append((route, plan))
+        return plan
 
     # ------------------------------------------------------------------ one ETA
 
@@ -487,20 +405,22 @@ class PreparedCorridor(CorridorReport):
         self.last_duals = None
         call = self._inputs(eta, eta_mode, objective, route, progress)  # stage: inputs
         emit(progress, "start", 0.15)  # stage: start
-        t_s = _time.perf_counter()
+        call.begin("start")
         st = self._tightening()
         st.log = call.log
-        cands = self.starts(call.ctx, cap_h=call.cap_h, objective=objective, warm_plan=warm_plan, route=route, st=st)
-        start, first = cands[0], self.warm_candidate(cands)
+        call.starts = start_stage(
+            self, call.ctx, cap_h=call.cap_h, objective=objective, warm_plan=warm_plan, route=route, st=st
+        )
+        cands = call.starts.candidates
+        start, first = cands[0], warm_candidate(cands)
         call.log.append(
             "starts: "
             + "; ".join(f"{c.label} {c.score:.6g}" if c.plan is not None else f"{c.label} unverified" for c in cands)
         )
-        call.stage_s["start"] = _time.perf_counter() - t_s
-        t_s = _time.perf_counter()  # stages: solve (with the band sides), verify
+        call.begin("solve and verify")  # stages: solve (with the band sides), verify
         best = self._solve_stage(call, start, first)
-        call.stage_s["solve and verify"] = _time.perf_counter() - t_s
-        return self._plan_stage(call, cands, start, first, best)  # stage: plan
+        call.begin("plan")
+        return self._plan_stage(call, cands, start, first, best)
 
     # ------------------------------------------------------------------ the stages of a solve
 
@@ -565,9 +485,7 @@ class PreparedCorridor(CorridorReport):
             speed = self.length_nm / cap_h if cap_h is not None and np.isfinite(cap_h) else self.ship.design_speed_kn
             rows = canonical_rows(self.plan_context(), self.frame, (self.y_lo, self.y_hi), float(np.clip(
                 speed, self.v_min, self.v_max)), self.departure, self.verify_step_nm)  # fmt: skip
-            self._binding = binding_legs(self.frame, self.grid.s_nm, self.grid.hs_m, self.plan_context(),
-                                         self.hs_margin0, self.departure)  # fmt: skip
-            self._row_points = (only_where_binding(rows, self._binding),)
+            self._row_points = (only_where_binding(rows, self.binding),)
         return self._row_points[0]
 
     def _solve_from(
@@ -614,7 +532,7 @@ class PreparedCorridor(CorridorReport):
             st.retries += 1
             tighten(st, violations, plan, sol.res)
             if self.constraint_rows == "referee" and getattr(violations, "points", None) is not None:
-                binding = self._binding.copy()  # the rejected plan's check points, and every leg it was rejected on
+                binding = self.binding.copy()  # the rejected plan's check points, and every leg it was rejected on
                 binding[[v.leg for v in violations if 0 <= v.leg < binding.size]] = True
                 st.row_points = only_where_binding(points_of(violations.points, plan.waypoints), binding)
             call.retries, call.samples_per_leg = st.retries, st.samples_per_leg
@@ -716,7 +634,7 @@ class PreparedCorridor(CorridorReport):
             why = "its plan failed verification" if best is None else f"its plan scores {nlp_score:.6g}"
             stats["status_reason"] = f"the NLP did not improve on the verified {start.label} ({start.score:.6g}): {why}"
             stats["certificate"] = self._ship_certificate(start.plan, stats, cap_h, mode, objective)  # type: ignore[arg-type]
-            stats["total_time_s"] = _time.perf_counter() - call.started
+            self._finish(call, stats)
             emit(call.progress, "done", 1.0)
             return replace(start.plan, status="start", solver_stats=stats)  # type: ignore[arg-type]
         plan, sol, _ = best
@@ -727,10 +645,16 @@ class PreparedCorridor(CorridorReport):
         if call.eta_user_h is not None and objective in ("fuel", "cost"):
             shadow = float(sol.res.eta_multiplier) / (1.0 if objective == "fuel" else self.fuel_price)
         stats["certificate"] = self._ship_certificate(plan, stats, cap_h, mode, objective)
-        stats["total_time_s"] = _time.perf_counter() - call.started
+        self._finish(call, stats)
         self.last_duals = Duals.of(sol.res, sol.nlp)
         emit(call.progress, "done", 1.0)
         return replace(plan, status=status, solver_stats=stats, eta_shadow_price_t_per_h=shadow)
+
+    @staticmethod
+    def _finish(call: _Call, stats: dict[str, Any]) -> None:
+        """The plan stage's time recorded (``stage_time_s``, ``stage_cpu_s``) and the solve's total wall time."""
+        call.begin(None)
+        stats["total_time_s"] = _time.perf_counter() - call.started
 
     def _no_plan(self, call: _Call) -> None:
         """Neither the NLP nor any start gives a verified plan: :class:`SolverFailure` with Ipopt's status."""
@@ -775,10 +699,12 @@ class PreparedCorridor(CorridorReport):
             "start": start.label,
             "start_score": start.score,
             "warm_start": first.label,
-            "starts": {c.label: c.score for c in cands},
+            "starts": call.starts.record(start, first) if call.starts is not None else {},
+            "global_starts": call.starts.global_reason if call.starts is not None else "not run",
             "start_tabulation": call.start_table,
             "nlp_score": nlp_score,
             "stage_time_s": call.stage_s,
+            "stage_cpu_s": call.stage_cpu_s,
             "retries": call.retries,
             "first_solve": call.first_solve or "not run",
             "constraint_rows": self.constraint_rows,

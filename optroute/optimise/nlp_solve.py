@@ -180,6 +180,14 @@ class Problem:
         self.iterations += other.iterations
         self.solve_time_s += other.solve_time_s
 
+    def add_counts(self, other: Problem, before: tuple[float, int, int, float]) -> None:
+        """Add what ``other`` (a problem made for this one: the minimum-time twin's) built and solved since ``before``,
+        its (build time [s], solves, iterations, Ipopt time [s]) then."""
+        self.build_time_s += other.build_time_s - before[0]
+        self.solves += other.solves - before[1]
+        self.iterations += other.iterations - before[2]
+        self.solve_time_s += other.solve_time_s - before[3]
+
     def bounds(self, st: Tightening) -> tuple[np.ndarray, np.ndarray]:
         """Lateral bounds [nm]: the tightening's (moved off land) or the prepared ones, shrunk about their middle."""
         lo = self.y_lo if st.y_lo is None else st.y_lo

@@ -231,7 +231,7 @@ def optimise_robust(
     constraint_rows: str = "midpoints",
     progress: Any = None,
     jit: bool = False,
-    discrete_start: bool = False,
+    discrete_start: bool | str = "auto",
     dp_options: Mapping[str, Any] | None = None,
     timed_no_passage: bool = False,
 ) -> Plan:
@@ -262,8 +262,8 @@ def optimise_robust(
         ``benchmarks.bench_voyage`` stopping at Ipopt's iteration limit); ``{"ipopt.hessian_approximation":
         "limited-memory"}`` restores it.
     Other parameters
-        As :func:`optroute.optimise_corridor`; ``eta_mode`` must be ``"le"``; ``jit``, ``discrete_start``,
-        ``dp_options`` and ``timed_no_passage`` are not available (ConfigError); ``progress`` is not called.
+        As :func:`optroute.optimise_corridor`; ``eta_mode`` must be ``"le"``; ``jit``, ``discrete_start=True``,
+        ``dp_options`` and ``timed_no_passage`` are not available (ConfigError; the robust plan has no 3-D DP start); ``progress`` is not called.
 
     Returns
     -------
@@ -296,7 +296,12 @@ def optimise_robust(
         cvar_alpha,
         violation_fraction,
         eta_mode,
-        {"jit": jit, "discrete_start": discrete_start, "dp_options": dp_options, "timed_no_passage": timed_no_passage},
+        {
+            "jit": jit,
+            "discrete_start": discrete_start is True,
+            "dp_options": dp_options,
+            "timed_no_passage": timed_no_passage,
+        },
     )
     if constraint_rows not in ROW_PLACEMENTS:
         raise ConfigError(

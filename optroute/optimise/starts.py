@@ -10,8 +10,13 @@ scores the NLP's plan), and never returns a plan worse than the best verified on
   :func:`optroute.search_route` with ``method="dp"``) run on the corridor itself, when its
   centreline is one great circle (the DP's stages are on the great circle from start to end) and
   there is an ETA: least fuel (or cost) by the ETA, the danger bands and the MCR inside;
+* ``"minimum-time plan"`` — the corridor's minimum-time plan, where it meets the ETA;
+* ``"ship dual"`` — on a fixed path in static weather, the schedule of the ship's own dual bound;
 * ``"centreline start"`` — the NLP's own safe start on the centreline
   (:func:`optroute.optimise.min_time.clean_start`).
+
+Which of them are made, and when the costly ones (the DP, the minimum-time plan) are: the start stage,
+:mod:`optroute.optimise.start_stage`.
 
 A discrete candidate (a search route, the 3-D DP) is checked by its search at its own points only; where
 the referee finds the engine outside its range between them, its speeds are mended leg by leg
@@ -62,7 +67,8 @@ class Candidate:
     Attributes
     ----------
     label : str
-        ``"warm plan"``, ``"search route"``, ``"3-D DP"`` or ``"centreline start"``.
+        ``"warm plan"``, ``"search route"``, ``"3-D DP"``, ``"minimum-time plan"``, ``"ship dual"`` or
+        ``"centreline start"`` (:mod:`optroute.optimise.start_stage`).
     warm : dict of str to numpy.ndarray
         ``offset_nm`` (N+1,) [nm, port +] and ``stw_kn`` (N,) [kn] on the NLP's legs.
     plan : Plan or None
@@ -72,6 +78,8 @@ class Candidate:
     estimate : float
         The candidate's own figure of that objective (a search's or the DP's), used to order the warm
         starts when it does not verify (the DP's 30 nm pieces can miss a point the referee finds).
+    cpu_s : float
+        CPU seconds it took to make and score (``time.process_time``; a global start's search or solve included).
     """
 
     label: str
@@ -79,6 +87,7 @@ class Candidate:
     plan: Plan | None
     score: float
     estimate: float = float("inf")
+    cpu_s: float = 0.0
 
 
 def score(plan: Plan, objective: str, fuel_price: float, hourly: float) -> float:
@@ -221,8 +230,11 @@ def dp_route(
     """The 3-D DP's least-fuel (or cost) route on the corridor by the ETA; None where it finds none.
 
     Resolution (``options`` overrides, keys of :func:`optroute.search.dp.solve_dp` via ``dp_options``
-    plus ``speed_step_kn``): stages about 1/12 of the corridor apart (at least 20 nm), 5 lateral
-    states per side of the half-width, 1 h time bins, speeds every 1 kn over the NLP's range.
+    plus ``speed_step_kn``): stages about 1/12 of the corridor apart (at least 20 nm), 3 lateral
+    states per side of the half-width, 1 h time bins, speeds every 2 kn over the NLP's range. A start, not
+    the answer: it has to find the side of a storm or band, and the NLP refines it (on the storm crossing of
+    ``benchmarks.bench_nlp`` the NLP ends on the same 74.85 t from this DP as from 5 states per side and
+    1 kn steps, which cost 7× the DP's CPU).
     """
     from optroute.search.routing import search_route
 
@@ -230,8 +242,8 @@ def dp_route(
     length = float(frame.s_nm[-1])
     half = float(np.max(frame.corridor.half_width_nm))
     opts = dict(options or {})
-    step = float(opts.pop("speed_step_kn", 1.0))
-    dp_opts = {"dx_nm": max(20.0, length / 12.0), "dy_nm": max(half / 5.0, 1.0), "half_width_nm": half, "dt_h": 1.0}
+    step = float(opts.pop("speed_step_kn", 2.0))
+    dp_opts = {"dx_nm": max(20.0, length / 12.0), "dy_nm": max(half / 3.0, 1.0), "half_width_nm": half, "dt_h": 1.0}
     dp_opts.update(opts)
     speeds = np.arange(max(v_min_kn, 3.0), v_max_kn + 1e-9, step)
     try:

@@ -1,0 +1,59 @@
+"""The start stage of a corridor solve (optroute.optimise.start_stage): which candidates it scores, and its record.
+
+The global starts (the 3-D DP, the minimum-time plan) are computed where a band or the exclusion can bind or no
+local start verifies; in calm water neither holds, and the call is the local start's alone. The references are
+the Boeing EP 2145155 applicability threshold (no band applies below Hs = 0.016 L), the calm-water fuel worked by
+hand, and the CPU clock read around the call.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+import optroute as orx
+from optroute.errors import ConfigError
+from optroute.optimise.api import optimise_corridor
+from optroute.optimise.start_stage import LABEL_ORDER
+
+SHIP = orx.Ship.preset("container_54k_dwt")
+T0 = np.datetime64("2024-01-10T00:00", "ns")
+
+
+def _calm() -> object:
+    return orx.scenarios.uniform(
+        hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240, resolution_deg=1.0
+    )
+
+
+def test_calm_water_computes_no_global_start_and_its_record_adds_up():
+    # Hs 0 < 0.016 L: no band can apply, no exclusion: a verified local start suffices, no DP, no minimum-time solve
+    assert 0.016 * SHIP.length_m > 0.0
+    corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -10.0]], width_nm=20.0)
+    c0 = time.process_time()
+    plan = optimise_corridor(corridor, _calm(), SHIP, departure=T0, eta=T0 + np.timedelta64(72, "h"), max_leg_nm=60.0)
+    cpu = time.process_time() - c0
+    st = plan.solver_stats
+    assert st["global_starts"].startswith("not computed") and "no band or exclusion can bind" in st["global_starts"]
+    assert set(st["starts"]) <= set(LABEL_ORDER) - {"3-D DP", "minimum-time plan"}
+    # the calm-water optimum by hand: one speed over the great circle (the lateral freedom is worth nothing here)
+    v = corridor.length_nm / 72.0
+    by_hand = 72.0 * float(SHIP.fuel_rate_tph(SHIP.calm_power_kw(v)))
+    assert plan.verify() == [] and plan.total_fuel_t == pytest.approx(by_hand, rel=1e-4)
+    # the record: exactly one candidate chosen, the plan no worse than it, and the CPU of the candidates within the
+    # start stage's, the stages' within the CPU read around the call
+    chosen = [k for k, c in st["starts"].items() if c["chosen"]]
+    assert chosen == [st["start"]] and plan.total_fuel_t <= st["start_score"] * (1 + 1e-9)
+    assert sum(c["cpu_s"] for c in st["starts"].values()) <= st["stage_cpu_s"]["start"] + 1e-6
+    assert set(st["stage_cpu_s"]) == {"start", "solve and verify", "plan"}
+    assert sum(st["stage_cpu_s"].values()) <= cpu + 1e-6
+    assert st["nlp_solves"] >= 1 and st["iterations"] >= st["nlp_solves"]
+
+
+@pytest.mark.parametrize("bad", ["always", 2, None])
+def test_an_unknown_discrete_start_is_a_config_error_naming_it(bad):
+    corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -10.0]], width_nm=0.0)
+    with pytest.raises(ConfigError, match=f"discrete_start={bad!r}"):
+        optimise_corridor(corridor, _calm(), SHIP, departure=T0, eta=T0 + np.timedelta64(72, "h"), discrete_start=bad)
