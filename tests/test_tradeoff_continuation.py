@@ -11,10 +11,10 @@ import importlib
 import numpy as np
 
 import optroute as orx
-from optroute.optimise.corridor_problem import PreparedCorridor
 from optroute.studies.tradeoff import tradeoff
 
 points_mod = importlib.import_module("optroute.studies.front_points")
+stage_mod = importlib.import_module("optroute.optimise.start_stage")
 SHIP = orx.Ship.preset("container_54k_dwt")
 T0 = np.datetime64("2024-01-10T00:00", "ns")
 KW = {"max_leg_nm": 150.0, "use_land_mask": False}
@@ -26,13 +26,13 @@ def test_a_verified_neighbour_is_the_only_start_and_the_front_stays_the_calm_opt
     safe start (only the two end solves and a chain's first point, whose warm plan is an end's, do); every
     point is still the calm-water optimum by hand."""
     built: list[float | None] = []
-    original = PreparedCorridor._centre_candidate
+    original = stage_mod._centre_candidate
 
-    def counting(self, ctx, cap_h, objective, st):
+    def counting(prepared, ctx, cap_h, objective, st):
         built.append(cap_h)
-        return original(self, ctx, cap_h, objective, st)
+        return original(prepared, ctx, cap_h, objective, st)
 
-    monkeypatch.setattr(PreparedCorridor, "_centre_candidate", counting)
+    monkeypatch.setattr(stage_mod, "_centre_candidate", counting)
     front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, n=6, chains=1, **KW)
     interior = front.solve.values == "eta"
     assert len(built) <= 2 + 1  # the ends, and at most the chain's first point (main built one for every point)
