@@ -16,9 +16,6 @@ Sources of the expected values:
 from __future__ import annotations
 
 import math
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -458,33 +455,24 @@ def test_righting_moment_table_from_csv(tmp_path):
         read_righting_moment(tmp_path / "hole.csv")
 
 
-def test_cli_observe_as_a_subprocess(ship, tmp_path):
+def test_cli_observe(ship, tmp_path, capsys):
+    # in-process (optroute.cli.main, as the console script calls it): the process boundary of the same entry point
+    # is tested once in tests/test_cli.py (test_console_script, test_help_and_version_in_a_fresh_interpreter)
+    from optroute.cli import main
+
     m = simulate_motions(ship, _band_encounter(ship, 4.0), duration_s=240.0, seed=3)
     log = write_motion_csv(tmp_path / "motions.csv", m.time_s, m.heave_m, m.roll_deg, m.pitch_deg)
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    run = subprocess.run(
-        [sys.executable, "-m", "optroute", "observe", str(log), "--plot", str(tmp_path / "obs.png"), "--every", "30"],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        env=env,
-        timeout=600,
-    )
-    assert run.returncode == 0, run.stderr
-    assert "RL reaches 1 first at t = " in run.stdout
-    assert "K3_kJ" in run.stdout and "time_s" in run.stdout
+    code = main(["observe", str(log), "--plot", str(tmp_path / "obs.png"), "--every", "30"])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    assert "RL reaches 1 first at t = " in out
+    assert "K3_kJ" in out and "time_s" in out
     assert (tmp_path / "obs.png").stat().st_size > 10_000
     (tmp_path / "bare.csv").write_text("time_s,heave_m,roll\n0,0,0\n0.02,0,0\n")
-    bad = subprocess.run(
-        [sys.executable, "-m", "optroute", "observe", str(tmp_path / "bare.csv")],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        env=env,
-        timeout=600,
-    )
-    assert bad.returncode == 2
-    assert bad.stderr.startswith("optroute: error: ") and "roll_deg" in bad.stderr
+    code = main(["observe", str(tmp_path / "bare.csv")])
+    out, err = capsys.readouterr()
+    assert code == 2 and out == ""
+    assert err.startswith("optroute: error: ") and err.count("\n") == 1 and "roll_deg" in err
 
 
 @settings(max_examples=25, deadline=None)

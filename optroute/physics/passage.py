@@ -188,7 +188,9 @@ def evaluate_speeds(
     params = pointwise.cached_point_params(ship, model, rules) if engine == "auto" else None
     if params is not None:  # the built-in models: the one-point functions every search kernel uses too
         fields = (course, *(col(getattr(sea, f)) for f in SeaState.__dataclass_fields__), stw)
-        flat = [np.ascontiguousarray(np.broadcast_to(a, stw.shape), dtype=float).ravel() for a in fields]
+        # np.array copies: every field arrives writable and C-contiguous, whatever broadcasting gave, so the
+        # kernel compiles one signature (numba types read-only arrays apart, and a broadcast view is read-only)
+        flat = [np.array(np.broadcast_to(a, stw.shape), dtype=float).ravel() for a in fields]
         return tuple(a.reshape(stw.shape) for a in pointwise.evaluate_speeds_flat(params, *flat))  # type: ignore[return-value]
     navigable = sea.navigable[extra]
     hs = np.where(navigable, col(sea.hs_m), 0.0)

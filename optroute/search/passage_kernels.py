@@ -157,9 +157,9 @@ def _checked_piece(
                 for j in range(npts):
                     inv[j] = inv_new[j]
                 continue
-            if piece_clear(
-                p, w, spd, False, mid[0], mid[1], mid[2], mid[3], s_pts, tt, npts, la, lo, crs, sea_pts, refine[0],
-                refine[1], refine[2],
+            if piece_clear(  # np.bool_(...): see _dp_piece_clear
+                p, w, spd, np.bool_(False), mid[0], mid[1], mid[2], mid[3], s_pts, tt, npts, la, lo, crs, sea_pts,
+                refine[0], refine[1], refine[2],
             ):  # fmt: skip
                 return dur, fu, True, uncovered
             # a band between the check points, where the referee's rules look: strike the speed
@@ -446,9 +446,13 @@ def _dp_piece_clear(p, w, la, lo, crs, length, t_mid, sog_kn, work):  # pragma: 
         sog, _, allowed = _eval_at(p, crs_pts[j], sea, stw)
         if not (allowed and sog > 0.0):
             return False, uncovered
+    # np.bool_(True), np.int64(3): typed values, not literals. numba compiles a kernel once per argument type, and a
+    # literal constant is a type of its own, so with literals piece_clear (and piece_certified, _probe, _crossings,
+    # _box under it) compiled twice, once for this call and once for _checked_piece's; now both share one.
     clear = piece_clear(
-        p, w, sog_kn, True, la, lo, crs, length, s_pts, t_pts, 3, la_pts, lo_pts, crs_pts, sea_pts, ws, sl, scratch
-    )
+        p, w, sog_kn, np.bool_(True), la, lo, crs, length, s_pts, t_pts, np.int64(3), la_pts, lo_pts, crs_pts, sea_pts,
+        ws, sl, scratch,
+    )  # fmt: skip
     return clear, uncovered
 
 
