@@ -87,3 +87,4 @@ def test_the_lattice_is_no_proof_the_nlp_is_still_tried(members: list[xr.Dataset
     for m in members:
         assert plan.verify(weather=m) == []  # the ETA too (to the referee's tolerance)
     assert plan.arrival - eta < np.timedelta64(1, "s")
+    assert plan.solver_stats["start"] == "centreline" and "without: [1]" in plan.solver_stats["start_evidence"]

@@ -184,8 +184,9 @@ def _warm(frame: Any, length_nm: float, eta_h: float | None, v_max: float, warm_
     return {"offset_nm": np.zeros(frame.n_legs + 1), "stw_kn": np.full(frame.n_legs, speed)}
 
 
-def _start(prepared, frame, eta_h, robust, warm_plan, route) -> tuple[dict[str, np.ndarray], OptrouteError | None]:
-    """The NLP's start and, where the members' joint 3-D DP finds no common schedule, its evidence.
+def _start(prepared, frame, eta_h, robust, warm_plan, route) -> tuple[dict, OptrouteError | None, str]:
+    """The NLP's start, where the members' joint 3-D DP finds no common schedule its evidence, and which start it is
+    (``"given"``, ``"ensemble_dp"`` or ``"centreline"``: ``solver_stats["start"]``).
 
     A warm plan or route given is the start. Otherwise (``"all"``/``"cvar"`` with an ETA) the least-mean-fuel lattice
     schedule safe in every member (:func:`~optroute.optimise.robust_start.ensemble_dp_path`): the band sides the NLP
@@ -193,15 +194,17 @@ def _start(prepared, frame, eta_h, robust, warm_plan, route) -> tuple[dict[str, 
     opposite sides in two members. Where the DP finds none, the centreline start and the error that says so.
     """
     ref = prepared[0]
-    if warm_plan is not None or route is not None or eta_h is None or robust == "chance":
-        return _warm(frame, ref.length_nm, eta_h, ref.v_max, warm_plan, route), None
+    given = warm_plan is not None or route is not None
+    if given or eta_h is None or robust == "chance":
+        return _warm(frame, ref.length_nm, eta_h, ref.v_max, warm_plan, route), None, "given" if given else "centreline"
     try:
         path = ensemble_dp_path(
             prepared, frame, eta_h, float(np.min(ref.v_min)), float(np.max(ref.v_max)), ref.exclusion
         )
     except (InfeasibleETA, NoSafePassage) as exc:
-        return _warm(frame, ref.length_nm, eta_h, ref.v_max, None, None), exc
-    return track_warm_start(np.column_stack([path.lat_deg, path.lon_deg]), path.extra["stw_kn"], frame), None
+        return _warm(frame, ref.length_nm, eta_h, ref.v_max, None, None), exc, "centreline"
+    route_start = track_warm_start(np.column_stack([path.lat_deg, path.lon_deg]), path.extra["stw_kn"], frame)
+    return route_start, None, "ensemble_dp"
 
 
 def _tighten(state: dict[str, float], found: list[Violation], log: list[str]) -> bool:
@@ -310,7 +313,8 @@ def optimise_robust(
         ``fuel_cvar_t`` (referee), ``nlp_objective``, ``nlp_member_fuel_t``, ``nlp_var``; and ``ipopt_status``,
         ``nlp_solves``, ``iterations``, ``solve_time_s``, ``build_time_s``, ``retries``, ``tightening``,
         ``nlp_samples_per_leg`` (with ``constraint_rows="referee"`` the row-only samples too),
-        ``total_time_s``.
+        ``total_time_s``; ``start`` (``"given"``, ``"ensemble_dp"``, ``"centreline"``), ``start_cpu_s`` (the joint
+        DP's CPU) and ``start_evidence`` (the lattice's error where it found no common schedule, else None).
 
     Raises
     ------
@@ -370,7 +374,13 @@ def optimise_robust(
     eta_t = as_utc_time(eta, "eta") if eta is not None else None
     eta_h = timedelta_to_h(eta_t - t0) if eta_t is not None else (ref.prepared_cap_h if objective != "time" else None)
     ctx = ref.plan_context(eta_t, "le")
-    warm, evidence = _start(prepared, frame, eta_h, robust, warm_plan, route)
+    start_cpu = _time.process_time()
+    warm, evidence, kind = _start(prepared, frame, eta_h, robust, warm_plan, route)
+    start = {
+        "start": kind,
+        "start_cpu_s": _time.process_time() - start_cpu,
+        "start_evidence": None if evidence is None else str(evidence),
+    }
     state = {
         "widen": ref.margin0,
         "hs_margin": ref.hs_margin0,
@@ -429,6 +439,7 @@ def optimise_robust(
                 drop_choices_solved=len(candidates),
             )
             stats.update(counts, retries=retry, tightening=log, ipopt_status=res.status, nlp_solves=counts["solves"])
+            stats.update(start)
             stats["nlp_samples_per_leg"] = nlp.samples_per_leg  # the quadrature's and any row-only samples
             stats["total_time_s"] = _time.perf_counter() - started
             return replace(plan, status=status, solver_stats=stats)

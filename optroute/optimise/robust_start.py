@@ -41,19 +41,24 @@ def _physics(prepared: Sequence[Any]) -> list[PassagePhysics]:
 
 
 def _joint_cost(costs: list[Callable]) -> Callable:
-    """Leg cost feasible only where every member's is; fuel the members' mean (the robust objective's)."""
+    """Leg cost feasible only where every member's is; fuel the members' mean (the robust objective's).
+
+    Each member costs only the legs every member before it allowed (a leg one member forbids is not costed in the
+    rest)."""
 
     def cost(lat0, lon0, lat1, lon1, t0_h, sog_kn):
+        legs = (lat0, lon0, lat1, lon1, t0_h, sog_kn)
         feas = np.ones(np.shape(lat0), dtype=bool)
-        fuel = np.zeros(np.shape(lat0))
-        stw = np.zeros(np.shape(lat0))
-        dur = None
+        fuel, stw = np.zeros(np.shape(lat0)), np.zeros(np.shape(lat0))
+        dur = np.asarray(geo.distance_nm(lat0, lon0, lat1, lon1)) / np.asarray(sog_kn)  # commanded SOG: every member's
         for c in costs:
-            d, f, ok, extra = c(lat0, lon0, lat1, lon1, t0_h, sog_kn)
-            feas &= ok
-            fuel = fuel + np.where(ok, f, 0.0)
-            stw = stw + np.where(ok, extra["stw_kn"], 0.0)
-            dur = d  # a commanded speed over ground: every member's duration is distance / SOG
+            idx = np.flatnonzero(feas)
+            if idx.size == 0:
+                break
+            _, f, ok, extra = c(*(np.ascontiguousarray(np.asarray(a)[idx]) for a in legs))
+            feas[idx] = ok
+            fuel[idx] += np.where(ok, f, 0.0)
+            stw[idx] += np.where(ok, extra["stw_kn"], 0.0)
         n = len(costs)
         return dur, np.where(feas, fuel / n, np.nan), feas, {"stw_kn": np.where(feas, stw / n, np.nan)}
 
