@@ -5,21 +5,23 @@ Hidden-truth suite: a 12.5 m storm (:func:`optroute.scenarios.moving_storm_spec`
 (:func:`optroute.scenarios.converging_forecasts`) that displace, delay or weaken the storm and
 converge on the truth by a stated time. For every case: (a) plan once on the first forecast and
 sail it blind, (b) re-plan on each forecast (:class:`optroute.voyage.ReplanPolicy`) warm-started from the
-plan being sailed, (b') the same from cold starts, (c) plan once robustly on an ensemble about the
-first forecast (its storm's track moved by N(0, 150 nm) east and north, its timing by N(0, 3 h), its
-intensity by a log-normal factor of sigma 0.1: :func:`optroute.weather.scenarios.ensemble`) with
-``optimise_corridor(..., robust="all")`` in the 400 nm corridor about the great circle on the members that
-:func:`unsolved_alone` keeps (those screened out are named and counted in the row), and sail it blind; the table
-gives the time sailed inside a danger band of the truth, the time the plan's speed met a band, the ETA miss, the
-fuel, the re-plans, and the simulation CPU per simulated day, with (a) as the baseline of the fuel and CPU (same
-process, same truth); (c)'s CPU is the screening and the robust planning plus the sailing, and its row says how many
-of all the members (the screened ones too) the robust plan is clean in and how many (a)'s plan breaks
-(:func:`optroute.member_violations`), how often robust.py's tightening loop fired, and whether the ensemble's spread
-covers the truth (:func:`coverage`: the true storm centre inside the hull of the members' at the crossing hour, the
-nearest member's distance). Full mode: 10 members, on the 150 nm spread and on a spread as large as the case's
-forecast error (:func:`covering_spread`); quick mode: 4 members, the 150 nm spread. CPU [s] is this process's (the
-machine is shared: compare CPU, not wall); each case's ratios are to its own (a), so the cases may run in separate
-processes (``run(False, only=k)``).
+plan being sailed, (b') the same from cold starts, (c) plan once robustly on a 10-member ensemble about the first
+forecast with ``optimise_corridor(..., robust="all")`` in the 400 nm corridor about the great circle, and sail it
+blind. The ensemble's spread is the suite's forecast-error distribution (:func:`suite_error_spread`: the maximum
+likelihood fit to the three cases' errors, the same for every case: the track moved by N(0, 191.5 nm) east and
+north, the timing by N(0, 3.46 h), the intensity by a log-normal factor of sigma 0.129, as
+:func:`optroute.weather.scenarios.ensemble` draws), seed = case index + 1; (c)'s row says whether that draw covers
+the truth and, over :data:`COVERAGE_SEEDS` draws, how often an ensemble of this distribution does against how often
+a calibrated one would (:func:`coverage_rate`). Where the members have no common schedule on the 3-D DP's lattice
+(the robust call's InfeasibleETA/NoSafePassage), the members without a schedule of their own are named and left
+out (:func:`no_passage_alone`). The table gives the time sailed inside a danger band of the truth, the time the
+plan's speed met a band, the ETA miss, the fuel, the re-plans, and the simulation CPU per simulated day, with (a) as
+the baseline of the fuel and CPU (same process, same truth); (c)'s CPU is the robust planning plus the sailing, and
+its row says how many of the members the robust plan is clean in and how many (a)'s plan breaks
+(:func:`optroute.member_violations`), and how often robust.py's tightening loop fired and for what. Quick mode:
+4 members. CPU [s] is this process's (the machine is shared: compare CPU, not wall); each case's ratios are to its
+own (a), so the cases may run in separate processes (``run(False, only=k)``), and a case's rows too
+(``policies="b"`` or ``"c"``: (a) is run in each).
 
 Run ``python -m benchmarks.bench_voyage [--quick]``; the reduced full mode (the first case only, with the cold
 re-plans and the 10-member robust plan) is ``python -c "from benchmarks.bench_voyage import run; run(False, n_cases=1)"``.
@@ -61,27 +63,32 @@ CASES = (
 )
 
 
-#: The robust plan's ensemble spread about the first forecast's storm and its corridor (total width [nm]).
-ENSEMBLE = {"position_sigma_nm": 150.0, "timing_sigma_h": 3.0, "intensity_sigma": 0.1}
+#: The robust plan's corridor (total width [nm]).
 ROBUST_WIDTH_NM = 400.0
 #: Hour [h since departure] at which the storms' centres are compared (the true storm crosses 30° N then).
 CROSSING_H = 24.0
+#: Ensembles drawn per case by :func:`coverage_rate` (the share of seeds whose members cover the truth).
+COVERAGE_SEEDS = 100
 
 
-def covering_spread(spec: tuple) -> dict[str, float]:
-    """An ensemble spread as large as the case's forecast error: the distance between the first forecast's and the
-    true storm centre at :data:`CROSSING_H` (displacement and timing error together) as the position sigma [nm], the
-    delay as the timing sigma (at least 3 h), |ln intensity factor| as the intensity sigma (at least 0.1)."""
-    from optroute.geodesy import inverse
+def suite_error_spread(cases: tuple = CASES) -> dict[str, float]:
+    """The forecast-error distribution of the suite, fitted to its cases by maximum likelihood: the ensemble's spread.
 
-    _, dist, brg, delay, fac, _, _ = spec
-    first = fc.displaced_storms([_storm()], displacement_nm=dist, bearing_deg=brg, delay_h=delay, intensity_factor=fac)
-    (la, lo), (lb, lb_lon) = _centre(first[0].track, CROSSING_H), _centre(_storm().track, CROSSING_H)
-    error_nm = float(inverse(la, lo, lb, lb_lon)[0])
+    The forecasts of the suite err as :func:`optroute.weather.forecast.displaced_storms` makes them (a track
+    displacement, a delay, an intensity factor), which are the three perturbations
+    :func:`optroute.weather.scenarios.ensemble` draws: the track moved by an isotropic Gaussian east and north,
+    ``σ_p² = Σ d² / (2K)`` over the K cases' displacements ``d`` [nm]; the timing by N(0, σ_t),
+    ``σ_t² = Σ delay² / K`` [h]; the intensity by a log-normal factor, ``σ_i² = Σ ln(factor)² / K``. One
+    distribution for every case (no case's own error sets its ensemble), so each case's truth is one draw of the
+    error the ensemble describes: 191.5 nm, 3.46 h and 0.129 for the three cases.
+    """
+    d = np.array([c[1] for c in cases])
+    delay = np.array([c[3] for c in cases])
+    fac = np.array([c[4] for c in cases])
     return {
-        "position_sigma_nm": max(150.0, error_nm),
-        "timing_sigma_h": max(3.0, abs(float(delay))),
-        "intensity_sigma": max(0.1, abs(float(np.log(fac)))),
+        "position_sigma_nm": float(np.sqrt(np.mean(d**2) / 2.0)),
+        "timing_sigma_h": float(np.sqrt(np.mean(delay**2))),
+        "intensity_sigma": float(np.sqrt(np.mean(np.log(fac) ** 2))),
     }
 
 
@@ -90,34 +97,70 @@ def _centre(track: Any, hour: float) -> tuple[float, float]:
     return float(np.interp(hour, tr[:, 0], tr[:, 1])), float(np.interp(hour, tr[:, 0], tr[:, 2]))
 
 
+def _crossing(storms: list[dict]) -> tuple[np.ndarray, np.ndarray]:
+    """Storm centres at :data:`CROSSING_H` in the true storm's east/north frame [nm], and the peaks [m]."""
+    lat0, lon0 = _centre(_storm().track, CROSSING_H)
+    xy, peaks = [], []
+    for st in storms:
+        lat, lon = _centre(st["track"], CROSSING_H)
+        xy.append(((lon - lon0) * 60.0 * np.cos(np.radians(lat0)), (lat - lat0) * 60.0))
+        peaks.append(float(st["peak_hs_m"]))
+    return np.array(xy), np.array(peaks)
+
+
+def _covers(pts: np.ndarray, peaks: np.ndarray, at: np.ndarray, peak: float) -> dict[str, Any]:
+    from scipy.spatial import Delaunay
+
+    return {
+        "inside": bool(len(pts) >= 3 and Delaunay(pts).find_simplex(at[None, :])[0] >= 0),
+        "in_range": bool(np.all((pts.min(axis=0) <= at) & (at <= pts.max(axis=0)))),
+        "intensity": bool(peaks.min() <= peak <= peaks.max()),
+        "nearest_nm": float(np.min(np.hypot(*(pts - at).T))),
+    }
+
+
 def coverage(ens: Any) -> dict[str, Any]:
     """Whether the ensemble's spread covers the truth: its members' storm centres at :data:`CROSSING_H` (timing
     errors included: a late storm is further north) against the true storm's, in a local east/north frame [nm].
 
     ``inside``: the truth's centre lies inside the convex hull of the members' (``scipy.spatial.Delaunay``);
-    ``nearest_nm``: the distance from the truth's centre to the nearest member's; ``intensity``: whether the true
-    peak lies within the members' peaks.
+    ``in_range``: inside the members' range east and north (the rank-histogram sense: the truth is no outlier on
+    either axis); ``intensity``: the true peak within the members' peaks; ``nearest_nm``: the distance from the
+    truth's centre to the nearest member's.
     """
     import json
 
-    from scipy.spatial import Delaunay
+    pts, peaks = _crossing([m["storms"][0] for m in json.loads(ens.attrs["ensemble"])["members"]])
+    return _covers(pts, peaks, np.zeros(2), _storm().peak_hs_m)
 
-    truth = _storm()
-    lat0, lon0 = _centre(truth.track, CROSSING_H)
-    members = json.loads(ens.attrs["ensemble"])["members"]
-    xy, peaks = [], []
-    for m in members:
-        st = m["storms"][0]
-        lat, lon = _centre(st["track"], CROSSING_H)
-        xy.append(((lon - lon0) * 60.0 * np.cos(np.radians(lat0)), (lat - lat0) * 60.0))
-        peaks.append(float(st["peak_hs_m"]))
-    pts = np.array(xy)
-    inside = bool(len(pts) >= 3 and Delaunay(pts).find_simplex(np.zeros((1, 2)))[0] >= 0)
-    return {
-        "inside": inside,
-        "nearest_nm": float(np.min(np.hypot(pts[:, 0], pts[:, 1]))),
-        "intensity": bool(min(peaks) <= truth.peak_hs_m <= max(peaks)),
-    }
+
+def _no_field(storms: list, **kwargs: Any) -> Any:
+    import xarray as xr
+
+    return xr.Dataset()  # the members' specifications only (ensemble's attrs): coverage needs no field
+
+
+def coverage_rate(spec: tuple, spread: dict[str, float], members: int, seeds: int = COVERAGE_SEEDS) -> dict:
+    """Over ``seeds`` ensembles (seeds 0, 1, ...) about the case's first forecast, the share in which the truth is
+    ``inside`` / ``in_range`` / within the ``intensity`` range (:func:`coverage`); and ``calibrated_*``: the same
+    shares for a truth drawn from the ensemble's own distribution (member ``members`` of a ``members + 1`` draw) —
+    what a calibrated ensemble of this size achieves (about 1 − E[hull vertices of M+1 points]/(M+1) for the hull,
+    ((M−1)/(M+1))² for the ranges of a Gaussian)."""
+    import json
+
+    _, dist, brg, delay, fac, _, _ = spec
+    first = fc.displaced_storms([_storm()], displacement_nm=dist, bearing_deg=brg, delay_h=delay, intensity_factor=fac)
+    keys = ("inside", "in_range", "intensity")
+    got = {k: 0 for k in keys} | {f"calibrated_{k}": 0 for k in keys}
+    for seed in range(seeds):
+        info = json.loads(sc.ensemble(_no_field, members + 1, seed=seed, storms=first, **spread).attrs["ensemble"])
+        pts, peaks = _crossing([m["storms"][0] for m in info["members"]])
+        real = _covers(pts[:members], peaks[:members], np.zeros(2), _storm().peak_hs_m)
+        drawn = _covers(pts[:members], peaks[:members], pts[members], float(peaks[members]))
+        for k in keys:
+            got[k] += real[k]
+            got[f"calibrated_{k}"] += drawn[k]
+    return {k: v / seeds for k, v in got.items()}
 
 
 def _storm() -> Any:
@@ -139,56 +182,50 @@ def shared_options() -> dict[str, Any]:
     }  # fmt: skip
 
 
-def unsolved_alone(ens: Any) -> list[int]:
-    """The members whose own problem (the robust NLP on that member alone, the lateral bounds of all) Ipopt does not
-    solve from the ETA's constant-speed centreline start: one plan for every member cannot be found while one of them
-    alone is not. Not a proof that no plan exists in the member (seed 1's member 8 of the 300 nm north case puts the
-    storm over the destination, where only racing ahead of it is safe), which is why (c) names and counts them and
-    reports the plan's violations in them too."""
-    from formulations.robust_nlp import RobustSpeedNLP
-    from optroute.optimise.nlp_inputs import formulation_bands
+def no_passage_alone(ens: Any) -> list[int]:
+    """The members in which the 3-D DP on that member alone finds no safe schedule by the ETA
+    (:func:`optroute.optimise.robust_start.members_with_passage`): no plan robust over a set of members containing one
+    of them exists on the lattice."""
     from optroute.optimise.robust import member_datasets, prepare_members
+    from optroute.optimise.robust_start import members_with_passage
 
     corridor = orx.Corridor.from_waypoints([A, B], width_nm=ROBUST_WIDTH_NM)
-    prepared, y_lo, y_hi = prepare_members(corridor, member_datasets(ens), SHIP, shared_options(), 0)
+    prepared, _, _ = prepare_members(corridor, member_datasets(ens), SHIP, shared_options(), 0)
     ref = prepared[0]
-    bands, _, a = formulation_bands(ref.ship, ref.rules, widen=ref.margin0, hs_margin=ref.hs_margin0)
-    eta_h, n = float((ETA - T0) / np.timedelta64(1, "h")), ref.frame.n_legs
-    out = []
-    for k, p in enumerate(prepared):
-        nlp = RobustSpeedNLP(
-            ref.frame.geometry(y_lo, y_hi), [p.grid], ref.power, bands=bands, samples_per_leg=ref.samples_per_leg,
-            v_min_kn=ref.v_min, v_max_kn=ref.v_max, g_over_2pi_kn_s=a,
-        )  # fmt: skip
-        res = nlp.solve_sides(
-            eta_h=eta_h, offset0_nm=np.zeros(n + 1), stw0_kn=np.full(n, ref.length_nm / eta_h), max_solves=6
-        )
-        if res.status != "Solve_Succeeded":
-            out.append(k)
-    return out
+    eta_h = float((ETA - T0) / np.timedelta64(1, "h"))
+    ok = members_with_passage(prepared, ref.frame, eta_h, float(np.min(ref.v_min)), float(np.max(ref.v_max)))
+    return [k for k, o in enumerate(ok) if not o]
 
 
 def _robust_plan(spec: tuple, members: int, spread: dict[str, float]) -> dict[str, Any]:
     """(c): the robust plan on an ensemble about the first forecast (issued at departure), and its wall time.
 
-    ``robust="all"`` on the members :func:`unsolved_alone` keeps (the screened ones named in ``screened``)."""
+    ``robust="all"`` on every member; where the members' joint lattice has no common schedule (InfeasibleETA or
+    NoSafePassage from :func:`optroute.optimise.robust_start.ensemble_dp_path`), the members without a schedule of
+    their own (:func:`no_passage_alone`) are left out, named in ``screened``, and the plan is made on the rest.
+    The ensemble's seed is the case's index + 1 (cases do not share one draw)."""
     _, dist, brg, delay, fac, _, _ = spec
     first = fc.displaced_storms([_storm()], displacement_nm=dist, bearing_deg=brg, delay_h=delay, intensity_factor=fac)
     t, cpu = time.perf_counter(), time.process_time()
-    ens = sc.ensemble(_storm_dataset, members, seed=1, storms=first, background_hs_m=1.5, **spread, **KW)
+    seed = 1 + CASES.index(spec)
+    ens = sc.ensemble(_storm_dataset, members, seed=seed, storms=first, background_hs_m=1.5, **spread, **KW)
     corridor = orx.Corridor.from_waypoints([A, B], width_nm=ROBUST_WIDTH_NM)
-    cover = coverage(ens)
-    screened = unsolved_alone(ens)
-    kept = [k for k in range(members) if k not in screened]
-    out = {"ensemble": ens, "coverage": cover, "screened": screened}
+    out: dict[str, Any] = {"ensemble": ens, "coverage": coverage(ens), "screened": [], "seed": seed}
+    sub = ens
     try:
-        if not kept:
-            raise orx.OptrouteError(f"every member screened out: {screened}")
-        sub = ens.isel(member=kept)
-        sub.attrs = dict(ens.attrs)
-        plan = orx.optimise_corridor(corridor, sub, SHIP, departure=T0, eta=ETA, robust="all", **OPTS)
+        try:
+            plan = orx.optimise_corridor(corridor, ens, SHIP, departure=T0, eta=ETA, robust="all", **OPTS)
+        except (orx.InfeasibleETA, orx.NoSafePassage) as exc:
+            out["first_error"] = f"{type(exc).__name__}: {str(exc)[:300]}"
+            out["screened"] = no_passage_alone(ens)
+            kept = [k for k in range(members) if k not in out["screened"]]
+            if not out["screened"] or not kept:
+                raise
+            sub = ens.isel(member=kept)
+            sub.attrs = dict(ens.attrs)
+            plan = orx.optimise_corridor(corridor, sub, SHIP, departure=T0, eta=ETA, robust="all", **OPTS)
     except orx.OptrouteError as exc:
-        return {"error": f"{type(exc).__name__}: {str(exc)[:200]}", "wall_s": time.perf_counter() - t,
+        return {"error": f"{type(exc).__name__}: {str(exc)[:400]}", "wall_s": time.perf_counter() - t,
                 "cpu_s": time.process_time() - cpu, **out}  # fmt: skip
     return {"plan": plan, "wall_s": time.perf_counter() - t, **out}
 
@@ -244,14 +281,20 @@ def _robust_row(
     robust = _robust_plan(spec, members, spread)
     robust_cpu = time.process_time() - cpu
     cov = robust["coverage"]
+    rate = coverage_rate(spec, spread, members)
     covers = (
-        f"truth {'inside' if cov['inside'] else 'outside'} the members' hull, nearest member {cov['nearest_nm']:.0f} nm"
-        f"{'' if cov['intensity'] else ', intensity outside'}"
+        f"seed {robust['seed']}: truth {'inside' if cov['inside'] else 'outside'} the members' hull, "
+        f"{'inside' if cov['in_range'] else 'outside'} their east/north ranges, nearest member "
+        f"{cov['nearest_nm']:.0f} nm{'' if cov['intensity'] else ', intensity outside'}; over {COVERAGE_SEEDS} seeds "
+        f"inside the hull {rate['inside']:.0%} (calibrated {rate['calibrated_inside']:.0%}), the ranges "
+        f"{rate['in_range']:.0%} ({rate['calibrated_in_range']:.0%}), the intensities {rate['intensity']:.0%} "
+        f"({rate['calibrated_intensity']:.0%})"
     )
     screened = robust["screened"]
-    label = (
-        f"(c) robust='all', {members} members, spread {name} ({covers}); {len(screened)} screened out "
-        f"{screened} (unsolved alone)"
+    label = f"(c) robust='all', {members} members, spread {name} ({covers})" + (
+        f"; {len(screened)} left out {screened} (no lattice schedule alone; first: {robust['first_error']})"
+        if screened
+        else ""
     )
     if "error" in robust:
         return label, robust
@@ -266,10 +309,12 @@ def _robust_row(
         sailed["cpu_s"] += robust_cpu
         sailed["cpu_s_per_sim_day"] = sailed["cpu_s"] / sailed["sim_days"]
     sailed["robust_plan_wall_s"], sailed["robust_plan_cpu_s"] = robust["wall_s"], robust_cpu
+    sailed["coverage"], sailed["coverage_rate"] = cov, rate
     sailed["members_clean"] = f"{checked}/{members}"
     sailed["screened"] = screened
     stats = robust["plan"].solver_stats
     sailed["tightenings"] = int(stats.get("retries", 0))
+    sailed["tightened_for"] = sorted({k for e in stats.get("tightening", []) for k in _kinds(e)})
     sailed["robust_solves"] = int(stats.get("nlp_solves", 0))
     sailed["robust_iterations"] = int(stats.get("iterations", 0))
     violated = f" (violated: {r['violated_members']}, {r['kinds']})" if r["members_violated"] else ""
@@ -280,23 +325,35 @@ def _robust_row(
             f" ({a['violated_members']})" if a["members_violated"] else ""
         )
     return (
-        f"{label}, {checked}/{members} clean{violated}{versus}, {sailed['tightenings']} tightening(s), "
+        f"{label}, {checked}/{members} clean{violated}{versus}, {sailed['tightenings']} tightening(s) "
+        f"{sailed['tightened_for']}, "
         f"{sailed['robust_solves']} NLP solves, {sailed['robust_iterations']} Ipopt iterations, {robust_cpu:.0f} "
         "CPU-s to plan, sailed blind"
     ), sailed
 
 
-def _case_rows(spec: tuple, quick: bool) -> Iterator[tuple[str, dict[str, Any]]]:
-    """Every policy's row of one case, each as soon as it is measured ((a) first: the baseline)."""
+def _kinds(entry: str) -> list[str]:
+    """The violation kinds of one line of robust.py's tightening log (``"tightened for ['band:...', ...]: {...}"``)."""
+    import ast
+
+    if not entry.startswith("tightened for "):
+        return []
+    return list(ast.literal_eval(entry[len("tightened for ") : entry.index("]:") + 1]))
+
+
+def _case_rows(spec: tuple, quick: bool, policies: str = "bc") -> Iterator[tuple[str, dict[str, Any]]]:
+    """Every policy's row of one case, each as soon as it is measured ((a) first: the baseline, always run)."""
     truth, fcs = _case(spec)
     once = _sail(truth, fcs, ReplanPolicy.never())
     yield "(a) plan once", once
-    yield "(b) re-plan on each forecast (warm)", _sail(truth, fcs, ReplanPolicy())
-    if not quick:
-        yield "(b') re-plan on each forecast (cold)", _sail(truth, fcs, ReplanPolicy(), warm=False)
+    if "b" in policies:
+        yield "(b) re-plan on each forecast (warm)", _sail(truth, fcs, ReplanPolicy())
+        if not quick:
+            yield "(b') re-plan on each forecast (cold)", _sail(truth, fcs, ReplanPolicy(), warm=False)
+    if "c" not in policies:
+        return
     members = 4 if quick else 10
-    for name, spread in [("150 nm", ENSEMBLE)] + ([] if quick else [("= forecast error", covering_spread(spec))]):
-        yield _robust_row(spec, truth, fcs, members, name, spread, once.get("plan"))
+    yield _robust_row(spec, truth, fcs, members, "= the suite's error", suite_error_spread(), once.get("plan"))
 
 
 def _print_row(case: str, label: str, r: dict, base: dict) -> None:
@@ -316,9 +373,10 @@ def _print_row(case: str, label: str, r: dict, base: dict) -> None:
     )
 
 
-def run(quick: bool, *, n_cases: int | None = None, only: int | None = None) -> dict[str, Any]:
+def run(quick: bool, *, n_cases: int | None = None, only: int | None = None, policies: str = "bc") -> dict[str, Any]:
     """The table; ``n_cases`` (reduced full mode) keeps the full mode's policies and 10 members on fewer cases;
-    ``only`` runs case ``only`` alone (its rows' ratios are to its own (a) in the same process either way)."""
+    ``only`` runs case ``only`` alone (its rows' ratios are to its own (a) in the same process either way);
+    ``policies`` ("b": the re-planning rows, "c": the robust rows; (a) always) splits a case over processes."""
     cases = CASES[:1] if quick else CASES[: n_cases or len(CASES)]
     cases = cases if only is None else (CASES[only],)
     rows = []
@@ -327,7 +385,7 @@ def run(quick: bool, *, n_cases: int | None = None, only: int | None = None) -> 
     print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for spec in cases:
         base: dict[str, Any] = {}
-        for label, r in _case_rows(spec, quick):
+        for label, r in _case_rows(spec, quick, policies):
             base = base or r
             rows.append({"case": spec[0], "policy": label, **{k: v for k, v in r.items() if k != "plan"}})
             _print_row(spec[0], label, r, base)

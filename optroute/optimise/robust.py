@@ -11,6 +11,16 @@
   offsets and leg speeds through water; its rows are the corridor NLP's stacked per member (each with its own
   arrival times, since the speed over ground depends on the member's current): danger bands (sides per member),
   the engine's load range (MCR and minimum power), the moving exclusion, and the ETA for every member's arrival.
+* **Start: a schedule safe in every member.** The NLP keeps the band sides and the samples where a band applies
+  of its start; from the centreline at the ETA's constant speed two members can ask for opposite sides of one band
+  (one member's storm passed ahead of it, another's behind), and Ipopt then declares the stacked problem infeasible
+  although a common schedule exists. Without a warm plan or route, ``"all"`` and ``"cvar"`` start from the 3-D DP of
+  Shao et al. on the members' joint leg cost (:func:`~optroute.optimise.robust_start.ensemble_dp_path`: feasible
+  only where feasible in every member, mean fuel). Where that lattice has no schedule by the ETA safe in every
+  member, the NLP is still tried from the centreline; if it finds no verified plan either, the lattice's
+  :class:`~optroute.errors.InfeasibleETA` (the earliest arrival safe in all members) or
+  :class:`~optroute.errors.NoSafePassage` (none within the weather's horizon) is raised, naming the members with a
+  schedule of their own and those without, in place of a :class:`~optroute.errors.SolverFailure`.
 * **Objective.** ``robust="all"``: the mean of the members' fuel (or time, cost) — the members equally likely;
   ``robust="cvar"``: their conditional value at risk at level ``cvar_alpha`` by the Rockafellar–Uryasev auxiliary
   variable (Rockafellar & Uryasev 2000; :func:`cvar` is the referee's value of it). In both, every constraint holds
@@ -57,10 +67,11 @@ import xarray as xr
 
 from formulations.robust_nlp import MAX_DROP_CHOICES, RobustResult, RobustSpeedNLP
 from optroute._checks import finite
-from optroute.errors import ConfigError, NoSafePassage, SolverFailure
+from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, OptrouteError, SolverFailure
 from optroute.optimise.nlp_inputs import formulation_bands, moving_exclusion
 from optroute.optimise.nlp_solve import VIOLATION_TOL, route_warm_start
 from optroute.optimise.rescue import LIMIT_STATUSES, plan_warm_start
+from optroute.optimise.robust_start import ensemble_dp_path
 from optroute.optimise.rows import (
     ROW_PLACEMENTS,
     binding_legs,
@@ -69,6 +80,7 @@ from optroute.optimise.rows import (
     points_of,
     sample_layout,
 )
+from optroute.optimise.starts import track_warm_start
 from optroute.plan.result import Plan, Violation
 from optroute.search.route import Corridor, Route
 from optroute.units import as_utc_time, format_utc, timedelta_to_h
@@ -170,6 +182,29 @@ def _warm(frame: Any, length_nm: float, eta_h: float | None, v_max: float, warm_
         return route_warm_start(route, frame)
     speed = length_nm / eta_h if eta_h is not None else 0.9 * v_max
     return {"offset_nm": np.zeros(frame.n_legs + 1), "stw_kn": np.full(frame.n_legs, speed)}
+
+
+def _start(prepared, frame, eta_h, robust, warm_plan, route) -> tuple[dict, OptrouteError | None, str]:
+    """The NLP's start, where the members' joint 3-D DP finds no common schedule its evidence, and which start it is
+    (``"given"``, ``"ensemble_dp"`` or ``"centreline"``: ``solver_stats["start"]``).
+
+    A warm plan or route given is the start. Otherwise (``"all"``/``"cvar"`` with an ETA) the least-mean-fuel lattice
+    schedule safe in every member (:func:`~optroute.optimise.robust_start.ensemble_dp_path`): the band sides the NLP
+    keeps are then those of a schedule safe in all members, where the centreline at the ETA's speed can ask for
+    opposite sides in two members. Where the DP finds none, the centreline start and the error that says so.
+    """
+    ref = prepared[0]
+    given = warm_plan is not None or route is not None
+    if given or eta_h is None or robust == "chance":
+        return _warm(frame, ref.length_nm, eta_h, ref.v_max, warm_plan, route), None, "given" if given else "centreline"
+    try:
+        path = ensemble_dp_path(
+            prepared, frame, eta_h, float(np.min(ref.v_min)), float(np.max(ref.v_max)), ref.exclusion
+        )
+    except (InfeasibleETA, NoSafePassage) as exc:
+        return _warm(frame, ref.length_nm, eta_h, ref.v_max, None, None), exc, "centreline"
+    route_start = track_warm_start(np.column_stack([path.lat_deg, path.lon_deg]), path.extra["stw_kn"], frame)
+    return route_start, None, "ensemble_dp"
 
 
 def _tighten(state: dict[str, float], found: list[Violation], log: list[str]) -> bool:
@@ -278,7 +313,8 @@ def optimise_robust(
         ``fuel_cvar_t`` (referee), ``nlp_objective``, ``nlp_member_fuel_t``, ``nlp_var``; and ``ipopt_status``,
         ``nlp_solves``, ``iterations``, ``solve_time_s``, ``build_time_s``, ``retries``, ``tightening``,
         ``nlp_samples_per_leg`` (with ``constraint_rows="referee"`` the row-only samples too),
-        ``total_time_s``.
+        ``total_time_s``; ``start`` (``"given"``, ``"ensemble_dp"``, ``"centreline"``), ``start_cpu_s`` (the joint
+        DP's CPU) and ``start_evidence`` (the lattice's error where it found no common schedule, else None).
 
     Raises
     ------
@@ -287,8 +323,12 @@ def optimise_robust(
         ``eta_mode``, ``reference_member``, or an option not available here.
     NoSafePassage
         The members' navigable lateral ranges do not overlap at some waypoint.
+    InfeasibleETA, NoSafePassage
+        No plan verified and the members' joint 3-D DP has no schedule by the ETA safe in all of them (the earliest
+        arrival safe in all, or none within the weather's horizon; the members with a schedule of their own named).
     SolverFailure
-        No tightened solve gave a plan that verifies in every member (``best_plan``: the warm plan if it does).
+        No tightened solve gave a plan that verifies in every member (``best_plan``: the warm plan if it does)
+        although the members' joint lattice has a common schedule (or it was not run: a warm plan or route given).
     """
     started = _time.perf_counter()
     alpha, fraction = _check_options(
@@ -339,7 +379,13 @@ def optimise_robust(
     eta_t = as_utc_time(eta, "eta") if eta is not None else None
     eta_h = timedelta_to_h(eta_t - t0) if eta_t is not None else (ref.prepared_cap_h if objective != "time" else None)
     ctx = ref.plan_context(eta_t, "le")
-    warm = _warm(frame, ref.length_nm, eta_h, ref.v_max, warm_plan, route)
+    start_cpu = _time.process_time()
+    warm, evidence, kind = _start(prepared, frame, eta_h, robust, warm_plan, route)
+    start = {
+        "start": kind,
+        "start_cpu_s": _time.process_time() - start_cpu,
+        "start_evidence": None if evidence is None else str(evidence),
+    }
     state = {
         "widen": ref.margin0,
         "hs_margin": ref.hs_margin0,
@@ -398,6 +444,7 @@ def optimise_robust(
                 drop_choices_solved=len(candidates),
             )
             stats.update(counts, retries=retry, tightening=log, ipopt_status=res.status, nlp_solves=counts["solves"])
+            stats.update(start)
             stats["nlp_samples_per_leg"] = nlp.samples_per_leg  # the quadrature's and any row-only samples
             stats["total_time_s"] = _time.perf_counter() - started
             return replace(plan, status=status, solver_stats=stats)
@@ -409,6 +456,8 @@ def optimise_robust(
             points = _failing_points(failing, frame.waypoints(res.offset_nm), frame.n_legs)
         if not _tighten(state, [v for f in failing.values() for v in f], log):
             break
+    if evidence is not None:  # the NLP found no plan either: the lattice's proof that no common schedule exists
+        raise evidence
     raise _failure(members, warm_plan, last, log, counts["solves"])
 
 
