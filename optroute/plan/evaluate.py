@@ -299,16 +299,26 @@ def evaluate_track(
     ev = _evaluate_pieces(ctx, wp, d, pieces, stw, departure, times_h, iterations)
     refined, err = _refine(ctx, wp, d, pieces, ev, departure, float(rtol))
     if refined[0].size != pieces[0].size:
-        ev = _evaluate_pieces(ctx, wp, d, refined, stw, departure, times_h, iterations)
+        # the refined pieces start from the first pass's time per nm (not from "no current"), so that the fixed
+        # point converges in as few iterations as the first pass did, also where a no-current guess would put
+        # the last pieces past the weather's end
+        ev = _evaluate_pieces(ctx, wp, d, refined, stw, departure, times_h, iterations, seed=ev)
     return replace(ev, fuel_err_t=err, rtol=float(rtol))
 
 
-def _evaluate_pieces(ctx, wp, d, pieces, stw_kn, departure, times_h, iterations) -> DenseTrack:
-    """The fixed point of schedule and piece times on given pieces (:func:`evaluate_track`)."""
+def _evaluate_pieces(ctx, wp, d, pieces, stw_kn, departure, times_h, iterations, seed=None) -> DenseTrack:
+    """The fixed point of schedule and piece times on given pieces (:func:`evaluate_track`); ``seed``: an
+    evaluation on other pieces whose time per nm is the first guess (else no current)."""
     leg, frac, length, lat, lon, course = _piece_points(wp, d, pieces)
     stw = stw_kn[leg]
     n = d.size
     dt = length / stw  # first guess: no current
+    if seed is not None:
+        offset = np.concatenate([[0.0], np.cumsum(d)])
+        sm = seed.length_nm > 0
+        h_per_nm = np.interp(offset[leg] + frac * d[leg], (offset[seed.leg] + seed.frac * d[seed.leg])[sm],
+                             seed.dt_h[sm] / seed.length_nm[sm])  # fmt: skip
+        dt = np.where(np.isfinite(h_per_nm) & (h_per_nm > 0), length * h_per_nm, dt)
     for it in range(max(1, iterations)):
         dur_int = np.bincount(leg, weights=dt, minlength=n)
         sched = np.concatenate([[0.0], np.cumsum(dur_int)]) if times_h is None else times_h
