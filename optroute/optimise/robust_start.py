@@ -24,8 +24,8 @@ import numpy as np
 
 from optroute import geodesy as geo
 from optroute.errors import InfeasibleETA, NoSafePassage
-from optroute.geo import land
 from optroute.search.dp import DPPath, solve_dp
+from optroute.search.dp_route import dp_navigable
 from optroute.search.passage_physics import PassagePhysics
 from optroute.units import format_utc
 from optroute.units import h_to_timedelta as _h_to_td
@@ -65,20 +65,6 @@ def _joint_cost(costs: list[Callable]) -> Callable:
     return cost
 
 
-def _navigable(physics: list[PassagePhysics], exclusion: Any, coast: bool) -> Callable:
-    def navigable(lat, lon, t_h):
-        when = np.broadcast_to(t_h, np.shape(lat))
-        ok = np.ones(np.shape(lat), dtype=bool)
-        for ph in physics:
-            ok &= ph.sea(lat, lon, when).navigable
-        if exclusion is not None:
-            clat, clon, rad = exclusion.at(physics[0].departure + _h_to_td(when))
-            ok &= geo.distance_nm(lat, lon, clat, clon) >= rad
-        return ok & ~land.is_land(lat, lon) if coast else ok
-
-    return navigable
-
-
 def _solve(physics: list[PassagePhysics], frame: Any, eta_h: float, speeds: np.ndarray, exclusion: Any, coast: bool):
     """The DP on these members' joint cost: (path by the ETA or None, earliest safe arrival [h] or None)."""
     wp = frame.corridor.waypoints
@@ -90,7 +76,7 @@ def _solve(physics: list[PassagePhysics], frame: Any, eta_h: float, speeds: np.n
             (float(wp[0, 0]), float(wp[0, 1])), (float(wp[-1, 0]), float(wp[-1, 1])),
             _joint_cost([ph.dp_leg(PIECE_NM) for ph in physics]), eta_h=None, dx_nm=max(20.0, length / 12.0),
             dy_nm=max(half / 5.0, 1.0), half_width_nm=half, speeds_kn=speeds, dt_h=1.0,
-            navigable=_navigable(physics, exclusion, coast), horizon_h=max(t_last, eta_h),
+            navigable=dp_navigable(physics, exclusion, coast), horizon_h=max(t_last, eta_h),
         )  # fmt: skip
     except NoSafePassage:
         return None, None

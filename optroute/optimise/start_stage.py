@@ -134,9 +134,7 @@ def start_stage(
         # the start and the floor: the ship's dual schedule, the centreline's safe start (a timed search around a
         # storm: 28 % of a front's time on the benchmark's storm corridor) and the global starts are the starts of a
         # solve without one
-        given = [found[k] for k in LABEL_ORDER if k in found]
-        order = sorted(range(len(given)), key=lambda i: (given[i].score, i))
-        return Starts([given[i] for i in order], "not computed: a verified neighbour is the sole start")
+        return Starts(_ranked(found), "not computed: a verified neighbour is the sole start")
     if prepared.fixed_path and cap_h is not None and objective in ("fuel", "cost"):
         dual = _timed(lambda: _dual_candidate(prepared, ctx, cap_h, objective))
         if dual is not None:
@@ -154,9 +152,14 @@ def start_stage(
         fast = _timed(lambda: _minimum_time_candidate(prepared, ctx, objective, route))
         if fast is not None:
             found["minimum-time plan"] = fast
+    return Starts(_ranked(found), reason)
+
+
+def _ranked(found: dict[str, Candidate]) -> list[Candidate]:
+    """The candidates best by the referee first; equal scores (and the unverified, inf) in :data:`LABEL_ORDER`."""
     given = [found[k] for k in LABEL_ORDER if k in found]
     order = sorted(range(len(given)), key=lambda i: (given[i].score, i))
-    return Starts([given[i] for i in order], reason)
+    return [given[i] for i in order]
 
 
 def discrete_start_mode(value: Any) -> bool | str:

@@ -171,7 +171,8 @@ class KwonModel(_ShipEngine):
         bn = self.beaufort(hs_m, wind_speed_ms)
         a = _fold_angle_deg(wave_angle_deg, "wave_angle_deg")
         bn, a = np.broadcast_arrays(bn, a)
-        sector = np.select([a <= 30.0, a <= 60.0, a <= 150.0], [0, 1, 2], default=3)
+        head, bow, beam = speed_loss.KWON_SECTOR_EDGES_DEG
+        sector = np.select([a <= head, a <= bow, a <= beam], [0, 1, 2], default=3)
         return (4 * np.asarray(bn, dtype=np.int64) + sector).astype(np.int64)
 
     def calm_equivalent_speed_kn(

@@ -34,7 +34,6 @@ than the samples' spacing (a quarter piece) can be missed; it costs at most its 
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -206,20 +205,12 @@ class DenseTrack:
 
 
 def dense_points(waypoints: np.ndarray, step_nm: float) -> tuple[np.ndarray, ...]:
-    d = geo.distance_nm(waypoints[:-1, 0], waypoints[:-1, 1], waypoints[1:, 0], waypoints[1:, 1])
-    legs, fracs, lens = [], [], []
-    for k, dk in enumerate(d):
-        m = max(1, int(math.ceil(dk / step_nm - 1e-9)))
-        f = np.concatenate([[0.0], (np.arange(m) + 0.5) / m, [1.0]])
-        legs.append(np.full(f.size, k))
-        fracs.append(f)
-        lens.append(np.concatenate([[0.0], np.full(m, dk / m), [0.0]]))
-    leg = np.concatenate(legs)
-    frac = np.concatenate(fracs)
-    lat, lon, course = gc_points(
-        waypoints[leg, 0], waypoints[leg, 1], waypoints[leg + 1, 0], waypoints[leg + 1, 1], frac
-    )
-    return leg, frac, np.concatenate(lens), lat, lon, course, d
+    """Leg ends and the midpoints of every leg cut into equal pieces of at most ``step_nm`` [nm] (the referee's
+    first pieces, before :func:`evaluate_track` halves them): (leg, fraction, piece length [nm], lat, lon,
+    course, leg lengths [nm])."""
+    wp = np.asarray(waypoints, dtype=float)
+    d = geo.distance_nm(wp[:-1, 0], wp[:-1, 1], wp[1:, 0], wp[1:, 1])
+    return (*_piece_points(wp, d, _uniform_pieces(d, float(step_nm))), d)
 
 
 def sample_sea(

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import time as _time
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -15,6 +17,24 @@ from optroute.search.objective_search import eta_as_time, explain_uncovered
 from optroute.search.passage_physics import PassagePhysics
 from optroute.search.route import Route
 from optroute.units import h_to_timedelta as _h_to_td
+
+
+def dp_navigable(members: Sequence[PassagePhysics], exclusion: Any, coast: bool) -> Callable:
+    """The DP's node predicate ``navigable(lat, lon, t_h)``: navigable in the weather of every one of ``members``
+    (one for a route; an ensemble's members for a robust start), outside the moving ``exclusion`` and (``coast``)
+    off land, as in the grid search."""
+
+    def navigable(lat, lon, t_h):
+        when = np.broadcast_to(t_h, np.shape(lat))
+        ok = np.ones(np.shape(lat), dtype=bool)
+        for ph in members:
+            ok &= ph.sea(lat, lon, when).navigable
+        if exclusion is not None:
+            clat, clon, rad = exclusion.at(members[0].departure + _h_to_td(when))
+            ok &= geo.distance_nm(lat, lon, clat, clon) >= rad
+        return ok & ~land.is_land(lat, lon) if coast else ok
+
+    return navigable
 
 
 def search_dp(
@@ -35,14 +55,7 @@ def search_dp(
     also = [float(e) for e in opts.pop("routes_for_eta_h", ())]
     sampler = physics.sampler
 
-    def navigable(lat, lon, t_h):  # the weather's no-passage cells, and the coastline as in the grid search
-        when = np.broadcast_to(t_h, np.shape(lat))
-        ok = physics.sea(lat, lon, when).navigable
-        if exclusion is not None:
-            clat, clon, rad = exclusion.at(physics.departure + _h_to_td(when))
-            ok = ok & (geo.distance_nm(lat, lon, clat, clon) >= rad)
-        return ok & ~land.is_land(lat, lon) if coast else ok
-
+    navigable = dp_navigable([physics], exclusion, coast)
     t_last = (sampler.extent["time"][1] - physics.departure) / np.timedelta64(1, "s") / 3600.0
     opts.setdefault("horizon_h", float(t_last))
     try:
