@@ -214,8 +214,9 @@ def evaluate_at(
     return CheckPoints(leg, s_nm, lat, lon, course, t_h, sea, covered, heading, sog, power, stw)
 
 
-def _concat(a: CheckPoints, b: CheckPoints) -> CheckPoints:
-    """The points of both, sorted by (leg, distance), duplicates dropped."""
+def _concat(a: CheckPoints, b: CheckPoints) -> tuple[CheckPoints, np.ndarray]:
+    """The points of both, sorted by (leg, distance), duplicates dropped; and which of ``a`` then ``b``'s points
+    each is (indices into their concatenation)."""
     leg = np.concatenate([a.leg, b.leg])
     s = np.concatenate([a.s_nm, b.s_nm])
     order = np.lexsort((s, leg))
@@ -233,7 +234,7 @@ def _concat(a: CheckPoints, b: CheckPoints) -> CheckPoints:
     out["sea"] = sea
     if a.origin is not None and b.origin is not None:
         out["origin"] = cat(a.origin, b.origin)
-    return CheckPoints(**out)
+    return CheckPoints(**out), idx
 
 
 def _start_nodes(dense_leg: np.ndarray, dense_frac: np.ndarray, d_nm: np.ndarray, spacing_nm: float):
@@ -262,14 +263,48 @@ def _crossings(ctx, waypoints, d_nm, clock, departure, leg, s, tol_nm):
     return crossing_nodes(leg, s, coords, tol_nm)
 
 
-def _to_halve(ctx, pts: CheckPoints, tol_nm: float, power_rtol: float, rules=None) -> np.ndarray:
-    """Indices i of the intervals (i, i + 1) that are not certified and longer than ``tol_nm``: for the
-    bands of ``rules`` (default the context's; :func:`intervals_to_halve`) or for the engine's range
-    (:func:`engine_intervals_to_halve`)."""
-    rules = ctx.rules if rules is None else rules
+def _functions(ctx, pts: CheckPoints, power_rtol: float, rules) -> dict[str, np.ndarray]:
+    """Per point, what the halving rules read: the bands' functions (:func:`band_functions`) and the engine's
+    (:func:`_engine_functions`); computed once per point and carried through the rounds."""
     ok, wfrom, g, bands = band_functions(ctx.ship, rules, pts.sea, pts.covered, pts.heading, pts.course, pts.stw)
-    band_i = intervals_to_halve(pts.leg, pts.s_nm, ok, wfrom, g, bands, tol_nm)
-    return np.union1d(band_i, engine_intervals_to_halve(ctx, pts, tol_nm, power_rtol))
+    out = {"ok": ok, "wfrom": wfrom, "g": g, **{"band:" + b: m for b, m in bands.items()}}
+    out.update(_engine_functions(ctx, pts, power_rtol))
+    return out
+
+
+def _engine_functions(ctx, pts: CheckPoints, power_rtol: float) -> dict[str, np.ndarray]:
+    """Per point: the power's relative margins to the MCR and the minimum load (``margin:*``), whether it is in
+    range with the course held (``inside``), the model's power regime and the regime's driver distances (``dist:*``)."""
+    held = np.isfinite(pts.heading)
+    p = np.where(np.isfinite(pts.power), pts.power, np.nan)
+    mcr, pmin = float(ctx.model.mcr_kw), float(ctx.model.min_power_kw)
+    margins = [1.0 - p / (mcr * (1.0 + power_rtol))]
+    if pmin > 0.0:
+        margins.append(p / (pmin * (1.0 - power_rtol)) - 1.0)
+    ok = pts.sea.navigable & pts.covered & held & np.isfinite(p)
+    out = {f"margin:{j}": m for j, m in enumerate(margins)}
+    out["inside"] = ok & np.all([m > 0.0 for m in margins], axis=0)
+    heading = np.where(held, pts.heading, pts.course)
+    out["regime"] = power_regime(ctx.model, heading, pts.sea).astype(float)
+    out.update({f"dist:{j}": d for j, d in enumerate(regime_distances(ctx.model, heading, pts.sea))})
+    return out
+
+
+def _engine_intervals(leg: np.ndarray, s: np.ndarray, f: dict[str, np.ndarray], tol_nm: float) -> np.ndarray:
+    """:func:`engine_intervals_to_halve` on the points' :func:`_engine_functions` ``f``."""
+    same = leg[1:] == leg[:-1]
+    h = s[1:] - s[:-1]
+    inside = f["inside"]
+    both = same & inside[:-1] & inside[1:]
+    jump = both & (f["regime"][1:] != f["regime"][:-1])
+    smooth = both & ~jump
+    need = jump.copy()
+    for key, m in f.items():
+        if key.startswith("margin:"):
+            need |= smooth & ~certified(m[:-1], m[1:], secant_slopes(m, s, smooth), h, tol_nm)
+        elif key.startswith("dist:"):
+            need |= smooth & ~certified(m[:-1], m[1:], secant_slopes(m, s, both), h, tol_nm)
+    return np.flatnonzero(need & (h > tol_nm))
 
 
 def engine_intervals_to_halve(ctx, pts: CheckPoints, tol_nm: float, power_rtol: float = 0.0) -> np.ndarray:
@@ -286,28 +321,26 @@ def engine_intervals_to_halve(ctx, pts: CheckPoints, tol_nm: float, power_rtol: 
     (:func:`optroute.physics.passage.regime_distances`), certified by the same rule. An interval with an
     end out of range (or where the course is not held) has found its violation and is not halved.
     """
-    leg, s = pts.leg, pts.s_nm
-    same = leg[1:] == leg[:-1]
-    h = s[1:] - s[:-1]
-    held = np.isfinite(pts.heading)
-    p = np.where(np.isfinite(pts.power), pts.power, np.nan)
-    ok = pts.sea.navigable & pts.covered & held & np.isfinite(p)
-    mcr, pmin = float(ctx.model.mcr_kw), float(ctx.model.min_power_kw)
-    margins = [1.0 - p / (mcr * (1.0 + power_rtol))]
-    if pmin > 0.0:
-        margins.append(p / (pmin * (1.0 - power_rtol)) - 1.0)
-    inside = ok & np.all([m > 0.0 for m in margins], axis=0)
-    both = same & inside[:-1] & inside[1:]
-    heading = np.where(held, pts.heading, pts.course)
-    regime = power_regime(ctx.model, heading, pts.sea)
-    jump = both & (regime[1:] != regime[:-1])
-    smooth = both & ~jump
-    need = jump.copy()
-    for m in margins:
-        need |= smooth & ~certified(m[:-1], m[1:], secant_slopes(m, s, smooth), h, tol_nm)
-    for dist in regime_distances(ctx.model, heading, pts.sea):
-        need |= smooth & ~certified(dist[:-1], dist[1:], secant_slopes(dist, s, both), h, tol_nm)
-    return np.flatnonzero(need & (h > tol_nm))
+    return _engine_intervals(pts.leg, pts.s_nm, _engine_functions(ctx, pts, power_rtol), tol_nm)
+
+
+def _halving(ctx, pts: CheckPoints, at, tol_nm: float, power_rtol: float, rules) -> tuple[CheckPoints, int]:
+    """``pts`` halved (new points from ``at(group, s_nm)``) until the bands of ``rules`` (:func:`intervals_to_halve`)
+    and the engine's range (:func:`engine_intervals_to_halve`) are certified everywhere; and the rounds made."""
+    f = _functions(ctx, pts, power_rtol, rules)
+    rounds = 0
+    while rounds < MAX_ROUNDS:
+        bands = {k[5:]: v for k, v in f.items() if k.startswith("band:")}
+        i = intervals_to_halve(pts.leg, pts.s_nm, f["ok"], f["wfrom"], f["g"], bands, tol_nm)
+        i = np.union1d(i, _engine_intervals(pts.leg, pts.s_nm, f, tol_nm))
+        if i.size == 0:
+            break
+        rounds += 1
+        new = at(pts.leg[i], 0.5 * (pts.s_nm[i] + pts.s_nm[i + 1]))
+        f_new = _functions(ctx, new, power_rtol, rules)
+        pts, idx = _concat(pts, new)
+        f = {k: np.concatenate([f[k], f_new[k]])[idx] for k in f}
+    return pts, rounds
 
 
 def refined(
@@ -322,12 +355,7 @@ def refined(
     ``s_nm``) and include the regime crossings; ``at(group, s_nm)`` evaluates further points as
     :func:`evaluate_at` does.
     """
-    for _ in range(MAX_ROUNDS):
-        i = _to_halve(ctx, pts, tol_nm, power_rtol, rules)
-        if i.size == 0:
-            break
-        pts = _concat(pts, at(pts.leg[i], 0.5 * (pts.s_nm[i] + pts.s_nm[i + 1])))
-    return pts
+    return _halving(ctx, pts, at, tol_nm, power_rtol, ctx.rules if rules is None else rules)[0]
 
 
 def check_points(
@@ -372,15 +400,12 @@ def check_points(
     leg0, s0 = _start_nodes(np.asarray(n_leg), np.asarray(n_frac, dtype=float), d_nm, float(spacing_nm))
     leg, s = _crossings(ctx, wp, d_nm, clock, departure, leg0, s0, min(CROSSING_TOL_NM, tol_nm))
     pts = replace(evaluate_at(ctx, wp, stw, departure, d_nm, clock, leg, s), origin=_origins(leg0, s0, leg, s, d_nm))
-    rounds = 0
-    while rounds < MAX_ROUNDS:
-        i = _to_halve(ctx, pts, tol_nm, power_rtol)
-        if i.size == 0:
-            break
-        rounds += 1
-        new = evaluate_at(ctx, wp, stw, departure, d_nm, clock, pts.leg[i], 0.5 * (pts.s_nm[i] + pts.s_nm[i + 1]))
-        new = replace(new, origin=np.full(new.size, ORIGIN_REFINED, dtype=np.int8))
-        pts = _concat(pts, new)
+
+    def at(leg_i: np.ndarray, s_i: np.ndarray) -> CheckPoints:
+        new = evaluate_at(ctx, wp, stw, departure, d_nm, clock, leg_i, s_i)
+        return replace(new, origin=np.full(new.size, ORIGIN_REFINED, dtype=np.int8))
+
+    pts, rounds = _halving(ctx, pts, at, tol_nm, power_rtol, ctx.rules)
     out = {f.name: getattr(pts, f.name) for f in fields(CheckPoints)}
     out["tol_nm"], out["rounds"] = float(tol_nm), rounds
     return CheckPoints(**out)
