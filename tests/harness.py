@@ -20,7 +20,7 @@ returned with :func:`check_plan`.
   0.1 nm or more (two consecutive samples) is a violation, a single sample inside a *graze*;
 * power and fuel rate come from the ship's own performance model (one model, stated once) by its
   vectorised numpy path, and the fuel is integrated over the 0.1 nm samples (trapezoids in time);
-* MCR (power above it for 0.1 nm or more), the ETA (the arrival sailed on the ellipsoid at the
+* MCR and the engine's minimum load (power above or under it for 0.1 nm or more), the ETA (the arrival sailed on the ellipsoid at the
   plan's speeds), the schedule (leg duration = geodesic length / SOG) and the fuel accounting
   (legs sum to the total; the total within 1 % of the brute-force integral — the referee integrates
   every leg adaptively to about 0.1 % (:mod:`optroute.plan.evaluate`), Kwon's power being a step
@@ -320,7 +320,8 @@ def check_plan(
     Returns
     -------
     findings : list of Finding
-        Violations: ``band:<name>`` and ``mcr`` held for ``step_nm`` or more, ``eta``, ``schedule``,
+        Violations: ``band:<name>``, ``mcr`` and ``min_load`` (power under the engine's minimum load) held for
+        ``step_nm`` or more, ``eta``, ``schedule``,
         ``fuel`` (accounting).
     grazes : int
         Single samples inside a band (entered for less than ``step_nm``).
@@ -371,6 +372,12 @@ def check_plan(
             if j > i:
                 pos = (float(lat[i]), float(lon[i]))
                 findings.append(Finding("mcr", k, pos, float(power[i : j + 1].max()), ship.mcr_kw, s_nm[j] - s_nm[i]))
+        under = power < model.min_power_kw * (1.0 - 1e-6)
+        for i, j in _runs(under):
+            if j > i:
+                pos = (float(lat[i]), float(lon[i]))
+                lim = model.min_power_kw
+                findings.append(Finding("min_load", k, pos, float(power[i : j + 1].min()), lim, s_nm[j] - s_nm[i]))
         brute_total += float(np.sum(0.5 * (fuel_tph[1:] + fuel_tph[:-1]) * np.diff(t_h)))
     if not abs(brute_total - plan.total_fuel_t) <= fuel_rtol * max(brute_total, 1e-3):
         findings.append(Finding("fuel", -1, tuple(wp[-1]), plan.total_fuel_t, brute_total))

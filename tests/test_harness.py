@@ -61,6 +61,11 @@ def test_the_check_finds_power_above_mcr_and_a_missed_eta():
     kinds = {f.kind for f in found}
     assert "mcr" in kinds and "power_above_mcr" in {v.kind for v in fast.verify()}
     assert "eta" in kinds  # 24 nm at 18 kn is 1.3 h
+    slow = orx.Plan.from_schedule(WP, [4.0], departure=T0, ship=SHIP, weather=wx)
+    p_slow = orx.KwonModel(SHIP).brake_power_kw(4.0)  # calm water: the model's own curve, below the minimum load
+    assert p_slow < SHIP.min_load_fraction * SHIP.mcr_kw
+    assert [f.kind for f in check_plan(slow, wx, SHIP)[0]] == ["min_load"]
+    assert "power_below_min" in {v.kind for v in slow.verify()}
     ok = orx.Plan.from_schedule(WP, [12.0], departure=T0, ship=SHIP, weather=wx)
     assert check_plan(ok, wx, SHIP, eta=T0 + np.timedelta64(3, "h"))[0] == []
 
@@ -113,24 +118,41 @@ def test_a_fuel_plan_is_not_worse_than_the_minimum_time_plan_at_its_eta():
     assert all(not f for f in r.findings.values()), r.findings  # fuel_worse included
 
 
-def test_a_passage_the_backed_off_bands_close_still_gets_a_verified_start():
-    """Harness seed 22 (the 25k dwt cargo ship by a moving storm, minimum time): with the NLP's backed-off bands the
-    timed centreline start met a dead end 139-186 nm along, no start verified, and the call ended in SolverFailure
-    with no plan. With the true bands the timed start arrives 20.58 h and passes the referee and the independent
-    0.1 nm check; an independent brute force (every 0.25 kn, 2 nm, 0.25 h, the engine's range included) finds the
-    earliest safe arrival on the centreline at 20.53 h, so nothing much earlier was missed."""
+def test_the_timed_start_keeps_in_the_engines_range_between_its_points():
+    """Harness seed 22 (the 25k dwt cargo ship by a moving storm, minimum time), the timed centreline start with the
+    true bands (no Hs back-off). On a 0.5 kn ladder it used to return 8 kn on the first two legs, 20.58 h: clean at
+    its 5 nm points, but 0.4 nm of the first leg at 1 002 kW against the minimum load of 1 050 kW (brute force every
+    0.1 nm: ``check_plan``'s ``min_load``; ``tests/test_engine_range.py`` at 0.01 nm). The start now searches the
+    engine's range and the bands between its points as the referee does: whatever passage it returns passes the
+    referee and the independent check; on a 0.25 kn ladder it finds one (8.25 and 7.75 kn), no earlier than the
+    earliest safe centreline arrival an independent brute force finds (20.53 h, every 0.25 kn, 2 nm, 0.25 h), and
+    the start stage takes it as its verified start."""
     from optroute.optimise.corridor_problem import PreparedCorridor
+    from optroute.optimise.min_time import TimedStart, timed_safe_start
 
     case = make_case(22)
     ship, wx = orx.Ship.preset(case.ship), case_weather(case)
     corridor = orx.Corridor.from_waypoints(np.array(case.waypoints), width_nm=case.width_nm)
     prepared = PreparedCorridor(corridor, wx, ship, departure=T0, objective="time")
+    found = []
+    for step_kn in (0.5, 0.25):
+        r = timed_safe_start(
+            prepared.plan_context(), prepared.frame, T0, v_min_kn=prepared.v_min, v_max_kn=prepared.v_max,
+            speed_step_kn=step_kn, hs_backoff=0.0,
+        )  # fmt: skip
+        if isinstance(r, TimedStart):
+            wp = prepared.frame.waypoints(r.offset_nm)
+            plan = orx.Plan.from_schedule(wp, r.stw_kn, departure=T0, ship=ship, weather=wx)
+            assert plan.verify() == [], step_kn
+            assert check_plan(plan, wx, ship) == ([], 0), step_kn
+            found.append(plan.duration_h)
+    assert len(found) >= 1 and 20.53 <= min(found) <= 20.53 + 0.5
+    # the start stage finds it (the 0.5 kn ladder's dead end is retried on 0.25 kn): a verified start, no SolverFailure
     cands = prepared.starts(
         prepared.plan_context(), cap_h=None, objective="time", warm_plan=None, route=None, st=prepared._tightening()
     )
     plan = cands[0].plan
-    assert plan is not None and plan.verify() == []
-    assert check_plan(plan, wx, ship) == ([], 0)
+    assert plan is not None and plan.verify() == [] and check_plan(plan, wx, ship) == ([], 0)
     assert 20.53 <= plan.duration_h <= 20.53 + 0.5
 
 

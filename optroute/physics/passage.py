@@ -305,6 +305,38 @@ def power_regime(model: PerformanceModel, heading_deg: ArrayLike, sea: SeaState)
     return np.where(navigable, key, -1).astype(np.int64)
 
 
+def regime_distances(model: PerformanceModel, heading_deg: ArrayLike, sea: SeaState) -> tuple[np.ndarray, ...]:
+    """How far each point's sea state is from a change of :func:`power_regime`: one array per driver.
+
+    The model's own ``regime_distances`` (:meth:`optroute.physics.performance.KwonModel.regime_distances`:
+    the Beaufort number's driver to its nearest edge, the wave angle to Kwon's nearest sector edge), of the
+    sea state as :func:`power_regime` hands it to the model; an empty tuple for a model that declares no
+    regimes. Each array is continuous along a track, zero where the regime can change; NaN where the sea
+    is not navigable.
+
+    Parameters
+    ----------
+    model : PerformanceModel
+    heading_deg : array_like, shape (N,)
+        Heading [deg true, to] (the course where the course cannot be held).
+    sea : SeaState
+        Sea state at the N points.
+    """
+    fn = getattr(model, "regime_distances", None)
+    if fn is None:
+        return ()
+    navigable = np.asarray(sea.navigable)
+    heading = np.asarray(heading_deg, dtype=float)
+    wave_from = np.where(navigable, np.asarray(sea.wave_from_deg, dtype=float), 0.0)
+    wind_speed, _ = units.wind_uv_to_speed_from_deg(sea.wind_u_ms, sea.wind_v_ms)
+    out = fn(
+        hs_m=np.where(navigable, np.asarray(sea.hs_m, dtype=float), 0.0),
+        wave_angle_deg=seaway.relative_wave_angle_deg(heading, wave_from),
+        wind_speed_ms=np.where(navigable, wind_speed, np.nan),
+    )
+    return tuple(np.where(navigable, d, np.nan) for d in out)
+
+
 def _pick(choice_idx: np.ndarray, feasible: np.ndarray, arrays: tuple[np.ndarray, ...]) -> list[np.ndarray]:
     """Entry ``choice_idx[i]`` of row i of each (N, K) array; NaN where not feasible."""
     return [np.where(feasible, np.take_along_axis(a, choice_idx[:, None], axis=1)[:, 0], np.nan) for a in arrays]

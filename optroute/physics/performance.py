@@ -175,6 +175,31 @@ class KwonModel(_ShipEngine):
         sector = np.select([a <= head, a <= bow, a <= beam], [0, 1, 2], default=3)
         return (4 * np.asarray(bn, dtype=np.int64) + sector).astype(np.int64)
 
+    def regime_distances(self, *, hs_m=0.0, wave_angle_deg=0.0, wind_speed_ms=None) -> tuple[np.ndarray, np.ndarray]:
+        """How far the sea state is from the nearest change of :meth:`power_regime`: (Beaufort driver, angle).
+
+        The first array is the distance of the Beaufort number's driver to the nearest Beaufort edge: of
+        the wind speed [m/s] to the WMO band edges where the wind is known, else of Hs [m] to the
+        midpoints between the probable wave heights (:func:`optroute.physics.seaway.beaufort_from_hs`).
+        The second is the distance of the folded wave angle to the nearest sector edge of Kwon (2008)
+        [deg]. Both are continuous along a track and zero exactly where the regime can change, so a
+        slope bound on them tells where the regime may change and change back between two points
+        (:func:`optroute.plan.checkpoints.check_points`).
+        """
+        hs = finite("hs_m", hs_m, minimum=0.0)
+        d_hs = np.min(np.abs(hs[..., None] - seaway.BEAUFORT_HS_EDGES_M), axis=-1)
+        if wind_speed_ms is None:
+            driver = d_hs
+        else:
+            wind = np.asarray(wind_speed_ms, dtype=float)
+            known = np.isfinite(wind)
+            d_wind = np.min(np.abs(np.where(known, wind, 0.0)[..., None] - seaway.BEAUFORT_WIND_UPPER_MS), axis=-1)
+            driver = np.where(known, d_wind, d_hs)
+        a = _fold_angle_deg(wave_angle_deg, "wave_angle_deg")
+        d_angle = np.min(np.abs(a[..., None] - np.asarray(speed_loss.KWON_SECTOR_EDGES_DEG)), axis=-1)
+        driver, d_angle = np.broadcast_arrays(driver, d_angle)
+        return np.asarray(driver, dtype=float), np.asarray(d_angle, dtype=float)
+
     def calm_equivalent_speed_kn(
         self, stw_kn, *, hs_m=0.0, wave_angle_deg=0.0, wind_speed_ms=None, wind_angle_deg=None
     ):

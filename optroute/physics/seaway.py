@@ -156,6 +156,8 @@ def encounter_period_s(
 # Met Office probable wave height [m] of each force 0..12.
 BEAUFORT_WIND_UPPER_MS = np.array([0.25, 1.55, 3.35, 5.45, 7.95, 10.75, 13.85, 17.15, 20.75, 24.45, 28.45, 32.65])
 BEAUFORT_WAVE_HEIGHT_M = np.array([0.0, 0.1, 0.2, 0.6, 1.0, 2.0, 3.0, 4.0, 5.5, 7.0, 9.0, 11.5, 14.0])
+BEAUFORT_HS_EDGES_M = 0.5 * (BEAUFORT_WAVE_HEIGHT_M[1:] + BEAUFORT_WAVE_HEIGHT_M[:-1])
+"""Hs where :func:`beaufort_from_hs` steps [m]: midway between neighbouring probable wave heights."""
 
 
 def beaufort_from_wind(wind_speed_ms: ArrayLike) -> np.ndarray:

@@ -29,10 +29,15 @@ for 1–3 nm between two midpoints. :func:`check_points` finds every such stretc
    ratios can go and come back between the ends), where one end is navigable and the other not,
    or where a band's sector condition (IMO) holds at one end only. An interval with an end inside
    a band has already found it and is not halved.
+4. **The engine's range** (:func:`engine_intervals_to_halve`): the same rule on the relative margins of
+   the brake power to the MCR and to the minimum load, between changes of the model's power regime
+   (Kwon 2008: the Beaufort number and the wave sector, where the power steps); an interval is halved
+   regardless where the regime differs at its ends, or where it may change and change back inside
+   (the distances of the Beaufort driver and of the wave angle to their edges, certified by the rule).
 
 An interval no longer than the tolerance is never halved: a band stretch longer than it contains a
-check point. So every band stretch longer than :data:`BAND_TOL_NM` contains a check point, up to the
-slope bound's estimate (``tests/test_checkpoints.py`` compares with brute force at 0.01 nm); a
+check point. So every band stretch (and every stretch out of the engine's range) longer than
+:data:`BAND_TOL_NM` contains a check point, up to the slope bound's estimate (``tests/test_checkpoints.py`` compares with brute force at 0.01 nm); a
 shorter one may or may not be found.  Steps 2 and 3 and their constants are
 :mod:`optroute.search.band_refine`'s, shared with the route search, which checks its pieces by the
 same rules.
@@ -52,7 +57,7 @@ import numpy as np
 
 from optroute.errors import ConfigError
 from optroute.geo.tracks import gc_points
-from optroute.physics.passage import SeaState, evaluate_speeds
+from optroute.physics.passage import SeaState, evaluate_speeds, power_regime, regime_distances
 from optroute.search.band_refine import (
     BAND_TOL_NM,
     CROSSING_TOL_NM,
@@ -60,8 +65,10 @@ from optroute.search.band_refine import (
     SLOPE_SAFETY,
     TURN_DEG,
     band_functions,
+    certified,
     crossing_nodes,
     intervals_to_halve,
+    secant_slopes,
 )
 from optroute.units import h_to_timedelta as _h_to_td
 
@@ -74,6 +81,8 @@ __all__ = [
     "TURN_DEG",
     "CheckPoints",
     "check_points",
+    "engine_intervals_to_halve",
+    "refined",
     "evaluate_at",
     "row_points",
     "track_clock",
@@ -205,8 +214,9 @@ def evaluate_at(
     return CheckPoints(leg, s_nm, lat, lon, course, t_h, sea, covered, heading, sog, power, stw)
 
 
-def _concat(a: CheckPoints, b: CheckPoints) -> CheckPoints:
-    """The points of both, sorted by (leg, distance), duplicates dropped."""
+def _concat(a: CheckPoints, b: CheckPoints) -> tuple[CheckPoints, np.ndarray]:
+    """The points of both, sorted by (leg, distance), duplicates dropped; and which of ``a`` then ``b``'s points
+    each is (indices into their concatenation)."""
     leg = np.concatenate([a.leg, b.leg])
     s = np.concatenate([a.s_nm, b.s_nm])
     order = np.lexsort((s, leg))
@@ -224,7 +234,7 @@ def _concat(a: CheckPoints, b: CheckPoints) -> CheckPoints:
     out["sea"] = sea
     if a.origin is not None and b.origin is not None:
         out["origin"] = cat(a.origin, b.origin)
-    return CheckPoints(**out)
+    return CheckPoints(**out), idx
 
 
 def _start_nodes(dense_leg: np.ndarray, dense_frac: np.ndarray, d_nm: np.ndarray, spacing_nm: float):
@@ -253,15 +263,105 @@ def _crossings(ctx, waypoints, d_nm, clock, departure, leg, s, tol_nm):
     return crossing_nodes(leg, s, coords, tol_nm)
 
 
-def _to_halve(ctx, pts: CheckPoints, tol_nm: float) -> np.ndarray:
-    """Indices i of the intervals (i, i + 1) that are not certified and longer than ``tol_nm`` (:func:`intervals_to_halve`)."""
-    ok, wfrom, g, bands = band_functions(ctx.ship, ctx.rules, pts.sea, pts.covered, pts.heading, pts.course, pts.stw)
-    return intervals_to_halve(pts.leg, pts.s_nm, ok, wfrom, g, bands, tol_nm)
+def _functions(ctx, pts: CheckPoints, power_rtol: float, rules) -> dict[str, np.ndarray]:
+    """Per point, what the halving rules read: the bands' functions (:func:`band_functions`) and the engine's
+    (:func:`_engine_functions`); computed once per point and carried through the rounds."""
+    ok, wfrom, g, bands = band_functions(ctx.ship, rules, pts.sea, pts.covered, pts.heading, pts.course, pts.stw)
+    out = {"ok": ok, "wfrom": wfrom, "g": g, **{"band:" + b: m for b, m in bands.items()}}
+    out.update(_engine_functions(ctx, pts, power_rtol))
+    return out
+
+
+def _engine_functions(ctx, pts: CheckPoints, power_rtol: float) -> dict[str, np.ndarray]:
+    """Per point: the power's relative margins to the MCR and the minimum load (``margin:*``), whether it is in
+    range with the course held (``inside``), the model's power regime and the regime's driver distances (``dist:*``)."""
+    held = np.isfinite(pts.heading)
+    p = np.where(np.isfinite(pts.power), pts.power, np.nan)
+    mcr, pmin = float(ctx.model.mcr_kw), float(ctx.model.min_power_kw)
+    margins = [1.0 - p / (mcr * (1.0 + power_rtol))]
+    if pmin > 0.0:
+        margins.append(p / (pmin * (1.0 - power_rtol)) - 1.0)
+    ok = pts.sea.navigable & pts.covered & held & np.isfinite(p)
+    out = {f"margin:{j}": m for j, m in enumerate(margins)}
+    out["inside"] = ok & np.all([m > 0.0 for m in margins], axis=0)
+    heading = np.where(held, pts.heading, pts.course)
+    out["regime"] = power_regime(ctx.model, heading, pts.sea).astype(float)
+    out.update({f"dist:{j}": d for j, d in enumerate(regime_distances(ctx.model, heading, pts.sea))})
+    return out
+
+
+def _engine_intervals(leg: np.ndarray, s: np.ndarray, f: dict[str, np.ndarray], tol_nm: float) -> np.ndarray:
+    """:func:`engine_intervals_to_halve` on the points' :func:`_engine_functions` ``f``."""
+    same = leg[1:] == leg[:-1]
+    h = s[1:] - s[:-1]
+    inside = f["inside"]
+    both = same & inside[:-1] & inside[1:]
+    jump = both & (f["regime"][1:] != f["regime"][:-1])
+    smooth = both & ~jump
+    need = jump.copy()
+    for key, m in f.items():
+        if key.startswith("margin:"):
+            need |= smooth & ~certified(m[:-1], m[1:], secant_slopes(m, s, smooth), h, tol_nm)
+        elif key.startswith("dist:"):
+            need |= smooth & ~certified(m[:-1], m[1:], secant_slopes(m, s, both), h, tol_nm)
+    return np.flatnonzero(need & (h > tol_nm))
+
+
+def engine_intervals_to_halve(ctx, pts: CheckPoints, tol_nm: float, power_rtol: float = 0.0) -> np.ndarray:
+    """Indices i of the intervals (i, i + 1) longer than ``tol_nm`` where the engine may leave its range unseen.
+
+    The brake power at the leg's speed through the water must stay within [minimum load, MCR] (each
+    widened by ``power_rtol``, as ``Plan.verify`` compares). Between two changes of the model's power
+    regime (:func:`optroute.physics.passage.power_regime`: Kwon's Beaufort number and wave sector) the
+    power is smooth along the track, and the relative margins to both limits are certified by the
+    bands' Lipschitz rule (:func:`optroute.search.band_refine.certified`; slopes from intervals of one
+    regime only, a jump being no slope). An interval is halved regardless where the regime differs at
+    its ends (the jump is located to ``tol_nm``), or where the regime may change and change back inside
+    it: the distances of Beaufort's driver and of the wave angle to their nearest edges
+    (:func:`optroute.physics.passage.regime_distances`), certified by the same rule. An interval with an
+    end out of range (or where the course is not held) has found its violation and is not halved.
+    """
+    return _engine_intervals(pts.leg, pts.s_nm, _engine_functions(ctx, pts, power_rtol), tol_nm)
+
+
+def _halving(ctx, pts: CheckPoints, at, tol_nm: float, power_rtol: float, rules) -> tuple[CheckPoints, int]:
+    """``pts`` halved (new points from ``at(group, s_nm)``) until the bands of ``rules`` (:func:`intervals_to_halve`)
+    and the engine's range (:func:`engine_intervals_to_halve`) are certified everywhere; and the rounds made."""
+    f = _functions(ctx, pts, power_rtol, rules)
+    rounds = 0
+    while rounds < MAX_ROUNDS:
+        bands = {k[5:]: v for k, v in f.items() if k.startswith("band:")}
+        i = intervals_to_halve(pts.leg, pts.s_nm, f["ok"], f["wfrom"], f["g"], bands, tol_nm)
+        i = np.union1d(i, _engine_intervals(pts.leg, pts.s_nm, f, tol_nm))
+        if i.size == 0:
+            break
+        rounds += 1
+        new = at(pts.leg[i], 0.5 * (pts.s_nm[i] + pts.s_nm[i + 1]))
+        f_new = _functions(ctx, new, power_rtol, rules)
+        pts, idx = _concat(pts, new)
+        f = {k: np.concatenate([f[k], f_new[k]])[idx] for k in f}
+    return pts, rounds
+
+
+def refined(
+    ctx, pts: CheckPoints, at, *, rules=None, tol_nm: float = BAND_TOL_NM, power_rtol: float = 0.0
+) -> CheckPoints:
+    """``pts`` with the points the referee's refinement asks for (the bands of ``rules``, default the
+    context's, and the engine's range), halved until none is asked for.
+
+    For a checker of other tracks than a plan's (the minimum-time start's centreline blocks,
+    :func:`optroute.optimise.min_time.timed_safe_start`): the bands and the engine's range are searched
+    between its points as the referee searches them. ``pts`` are sorted by (``leg``: any grouping,
+    ``s_nm``) and include the regime crossings; ``at(group, s_nm)`` evaluates further points as
+    :func:`evaluate_at` does.
+    """
+    return _halving(ctx, pts, at, tol_nm, power_rtol, ctx.rules if rules is None else rules)[0]
 
 
 def check_points(
     ctx, waypoints: np.ndarray, stw_kn: np.ndarray, departure: np.datetime64, d_nm: np.ndarray, dense,
     *, tol_nm: float = BAND_TOL_NM, spacing_nm: float = INITIAL_SPACING_NM, nodes: tuple | None = None,
+    power_rtol: float = 0.0,
 ) -> CheckPoints:  # fmt: skip
     """The referee's check points of a plan: regime changes and adaptive refinement (see the module text).
 
@@ -286,6 +386,8 @@ def check_points(
         Longest spacing of the first check points [nm].
     nodes : (ndarray, ndarray), optional
         (leg, fraction of the leg) of further first check points (default: ``dense``'s points).
+    power_rtol : float
+        Relative widening of the engine's range [minimum load, MCR] the refinement certifies (``Plan.verify``'s).
 
     Returns
     -------
@@ -298,15 +400,12 @@ def check_points(
     leg0, s0 = _start_nodes(np.asarray(n_leg), np.asarray(n_frac, dtype=float), d_nm, float(spacing_nm))
     leg, s = _crossings(ctx, wp, d_nm, clock, departure, leg0, s0, min(CROSSING_TOL_NM, tol_nm))
     pts = replace(evaluate_at(ctx, wp, stw, departure, d_nm, clock, leg, s), origin=_origins(leg0, s0, leg, s, d_nm))
-    rounds = 0
-    while rounds < MAX_ROUNDS:
-        i = _to_halve(ctx, pts, tol_nm)
-        if i.size == 0:
-            break
-        rounds += 1
-        new = evaluate_at(ctx, wp, stw, departure, d_nm, clock, pts.leg[i], 0.5 * (pts.s_nm[i] + pts.s_nm[i + 1]))
-        new = replace(new, origin=np.full(new.size, ORIGIN_REFINED, dtype=np.int8))
-        pts = _concat(pts, new)
+
+    def at(leg_i: np.ndarray, s_i: np.ndarray) -> CheckPoints:
+        new = evaluate_at(ctx, wp, stw, departure, d_nm, clock, leg_i, s_i)
+        return replace(new, origin=np.full(new.size, ORIGIN_REFINED, dtype=np.int8))
+
+    pts, rounds = _halving(ctx, pts, at, tol_nm, power_rtol, ctx.rules)
     out = {f.name: getattr(pts, f.name) for f in fields(CheckPoints)}
     out["tol_nm"], out["rounds"] = float(tol_nm), rounds
     return CheckPoints(**out)

@@ -416,7 +416,11 @@ class Plan:
         apart, both sides of every change of the weather's interpolation cell (grid row, column, time
         slice) and, halved adaptively, wherever a band's ratio or Hs nears the band's edge or
         threshold or the wave direction turns fast: **every stretch of a leg longer than**
-        ``tol_nm`` **(0.1 nm by default) inside a danger band is found**; a shorter one may be.
+        ``tol_nm`` **(0.1 nm by default) inside a danger band is found**; a shorter one may be. The
+        engine's range is searched the same way (:func:`optroute.plan.checkpoints.engine_intervals_to_halve`):
+        halved where the power nears the MCR or the minimum load, or the model's power regime (Kwon's
+        Beaufort number, wave sector) changes or may change between points, so every stretch longer
+        than ``tol_nm`` above the MCR or below the minimum load is found too.
 
         Parameters
         ----------
@@ -471,7 +475,9 @@ class Plan:
         ev = evaluate_track(ctx, self.waypoints, stw, t0, sched, step)
         wp = np.asarray(self.waypoints, dtype=float)
         d = geo.distance_nm(wp[:-1, 0], wp[:-1, 1], wp[1:, 0], wp[1:, 1])
-        pts = check_points(ctx, wp, stw, t0, d, ev, tol_nm=tol_nm, nodes=step_midpoints(d, step))
+        pts = check_points(
+            ctx, wp, stw, t0, d, ev, tol_nm=tol_nm, nodes=step_midpoints(d, step), power_rtol=float(power_rtol)
+        )
         found: dict[tuple[str, int], tuple[float, Violation]] = {}
 
         def report(kind: str, mask: np.ndarray, value: np.ndarray, limit: Any, badness: np.ndarray) -> None:
