@@ -81,14 +81,19 @@ def test_synchronous_study_matches_calm_water_by_hand_and_reports_unreachable_et
 
 
 def test_two_worker_cluster_study_equals_the_synchronous_one_exactly(serial, cluster, tmp_path):
-    par = _study(tmp_path / "par", scheduler_address=cluster.scheduler_address)
+    # one ship's 6 cases (both weathers, every ETA, the unreachable one included) spread over the two workers
+    par = orx.study(
+        [SHIP], WEATHER, ETAS, corridor=CORRIDOR, departure=T0, store=tmp_path / "par",
+        scheduler_address=cluster.scheduler_address, **KW,
+    )  # fmt: skip
+    ref = serial.sel(ship=[SHIP.name])
     for name in ("fuel_t", "duration_h", "mean_power_kw", "max_power_kw"):
         # the same solves; 1-ulp differences between processes were seen once, hence rounding-level tolerance
-        np.testing.assert_allclose(par[name].values, serial[name].values, rtol=1e-12)
+        np.testing.assert_allclose(par[name].values, ref[name].values, rtol=1e-12)
     # the ETA multiplier is Ipopt's dual, converged to its 1e-9 tolerance, not to the last bit: a worker's
     # BLAS threading sums in another order (4.6e-12 relative was seen in CI)
-    np.testing.assert_allclose(par.eta_shadow_price_t_per_h.values, serial.eta_shadow_price_t_per_h.values, rtol=1e-9)
-    np.testing.assert_array_equal(par.plan_status.values, serial.plan_status.values)
+    np.testing.assert_allclose(par.eta_shadow_price_t_per_h.values, ref.eta_shadow_price_t_per_h.values, rtol=1e-9)
+    np.testing.assert_array_equal(par.plan_status.values, ref.plan_status.values)
 
 
 def test_front_is_bit_identical_serial_run_to_run_and_on_two_workers(cluster):
@@ -169,24 +174,28 @@ def test_interrupted_study_resumes_with_every_case_once(serial, tmp_path, monkey
 
     def interrupted(*args, **kwargs):
         calls["n"] += 1
-        if calls["n"] == 5:
-            raise KeyboardInterrupt  # Ctrl-C half-way through the 12 cases
+        if calls["n"] == 4:
+            raise KeyboardInterrupt  # Ctrl-C half-way through one ship's 6 cases
         return real(*args, **kwargs)
+
+    def one_ship(store: Path, **kw) -> xr.Dataset:
+        return orx.study([SHIP], WEATHER, ETAS, corridor=CORRIDOR, departure=T0, store=store, n_workers=0, **KW, **kw)
 
     monkeypatch.setattr(vs, "solve_point", interrupted)
     store = tmp_path / "store"
     with pytest.raises(KeyboardInterrupt):
-        _study(store, n_workers=0)
+        one_ship(store)
     stored = sorted(p.name for p in (store / "cases").glob("*.nc"))
-    assert len(stored) == 4
+    assert len(stored) == 3
     calls["n"] = -1000  # no more interruptions
     done = []
-    ds = _study(store, n_workers=0, progress=lambda d, t: done.append((d, t)))
-    assert calls["n"] == -1000 + 8  # only the 8 cases not stored were computed
-    assert done[0] == (4, 12) and done[-1] == (12, 12)
-    assert len(list((store / "cases").glob("*.nc"))) == 12
+    ds = one_ship(store, progress=lambda d, t: done.append((d, t)))
+    assert calls["n"] == -1000 + 3  # only the 3 cases not stored were computed
+    assert done[0] == (3, 6) and done[-1] == (6, 6)
+    assert len(list((store / "cases").glob("*.nc"))) == 6
     assert (ds.status == "ok").all()
-    np.testing.assert_allclose(ds.fuel_t.values, serial.fuel_t.values, rtol=1e-12)  # same solves, to rounding
+    ref = serial.fuel_t.sel(ship=[SHIP.name]).values
+    np.testing.assert_allclose(ds.fuel_t.values, ref, rtol=1e-12)  # same solves, to rounding
 
 
 def test_unreachable_scheduler_fails_fast_naming_the_address(tmp_path):
