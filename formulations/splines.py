@@ -113,22 +113,26 @@ def spline_weight_derivatives(x: np.ndarray, x0: float, h: float, n: int) -> np.
     where ``x`` is held at an end node the derivative is that of CasADi's ``fmin``/``fmax`` (0 outside, ½ on the
     node itself), so that these are the numbers CasADi's automatic derivatives of :func:`spline_weights` give.
     """
-    x = np.asarray(x, dtype=float)
+    x = np.asarray(x, dtype=float).ravel()
     out = np.zeros((3, n, x.size))
-    out[0] = np.asarray(np.broadcast_arrays(*spline_weights(x, x0, h, n, np), x)[:n])
     if n == 1:
+        out[0] = 1.0
         return out
     xe = x0 + (n - 1) * h
     slope = np.where((x > x0) & (x < xe), 1.0, np.where((x == x0) | (x == xe), 0.5, 0.0)) / h
     u = (np.minimum(np.maximum(x, x0), xe) - x0) / h
-    coef = ((3.0, -12.0, 18.0, -12.0), (6.0, -24.0, 36.0, -24.0))
-    for order, c in ((1, coef[0]), (2, coef[1])):
-        basis = []
-        for i in range(-1, n + 1):
-            d = np.minimum(np.maximum(u - i, -2.0), 2.0)
-            p = [np.maximum(d + k, 0.0) ** (3 - order) for k in (2.0, 1.0, 0.0, -1.0)]
-            basis.append(sum(ci * pi for ci, pi in zip(c, p, strict=True)) / 6.0)
-        out[order] = np.asarray(_end_extended(basis, n)) * slope**order
+    # all n + 2 basis functions at once, (n + 2, K): the same operations per element as spline_weights' ``b``
+    d = np.minimum(np.maximum(u[None, :] - np.arange(-1.0, n + 1.0)[:, None], -2.0), 2.0)
+    p = [np.maximum(d + k, 0.0) for k in (2.0, 1.0, 0.0, -1.0)]
+    cubes = [pk**3 for pk in p]
+    basis = [(cubes[0] - 4.0 * cubes[1] + 6.0 * cubes[2] - 4.0 * cubes[3]) / 6.0]
+    squares = [pk**2 for pk in p]
+    basis.append((3.0 * squares[0] - 12.0 * squares[1] + 18.0 * squares[2] - 12.0 * squares[3]) / 6.0)
+    basis.append((6.0 * p[0] - 24.0 * p[1] + 36.0 * p[2] - 24.0 * p[3]) / 6.0)
+    for order, b in enumerate(basis):
+        out[order] = _end_extended(list(b), n)
+        if order:
+            out[order] *= slope**order
     return out
 
 
