@@ -38,6 +38,7 @@ __all__ = [
 ]
 
 _CHUNK = 2048  # points per gather in TensorSpline.evaluate: bounds the (points, 64, fields) block in memory
+_HELD_BYTES = 64 * 2**20  # the largest gathered block TensorSpline keeps for the next call on the same cells
 
 
 def spline_weights(x: Any, x0: float, h: float, n: int, lib: Any) -> list[Any]:
@@ -275,6 +276,7 @@ class TensorSpline:
         a, b, c = np.meshgrid(np.arange(4), np.arange(4), np.arange(4), indexing="ij")
         self._strides = strides
         self._offsets = (a * strides[0] + b * strides[1] + c * strides[2]).ravel()  # (64,), (a, b, c) C order
+        self._held: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # points per gather -> (cells, control points)
 
     def evaluate(self, points: np.ndarray, order: int = 0) -> np.ndarray:
         """Values and partial derivatives at points (3, K) [t, s, y].
@@ -294,6 +296,20 @@ class TensorSpline:
             out[:, :, start:stop] = self._chunk(pts[:, start:stop], order)
         return out.reshape(n_blocks * self.n_fields, k_)
 
+    def _block(self, base: np.ndarray) -> np.ndarray:
+        """The control points of the cells whose first node is ``base`` (K,), (K, 64, n_fields); the last gather of
+        each size is kept and served again while the cells are the same (the NLP's values and its derivatives at
+        an iterate, and iterates that stay in their cells, read the same control points)."""
+        held = self._held.get(base.size)
+        if held is not None and np.array_equal(held[0], base):
+            return held[1]
+        block = self._rows[base[:, None] + self._offsets[None, :]]
+        if block.nbytes <= _HELD_BYTES:
+            if len(self._held) >= 4:  # a few point sets (the NLP's samples, its rows); the oldest goes
+                self._held.pop(next(iter(self._held)))
+            self._held[base.size] = (base.copy(), block)
+        return block
+
     def _chunk(self, pts: np.ndarray, order: int) -> np.ndarray:
         lo, hi = self.x0[:, None], self.hi[:, None]
         inside = (pts >= lo) & (pts <= hi)
@@ -305,7 +321,7 @@ class TensorSpline:
         ws = _basis(u[1], 0)[0]  # (4, K)
         wy = _basis(u[2], order) / (self.h[2] ** np.arange(order + 1))[:, None, None]
         base = cell[0] * self._strides[0] + cell[1] * self._strides[1] + cell[2]
-        block = self._rows[base[:, None] + self._offsets[None, :]]  # (K, 64, n_fields)
+        block = self._block(base)  # (K, 64, n_fields)
         pairs = [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)][: (1, 3, 6)[order]]  # (t order, y order)
         masks = [1.0, inside[0], inside[2], inside[0], inside[0] & inside[2], inside[2]]
         weights = np.stack(

@@ -65,6 +65,22 @@ def test_numpy_spline_equals_casadis_splines_inside_on_the_edges_and_outside() -
     np.testing.assert_allclose(wx.tensor_spline().evaluate(pts, 2), ref, rtol=1e-12, atol=1e-12)
 
 
+def test_numpy_spline_reusing_its_cells_control_points_never_serves_another_cells() -> None:
+    """TensorSpline keeps the last gather of control points per point count and serves it while the cells are the
+    same: the same points again, other points in the same cells, points in other cells, then the first again, in
+    turn at orders 0 and 2 — every answer must be CasADi's spline at those points."""
+    wx = _grid(seed=3)
+    spline = wx.tensor_spline()
+    rng = np.random.default_rng(2)
+    a = np.vstack([rng.uniform(1.0, 47.0, 60), rng.uniform(5.0, 295.0, 60), rng.uniform(-19.0, 19.0, 60)])
+    same_cells = a + rng.uniform(-1e-6, 1e-6, a.shape)  # almost surely in the cells of a
+    other = np.vstack([rng.uniform(1.0, 47.0, 60), rng.uniform(5.0, 295.0, 60), rng.uniform(-19.0, 19.0, 60)])
+    for pts, order in [(a, 0), (a, 2), (same_cells, 2), (other, 0), (a, 2), (other, 2), (a[:, :7], 1), (a, 0)]:
+        ref = np.array(wx.taylor_function(2).map(pts.shape[1])(pts).full())
+        rows = {0: 1, 1: 3, 2: 6}[order] * len(wx.field_names)
+        np.testing.assert_allclose(spline.evaluate(pts, order), ref[:rows], rtol=1e-12, atol=1e-12)
+
+
 def _nlp(wx: WeatherGrid) -> SpeedNLP:
     bands = (Band("v_over_c", 0.8, 1.2, hs_min_m=4.0, name="surf_riding"),)
     power = PowerModel(calm_coef=[4.0], calm_exp=[3.0], mcr_kw=40000.0)
