@@ -114,19 +114,26 @@ def ratio_taylor_data(fields: np.ndarray, v: np.ndarray, heading_dev_deg: np.nda
     table, so every coefficient is one weighted sum of the table's derivatives with the weights' derivatives
     (:func:`formulations.splines.spline_weight_derivatives`).
     """
+    return sector_taylor_data(fields[:, None], v, heading_dev_deg, axes)
+
+
+def sector_taylor_data(fields: np.ndarray, v: np.ndarray, heading_dev_deg: np.ndarray, axes: tuple) -> np.ndarray:
+    """:func:`ratio_taylor_data` of every wave-angle sector's table at once: ``fields`` (blocks, nq, nv, nd, K),
+    returns the nq blocks one after the other, (nq · ``RATIO_BLOCK[order]``, K).
+
+    The speed and heading weights and their derivatives are the same for every sector, so they are computed once
+    and each contraction runs over all sectors and blocks together.
+    """
     v0, dv, nv, d0, dd, nd = axes[:6]
     wv = spline_weight_derivatives(v, v0, dv, nv)  # (3, nv, K)
     wd = spline_weight_derivatives(heading_dev_deg, d0, dd, nd)  # (3, nd, K)
-    second = fields.shape[0] == 6
-
-    def r(a: int, b: int, blk: int) -> np.ndarray:  # Σ_jk ∂^a w_j ∂^b w_k ∂F_jk
-        return np.einsum("jK,kK,jkK->K", wv[a], wd[b], fields[blk])
-
-    rows = [v, heading_dev_deg, r(0, 0, 0), r(1, 0, 0), r(0, 1, 0), r(0, 0, 1), r(0, 0, 2)]
-    rows += [r(2, 0, 0), r(1, 1, 0), r(1, 0, 1), r(1, 0, 2), r(0, 2, 0), r(0, 1, 1), r(0, 1, 2)]
-    if second:
-        rows += [r(0, 0, 3), r(0, 0, 4), r(0, 0, 5)]
-    return np.vstack(rows)
+    g = np.einsum("bkK,BqjkK->BbqjK", wd, fields)  # Σ_k ∂^b w_k ∂F_jk
+    r = np.einsum("ajK,BbqjK->abBqK", wv, g)  # Σ_jk ∂^a w_j ∂^b w_k ∂F_jk
+    terms = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, 2), (2, 0, 0), (1, 1, 0), (1, 0, 1), (1, 0, 2)]
+    terms += [(0, 2, 0), (0, 1, 1), (0, 1, 2)] + ([(0, 0, 3), (0, 0, 4), (0, 0, 5)] if fields.shape[0] == 6 else [])
+    coef = np.stack([r[a, b, blk] for a, b, blk in terms], axis=1)  # (nq, terms, K)
+    head = np.broadcast_to(np.stack([v, heading_dev_deg]), (coef.shape[0], 2, coef.shape[2]))
+    return np.concatenate([head, coef], axis=1).reshape(-1, coef.shape[2])
 
 
 def ratio_taylor(block: Any, d_t: Any, d_y: Any, edges: tuple = ()) -> Callable[[Any, Any, Any], Any]:
@@ -674,7 +681,7 @@ class _NumericTaylor:
         if lay.size:
             dev = self._dev_at(x, self._shaped(full))[0].copy()  # (m, N) column-major: sample k·m + j
             v = np.repeat(np.asarray(x, dtype=float).ravel()[self._n + 1 : 2 * self._n + 1], self._m)
-            full[lay.start : e0] = np.vstack([ratio_taylor_data(vals[:, tq], v, dev, self._axes) for tq in self._table])
+            full[lay.start : e0] = sector_taylor_data(vals[:, self._table], v, dev, self._axes)
         first = full
         if order == 2:  # the gradient's and the Jacobian's data: no second derivatives of the weather
             first = full.copy()

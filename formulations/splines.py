@@ -38,6 +38,7 @@ __all__ = [
 ]
 
 _CHUNK = 2048  # points per gather in TensorSpline.evaluate: bounds the (points, 64, fields) block in memory
+_HELD_BYTES = 64 * 2**20  # the largest gathered block TensorSpline keeps for the next call on the same cells
 
 
 def spline_weights(x: Any, x0: float, h: float, n: int, lib: Any) -> list[Any]:
@@ -113,22 +114,26 @@ def spline_weight_derivatives(x: np.ndarray, x0: float, h: float, n: int) -> np.
     where ``x`` is held at an end node the derivative is that of CasADi's ``fmin``/``fmax`` (0 outside, ½ on the
     node itself), so that these are the numbers CasADi's automatic derivatives of :func:`spline_weights` give.
     """
-    x = np.asarray(x, dtype=float)
+    x = np.asarray(x, dtype=float).ravel()
     out = np.zeros((3, n, x.size))
-    out[0] = np.asarray(np.broadcast_arrays(*spline_weights(x, x0, h, n, np), x)[:n])
     if n == 1:
+        out[0] = 1.0
         return out
     xe = x0 + (n - 1) * h
     slope = np.where((x > x0) & (x < xe), 1.0, np.where((x == x0) | (x == xe), 0.5, 0.0)) / h
     u = (np.minimum(np.maximum(x, x0), xe) - x0) / h
-    coef = ((3.0, -12.0, 18.0, -12.0), (6.0, -24.0, 36.0, -24.0))
-    for order, c in ((1, coef[0]), (2, coef[1])):
-        basis = []
-        for i in range(-1, n + 1):
-            d = np.minimum(np.maximum(u - i, -2.0), 2.0)
-            p = [np.maximum(d + k, 0.0) ** (3 - order) for k in (2.0, 1.0, 0.0, -1.0)]
-            basis.append(sum(ci * pi for ci, pi in zip(c, p, strict=True)) / 6.0)
-        out[order] = np.asarray(_end_extended(basis, n)) * slope**order
+    # all n + 2 basis functions at once, (n + 2, K): the same operations per element as spline_weights' ``b``
+    d = np.minimum(np.maximum(u[None, :] - np.arange(-1.0, n + 1.0)[:, None], -2.0), 2.0)
+    p = [np.maximum(d + k, 0.0) for k in (2.0, 1.0, 0.0, -1.0)]
+    cubes = [pk**3 for pk in p]
+    basis = [(cubes[0] - 4.0 * cubes[1] + 6.0 * cubes[2] - 4.0 * cubes[3]) / 6.0]
+    squares = [pk**2 for pk in p]
+    basis.append((3.0 * squares[0] - 12.0 * squares[1] + 18.0 * squares[2] - 12.0 * squares[3]) / 6.0)
+    basis.append((6.0 * p[0] - 24.0 * p[1] + 36.0 * p[2] - 24.0 * p[3]) / 6.0)
+    for order, b in enumerate(basis):
+        out[order] = _end_extended(list(b), n)
+        if order:
+            out[order] *= slope**order
     return out
 
 
@@ -271,6 +276,7 @@ class TensorSpline:
         a, b, c = np.meshgrid(np.arange(4), np.arange(4), np.arange(4), indexing="ij")
         self._strides = strides
         self._offsets = (a * strides[0] + b * strides[1] + c * strides[2]).ravel()  # (64,), (a, b, c) C order
+        self._held: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # points per gather -> (cells, control points)
 
     def evaluate(self, points: np.ndarray, order: int = 0) -> np.ndarray:
         """Values and partial derivatives at points (3, K) [t, s, y].
@@ -290,6 +296,20 @@ class TensorSpline:
             out[:, :, start:stop] = self._chunk(pts[:, start:stop], order)
         return out.reshape(n_blocks * self.n_fields, k_)
 
+    def _block(self, base: np.ndarray) -> np.ndarray:
+        """The control points of the cells whose first node is ``base`` (K,), (K, 64, n_fields); the last gather of
+        each size is kept and served again while the cells are the same (the NLP's values and its derivatives at
+        an iterate, and iterates that stay in their cells, read the same control points)."""
+        held = self._held.get(base.size)
+        if held is not None and np.array_equal(held[0], base):
+            return held[1]
+        block = self._rows[base[:, None] + self._offsets[None, :]]
+        if block.nbytes <= _HELD_BYTES:
+            if len(self._held) >= 4:  # a few point sets (the NLP's samples, its rows); the oldest goes
+                self._held.pop(next(iter(self._held)))
+            self._held[base.size] = (base.copy(), block)
+        return block
+
     def _chunk(self, pts: np.ndarray, order: int) -> np.ndarray:
         lo, hi = self.x0[:, None], self.hi[:, None]
         inside = (pts >= lo) & (pts <= hi)
@@ -301,7 +321,7 @@ class TensorSpline:
         ws = _basis(u[1], 0)[0]  # (4, K)
         wy = _basis(u[2], order) / (self.h[2] ** np.arange(order + 1))[:, None, None]
         base = cell[0] * self._strides[0] + cell[1] * self._strides[1] + cell[2]
-        block = self._rows[base[:, None] + self._offsets[None, :]]  # (K, 64, n_fields)
+        block = self._block(base)  # (K, 64, n_fields)
         pairs = [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)][: (1, 3, 6)[order]]  # (t order, y order)
         masks = [1.0, inside[0], inside[2], inside[0], inside[0] & inside[2], inside[2]]
         weights = np.stack(

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import formulations.speed_nlp as speed_nlp
-from formulations._nlp_model import power_ratio, ratio_taylor_data
+from formulations._nlp_model import power_ratio, ratio_taylor_data, sector_taylor_data
 from formulations.common import Band, CorridorGeometry, PowerModel, WeatherGrid
 from formulations.speed_nlp import SpeedNLP
 from formulations.splines import spline_weight_derivatives, spline_weights
@@ -63,6 +63,22 @@ def test_numpy_spline_equals_casadis_splines_inside_on_the_edges_and_outside() -
     pts[:, :3] = [[0.0, 48.0, 48.0], [0.0, 300.0, 150.0], [-20.0, 20.0, 0.0]]  # corners and an edge: held there
     ref = np.array(wx.taylor_function(2).map(pts.shape[1])(pts).full())
     np.testing.assert_allclose(wx.tensor_spline().evaluate(pts, 2), ref, rtol=1e-12, atol=1e-12)
+
+
+def test_numpy_spline_reusing_its_cells_control_points_never_serves_another_cells() -> None:
+    """TensorSpline keeps the last gather of control points per point count and serves it while the cells are the
+    same: the same points again, other points in the same cells, points in other cells, then the first again, in
+    turn at orders 0 and 2 — every answer must be CasADi's spline at those points."""
+    wx = _grid(seed=3)
+    spline = wx.tensor_spline()
+    rng = np.random.default_rng(2)
+    a = np.vstack([rng.uniform(1.0, 47.0, 60), rng.uniform(5.0, 295.0, 60), rng.uniform(-19.0, 19.0, 60)])
+    same_cells = a + rng.uniform(-1e-6, 1e-6, a.shape)  # almost surely in the cells of a
+    other = np.vstack([rng.uniform(1.0, 47.0, 60), rng.uniform(5.0, 295.0, 60), rng.uniform(-19.0, 19.0, 60)])
+    for pts, order in [(a, 0), (a, 2), (same_cells, 2), (other, 0), (a, 2), (other, 2), (a[:, :7], 1), (a, 0)]:
+        ref = np.array(wx.taylor_function(2).map(pts.shape[1])(pts).full())
+        rows = {0: 1, 1: 3, 2: 6}[order] * len(wx.field_names)
+        np.testing.assert_allclose(spline.evaluate(pts, order), ref[:rows], rtol=1e-12, atol=1e-12)
 
 
 def _nlp(wx: WeatherGrid) -> SpeedNLP:
@@ -141,3 +157,31 @@ def test_contracted_ratio_has_the_value_gradient_and_hessian_of_the_table() -> N
         order = [(0, 0), (0, 1), (0, 2), (0, 3), (1, 1), (1, 2), (1, 3), (2, 2), (2, 3), (3, 3)]  # R_VV … R_yy
         want = [hess[a, b] for a, b in order]
         np.testing.assert_allclose(blk[7:], want, rtol=1e-12, atol=1e-13)
+
+
+def test_every_sectors_taylor_data_at_once_equals_casadis_derivatives_of_that_sectors_table() -> None:
+    """sector_taylor_data contracts all sectors and samples together (the weights computed once): each sector's block
+    at each sample must be the value, gradient and Hessian CasADi differentiates from that sector's table alone."""
+    rng = np.random.default_rng(11)
+    axes = (6.0, 6.0, 4, -30.0, 30.0, 3, (30.0, 60.0))  # 3 sectors × 4 speeds × 3 headings
+    points = np.array([[7.5, 12.0], [6.0, -30.0], [20.0, 3.0], [25.0, 40.0], [11.0, -7.0]])  # inside, nodes, out
+    c = rng.uniform(-1.0, 1.0, (6, 3, 4, 3, points.shape[0]))  # (blocks, sector, speed, heading, sample)
+    got = sector_taylor_data(c, points[:, 0], points[:, 1], axes)  # (3 · 17, K)
+    v, dev, t, y = ca.SX.sym("v"), ca.SX.sym("dev"), ca.SX.sym("t"), ca.SX.sym("y")
+    z = ca.vertcat(v, dev, t, y)
+    order = [(0, 0), (0, 1), (0, 2), (0, 3), (1, 1), (1, 2), (1, 3), (2, 2), (2, 3), (3, 3)]  # R_VV … R_yy
+    for q in range(3):
+        for i, point in enumerate(points):
+            e = c[:, q, :, :, i]
+            col = {f"ratio_{j}_{k}": e[0, j, k] + e[1, j, k] * t + e[2, j, k] * y + 0.5 * e[3, j, k] * t**2
+                   + e[4, j, k] * t * y + 0.5 * e[5, j, k] * y**2 for j in range(4) for k in range(3)}  # fmt: skip
+            r = power_ratio(col, v, dev, axes[:6], ca)
+            val, grad, hess = (
+                np.array(a)
+                for a in ca.Function("r", [z], [r, ca.gradient(r, z), ca.hessian(r, z)[0]])([*point, 0.0, 0.0])
+            )
+            blk = got[q * 17 : (q + 1) * 17, i]
+            np.testing.assert_allclose(blk[:2], point, rtol=0, atol=0)
+            np.testing.assert_allclose(blk[2], val.item(), rtol=1e-13)
+            np.testing.assert_allclose(blk[3:7], grad.ravel(), rtol=1e-12, atol=1e-13)
+            np.testing.assert_allclose(blk[7:], [hess[a, b] for a, b in order], rtol=1e-12, atol=1e-13)
