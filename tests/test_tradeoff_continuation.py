@@ -7,6 +7,7 @@ the constant speed D/T, fuel T · fuel_rate(calm_power(D/T)) from the Ship's own
 from __future__ import annotations
 
 import importlib
+import inspect
 
 import numpy as np
 
@@ -48,3 +49,35 @@ def _calm():
     return orx.scenarios.uniform(
         hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240, resolution_deg=1.0
     )
+
+
+def test_a_mended_neighbour_is_verified_once_per_point(monkeypatch):
+    """The front's mended start (:func:`mended_start`) is the referee's verified plan for the point's ETA: the start
+    stage takes it as the warm plan's verdict instead of evaluating and verifying the same track and speeds again
+    (main verified it twice per point: once mending, once scoring). Counted against the interior points by hand;
+    the front is still the calm-water optimum, and identical to the one whose start stage verifies it again."""
+    calls: list[int] = []
+    original = stage_mod.verified_plan
+
+    def counting(*args, **kwargs):  # the warm plan's verifications only (the ends' own starts verify theirs)
+        if inspect.stack()[1].function == "_warm_plan_candidate":
+            calls.append(1)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(stage_mod, "verified_plan", counting)
+    front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, n=6, chains=1, **KW)
+    interior = front.solve.values == "eta"
+    assert interior.sum() == 4
+    # the four points' warm plans come verified by mended_start (the ends have none)
+    assert len(calls) == 0
+    v = CORRIDOR.length_nm / front.eta_h.values[interior]
+    by_hand = front.eta_h.values[interior] * SHIP.fuel_rate_tph(SHIP.calm_power_kw(v))
+    np.testing.assert_allclose(front.fuel_t.values[interior], by_hand, rtol=1e-5)
+
+    # the same front with the verdict dropped (the start stage verifies the mended plan itself): bit-identical
+    mended = points_mod.mended_start
+    monkeypatch.setattr(points_mod, "mended_start", lambda *a: points_mod.replace_fields(mended(*a), verified=None))
+    again = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, n=6, chains=1, **KW)
+    assert len(calls) == interior.sum()
+    np.testing.assert_array_equal(again.fuel_t.values, front.fuel_t.values)
+    np.testing.assert_array_equal(again.leg_stw_kn.values, front.leg_stw_kn.values)

@@ -224,9 +224,16 @@ def _candidate(
 
 
 def _warm_plan_candidate(prepared: Any, ctx: PlanContext, warm_plan: Plan, objective: str) -> Candidate:
-    """A given previous plan (a neighbouring ETA's), with a neighbour's multipliers when it carries them."""
+    """A given previous plan (a neighbouring ETA's), with a neighbour's multipliers when it carries them.
+
+    A warm plan that carries its own referee verdict for this solve's ETA (``verified``: the plan of exactly its
+    track and speeds, verified in a context with the same ETA and mode, as a front's mended start is) is not
+    evaluated and verified a second time.
+    """
     stw = np.asarray(warm_plan.stw_kn, dtype=float)
-    plan = verified_plan(ctx, warm_plan.waypoints, stw, prepared.departure, prepared.verify_step_nm, "start")
+    plan = getattr(warm_plan, "verified", None)
+    if plan is None or (plan.context.eta, plan.context.eta_mode) != (ctx.eta, ctx.eta_mode):
+        plan = verified_plan(ctx, warm_plan.waypoints, stw, prepared.departure, prepared.verify_step_nm, "start")
     warm = plan_warm_start(warm_plan, prepared.frame)
     duals = getattr(warm_plan, "duals", None)  # a neighbour's multipliers (a front's WarmStart), if any
     return _candidate(prepared, "warm plan", warm if duals is None else {**warm, "duals": duals}, plan, objective)

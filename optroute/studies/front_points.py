@@ -86,12 +86,15 @@ class WarmStart:
     multipliers too where the next solve has the same rows: the primal-dual warm start of the continuation.
     ``sole_start``: when the referee accepts the plan for the new ETA it is the solve's only start and its floor
     (:meth:`~optroute.optimise.corridor_problem.PreparedCorridor.starts` builds no centreline start beside it).
+    ``verified``: that plan as :func:`mended_start` verified it for the new ETA (the start stage does not verify it
+    again; on the benchmark's storm corridor each verification of a 301-leg plan is about 1 CPU-s).
     """
 
     waypoints: np.ndarray
     stw_kn: np.ndarray
     duals: Duals | None = None
     sole_start: bool = False
+    verified: Plan | None = None  # the referee's plan of exactly this track and speeds, verified for the next ETA
 
 
 @dataclass(frozen=True)
@@ -295,7 +298,7 @@ def mended_start(prepared: PreparedCorridor, carry: WarmStart, eta: np.datetime6
     )
     if plan is None:
         return carry
-    return WarmStart(np.asarray(plan.waypoints, dtype=float), np.asarray(plan.stw_kn), carry.duals)
+    return WarmStart(np.asarray(plan.waypoints, dtype=float), np.asarray(plan.stw_kn), carry.duals, verified=plan)
 
 
 def solve_chain(
