@@ -294,15 +294,21 @@ def power_regime(model: PerformanceModel, heading_deg: ArrayLike, sea: SeaState)
     fn = getattr(model, "power_regime", None)
     if fn is None:
         return np.where(navigable, 0, -1).astype(np.int64)
+    return np.where(navigable, fn(**_regime_inputs(heading_deg, sea)), -1).astype(np.int64)
+
+
+def _regime_inputs(heading_deg: ArrayLike, sea: SeaState) -> dict[str, np.ndarray]:
+    """The sea state as a model's ``power_regime`` and ``regime_distances`` read it: Hs [m] (0 where not
+    navigable), the relative wave angle [deg, 0 = head seas] and the wind speed [m/s] (NaN where not navigable)."""
+    navigable = np.asarray(sea.navigable)
     heading = np.asarray(heading_deg, dtype=float)
     wave_from = np.where(navigable, np.asarray(sea.wave_from_deg, dtype=float), 0.0)
     wind_speed, _ = units.wind_uv_to_speed_from_deg(sea.wind_u_ms, sea.wind_v_ms)
-    key = fn(
-        hs_m=np.where(navigable, np.asarray(sea.hs_m, dtype=float), 0.0),
-        wave_angle_deg=seaway.relative_wave_angle_deg(heading, wave_from),
-        wind_speed_ms=np.where(navigable, wind_speed, np.nan),
-    )
-    return np.where(navigable, key, -1).astype(np.int64)
+    return {
+        "hs_m": np.where(navigable, np.asarray(sea.hs_m, dtype=float), 0.0),
+        "wave_angle_deg": seaway.relative_wave_angle_deg(heading, wave_from),
+        "wind_speed_ms": np.where(navigable, wind_speed, np.nan),
+    }
 
 
 def regime_distances(model: PerformanceModel, heading_deg: ArrayLike, sea: SeaState) -> tuple[np.ndarray, ...]:
@@ -326,15 +332,7 @@ def regime_distances(model: PerformanceModel, heading_deg: ArrayLike, sea: SeaSt
     if fn is None:
         return ()
     navigable = np.asarray(sea.navigable)
-    heading = np.asarray(heading_deg, dtype=float)
-    wave_from = np.where(navigable, np.asarray(sea.wave_from_deg, dtype=float), 0.0)
-    wind_speed, _ = units.wind_uv_to_speed_from_deg(sea.wind_u_ms, sea.wind_v_ms)
-    out = fn(
-        hs_m=np.where(navigable, np.asarray(sea.hs_m, dtype=float), 0.0),
-        wave_angle_deg=seaway.relative_wave_angle_deg(heading, wave_from),
-        wind_speed_ms=np.where(navigable, wind_speed, np.nan),
-    )
-    return tuple(np.where(navigable, d, np.nan) for d in out)
+    return tuple(np.where(navigable, d, np.nan) for d in fn(**_regime_inputs(heading_deg, sea)))
 
 
 def _pick(choice_idx: np.ndarray, feasible: np.ndarray, arrays: tuple[np.ndarray, ...]) -> list[np.ndarray]:
