@@ -44,13 +44,13 @@ def explain_uncovered(exc: NoSafePassage, physics: PassagePhysics) -> Exception:
     return exc
 
 
-def run_objective(run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t):
+def run_objective(run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t, stop_at_track=False):
     """The search result for the objective and the λ it used [t/h].
 
     ``run(lam)`` searches minimum time (``lam`` None) or least fuel + λ·time.
     ``"time"`` runs it once; a given λ (or ``"cost"``: hourly cost / fuel price)
     runs it once and raises :class:`InfeasibleETA` if that route is later than
-    ``eta_h`` [h from ``t0``]; ``"fuel"`` bisects λ (:func:`bisect_lambda`).
+    ``eta_h`` [h from ``t0``]; ``"fuel"`` bisects λ (:func:`bisect_lambda`, with ``stop_at_track``).
     """
     lam_used = 0.0
     if objective == "time":
@@ -65,16 +65,24 @@ def run_objective(run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, 
                 earliest_arrival=t0 + _h_to_td(res.arrival_h),
             )
     else:
-        res, lam_used = bisect_lambda(run, eta_h, t0)
+        res, lam_used = bisect_lambda(run, eta_h, t0, stop_at_track=stop_at_track)
     return res, lam_used
 
 
-def bisect_lambda(run: Callable, eta_h: float | None, t0: np.datetime64):
+def bisect_lambda(run: Callable, eta_h: float | None, t0: np.datetime64, *, stop_at_track: bool = False):
     """Least λ whose least-cost route arrives by the ETA (fuel objective).
 
     A λ whose route cannot be completed (too slow to finish inside the
     forecast, say) counts as arriving too late; only when even the fastest
     choice fails is the search's :class:`NoSafePassage` raised.
+
+    The bracket is halved 12 times; with ``stop_at_track`` the bisection
+    stops as soon as a λ's route in time takes the same grid nodes as the
+    best route in time so far (``nodes``, cell by cell), for a caller that
+    keeps only the route's track (the corridor about it) and sets the speeds
+    again: further halvings would mostly change the speeds along that track
+    (a track of a λ still lower is then not looked for).  The route returned
+    is the in-time route of the least λ tried.
     """
     failure: list[NoSafePassage] = []
 
@@ -110,6 +118,9 @@ def bisect_lambda(run: Callable, eta_h: float | None, t0: np.datetime64):
         r = attempt(mid)
         if late(r):
             lo = mid
-        else:
-            hi, best = mid, r
+            continue
+        same_track = stop_at_track and np.array_equal(r.nodes, best.nodes)
+        hi, best = mid, r
+        if same_track:
+            break
     return best, hi
