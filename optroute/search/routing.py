@@ -324,7 +324,7 @@ def search_route(
 
     searches = [0]  # grid searches run, the failing ones included (stats["searches"])
 
-    def run(lam: float | None):
+    def run(lam: float | None, ceiling: float | None = None):
         searches[0] += 1
         if objective == "time" and lam is None:
             cb = _avoid(physics.segment_time(desired, speed_step_kn, min_speed_kn, check), exclusion, t0)
@@ -336,6 +336,7 @@ def search_route(
         return shortest_path(
             grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="cost", lambda_t_per_h=lam,
             cost_floor_per_nm=physics.cost_floor_per_nm(speeds, lam, v_bound - top_kn), time_limit_h=limit_h,
+            cost_ceiling=ceiling,
         )  # fmt: skip
 
     try:
