@@ -38,7 +38,8 @@
 1e. Where the compiled A*'s time goes: the band check on (with and without the node-bound
    certificate of :mod:`optroute.search.band_bounds`) and off (:func:`bench_band_check_share`).
 1f. (full mode) ``plan_voyage`` San Diego → Tokyo through the storms with its
-   defaults, end to end (the issue's target is <= 10 s).
+   defaults, end to end (the issue's target is <= 10 s); before it, plan_voyage's
+   λ bisection stopped at the track beside its 12 halvings (:func:`bench_track_stop`).
 2. The graph sizes of seed 003's Table 1 (Gulf of Gdańsk, 595–3 222
    vertices, 7 514–200 236 edges, 8/16/32 directions): grids of about the
    same vertex counts, a sailing-boat polar under a slowly veering wind (head
@@ -441,7 +442,49 @@ def bench_plan_voyage() -> dict[str, Any]:
     search_s = float(search.get("runtime_s", np.nan))
     return {"total_s": total, "cpu_s": cpu, "search_s": search_s, "optimise_s": total - search_s,
             "fuel_t": plan.total_fuel_t, "duration_h": plan.duration_h, "search_objective": found.get("objective"),
-            "lambda_t_per_h": search.get("lambda_t_per_h")}  # fmt: skip
+            "lambda_t_per_h": search.get("lambda_t_per_h"), "searches": search.get("searches")}  # fmt: skip
+
+
+def bench_track_stop(quick: bool) -> dict[str, Any]:
+    """plan_voyage's λ bisection stopped at the track (its default) beside the 12 halvings (before), same run.
+
+    San Diego -> Tokyo through the storms, no ETA (the weather's end binds), 60 nm cells (120 nm with
+    ``--quick``): CPU seconds of the call and of its route search, the grid searches run, the search's λ and
+    route fuel, and the plan's fuel by the referee.
+    """
+    import warnings
+
+    ship = orx.Ship.preset("container_8000teu")
+    wx = orx.scenarios.north_pacific_storms()
+    cell = 120.0 if quick else 60.0
+    inner = routing.search_route
+    rows = []
+    for stop in (False, True):
+        seen: dict[str, float] = {}
+
+        def spy(*args: Any, seen: dict = seen, **kw: Any) -> Any:
+            cpu = time.process_time()
+            try:
+                return inner(*args, **kw)
+            finally:
+                seen["search_cpu_s"] = seen.get("search_cpu_s", 0.0) + time.process_time() - cpu
+
+        routing.search_route = spy
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                cpu = time.process_time()
+                plan = orx.plan_voyage(orx.scenarios.SAN_DIEGO, orx.scenarios.TOKYO, wx, ship,
+                                       departure=wx.time.values[0],
+                                       search_options={"cell_nm": cell, "stop_at_track": stop})  # fmt: skip
+                cpu = time.process_time() - cpu
+        finally:
+            routing.search_route = inner
+        found = plan.solver_stats["search"]
+        rows.append({"stop_at_track": stop, "cpu_s": cpu, **seen, "searches": found["stats"]["searches"],
+                     "lambda_t_per_h": found["stats"]["lambda_t_per_h"], "route_fuel_t": found["fuel_t"],
+                     "fuel_t": plan.total_fuel_t, "duration_h": plan.duration_h})  # fmt: skip
+    return {"cell_nm": cell, "rows": rows}
 
 
 # ------------------------------------------------------------- case 2: seed 003
@@ -594,12 +637,23 @@ def run(quick: bool) -> dict[str, Any]:
         print(f"| {r['lambda_t_per_h']:.4g} | {'weather end' if r['limit'] else 'none (before)'} | {r['outcome']} | "
               f"{r.get('reached', r.get('expanded', ''))} | {r['cpu_s']:.2f} |")  # fmt: skip
     print()
+    ts = bench_track_stop(quick)
+    print(f"### plan_voyage's λ bisection stopped at the track (default) against its 12 halvings, San Diego → "
+          f"Tokyo, storms, no ETA, {ts['cell_nm']:g} nm cells, CPU seconds of this process, same run\n")  # fmt: skip
+    print("| λ bisection | plan_voyage CPU [s] | route search CPU [s] | searches | λ [t/h] | route fuel [t] | "
+          "plan fuel (referee) [t] | plan [h] | CPU / 12 halvings |")  # fmt: skip
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for r in ts["rows"]:
+        print(f"| {'stopped at the track' if r['stop_at_track'] else '12 halvings (before)'} | {r['cpu_s']:.1f} | "
+              f"{r['search_cpu_s']:.1f} | {r['searches']} | {r['lambda_t_per_h']:.5g} | {r['route_fuel_t']:.2f} | "
+              f"{r['fuel_t']:.3f} | {r['duration_h']:.2f} | {r['cpu_s'] / ts['rows'][0]['cpu_s']:.2f} |")  # fmt: skip
+    print()
     pv = None
     if not quick:
         pv = bench_plan_voyage()
         print(f"### plan_voyage San Diego → Tokyo through the storms (defaults), end to end: **{pv['total_s']:.1f} s** "
               f"wall, {pv['cpu_s']:.1f} CPU-s (target <= 10 s), of which the route search "
-              f"({pv['search_objective']}, λ {pv['lambda_t_per_h']}) {pv['search_s']:.1f} s and "
+              f"({pv['search_objective']}, λ {pv['lambda_t_per_h']}, {pv['searches']} searches) {pv['search_s']:.1f} s and "
               f"the corridor optimiser {pv['optimise_s']:.1f} s; fuel {pv['fuel_t']:.1f} t, "
               f"{pv['duration_h']:.1f} h\n")  # fmt: skip
 
@@ -626,7 +680,7 @@ def run(quick: bool) -> dict[str, Any]:
           f"{dp['step3_s'] / dp['full_s']:.2f} |")  # fmt: skip
     print()
     return {"pacific": pac, "pacific_physics": phy, "dp_physics": dpp, "band_check": bc, "time_limit": tl,
-            "plan_voyage": pv,
+            "track_stop": ts, "plan_voyage": pv,
             "seed003": s3, "dp": dp}  # fmt: skip
 
 

@@ -317,8 +317,9 @@ def plan_voyage(
     """Search a route, take the corridor around it, and optimise speeds and waypoints in it.
 
     1. :func:`optroute.search_route` (objective ``"time"`` for a time plan, else ``"fuel"`` — or
-       ``"cost"`` with the prices — with the ETA); when the search cannot meet the ETA it is run
-       for minimum time instead, and the NLP decides (it may meet an ETA the grid cannot).
+       ``"cost"`` with the prices — with the ETA; the fuel objective's λ bisection with
+       ``stop_at_track=True``: only the route's track is kept); when the search cannot meet the ETA it
+       is run for minimum time instead, and the NLP decides (it may meet an ETA the grid cannot).
     2. ``route.corridor(width_nm=corridor_width_nm)``.
     3. :func:`optimise_corridor` warm-started from the route (its speeds and band sides).
 
@@ -353,6 +354,7 @@ def plan_voyage(
     if objective == "cost":
         opts.setdefault("fuel_price_per_t", optimise_kwargs.get("fuel_price_per_t", 600.0))
         opts.setdefault("hourly_cost_per_h", optimise_kwargs.get("hourly_cost_per_h", 0.0))
+    opts.setdefault("stop_at_track", True)  # the optimiser keeps the search's track and sets the speeds again
     common = {"departure": departure, "model": model, "rules": rules, "exclusion": exclusion}
     try:
         route = search_route(start, end, weather, ship, objective=search_objective, eta=eta, **common, **opts)

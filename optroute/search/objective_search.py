@@ -44,13 +44,14 @@ def explain_uncovered(exc: NoSafePassage, physics: PassagePhysics) -> Exception:
     return exc
 
 
-def run_objective(run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t):
+def run_objective(run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t, stop_at_track=False):
     """The search result for the objective and the λ it used [t/h].
 
-    ``run(lam)`` searches minimum time (``lam`` None) or least fuel + λ·time.
+    ``run(lam)`` searches minimum time (``lam`` None) or least fuel + λ·time (``run(lam, ceiling)``: only
+    routes cheaper than ``ceiling``, see :func:`bisect_lambda`).
     ``"time"`` runs it once; a given λ (or ``"cost"``: hourly cost / fuel price)
     runs it once and raises :class:`InfeasibleETA` if that route is later than
-    ``eta_h`` [h from ``t0``]; ``"fuel"`` bisects λ (:func:`bisect_lambda`).
+    ``eta_h`` [h from ``t0``]; ``"fuel"`` bisects λ (:func:`bisect_lambda`, with ``stop_at_track``).
     """
     lam_used = 0.0
     if objective == "time":
@@ -65,22 +66,37 @@ def run_objective(run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, 
                 earliest_arrival=t0 + _h_to_td(res.arrival_h),
             )
     else:
-        res, lam_used = bisect_lambda(run, eta_h, t0)
+        res, lam_used = bisect_lambda(run, eta_h, t0, stop_at_track=stop_at_track)
     return res, lam_used
 
 
-def bisect_lambda(run: Callable, eta_h: float | None, t0: np.datetime64):
+def bisect_lambda(run: Callable, eta_h: float | None, t0: np.datetime64, *, stop_at_track: bool = False):
     """Least λ whose least-cost route arrives by the ETA (fuel objective).
 
     A λ whose route cannot be completed (too slow to finish inside the
     forecast, say) counts as arriving too late; only when even the fastest
     choice fails is the search's :class:`NoSafePassage` raised.
+
+    The bracket is halved 12 times; with ``stop_at_track`` the bisection
+    stops as soon as a λ's route in time takes the same grid nodes as the
+    best route in time so far (``nodes``, cell by cell), for a caller that
+    keeps only the route's track (the corridor about it) and sets the speeds
+    again: further halvings would mostly change the speeds along that track
+    (a track of a λ still lower is then not looked for).  Each halving's
+    search then also looks only for routes no dearer at its λ than the best
+    route in time (``run(lam, ceiling)``, ``shortest_path``'s
+    ``cost_ceiling``): it finds that route or a cheaper one as it would
+    without the bound, and a round that finds none stops early and counts as
+    late.  That is the unbounded round's outcome when it finds no route or a
+    late one; it differs only where the label-setting search would return an
+    in-time route dearer at that λ than the best one, which is then not
+    taken.  The route returned is the in-time route of the least λ tried.
     """
     failure: list[NoSafePassage] = []
 
-    def attempt(lam: float):
+    def attempt(lam: float, ceiling: float | None = None):
         try:
-            return run(lam)
+            return run(lam, ceiling) if ceiling is not None else run(lam)
         except NoSafePassage as exc:
             failure[:] = [exc]
             return None
@@ -107,9 +123,15 @@ def bisect_lambda(run: Callable, eta_h: float | None, t0: np.datetime64):
     best = fast
     for _ in range(12):
         mid = 0.5 * (lo + hi)
-        r = attempt(mid)
+        # the best route's own cost at mid (with room for rounding): a search bounded by it finds that route or a
+        # cheaper one at mid, and a round that fails under it stops early
+        cap = best.total_fuel_t + mid * best.arrival_h
+        r = attempt(mid, cap * (1.0 + 1e-9) + 1e-9 if stop_at_track else None)
         if late(r):
             lo = mid
-        else:
-            hi, best = mid, r
+            continue
+        same_track = stop_at_track and np.array_equal(r.nodes, best.nodes)
+        hi, best = mid, r
+        if same_track:
+            break
     return best, hi

@@ -99,6 +99,7 @@ def search_route(
     vessel: SailingVessel | None = None,
     manoeuvre_penalty_h: float | None = None,
     sailing_grid: SailingGrid | SailingGraph | None = None,
+    stop_at_track: bool = False,
 ) -> Route | SailingRoute:
     """Search the route corridor through forecast weather.
 
@@ -193,6 +194,12 @@ def search_route(
         Sailing, ``objective="weighted"``: hours one tack or gybe is worth [h].
     sailing_grid : SailingGrid or SailingGraph, optional
         Sailing: the lattice (default one around start and end) or its graph.
+    stop_at_track : bool
+        Objective ``"fuel"`` (the λ bisection): stop halving λ's bracket as soon
+        as a λ's route in time takes the same grid nodes as the best one so far
+        (:func:`optroute.search.objective_search.bisect_lambda`), for a caller
+        that keeps the track and sets the speeds again (:func:`optroute.plan_voyage`
+        does); default False, 12 halvings.
 
     Returns
     -------
@@ -201,7 +208,8 @@ def search_route(
         of the route (``leg``, ``lat_deg``/``lon_deg`` of the midpoint,
         ``course_deg``, ``length_nm``, ``t_h`` entry [h from departure],
         ``duration_h``, ``stw_kn``, ``heading_deg``, ``power_kw``, …): the
-        speed actually sailed on each piece.
+        speed actually sailed on each piece; ``stats["searches"]`` the grid
+        searches run (the λ bisection's rounds, failing ones included).
 
     Raises
     ------
@@ -314,7 +322,10 @@ def search_route(
 
     limit_h = _time_limit_h(sampler, t0, check)
 
-    def run(lam: float | None):
+    searches = [0]  # grid searches run, the failing ones included (stats["searches"])
+
+    def run(lam: float | None, ceiling: float | None = None):
+        searches[0] += 1
         if objective == "time" and lam is None:
             cb = _avoid(physics.segment_time(desired, speed_step_kn, min_speed_kn, check), exclusion, t0)
             return shortest_path(
@@ -325,17 +336,20 @@ def search_route(
         return shortest_path(
             grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="cost", lambda_t_per_h=lam,
             cost_floor_per_nm=physics.cost_floor_per_nm(speeds, lam, v_bound - top_kn), time_limit_h=limit_h,
+            cost_ceiling=ceiling,
         )  # fmt: skip
 
     try:
-        res, lam_used = run_objective(run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t)
+        res, lam_used = run_objective(
+            run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t, stop_at_track
+        )
     except NoSafePassage as exc:
         raise explain_uncovered(exc, physics) from None
     except InfeasibleETA as exc:
         raise eta_as_time(exc, t0) from None
     except WeatherCoverageError as exc:
         raise WeatherCoverageError(f"{exc} (the weather ends at {units.format_utc(last_t)})") from None
-    return _route_from_search(res, physics, t0, objective, method, lam_used, t_start)
+    return _route_from_search(res, physics, t0, objective, method, lam_used, t_start, searches[0])
 
 
 def _time_limit_h(sampler: WeatherSampler, t0: np.datetime64, check_nm: float | None) -> float | None:
@@ -355,7 +369,7 @@ def _avoid(cb: Callable, exclusion: Exclusion | None, t0: np.datetime64) -> Call
     return cb if exclusion is None else avoiding(cb, exclusion, t0)
 
 
-def _route_from_search(res, physics: PassagePhysics, t0, objective, method, lam, t_start) -> Route:
+def _route_from_search(res, physics: PassagePhysics, t0, objective, method, lam, t_start, searches) -> Route:
     n_legs = res.lat_deg.size - 1
     extra = res.extra
     leg_of = np.asarray(extra.get("piece_leg", np.zeros(0, dtype=int)), dtype=int)
@@ -382,6 +396,7 @@ def _route_from_search(res, physics: PassagePhysics, t0, objective, method, lam,
             "evaluated_edges": res.evaluated_edges,
             "callback_calls": res.callback_calls,
             "lambda_t_per_h": lam,
+            "searches": searches,
             "neighbourhood": res.neighbourhood,
             "runtime_s": _time.perf_counter() - t_start,
             "pieces": piece_extra,
