@@ -196,8 +196,8 @@ def propeller_speed(stw_kn: Any, power_kw: Any, found_kw: Any) -> Any:
     """
     found = np.asarray(found_kw, dtype=float)
     finite = np.isfinite(found)
-    ratio = np.where(finite, power_kw / np.maximum(np.where(finite, found, 1.0), 1e-9), 0.9**3)
-    return np.asarray(stw_kn, dtype=float) * ratio ** (1.0 / 3.0)
+    ratio = np.where(finite, power_kw / np.maximum(np.where(finite, found, 1.0), 1e-9), 1.0) ** (1.0 / 3.0)
+    return np.asarray(stw_kn, dtype=float) * np.where(finite, ratio, 0.9)
 
 
 def minimum_load_plan(
