@@ -57,3 +57,44 @@ def test_an_unknown_discrete_start_is_a_config_error_naming_it(bad):
     corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -10.0]], width_nm=0.0)
     with pytest.raises(ConfigError, match=f"discrete_start={bad!r}"):
         optimise_corridor(corridor, _calm(), SHIP, departure=T0, eta=T0 + np.timedelta64(72, "h"), discrete_start=bad)
+
+
+def test_least_fuel_without_an_eta_starts_at_the_minimum_load_by_hand():
+    # calm water on a fixed path: the least fuel without an ETA is the constant speed where the engine reaches its
+    # minimum load (fuel per mile falls with speed down to it), D / (calm speed at the minimum power) by hand; the
+    # start is that schedule itself, and the centreline start (made for the mean speed to the weather's end, under
+    # the minimum load here) is not made
+    corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -20.0]], width_nm=0.0)
+    plan = optimise_corridor(corridor, _calm(), SHIP, departure=T0, objective="fuel", max_leg_nm=150.0)
+    st = plan.solver_stats
+    v = SHIP.calm_speed_kn(SHIP.min_power_kw)
+    by_hand = corridor.length_nm / v * float(SHIP.fuel_rate_tph(SHIP.min_power_kw))
+    assert st["start"] == "minimum-load schedule" and "centreline start" not in st["starts"]
+    assert st["start_score"] == pytest.approx(by_hand, rel=1e-6)
+    assert plan.verify() == [] and plan.duration_h == pytest.approx(corridor.length_nm / v, rel=1e-5)
+    assert plan.total_fuel_t == pytest.approx(by_hand, rel=1e-5)
+
+
+def test_the_minimum_load_schedule_is_the_slowest_the_referee_accepts_in_a_head_sea():
+    from optroute.optimise.corridor_problem import PreparedCorridor
+    from optroute.optimise.starts import MIN_LOAD_SLACK, minimum_load_plan
+    from optroute.plan.result import Plan
+
+    # a uniform head sea (Kwon's added resistance): the speed at the minimum load is below the calm-water one, and
+    # found by the referee alone: every leg's lowest power within the slack above the minimum, and every leg 0.1 %
+    # slower breaks it (brute force by the referee, not the rounds' propeller law)
+    wx = orx.scenarios.uniform(hs_m=3.0, wave_from_deg=90.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240,
+                               resolution_deg=1.0)  # fmt: skip
+    corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -20.0]], width_nm=0.0)
+    prep = PreparedCorridor(corridor, wx, SHIP, departure=T0, max_leg_nm=150.0, use_land_mask=False)
+    ctx = prep.plan_context()
+    wp = prep.frame.waypoints(np.zeros(prep.frame.n_legs + 1))
+    plan = minimum_load_plan(ctx, wp, T0, 5.0, v_min_kn=prep.v_min, v_max_kn=prep.v_max)
+    assert plan is not None
+    found = plan.verify()
+    pmin, pts = SHIP.min_power_kw, found.points
+    lowest = np.array([np.min(pts.power[pts.leg == k]) for k in range(plan.stw_kn.size)])
+    assert found == [] and np.all(lowest >= pmin * (1 - 1e-6)) and np.all(lowest <= pmin * (1 + MIN_LOAD_SLACK))
+    assert np.all(plan.stw_kn < SHIP.calm_speed_kn(pmin))
+    slower = Plan.from_context(ctx, wp, plan.stw_kn * 0.999, departure=T0)
+    assert {v.leg for v in slower.verify() if v.kind == "power_below_min"} == set(range(plan.stw_kn.size))

@@ -12,6 +12,8 @@ scores the NLP's plan), and never returns a plan worse than the best verified on
   there is an ETA: least fuel (or cost) by the ETA, the danger bands and the MCR inside;
 * ``"minimum-time plan"`` — the corridor's minimum-time plan, where it meets the ETA;
 * ``"ship dual"`` — on a fixed path in static weather, the schedule of the ship's own dual bound;
+* ``"minimum-load schedule"`` — for least fuel without an ETA, the centreline sailed at the engine's minimum
+  load (:func:`minimum_load_plan`);
 * ``"centreline start"`` — the NLP's own safe start on the centreline
   (:func:`optroute.optimise.min_time.clean_start`).
 
@@ -46,6 +48,7 @@ __all__ = [
     "Candidate",
     "dp_route",
     "great_circle_corridor",
+    "minimum_load_plan",
     "repaired_plan",
     "score",
     "track_warm_start",
@@ -58,6 +61,12 @@ ENGINE_KINDS = ("power_below_min", "power_above_mcr")
 REPAIR_ROUNDS = 12
 #: Smallest speed move of a repair round [kn].
 REPAIR_STEP_KN = 0.05
+#: Rounds of :func:`minimum_load_plan` (each one evaluation and verification by the referee).
+MIN_LOAD_ROUNDS = 10
+#: :func:`minimum_load_plan` aims each leg's lowest power this far above the minimum power [-], and stops when every
+#: leg's lies within :data:`MIN_LOAD_SLACK` of it.
+MIN_LOAD_AIM = 5e-4
+MIN_LOAD_SLACK = 2e-3
 
 
 @dataclass(frozen=True)
@@ -169,15 +178,78 @@ def repaired_plan(
             return None, len(moved)
         before = stw.copy()
         for v in found:
-            ratio = (v.limit / max(v.value, 1e-9)) ** (1.0 / 3.0) if np.isfinite(v.value) else 0.9
             up = v.kind == "power_below_min"
-            target = stw[v.leg] * ratio * (1.002 if up else 0.998)
+            target = propeller_speed(stw[v.leg], v.limit, v.value) * (1.002 if up else 0.998)
             step = max(abs(target - stw[v.leg]), REPAIR_STEP_KN)
             stw[v.leg] = float(np.clip(stw[v.leg] + (step if up else -step), v_min_kn, v_max_kn))
             moved.add(int(v.leg))
         if np.array_equal(stw, before):  # held at a speed bound: nothing left to move
             return None, len(moved)
     return None, len(moved)
+
+
+def propeller_speed(stw_kn: Any, power_kw: Any, found_kw: Any) -> Any:
+    """The speed through water [kn] whose brake power is ``power_kw``, from ``stw_kn`` where it is ``found_kw``.
+
+    The propeller law ``P ∝ V³`` (physics.md §8): ``V (P / P_found)^{1/3}``; 0.9 ``V`` where ``found_kw`` is not
+    finite (the power could not be evaluated there).
+    """
+    found = np.asarray(found_kw, dtype=float)
+    finite = np.isfinite(found)
+    ratio = np.where(finite, power_kw / np.maximum(np.where(finite, found, 1.0), 1e-9), 1.0) ** (1.0 / 3.0)
+    return np.asarray(stw_kn, dtype=float) * np.where(finite, ratio, 0.9)
+
+
+def minimum_load_plan(
+    ctx: PlanContext,
+    waypoints: np.ndarray,
+    departure: np.datetime64,
+    step_nm: float,
+    *,
+    v_min_kn: float,
+    v_max_kn: float,
+) -> Plan | None:
+    """A track sailed at the engine's minimum load, verified by the referee: the least-fuel problem's start.
+
+    Without an ETA fuel falls as the ship slows until the engine's minimum power
+    (:attr:`~optroute.physics.performance.PerformanceModel.min_power_kw`) stops it, so the slowest schedule the engine
+    allows is where a least-fuel solve without an ETA begins. Each leg starts at the calm-water speed of the minimum
+    power (:meth:`~optroute.physics.ship.Ship.calm_speed_kn`); then, :data:`MIN_LOAD_ROUNDS` times at most, the plan is
+    evaluated and verified by the referee (:meth:`Plan.verify`) and each leg's speed moves by the propeller law
+    (:func:`propeller_speed`) until the lowest power the referee finds on it is :data:`MIN_LOAD_AIM` above the minimum
+    power (every leg within :data:`MIN_LOAD_SLACK`: done). The weather met moves with the schedule, so the rounds
+    are a fixed point, not a closed form; the least-fuel verified plan of the rounds is returned.
+
+    Returns
+    -------
+    Plan or None
+        None when the ship has no minimum power, or no round verifies (a band at those speeds, the weather's end).
+    """
+    pmin = float(ctx.model.min_power_kw)
+    wp = np.asarray(waypoints, dtype=float)
+    if not pmin > 0.0:
+        return None
+    v0 = float(np.clip(ctx.ship.calm_speed_kn(pmin), v_min_kn, v_max_kn))
+    stw = np.full(wp.shape[0] - 1, v0)
+    best: Plan | None = None
+    for _ in range(MIN_LOAD_ROUNDS):
+        try:
+            plan = Plan.from_context(ctx, wp, stw, departure=departure, status="start", step_nm=step_nm)
+        except OptrouteError:  # a schedule that cannot even be evaluated (past the weather's end) is no start
+            return best
+        found = plan.verify(step_nm=step_nm)
+        if any(v.kind not in ENGINE_KINDS for v in found):
+            return best
+        pts = found.points
+        ok = np.isfinite(pts.power)
+        lowest = np.full(stw.size, np.inf)
+        np.minimum.at(lowest, pts.leg[ok], pts.power[ok])
+        if not found and (best is None or plan.total_fuel_t < best.total_fuel_t):
+            best = plan
+            if np.all(lowest <= pmin * (1.0 + MIN_LOAD_SLACK)):
+                break
+        stw = np.clip(propeller_speed(stw, pmin * (1.0 + MIN_LOAD_AIM), lowest), v_min_kn, v_max_kn)
+    return best
 
 
 def track_warm_start(waypoints: np.ndarray, stw_kn: np.ndarray, frame: CorridorFrame) -> dict[str, np.ndarray]:

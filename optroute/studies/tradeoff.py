@@ -17,8 +17,10 @@ Fuel per mile falls as the ship slows (power grows about as the cube of the
 speed), so that solve slows down until something stops it: the engine's
 minimum continuous load (``model.min_power_kw``), the lowest speed through
 the water (``speed_range_kn``, default 3 kn), or the end of the weather's time
-span, whichever comes first.  ETAs later than that save no fuel.  The ``n``
-points are spaced evenly in ETA between the two.
+span, whichever comes first.  ETAs later than that save no fuel.  That solve
+starts from the centreline sailed at the engine's minimum load
+(:func:`optroute.optimise.starts.minimum_load_plan`), the slowest schedule the
+engine allows.  The ``n`` points are spaced evenly in ETA between the two.
 
 Given ``etas`` (datetimes, or hours after departure) the same two solves are
 made first (for the warm starts and to classify the ETAs): an ETA before the
