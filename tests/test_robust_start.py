@@ -8,6 +8,7 @@ The ensemble is ``tests/test_robust.py``'s three stationary 8.7 m storms (north 
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import numpy as np
@@ -15,6 +16,7 @@ import pytest
 import xarray as xr
 
 import optroute as orx
+from formulations.robust_nlp import RobustSpeedNLP
 from optroute.optimise import robust_start
 from optroute.optimise.robust import member_datasets, prepare_members
 from optroute.optimise.robust_start import ensemble_dp_path, members_with_passage
@@ -114,3 +116,32 @@ def test_compiled_joint_transitions_equal_every_transition_costed(
     np.testing.assert_allclose(compiled.times_h, plain.times_h, rtol=0.0, atol=1e-9)
     np.testing.assert_allclose(compiled.extra["stw_kn"], plain.extra["stw_kn"], rtol=1e-12)
     assert compiled.total_fuel_t == pytest.approx(plain.total_fuel_t, rel=1e-12)
+
+
+def test_where_no_solve_is_clean_the_lattice_schedule_clean_in_every_member_is_returned_as_the_start(
+    members: list[xr.Dataset], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Every robust solve made to fail (Ipopt's Infeasible_Problem_Detected, as bench_voyage's 200 nm east case): the
+    call returns the joint DP's schedule, labelled 'start' (not optimal), clean in every member by the referee."""
+    solve = RobustSpeedNLP.solve_sides
+
+    def failing(self, **kw):
+        res = solve(self, **kw)
+        return dataclasses.replace(res, success=False, status="Infeasible_Problem_Detected", max_violation=0.28)
+
+    monkeypatch.setattr(RobustSpeedNLP, "solve_sides", failing)
+    ens = xr.concat(members, dim="member")
+    ens.attrs = dict(members[0].attrs)
+    corridor = orx.Corridor.from_waypoints([(30.0, -150.0), (30.0, -147.0)], width_nm=0.0)
+    eta = T0 + np.timedelta64(int(6.5 * 60), "m")
+    plan = orx.optimise_corridor(
+        corridor, ens, SHIP, departure=T0, eta=eta, robust="all", max_leg_nm=30.0, samples_per_leg=3,
+        use_land_mask=False,
+    )  # fmt: skip
+    assert plan.status == "start" and plan.solver_stats["start"] == "ensemble_dp"
+    assert "Infeasible_Problem_Detected" in plan.solver_stats["status_reason"]
+    for m in members:
+        assert plan.verify(weather=m) == []
+    assert plan.arrival <= eta
+    stats = plan.solver_stats["robust"]
+    assert stats["fuel_mean_t"] == pytest.approx(np.mean([plan.in_weather(m).total_fuel_t for m in members]))
