@@ -18,7 +18,9 @@ out (:func:`no_passage_alone`). The table gives the time sailed inside a danger 
 plan's speed met a band, the ETA miss, the fuel, the re-plans, and the simulation CPU per simulated day, with (a) as
 the baseline of the fuel and CPU (same process, same truth); (c)'s CPU is the robust planning plus the sailing, and
 its row says how many of the members the robust plan is clean in and how many (a)'s plan breaks
-(:func:`optroute.member_violations`), and how often robust.py's tightening loop fired and for what. Quick mode:
+(:func:`optroute.member_violations`), how often robust.py's tightening loop fired and for what, the plan's status
+(``"start"``: no robust solve was clean in every member and the joint 3-D DP's schedule, clean in all, is sailed), the
+start used and its CPU; a robust failure prints its whole message. Quick mode:
 4 members. CPU [s] is this process's (the machine is shared: compare CPU, not wall); each case's ratios are to its
 own (a), so the cases may run in separate processes (``run(False, only=k)``), and a case's rows too
 (``policies="b"`` or ``"c"``: (a) is run in each).
@@ -224,8 +226,8 @@ def _robust_plan(spec: tuple, members: int, spread: dict[str, float]) -> dict[st
             sub = ens.isel(member=kept)
             sub.attrs = dict(ens.attrs)
             plan = orx.optimise_corridor(corridor, sub, SHIP, departure=T0, eta=ETA, robust="all", **OPTS)
-    except orx.OptrouteError as exc:
-        return {"error": f"{type(exc).__name__}: {str(exc)[:400]}", "wall_s": time.perf_counter() - t,
+    except orx.OptrouteError as exc:  # the whole message: what failed, in which members, and why
+        return {"error": f"{type(exc).__name__}: {exc}", "wall_s": time.perf_counter() - t,
                 "cpu_s": time.process_time() - cpu, **out}  # fmt: skip
     return {"plan": plan, "wall_s": time.perf_counter() - t, **out}
 
@@ -317,6 +319,7 @@ def _robust_row(
     sailed["tightened_for"] = sorted({k for e in stats.get("tightening", []) for k in _kinds(e)})
     sailed["robust_solves"] = int(stats.get("nlp_solves", 0))
     sailed["robust_iterations"] = int(stats.get("iterations", 0))
+    sailed["robust_start"], sailed["robust_start_cpu_s"] = stats.get("start"), float(stats.get("start_cpu_s", 0.0))
     violated = f" (violated: {r['violated_members']}, {r['kinds']})" if r["members_violated"] else ""
     versus = ""
     if once is not None:
@@ -325,10 +328,11 @@ def _robust_row(
             f" ({a['violated_members']})" if a["members_violated"] else ""
         )
     return (
-        f"{label}, {checked}/{members} clean{violated}{versus}, {sailed['tightenings']} tightening(s) "
+        f"{label}, status {robust['plan'].status}, {checked}/{members} clean{violated}{versus}, "
+        f"{sailed['tightenings']} tightening(s) "
         f"{sailed['tightened_for']}, "
         f"{sailed['robust_solves']} NLP solves, {sailed['robust_iterations']} Ipopt iterations, {robust_cpu:.0f} "
-        "CPU-s to plan, sailed blind"
+        f"CPU-s to plan (start: {sailed['robust_start']}, {sailed['robust_start_cpu_s']:.1f} CPU-s), sailed blind"
     ), sailed
 
 

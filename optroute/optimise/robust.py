@@ -40,8 +40,10 @@
   (its context: ship, rules, corridor, ETA, exclusion) and :meth:`Plan.verify(weather=member) <Plan.verify>` is run
   for every member. Where a member breaks a constraint the problem is tightened where the verification says (band
   edges and threshold backed off, load limits, exclusion radius, the ETA) and solved again, at most
-  ``max_retries`` times; a plan that fails any member is never returned
-  (:class:`~optroute.errors.SolverFailure`, whose ``best_plan`` is the warm plan when that verifies in every member).
+  ``max_retries`` times; a plan that fails any member is never returned. Where no solve gives a plan clean in every
+  member, the joint 3-D DP's schedule (the start) is returned if the referee finds it clean in every member
+  (``status="start"``, as a single weather's verified start where the NLP does not improve on it), else
+  :class:`~optroute.errors.SolverFailure`, whose ``best_plan`` is the warm plan when that verifies in every member.
   Kept although ``constraint_rows="referee"`` is available: on tests/test_robust.py's three-storm ensemble the
   loop fires twice for ``"all"`` and ``"cvar"`` with the midpoint rows and twice with the referee's, the same
   plans: what fails is the engine's MCR where the NLP's smooth power table is below the
@@ -184,9 +186,9 @@ def _warm(frame: Any, length_nm: float, eta_h: float | None, v_max: float, warm_
     return {"offset_nm": np.zeros(frame.n_legs + 1), "stw_kn": np.full(frame.n_legs, speed)}
 
 
-def _start(prepared, frame, eta_h, robust, warm_plan, route) -> tuple[dict, OptrouteError | None, str]:
-    """The NLP's start, where the members' joint 3-D DP finds no common schedule its evidence, and which start it is
-    (``"given"``, ``"ensemble_dp"`` or ``"centreline"``: ``solver_stats["start"]``).
+def _start(prepared, frame, eta_h, robust, warm_plan, route) -> tuple[dict, OptrouteError | None, str, Any]:
+    """The NLP's start, where the members' joint 3-D DP finds no common schedule its evidence, which start it is
+    (``"given"``, ``"ensemble_dp"`` or ``"centreline"``: ``solver_stats["start"]``), and the DP's path (or None).
 
     A warm plan or route given is the start. Otherwise (``"all"``/``"cvar"`` with an ETA) the least-mean-fuel lattice
     schedule safe in every member (:func:`~optroute.optimise.robust_start.ensemble_dp_path`): the band sides the NLP
@@ -196,15 +198,28 @@ def _start(prepared, frame, eta_h, robust, warm_plan, route) -> tuple[dict, Optr
     ref = prepared[0]
     given = warm_plan is not None or route is not None
     if given or eta_h is None or robust == "chance":
-        return _warm(frame, ref.length_nm, eta_h, ref.v_max, warm_plan, route), None, "given" if given else "centreline"
+        kind = "given" if given else "centreline"
+        return _warm(frame, ref.length_nm, eta_h, ref.v_max, warm_plan, route), None, kind, None
     try:
         path = ensemble_dp_path(
             prepared, frame, eta_h, float(np.min(ref.v_min)), float(np.max(ref.v_max)), ref.exclusion
         )
     except (InfeasibleETA, NoSafePassage) as exc:
-        return _warm(frame, ref.length_nm, eta_h, ref.v_max, None, None), exc, "centreline"
+        return _warm(frame, ref.length_nm, eta_h, ref.v_max, None, None), exc, "centreline", None
     route_start = track_warm_start(np.column_stack([path.lat_deg, path.lon_deg]), path.extra["stw_kn"], frame)
-    return route_start, None, "ensemble_dp"
+    return route_start, None, "ensemble_dp", path
+
+
+def _lattice_plan(path: Any, ctx: Any, t0: Any, ref: Any, members: list[xr.Dataset]) -> Plan | None:
+    """The joint 3-D DP's schedule as a plan (its stage points, the path's mean STW per leg) when the referee finds it
+    clean in every member (:meth:`Plan.verify` with ``weather=member``), else None."""
+    if path is None:
+        return None
+    plan = Plan.from_context(
+        ctx, np.column_stack([path.lat_deg, path.lon_deg]), path.extra["stw_kn"], departure=t0, status="start",
+        step_nm=ref.verify_step_nm,
+    )  # fmt: skip
+    return None if any(plan.verify(weather=m, step_nm=ref.verify_step_nm) for m in members) else plan
 
 
 def _tighten(state: dict[str, float], found: list[Violation], log: list[str]) -> bool:
@@ -307,7 +322,9 @@ def optimise_robust(
         but those of ``members_violated``. ``status``: ``"optimal"`` (Ipopt
         converged and no member met a band that was not imposed), ``"sides_unsettled"`` (converged; the band
         re-imposition stopped on ``band_solves``), ``"feasible"`` (Ipopt stopped at a limit at a point that
-        verifies in every member). ``solver_stats["robust"]``: ``mode``, ``cvar_alpha``, ``violation_fraction``,
+        verifies in every member), ``"start"`` (no solve gave a plan clean in every member, but the joint 3-D DP's
+        schedule is: that schedule, ``solver_stats["status_reason"]`` says why; the NLP's figures are None).
+        ``solver_stats["robust"]``: ``mode``, ``cvar_alpha``, ``violation_fraction``,
         ``dropped_members`` (the NLP's, ``"chance"``), ``members_violated`` (the referee's), ``members``,
         ``reference_member``, ``member_fuel_t`` and ``member_arrival`` (referee, per member), ``fuel_mean_t``,
         ``fuel_cvar_t`` (referee), ``nlp_objective``, ``nlp_member_fuel_t``, ``nlp_var``; and ``ipopt_status``,
@@ -328,7 +345,8 @@ def optimise_robust(
         arrival safe in all, or none within the weather's horizon; the members with a schedule of their own named).
     SolverFailure
         No tightened solve gave a plan that verifies in every member (``best_plan``: the warm plan if it does)
-        although the members' joint lattice has a common schedule (or it was not run: a warm plan or route given).
+        although the members' joint lattice has a common schedule, and that schedule does not verify in every member
+        either (or the lattice was not run: a warm plan or route given).
     """
     started = _time.perf_counter()
     alpha, fraction = _check_options(
@@ -380,7 +398,7 @@ def optimise_robust(
     eta_h = timedelta_to_h(eta_t - t0) if eta_t is not None else (ref.prepared_cap_h if objective != "time" else None)
     ctx = ref.plan_context(eta_t, "le")
     start_cpu = _time.process_time()
-    warm, evidence, kind = _start(prepared, frame, eta_h, robust, warm_plan, route)
+    warm, evidence, kind, lattice = _start(prepared, frame, eta_h, robust, warm_plan, route)
     start = {
         "start": kind,
         "start_cpu_s": _time.process_time() - start_cpu,
@@ -458,7 +476,18 @@ def optimise_robust(
             break
     if evidence is not None:  # the NLP found no plan either: the lattice's proof that no common schedule exists
         raise evidence
-    raise _failure(members, warm_plan, last, log, counts["solves"])
+    plan = _lattice_plan(lattice, ctx, t0, ref, members)
+    if plan is None:
+        raise _failure(members, warm_plan, last, log, counts["solves"])
+    # the NLP found no plan clean in every member from the lattice's schedule, which is one: returned as the start
+    # (as a single weather's verified start where the NLP does not improve on it), never labelled optimal
+    stats = _stats(plan, members, None, robust, alpha, int(reference_member), objective, ref)
+    stats["robust"].update(violation_fraction=fraction, dropped_members=[], members_violated=[])
+    stats.update(counts, **start, tightening=log, ipopt_status=None if last is None else last.status)
+    stats.update(retries=sum(e.startswith("tightened for") for e in log), nlp_solves=counts["solves"])
+    stats["status_reason"] = f"the robust NLP found no plan clean in every member ({log[-1] if log else ''})"
+    stats["total_time_s"] = _time.perf_counter() - started
+    return replace(plan, status="start", solver_stats=stats)
 
 
 def _pick(candidates, ctx, frame, t0, ref, members, log: list[str], retry: int):
@@ -583,7 +612,8 @@ def _build(
 
 
 def _stats(plan, members, res, robust, alpha, reference, objective, ref) -> dict[str, Any]:
-    """The plan's ``solver_stats``: every member's fuel and arrival by the referee, their mean and CVaR."""
+    """The plan's ``solver_stats``: every member's fuel and arrival by the referee, their mean and CVaR (the NLP's
+    figures None where the plan is not the NLP's, ``res`` None)."""
     sailed = [plan.in_weather(m, step_nm=ref.verify_step_nm) for m in members]
     fuel = np.array([p.total_fuel_t for p in sailed])
     return {
@@ -598,10 +628,10 @@ def _stats(plan, members, res, robust, alpha, reference, objective, ref) -> dict
             "member_duration_h": [p.duration_h for p in sailed],
             "fuel_mean_t": float(fuel.mean()),
             "fuel_cvar_t": cvar(fuel, alpha),
-            "nlp_objective": res.objective,
-            "nlp_member_fuel_t": res.member_fuel_t.tolist(),
-            "nlp_var": res.var,
-            "sides_settled": res.sides_settled,
+            "nlp_objective": None if res is None else res.objective,
+            "nlp_member_fuel_t": None if res is None else res.member_fuel_t.tolist(),
+            "nlp_var": None if res is None else res.var,
+            "sides_settled": None if res is None else res.sides_settled,
         },
         "n_legs": int(np.asarray(plan.waypoints).shape[0] - 1),
         "samples_per_leg": ref.samples_per_leg,

@@ -25,7 +25,9 @@ import numpy as np
 from optroute import geodesy as geo
 from optroute.errors import InfeasibleETA, NoSafePassage
 from optroute.search.dp import DPPath, solve_dp
+from optroute.search.dp_kernels import JointLegKernel
 from optroute.search.dp_route import dp_navigable
+from optroute.search.dp_stages import in_every_member
 from optroute.search.passage_physics import PassagePhysics
 from optroute.units import format_utc
 from optroute.units import h_to_timedelta as _h_to_td
@@ -44,24 +46,27 @@ def _joint_cost(costs: list[Callable]) -> Callable:
     """Leg cost feasible only where every member's is; fuel the members' mean (the robust objective's).
 
     Each member costs only the legs every member before it allowed (a leg one member forbids is not costed in the
-    rest)."""
+    rest). Where every member's callback has its compiled form, the joint one has too
+    (:class:`~optroute.search.dp_kernels.JointLegKernel`): :func:`~optroute.search.dp.solve_dp` then costs its
+    transitions in compiled code, best first under the members' mean fuel floor, as it does for one weather."""
 
     def cost(lat0, lon0, lat1, lon1, t0_h, sog_kn):
         legs = (lat0, lon0, lat1, lon1, t0_h, sog_kn)
-        feas = np.ones(np.shape(lat0), dtype=bool)
-        fuel, stw = np.zeros(np.shape(lat0)), np.zeros(np.shape(lat0))
         dur = np.asarray(geo.distance_nm(lat0, lon0, lat1, lon1)) / np.asarray(sog_kn)  # commanded SOG: every member's
-        for c in costs:
-            idx = np.flatnonzero(feas)
-            if idx.size == 0:
-                break
-            _, f, ok, extra = c(*(np.ascontiguousarray(np.asarray(a)[idx]) for a in legs))
-            feas[idx] = ok
-            fuel[idx] += np.where(ok, f, 0.0)
-            stw[idx] += np.where(ok, extra["stw_kn"], 0.0)
-        n = len(costs)
-        return dur, np.where(feas, fuel / n, np.nan), feas, {"stw_kn": np.where(feas, stw / n, np.nan)}
 
+        def member(c: Callable) -> Callable[[np.ndarray], tuple]:
+            def legs_of(idx: np.ndarray) -> tuple:
+                _, f, ok, extra = c(*(np.ascontiguousarray(np.asarray(a)[idx]) for a in legs))
+                return f, ok, extra
+
+            return legs_of
+
+        fuel, feas, extra = in_every_member(np.size(lat0), [member(c) for c in costs], ("stw_kn",))
+        return dur, fuel, feas, extra
+
+    kernels = [getattr(c, "dp_kernel", None) for c in costs]
+    if all(k is not None for k in kernels):  # solve_dp's compiled transitions, costed in every member
+        cost.dp_kernel = JointLegKernel(tuple(kernels))  # type: ignore[attr-defined]
     return cost
 
 

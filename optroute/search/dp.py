@@ -53,10 +53,11 @@ physics layer runs the MCR loop and the danger bands inside it and may only
 safe speed exists it returns ``feasible = False``.
 
 A callback carrying a compiled form (``leg_cost.dp_kernel``, a
-:class:`~optroute.search.dp_kernels.DPLegKernel`: ``PassagePhysics.dp_leg``)
-has the binned transitions costed by :mod:`optroute.search.dp_kernels`, best
-first under a fuel floor: the same labels, with the legs that cannot win left
-uncosted.
+:class:`~optroute.search.dp_kernels.DPLegKernel`: ``PassagePhysics.dp_leg``;
+or a :class:`~optroute.search.dp_kernels.JointLegKernel` of several members on
+one grid: the robust start's joint cost) has the binned transitions costed by
+:mod:`optroute.search.dp_kernels`, best first under a fuel floor: the same
+labels, with the legs that cannot win left uncosted.
 
 No-go areas (islands, moving storms) are a callable ``navigable(lat_deg,
 lon_deg, t_h) -> bool array``, checked at the state reached and at points
@@ -78,7 +79,7 @@ from optroute import geodesy as geo
 from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
 from optroute.search.costs import unpack_cost
-from optroute.search.dp_kernels import BIN_TOL_H
+from optroute.search.dp_kernels import BIN_TOL_H, stacked_inputs
 from optroute.search.dp_stages import (
     CompiledStages,
     LegCostFn,
@@ -457,7 +458,8 @@ def solve_dp(
         raise NoSafePassage(f"the start {s} is in a no-go area at departure; move it or change the no-go mask")
     step_fn = Transition(lat, lon, dists, speeds, leg_cost, navigable, nogo_step, rem_nm, vmax, horizon)
     kernel = getattr(leg_cost, "dp_kernel", None)
-    stages = None if kernel is None else CompiledStages(kernel, step_fn, (t_ref, dt, n_bins), n_labels)
+    inputs = None if kernel is None else stacked_inputs(kernel.members)
+    stages = None if inputs is None else CompiledStages(kernel, inputs, step_fn, (t_ref, dt, n_bins), n_labels)
     step_fn.stages = stages
     for k in range(n_stages):
         src_l, src_b = np.nonzero(np.isfinite(fuel_t[k]))

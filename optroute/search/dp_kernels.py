@@ -115,6 +115,60 @@ class DPLegKernel:
         """A lower bound on the fuel rate [t/h] of any feasible leg at each commanded SOG [kn]."""
         return fuel_floor_tph(self.params, np.ascontiguousarray(speeds_kn, dtype=float), self.current_kn())
 
+    @property
+    def members(self) -> tuple[DPLegKernel, ...]:
+        """The weathers a leg is costed in: this one."""
+        return (self,)
+
+
+@dataclass(frozen=True, eq=False)
+class JointLegKernel:
+    """The compiled form of a leg cost over several members (an ensemble's): feasible only where feasible in every
+    member, the fuel the members' mean (:func:`optroute.optimise.robust_start.ensemble_dp_path`'s joint leg cost).
+
+    The members' own :class:`DPLegKernel` (one ship, one weather grid: :func:`stacked_inputs`); the pieces and
+    the uncovered points are the first member's (the pieces depend on the leg only).
+    """
+
+    members: tuple[DPLegKernel, ...]
+
+    def geometry(self, lat0: np.ndarray, lon0: np.ndarray, lat1: np.ndarray, lon1: np.ndarray) -> LegGeometry:
+        """The pieces of the legs [deg], as every member's (:meth:`DPLegKernel.geometry`)."""
+        return self.members[0].geometry(lat0, lon0, lat1, lon1)
+
+    def floor_tph(self, speeds_kn: np.ndarray) -> np.ndarray:
+        """The members' mean of their fuel-rate floors [t/h]: a floor of the mean fuel rate of a leg feasible in all."""
+        return np.mean([m.floor_tph(speeds_kn) for m in self.members], axis=0)
+
+    def uncovered(self, n: int) -> None:
+        """Record ``n`` points sampled outside the weather (on the first member)."""
+        self.members[0].uncovered(n)
+
+
+def stacked_inputs(members: tuple[DPLegKernel, ...]) -> tuple | None:
+    """The members' parameters and weathers as :func:`resolve` takes them, or None where they differ beyond the fields.
+
+    ``(params (M, P), fields (M, n_nodes, 9), node tables (M, n_nodes, 3), (time_s, lat_deg, lon_deg, meta,
+    offset_ns))``: the members must share the ship's parameters' length and the weather's axes, area and departure
+    (an ensemble's members on one grid do).
+    """
+    first = members[0].weather
+    axes = first[1:6]
+    for m in members[1:]:
+        w = m.weather
+        same = all(np.array_equal(a, b) for a, b in zip(w[1:5], axes[:4], strict=True)) and w[5] == axes[4]
+        if not same or w[0].shape != first[0].shape or w[6].shape != first[6].shape:
+            return None
+        if m.params.shape != members[0].params.shape:
+            return None
+    c = np.ascontiguousarray
+    return (
+        c(np.stack([m.params for m in members]), dtype=float),
+        c(np.stack([m.weather[0] for m in members]), dtype=float),
+        c(np.stack([m.weather[6] for m in members]), dtype=float),
+        tuple(axes),
+    )
+
 
 @jit
 def fuel_floor_tph(p, sog_kn, current_kn):  # pragma: no cover - compiled
@@ -211,16 +265,41 @@ def _beats(f, t, i, bf, bt, bi):  # pragma: no cover - compiled
 
 
 @jit
+def joint_dp_leg(
+    ps, fields, tables, axes, geo_lat, geo_lon, geo_course, geo_frac, geo_n, g, t0_h, sog_kn, dist, work
+):  # fmt: skip  # pragma: no cover - compiled
+    """One DP leg (:func:`~optroute.search.passage_kernels.cost_dp_leg`) in every member of :func:`stacked_inputs`.
+
+    Returns ``(feasible in every member, the members' mean fuel rate [t/h], uncovered points)``; the members after
+    the first in which the leg is infeasible are not costed.
+    """
+    time_s, lat_deg, lon_deg, meta, offset_ns = axes
+    total = 0.0
+    uncovered = 0
+    for m in range(ps.shape[0]):
+        w = (fields[m], time_s, lat_deg, lon_deg, meta, offset_ns, tables[m])
+        ok, f_sum, _, _, unc = cost_dp_leg(
+            ps[m], w, geo_lat, geo_lon, geo_course, geo_frac, geo_n, g, t0_h, sog_kn, dist, work
+        )
+        uncovered += unc
+        if not ok:
+            return False, np.nan, uncovered
+        total += f_sum
+    return True, total / ps.shape[0], uncovered
+
+
+@jit
 def resolve(
-    p, w, geo_lat, geo_lon, geo_course, geo_frac, geo_n, dist, geom_of, speeds,
+    ps, fields, tables, axes, geo_lat, geo_lon, geo_course, geo_frac, geo_n, dist, geom_of, speeds,
     order, group_start, unresolved, ptr, costed, fuel1, rejected,
     src, lj, vi, t1, lb, src_l, src_t, src_f,
 ):  # fmt: skip  # pragma: no cover - compiled
     """Per unresolved group (one destination bin), its best (fuel, time, order) candidate not yet struck out.
 
-    Costs each group's candidates in order of their bound ``lb`` only while the bound does
-    not exceed the best label found (``ptr`` holds each group's progress, ``costed`` /
-    ``fuel1`` the labels: NaN where infeasible).  Returns ``(best candidate per group or -1,
+    The legs are costed in every member of ``ps, fields, tables, axes`` (:func:`stacked_inputs`, one member for a
+    single weather) by :func:`joint_dp_leg`. Costs each group's candidates in order of their bound ``lb``
+    only while the bound does not exceed the best label found (``ptr`` holds each group's progress,
+    ``costed`` / ``fuel1`` the labels: NaN where infeasible).  Returns ``(best candidate per group or -1,
     legs costed, uncovered points)``.
     """
     work = dp_workspace()
@@ -244,8 +323,8 @@ def resolve(
             s = src[c]
             g = geom_of[src_l[s], lj[c]]
             sog = speeds[vi[c]]
-            ok, f_sum, _, _, unc = cost_dp_leg(
-                p, w, geo_lat, geo_lon, geo_course, geo_frac, geo_n, g, src_t[s], sog, dist, work
+            ok, f_sum, unc = joint_dp_leg(
+                ps, fields, tables, axes, geo_lat, geo_lon, geo_course, geo_frac, geo_n, g, src_t[s], sog, dist, work
             )
             uncovered += unc
             n_costed += 1

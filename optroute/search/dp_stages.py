@@ -21,11 +21,11 @@ from numpy.typing import ArrayLike
 from optroute import geodesy as geo
 from optroute.errors import ConfigError
 from optroute.search.costs import unpack_cost
-from optroute.search.dp_kernels import DPLegKernel, enumerate_candidates, resolve
+from optroute.search.dp_kernels import DPLegKernel, JointLegKernel, enumerate_candidates, resolve
 from optroute.search.passage_kernels import cost_dp_legs
 
 __all__ = ["CompiledStages", "LegCostFn", "NoGoFn", "Transition", "append_stage", "combos", "empty_stage",
-           "lazy_winners", "nav_check", "pareto_winners", "stage_tables"]  # fmt: skip
+           "in_every_member", "lazy_winners", "nav_check", "pareto_winners", "stage_tables"]  # fmt: skip
 
 LegCostFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], Any]
 NoGoFn = Callable[[np.ndarray, np.ndarray, np.ndarray], ArrayLike]
@@ -215,6 +215,29 @@ class Transition:
         return ok, t1, fu
 
 
+def in_every_member(n_legs: int, costs: list[Callable[[np.ndarray], tuple]], extras: tuple[str, ...]) -> tuple:
+    """Legs costed in several members (an ensemble's): feasible only where feasible in every member.
+
+    ``costs[m](idx) -> (fuel [t], feasible, {name: value})`` costs legs ``idx`` in member m; each member costs only
+    the legs every member before it allowed (a leg one member forbids is not costed in the rest). Returns the
+    members' mean fuel, the feasibility and the members' mean of each of ``extras`` (NaN where infeasible).
+    """
+    feas = np.ones(n_legs, dtype=bool)
+    fuel = np.zeros(n_legs)
+    sums = {name: np.zeros(n_legs) for name in extras}
+    for cost in costs:
+        idx = np.flatnonzero(feas)
+        if idx.size == 0:
+            break
+        f, ok, extra = cost(idx)
+        feas[idx] = ok
+        fuel[idx] += np.where(ok, f, 0.0)
+        for name in extras:
+            sums[name][idx] += np.where(ok, extra[name], 0.0)
+    n = len(costs)
+    return np.where(feas, fuel / n, np.nan), feas, {name: np.where(feas, v / n, np.nan) for name, v in sums.items()}
+
+
 def nav_check(fn: NoGoFn, lat: np.ndarray, lon: np.ndarray, t: np.ndarray) -> np.ndarray:
     lat, lon, t = np.broadcast_arrays(lat, lon, t)
     out = np.asarray(fn(lat, lon, t))
@@ -243,13 +266,13 @@ class CompiledStages:
     """
 
     def __init__(
-        self, kernel: DPLegKernel, step_fn: Transition, bins: tuple[float, float, int], labels: int | None
+        self, kernel: DPLegKernel | JointLegKernel, inputs: tuple, step_fn: Transition, bins: tuple, labels: int | None
     ) -> None:
         self.kernel, self.step_fn, self.labels = kernel, step_fn, labels
         self.t_ref, self.dt, self.n_bins = bins
         self.speeds = np.ascontiguousarray(step_fn.speeds, dtype=float)
         self.floor = kernel.floor_tph(self.speeds)
-        self.inputs = (np.ascontiguousarray(kernel.params, dtype=float), tuple(kernel.weather))
+        self.inputs = inputs  # the members' (one for a single weather): dp_kernels.stacked_inputs
         self._geom_k: int = -1
         self._geom: tuple = ()
 
@@ -269,15 +292,25 @@ class CompiledStages:
         return self._geom
 
     def cost_legs(self, k: int, l0: np.ndarray, lj: np.ndarray, vi: np.ndarray, t0: np.ndarray):
-        """(duration [h], fuel [t], feasible) of legs from stage k, as the callback costs them."""
+        """(duration [h], fuel [t], feasible) of legs from stage k, as the callback costs them: in every member,
+        each member costing only the legs the members before it allow; the fuel the members' mean."""
         geom, geom_of = self._geometry(k)
-        dur, fuel, feas, _, _, unc = cost_dp_legs(
-            *self.inputs, geom.lat_deg, geom.lon_deg, geom.course_deg, geom.frac, geom.n_pieces,
-            np.ascontiguousarray(geom_of[l0, lj]), np.ascontiguousarray(t0, dtype=float),
-            np.ascontiguousarray(self.speeds[vi]), geom.dist_nm,
-        )  # fmt: skip
-        self.kernel.uncovered(int(unc))
-        return dur, fuel, feas
+        g, t0, sog = np.ascontiguousarray(geom_of[l0, lj]), np.ascontiguousarray(t0, dtype=float), self.speeds[vi]
+
+        def member(m: DPLegKernel) -> Callable[[np.ndarray], tuple]:
+            def cost(idx: np.ndarray) -> tuple:
+                _, f, ok, _, _, unc = cost_dp_legs(
+                    np.ascontiguousarray(m.params, dtype=float), tuple(m.weather), geom.lat_deg, geom.lon_deg,
+                    geom.course_deg, geom.frac, geom.n_pieces, g[idx], t0[idx], np.ascontiguousarray(sog[idx]),
+                    geom.dist_nm,
+                )  # fmt: skip
+                self.kernel.uncovered(int(unc))
+                return f, ok, {}
+
+            return cost
+
+        fuel, feas, _ = in_every_member(l0.size, [member(m) for m in self.kernel.members], ())
+        return geom.dist_nm[g] / sog, fuel, feas  # cost_dp_legs's duration
 
     def stage(self, k: int, src: tuple, dest: np.ndarray, step: int | None, max_batch: int, rem_next: np.ndarray):
         """Yield, per batch of destination laterals, the winners: (lateral, bin, fuel, time, source, speed index)."""
