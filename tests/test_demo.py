@@ -30,9 +30,13 @@ def _geodesic_nm(lat1, lon1, lat2, lon2):
 
 
 @pytest.fixture(scope="module")
-def result(tmp_path_factory):
+def result(tmp_path_factory, north_pacific_storms):
+    """The demo run once; its weather, ``scenarios.north_pacific_storms()`` at its defaults, is the suite's copy
+    (tests/conftest.py, read only), not a second build of the same dataset in this process."""
     out = tmp_path_factory.mktemp("demo")
-    return demo.run_demo(out, cell_nm=120.0, max_leg_nm=200.0)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(demo.scenarios, "north_pacific_storms", lambda: north_pacific_storms)
+        return demo.run_demo(out, cell_nm=120.0, max_leg_nm=200.0)
 
 
 def test_files_are_written_whole(result):

@@ -33,10 +33,13 @@ FIX = "run `python docs/make_figures.py` and commit docs/figures/"
 
 
 @pytest.fixture(scope="module")
-def make_figures():
+def make_figures(north_pacific_storms):
+    """``docs/make_figures.py`` as a module; its demo weather (``scenarios.north_pacific_storms()`` at its
+    defaults) is the suite's copy (tests/conftest.py, read only), not a second build in this process."""
     spec = importlib.util.spec_from_file_location("make_figures", ROOT / "docs" / "make_figures.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
+    module.demo_weather = lambda: north_pacific_storms
     return module
 
 

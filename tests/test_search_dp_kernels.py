@@ -47,7 +47,8 @@ CASES = {
 def test_compiled_stages_keep_every_label_of_the_dp_that_costs_every_transition(sea, case):
     cb = _physics(sea).dp_leg(30.0)
     assert hasattr(cb, "dp_kernel")
-    kw = dict(dx_nm=180.0, dy_nm=45.0, half_width_nm=135.0, speeds_kn=np.arange(6.0, 16.5, 1.0), **CASES[case])
+    # six speeds, 6-16 kn in 2 kn steps: some 2 000 labels and 17 000-78 000 transitions compared table by table
+    kw = dict(dx_nm=180.0, dy_nm=45.0, half_width_nm=135.0, speeds_kn=np.arange(6.0, 16.5, 2.0), **CASES[case])
     fast, slow = solve_dp(START, END, cb, **kw), solve_dp(START, END, _plain(cb), **kw)
     for name in ("fuel", "time", "back_l", "back_b", "speed_i"):
         for a, b in zip(getattr(fast._tables, name), getattr(slow._tables, name), strict=True):
