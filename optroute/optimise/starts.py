@@ -246,10 +246,14 @@ def dp_route(
     step = float(opts.pop("speed_step_kn", 2.0))
     # the DP's legs join lateral states on the stages; a leg between two edge states bulges beyond them (a great
     # circle between two points of a parallel), so the edge states lie inside the half-width by that bulge and
-    # the DP's plan stays in the corridor the referee checks
+    # the DP's plan stays in the corridor the referee checks; as many states per side as the half-width holds
     dx = float(opts.get("dx_nm", max(20.0, length / 12.0)))
-    inner = inner_offset_nm(float(opts.get("half_width_nm", half)), dx)
-    dp_opts = {"dx_nm": dx, "dy_nm": max(inner / 3.0, 1.0), "dt_h": 1.0, **opts, "half_width_nm": inner}
+    hw = float(opts.get("half_width_nm", half))
+    dy = float(opts.get("dy_nm", max(hw / 3.0, 1.0)))
+    inner = inner_offset_nm(hw, dx)
+    per_side = int(np.floor(hw / dy + 1e-9)) if dy > 0 else 0
+    dp_opts = {"dx_nm": dx, "dt_h": 1.0, **opts, "half_width_nm": inner}
+    dp_opts["dy_nm"] = min(dy, inner / per_side) if per_side > 0 else dy
     speeds = np.arange(max(v_min_kn, 3.0), v_max_kn + 1e-9, step)
     try:
         return search_route(
