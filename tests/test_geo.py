@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from optroute import geodesy as geo
-from optroute.geo.tracks import project_to_polyline
+from optroute.geo.tracks import gc_points, inner_offset_nm, project_to_polyline
 
 lats = st.floats(-80.0, 80.0)
 lons = st.floats(-180.0, 179.999)
@@ -138,6 +138,32 @@ def test_cross_track_of_a_polyline_against_karney():
             assert float(s) == pytest.approx(s_true + 0.5 * float(d), abs=1e-3)
             assert float(xt) == pytest.approx(off, abs=1e-3)
             assert float(dist) == pytest.approx(abs(off), abs=1e-3)
+
+
+@pytest.mark.parametrize(("lat", "course", "half_nm", "leg_nm"), [(30.0, 95.0, 40.0, 206.0), (-55.0, 10.0, 120.0, 400.0),
+                                                                  (5.0, 270.0, 15.0, 60.0)])  # fmt: skip
+def test_legs_between_inner_offsets_stay_within_the_half_width_as_karney_geodesics_place_them(
+    lat, course, half_nm, leg_nm
+):
+    # brute force on WGS84: two points at the inner offset, leg_nm apart along a geodesic line (as the 3-D DP places
+    # its edge states), joined by a geodesic sampled every 0.1 % and projected on the line; the inner offset is less
+    # than the half-width by the chord's bulge h (1/cos(L/2R) - 1) to first order (0.018 nm at 40 nm, 206 nm, on
+    # the least radius of curvature), and the leg reaches the half-width within the referee's 0.01 nm corridor
+    # tolerance, never beyond it
+    inner = inner_offset_nm(half_nm, leg_nm)
+    r_nm = geo.EARTH_RADIUS_NM * geo.SPHERE_TO_WGS84_MIN
+    bulge = half_nm * (1.0 / math.cos(0.5 * leg_nm / r_nm) - 1.0)
+    assert half_nm - inner == pytest.approx(bulge, rel=1e-2)
+    total = 300.0 + leg_nm + 300.0
+    end = geo.destination(lat, 0.0, course, total)
+    line = np.array([[lat, 0.0], [float(end[0]), float(end[1])]])
+    la, lo, c = gc_points(lat, 0.0, end[0], end[1], np.array([300.0, 300.0 + leg_nm]) / total)
+    ends = geo.destination(la, lo, c + 90.0, inner)
+    f = np.linspace(0.0, 1.0, 1001)
+    pla, plo, _ = gc_points(ends[0][0], ends[1][0], ends[0][1], ends[1][1], f)
+    _, _, dist, _ = project_to_polyline(line, pla, plo)
+    assert abs(dist[0] - inner) <= 1e-3 and abs(dist[-1] - inner) <= 1e-3
+    assert half_nm - 0.01 <= np.max(dist) <= half_nm + 0.01
 
 
 def test_sphere_one_minute_of_latitude_on_the_mean_sphere():

@@ -3,7 +3,7 @@
 The global starts (the 3-D DP, the minimum-time plan) are computed where a band or the exclusion can bind or no
 local start verifies; in calm water neither holds, and the call is the local start's alone. The references are
 the Boeing EP 2145155 applicability threshold (no band applies below Hs = 0.016 L), the calm-water fuel worked by
-hand, and the CPU clock read around the call.
+hand, the CPU clock read around the call, and a brute-force walk of the DP's legs against the corridor's edge.
 """
 
 from __future__ import annotations
@@ -14,9 +14,13 @@ import numpy as np
 import pytest
 
 import optroute as orx
+from benchmarks._nlp_call import _case
 from optroute.errors import ConfigError
+from optroute.geo.tracks import gc_points, project_to_polyline
 from optroute.optimise.api import optimise_corridor
+from optroute.optimise.corridor_problem import PreparedCorridor
 from optroute.optimise.start_stage import LABEL_ORDER
+from optroute.optimise.starts import dp_route, route_stw, verified_plan
 
 SHIP = orx.Ship.preset("container_54k_dwt")
 T0 = np.datetime64("2024-01-10T00:00", "ns")
@@ -98,3 +102,35 @@ def test_the_minimum_load_schedule_is_the_slowest_the_referee_accepts_in_a_head_
     assert np.all(plan.stw_kn < SHIP.calm_speed_kn(pmin))
     slower = Plan.from_context(ctx, wp, plan.stw_kn * 0.999, departure=T0)
     assert {v.leg for v in slower.verify() if v.kind == "power_below_min"} == set(range(plan.stw_kn.size))
+
+
+def test_where_a_band_binds_the_dps_plan_rides_the_corridor_edge_verified_and_no_minimum_time_plan_is_solved():
+    # benchmarks.bench_nlp's storm crossing at 21 legs (2 477 nm, +-40 nm, a band can bind on 9 legs): the DP's
+    # plan keeps to the corridor's edge on some legs. Its stages are 206 nm apart, and a great-circle leg between
+    # two states at the half-width bulges 0.018 nm beyond it (> the referee's 0.01 nm), which made the referee
+    # refuse this plan and the start stage solve the minimum-time plan (26 Ipopt solves; it lost, 546 t)
+    c = _case()
+    length, corridor, eta = c.pop("length_nm"), c["corridor"], c["eta"]
+    prepared = PreparedCorridor(corridor, c["weather"], c["ship"], departure=c["departure"], latest_eta=eta,
+                                objective="fuel", rules=c["rules"], max_leg_nm=length / 21 * (1 + 1e-9))  # fmt: skip
+    ctx = prepared.plan_context(eta, "le")
+    dp = dp_route(ctx, prepared.frame, departure=prepared.departure, eta=eta, objective="fuel",
+                  v_min_kn=prepared.v_min, v_max_kn=prepared.v_max, fuel_price=prepared.fuel_price,
+                  hourly=prepared.hourly, options=prepared.dp_options)  # fmt: skip
+    # brute force: every DP leg walked at 1 000 points and projected on the centreline
+    wp, hw = np.asarray(dp.waypoints, dtype=float), float(np.max(corridor.half_width_nm))
+    f = np.linspace(0.0, 1.0, 1001)
+    lat, lon, _ = gc_points(wp[:-1, 0, None], wp[:-1, 1, None], wp[1:, 0, None], wp[1:, 1, None], f[None, :])
+    dist = project_to_polyline(corridor.waypoints, lat.ravel(), lon.ravel())[2]
+    _, _, at_states, _ = project_to_polyline(corridor.waypoints, wp[:, 0], wp[:, 1])
+    assert np.max(at_states) >= hw - 0.05  # the DP does ride the edge here
+    assert np.max(dist) <= hw + 0.01  # and its legs stay within the referee's corridor tolerance
+    plan = verified_plan(ctx, wp, route_stw(dp), prepared.departure, prepared.verify_step_nm, "start")
+    assert plan is not None
+    # the start stage scores that plan, starts from it, and solves no minimum-time plan; the result is no worse
+    out = prepared.solve(eta, objective="fuel")
+    st = out.solver_stats
+    assert st["global_starts"].startswith("computed: a band or the exclusion can bind")
+    assert st["starts"]["3-D DP"]["verified"] and "minimum-time plan" not in st["starts"]
+    assert st["starts"]["3-D DP"]["score"] == pytest.approx(plan.total_fuel_t, rel=1e-9)
+    assert out.verify() == [] and out.total_fuel_t <= plan.total_fuel_t * (1 + 1e-9)

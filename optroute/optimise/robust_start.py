@@ -24,6 +24,7 @@ import numpy as np
 
 from optroute import geodesy as geo
 from optroute.errors import InfeasibleETA, NoSafePassage
+from optroute.geo.tracks import inner_offset_nm
 from optroute.search.dp import DPPath, solve_dp
 from optroute.search.dp_kernels import JointLegKernel
 from optroute.search.dp_route import dp_navigable
@@ -74,12 +75,13 @@ def _solve(physics: list[PassagePhysics], frame: Any, eta_h: float, speeds: np.n
     """The DP on these members' joint cost: (path by the ETA or None, earliest safe arrival [h] or None)."""
     wp = frame.corridor.waypoints
     length = float(frame.s_nm[-1])
-    half = float(np.max(frame.corridor.half_width_nm))
+    dx = max(20.0, length / 12.0)
+    half = inner_offset_nm(float(np.max(frame.corridor.half_width_nm)), dx)  # legs between edge states stay inside
     t_last = float((physics[0].sampler.extent["time"][1] - physics[0].departure) / np.timedelta64(1, "h"))
     try:
         res = solve_dp(
             (float(wp[0, 0]), float(wp[0, 1])), (float(wp[-1, 0]), float(wp[-1, 1])),
-            _joint_cost([ph.dp_leg(PIECE_NM) for ph in physics]), eta_h=None, dx_nm=max(20.0, length / 12.0),
+            _joint_cost([ph.dp_leg(PIECE_NM) for ph in physics]), eta_h=None, dx_nm=dx,
             dy_nm=max(half / 5.0, 1.0), half_width_nm=half, speeds_kn=speeds, dt_h=1.0,
             navigable=dp_navigable(physics, exclusion, coast), horizon_h=max(t_last, eta_h),
         )  # fmt: skip

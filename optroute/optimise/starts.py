@@ -38,7 +38,7 @@ import numpy as np
 from optroute import geodesy as geo
 from optroute import units
 from optroute.errors import OptrouteError
-from optroute.geo.tracks import project_to_polyline
+from optroute.geo.tracks import inner_offset_nm, project_to_polyline
 from optroute.optimise.nlp_inputs import CorridorFrame
 from optroute.plan.result import Plan, PlanContext
 from optroute.search.route import Route
@@ -303,7 +303,8 @@ def dp_route(
 
     Resolution (``options`` overrides, keys of :func:`optroute.search.dp.solve_dp` via ``dp_options``
     plus ``speed_step_kn``): stages about 1/12 of the corridor apart (at least 20 nm), 3 lateral
-    states per side of the half-width, 1 h time bins, speeds every 2 kn over the NLP's range. A start, not
+    states per side of the half-width (the outer ones inside it by the bulge of a leg between two of them,
+    :func:`optroute.geo.tracks.inner_offset_nm`, so that the legs stay in the corridor), 1 h time bins, speeds every 2 kn over the NLP's range. A start, not
     the answer: it has to find the side of a storm or band, and the NLP refines it (on the storm crossing of
     ``benchmarks.bench_nlp`` the NLP ends on the same 74.85 t from this DP as from 5 states per side and
     1 kn steps, which cost 7× the DP's CPU).
@@ -315,8 +316,16 @@ def dp_route(
     half = float(np.max(frame.corridor.half_width_nm))
     opts = dict(options or {})
     step = float(opts.pop("speed_step_kn", 2.0))
-    dp_opts = {"dx_nm": max(20.0, length / 12.0), "dy_nm": max(half / 3.0, 1.0), "half_width_nm": half, "dt_h": 1.0}
-    dp_opts.update(opts)
+    # the DP's legs join lateral states on the stages; a leg between two edge states bulges beyond them (a great
+    # circle between two points of a parallel), so the edge states lie inside the half-width by that bulge and
+    # the DP's plan stays in the corridor the referee checks; as many states per side as the half-width holds
+    dx = float(opts.get("dx_nm", max(20.0, length / 12.0)))
+    hw = float(opts.get("half_width_nm", half))
+    dy = float(opts.get("dy_nm", max(hw / 3.0, 1.0)))
+    inner = inner_offset_nm(hw, dx)
+    per_side = int(np.floor(hw / dy + 1e-9)) if dy > 0 else 0
+    dp_opts = {"dx_nm": dx, "dt_h": 1.0, **opts, "half_width_nm": inner}
+    dp_opts["dy_nm"] = min(dy, inner / per_side) if per_side > 0 else dy
     speeds = np.arange(max(v_min_kn, 3.0), v_max_kn + 1e-9, step)
     try:
         return search_route(
