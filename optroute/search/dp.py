@@ -41,6 +41,13 @@ ETA's bin, not the next one.
 Waiting is not allowed: "arrive by the ETA" means arriving at or before it,
 with the fuel burnt on the way (no loitering at sea or at the port).
 
+When only the route is wanted (``least_fuel_only``: one speed, as the
+constant-speed baseline of Shao et al.), the earliest-arrival labels run first
+and bound the rest: a label whose fuel plus the fuel floor per mile times the
+distance to the end exceeds the earliest route's fuel cannot lead to the
+route returned, and neither can anything it leads to; every cheaper label of
+its bin is below the bound, so dropping it changes no other label.
+
 Leg cost callback (vectorised over flat arrays of one length)::
 
     leg_cost(lat0_deg, lon0_deg, lat1_deg, lon1_deg, t0_h, sog_kn)
