@@ -83,3 +83,11 @@ def test_least_fuel_only_with_the_plain_callback(cb, case):
     pruned = solve_dp(START, END, _plain(cb), least_fuel_only=True, **kw)
     _same_route(pruned, full)
     _kept_labels_are_the_dps_and_dropped_ones_hopeless(pruned, full, 0.0)
+
+
+@pytest.mark.parametrize("labels", [3, None])
+def test_least_fuel_only_with_a_pareto_set_per_bin(cb, labels):
+    kw = dict(LATTICE, speeds_kn=[8.0, 12.0], navigable=_storm, nogo_step_nm=25.0, labels_per_bin=labels)
+    full, pruned = solve_dp(START, END, cb, **kw), solve_dp(START, END, cb, least_fuel_only=True, **kw)
+    _same_route(pruned, full)
+    assert pruned.n_transitions < full.n_transitions
