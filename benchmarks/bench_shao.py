@@ -85,7 +85,11 @@ Where the baseline's time goes: one one-speed search on the paper's lattice is t
 (``dp_kernels.resolve``: 42.7 of 46.4 CPU-s at 19 kn, 62 000–256 000 legs costed at 18–24 kn, about
 120 µs each at load 18); the sampler, the stage geometry and the no-go tests are the other 8 %. So one pass
 carrying every speed as its own label set would save under a tenth (the legs at one speed are costed
-for that speed only); the searches are independent, and run side by side instead.
+for that speed only); the searches are independent, and run side by side instead. Most of those legs
+extend labels that zigzag across the lattice and can never be the least-fuel route: the one-speed
+searches want only their route, so they run with ``least_fuel_only``
+(:func:`benchmarks.shao_experiment.one_speed`), which drops every label whose fuel plus the fuel floor
+to the end exceeds the earliest route's, and returns the DP's own route.
 
 Run ``python -m benchmarks.bench_shao [--quick]`` (quick: case I only, 5 legs of ~1 080 nm, 300 nm
 lateral spacing, speeds every 2 kn, four ETAs, the NLP at the paper's 264 h on the DP's route with legs

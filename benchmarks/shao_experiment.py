@@ -151,6 +151,15 @@ def refereed(route: orx.Route, wx: Any, ship: orx.Ship, t0: np.datetime64) -> tu
     return plan.total_fuel_t, float(len(plan.verify()))
 
 
+def one_speed(dp: dict[str, float]) -> dict[str, Any]:
+    """The lattice ``dp`` for a one-speed search of the baseline: only its least-fuel route is wanted.
+
+    ``least_fuel_only`` (:func:`optroute.search.solve_dp`): the labels whose fuel plus the fuel floor
+    to the end exceeds the earliest route's are dropped; the route is the DP's own.
+    """
+    return {**dp, "least_fuel_only": True}
+
+
 def baseline_curve(wx: Any, ship: orx.Ship, t0: np.datetime64, dp: dict[str, float], speeds_kn: np.ndarray,
                    latest_eta_h: float, *, referee: bool = True, workers: int = WORKERS) -> dict[str, Any]:  # fmt: skip
     """Per lattice speed: the shortest safe route sailed at that one speed (one search per speed, ``workers`` at a time).
@@ -167,7 +176,7 @@ def baseline_curve(wx: Any, ship: orx.Ship, t0: np.datetime64, dp: dict[str, flo
 
     def one(v: float) -> orx.Route | None:
         try:
-            return search(wx, ship, t0, dp, speeds_kn=[v])
+            return search(wx, ship, t0, one_speed(dp), speeds_kn=[v])
         except orx.OptrouteError:  # no safe passage at this speed (or beyond the weather's span)
             return None
 
@@ -200,7 +209,7 @@ def exact_baseline(wx: Any, ship: orx.Ship, t0: np.datetime64, dp: dict[str, flo
     v = (great_circle_nm() if guess_nm is None else guess_nm) / eta_h
     for _ in range(max_iter):
         try:
-            r = search(wx, ship, t0, dp, speeds_kn=[v])
+            r = search(wx, ship, t0, one_speed(dp), speeds_kn=[v])
         except orx.OptrouteError:
             return out
         v_next = r.total_distance_nm / eta_h

@@ -41,6 +41,13 @@ ETA's bin, not the next one.
 Waiting is not allowed: "arrive by the ETA" means arriving at or before it,
 with the fuel burnt on the way (no loitering at sea or at the port).
 
+When only the route is wanted (``least_fuel_only``: one speed, as the
+constant-speed baseline of Shao et al.), the earliest-arrival labels run first
+and bound the rest: a label whose fuel plus the fuel floor per mile times the
+distance to the end exceeds the earliest route's fuel cannot lead to the
+route returned, and neither can anything it leads to; every cheaper label of
+its bin is below the bound, so dropping it changes no other label.
+
 Leg cost callback (vectorised over flat arrays of one length)::
 
     leg_cost(lat0_deg, lon0_deg, lat1_deg, lon1_deg, t0_h, sog_kn)
@@ -175,6 +182,8 @@ class DPResult:
         (stage, lateral, bin) states reached.
     n_transitions : int
         Legs costed (with the compiled stages, only those that could still win their bin).
+    least_fuel_only : bool
+        Whether the DP kept only the labels its route needed (the curve is then NaN).
     """
 
     path: DPPath
@@ -188,6 +197,7 @@ class DPResult:
     stage_lon_deg: np.ndarray
     n_states: int
     n_transitions: int
+    least_fuel_only: bool
     _tables: _Tables = field(repr=False)
 
     def path_for_eta(self, eta_h: float) -> DPPath:
@@ -201,7 +211,14 @@ class DPResult:
         ------
         InfeasibleETA
             No route found arrives by ``eta_h``.
+        ConfigError
+            The DP ran with ``least_fuel_only`` (it kept only the labels its own route needed).
         """
+        if self.least_fuel_only:
+            raise ConfigError(
+                f"path_for_eta({eta_h}) needs every label, and this DP ran with least_fuel_only=True; "
+                f"run solve_dp without it, or with eta_h={eta_h}"
+            )
         return self._tables.path_for(float(eta_h))
 
 
@@ -315,6 +332,52 @@ def _stage_geometry(
     return lat, lon, lateral, n_stages
 
 
+def _early_step(step_fn: Transition, k: int, early: tuple, dest: np.ndarray, step: int | None) -> None:
+    """The earliest-arrival labels of stage k + 1 from those of stage k (every reached lateral, destination, speed).
+
+    ``early``: the (time [h], fuel [t], back pointer) tables, filled in place; ties of time go to the
+    least fuel.  Exact for legs where leaving later never arrives earlier (FIFO).
+    """
+    early_t, early_f, early_back = early
+    el = np.nonzero(np.isfinite(early_t[k]))[0]
+    l0, lj, vi = combos(el, dest, step_fn.speeds.size, step)
+    if l0.size == 0:
+        return
+    ok, t1, fu = step_fn(k, l0, lj, vi, early_t[k, l0])
+    q = np.nonzero(ok)[0]
+    f1 = early_f[k, l0[q]] + fu[q]
+    q = q[np.lexsort((f1, t1[q], lj[q]))]
+    first = np.ones(q.size, dtype=bool)
+    first[1:] = lj[q][1:] != lj[q][:-1]
+    q = q[first]
+    early_t[k + 1, lj[q]] = t1[q]
+    early_f[k + 1, lj[q]] = early_f[k, l0[q]] + fu[q]
+    early_back[k + 1, lj[q], 0] = l0[q]
+    early_back[k + 1, lj[q], 1] = vi[q]
+
+
+_TAIL_SLACK = 1.0 - 1e-9
+"""The lower bound on the fuel to the end is lowered by this factor: rounding room in the triangle inequality."""
+
+
+def _fuel_cut(
+    early_t_h: float, early_fuel_t: float, eta_h: float | None, floor_t_per_nm: float, rem_nm: np.ndarray
+) -> tuple[np.ndarray, float]:
+    """(lower bound on the fuel from every state to the end [t], the cut [t]) of ``least_fuel_only``.
+
+    The cut is the earliest route's fuel when it arrives by ``eta_h`` (else ``inf``: nothing is
+    dropped): the route returned costs at most that.  The bound is ``floor_t_per_nm`` (the least
+    fuel floor per mile over the speed set, :func:`~optroute.search.dp_kernels.fuel_floor_tph` over
+    the speed; 0 without the compiled stages) times the geodesic distance to the end, which no
+    lattice path is shorter than.  A label whose fuel plus the bound exceeds the cut is hopeless,
+    and so is every label it leads to; a cheaper label of its bin is never hopeless, so dropping the
+    hopeless ones changes no other bin's label: the labels kept, and the route, are the DP's own.
+    """
+    arrives = np.isfinite(early_t_h) and (eta_h is None or early_t_h <= eta_h + 1e-9)
+    tail = floor_t_per_nm * _TAIL_SLACK * np.asarray(rem_nm, dtype=float)
+    return tail, float(early_fuel_t) if arrives else np.inf
+
+
 def solve_dp(
     start: tuple[float, float],
     end: tuple[float, float],
@@ -332,6 +395,7 @@ def solve_dp(
     horizon_h: float | None = None,
     max_batch: int = 400_000,
     labels_per_bin: int | None = DEFAULT_LABELS_PER_BIN,
+    least_fuel_only: bool = False,
 ) -> DPResult:
     """Forward 3-D DP: least fuel for every arrival time, and the route for ``eta_h``.
 
@@ -373,6 +437,12 @@ def solve_dp(
         Labels kept per (stage, lateral, bin): the bin's Pareto set on (fuel, arrival time), cheapest
         first, each next one strictly earlier and costlier (see the module docstring); None keeps
         the whole set, 1 only the cheapest.
+    least_fuel_only : bool
+        Only the route for ``eta_h`` is wanted, not the curve: the earliest-arrival labels are
+        propagated first, and a label is dropped (or, by its fuel floor, never costed) when its
+        fuel plus a lower bound on the fuel to the end exceeds the earliest route's fuel (see
+        :func:`_fuel_cut`).  The route returned is the one found without it; the curve is NaN and
+        :meth:`DPResult.path_for_eta` refuses.
 
     Returns
     -------
@@ -461,33 +531,33 @@ def solve_dp(
     inputs = None if kernel is None else stacked_inputs(kernel.members)
     stages = None if inputs is None else CompiledStages(kernel, inputs, step_fn, (t_ref, dt, n_bins), n_labels)
     step_fn.stages = stages
+    early = (early_t, early_f, early_back)
+    cut = None
+    if least_fuel_only:  # the earliest route first: its fuel bounds the labels worth keeping
+        for k in range(n_stages):
+            if not np.isfinite(early_t[k]).any():
+                break
+            _early_step(step_fn, k, early, np.nonzero(valid[k + 1])[0], step)
+        floor_per_nm = 0.0 if stages is None else float(np.min(stages.floor / stages.speeds))
+        cut = _fuel_cut(early_t[-1, c], early_f[-1, c], eta_h, floor_per_nm, rem_nm)
     for k in range(n_stages):
         src_l, src_b = np.nonzero(np.isfinite(fuel_t[k]))
         if src_l.size == 0:
             break
         dest = np.nonzero(valid[k + 1])[0]
-        # earliest arrival: every reached lateral x every destination x every speed
-        el = np.nonzero(np.isfinite(early_t[k]))[0]
-        l0, lj, vi = combos(el, dest, speeds.size, step)
-        if l0.size:
-            ok, t1, fu = step_fn(k, l0, lj, vi, early_t[k, l0])
-            q = np.nonzero(ok)[0]
-            f1 = early_f[k, l0[q]] + fu[q]
-            q = q[np.lexsort((f1, t1[q], lj[q]))]
-            first = np.ones(q.size, dtype=bool)
-            first[1:] = lj[q][1:] != lj[q][:-1]
-            q = q[first]
-            early_t[k + 1, lj[q]] = t1[q]
-            early_f[k + 1, lj[q]] = early_f[k, l0[q]] + fu[q]
-            early_back[k + 1, lj[q], 0] = l0[q]
-            early_back[k + 1, lj[q], 1] = vi[q]
+        if cut is None:  # earliest arrival: every reached lateral x every destination x every speed
+            _early_step(step_fn, k, early, dest, step)
         # the binned fuel labels
         if stages is not None:
             src = (src_l, time_t[k][src_l, src_b], fuel_t[k][src_l, src_b])
-            won = list(stages.stage(k, src, dest, step, max_batch, rem_nm[k + 1]))
+            won = list(stages.stage(k, src, dest, step, max_batch, rem_nm[k + 1],
+                                    None if cut is None else (cut[0][k + 1], cut[1])))  # fmt: skip
             dl, db, slot, f1, tt, w_src, w_v = (np.concatenate(x) for x in zip(*won, strict=True)) if won else (
                 np.zeros(0, int), np.zeros(0, int), np.zeros(0, int), np.zeros(0), np.zeros(0), np.zeros(0, int),
                 np.zeros(0, int))  # fmt: skip
+            if cut is not None:  # the winners whose every route ends above the cut: dropped
+                keep = f1 + cut[0][k + 1, dl] <= cut[1]
+                dl, db, slot, f1, tt, w_src, w_v = (a[keep] for a in (dl, db, slot, f1, tt, w_src, w_v))
             append_stage(
                 (fuel_t, time_t, back_l, back_b, speed_i), widths,
                 stage_tables(n_lat, n_bins, dl, db, slot, f1, tt, src_l[w_src], src_b[w_src], w_v),
@@ -524,6 +594,9 @@ def solve_dp(
             lambda q, k=k, a=cl0, b=clj, c=ct0, d=cdur: step_fn.clear(k, a[q], b[q], c[q], d[q]),
             n_labels,
         )
+        if cut is not None:  # the winners whose every route ends above the cut: dropped
+            keep = f1[win] + cut[0][k + 1, clj[win]] <= cut[1]
+            win, slot = win[keep], slot[keep]
         append_stage(
             (fuel_t, time_t, back_l, back_b, speed_i), widths,
             stage_tables(n_lat, n_bins, clj[win], b1[win], slot, f1[win], tt[win], cl0[win], cb[win], cvi[win]),
@@ -566,6 +639,8 @@ def solve_dp(
     bin_end = t_ref + dt * (np.arange(n_bins) + 1.0)
     by_eta = np.minimum.accumulate(final_f)
     by_eta = np.where(bin_end >= early_t[-1, c] - 1e-9, np.minimum(by_eta, early_f[-1, c]), by_eta)
+    if cut is not None:  # the labels above the cut were dropped: no curve
+        final_t, final_f, by_eta = (np.full(n_bins, np.nan) for _ in range(3))
     return DPResult(
         path=path,
         eta_h=eta_h,
@@ -578,5 +653,6 @@ def solve_dp(
         stage_lon_deg=lon,
         n_states=int(sum(np.isfinite(f).sum() for f in fuel_t)),
         n_transitions=step_fn.count,
+        least_fuel_only=cut is not None,
         _tables=tables,
     )

@@ -191,9 +191,13 @@ def _nonnegative(a):  # pragma: no cover - compiled
 
 @jit
 def enumerate_candidates(
-    src_l, src_t, src_f, dest, speeds, floor_tph, geom_of, dist, step, rem_next, vmax, horizon, t_ref, dt, n_bins
-):  # pragma: no cover - compiled
+    src_l, src_t, src_f, dest, speeds, floor_tph, geom_of, dist, step, rem_next, vmax, horizon, t_ref, dt, n_bins,
+    tail_next, cut,
+):  # fmt: skip  # pragma: no cover - compiled
     """The transitions of one stage that end inside the horizon and a bin, in the order (source, destination, speed).
+
+    Without a ``cut`` (``inf``) every such transition; with one, only those whose fuel floor plus
+    ``tail_next`` (a lower bound on the fuel from the destination to the end) is at most ``cut``.
 
     Parameters
     ----------
@@ -215,6 +219,10 @@ def enumerate_candidates(
         Top speed [kn], horizon [h], bin origin [h] and width [h]: bin ``b`` holds the arrivals in
         ``(t_ref + b dt, t_ref + (b + 1) dt]``.
     n_bins : int
+    tail_next : ndarray
+        Lower bound on the fuel from each destination lateral to the end [t].
+    cut : float
+        Fuel no route of interest exceeds [t] (``inf``: none).
 
     Returns
     -------
@@ -251,9 +259,12 @@ def enumerate_candidates(
                 b = math.ceil((t1 - t_ref) / dt - BIN_TOL_H / dt) - 1  # bins (start, end]: up to the end
                 if b < 0 or b >= n_bins:
                     continue
+                lb = src_f[s] + floor_tph[v] * dur
+                if lb + tail_next[lj] > cut:  # every route through it ends above the cut
+                    continue
                 o_src[n], o_lj[n], o_vi[n], o_t1[n] = s, lj, v, t1
                 o_key[n] = lj * n_bins + b
-                o_lb[n] = src_f[s] + floor_tph[v] * dur
+                o_lb[n] = lb
                 n += 1
     return o_src[:n], o_lj[:n], o_vi[:n], o_t1[:n], o_key[:n], o_lb[:n]
 

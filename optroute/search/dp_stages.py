@@ -312,8 +312,15 @@ class CompiledStages:
         fuel, feas, _ = in_every_member(l0.size, [member(m) for m in self.kernel.members], ())
         return geom.dist_nm[g] / sog, fuel, feas  # cost_dp_legs's duration
 
-    def stage(self, k: int, src: tuple, dest: np.ndarray, step: int | None, max_batch: int, rem_next: np.ndarray):
-        """Yield, per batch of destination laterals, the winners: (lateral, bin, fuel, time, source, speed index)."""
+    def stage(self, k: int, src: tuple, dest: np.ndarray, step: int | None, max_batch: int, rem_next: np.ndarray,
+              cut: tuple[np.ndarray, float] | None = None):  # fmt: skip
+        """Yield, per batch of destination laterals, the winners: (lateral, bin, fuel, time, source, speed index).
+
+        ``cut``: (lower bound on the fuel from each lateral of stage k + 1 to the end [t], the fuel [t]
+        above which no route is wanted); the transitions whose fuel floor plus that bound exceeds it
+        are not listed (:func:`~optroute.search.dp_kernels.enumerate_candidates`).
+        """
+        tail_next, fuel_cut = (np.zeros(self.step_fn.lat.shape[1]), np.inf) if cut is None else cut
         src_l, src_t, src_f = (np.ascontiguousarray(a) for a in src)
         src_l = src_l.astype(np.int64)
         geom, geom_of = self._geometry(k)
@@ -324,7 +331,7 @@ class CompiledStages:
                 src_l, src_t, src_f, np.ascontiguousarray(dest[a : a + chunk], dtype=np.int64), self.speeds,
                 self.floor, geom_of, geom.dist_nm, -1 if step is None else int(step),
                 np.ascontiguousarray(rem_next, dtype=float), self.step_fn.vmax, self.step_fn.horizon, self.t_ref,
-                self.dt, self.n_bins,
+                self.dt, self.n_bins, np.ascontiguousarray(tail_next, dtype=float), float(fuel_cut),
             )  # fmt: skip
             won = self._winners(k, src_l, src_t, src_f, geom, geom_of, *cand)
             if won is not None:
