@@ -17,7 +17,12 @@ the paper's quoted ETA, side by side in one process:
     the paper compares with): :func:`benchmarks.shao_experiment.fw_fuel_t`;
 (c) **the 3-D DP**: one ``search_route(method="dp", objective="fuel", eta=<the paper's ETA>)`` run,
     whose least fuel per arrival bin is the whole fuel-versus-ETA curve (the DP's fuel at an ETA
-    is the least over the bins that end by it), and whose route for the paper's ETA is refereed;
+    is the least over the bins that end by it), and whose route for the paper's ETA is refereed; in full mode
+    the same DP again on a finer lattice, half the paper's stage length (31 stages, ΔX 180 nm; ``dp_fine``),
+    its curve beside the paper's (the column "DP, ΔX / 2"): whether the lattice's resolution is what keeps the
+    window from appearing. Measured (3 Dec 2026): it is not — the finer lattice uses more fuel than the paper's at
+    every ETA (case I 0.3–6.0 %, case II 2.1–3.4 %), most likely the one label per 1 h bin (below) losing a little
+    at each of twice the stages (not yet checked with ``labels_per_bin``);
 (d) **the NLP**: ``optimise_corridor(objective="fuel", eta=, timed_no_passage=True)`` on the DP's route
     for the paper's ETA (its track fixed, :data:`NLP_WIDTH_NM`; the NLP sets the speed of every ≤ 60 nm
     leg), warm-started from it, and on case II also at :data:`NLP_ETAS_H` from the same DP run's routes
@@ -145,7 +150,8 @@ def settings(quick: bool) -> dict[str, Any]:
         return {"cases": (1,), "dp": se.dp_options(legs=5, dy_nm=300.0, half_width_nm=600.0, dt_h=1.0),
                 "speeds_kn": (10.0, 30.0, 2.0), "etas_h": (240.0, 256.0, 264.0, 272.0), "nlp": True,
                 "nlp_width_nm": NLP_WIDTH_NM, "nlp_max_leg_nm": QUICK_NLP_MAX_LEG_NM}  # fmt: skip
-    return {"cases": (1, 2), "dp": se.dp_options(), "speeds_kn": se.PAPER_SPEEDS_KN,
+    return {"cases": (1, 2), "dp": se.dp_options(), "dp_fine": se.dp_options(legs=2 * se.PAPER_LEGS),
+            "speeds_kn": se.PAPER_SPEEDS_KN,
             "etas_h": tuple(float(e) for e in np.arange(224.0, 336.1, 8.0)), "nlp": True,
             "nlp_width_nm": NLP_WIDTH_NM, "nlp_etas_h": NLP_ETAS_H}  # fmt: skip
 
@@ -225,6 +231,21 @@ def _guess_nm(curve: dict[str, Any], eta_h: float) -> float | None:
     return float(curve["distance_nm"][k])
 
 
+def _fine_curve(wx: Any, ship: orx.Ship, t0: np.datetime64, cfg: dict[str, Any], horizon_h: float, speeds: np.ndarray,
+                eta_h: float, clock: _Clock) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
+    """The DP's least fuel per arrival bin on the finer lattice ``cfg["dp_fine"]`` (half the paper's stage length, the
+    rest the paper's): (bin ends [h], fuel [t]); None where the settings have none or that DP finds no route."""
+    if cfg.get("dp_fine") is None:
+        return None
+    with clock("dp_fine"):
+        try:
+            route = se.search(wx, ship, t0, {**cfg["dp_fine"], "horizon_h": horizon_h}, speeds_kn=speeds,
+                              eta=t0 + np.timedelta64(int(round(eta_h * 3600)), "s"))  # fmt: skip
+        except orx.OptrouteError:
+            return None
+    return np.asarray(route.stats["curve_bin_end_h"], float), np.asarray(route.stats["curve_fuel_t"], float)
+
+
 def run_case(case: int, cfg: dict[str, Any]) -> dict[str, Any]:
     """One DP run (its curve and its route for the paper's ETA), the baselines, the referee, the NLP from the DP's route."""
     ship = orx.Ship.preset(SHIP)
@@ -243,6 +264,7 @@ def run_case(case: int, cfg: dict[str, Any]) -> dict[str, Any]:
     with clock("dp"):  # one DP run: its routes for the NLP's ETAs, and its least fuel per arrival bin (the whole curve)
         dp_route = se.search(wx, ship, t0, {**dp, "routes_for_eta_h": nlp_etas[1:]}, speeds_kn=speeds,
                              eta=t0 + np.timedelta64(int(round(paper_eta * 3600)), "s"))  # fmt: skip
+    fine = _fine_curve(wx, ship, t0, cfg, dp["horizon_h"], speeds, paper_eta, clock)
     with clock("baseline"):  # every lattice speed's route, then the exact constant speed of each ETA (scored below)
         curve = se.baseline_curve(wx, ship, t0, dp, speeds, max(etas), referee=False)
         exact = se.pool_map(
@@ -257,6 +279,8 @@ def run_case(case: int, cfg: dict[str, Any]) -> dict[str, Any]:
     end_h = np.asarray(dp_route.stats["curve_bin_end_h"], float)
     dp_fuel = np.asarray(dp_route.stats["curve_fuel_t"], float)
     rows = [_row(e, ex, curve, end_h, dp_fuel) for e, ex in zip(etas, exact, strict=True)]
+    for r in rows:
+        r["dp_fine_t"] = float("nan") if fine is None else dp_at(*fine, r["eta_h"])
     with clock("fw"):  # the IMO f_w estimate of each ETA's constant-speed schedule
         for r, ex in zip(rows, exact, strict=True):
             r["fw_t"] = se.fw_fuel_t(ship, ex["speed_kn"], ex["arrival_h"]) if ex["route"] is not None else float("nan")
@@ -333,6 +357,7 @@ def draw(ax: Any, res: dict[str, Any]) -> None:
     for key, label, style in (("baseline", "constant speed, shortest safe route", "k-o"),
                               ("lattice", "the same at the DP's speeds (its own candidate)", "k:."),
                               ("fw", "IMO f_w estimate of the constant-speed schedule", "g:d"), ("dp", "3-D DP", "b-s"),
+                              ("dp_fine", "3-D DP, half the stage length", "c--"),
                               ("nlp", "NLP from the DP's route", "r^")):  # fmt: skip
         y = np.array([np.nan if r[f"{key}_t"] is None else r[f"{key}_t"] for r in res["rows"]], dtype=float)
         ok = np.isfinite(y)
@@ -381,15 +406,16 @@ def _print_case(res: dict[str, Any], cfg: dict[str, Any], png: Any) -> None:
           "can represent); baseline (referee) and NLP: the plan evaluator's fuel of each plan, `verify()` findings "
           f"counted; IMO f_w: MEPC.1/Circ.796's estimate of the baseline's schedule (f_w = {res['fw']:.3f})._\n")  # fmt: skip
     print("| ETA [h] | baseline [t] (speed [kn]) | IMO f_w [t] | lattice-speed baseline [t] (speed [kn]) | DP [t] | "
-          "DP / baseline | DP / lattice baseline | baseline by referee [t] (violations) | NLP [t] | "
+          "DP / baseline | DP / lattice baseline | DP, ΔX / 2 [t] | baseline by referee [t] (violations) | NLP [t] | "
           "NLP / baseline by referee | NLP / DP by referee | NLP plan |")  # fmt: skip
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     for r in res["rows"]:
         b, bref = r["baseline_t"], r["baseline_ref_t"]
         bv = "–" if r["baseline_violations"] is None else r["baseline_violations"]
         print(f"| {r['eta_h']:g} | {_f(b, '.1f')} ({_f(r['baseline_speed_kn'], '.2f')}) | {_f(r['fw_t'], '.1f')} | "
               f"{_f(r['lattice_t'], '.1f')} ({_f(r['lattice_speed_kn'], 'g')}) | {_f(r['dp_t'], '.1f')} | "
-              f"{_f(r['dp_t'] / b, '.4f')} | {_f(r['dp_t'] / r['lattice_t'], '.4f')} | {_f(bref, '.1f')} ({bv}) | "
+              f"{_f(r['dp_t'] / b, '.4f')} | {_f(r['dp_t'] / r['lattice_t'], '.4f')} | {_f(r['dp_fine_t'], '.1f')} | "
+              f"{_f(bref, '.1f')} ({bv}) | "
               f"{_f(r['nlp_t'], '.1f')} | {_f(r['nlp_t'] / bref, '.3f')} | {_f(r['nlp_t'] / r['dp_ref_t'], '.4f')} | "
               f"{_nlp_cell(r)} |")  # fmt: skip
     print()
@@ -431,7 +457,14 @@ def _print_case(res: dict[str, Any], cfg: dict[str, Any], png: Any) -> None:
 
 
 def _stage_times(stages: dict[str, dict[str, float]]) -> str:
-    names = {"baseline": "baseline", "dp": "DP", "referee": "referee", "fw": "IMO f_w", "nlp": "NLP"}
+    names = {
+        "baseline": "baseline",
+        "dp": "DP",
+        "dp_fine": "DP ΔX / 2",
+        "referee": "referee",
+        "fw": "IMO f_w",
+        "nlp": "NLP",
+    }
     return ", ".join(f"{names[k]} {v['wall_s']:.1f} s / {v['cpu_s']:.1f} s" for k, v in stages.items() if k in names)
 
 
