@@ -155,3 +155,68 @@ def test_table_through_its_spline_is_the_model_away_from_the_sector_ramps() -> N
     err = table[far & ok] / p[far & ok] - 1.0
     assert (far & ok).sum() > 0.4 * k and {0, 1, 2, 3} <= set(np.searchsorted([30.0, 60.0, 150.0], alpha[far]))
     assert np.max(np.abs(err)) < SPEED_TOL
+
+
+def test_table_by_regime_is_the_model_evaluated_at_every_node_in_every_sector() -> None:
+    # Kwon declares its power a function of the regime (Beaufort number, wave sector) and the speed only, so the
+    # table evaluates it once per regime; the reference is the referee's own function called at every node, heading
+    # and sector (no regimes): random seas over Beaufort 0-12, every wave direction, winds known and unknown (NaN:
+    # Beaufort from Hs), nodes on sector edges included
+    from optroute.optimise.power_table import CAP_MCR, tabulate_ratio
+    from optroute.physics.passage import SeaState, power_at_heading
+
+    model = KwonModel(SHIP)
+    assert model.power_by_regime
+    base, _ = baseline_power_model(model, v_min_kn=3.0, v_max_kn=26.5, min_load=0.1)
+    rng = np.random.default_rng(7)
+    n = 4000
+    wu, wv = rng.normal(0.0, 14.0, n), rng.normal(0.0, 14.0, n)
+    unknown = rng.random(n) < 0.4
+    wu[unknown], wv[unknown] = np.nan, np.nan
+    along = rng.uniform(0.0, 360.0, n)
+    wave_from = rng.uniform(0.0, 360.0, n)
+    wave_from[:40] = (along[:40] + rng.choice([30.0, 60.0, 150.0, 210.0, 300.0], 40)) % 360.0  # on the edges
+    sea = SeaState.from_sample(
+        {"hs_m": rng.uniform(0.0, 15.0, n), "tp_s": 10.0, "wave_from_deg": wave_from, "wind_u_ms": wu, "wind_v_ms": wv}
+    )
+    speeds = speed_nodes(3.0, 26.5)
+    tab = tabulate_ratio(model, base, sea, along, speeds, np.array([-30.0, 0.0, 30.0]))
+    assert tab.ratio.shape == (n, speeds.size, 1, 4)
+    sectors = [(0.0, 30.0), (30.0, 60.0), (60.0, 150.0), (150.0, 180.0)]
+    capped = 0
+    for q, sector in enumerate(sectors):
+        for psi in (-30.0, 0.0, 30.0):  # the heading axis dropped: the same field at every heading
+            p = power_at_heading(
+                model, speeds[None, :], (along - psi)[:, None], sea.hs_m[:, None], sea.wave_from_deg[:, None],
+                sea.wind_u_ms[:, None], sea.wind_v_ms[:, None], wave_sector_deg=sector,
+            )  # fmt: skip
+            over = ~np.isfinite(p) | (p > CAP_MCR * model.mcr_kw)
+            capped += int(over.sum()) if psi == -30.0 else 0
+            want = np.where(over, CAP_MCR * model.mcr_kw, p) / base.calm_power_kw(speeds)[None, :]
+            np.testing.assert_allclose(tab.ratio[:, :, 0, q], want, rtol=1e-9, atol=0.0)
+    assert 0 < capped < tab.ratio.size and tab.capped_share == pytest.approx(capped / tab.ratio.size, rel=1e-12)
+
+
+def test_kwon_power_is_one_function_of_its_regime_to_the_bit() -> None:
+    # the claim KwonModel.power_by_regime makes: seas of one regime (Beaufort number, wave sector), however their
+    # Hs, wind, wave and wind angles differ, need the same power at every speed; seas of different regimes differ
+    model = KwonModel(SHIP)
+    rng = np.random.default_rng(5)
+    n = 20000
+    hs, angle = rng.uniform(0.0, 15.0, n), rng.uniform(0.0, 360.0, n)
+    wind = np.where(rng.random(n) < 0.5, np.nan, rng.uniform(0.0, 40.0, n))
+    regime = model.power_regime(hs_m=hs, wave_angle_deg=angle, wind_speed_ms=wind)
+    speeds = np.array([4.0, 9.0, 14.0, 19.0, 24.0])
+    p = model.brake_power_kw(
+        speeds[None, :], hs_m=hs[:, None], wave_angle_deg=angle[:, None], wind_speed_ms=wind[:, None],
+        wind_angle_deg=rng.uniform(0.0, 360.0, (n, 1)),
+    )  # fmt: skip
+    keys = np.unique(regime)
+    assert keys.size > 40  # most of the 13 x 4 regimes
+    first = {}
+    for key in keys:
+        rows = p[regime == key]
+        np.testing.assert_array_equal(rows, np.broadcast_to(rows[0], rows.shape))
+        first[int(key)] = rows[0]
+    # not a vacuous claim: most regimes need their own power (C_β clipped at 0 gives calm water in a few)
+    assert len({tuple(np.nan_to_num(r, posinf=-1.0)) for r in first.values()}) > 0.6 * keys.size

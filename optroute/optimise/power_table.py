@@ -46,6 +46,11 @@ the tabulated values everywhere. Why these choices:
   not a new mechanism. The quasi-interpolant, not an interpolating spline: Kwon's method steps with
   the Beaufort number and the direction sector, and an interpolating spline rings across a step
   (wiggles that are local optima for Ipopt); the quasi-interpolant is variation-diminishing.
+* **Once per regime where the model says so.** A model whose power depends on the sea only through its
+  regime (``power_by_regime``: Kwon's integer Beaufort number and direction sector, the wind angle not at all)
+  is evaluated once per regime present and the values handed to every node of it (:func:`_model_power`): the
+  same numbers as at every node, for a few dozen evaluations per speed instead of some 10⁵ (checked against the
+  referee's :func:`power_at_heading` at every node in tests/test_power_table.py).
 * **A cap where the model has no power.** Where the model cannot make the speed (Kwon beyond Fn 0.3:
   ``inf``) or needs more than :data:`CAP_MCR` times the MCR, the ratio is capped there: every such
   speed is above the MCR in the table as in the model, and the table stays finite and smooth.
@@ -74,7 +79,7 @@ from typing import NamedTuple
 import numpy as np
 
 from formulations.common import PowerModel
-from optroute.physics.passage import SeaState, power_at_heading
+from optroute.physics.passage import SeaState, model_sea, power_at_heading, sector_angle
 from optroute.physics.performance import PerformanceModel
 
 __all__ = [
@@ -264,22 +269,36 @@ def _evaluate(
     out = np.empty((np.size(along_deg), v.size, np.size(headings_deg), len(sectors)))
     capped = 0
     for k, psi in enumerate(np.asarray(headings_deg, dtype=float)):
+        at = model_sea(
+            col(np.asarray(along_deg) - psi), col(sea.hs_m), col(sea.wave_from_deg), col(sea.wind_u_ms),
+            col(sea.wind_v_ms),
+        )  # fmt: skip
         for q, sector in enumerate(sectors):
-            p = power_at_heading(
-                model,
-                v,
-                col(np.asarray(along_deg) - psi),
-                col(sea.hs_m),
-                col(sea.wave_from_deg),
-                col(sea.wind_u_ms),
-                col(sea.wind_v_ms),
-                wave_sector_deg=sector,
-            )
-            p = np.broadcast_to(np.asarray(p, dtype=float), out.shape[:2])
+            at_q = {**at, "wave_angle_deg": sector_angle(at["wave_angle_deg"], sector)}
+            p = _model_power(model, v, at_q, out.shape[0])
             over = ~np.isfinite(p) | (p > cap)
             capped += int(over.sum())
             out[:, :, k, q] = np.where(over, cap, p) / p_calm
     return out, capped / max(out.size, 1)
+
+
+def _model_power(model: PerformanceModel, v_kn: np.ndarray, at: dict[str, np.ndarray], n: int) -> np.ndarray:
+    """``model.brake_power_kw`` at the speeds ``v_kn`` (1, nv) [kn] in the N seas ``at`` (:func:`model_sea`), (N, nv).
+
+    A model whose power depends on the sea only through its regime (``power_by_regime``: Kwon's Beaufort number
+    and sector, :attr:`optroute.physics.performance.KwonModel.power_by_regime`) is evaluated once per regime, at
+    the first sea of that regime, and the result handed to every sea of it: the same numbers as evaluating it at
+    every node (a few dozen regimes against some 10⁵ nodes). Any other model is evaluated at every node.
+    """
+    if not getattr(model, "power_by_regime", False):
+        return np.broadcast_to(np.asarray(model.brake_power_kw(v_kn, **at), dtype=float), (n, v_kn.size))
+    seas = {name: np.broadcast_to(a, (n, 1)) for name, a in at.items()}
+    regime = model.power_regime(
+        hs_m=seas["hs_m"][:, 0], wave_angle_deg=seas["wave_angle_deg"][:, 0], wind_speed_ms=seas["wind_speed_ms"][:, 0]
+    )
+    _, first, inverse = np.unique(np.ravel(regime), return_index=True, return_inverse=True)
+    p = model.brake_power_kw(v_kn, **{name: a[first] for name, a in seas.items()})
+    return np.broadcast_to(np.asarray(p, dtype=float), (first.size, v_kn.size))[np.ravel(inverse)]
 
 
 def sample_error(

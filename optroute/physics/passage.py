@@ -234,31 +234,58 @@ def power_at_heading(
 ) -> np.ndarray:
     """Brake power [kW] of ``model`` at a speed through water [kn] and heading [deg true, to] in a sea.
 
-    The one place where a sea state becomes the model's arguments: the relative wave angle (IMO
-    MSC.1/Circ.1228, 0 = head sea) from the heading and the direction the waves come from [deg],
-    the 10 m wind speed [m/s] and its angle off the bow from the wind vector (east/north, blowing
-    to, [m/s]). :func:`evaluate_speeds` (the plan's referee) and the corridor NLP's power table
-    (:mod:`optroute.optimise.power_table`) both call it.
+    ``model.brake_power_kw`` of the sea as :func:`model_sea` hands it to the model, its wave angle in
+    ``wave_sector_deg`` (:func:`sector_angle`) where given. :func:`evaluate_speeds` (the plan's referee) and the
+    corridor NLP's power table (:mod:`optroute.optimise.power_table`) both call it.
+    """
+    sea = model_sea(heading_deg, hs_m, wave_from_deg, wind_u_ms, wind_v_ms)
+    sea["wave_angle_deg"] = sector_angle(sea["wave_angle_deg"], wave_sector_deg)
+    return model.brake_power_kw(stw_kn, **sea)
 
-    ``wave_sector_deg = (lo, hi)`` (0 ≤ lo < hi ≤ 180) evaluates the model as if the waves came from inside
-    that sector of the folded wave angle: α is clamped into it on its own side of the ship (the power table's
-    sector fields; a model that steps at the sector's edges is then smooth in the heading). The edge ``lo > 0``
-    is excluded, 10⁻⁶° inside, as Kwon's sectors give each edge to the sector nearer the bow.
+
+def model_sea(
+    heading_deg: ArrayLike,
+    hs_m: ArrayLike,
+    wave_from_deg: ArrayLike,
+    wind_u_ms: ArrayLike,
+    wind_v_ms: ArrayLike,
+) -> dict[str, np.ndarray]:
+    """A sea state as a :class:`~optroute.physics.performance.PerformanceModel`'s keyword arguments at a heading.
+
+    The one place where a sea state becomes the model's arguments: the relative wave angle (IMO
+    MSC.1/Circ.1228, 0 = head sea) from the heading [deg true, to] and the direction the waves come from
+    [deg], the 10 m wind speed [m/s] and its angle off the bow from the wind vector (east/north, blowing
+    to, [m/s]); Hs [m] as given.
+
+    Returns
+    -------
+    dict
+        ``hs_m``, ``wave_angle_deg``, ``wind_speed_ms`` and ``wind_angle_deg``, broadcast as the inputs give.
     """
     heading = np.asarray(heading_deg, dtype=float)
     wind_speed, wind_from = units.wind_uv_to_speed_from_deg(wind_u_ms, wind_v_ms)
-    alpha = seaway.relative_wave_angle_deg(heading, wave_from_deg)
-    if wave_sector_deg is not None:
-        lo, hi = float(wave_sector_deg[0]), float(wave_sector_deg[1])
-        folded = np.clip(np.where(alpha > 180.0, 360.0 - alpha, alpha), lo + (1e-6 if lo > 0 else 0.0), hi)
-        alpha = np.where(alpha > 180.0, 360.0 - folded, folded)
-    return model.brake_power_kw(
-        stw_kn,
-        hs_m=hs_m,
-        wave_angle_deg=alpha,
-        wind_speed_ms=wind_speed,
-        wind_angle_deg=units.wrap_360(wind_from - heading),
-    )
+    return {
+        "hs_m": np.asarray(hs_m, dtype=float),
+        "wave_angle_deg": seaway.relative_wave_angle_deg(heading, wave_from_deg),
+        "wind_speed_ms": wind_speed,
+        "wind_angle_deg": units.wrap_360(wind_from - heading),
+    }
+
+
+def sector_angle(wave_angle_deg: np.ndarray, wave_sector_deg: tuple[float, float] | None) -> np.ndarray:
+    """The relative wave angle [deg, 0–360] as if the waves came from inside a sector of the folded angle.
+
+    ``wave_sector_deg = (lo, hi)`` (0 ≤ lo < hi ≤ 180): α is clamped into it on its own side of the ship (the power
+    table's sector fields; a model that steps at the sector's edges is then smooth in the heading). The edge
+    ``lo > 0`` is excluded, 10⁻⁶° inside, as Kwon's sectors give each edge to the sector nearer the bow. None: α
+    unchanged.
+    """
+    alpha = np.asarray(wave_angle_deg, dtype=float)
+    if wave_sector_deg is None:
+        return alpha
+    lo, hi = float(wave_sector_deg[0]), float(wave_sector_deg[1])
+    folded = np.clip(np.where(alpha > 180.0, 360.0 - alpha, alpha), lo + (1e-6 if lo > 0 else 0.0), hi)
+    return np.where(alpha > 180.0, 360.0 - folded, folded)
 
 
 def navigability_variables(names: Iterable[str]) -> tuple[str, ...]:

@@ -146,6 +146,12 @@ class KwonModel(_ShipEngine):
     #: Edges of the wave-angle sectors [deg] where the model steps (Kwon's direction coefficient; constant inside
     #: each sector): the corridor NLP's power table keeps one field per sector (:mod:`optroute.optimise.power_table`).
     wave_sector_edges_deg = speed_loss.KWON_SECTOR_EDGES_DEG
+    #: The brake power depends on the sea only through :meth:`power_regime`: two sea states of the same regime
+    #: give the same power at every speed, to the bit. Kwon (2008) reads the sea only as the integer Beaufort
+    #: number (its form coefficient and C_β) and the sector of the weather angle (C_β constant inside each), and
+    #: the wind angle not at all. The corridor NLP's power table evaluates the model once per regime
+    #: (:mod:`optroute.optimise.power_table`); tests/test_power_table.py checks the claim on random seas.
+    power_by_regime = True
 
     def beaufort(self, hs_m: ArrayLike, wind_speed_ms: ArrayLike | None) -> np.ndarray:
         """Beaufort number [-] from the wind [m/s] where known, else from Hs [m]."""
