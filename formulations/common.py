@@ -18,6 +18,7 @@ from formulations.splines import (
     TensorSpline,
     bspline_function,
     is_uniform,
+    pad_quasi_spline,
     quasi_spline,
     ratio_field_names,
     resample_linear,
@@ -58,7 +59,9 @@ class NonConvexFuelModel(FormulationInputError):
     """
 
 
-def as_float_array(value: ArrayLike, name: str, *, ndim: int | None = None, finite: bool = True) -> np.ndarray:
+def as_float_array(
+    value: ArrayLike, name: str, *, ndim: int | None = None, finite: bool = True, copy: bool = True
+) -> np.ndarray:
     """Convert ``value`` to a float array and check its rank and finiteness.
 
     Parameters
@@ -71,18 +74,21 @@ def as_float_array(value: ArrayLike, name: str, *, ndim: int | None = None, fini
         Required number of dimensions.
     finite : bool
         Reject NaN and ±inf when true (``+inf`` is allowed when false, NaN never).
+    copy : bool
+        Copy ``value`` (default); False: ``value`` itself where it is a float64 array already (a large table
+        its caller hands over and does not change: no second copy to allocate).
 
     Returns
     -------
     numpy.ndarray
-        A float64 copy of ``value``.
+        A float64 copy of ``value`` (with ``copy=False``, ``value`` itself where it is one).
 
     Raises
     ------
     FormulationInputError
         On a wrong rank, a NaN, or (``finite=True``) an infinite entry.
     """
-    arr = np.array(value, dtype=float)
+    arr = np.array(value, dtype=float) if copy else np.asarray(value, dtype=float)
     if ndim is not None and arr.ndim != ndim:
         raise FormulationInputError(f"{name} must be {ndim}-dimensional, got shape {arr.shape}")
     if np.isnan(arr).any():
@@ -433,7 +439,8 @@ class WeatherGrid:
         linearly at the ends; :func:`spline_weights` in speed and heading): C², exact for data linear
         along an axis, and variation-diminishing — no overshoot or ringing between nodes where the
         model steps (Kwon's Beaufort and direction sectors); outside the speed and heading range the
-        value at the nearest edge.
+        value at the nearest edge. A float64 array is held, not copied (some 10⁷ values on a corridor):
+        do not change it after.
     ratio_speed_kn : array_like, shape (nv,), optional
         Speeds through water of the table [kn], uniformly spaced and increasing.
     ratio_heading_deg : array_like, shape (nd,), optional
@@ -521,7 +528,7 @@ class WeatherGrid:
         object.__setattr__(self, "ratio_sector_edges_deg", edges)
         shape = (np.size(self.t_h), np.size(self.s_nm), np.size(self.y_nm), axes[0].size, axes[1].size)
         shape += (len(edges) + 1,) if edges else ()
-        r = as_float_array(self.power_ratio, "power_ratio")
+        r = as_float_array(self.power_ratio, "power_ratio", copy=False)  # held, not copied: some 10⁷ values
         if r.shape != shape:
             raise FormulationInputError(
                 f"power_ratio must have shape (nt, ns, ny, nv, nd[, nq]) = {shape}, got {r.shape}"
@@ -558,18 +565,29 @@ class WeatherGrid:
             names += list(ratio_field_names(self.ratio_axes))
         return tuple(names)
 
-    def _field_data(self) -> np.ndarray:
-        """Every field (n_fields, nt, ns, ny) in :attr:`field_names` order."""
+    def _field_data(self, pad: int = 0) -> np.ndarray:
+        """Every field (nt, ns, ny, n_fields) in :attr:`field_names` order, fields last (one contiguous row per node,
+        the layout of :class:`~formulations.splines.TensorSpline`'s control points: no transposing copy after).
+
+        With ``pad``, inside an array ``pad`` nodes larger at either end of every axis (left unset): the
+        control points of the quasi-interpolant written once (:func:`~formulations.splines.pad_quasi_spline`)."""
         plain = [f for f in self.field_names if not f.startswith("ratio_")]
-        data = [np.asarray(getattr(self, f)) for f in plain]
+        shape = np.shape(getattr(self, plain[0]))
+        buf = np.empty((*(n + 2 * pad for n in shape), len(self.field_names)))
+        out = buf[(slice(pad, buf.shape[0] - pad), slice(pad, buf.shape[1] - pad), slice(pad, buf.shape[2] - pad))]
+        for i, f in enumerate(plain):
+            out[..., i] = getattr(self, f)
         if self.power_ratio is not None:
             c = np.asarray(self.power_ratio)
             c = c if c.ndim == 6 else c[..., None]
-            data += [c[..., j, k, q] for q in range(c.shape[5]) for j in range(c.shape[3]) for k in range(c.shape[4])]
-        return np.stack(data, axis=0)
+            # fields ratio_j_k_sq in the order q, j, k (ratio_field_names): a view of the last axis split three ways
+            out[..., len(plain) :].reshape(*shape, c.shape[5], c.shape[3], c.shape[4])[...] = np.moveaxis(c, 5, 3)
+        return buf
 
     def _prepared(self) -> tuple[list[np.ndarray], np.ndarray]:
-        """Grid axes and data (n_fields, nt, ns, ny) ready for CasADi: no singleton axis, uniform for "smooth"."""
+        """Grid axes and data (n_fields, nt, ns, ny) ready for CasADi: no singleton axis, uniform for "smooth".
+
+        The data are a view of a fields-last array (:meth:`_field_data`)."""
         grids = [np.asarray(self.t_h), np.asarray(self.s_nm), np.asarray(self.y_nm)]
         data = self._field_data()
         min_pts = 4 if self.method == "bspline" else 2
@@ -577,16 +595,16 @@ class WeatherGrid:
             g = grids[axis]
             if g.size == 1:  # constant along this axis: duplicate the slab
                 g = np.array([g[0], g[0] + 1.0])
-                data = np.concatenate([data, data], axis=axis + 1)
+                data = np.concatenate([data, data], axis=axis)
             if g.size < min_pts or (self.method == "smooth" and not is_uniform(g)):
                 # resample linearly (keeps the data's multilinear interpolant between old nodes)
                 step = float(np.min(np.diff(g)))
                 count = max(min_pts, min(int(np.ceil((g[-1] - g[0]) / step)) + 1, 4 * g.size))
                 new = np.linspace(g[0], g[-1], count)
-                data = resample_linear(data, g, new, axis + 1)
+                data = resample_linear(data, g, new, axis)
                 g = new
             grids[axis] = g
-        return grids, data
+        return grids, np.moveaxis(data, -1, 0)
 
     def _memo(self) -> dict[Any, Any]:
         """What is built from the data, once per grid (the data are frozen): the spline's control points, the
@@ -609,8 +627,12 @@ class WeatherGrid:
             raise FormulationInputError(f"tensor_spline needs method='smooth', this grid has method={self.method!r}")
         memo = self._memo()
         if "tensor" not in memo:
-            grids, data = self._prepared()
-            knots, coef, _ = quasi_spline(grids, data)
+            grids = [np.asarray(self.t_h), np.asarray(self.s_nm), np.asarray(self.y_nm)]
+            if all(g.size > 1 and is_uniform(g) for g in grids):  # the data as they are: written once, padded
+                knots, coef, _ = pad_quasi_spline(grids, np.moveaxis(self._field_data(pad=1), -1, 0))
+            else:
+                grids, data = self._prepared()
+                knots, coef, _ = quasi_spline(grids, data)
             memo["tensor"], memo["knots"] = TensorSpline(grids, coef), knots
         return memo["tensor"]
 

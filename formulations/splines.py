@@ -28,6 +28,7 @@ __all__ = [
     "TensorSpline",
     "bspline_function",
     "is_uniform",
+    "pad_quasi_spline",
     "quasi_spline",
     "ratio_field_names",
     "resample_linear",
@@ -168,15 +169,22 @@ def quasi_spline(grids: list[np.ndarray], data: np.ndarray) -> tuple[list[np.nda
     knots : list of numpy.ndarray
         Knot vector per axis.
     coef : numpy.ndarray, shape (n_fields, n0 + 2, n1 + 2, n2 + 2)
-        Control points.
+        Control points: a view of a fields-last array (one contiguous row of fields per node, the layout
+        :class:`TensorSpline` keeps, so it takes them without a copy).
     degree : list of int
         ``[3, 3, 3]``.
     """
+    coef = np.moveaxis(np.empty((*(n + 2 for n in data.shape[1:]), data.shape[0])), -1, 0)
+    coef[:, 1:-1, 1:-1, 1:-1] = data
+    return pad_quasi_spline(grids, coef)
+
+
+def pad_quasi_spline(grids: list[np.ndarray], coef: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, list[int]]:
+    """:func:`quasi_spline` of the data already in the interior of its control points ``coef`` (n_fields, n0 + 2,
+    n1 + 2, n2 + 2): the pads are written in place and ``coef`` itself is returned (no copy of the data)."""
     knots = []
     # the padded control points written in place (one array, not a copy per axis): axis by axis, each pad over the
     # axes padded before it and the interior of those after it, as concatenating per axis would give
-    coef = np.empty((data.shape[0], *(n + 2 for n in data.shape[1:])))
-    coef[:, 1:-1, 1:-1, 1:-1] = data
     for axis, g in enumerate(grids):
         h = float(g[1] - g[0])
 

@@ -65,6 +65,40 @@ def test_numpy_spline_equals_casadis_splines_inside_on_the_edges_and_outside() -
     np.testing.assert_allclose(wx.tensor_spline().evaluate(pts, 2), ref, rtol=1e-12, atol=1e-12)
 
 
+@pytest.mark.parametrize("sectors", [False, True])
+def test_numpy_spline_at_interior_nodes_is_each_fields_own_1_4_1_stencil(sectors: bool) -> None:
+    # a cubic B-spline whose control points are the data has, at an interior node, the value of the tensor stencil
+    # (1, 4, 1)/6 of the data around it (Schoenberg's quasi-interpolant); worked here from each field's own array
+    # (the table entry [..., j, k(, q)] of field ratio_j_k(_sq)), whatever order the spline keeps its fields in
+    wx = _grid(3, sectors)
+    tt, ss, yy = np.meshgrid(T_AXIS[1:-1], S_AXIS[1:-1], Y_AXIS[1:-1], indexing="ij")
+    got = dict(
+        zip(wx.field_names, wx.tensor_spline().evaluate(np.vstack([tt.ravel(), ss.ravel(), yy.ravel()])), strict=True)
+    )
+    w = np.array([1.0, 4.0, 1.0]) / 6.0
+    stencil = w[:, None, None] * w[None, :, None] * w[None, None, :]
+
+    def at_nodes(f: np.ndarray) -> np.ndarray:
+        n0, n1, n2 = (n - 2 for n in f.shape)
+        return sum(
+            stencil[a, b, c] * f[a : a + n0, b : b + n1, c : c + n2]
+            for a in range(3)
+            for b in range(3)
+            for c in range(3)
+        )
+
+    table = np.asarray(wx.power_ratio)
+    want = {"hs_m": at_nodes(np.asarray(wx.hs_m)), "period_s": at_nodes(np.asarray(wx.period_s))}
+    for j in range(3):
+        for k in range(2):
+            for q in range(4 if sectors else 1):
+                name = f"ratio_{j}_{k}" + (f"_s{q}" if sectors else "")
+                want[name] = at_nodes(table[..., j, k, q] if sectors else table[..., j, k])
+    assert set(want) <= set(got)
+    for name, value in want.items():
+        np.testing.assert_allclose(got[name], value.ravel(), rtol=1e-12, err_msg=name)
+
+
 def test_numpy_spline_reusing_its_cells_control_points_never_serves_another_cells() -> None:
     """TensorSpline keeps the last gather of control points per point count and serves it while the cells are the
     same: the same points again, other points in the same cells, points in other cells, then the first again, in
