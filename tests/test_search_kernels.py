@@ -288,3 +288,32 @@ def test_importing_optroute_compiles_nothing():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["0", "0"]
+
+
+def test_cheapest_speed_kernel_is_the_brute_force_argmin():
+    # cheapest_speed_at tries the speed of the least cost floor first and skips by the floor: its choice must be
+    # that of trying every speed of the set, the least (fuel + λ) / SOG
+    from optroute.search.passage_kernels import _eval_at, cheapest_speed_at
+
+    p = point_params(CARGO, KwonModel(CARGO), BandRules())
+    rng = np.random.default_rng(15)
+    speeds = np.arange(5.0, 15.01, 0.5)
+    chosen = []
+    for _ in range(400):
+        sea = np.zeros(9)
+        sea[:7] = (rng.uniform(0.0, 11.0), rng.uniform(5.0, 15.0), rng.uniform(0.0, 360.0),
+                   *rng.uniform(-20.0, 20.0, 2), *rng.uniform(-1.0, 1.0, 2))  # fmt: skip
+        course, lam = rng.uniform(0.0, 360.0), rng.choice([0.0, 0.4, 2.5, 40.0])
+        rate = np.full(speeds.size, np.inf)
+        for k, v in enumerate(speeds):
+            sog, fuel, ok = _eval_at(p, course, sea, v)
+            if ok and sog > 0.0:
+                rate[k] = (fuel + lam) / sog
+        stw, sog, fuel, ok = cheapest_speed_at(p, course, sea, speeds, lam)
+        assert ok == np.isfinite(rate).any()
+        if ok:
+            k = int(np.argmin(rate))
+            assert stw == speeds[k] and (fuel + lam) / sog == rate[k]
+            chosen.append(k)
+    # not trivial: many different choices, neither always the slowest nor the fastest
+    assert len(set(chosen)) > 8 and len(chosen) > 200

@@ -76,17 +76,29 @@ def best_speed_at(p, course, sea, desired, step, vmin):  # pragma: no cover - co
 
 @jit
 def cheapest_speed_at(p, course, sea, speeds, lam):  # pragma: no cover - compiled
-    """The allowed speed of ``speeds`` minimising (fuel + λ) / SOG, as :func:`~optroute.physics.passage.cheapest_speed`."""
+    """The allowed speed of ``speeds`` minimising (fuel + λ) / SOG, as :func:`~optroute.physics.passage.cheapest_speed`.
+
+    The least rate, the first speed of the set on ties.  The speed of the least cost floor
+    (:func:`~optroute.physics.pointwise.cost_rate_floor`) is tried first, then the others in order, each skipped
+    when its floor cannot beat the best so far: the same choice whatever the order (a skipped speed's rate
+    is above the best; ties go to the lower index), with few speeds tried where the weather is mild.
+    """
+    cur = math.hypot(sea[5], sea[6]) / _MS_PER_KN
+    k0, f0 = 0, np.inf
+    for k in range(speeds.size):
+        floor = cost_rate_floor(p, speeds[k], lam, cur)
+        if floor < f0:
+            k0, f0 = k, floor
     best, k_best = np.inf, -1
     b_sog, b_fuel = np.nan, np.nan
-    cur = math.hypot(sea[5], sea[6]) / _MS_PER_KN
-    for k in range(speeds.size):
-        if cost_rate_floor(p, speeds[k], lam, cur) * _FLOOR_SLACK >= best:
-            continue  # cannot beat the best so far even at its calm-water power: the same choice, found faster
+    for r in range(-1, speeds.size):
+        k = k0 if r < 0 else r
+        if r == k0 or cost_rate_floor(p, speeds[k], lam, cur) * _FLOOR_SLACK >= best:
+            continue  # tried first, or cannot beat the best so far even at its calm-water power
         sog, fuel, ok = _eval_at(p, course, sea, speeds[k])
         if ok and sog > 0.0:
             rate = (fuel + lam) / sog
-            if rate < best:
+            if rate < best or (rate == best and k < k_best):
                 best, k_best, b_sog, b_fuel = rate, k, sog, fuel
     if k_best < 0:
         return np.nan, np.nan, np.nan, False
