@@ -401,8 +401,6 @@ def weather_nan(weather: Any, lat_deg: ArrayLike, lon_deg: ArrayLike, time: Any 
         blocked = grid[yi0, xi0] | grid[yi0, xi1] | grid[yi1, xi0] | grid[yi1, xi1]
         return blocked | ~covered
 
-    import xarray as xr
-
     t_ns = np.asarray(weather["time"].values).astype("datetime64[ns]").astype(np.int64)
     times = (t_ns - t_ns[0]) / 1e9  # seconds since the first time, as the sampler counts
     try:
@@ -416,18 +414,20 @@ def weather_nan(weather: Any, lat_deg: ArrayLike, lon_deg: ArrayLike, time: Any 
         tq = np.clip(tq, times[0], times[-1])
     ti0, ti1, t_in = _axis_stencil(times, tq)
     covered &= t_in
-    nan_grid = hs.isnull().transpose("time", "lat", "lon")
-    shape = nan_grid.shape
-    corners = np.stack(
-        [np.ravel_multi_index((ti, yi, xi), shape) for ti in (ti0, ti1) for yi in (yi0, yi1) for xi in (xi0, xi1)]
+    # Load only the box of grid values the stencils touch (a dask-backed dataset stays lazy elsewhere).
+    idx = [np.concatenate([a.ravel(), b.ravel()]) for a, b in ((ti0, ti1), (yi0, yi1), (xi0, xi1))]
+    lo = [int(i.min()) if i.size else 0 for i in idx]
+    hi = [int(i.max()) + 1 if i.size else 1 for i in idx]
+    box = hs.transpose("time", "lat", "lon").isel(
+        time=slice(lo[0], hi[0]), lat=slice(lo[1], hi[1]), lon=slice(lo[2], hi[2])
     )
-    uniq, inverse = np.unique(corners, return_inverse=True)
-    ut, uy, ux = np.unravel_index(uniq, shape)
-    vals = nan_grid.isel(
-        time=xr.DataArray(ut, dims="p"), lat=xr.DataArray(uy, dims="p"), lon=xr.DataArray(ux, dims="p")
-    )
-    corner_nan = np.asarray(vals.values, dtype=bool)[inverse.reshape(corners.shape)]
-    return corner_nan.any(axis=0) | ~covered
+    nan_box = np.isnan(np.asarray(box.values, dtype=float))
+    corner_nan = np.zeros(lat.shape, dtype=bool)
+    for ti in (ti0, ti1):
+        for yi in (yi0, yi1):
+            for xi in (xi0, xi1):
+                corner_nan |= nan_box[ti - lo[0], yi - lo[1], xi - lo[2]]
+    return corner_nan | ~covered
 
 
 def _use_land(weather: Any, use_land_mask: bool | None) -> bool:
@@ -580,7 +580,8 @@ def snap_to_sea(
     c = ok.shape[0] // 2
     if ok[c, c]:
         return lat0, float(lon_a)
-    dist = geo.distance_nm(lat0, lon0, glat, glon)
+    dist = np.full(ok.shape, np.inf)  # distances only where a candidate can lie: the navigable cells
+    dist[ok] = geo.distance_nm(lat0, lon0, glat[ok], glon[ok])
     cand = ok & (dist <= max_d)
     if not cand.any():
         raise OnLandError(
