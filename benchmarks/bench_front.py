@@ -206,7 +206,8 @@ def run(quick: bool) -> dict[str, Any]:
     )
     print(
         "| points between the ends | solves per point | Ipopt calls per point | iterations per point | "
-        "Ipopt started from the neighbour | and its multipliers | risen, solved again | risen points | their solves [s] |"
+        "Ipopt started from the neighbour | and its multipliers | risen, solved again | risen points | "
+        "their solves [s] |"
     )
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for name, c in (("continuation (baseline)", cont), ("plan alone", cont_primal), ("cold", cont_cold)):

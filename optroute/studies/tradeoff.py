@@ -330,7 +330,8 @@ def tradeoff(
         departure]; per ETA: ``fuel_t`` [t], ``duration_h`` [h], ``distance_nm`` [nm],
         ``mean_power_kw`` (time-weighted) and ``max_power_kw`` [kW] of the legs,
         ``eta_shadow_price_t_per_h`` (−dF/dETA of the solve's ETA constraint [t/h]; NaN at the two
-        end solves, which have none), ``status`` (``"optimal"``/``"feasible"``, ``"infeasible:
+        end solves, which have none, but for a slow-steaming end solved again at its ETA: module
+        docstring, Monotonicity), ``status`` (``"optimal"``/``"feasible"``, ``"infeasible:
         earliest arrival …"``, ``"infeasible: <reason>"``, ``"solver failure: <Ipopt status>"``,
         with ``"; solved again from the plan of the earlier ETA …"`` appended when its first solve rose
         above an earlier point and it was solved again from that point's plan, ``"; the plan of the earlier
@@ -345,7 +346,8 @@ def tradeoff(
         no plan.  ``attrs``: departure, objective, ship, earliest arrival and slow-steaming limit
         [h], the knee's ETA [h], ``monotonicity_resolves`` (failed points solved again),
         ``risen_resolves`` (points solved again from an earlier ETA's plan), ``risen_points`` (also
-        ``front.risen_points``: points left with an earlier ETA's plan), ``chains``.  Writes with ``front.to_netcdf(path)``.
+        ``front.risen_points``: points left with an earlier ETA's plan), ``chains``.  Writes with
+        ``front.to_netcdf(path)``.
 
     Raises
     ------
@@ -562,8 +564,8 @@ def _monotone(
                     warm_start=p.warm_start,
                     carry=p.carry,
                     own_fuel_t=p.fuel_t,
-                    status=f"{best_point.status.split(';')[0]}; the plan of the earlier ETA {best_point.eta_h:.6g} h (arrives "
-                    f"earlier): this ETA's own solve ({p.status}) ended {p.fuel_t:.6g} t, above its "
+                    status=f"{best_point.status.split(';')[0]}; the plan of the earlier ETA {best_point.eta_h:.6g} h "
+                    f"(arrives earlier): this ETA's own solve ({p.status}) ended {p.fuel_t:.6g} t, above its "
                     f"{best_before:.6g} t; solved again from that plan: {q.status}, {q.fuel_t:.6g} t",
                     **spent,
                 )
