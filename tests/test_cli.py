@@ -813,6 +813,8 @@ def test_every_status_has_an_explanation():
     known = {
         "optimal": "Ipopt converged",
         "optimal; the plan of the earlier ETA 30 h (arrives earlier): fuel rose": "front never rises",
+        "mended; solved again from the plan of the earlier ETA 30 h: its first solve ended 2 t": "solved once more",
+        "optimal; solved again from the plan of the earlier ETA 30 h: its first solve ended 2 t": "Ipopt converged",
         "feasible": "not proven least-fuel",
         "feasible: fastest verified plan known (optimal); the minimum-time solve failed: x": "upper bound",
         "minimum time": "fastest verified passage",

@@ -144,10 +144,11 @@ def test_a_rising_point_keeps_the_earlier_plan_beside_its_own_solve_and_is_count
     for mod in (points_mod, runners_mod):  # the chains' and the end solves' callers
         monkeypatch.setattr(mod, "solve_point", spoiled)
     front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, etas=[30.0, 35.0, 40.0], **KW)
-    # one solve per point: nothing is solved again
-    assert sorted(h for k, h in solved if k == "eta") == [30.0, 35.0, 40.0]
+    # one solve per point, and the risen point once more from the 30 h plan (which rises too: planted)
+    assert sorted(h for k, h in solved if k == "eta") == [30.0, 35.0, 35.0, 40.0]
     assert front.attrs["risen_points"] == front.risen_points == 1
-    assert front.attrs["monotonicity_resolves"] == 0
+    assert front.attrs["risen_resolves"] == 1 and front.attrs["monotonicity_resolves"] == 0
+    assert front.nlp_solves.values[1] >= 2  # both solves counted in the point
     # arriving by 35 h may arrive at 30 h, so the 30 h plan serves it; its own solve is reported beside it
     assert "the plan of the earlier ETA 30 h" in str(front.status.values[1])
     assert "ended 1e+06 t" in str(front.status.values[1])
@@ -157,6 +158,32 @@ def test_a_rising_point_keeps_the_earlier_plan_beside_its_own_solve_and_is_count
     assert front.eta_h.values[1] == 35.0
     np.testing.assert_array_equal(front.own_fuel_t.values[[0, 2]], front.fuel_t.values[[0, 2]])
     assert front.fuel_t.values[2] == pytest.approx(_by_hand_fuel(40.0), rel=1e-5)
+
+
+def test_a_rising_point_is_solved_again_from_the_earlier_plan_and_no_longer_rises(monkeypatch):
+    """A point whose first solve rose is solved once more, from the earlier ETA's plan alone (its floor): in calm
+    water on a fixed path that re-solve reaches the 35 h optimum by hand, the first solve's fuel stays beside it."""
+    real = points_mod.solve_point
+    solved = []
+
+    def spoiled_once(spec, eta_h, kind, warm, route=None, **kw):
+        p = real(spec, eta_h, kind, warm, route, **kw)
+        solved.append((kind, eta_h, getattr(warm, "eta_h", None), kw.get("end_adjacent", False), p.warm_start))
+        if kind == "eta" and eta_h == 35.0 and sum(s[1] == 35.0 for s in solved) == 1:  # planted: the first only
+            p = points_mod.replace_fields(p, totals={**p.totals, "fuel_t": 1e6})
+        return p
+
+    for mod in (points_mod, runners_mod):
+        monkeypatch.setattr(mod, "solve_point", spoiled_once)
+    front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, etas=[30.0, 35.0, 40.0], **KW)
+    again = [s for s in solved if s[1] == 35.0][1]
+    assert again[2:] == (30.0, True, "warm plan")  # from the 30 h point's plan, as its sole start
+    assert front.attrs["risen_points"] == front.risen_points == 0 and front.attrs["risen_resolves"] == 1
+    assert front.own_fuel_t.values[1] == 1e6
+    assert "solved again from the plan of the earlier ETA 30 h" in str(front.status.values[1])
+    assert front.fuel_t.values[1] == pytest.approx(_by_hand_fuel(35.0), rel=1e-5)
+    assert front.fuel_t.values[1] < front.fuel_t.values[0]
+    assert front.solve.values[1] == "eta" and front.nlp_solves.values[1] >= 2
 
 
 def test_one_solve_per_point_and_the_slow_neighbour_sped_up_to_arrive_by_the_next_eta(calm_front):

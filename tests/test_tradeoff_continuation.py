@@ -10,6 +10,7 @@ import importlib
 import inspect
 
 import numpy as np
+import pytest
 
 import optroute as orx
 from optroute.studies.tradeoff import tradeoff
@@ -22,10 +23,8 @@ KW = {"max_leg_nm": 150.0, "use_land_mask": False}
 CORRIDOR = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -20.0]], width_nm=0.0)
 
 
-def test_a_verified_neighbour_is_the_only_start_and_the_front_stays_the_calm_optimum(monkeypatch):
-    """Inside a chain each point starts from its neighbour's verified plan without building the centreline's
-    safe start (only the two end solves and a chain's first point, whose warm plan is an end's, do); every
-    point is still the calm-water optimum by hand."""
+def _count_centreline_starts(monkeypatch) -> list[float | None]:
+    """The passage cap [h] of every centreline start the start stage builds, in order (filled as they are built)."""
     built: list[float | None] = []
     original = stage_mod._centre_candidate
 
@@ -34,9 +33,19 @@ def test_a_verified_neighbour_is_the_only_start_and_the_front_stays_the_calm_opt
         return original(prepared, ctx, cap_h, objective, st)
 
     monkeypatch.setattr(stage_mod, "_centre_candidate", counting)
+    return built
+
+
+def test_a_verified_neighbour_is_the_only_start_and_the_front_stays_the_calm_optimum(monkeypatch):
+    """Inside a chain each point starts from its neighbour's verified plan without building the centreline's
+    safe start (only the two end solves and a chain's first point, whose warm plan is an end's, do); every
+    point is still the calm-water optimum by hand."""
+    built = _count_centreline_starts(monkeypatch)
     front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, n=6, chains=1, **KW)
     interior = front.solve.values == "eta"
-    assert len(built) <= 2 + 1  # the ends, and at most the chain's first point (main built one for every point)
+    # the ends only: the chain's first point starts from the slow end, its neighbour, alone (main built one for every
+    # point, then one for the chain's first point too)
+    assert len(built) <= 2
     # the chain runs from the slow end: its first point is the latest ETA between the ends, the rest start from
     # the point before them
     assert interior.sum() == 4 and (front.warm_start.values[interior][:-1] == "warm plan").all()
@@ -81,3 +90,20 @@ def test_a_mended_neighbour_is_verified_once_per_point(monkeypatch):
     assert len(calls) == interior.sum()
     np.testing.assert_array_equal(again.fuel_t.values, front.fuel_t.values)
     np.testing.assert_array_equal(again.leg_stw_kn.values, front.leg_stw_kn.values)
+
+
+def test_a_chain_started_across_other_chains_etas_compares_the_centreline(monkeypatch):
+    """Of two chains, the one next to the slow end starts from its plan alone; the other, whose first ETA is the slow
+    plan sped up across the first chain's ETAs, builds the centreline's start beside it. Both stay the calm optimum."""
+    built = _count_centreline_starts(monkeypatch)
+    one = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, n=6, chains=1, **KW)
+    ends = len(built)
+    built.clear()
+    two = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, n=6, chains=2, **KW)
+    interior = two.solve.values == "eta"
+    # the second chain's first ETA (the latest of the two earliest interior ETAs) only
+    assert len(built) == ends + 1 and built[-1] == pytest.approx(two.eta_h.values[interior][1], rel=1e-12)
+    v = CORRIDOR.length_nm / two.eta_h.values[interior]
+    by_hand = two.eta_h.values[interior] * SHIP.fuel_rate_tph(SHIP.calm_power_kw(v))
+    np.testing.assert_allclose(two.fuel_t.values[interior], by_hand, rtol=1e-5)
+    np.testing.assert_allclose(one.fuel_t.values, two.fuel_t.values, rtol=1e-5)

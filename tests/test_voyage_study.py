@@ -148,6 +148,28 @@ def test_a_second_front_on_the_same_workers_ships_nothing_and_a_worker_that_lost
     assert first.installed == 4
 
 
+def test_a_risen_points_re_solve_runs_on_a_worker_as_in_this_process(cluster):
+    """A point that rose is solved again from the earlier ETA's plan (its floor): on a worker as in this process, to
+    the bit, started from that plan, and no higher than it."""
+    import distributed
+
+    import optroute.studies.front_points as fp
+    from optroute.studies.front_runners import DaskRunner, SerialRunner
+
+    wx = WEATHER["moderate"]
+    spec = fp.FrontSpec(
+        CORRIDOR, wx, SHIP, T0, "fuel", dict(KW), token=fp.front_token(CORRIDOR, wx, SHIP, T0, "fuel", KW)
+    )
+    earlier = fp.solve_point(spec, 35.0, "eta", None)
+    (ref,) = SerialRunner().resolve(spec, 40.0, [earlier], end_adjacent=True)
+    with distributed.Client(cluster.scheduler_address, set_as_default=False) as client:
+        (got,) = DaskRunner(client, spec).resolve(spec, 40.0, [earlier], end_adjacent=True)
+    assert ref.ok and ref.warm_start == got.warm_start == "warm plan"
+    assert ref.fuel_t <= earlier.fuel_t * (1.0 + 1e-9)
+    a, b = (np.array(list(p.totals.values())) for p in (ref, got))
+    assert np.array_equal(a, b, equal_nan=True) and np.array_equal(ref.legs["stw_kn"], got.legs["stw_kn"])
+
+
 def test_a_study_prepares_one_corridor_per_ship_and_weather_and_its_cases_do_not_depend_on_their_order(
     serial, tmp_path, monkeypatch
 ):

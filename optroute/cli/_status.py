@@ -46,10 +46,26 @@ def explain_status(status: str, *, ipopt_status: str | None = None, objective: s
     str
         The explanation; for a status this module does not know, says so rather than guess.
     """
+    text = _explain_key(status, ipopt_status, objective)
+    if RESOLVED in str(status):
+        text += (
+            "; this ETA's first solve, from its neighbour, ended above an earlier ETA's fuel, so it was solved once "
+            "more from that ETA's plan (which also arrives in time): this is that solve, the first one's fuel is "
+            "own_fuel_t"
+        )
+    return text
+
+
+#: What a front point's status says when its first solve rose and it was solved again from an earlier ETA's plan.
+RESOLVED = "solved again from the plan of the earlier ETA"
+
+
+def _explain_key(status: str, ipopt_status: str | None, objective: str) -> str:
+    """:func:`explain_status` of the status's key alone."""
     goal = _GOAL.get(objective, f"least-{objective}")
     key = status_key(status)
     if key == "optimal":
-        if "earlier ETA" in str(status):
+        if "the plan of the earlier ETA" in str(status) and RESOLVED not in str(status):
             return (
                 "this ETA's own solve burnt more fuel than an earlier ETA's plan, which also arrives in time, "
                 "so that verified plan is kept (the own solve's fuel is own_fuel_t): the front never rises"
@@ -104,7 +120,9 @@ def status_legend(statuses: Iterable[str], *, objective: str = "fuel", indent: s
     seen: dict[str, str] = {}
     for status in statuses:
         key = status_key(status) or "missing"
-        if key == "optimal" and "earlier ETA" in str(status):
+        if RESOLVED in str(status):
+            key = f"{key}; {RESOLVED}"
+        elif key == "optimal" and "earlier ETA" in str(status):
             key = "optimal; the plan of the earlier ETA"
         elif key == "feasible" and "fastest verified plan known" in str(status):
             key = "feasible: fastest verified plan known"

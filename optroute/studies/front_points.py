@@ -74,7 +74,8 @@ FORBIDDEN_OPTIONS = ("eta", "eta_mode", "objective", "warm_plan", "route", "depa
 # --------------------------------------------------------------------------- one point (runs on a worker)
 
 #: A chain's point takes its previous point's verified plan as its only start (:attr:`WarmStart.sole_start`); a
-#: chain's first point, started from an end's plan, is also compared with the centreline's start.
+#: chain's first point, started from an end's plan sped up across the ETAs of the chains between, is also compared
+#: with the centreline's start, unless that end is its neighbour in the front (``end_adjacent``).
 SOLE_START = True
 
 
@@ -174,11 +175,15 @@ def solve_point(
     warm: FrontPoint | WarmStart | None,
     route: Any = None,
     duals: bool = True,
+    end_adjacent: bool = False,
 ) -> FrontPoint:
     """One solve; an unreachable ETA or a solver failure becomes the point's status, not an exception.
 
     ``duals=False``: start from the warm plan's track and speeds alone, not its multipliers (a benchmark's
-    primal-only continuation).
+    primal-only continuation).  ``end_adjacent``: ``warm`` (an end's point, or an earlier ETA's plan for a
+    point that rose above it) is the point's neighbour, so its verified plan is the only start, as a chain's
+    previous point is (:data:`SOLE_START`); an end's plan sped up across other chains' ETAs is compared with
+    the centreline's start too.
     """
     pin_solver_threads()  # one BLAS thread for Ipopt, in this process as on a Dask worker: the same rounding
     started = _time.perf_counter()
@@ -214,7 +219,7 @@ def solve_point(
                 if kind == "eta" and isinstance(warm, FrontPoint) and carry is not None and eta is not None:
                     # a chain's previous point is the only start; an end's plan, sped up across a whole chain's
                     # span, is compared with the centreline's start
-                    sole = SOLE_START and warm.kind == "eta"
+                    sole = SOLE_START and (warm.kind == "eta" or end_adjacent)
                     carry = replace_fields(mended_start(prepared, carry, eta), sole_start=sole)
                 plan = solve_prepared(
                     prepared,
@@ -302,16 +307,21 @@ def mended_start(prepared: PreparedCorridor, carry: WarmStart, eta: np.datetime6
 
 
 def solve_chain(
-    spec: FrontSpec, etas: Sequence[float], warm: FrontPoint | None, cold: bool, duals: bool = True
+    spec: FrontSpec,
+    etas: Sequence[float],
+    warm: FrontPoint | None,
+    cold: bool,
+    duals: bool = True,
+    end_adjacent: bool = False,
 ) -> list[FrontPoint]:
     """One chain of ETAs, each point started from the one before (the chain's first from ``warm``).
 
     ``cold``: every point from the optimiser's own start; ``duals=False``: from the neighbour's plan without its
-    multipliers.
+    multipliers; ``end_adjacent``: ``warm`` (an end's point) is the chain's first ETA's neighbour in the front.
     """
     out = []
-    for eta_h in etas:
-        p = solve_point(spec, eta_h, "eta", None if cold else warm, duals=duals)
+    for i, eta_h in enumerate(etas):
+        p = solve_point(spec, eta_h, "eta", None if cold else warm, duals=duals, end_adjacent=end_adjacent and i == 0)
         warm = p if p.ok else warm
         out.append(p)
     return out
@@ -357,17 +367,27 @@ def spec_of(token: str) -> FrontSpec:
 
 
 def solve_chain_by_token(
-    token: str, etas: Sequence[float], warm: FrontPoint | None, cold: bool, duals: bool = True
+    token: str,
+    etas: Sequence[float],
+    warm: FrontPoint | None,
+    cold: bool,
+    duals: bool = True,
+    end_adjacent: bool = False,
 ) -> list[FrontPoint]:
     """:func:`solve_chain` on the front inputs installed in this process under ``token``."""
-    return solve_chain(spec_of(token), etas, warm, cold, duals)
+    return solve_chain(spec_of(token), etas, warm, cold, duals, end_adjacent)
 
 
 def solve_point_by_token(
-    token: str, eta_h: float | None, kind: str, warm: FrontPoint | WarmStart | None, route: Any = None
+    token: str,
+    eta_h: float | None,
+    kind: str,
+    warm: FrontPoint | WarmStart | None,
+    route: Any = None,
+    end_adjacent: bool = False,
 ) -> FrontPoint:
     """:func:`solve_point` on the front inputs installed in this process under ``token``."""
-    return solve_point(spec_of(token), eta_h, kind, warm, route)
+    return solve_point(spec_of(token), eta_h, kind, warm, route, end_adjacent=end_adjacent)
 
 
 #: Prepared corridors of this process (a Dask worker's too), by the inputs' fingerprint, least recently used

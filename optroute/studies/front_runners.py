@@ -26,7 +26,11 @@ from optroute.studies.front_points import (
     solve_point_by_token,
 )
 
-__all__ = ["DaskRunner", "SerialRunner", "split_chains"]
+__all__ = ["Chain", "DaskRunner", "SerialRunner", "split_chains"]
+
+#: A chain: its ETAs in solving order, the end point its first ETA starts from, and whether that end is the first
+#: ETA's neighbour in the front (:func:`~optroute.studies.front_points.solve_chain`'s ``end_adjacent``).
+Chain = tuple[list[float], FrontPoint | None, bool]
 
 # --------------------------------------------------------------------------- execution
 
@@ -39,20 +43,22 @@ class SerialRunner:
         slow = solve_point(spec, None, "slow_steaming", None) if need_slow else None
         return fast, slow
 
-    def resolve(self, spec: FrontSpec, eta_h: float, starts: list[FrontPoint | None]) -> list[FrontPoint]:
-        return [solve_point(spec, eta_h, "eta", w) for w in starts]
+    def resolve(
+        self, spec: FrontSpec, eta_h: float, starts: list[FrontPoint | None], end_adjacent: bool = False
+    ) -> list[FrontPoint]:
+        return [solve_point(spec, eta_h, "eta", w, end_adjacent=end_adjacent) for w in starts]
 
     def chains(
         self,
         spec: FrontSpec,
-        chains: list[tuple[list[float], FrontPoint | None]],
+        chains: list[Chain],
         cold: bool,
         report: Callable[[FrontPoint], None],
         duals: bool = True,
     ) -> list[FrontPoint]:
         out = []
-        for etas, warm in chains:
-            for p in solve_chain(spec, etas, warm, cold, duals):
+        for etas, warm, adjacent in chains:
+            for p in solve_chain(spec, etas, warm, cold, duals, adjacent):
                 out.append(p)
                 report(p)
         return out
@@ -105,15 +111,18 @@ class DaskRunner:
             self._result(slow, solve_point_by_token, *slow_args) if slow is not None else None,
         )
 
-    def resolve(self, spec: FrontSpec, eta_h: float, starts: list[FrontPoint | None]) -> list[FrontPoint]:
+    def resolve(
+        self, spec: FrontSpec, eta_h: float, starts: list[FrontPoint | None], end_adjacent: bool = False
+    ) -> list[FrontPoint]:
         """Solves of one ETA from several starts, side by side (the workers' prepared corridors serve them)."""
-        futures = [(self._submit(solve_point_by_token, eta_h, "eta", w), w) for w in starts]
-        return [self._result(f, solve_point_by_token, eta_h, "eta", w) for f, w in futures]
+        args = [(eta_h, "eta", w, None, end_adjacent) for w in starts]
+        futures = [self._submit(solve_point_by_token, *a) for a in args]
+        return [self._result(f, solve_point_by_token, *a) for f, a in zip(futures, args, strict=True)]
 
     def chains(
         self,
         spec: FrontSpec,
-        chains: list[tuple[list[float], FrontPoint | None]],
+        chains: list[Chain],
         cold: bool,
         report: Callable[[FrontPoint], None],
         duals: bool = True,
@@ -130,9 +139,9 @@ class DaskRunner:
         running = as_completed(loop=self.client.loop)
 
         def submit_next() -> None:
-            etas, warm = todo.pop(0)
-            fut = self._submit(solve_chain_by_token, etas, warm, cold, duals)
-            args[fut.key] = (etas, warm, cold, duals)
+            etas, warm, adjacent = todo.pop(0)
+            fut = self._submit(solve_chain_by_token, etas, warm, cold, duals, adjacent)
+            args[fut.key] = (etas, warm, cold, duals, adjacent)
             running.add(fut)
 
         for _ in range(min(self._slots(), len(todo))):

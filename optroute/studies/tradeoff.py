@@ -41,23 +41,29 @@ neighbour's plan sped up to arrive by its own ETA (speeds through the water time
 :func:`~optroute.studies.front_points.mended_start`), which the optimiser takes as Ipopt's start when the
 referee accepts it — inside a chain as its only start (no centreline start is built beside a verified
 neighbour: on the benchmark's storm corridor that safe start, a timed search around the storm, was 28 % of a
-front's time; the neighbour is also the floor of the point's result), for a chain's first point (an end's plan
-sped up across the chain's span) when it also scores best against the centreline's start — its own start
+front's time; the neighbour is also the floor of the point's result) and so is the end's plan for the chain
+whose first ETA is the end's neighbour; for another chain's first point (the end's plan sped up across the
+ETAs of the chains between) when it also scores best against the centreline's start — its own start
 otherwise, together with the neighbour's Ipopt multipliers
 where the NLP has the same rows: Ipopt's primal-dual warm start (``warm_start_init_point``,
 :data:`formulations.ipopt_options.WARM_START_OPTIONS`; ``dual_starts`` counts such solves per point).  One
 solve per point; only a point whose solve failed is solved once more, from the optimiser's own start
-(``attrs["monotonicity_resolves"]``).
+(``attrs["monotonicity_resolves"]``), and a point that rose (below).
 
 Monotonicity
 ------------
 Arriving by an ETA is allowed to arrive earlier (``eta_mode="le"``), so with the fuel objective
 the true front never rises with a later ETA.  A point whose own solve ends above the fuel of an
 earlier ETA's point (relative tolerance ``monotone_rtol``; the NLP is a local search on a model
-that is only piecewise smooth) takes that earlier point's verified plan, which arrives by its ETA
-too; its own solve's fuel stays beside it (``own_fuel_t``), its status says so (``"optimal; the
-plan of the earlier ETA …"``), and the number of such points is ``front.risen_points``
-(``attrs["risen_points"]``).  Nothing is solved again for it.  With ``objective="cost"`` (fuel
+that is only piecewise smooth; the tail of a front, where the ship overtakes a storm, is flat and
+multi-modal) is solved once more, started from that earlier point's verified plan alone, which arrives
+by its ETA too and is the floor of the re-solve (``attrs["risen_resolves"]``, the slow-steaming end's
+solve included: its plan then arrives before the limit); the first solve's fuel stays beside it
+(``own_fuel_t``) and its status says so (``"…; solved again from the plan of the earlier ETA …"``).  Only
+where that re-solve fails or ends above the earlier fuel all the same does the point take the earlier
+point's plan (status ``"optimal; the plan of the earlier ETA …"``): ``front.risen_points``
+(``attrs["risen_points"]``), target 0.  Both solves count in the point's ``iterations``,
+``nlp_solves`` and ``runtime_s``.  With ``objective="cost"`` (fuel
 and time both priced) a later ETA may legitimately cost more fuel, so no point is replaced.
 
 Chains, workers and determinism
@@ -125,7 +131,7 @@ from optroute.studies.front_points import (
     front_token,
     replace_fields,
 )
-from optroute.studies.front_runners import DaskRunner, SerialRunner, split_chains
+from optroute.studies.front_runners import Chain, DaskRunner, SerialRunner, split_chains
 
 __all__ = ["TradeoffFront", "tradeoff"]
 
@@ -159,7 +165,8 @@ class TradeoffFront(xr.Dataset):
 
     @property
     def risen_points(self) -> int:
-        """Points whose own solve ended above an earlier ETA's fuel and which took that ETA's plan (target 0)."""
+        """Points whose solves (the first and the one from the earlier ETA's plan) ended above an earlier ETA's fuel and
+        which took that ETA's plan (target 0)."""
         return int(self.attrs.get("risen_points", 0))
 
     def plot(self, *, title: str | None = None) -> Figure:  # type: ignore[override]
@@ -323,10 +330,12 @@ def tradeoff(
         departure]; per ETA: ``fuel_t`` [t], ``duration_h`` [h], ``distance_nm`` [nm],
         ``mean_power_kw`` (time-weighted) and ``max_power_kw`` [kW] of the legs,
         ``eta_shadow_price_t_per_h`` (−dF/dETA of the solve's ETA constraint [t/h]; NaN at the two
-        end solves, which have none), ``status`` (``"optimal"``/``"feasible"``, ``"infeasible:
+        end solves, which have none, but for a slow-steaming end solved again at its ETA: module
+        docstring, Monotonicity), ``status`` (``"optimal"``/``"feasible"``, ``"infeasible:
         earliest arrival …"``, ``"infeasible: <reason>"``, ``"solver failure: <Ipopt status>"``,
-        with ``"; the plan of the earlier ETA …"`` appended when its own solve rose above an earlier point
-        and that point's plan, arriving earlier, serves it), ``own_fuel_t`` [t] (the point's own
+        with ``"; solved again from the plan of the earlier ETA …"`` appended when its first solve rose
+        above an earlier point and it was solved again from that point's plan, ``"; the plan of the earlier
+        ETA …"`` when that plan, arriving earlier, serves it), ``own_fuel_t`` [t] (the point's first
         solve's fuel: above ``fuel_t`` where it rose), ``solve`` (``"minimum_time"``,
         ``"slow_steaming"`` or ``"eta"``), ``runtime_s`` [s], ``iterations`` (Ipopt),
         ``nlp_solves`` (Ipopt calls of the point's solve: band outer loop and verification re-solves)
@@ -336,7 +345,9 @@ def tradeoff(
         on ``(eta, leg)`` — ``leg_<v>`` for ``v`` in :data:`LEG_VARIABLES` — NaN where a point has
         no plan.  ``attrs``: departure, objective, ship, earliest arrival and slow-steaming limit
         [h], the knee's ETA [h], ``monotonicity_resolves`` (failed points solved again),
-        ``risen_points`` (also ``front.risen_points``), ``chains``.  Writes with ``front.to_netcdf(path)``.
+        ``risen_resolves`` (points solved again from an earlier ETA's plan), ``risen_points`` (also
+        ``front.risen_points``: points left with an earlier ETA's plan), ``chains``.  Writes with
+        ``front.to_netcdf(path)``.
 
     Raises
     ------
@@ -480,7 +491,14 @@ def _rest(
 
     # the continuation: from the slow-steaming end (its plan, sped up, starts each chain) towards the fast one
     from_slow = slow is not None and spec.objective == "fuel"
-    chains = [(etas, slow if from_slow else fast) for etas in split_chains(todo, n_chains, from_slow)]
+    end = slow if from_slow else fast
+    nearest = max(todo, default=math.nan) if from_slow else min(todo, default=math.nan)
+    # the chain whose first ETA is the end's neighbour in the front starts from the end's plan alone, as a chain's
+    # later points start from their neighbour's; the others compare the end's plan, sped up across the ETAs between,
+    # with the centreline's start
+    chains: list[Chain] = [
+        (etas, end, bool(etas) and etas[0] == nearest) for etas in split_chains(todo, n_chains, from_slow)
+    ]
     if from_slow:
         # the costliest chain first, so that a cluster never starts it last: the one at the slow end, whose points
         # sit at the engine's minimum load (on the benchmark's storm corridor 2.6 times the CPU of the chain at
@@ -490,8 +508,8 @@ def _rest(
         done[p.eta_h] = p
     points = [done[h] for h in grid.tolist()]
     resolves = _resolve_failed(spec, points, runner)
-    risen = _monotone(points, rtol) if spec.objective == "fuel" else 0
-    return _dataset(spec, points, t_min, t_slow, resolves, risen, n_chains)
+    risen, again = _monotone(spec, points, rtol, runner) if spec.objective == "fuel" else (0, 0)
+    return _dataset(spec, points, t_min, t_slow, resolves, (risen, again), n_chains)
 
 
 def _resolve_failed(spec: FrontSpec, points: list[FrontPoint], runner: SerialRunner | DaskRunner) -> int:
@@ -507,40 +525,63 @@ def _resolve_failed(spec: FrontSpec, points: list[FrontPoint], runner: SerialRun
     return len(failed)
 
 
-def _monotone(points: list[FrontPoint], rtol: float) -> int:
-    """Points whose own solve ended above an earlier ETA's fuel take that plan; their number.
+def _monotone(
+    spec: FrontSpec, points: list[FrontPoint], rtol: float, runner: SerialRunner | DaskRunner
+) -> tuple[int, int]:
+    """Points whose own solve ended above an earlier ETA's fuel: solved once more from that plan; (risen, re-solved).
 
-    Arriving by an ETA may arrive earlier (``eta_mode="le"``), so the earlier ETA's verified plan serves
-    the later one with less fuel.  The point's own solve stays beside it: its fuel in ``own_fuel_t``, its
-    status saying so.  Nothing is solved again.
+    Arriving by an ETA may arrive earlier (``eta_mode="le"``), so the earlier ETA's verified plan is a verified
+    start of the later one, and the floor of its solve (the plan stage never returns worse than the verified
+    start): that one re-solve, started from it alone (:func:`~optroute.studies.front_points.solve_point`'s
+    ``end_adjacent``), ends at most at its fuel, lower where Ipopt finds better.  The first solve's fuel stays
+    beside the point (``own_fuel_t``) and its status says so.  Only a re-solve that fails, or rises all the same,
+    leaves the point with the earlier ETA's plan: a risen point.  Ascending ETA, so that a re-solved point is the
+    next one's floor.
     """
-    risen = 0
+    risen = again = 0
     best_before = math.inf
     best_point: FrontPoint | None = None
     for i, p in enumerate(points):
         if p.ok and p.fuel_t > best_before * (1.0 + rtol) and best_point is not None:
-            risen += 1
-            points[i] = p = replace_fields(
-                best_point,
-                eta_h=p.eta_h,
-                kind=p.kind,
-                runtime_s=p.runtime_s,
-                iterations=p.iterations,
-                nlp_solves=p.nlp_solves,
-                warm_start=p.warm_start,
-                dual_starts=p.dual_starts,
-                carry=p.carry,
-                own_fuel_t=p.fuel_t,
-                status=f"{best_point.status}; the plan of the earlier ETA {best_point.eta_h:.6g} h (arrives earlier): "
-                f"this ETA's own solve ({p.status}) ended {p.fuel_t:.6g} t, above its {best_before:.6g} t",
-            )
+            again += 1
+            (q,) = runner.resolve(spec, p.eta_h, [best_point], end_adjacent=True)
+            spent = {
+                "runtime_s": p.runtime_s + q.runtime_s,
+                "iterations": p.iterations + q.iterations,
+                "nlp_solves": p.nlp_solves + q.nlp_solves,
+                "dual_starts": p.dual_starts + q.dual_starts,
+            }
+            first = f"its first solve ({p.status}) ended {p.fuel_t:.6g} t, above {best_before:.6g} t"
+            if q.ok and q.fuel_t <= best_before * (1.0 + rtol):
+                status = f"{q.status}; solved again from the plan of the earlier ETA {best_point.eta_h:.6g} h: {first}"
+                points[i] = p = replace_fields(q, kind=p.kind, own_fuel_t=p.fuel_t, status=status, **spent)
+            else:
+                risen += 1
+                points[i] = p = replace_fields(
+                    best_point,
+                    eta_h=p.eta_h,
+                    kind=p.kind,
+                    warm_start=p.warm_start,
+                    carry=p.carry,
+                    own_fuel_t=p.fuel_t,
+                    status=f"{best_point.status.split(';')[0]}; the plan of the earlier ETA {best_point.eta_h:.6g} h "
+                    f"(arrives earlier): this ETA's own solve ({p.status}) ended {p.fuel_t:.6g} t, above its "
+                    f"{best_before:.6g} t; solved again from that plan: {q.status}, {q.fuel_t:.6g} t",
+                    **spent,
+                )
         if p.ok and p.fuel_t < best_before:
             best_before, best_point = p.fuel_t, p
-    return risen
+    return risen, again
 
 
 def _dataset(
-    spec: FrontSpec, points: list[FrontPoint], t_min: float, t_slow: float, resolves: int, risen: int, n_chains: int
+    spec: FrontSpec,
+    points: list[FrontPoint],
+    t_min: float,
+    t_slow: float,
+    resolves: int,
+    risen: tuple[int, int],
+    n_chains: int,
 ) -> TradeoffFront:
     eta_h = np.array([p.eta_h for p in points], dtype=float)
     n_wp = max((p.waypoints.shape[0] for p in points if p.waypoints is not None), default=0)
@@ -621,7 +662,8 @@ def _dataset(
         "the end of the weather, whichever binds first",
         "knee_eta_h": float(eta_h[ok][knee]) if knee is not None else "none",
         "monotonicity_resolves": int(resolves),
-        "risen_points": int(risen),
+        "risen_points": int(risen[0]),
+        "risen_resolves": int(risen[1]),
         "chains": int(n_chains),
         "conventions": "eta UTC; eta_h, waypoint_time_h hours after departure; lat/lon deg; heading deg true (to)",
     }
