@@ -55,6 +55,7 @@ __all__ = [
     "Finding",
     "band_ratios",
     "case_weather",
+    "centreline_passage",
     "check_plan",
     "make_case",
     "run_case",
@@ -388,6 +389,72 @@ def check_plan(
         if arrival_h > 1.0 / 3600.0:
             findings.append(Finding("eta", len(stw) - 1, tuple(wp[-1]), arrival_h, 0.0))
     return findings, grazes
+
+
+def centreline_passage(
+    case: Case,
+    weather: xr.Dataset,
+    ship: orx.Ship,
+    *,
+    block_nm: float = 10.0,
+    speed_step_kn: float = 0.5,
+    bucket_h: float = 0.5,
+    step_nm: float = 0.5,
+    v_min_kn: float = 3.0,
+) -> tuple[float, np.ndarray] | None:
+    """The earliest passage along the case's centreline by brute force, independently of the optimiser.
+
+    The centreline (the WGS84 geodesic between the case's ends) is cut into blocks of at most ``block_nm``, each
+    sailed at one speed through water from a ladder (``v_min_kn`` to the ship's top calm-water speed, every
+    ``speed_step_kn``); a block at a speed entered at a time is allowed when every point ``step_nm`` apart (ends
+    included), at the time the ship is there, is outside every band (:func:`band_ratios`, strictly inside a band
+    range is out), within the engine's range [minimum load, MCR] and inside the weather's time span. Every arrival
+    time at a block end is kept, one per ``bucket_h`` (the earliest). None: no passage on that lattice (a statement
+    about the lattice only); else (arrival [h after departure], the block speeds [kn]).
+    """
+    (lat0, lon0), (lat1, lon1) = case.waypoints
+    az, _, d_m = WGS84.inv(lon0, lat0, lon1, lat1)
+    edges = np.linspace(0.0, d_m / 1852.0, int(math.ceil(d_m / 1852.0 / block_nm)) + 1)
+    speeds = np.unique(np.append(np.arange(v_min_kn, ship.max_calm_speed_kn, speed_step_kn), ship.max_calm_speed_kn))
+    end_h = float((weather["time"].values[-1] - T0) / np.timedelta64(1, "h"))
+    model = KwonModel(ship)
+    times, back = np.zeros(1), []
+    for b in range(edges.size - 1):
+        s_nm = np.linspace(edges[b], edges[b + 1], max(2, int(math.ceil((edges[b + 1] - edges[b]) / step_nm)) + 1))
+        lon, lat, baz = WGS84.fwd(
+            np.full(s_nm.size, lon0), np.full(s_nm.size, lat0), np.full(s_nm.size, az), s_nm * 1852.0
+        )
+        t_h = (
+            times[:, None, None] + (s_nm - edges[b])[None, None, :] / speeds[None, :, None]
+        )  # (states, speeds, points)
+        shape, inside = t_h.shape, t_h <= end_h
+        when = T0 + (np.minimum(t_h, end_h).ravel() * 3.6e12).astype("timedelta64[ns]")
+        flat = [
+            np.broadcast_to(np.asarray(a)[None, None, :], shape).ravel()
+            for a in (lat, lon, (np.asarray(baz) + 180.0) % 360.0)
+        ]
+        v = np.broadcast_to(speeds[None, :, None], shape).ravel()
+        w = _sample(weather, when, flat[0], flat[1])
+        ratios = band_ratios(ship, v, w["hs_m"], w["tp_s"], w["wave_from_deg"], flat[2])
+        good = inside.ravel().copy()
+        for band, (lo, hi) in BAND_RANGES.items():
+            good &= ~((ratios[band] > lo) & (ratios[band] < hi))
+        power = evaluate_speeds(ship, model, DEFAULT_RULES, flat[2], SeaState.from_sample(w), v, engine="numpy")[2]
+        good &= (power <= ship.mcr_kw * (1.0 + 1e-6)) & (power >= model.min_power_kw * (1.0 - 1e-6))
+        prev, spd = np.nonzero(good.reshape(shape).all(axis=2))
+        if prev.size == 0:
+            return None
+        arrive = times[prev] + (edges[b + 1] - edges[b]) / speeds[spd]
+        order = np.lexsort((arrive, np.floor(arrive / bucket_h)))
+        keep = order[np.concatenate([[True], np.diff(np.floor(arrive[order] / bucket_h)) != 0])]
+        times = arrive[keep]
+        back.append((prev[keep], spd[keep]))
+    state, out = int(np.argmin(times)), []
+    arrival = float(times[state])
+    for prev, spd in reversed(back):
+        out.append(speeds[spd[state]])
+        state = int(prev[state])
+    return arrival, np.array(out[::-1])
 
 
 # --------------------------------------------------------------------------- running a case

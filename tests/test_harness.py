@@ -15,7 +15,17 @@ import numpy as np
 import pytest
 
 import optroute as orx
-from tests.harness import K_KN_S, band_ratios, case_weather, check_plan, fuel_not_worse, make_case, run_case, summarise
+from tests.harness import (
+    K_KN_S,
+    band_ratios,
+    case_weather,
+    centreline_passage,
+    check_plan,
+    fuel_not_worse,
+    make_case,
+    run_case,
+    summarise,
+)
 
 T0 = np.datetime64("2024-01-10T00:00", "ns")
 SHIP = orx.Ship.preset("general_cargo_25k_dwt")  # L = 170 m (bands apply from Hs 6.8 m), T_R = 18.07 s
@@ -172,3 +182,42 @@ def test_where_the_dp_is_not_a_start_the_minimum_time_plan_is_one_scored_before_
     assert starts["minimum-time plan"]["score"] == pytest.approx(fast.total_fuel_t, rel=1e-9)
     assert plan.verify() == [] and plan.total_fuel_t <= fast.total_fuel_t * (1 + 1e-9)
     assert plan.total_fuel_t <= min(c["score"] for c in starts.values()) * (1 + 1e-9)
+
+
+def _case(seed: int):
+    case = make_case(seed)
+    ship, wx = orx.Ship.preset(case.ship), case_weather(case)
+    return case, ship, wx, orx.Corridor.from_waypoints(np.array(case.waypoints), width_nm=case.width_nm)
+
+
+def test_a_passage_an_independent_brute_force_finds_is_planned():
+    """Harness seed 20 (the 25k dwt cargo ship on a fixed 274 nm path through a moving storm, minimum time) ended in
+    SolverFailure without any plan. The harness's own brute force on the centreline (blocks of 10 nm at one speed,
+    every 0.5 kn, the bands from their definitions, checked every 0.5 nm) finds a passage: slow to 3.5 kn while the
+    storm crosses ahead, then the top speed; it passes the 0.1 nm check. The optimiser now returns a verified plan
+    (the start stage's timed passage on 10 nm blocks, where no local start verifies) that passes the same check and
+    arrives no later than that passage. About 5 CPU-s."""
+    case, ship, wx, corridor = _case(20)
+    found = centreline_passage(case, wx, ship)
+    assert found is not None
+    arrival_h, speeds = found
+    assert speeds.min() <= 4.0 and speeds.max() == pytest.approx(ship.max_calm_speed_kn)
+    plan = orx.optimise_corridor(corridor, wx, ship, departure=T0, objective="time")
+    assert plan.verify() == [] and check_plan(plan, wx, ship) == ([], 0)
+    assert plan.duration_h <= arrival_h * (1.0 + 1e-6)
+    assert plan.solver_stats["starts"]["timed passage"]["verified"]
+
+
+def test_where_no_lattice_finds_a_passage_the_failure_says_feasibility_is_not_established():
+    """Harness seed 8 (the 25k dwt cargo ship on a fixed 358 nm path, a storm): the NLP fails, and neither the 3-D DP
+    across the corridor nor the centreline's timed passage finds a passage; the harness's own brute force finds none
+    either. That is no proof (seed 20's centreline holds a passage in 9.78 nm blocks and none in 9 nm blocks), so the
+    outcome stays SolverFailure (exit 4), not NoSafePassage, and its message names both lattices and says that
+    whether a passage exists is not established. About 5 CPU-s."""
+    case, ship, wx, corridor = _case(8)
+    assert centreline_passage(case, wx, ship) is None
+    with pytest.raises(orx.SolverFailure) as err:
+        orx.optimise_corridor(corridor, wx, ship, departure=T0, objective="time")
+    text = str(err.value)
+    assert "3-D DP's lattice" in text and "blocks of at most 10 nm" in text and "not established" in text
+    assert err.value.best_plan is None

@@ -196,14 +196,15 @@ def test_tight_eta_behind_a_following_storm_with_a_15_percent_minimum_load_raise
     # the same way at 5 kn; in its sea (Hs 7-8 m, Tp ~ 11 s, following) synchronous roll and high-wave
     # attack leave a narrow window of slow speeds above the minimum load. The first solve and the
     # minimum-time solve from the top speed both fail (this raised SolverFailure); the minimum time
-    # is established from another start (on a weather grid that covers its passage)
+    # is established from another start: the free-arrival minimum-time call's verified plan (its start
+    # stage's lattice passages where no local start verifies), whose arrival InfeasibleETA gives
     ship = orx.Ship.preset("general_cargo_25k_dwt").replace(min_load_fraction=0.15)
     corridor = orx.Corridor.from_waypoints([[5.0, -150.0], [5.0, -140.0]], width_nm=40.0)
     with pytest.raises(orx.InfeasibleETA) as err:
         optimise_corridor(corridor, storm, ship, departure=T0, eta=T0 + np.timedelta64(45, "h"), max_leg_nm=60.0)
     earliest = _hours(err.value.earliest_arrival - T0)
     assert earliest > 45.0 and earliest > corridor.length_nm / ship.max_calm_speed_kn  # calm-water bound
-    assert "minimum-time solve" in str(err.value)
+    assert "minimum-time plan of this corridor (verified)" in str(err.value)
 
 
 def test_a_failed_solve_returns_the_verified_start_not_a_worse_plan():

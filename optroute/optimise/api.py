@@ -547,7 +547,27 @@ def _after_failure(prepared: Any, eta: Any, exc: SolverFailure, route, kw: dict[
             "time_policy='hold'"
         ) from exc
     _raise_if_blocked(prepared, exc)
-    raise exc
+    raise _undetermined(prepared, exc)
+
+
+def _undetermined(prepared: Any, exc: SolverFailure) -> SolverFailure:
+    """The SolverFailure of a call without any verified plan, naming the lattice searches that found no passage either.
+
+    Where the start stage's lattice searches (the 3-D DP across the corridor, the centreline's timed passage) found
+    none within the weather's span, the failure says so: whether a passage exists is not established. A lattice
+    search finding nothing is not :class:`NoSafePassage`: on harness seed 20 the centreline in blocks of 9.78 nm
+    holds a passage the referee and the harness's 0.1 nm check pass, and in blocks of 9 nm none."""
+    closed = prepared.lattice_closed
+    if not closed:
+        return exc
+    found = "; ".join(f"{k}: {v}" for k, v in closed.items())
+    return SolverFailure(
+        f"{exc} -- no passage found on the start stage's lattices either ({found}); these do not prove that none "
+        "exists (whether a safe passage exists is not established): try another departure or route, a wider corridor, "
+        "or a finer lattice (dp_options)",
+        status=exc.status,
+        best_plan=exc.best_plan,
+    )
 
 
 def _raise_if_blocked(prepared: Any, exc: SolverFailure) -> None:

@@ -233,6 +233,10 @@ class PreparedCorridor(CorridorReport):
         #: the minimum-time plans solved so far, one per route given (None: no route), held with the route itself
         #: (:meth:`minimum_time_plan`; a front's points share them)
         self.minimum_time_plans: list[tuple[Route | None, Plan | None]] = []
+        #: the start stage's lattice searches that found no passage within the weather's span ("3-D DP", "centreline":
+        #: what each searched and where it ended), for the outcome of a solve that ends with no verified plan
+        #: (:mod:`optroute.optimise.api`)
+        self.lattice_closed: dict[str, str] = {}
         #: the multipliers of the last solve's plan when it is the NLP's (None when a start's): a neighbouring
         #: ETA's primal-dual warm start (``warm_plan.duals``), read right after the solve
         self.last_duals: Duals | None = None

@@ -37,9 +37,10 @@ from typing import Any
 
 import numpy as np
 
-from optroute.errors import ConfigError
+from optroute.errors import ConfigError, NoSafePassage
 from optroute.optimise.certificate import dual_schedule
-from optroute.optimise.min_time import clean_start
+from optroute.optimise.min_time import TimedStart, clean_start, timed_safe_start
+from optroute.optimise.nlp_inputs import build_frame
 from optroute.optimise.nlp_solve import Tightening, desired_speed, warm_rules
 from optroute.optimise.rescue import plan_warm_start
 from optroute.optimise.starts import (
@@ -58,22 +59,33 @@ from optroute.search.route import Route
 
 __all__ = [
     "DISCRETE_START_MODES",
+    "FINE_BLOCK_NM",
     "LABEL_ORDER",
     "Starts",
+    "TIME_LATTICE",
     "discrete_start_mode",
     "global_starts_reason",
     "start_stage",
+    "time_lattice",
     "warm_candidate",
 ]
 
 #: ``discrete_start`` of :func:`optroute.optimise_corridor`: the 3-D DP always (where it applies), never, or where
 #: :func:`global_starts_reason` asks for the global starts.
 DISCRETE_START_MODES = (True, False, "auto")
+#: The 3-D DP's lattice for a free-arrival minimum time where no local start verifies: stages every ``dx_nm`` or
+#: 1/``stages`` of the corridor (the longer), ``per_side`` lateral positions each side, ``dt_h`` arrival bins, speeds
+#: every ``speed_step_kn``. Finer than an ETA's start (its storms leave narrow windows in time and speed: on the
+#: harness's seeds 5, 19 and 82 a passage that verifies is found at this resolution and none at the ETA start's).
+TIME_LATTICE = {"dx_nm": 10.0, "stages": 36.0, "per_side": 3.0, "dt_h": 0.5, "speed_step_kn": 0.5}
+#: Longest block [nm] of the centreline's timed passage for a free-arrival minimum time where no local start verifies.
+FINE_BLOCK_NM = 10.0
 #: The order of the candidates among equal scores, and of the warm starts when none verifies.
 LABEL_ORDER = (
     "warm plan",
     "search route",
     "3-D DP",
+    "timed passage",
     "minimum-time plan",
     "ship dual",
     "minimum-load schedule",
@@ -137,6 +149,7 @@ def start_stage(
         The first solve's tightening (its rules for the centreline start; its log).
     """
     found: dict[str, Candidate] = {}
+    prepared.lattice_closed = {}  # this solve's lattice searches only
     if warm_plan is not None:
         found["warm plan"] = _timed(lambda: _warm_plan_candidate(prepared, ctx, warm_plan, objective))
     if route is not None:
@@ -163,10 +176,15 @@ def start_stage(
         dp = _timed(lambda: _dp_candidate(prepared, ctx, objective, st.log))
         if dp is not None:
             found["3-D DP"] = dp
+        if objective == "time" and (dp is None or dp.plan is None):
+            fine = _timed(lambda: _fine_centre_candidate(prepared, ctx, st.log))
+            if fine is not None:
+                found["timed passage"] = fine
     # the DP's verified plan (its own, or the given search route when that is the DP's), least fuel by the ETA on its
     # grid, stands in for the minimum-time plan
     dp = found.get("3-D DP") or (found.get("search route") if route is not None and route.method == "dp" else None)
-    if reason.startswith("computed") and (dp is None or dp.plan is None):
+    free_time = objective == "time" and ctx.eta is None  # the minimum-time plan is this solve's own plan
+    if reason.startswith("computed") and (dp is None or dp.plan is None) and not free_time:
         fast = _timed(lambda: _minimum_time_candidate(prepared, ctx, objective, route))
         if fast is not None:
             found["minimum-time plan"] = fast
@@ -200,11 +218,16 @@ def global_starts_reason(
 
     They are computed for a bounded passage (an ETA, or the weather's end) where no local start verifies, or, for
     fuel or cost by an ETA, where a danger band or the exclusion can bind on some leg of the corridor
-    (:attr:`~optroute.optimise.corridor_problem.PreparedCorridor.binding`).
+    (:attr:`~optroute.optimise.corridor_problem.PreparedCorridor.binding`). For a free-arrival minimum time where no
+    local start verifies, the 3-D DP's earliest passage within the weather's span is computed (the minimum-time
+    plan is that solve's own).
     """
+    verified = any(c.plan is not None for c in local)
     if cap_h is None:
+        if objective == "time" and not verified and np.isfinite(prepared.data_end_h):
+            return "computed: no local start verifies (the 3-D DP's earliest passage within the weather's span)"
         return "not computed: a free-arrival passage"
-    if not any(c.plan is not None for c in local):
+    if not verified:
         return "computed: no local start verifies"
     if objective == "time":
         return "not computed: a local start verifies (minimum time)"
@@ -323,19 +346,71 @@ def _minimum_time_candidate(prepared: Any, ctx: PlanContext, objective: str, rou
 
 def _dp_applies(prepared: Any, ctx: PlanContext, objective: str, route: Route | None, reason: str) -> bool:
     """Whether the 3-D DP is a candidate: ``discrete_start`` True, or ``"auto"`` where the global starts are computed;
-    only with an ETA, for fuel or cost, on a great-circle corridor, and not when the given route is the DP's own."""
+    with an ETA for fuel or cost, or for a free-arrival minimum time where the stage computes the global starts (no
+    local start verifies); on a great-circle corridor, and not when the given route is the DP's own."""
     mode = prepared.discrete_start
     wanted = mode is True or (mode == "auto" and reason.startswith("computed"))
-    if not wanted or ctx.eta is None or objective == "time":
+    if objective == "time":
+        wanted = mode is not False and ctx.eta is None and reason.startswith("computed")
+    elif ctx.eta is None:
+        return False
+    if not wanted:
         return False
     if route is not None and route.method == "dp":  # the given search route is the DP's plan already
         return False
     return great_circle_corridor(prepared.frame)
 
 
+def time_lattice(prepared: Any) -> dict[str, float]:
+    """The 3-D DP's lattice for a free-arrival minimum time (:data:`TIME_LATTICE`'s resolution on the corridor)."""
+    length = float(prepared.frame.s_nm[-1])
+    half = float(np.max(prepared.frame.corridor.half_width_nm))
+    return {
+        "dx_nm": max(TIME_LATTICE["dx_nm"], length / TIME_LATTICE["stages"]),
+        "dy_nm": max(half / TIME_LATTICE["per_side"], 1.0),
+        "dt_h": TIME_LATTICE["dt_h"],
+        "speed_step_kn": TIME_LATTICE["speed_step_kn"],
+    }
+
+
 def _dp_candidate(prepared: Any, ctx: PlanContext, objective: str, log: list[str]) -> Candidate | None:
-    """The 3-D DP's plan on the corridor by the ETA (:func:`optroute.optimise.starts.dp_route`); None without one."""
-    dp = dp_route(ctx, prepared.frame, departure=prepared.departure, eta=ctx.eta, objective=objective,
-                  v_min_kn=prepared.v_min, v_max_kn=prepared.v_max, fuel_price=prepared.fuel_price,
-                  hourly=prepared.hourly, options=prepared.dp_options)  # fmt: skip
+    """The 3-D DP's plan on the corridor by the ETA, or its earliest for a free-arrival minimum time on
+    :func:`time_lattice` (:func:`optroute.optimise.starts.dp_route`; ``dp_options`` override); None without one.
+    Where the DP finds no route at all within the weather's span, its lattice statement is kept
+    (``prepared.lattice_closed``) for a solve that ends without a verified plan."""
+    opts = prepared.dp_options if objective != "time" else {**time_lattice(prepared), **prepared.dp_options}
+    try:
+        dp = dp_route(ctx, prepared.frame, departure=prepared.departure, eta=ctx.eta, objective=objective,
+                      v_min_kn=prepared.v_min, v_max_kn=prepared.v_max, fuel_price=prepared.fuel_price,
+                      hourly=prepared.hourly, options=opts)  # fmt: skip
+    except NoSafePassage as exc:
+        prepared.lattice_closed["3-D DP"] = str(exc)
+        log.append(f"3-D DP: no route within the weather's span ({exc})")
+        return None
     return None if dp is None else _discrete(prepared, "3-D DP", ctx, dp, objective, log)
+
+
+def _fine_centre_candidate(prepared: Any, ctx: PlanContext, log: list[str]) -> Candidate | None:
+    """The earliest passage along the centreline within the weather's span, one speed through water per block of
+    :data:`FINE_BLOCK_NM` (:func:`optroute.optimise.min_time.timed_safe_start` on the corridor resampled so, the true
+    bands, every arrival bucket kept); None without one (its dead end kept in ``prepared.lattice_closed``).
+
+    The 3-D DP's lattice can miss a passage this one keeps (harness seed 20: 3.5 kn for one block while a storm
+    passes, then the top speed; the DP stops 90 nm out whatever its labels per bin), and the other way round. Both
+    are lattices: on seed 20 blocks of 9.78 nm (the corridor's one leg in 28) find a verified passage and blocks of
+    9 nm none, so neither finding nothing proves that there is no passage."""
+    frame = build_frame(prepared.corridor.resample(FINE_BLOCK_NM))
+    t0 = prepared.departure
+    found = timed_safe_start(ctx, frame, t0, v_min_kn=prepared.v_min, v_max_kn=prepared.v_max,
+                             block_nm=FINE_BLOCK_NM, hs_backoff=0.0, window_h=prepared.data_end_h)  # fmt: skip
+    if not isinstance(found, TimedStart):
+        prepared.lattice_closed["centreline"] = (
+            f"on the centreline cut into blocks of at most {FINE_BLOCK_NM:g} nm, each at one speed through water "
+            f"every 0.5 kn from {prepared.v_min:g} to {prepared.v_max:.4g} kn, one arrival per half hour kept (the "
+            f"earliest), {found}"
+        )
+        log.append(f"timed passage: {found}")
+        return None
+    wp = frame.waypoints(found.offset_nm)
+    plan = verified_plan(ctx, wp, found.stw_kn, t0, prepared.verify_step_nm, "start")
+    return _candidate(prepared, "timed passage", track_warm_start(wp, found.stw_kn, prepared.frame), plan, "time")

@@ -37,7 +37,7 @@ import numpy as np
 
 from optroute import geodesy as geo
 from optroute import units
-from optroute.errors import OptrouteError
+from optroute.errors import NoSafePassage, OptrouteError
 from optroute.geo.tracks import inner_offset_nm, project_to_polyline
 from optroute.optimise.nlp_inputs import CorridorFrame
 from optroute.plan.result import Plan, PlanContext
@@ -291,7 +291,7 @@ def dp_route(
     frame: CorridorFrame,
     *,
     departure: np.datetime64,
-    eta: np.datetime64,
+    eta: np.datetime64 | None,
     objective: str,
     v_min_kn: float,
     v_max_kn: float,
@@ -300,6 +300,12 @@ def dp_route(
     options: dict[str, Any] | None = None,
 ) -> Route | None:
     """The 3-D DP's least-fuel (or cost) route on the corridor by the ETA; None where it finds none.
+
+    With ``objective="time"`` and no ETA: its earliest route within the weather's span (the free-arrival
+    minimum time's start where no local start verifies, :mod:`optroute.optimise.start_stage`), the top speed
+    ``v_max_kn`` on its ladder. Where the DP reaches no end state at all within the weather's span,
+    :class:`~optroute.errors.NoSafePassage` whose message states the lattice searched: a statement about that
+    lattice, not about every passage (the caller keeps it as such).
 
     Resolution (``options`` overrides, keys of :func:`optroute.search.dp.solve_dp` via ``dp_options``
     plus ``speed_step_kn``): stages about 1/12 of the corridor apart (at least 20 nm), 3 lateral
@@ -327,6 +333,8 @@ def dp_route(
     dp_opts = {"dx_nm": dx, "dt_h": 1.0, **opts, "half_width_nm": inner}
     dp_opts["dy_nm"] = min(dy, inner / per_side) if per_side > 0 else dy
     speeds = np.arange(max(v_min_kn, 3.0), v_max_kn + 1e-9, step)
+    if objective == "time":  # racing past a storm can need the top speed itself (harness seed 20: 15.48 kn, not 15)
+        speeds = np.unique(np.append(speeds, v_max_kn))
     try:
         return search_route(
             (float(wp[0, 0]), float(wp[0, 1])),
@@ -334,7 +342,7 @@ def dp_route(
             ctx.sampler,
             ctx.ship,
             departure=departure,
-            objective="cost" if objective == "cost" else "fuel",
+            objective=objective if objective in ("cost", "time") else "fuel",
             eta=eta,
             method="dp",
             speeds_kn=speeds,
@@ -345,6 +353,15 @@ def dp_route(
             use_land_mask=ctx.use_land_mask,
             dp_options=dp_opts,
         )
+    except NoSafePassage as exc:  # no route at all within the weather's span: a statement about this lattice
+        n_lat = 2 * per_side + 1 if inner > 0 else 1
+        lattice = (
+            f"stages about {dp_opts['dx_nm']:.3g} nm apart, {n_lat} lateral position{'s' * (n_lat > 1)}"
+            + (f" {dp_opts['dy_nm']:.3g} nm apart" if n_lat > 1 else "")
+            + f", one speed over ground per stage every {step:g} kn from {speeds[0]:g} to {speeds[-1]:.4g} kn, arrivals "
+            f"in {float(dp_opts['dt_h']):g} h bins keeping the cheapest and the earliest of each"
+        )
+        raise NoSafePassage(f"on the 3-D DP's lattice of this corridor ({lattice}) {exc}") from exc
     except OptrouteError:  # no passage by the ETA on the DP's grid: the other candidates remain
         return None
 

@@ -47,7 +47,9 @@ def search_dp(
     edges, for the run's least-fuel routes for them too, in ``stats["routes_for_eta_h"]``
     by ETA, None where no route arrives by it: :meth:`optroute.search.dp.DPResult.path_for_eta`); nodes are navigable where the weather allows passage,
     outside the moving ``exclusion`` and (``coast``) off land; ``eta_h`` [h from
-    departure] or None.  Errors name the ETA's UTC time and the weather's extent.
+    departure] or None.  With ``objective="time"`` (no ETA) the route is the DP's earliest arrival within the
+    horizon (the least fuel among the routes arriving then), its ``cost`` that arrival [h]; else the least-fuel
+    route.  Errors name the ETA's UTC time and the weather's extent.
     """
     if objective == "time" and eta_h is not None:
         raise ConfigError("the DP minimises fuel for an ETA; use objective='fuel' with method='dp'")
@@ -79,11 +81,14 @@ def search_dp(
             except InfeasibleETA:
                 stats["routes_for_eta_h"][e] = None
     stats["runtime_s"] = _time.perf_counter() - t_start
+    if objective == "time":
+        return _route(res.path_for_eta(res.earliest_arrival_h), physics.departure, stats, objective="time")
     return _route(res.path, physics.departure, stats)
 
 
-def _route(p, departure: np.datetime64, stats: dict) -> Route:
-    """A :class:`Route` of a DP path (:class:`optroute.search.dp.DPPath`) departing at ``departure`` [UTC]."""
+def _route(p, departure: np.datetime64, stats: dict, objective: str = "fuel") -> Route:
+    """A :class:`Route` of a DP path (:class:`optroute.search.dp.DPPath`) departing at ``departure`` [UTC]; its
+    ``cost`` is the fuel [t], or for ``objective="time"`` the arrival [h after departure]."""
     n_legs = p.lat_deg.size - 1
     return Route(
         waypoints=np.column_stack([p.lat_deg, p.lon_deg]),
@@ -94,8 +99,8 @@ def _route(p, departure: np.datetime64, stats: dict) -> Route:
         fuel_t=p.leg_fuel_t,
         duration_h=p.leg_duration_h,
         distance_nm=p.leg_distance_nm,
-        cost=float(p.total_fuel_t),
-        objective="fuel",
+        cost=float(p.arrival_h if objective == "time" else p.total_fuel_t),
+        objective=objective,
         method="dp",
         band_side={b: np.zeros(n_legs, dtype=np.int8) for b in BANDS},
         stats=stats,
