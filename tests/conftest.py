@@ -137,3 +137,19 @@ def north_pacific_storms():
     from optroute.weather import scenarios
 
     return scenarios.north_pacific_storms()
+
+
+@pytest.fixture(scope="session")
+def shao_case_1():
+    """Shao et al.'s case I sea (158 MB), ``scenarios.shao_case(1)`` at its defaults (read only)."""
+    from optroute.weather import scenarios
+
+    return scenarios.shao_case(1)
+
+
+@pytest.fixture(scope="session")
+def shao_case_2():
+    """Shao et al.'s case II sea (158 MB), ``scenarios.shao_case(2)`` at its defaults (read only)."""
+    from optroute.weather import scenarios
+
+    return scenarios.shao_case(2)

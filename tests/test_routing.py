@@ -351,9 +351,9 @@ SHAO_DP = dict(dx_nm=540, dy_nm=150, half_width_nm=600, dt_h=3, piece_nm=120, ma
 
 
 @pytest.mark.parametrize("case", [1, 2])
-def test_shao_cases_give_a_fuel_eta_curve_and_avoid_the_no_go_areas(case):
+def test_shao_cases_give_a_fuel_eta_curve_and_avoid_the_no_go_areas(case, request):
     ship = orx.Ship.preset("container_54k_dwt")
-    wx = scenarios.shao_case(case)
+    wx = request.getfixturevalue(f"shao_case_{case}")  # scenarios.shao_case(case), the session's copy
     t0 = wx.time.values[0]
     start, end = scenarios.SHAO_START_END
     eta = t0 + _h(264.0)

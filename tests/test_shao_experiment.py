@@ -62,9 +62,9 @@ def test_fw_estimate_is_circ796_by_hand(ship):
     assert math.isnan(se.fw_fuel_t(ship, 25.0, 300.0))  # 25 / 0.852 kn is beyond the calm speed at MCR
 
 
-def test_dp_is_never_worse_than_the_baselines_own_route_and_speed(ship):
+def test_dp_is_never_worse_than_the_baselines_own_route_and_speed(ship, shao_case_1):
     """Each constant-speed shortest safe route is one of the DP's candidates on its lattice (case I)."""
-    wx = orx.scenarios.shao_case(1)
+    wx = shao_case_1  # orx.scenarios.shao_case(1), the session's copy (read only)
     t0 = wx.time.values[0]
     dp = {**se.dp_options(legs=LEGS, dy_nm=300.0), "horizon_h": 360.0}
     curve = se.baseline_curve(wx, ship, t0, dp, np.array(SPEEDS_KN), 360.0, referee=False)
@@ -77,13 +77,13 @@ def test_dp_is_never_worse_than_the_baselines_own_route_and_speed(ship):
         assert se.dp_at(end_h, fuel, eta) <= base * (1.0 + 1e-12)
 
 
-def test_dp_keeps_the_baselines_candidate_on_case_ii_at_240_h(ship):
+def test_dp_keeps_the_baselines_candidate_on_case_ii_at_240_h(ship, shao_case_2):
     """Case II at 240 h on the paper's lattice (three speeds): the 23 kn constant-speed route is one of the DP's candidates.
 
     With one label per 1 h bin the DP lost it (a cheaper, later label won a bin on the way): 1 140.68 t
     against the candidate's 1 140.11 t. With the bins' Pareto sets on (fuel, time) it is kept.
     """
-    wx = orx.scenarios.shao_case(2)
+    wx = shao_case_2  # orx.scenarios.shao_case(2), the session's copy (read only)
     t0 = wx.time.values[0]
     dp = {**se.dp_options(), "horizon_h": 260.0}
     speeds = [22.0, 23.0, 24.0]
@@ -100,9 +100,9 @@ def test_dp_keeps_the_baselines_candidate_on_case_ii_at_240_h(ship):
     assert out[1] > base + 0.1  # the artefact this guards against
 
 
-def test_one_dp_run_gives_the_routes_of_other_etas_as_runs_for_them(ship):
+def test_one_dp_run_gives_the_routes_of_other_etas_as_runs_for_them(ship, shao_case_1):
     """``dp_options["routes_for_eta_h"]``: the routes of other ETAs from one run are those of a run for each ETA."""
-    wx = orx.scenarios.shao_case(1)
+    wx = shao_case_1  # orx.scenarios.shao_case(1), the session's copy (read only)
     t0 = wx.time.values[0]
     dp = {**se.dp_options(legs=LEGS, dy_nm=300.0), "horizon_h": 360.0}
     one = se.search(wx, ship, t0, {**dp, "routes_for_eta_h": [300.0, 1.0]}, speeds_kn=list(SPEEDS_KN),
@@ -115,9 +115,9 @@ def test_one_dp_run_gives_the_routes_of_other_etas_as_runs_for_them(ship):
     np.testing.assert_array_equal(got.times, alone.times)
 
 
-def test_the_baseline_in_two_workers_is_each_speeds_own_search_route(ship):
+def test_the_baseline_in_two_workers_is_each_speeds_own_search_route(ship, shao_case_1):
     """The baseline's searches in forked workers: each speed's route is ``search_route`` at that speed alone, to the bit."""
-    wx = orx.scenarios.shao_case(1)
+    wx = shao_case_1  # orx.scenarios.shao_case(1), the session's copy (read only)
     t0 = wx.time.values[0]
     dp = {**se.dp_options(legs=LEGS, dy_nm=300.0), "horizon_h": 360.0}
     speeds = np.array([16.0, 24.0])

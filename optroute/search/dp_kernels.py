@@ -161,13 +161,23 @@ def stacked_inputs(members: tuple[DPLegKernel, ...]) -> tuple | None:
             return None
         if m.params.shape != members[0].params.shape:
             return None
-    c = np.ascontiguousarray
     return (
-        c(np.stack([m.params for m in members]), dtype=float),
-        c(np.stack([m.weather[0] for m in members]), dtype=float),
-        c(np.stack([m.weather[6] for m in members]), dtype=float),
+        _along_members([m.params for m in members]),
+        _along_members([m.weather[0] for m in members]),
+        _along_members([m.weather[6] for m in members]),
         tuple(axes),
     )
+
+
+def _along_members(arrays: list[np.ndarray]) -> np.ndarray:
+    """The members' arrays along a new first axis, C-contiguous float64 and writable (the kernels' one signature).
+
+    One member (a single weather): a view of its array where that is already such an array, not a copy of the
+    whole weather field on every search (the kernels only read it). Several members are stacked (copied).
+    """
+    if len(arrays) == 1 and arrays[0].flags.writeable:
+        return np.ascontiguousarray(arrays[0][None], dtype=float)  # a view when the member's is C-contiguous float64
+    return np.ascontiguousarray(np.stack(arrays), dtype=float)
 
 
 @jit
