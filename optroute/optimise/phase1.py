@@ -152,6 +152,7 @@ def _no_safe_passage(
             wp[leg : leg + 1, 0], wp[leg : leg + 1, 1], wp[leg + 1, 0], wp[leg + 1, 1], np.array([frac])
         )
         when = units.format_utc(t0 + _h_to_td(time_h))
+        length_nm = float(geo.distance_nm(wp[leg, 0], wp[leg, 1], wp[leg + 1, 0], wp[leg + 1, 1]))
         entered = (
             f"entered at {units.format_utc(t0)}, the departure"
             if leg == 0
@@ -163,7 +164,9 @@ def _no_safe_passage(
             f"no speed through the water from {prob.v_min:g} to {prob.v_max:.1f} kn is allowed all along leg {leg} "
             f"{entered} ({kind}, phase-1's worst point ({float(lat[0]):.3f}, {float(lon[0]):.3f}) at {when}, "
             f"{time_h:.2f} h after departure; every end of the leg across the corridor tried): no safe passage "
-            "through this corridor in this weather; take another route, a wider corridor or another departure"
+            f"through this corridor in this weather at one speed over each leg (this one {length_nm:.1f} nm long; a "
+            "ship that changes speed inside it is not covered by this proof); take a shorter max_leg_nm, another "
+            "route, a wider corridor or another departure"
         )
     return repairs
 
