@@ -451,6 +451,19 @@ def test_departure_outside_the_weather_and_eta_before_departure_are_clear_errors
         search_route(start, end, wx, CARGO, departure=T0 + _h(24.0), eta=T0 + _h(12.0), cell_nm=30.0)
 
 
+@pytest.mark.parametrize(
+    ("price", "hourly", "named"),
+    [(0.0, 1000.0, "fuel_price_per_t"), (-5.0, 100.0, "fuel_price_per_t"), (float("nan"), 1.0, "fuel_price_per_t"),
+     (600.0, -3.0, "hourly_cost_per_h")],
+)  # fmt: skip
+def test_the_cost_objective_names_a_bad_fuel_price_or_hourly_cost(price, hourly, named):
+    # λ = hourly cost / fuel price: a zero price was a ZeroDivisionError, a negative one an error about "lambda"
+    with pytest.raises(ConfigError, match=rf"^{named} .*; give ") as err:
+        search_route((0.0, 150.0), (2.0, 160.0), _plain_sea(), CARGO, departure=T0, objective="cost",
+                     fuel_price_per_t=price, hourly_cost_per_h=hourly, cell_nm=30.0)  # fmt: skip
+    assert "lambda" not in str(err.value)
+
+
 # ----------------------------------------------------------------------------- 7. fuel objective and ETA
 def test_fuel_objective_meets_the_eta_and_burns_less_than_the_fastest_route():
     wx = random_sea(5, hs_m=(1.0, 5.0))

@@ -261,6 +261,11 @@ def search_route(
     rules = rules if rules is not None else BandRules()
     desired = float(desired_speed_kn if desired_speed_kn is not None else ship.design_speed_kn)
     finite("desired_speed_kn", desired, minimum=0.0, strict=True, error=ConfigError)
+    if objective == "cost" and lambda_t_per_h is None:  # λ = hourly cost / fuel price
+        finite("fuel_price_per_t", fuel_price_per_t, minimum=0.0, strict=True, error=ConfigError,
+               fix="give the fuel price per tonne, > 0 (e.g. 600)")  # fmt: skip
+        finite("hourly_cost_per_h", hourly_cost_per_h, minimum=0.0, error=ConfigError,
+               fix="give the ship's cost per hour, >= 0 (0 makes the cost least fuel alone)")  # fmt: skip
     top = min(ship.max_calm_speed_kn, 40.0)
     speeds = (
         finite("speeds_kn", speeds_kn, minimum=0.0, strict=True, error=ConfigError).ravel()
