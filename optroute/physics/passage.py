@@ -328,13 +328,17 @@ def _regime_inputs(heading_deg: ArrayLike, sea: SeaState) -> dict[str, np.ndarra
     """The sea state as a model's ``power_regime`` and ``regime_distances`` read it: Hs [m] (0 where not
     navigable), the relative wave angle [deg, 0 = head seas] and the wind speed [m/s] (NaN where not navigable)."""
     navigable = np.asarray(sea.navigable)
-    heading = np.asarray(heading_deg, dtype=float)
-    wave_from = np.where(navigable, np.asarray(sea.wave_from_deg, dtype=float), 0.0)
-    wind_speed, _ = units.wind_uv_to_speed_from_deg(sea.wind_u_ms, sea.wind_v_ms)
+    at = model_sea(
+        heading_deg,
+        np.where(navigable, np.asarray(sea.hs_m, dtype=float), 0.0),
+        np.where(navigable, np.asarray(sea.wave_from_deg, dtype=float), 0.0),
+        sea.wind_u_ms,
+        sea.wind_v_ms,
+    )
     return {
-        "hs_m": np.where(navigable, np.asarray(sea.hs_m, dtype=float), 0.0),
-        "wave_angle_deg": seaway.relative_wave_angle_deg(heading, wave_from),
-        "wind_speed_ms": np.where(navigable, wind_speed, np.nan),
+        "hs_m": at["hs_m"],
+        "wave_angle_deg": at["wave_angle_deg"],
+        "wind_speed_ms": np.where(navigable, at["wind_speed_ms"], np.nan),
     }
 
 
