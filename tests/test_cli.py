@@ -454,6 +454,9 @@ def bad_inputs(files: dict[str, Path], tmp: Path) -> list[tuple[list[str], list[
             ["does not exist"],
         ),
         (opt + ["--width-nm", "-5"], ["--width-nm -5.0"]),
+        # a fuel price of 0 leaves the cost objective (an hour worth hourly cost / price tonnes) undefined
+        (opt + ["--objective", "cost", "--fuel-price", "0"], ["--fuel-price 0.0", "> 0", "--objective time"]),
+        (opt + ["--hourly-cost", "-1"], ["--hourly-cost -1.0", ">= 0"]),
         (
             ["plan", "--ship", "container_54k_dwt", "--weather", "calm", "--from", "95,10", "--to", "0,0"],
             ["latitude 95 is outside [-90, 90]"],

@@ -170,6 +170,33 @@ def parse_etas(text: str, departure: np.datetime64, what: str = "--etas") -> lis
     return [parse_eta(x, departure, what) for x in items]
 
 
+def check_cost_options(args: argparse.Namespace) -> None:
+    """Check ``--fuel-price`` [currency/t], ``--hourly-cost`` [currency/h] and ``--max-leg-nm`` [nm].
+
+    The fuel price must be > 0: the cost objective values an hour at hourly cost / fuel price tonnes of fuel,
+    so a price of 0 leaves it undefined.  An hourly cost of 0 is valid (least fuel alone).
+
+    Raises
+    ------
+    ConfigError
+        A value that is not finite, a fuel price <= 0, an hourly cost < 0 or a leg length <= 0; the message
+        names the option and its value.
+    """
+    price, hourly = args.fuel_price, args.hourly_cost
+    if not (math.isfinite(price) and price > 0):
+        raise ConfigError(
+            f"--fuel-price {price!r} must be a finite price > 0 [currency/t]: the cost objective values an hour "
+            "at hourly cost / fuel price tonnes; give the bunker price, e.g. --fuel-price 600, or use "
+            "--objective time for the least passage time"
+        )
+    if not (math.isfinite(hourly) and hourly >= 0):
+        raise ConfigError(
+            f"--hourly-cost {hourly!r} must be a finite number >= 0 [currency/h]; give 0 for least fuel alone"
+        )
+    if not (math.isfinite(args.max_leg_nm) and args.max_leg_nm > 0):
+        raise ConfigError(f"--max-leg-nm {args.max_leg_nm!r} must be a finite length > 0 [nm]")
+
+
 # --------------------------------------------------------------------------- ships and weather
 
 

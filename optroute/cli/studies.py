@@ -78,14 +78,9 @@ def _route(args: argparse.Namespace, weather: Any) -> tuple[Any, dict[str, Any]]
 
 def _cost_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     """The cost and solver keyword arguments of the options, validated."""
-    import numpy as np
+    from optroute.cli._common import check_cost_options
 
-    for name in ("fuel_price", "hourly_cost"):
-        value = getattr(args, name)
-        if not (np.isfinite(value) and value >= 0):
-            raise ConfigError(f"--{name.replace('_', '-')} {value!r} must be a finite number >= 0")
-    if not (np.isfinite(args.max_leg_nm) and args.max_leg_nm > 0):
-        raise ConfigError(f"--max-leg-nm {args.max_leg_nm!r} must be a finite length > 0 [nm]")
+    check_cost_options(args)
     kw: dict[str, Any] = {"max_leg_nm": args.max_leg_nm}
     if args.objective == "cost":
         kw.update(fuel_price_per_t=args.fuel_price, hourly_cost_per_h=args.hourly_cost)

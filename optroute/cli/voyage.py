@@ -90,7 +90,7 @@ def voyage_inputs(args: argparse.Namespace) -> dict[str, Any]:
     """Ship, weather, departure and ETA from the options, all validated."""
     import numpy as np
 
-    from optroute.cli._common import load_ship, load_weather, parse_eta, parse_time
+    from optroute.cli._common import check_cost_options, load_ship, load_weather, parse_eta, parse_time
 
     ship = load_ship(args.ship)
     wx = load_weather(args.weather)
@@ -101,12 +101,7 @@ def voyage_inputs(args: argparse.Namespace) -> dict[str, Any]:
     eta = None
     if getattr(args, "eta", None) is not None:
         eta = parse_eta(args.eta, departure)
-    for name in ("fuel_price", "hourly_cost"):
-        value = getattr(args, name)
-        if not (np.isfinite(value) and value >= 0):
-            raise ConfigError(f"--{name.replace('_', '-')} {value!r} must be a finite number >= 0")
-    if not (np.isfinite(args.max_leg_nm) and args.max_leg_nm > 0):
-        raise ConfigError(f"--max-leg-nm {args.max_leg_nm!r} must be a finite length > 0 [nm]")
+    check_cost_options(args)
     if args.max_iter is not None and args.max_iter < 1:
         raise ConfigError(f"--max-iter {args.max_iter} must be >= 1")
     return {"ship": ship, "weather": wx, "departure": departure, "eta": eta}
