@@ -109,6 +109,31 @@ def _continuation(front: Any) -> dict[str, Any]:
     }
 
 
+#: A point whose solve takes more Ipopt iterations than this is listed by :func:`_by_point`.
+MANY_ITERATIONS = 30
+
+
+def _by_point(front: Any) -> list[dict[str, Any]]:
+    """Each point's ETA [h], Ipopt iterations and calls, the start Ipopt took and the head of its status."""
+    return [
+        {
+            "eta_h": round(float(h), 2),
+            "iterations": int(it),
+            "ipopt_calls": int(calls),
+            "start": str(start),
+            "status": str(status).split(";")[0] + ("; re-solved" if "solved again" in str(status) else ""),
+        }
+        for h, it, calls, start, status in zip(
+            front.eta_h.values,
+            front.iterations.values,
+            front.nlp_solves.values,
+            front.warm_start.values,
+            front.status.values,
+            strict=True,
+        )
+    ]
+
+
 def run(quick: bool) -> dict[str, Any]:
     """Compute the front the four ways, alternated; print markdown tables; return the figures."""
     import distributed
@@ -183,6 +208,7 @@ def run(quick: bool) -> dict[str, Any]:
         ),
         "monotone": bool(np.all(np.diff(warm.fuel_t.values[ok]) <= 1e-6 * warm.fuel_t.values[ok][:-1])),
         "statuses": sorted({str(s).split(";")[0] for s in warm.status.values}),
+        "by_point": _by_point(warm),
     }
     print(
         f"\n### Fuel-versus-ETA front: {out['n_points']} ETAs, {out['n_legs']} legs, "
@@ -228,6 +254,13 @@ def run(quick: bool) -> dict[str, Any]:
         f"serial CPU [s] of this process per run (warm-up first): {', '.join(f'{c:.1f}' for c in cpu_serial)}; "
         f"point by point, warm against cold: {out['points_warm_worse_than_cold']} worse, "
         f"{out['points_warm_better_than_cold']} better (relative 1e-6) of {out['n_points']}"
+    )
+    many = [p for p in out["by_point"] if p["iterations"] > MANY_ITERATIONS]
+    listed = ", ".join(f"{p['eta_h']:.0f}: {p['iterations']}" for p in out["by_point"])
+    print(
+        f"\nIpopt iterations point by point (serial, the continuation; ETA h: iterations): {listed}; "
+        f"{len(many)} points over {MANY_ITERATIONS} iterations, {sum(p['iterations'] for p in many)} of "
+        f"{sum(p['iterations'] for p in out['by_point'])}"
     )
     save_png(warm.plot(), results_dir() / ("front_quick.png" if quick else "front.png"))
     with tempfile.TemporaryDirectory(prefix="optroute-bench-study-") as folder:
