@@ -20,6 +20,7 @@ Units: whatever the axes and data carry (the corridor NLP: hours, nautical miles
 
 from __future__ import annotations
 
+import threading
 from typing import Any
 
 import numpy as np
@@ -284,7 +285,8 @@ class TensorSpline:
         a, b, c = np.meshgrid(np.arange(4), np.arange(4), np.arange(4), indexing="ij")
         self._strides = strides
         self._offsets = (a * strides[0] + b * strides[1] + c * strides[2]).ravel()  # (64,), (a, b, c) C order
-        self._held: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # points per gather -> (cells, control points)
+        self._held: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}  # chunk -> (cells, control points)
+        self._lock = threading.Lock()  # the held blocks are updated in place: one evaluation at a time reads them
 
     def evaluate(self, points: np.ndarray, order: int = 0) -> np.ndarray:
         """Values and partial derivatives at points (3, K) [t, s, y].
@@ -301,24 +303,33 @@ class TensorSpline:
         out = np.empty((n_blocks, self.n_fields, k_))
         for start in range(0, k_, _CHUNK):
             stop = min(k_, start + _CHUNK)
-            out[:, :, start:stop] = self._chunk(pts[:, start:stop], order)
+            out[:, :, start:stop] = self._chunk(pts[:, start:stop], order, (start, k_))
         return out.reshape(n_blocks * self.n_fields, k_)
 
-    def _block(self, base: np.ndarray) -> np.ndarray:
-        """The control points of the cells whose first node is ``base`` (K,), (K, 64, n_fields); the last gather of
-        each size is kept and served again while the cells are the same (the NLP's values and its derivatives at
-        an iterate, and iterates that stay in their cells, read the same control points)."""
-        held = self._held.get(base.size)
-        if held is not None and np.array_equal(held[0], base):
-            return held[1]
+    def _block(self, base: np.ndarray, key: tuple[int, int]) -> np.ndarray:
+        """The control points of the cells whose first node is ``base`` (K,), (K, 64, n_fields).
+
+        The last gather of each chunk ``key`` (its first point, the call's number of points) is kept and brought up
+        to date in place for the points whose cell changed: the NLP asks its values and derivatives at iterates
+        whose samples mostly stay in their cells, and gathering the block afresh was most of an evaluation. Only
+        :meth:`_chunk` reads the returned block, before the next call.
+        """
+        held = self._held.get(key)
+        if held is not None and held[0].size == base.size:
+            cells, block = held
+            moved = np.flatnonzero(cells != base)
+            if moved.size:
+                block[moved] = self._rows[base[moved, None] + self._offsets[None, :]]
+                cells[moved] = base[moved]
+            return block
         block = self._rows[base[:, None] + self._offsets[None, :]]
         if block.nbytes <= _HELD_BYTES:
             if len(self._held) >= 4:  # a few point sets (the NLP's samples, its rows); the oldest goes
                 self._held.pop(next(iter(self._held)))
-            self._held[base.size] = (base.copy(), block)
+            self._held[key] = (base.copy(), block)
         return block
 
-    def _chunk(self, pts: np.ndarray, order: int) -> np.ndarray:
+    def _chunk(self, pts: np.ndarray, order: int, key: tuple[int, int]) -> np.ndarray:
         lo, hi = self.x0[:, None], self.hi[:, None]
         inside = (pts >= lo) & (pts <= hi)
         xc = np.minimum(np.maximum(pts, lo), hi)
@@ -329,7 +340,6 @@ class TensorSpline:
         ws = _basis(u[1], 0)[0]  # (4, K)
         wy = _basis(u[2], order) / (self.h[2] ** np.arange(order + 1))[:, None, None]
         base = cell[0] * self._strides[0] + cell[1] * self._strides[1] + cell[2]
-        block = self._block(base)  # (K, 64, n_fields)
         pairs = [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)][: (1, 3, 6)[order]]  # (t order, y order)
         masks = [1.0, inside[0], inside[2], inside[0], inside[0] & inside[2], inside[2]]
         weights = np.stack(
@@ -338,7 +348,9 @@ class TensorSpline:
                 for p, q in pairs
             ]
         )  # (blocks, 64, K)
-        vals = np.matmul(np.transpose(weights, (2, 0, 1)), block)  # (K, blocks, n_fields)
+        with self._lock:
+            block = self._block(base, key)  # (K, 64, n_fields)
+            vals = np.matmul(np.transpose(weights, (2, 0, 1)), block)  # (K, blocks, n_fields)
         vals = np.transpose(vals, (1, 2, 0))  # (blocks, n_fields, K)
         for i in range(1, len(pairs)):
             vals[i] *= masks[i]

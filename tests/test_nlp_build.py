@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import formulations.speed_nlp as speed_nlp
+import formulations.splines as splines
 from formulations._nlp_model import power_ratio, ratio_taylor_data, sector_taylor_data
 from formulations.common import Band, CorridorGeometry, PowerModel, WeatherGrid
 from formulations.speed_nlp import SpeedNLP
@@ -100,7 +101,7 @@ def test_numpy_spline_at_interior_nodes_is_each_fields_own_1_4_1_stencil(sectors
 
 
 def test_numpy_spline_reusing_its_cells_control_points_never_serves_another_cells() -> None:
-    """TensorSpline keeps the last gather of control points per point count and serves it while the cells are the
+    """TensorSpline keeps the last gather of control points per chunk of a call and serves it while the cells are the
     same: the same points again, other points in the same cells, points in other cells, then the first again, in
     turn at orders 0 and 2 — every answer must be CasADi's spline at those points."""
     wx = _grid(seed=3)
@@ -110,6 +111,30 @@ def test_numpy_spline_reusing_its_cells_control_points_never_serves_another_cell
     same_cells = a + rng.uniform(-1e-6, 1e-6, a.shape)  # almost surely in the cells of a
     other = np.vstack([rng.uniform(1.0, 47.0, 60), rng.uniform(5.0, 295.0, 60), rng.uniform(-19.0, 19.0, 60)])
     for pts, order in [(a, 0), (a, 2), (same_cells, 2), (other, 0), (a, 2), (other, 2), (a[:, :7], 1), (a, 0)]:
+        ref = np.array(wx.taylor_function(2).map(pts.shape[1])(pts).full())
+        rows = {0: 1, 1: 3, 2: 6}[order] * len(wx.field_names)
+        np.testing.assert_allclose(spline.evaluate(pts, order), ref[:rows], rtol=1e-12, atol=1e-12)
+
+
+def test_numpy_spline_updating_the_cells_of_the_points_that_moved_equals_casadis_spline(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """TensorSpline brings its kept control points up to date for the points whose cell changed (an NLP iterate
+    moves a few samples across a cell edge): every other point moved, then all back, at orders 0 and 2, with the
+    points split into several chunks of a call (a chunk of 16 here; 2 048 in use) — every answer is CasADi's
+    spline at those points."""
+    monkeypatch.setattr(splines, "_CHUNK", 16)
+    wx = _grid(seed=4)
+    spline = wx.tensor_spline()
+    rng = np.random.default_rng(5)
+
+    def draw() -> np.ndarray:
+        return np.vstack([rng.uniform(1.0, 47.0, 50), rng.uniform(5.0, 295.0, 50), rng.uniform(-19.0, 19.0, 50)])
+
+    a = draw()
+    mixed = a.copy()
+    mixed[:, ::2] = draw()[:, ::2]  # half the points in other cells (almost surely), half where they were
+    for pts, order in [(a, 0), (mixed, 0), (mixed, 2), (a, 2), (a[:, :40], 0), (mixed, 1)]:
         ref = np.array(wx.taylor_function(2).map(pts.shape[1])(pts).full())
         rows = {0: 1, 1: 3, 2: 6}[order] * len(wx.field_names)
         np.testing.assert_allclose(spline.evaluate(pts, order), ref[:rows], rtol=1e-12, atol=1e-12)
