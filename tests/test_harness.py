@@ -17,6 +17,7 @@ import pytest
 import optroute as orx
 from tests.harness import (
     K_KN_S,
+    WGS84,
     band_ratios,
     case_weather,
     centreline_passage,
@@ -221,3 +222,25 @@ def test_where_no_lattice_finds_a_passage_the_failure_says_feasibility_is_not_es
     text = str(err.value)
     assert "3-D DP's lattice" in text and "blocks of at most 10 nm" in text and "not established" in text
     assert err.value.best_plan is None
+
+
+def test_a_band_entered_between_two_samples_for_over_a_tenth_of_a_mile_is_a_violation():
+    """Harness seed 53 (the 25k dwt cargo ship on a fixed 316 nm path, a cyclone): the centreline passage the
+    harness's brute force finds (blocks of 10 nm, 3 kn on block 13) enters the parametric-roll band for 0.143 nm
+    (T_E/T_R down to 0.5982 against 0.6), between two of the check's 0.1 nm samples: one sample inside, which the
+    check counted as a graze while the referee reported the band. The referee was right: the stretch inside, walked
+    every 0.001 nm, is longer than 0.1 nm; the check now measures a single sample's stretch and reports it. About
+    3 CPU-s."""
+    case, ship, wx, _ = _case(53)
+    found = centreline_passage(case, wx, ship)
+    assert found is not None
+    (lat0, lon0), (lat1, lon1) = case.waypoints
+    az, _, d_m = WGS84.inv(lon0, lat0, lon1, lat1)
+    edges = np.linspace(0.0, d_m, int(math.ceil(d_m / 1852.0 / 10.0)) + 1)
+    lon, lat, _ = WGS84.fwd(np.full(edges.size, lon0), np.full(edges.size, lat0), np.full(edges.size, az), edges)
+    plan = orx.Plan.from_schedule(np.column_stack([lat, lon]), found[1], departure=T0, ship=ship, weather=wx)
+    refereed = [v for v in plan.verify() if v.kind == "band:parametric_roll"]
+    assert refereed and {v.leg for v in refereed} == {13}
+    findings, _ = check_plan(plan, wx, ship)
+    assert [(f.kind, f.leg) for f in findings] == [("band:parametric_roll", 13)]
+    assert 0.1 <= findings[0].length_nm < 0.2 and 0.59 < findings[0].value < 0.6
