@@ -438,8 +438,9 @@ def _solve_honestly(prepared: Any, eta: Any, *, eta_mode: str, objective: str, w
     * :class:`SolverFailure`: a verified plan that meets the ETA (the error's best plan, or the minimum-time plan)
       is returned, the better by the objective, with ``status="start"`` and the failure in
       ``solver_stats["status_reason"]``; when the minimum-time plan arrives after the ETA it is
-      :class:`InfeasibleETA`; a cross-section where no speed is allowed at any time is
-      :class:`NoSafePassage`; weather-coverage violations are :class:`WeatherCoverageError`.
+      :class:`InfeasibleETA`; a cross-section where no speed is allowed at any time, or on a fixed path a section no
+      schedule reaches (:func:`optroute.optimise.barrier.fixed_path_barrier`), is :class:`NoSafePassage`;
+      weather-coverage violations are :class:`WeatherCoverageError`.
     """
     _check_time_span(prepared, eta, objective)
     kw = {"eta_mode": eta_mode, "objective": objective, "progress": progress}
