@@ -186,7 +186,10 @@ def fixed_path_barrier(
     times = np.arange(0.0, end_h + 1e-9, dt_h)
     speeds = np.unique(np.append(np.arange(v_min_kn, v_max_kn, speed_step_kn), v_max_kn))
     lo0, hi0 = _allowed_sog(ctx, t0, lat[0], lon[0], crs[0], times, speeds)
-    reach: Intervals = [(0.0, 0.0)] if np.isfinite(lo0[0]) else []
+    reach: Intervals = [(0.0, 0.0)]
+    if not np.isfinite(lo0[0]):  # no speed allowed at the departure itself
+        return Barrier(float(s[0]), float(lat[0]), float(lon[0]), float(s[0]), 0.0, 0.0, float(end_h),
+                       float(speeds[0]), float(speeds[-1]), float(ds_nm), float(dt_h), float(speed_step_kn))  # fmt: skip
     for i in range(s.size - 1):
         step, nxt = float(s[i + 1] - s[i]), []
         slow = max(min(v_min_kn, float(np.nanmin(np.append(lo0, np.inf)))), 1e-3)  # the lowest SOG, a current's too
@@ -207,7 +210,6 @@ def fixed_path_barrier(
         before, reach = reach, _open_times([(a, min(b, end_h)) for a, b in _merge(nxt) if a <= end_h], times,
                                            np.isnan(lo1))  # fmt: skip
         if not reach:
-            before = before or [(np.nan, np.nan)]
             return Barrier(float(s[i + 1]), float(lat[i + 1]), float(lon[i + 1]), float(s[i]), float(before[0][0]),
                            float(before[-1][1]), float(end_h), float(speeds[0]), float(speeds[-1]), float(ds_nm),
                            float(dt_h), float(speed_step_kn))  # fmt: skip
