@@ -10,13 +10,20 @@ The large sample is ``python -m benchmarks --only harness``.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
 
 import optroute as orx
+from optroute.physics.passage import SeaState, evaluate_speeds
+from optroute.physics.performance import KwonModel
+from optroute.physics.safety import DEFAULT_RULES
 from tests.harness import (
+    BAND_RANGES,
     K_KN_S,
+    WGS84,
+    _sample,
     band_ratios,
     case_weather,
     centreline_passage,
@@ -209,15 +216,87 @@ def test_a_passage_an_independent_brute_force_finds_is_planned():
 
 
 def test_where_no_lattice_finds_a_passage_the_failure_says_feasibility_is_not_established():
-    """Harness seed 8 (the 25k dwt cargo ship on a fixed 358 nm path, a storm): the NLP fails, and neither the 3-D DP
-    across the corridor nor the centreline's timed passage finds a passage; the harness's own brute force finds none
-    either. That is no proof (seed 20's centreline holds a passage in 9.78 nm blocks and none in 9 nm blocks), so the
-    outcome stays SolverFailure (exit 4), not NoSafePassage, and its message names both lattices and says that
-    whether a passage exists is not established. About 5 CPU-s."""
-    case, ship, wx, corridor = _case(8)
-    assert centreline_passage(case, wx, ship) is None
+    """Harness seed 26 (the 25k dwt cargo ship in a 20 nm wide corridor, 238 nm, a storm): the NLP fails, and neither
+    the 3-D DP across the corridor nor the centreline's timed passage finds a passage. That is no proof (seed 20's
+    centreline holds a passage in 9.78 nm blocks and none in 9 nm blocks), and the fixed path's reachability proof
+    does not apply to a corridor with lateral freedom, so the outcome stays SolverFailure (exit 4), not
+    NoSafePassage, and its message names both lattices and says that whether a passage exists is not established.
+    (This was seed 8, a fixed path, which :func:`optroute.optimise.barrier.fixed_path_barrier` now proves closed.)
+    About 7 CPU-s."""
+    case, ship, wx, corridor = _case(26)
     with pytest.raises(orx.SolverFailure) as err:
         orx.optimise_corridor(corridor, wx, ship, departure=T0, objective="time")
     text = str(err.value)
-    assert "3-D DP's lattice" in text and "blocks of at most 10 nm" in text and "not established" in text
+    assert "3-D DP" in text and "blocks of at most 10 nm" in text and "not established" in text
     assert err.value.best_plan is None
+
+
+def _allowed_speeds(case, wx, ship, s_nm: float, times_h: np.ndarray, speeds_kn: np.ndarray) -> np.ndarray:
+    """Allowed (time, speed) at ``s_nm`` along the case's centreline, by the harness's own sampling and band
+    definitions (:func:`tests.harness.band_ratios`) and the engine's range: shape (times, speeds)."""
+    (lat0, lon0), (lat1, lon1) = case.waypoints
+    az, _, _ = WGS84.inv(lon0, lat0, lon1, lat1)
+    lon, lat, back = WGS84.fwd(lon0, lat0, az, s_nm * 1852.0)
+    t, v = (a.ravel() for a in np.meshgrid(times_h, speeds_kn, indexing="ij"))
+    w = _sample(wx, T0 + (t * 3.6e12).astype("timedelta64[ns]"), np.full(t.size, lat), np.full(t.size, lon))
+    course = np.full(t.size, (back + 180.0) % 360.0)
+    ok = np.ones(t.size, dtype=bool)
+    for band, (lo, hi) in BAND_RANGES.items():
+        r = band_ratios(ship, v, w["hs_m"], w["tp_s"], w["wave_from_deg"], course)[band]
+        ok &= ~((r > lo) & (r < hi))
+    model = KwonModel(ship)
+    power = evaluate_speeds(ship, model, DEFAULT_RULES, course, SeaState.from_sample(w), v, engine="numpy")[2]
+    ok &= (power <= ship.mcr_kw) & (power >= model.min_power_kw)
+    return ok.reshape(times_h.size, speeds_kn.size)
+
+
+def test_a_fixed_path_no_schedule_gets_past_is_no_safe_passage_and_its_last_step_checks_out():
+    """Harness seed 30 (the 54k dwt container ship on a fixed 269 nm path, a storm moving across it): the minimum-time
+    solve ended in SolverFailure with no plan (feasibility undetermined). No cross-section is closed at every time;
+    the storm closes a strip of the (distance, time) plane that moves towards the ship, which can neither outrun it
+    nor wait for it to pass. The reachability proof (:func:`optroute.optimise.barrier.fixed_path_barrier`) finds the
+    section no schedule reaches: NoSafePassage (exit 3) naming it, the times the section before it can be reached
+    and the sampling. Its last step is checked here independently, with the harness's own sampling (xarray) and band
+    definitions: every speed a ship can sail between the two sections at those times (their allowed speeds, every
+    0.05 kn) brings it to the named section only at times (every 0.01 h) at which no speed is allowed.
+    About 12 CPU-s."""
+    case, ship, wx, corridor = _case(30)
+    with pytest.raises(orx.NoSafePassage) as err:
+        orx.optimise_corridor(corridor, wx, ship, departure=T0, objective="time")
+    text = str(err.value)
+    assert "checked at most every 1 nm along the path, every 0.05 h, speeds every 0.1 kn" in text
+    got = re.search(r"reaches ([\d.]+) nm along it .* is ([\d.]+) nm along only between ([\d.]+) and ([\d.]+) h", text)
+    assert got is not None, text
+    s_nm, before_nm, t_from, t_to = (float(x) for x in got.groups())
+    t_from, t_to, step = t_from - 5e-4, t_to + 5e-4, s_nm - before_nm  # the message's rounding, widened
+    assert 0.0 < step <= 1.0 and t_from >= before_nm / ship.max_calm_speed_kn - 1e-3
+    speeds = np.arange(3.0, ship.max_calm_speed_kn + 1e-9, 0.05)
+    before = _allowed_speeds(case, wx, ship, before_nm, np.arange(t_from - 0.05, t_to + 0.05, 0.01), speeds)
+    late = t_to + step / 3.0
+    at = _allowed_speeds(case, wx, ship, s_nm, np.arange(t_from - 0.05, late + 0.05, 0.01), speeds)
+    used = speeds[before.any(axis=0) | at.any(axis=0)]
+    assert used.size  # the ship can leave the section before
+    window = np.arange(t_from + step / used.max(), t_to + step / used.min() + 1e-9, 0.01)
+    assert window.size >= 2 and not _allowed_speeds(case, wx, ship, s_nm, window, speeds).any()
+
+
+def test_a_band_entered_between_two_samples_for_over_a_tenth_of_a_mile_is_a_violation():
+    """Harness seed 53 (the 25k dwt cargo ship on a fixed 316 nm path, a cyclone): the centreline passage the
+    harness's brute force finds (blocks of 10 nm, 3 kn on block 13) enters the parametric-roll band for 0.143 nm
+    (T_E/T_R down to 0.5982 against 0.6), between two of the check's 0.1 nm samples: one sample inside, which the
+    check counted as a graze while the referee reported the band. The referee was right: the stretch inside, walked
+    every 0.001 nm, is longer than 0.1 nm; the check now measures a single sample's stretch and reports it. About
+    3 CPU-s."""
+    case, ship, wx, _ = _case(53)
+    found = centreline_passage(case, wx, ship)
+    assert found is not None
+    (lat0, lon0), (lat1, lon1) = case.waypoints
+    az, _, d_m = WGS84.inv(lon0, lat0, lon1, lat1)
+    edges = np.linspace(0.0, d_m, int(math.ceil(d_m / 1852.0 / 10.0)) + 1)
+    lon, lat, _ = WGS84.fwd(np.full(edges.size, lon0), np.full(edges.size, lat0), np.full(edges.size, az), edges)
+    plan = orx.Plan.from_schedule(np.column_stack([lat, lon]), found[1], departure=T0, ship=ship, weather=wx)
+    refereed = [v for v in plan.verify() if v.kind == "band:parametric_roll"]
+    assert refereed and {v.leg for v in refereed} == {13}
+    findings, _ = check_plan(plan, wx, ship)
+    assert [(f.kind, f.leg) for f in findings] == [("band:parametric_roll", 13)]
+    assert 0.1 <= findings[0].length_nm < 0.2 and 0.59 < findings[0].value < 0.6

@@ -438,8 +438,9 @@ def _solve_honestly(prepared: Any, eta: Any, *, eta_mode: str, objective: str, w
     * :class:`SolverFailure`: a verified plan that meets the ETA (the error's best plan, or the minimum-time plan)
       is returned, the better by the objective, with ``status="start"`` and the failure in
       ``solver_stats["status_reason"]``; when the minimum-time plan arrives after the ETA it is
-      :class:`InfeasibleETA`; a cross-section where no speed is allowed at any time is
-      :class:`NoSafePassage`; weather-coverage violations are :class:`WeatherCoverageError`.
+      :class:`InfeasibleETA`; a cross-section where no speed is allowed at any time, or on a fixed path a section no
+      schedule reaches (:func:`optroute.optimise.barrier.fixed_path_barrier`), is :class:`NoSafePassage`;
+      weather-coverage violations are :class:`WeatherCoverageError`.
     """
     _check_time_span(prepared, eta, objective)
     kw = {"eta_mode": eta_mode, "objective": objective, "progress": progress}
@@ -571,7 +572,8 @@ def _undetermined(prepared: Any, exc: SolverFailure) -> SolverFailure:
 
 
 def _raise_if_blocked(prepared: Any, exc: SolverFailure) -> None:
-    """NoSafePassage when a cross-section of the corridor allows no speed at any time (:func:`blocked_section`)."""
+    """NoSafePassage when a cross-section of the corridor allows no speed at any time (:func:`blocked_section`), or,
+    on a fixed path, when no schedule gets past some section (:func:`optroute.optimise.barrier.fixed_path_barrier`)."""
     from optroute.optimise.min_time import blocked_section
 
     end_h = min(prepared.horizon_h, prepared.data_end_h)
@@ -585,6 +587,13 @@ def _raise_if_blocked(prepared: Any, exc: SolverFailure) -> None:
         v_max_kn=prepared.v_max,
         horizon_h=end_h,
     )
+    if blocked is None and prepared.fixed_path:
+        from optroute.optimise.barrier import fixed_path_barrier
+
+        # the weather's end bounds every passage (a later end only adds schedules: the claim holds for an ETA too)
+        last_h = prepared.data_end_h if np.isfinite(prepared.data_end_h) else end_h
+        blocked = fixed_path_barrier(prepared.plan_context(), prepared.frame, prepared.departure,
+                                     v_min_kn=prepared.v_min, v_max_kn=prepared.v_max, end_h=last_h)  # fmt: skip
     if blocked is not None:
         raise NoSafePassage(
             f"{blocked}: there is no safe passage through this corridor in this weather; take another route or "
