@@ -162,22 +162,30 @@ def stacked_inputs(members: tuple[DPLegKernel, ...]) -> tuple | None:
         if m.params.shape != members[0].params.shape:
             return None
     return (
-        _along_members([m.params for m in members]),
+        _along_members([m.params for m in members], read_only=True),
         _along_members([m.weather[0] for m in members]),
         _along_members([m.weather[6] for m in members]),
         tuple(axes),
     )
 
 
-def _along_members(arrays: list[np.ndarray]) -> np.ndarray:
-    """The members' arrays along a new first axis, C-contiguous float64 and writable (the kernels' one signature).
+def _along_members(arrays: list[np.ndarray], *, read_only: bool = False) -> np.ndarray:
+    """The members' arrays along a new first axis, C-contiguous float64, writable unless ``read_only``.
 
-    One member (a single weather): a view of its array where that is already such an array, not a copy of the
-    whole weather field on every search (the kernels only read it). Several members are stacked (copied).
+    The flags are part of a numba signature, so they follow the other callers of the same kernels: the weather's
+    fields and node tables writable (as :class:`~optroute.weather.sample.PointWeather` holds them), the ship's
+    parameters read only (as :func:`~optroute.physics.pointwise.cached_point_params` hands them to every search
+    kernel); otherwise each one-point function the DP shares with the searches is compiled twice. One member (a
+    single weather): a view of its array where that is already such an array, not a copy of the whole weather field
+    on every search (the kernels only read it). Several members are stacked (copied).
     """
-    if len(arrays) == 1 and arrays[0].flags.writeable:
-        return np.ascontiguousarray(arrays[0][None], dtype=float)  # a view when the member's is C-contiguous float64
-    return np.ascontiguousarray(np.stack(arrays), dtype=float)
+    if len(arrays) == 1 and (read_only or arrays[0].flags.writeable):
+        out = np.ascontiguousarray(arrays[0][None], dtype=float)  # a view when the member's is C-contiguous float64
+    else:
+        out = np.ascontiguousarray(np.stack(arrays), dtype=float)
+    if read_only:
+        out.setflags(write=False)
+    return out
 
 
 @jit

@@ -49,6 +49,25 @@ def workspace(checked):  # pragma: no cover - compiled
 
 
 @jit
+def _copy_row(src, i, dst, k):  # pragma: no cover - compiled
+    """``dst[k] = src[i]`` (rows of the same width), element by element (see :func:`_copy_rows`)."""
+    for c in range(src.shape[1]):
+        dst[k, c] = src[i, c]
+
+
+@jit
+def _copy_rows(src, dst, n):  # pragma: no cover - compiled
+    """``dst[:n] = src[:n]`` (rows of the same width), element by element.
+
+    A slice assignment would compile numba's shape-mismatch error path (its message formatting), several
+    CPU-seconds at every clean compile, for shapes that always match here; the row index and count are always
+    variables at the call sites, so each helper has one signature (a literal argument would add a second).
+    """
+    for r in range(n):
+        _copy_row(src, r, dst, r)
+
+
+@jit
 def _place(w, frame, length, row, scratch):  # pragma: no cover - compiled
     """Position, course and grid coordinates of the point at ``row[_S]``, ``row[_T]`` (``frame``: the piece's
     :func:`~optroute.search.edge_geometry.piece_frame` at its midpoint)."""
@@ -108,7 +127,7 @@ def _crossings(a, b, n, w, frame, length, scratch):  # pragma: no cover - compil
         k = 0
         added = False
         for i in range(n):
-            b[k, :] = a[i, :]
+            _copy_row(a, i, b, k)
             k += 1
             if i == n - 1:
                 break
@@ -134,7 +153,7 @@ def _crossings(a, b, n, w, frame, length, scratch):  # pragma: no cover - compil
             _between(a, i, hi_s, b[k + 1], w, frame, length, scratch)
             k += 2
             added = True
-        a[:k, :] = b[:k, :]
+        _copy_rows(b, a, k)
         n = k
         if not added:
             break
@@ -257,7 +276,7 @@ def piece_clear(
         k = 0
         added = False
         for i in range(n):
-            b[k, :] = a[i, :]
+            _copy_row(a, i, b, k)
             k += 1
             if i == n - 1 or not _needs_halving(a, i, n, sl):
                 continue
@@ -268,7 +287,7 @@ def piece_clear(
                 return False
             k += 1
             added = True
-        a[:k, :] = b[:k, :]
+        _copy_rows(b, a, k)
         n = k
         if not added:
             return True

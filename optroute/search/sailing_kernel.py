@@ -81,7 +81,9 @@ def _pop(h1, h2, hs, n):  # pragma: no cover - compiled
 @jit
 def _grown(a, n):  # pragma: no cover - compiled
     b = np.empty(2 * a.size, dtype=a.dtype)
-    b[:n] = a[:n]
+    # not b[:n] = a[:n]: that compiles numba's shape-mismatch error path (seconds, on every clean clone)
+    for i in range(n):
+        b[i] = a[i]
     return b
 
 
