@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from optroute.geo.tracks import gc_points
+from optroute.optimise.min_time import centreline_points
 from optroute.optimise.nlp_inputs import CorridorFrame
 from optroute.physics.passage import evaluate_speeds
 from optroute.plan.evaluate import PlanContext, sample_sea
@@ -94,20 +94,13 @@ class Barrier:
 
 def _sections(frame: CorridorFrame, ds_nm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(s [nm], lat, lon, course [deg]) every ``ds_nm`` or less along the centreline, every node included."""
-    wp = frame.waypoints(np.zeros(frame.n_legs + 1))
-    s_all, lat_all, lon_all, crs_all = [], [], [], []
-    for k in range(frame.n_legs):
-        length = float(frame.s_nm[k + 1] - frame.s_nm[k])
-        f = np.linspace(0.0, 1.0, max(2, int(np.ceil(length / ds_nm)) + 1))
-        f = f if k == frame.n_legs - 1 else f[:-1]
-        n = f.size
-        lat, lon, crs = gc_points(np.full(n, wp[k, 0]), np.full(n, wp[k, 1]), np.full(n, wp[k + 1, 0]),
-                                  np.full(n, wp[k + 1, 1]), f)  # fmt: skip
-        s_all.append(frame.s_nm[k] + f * length)
-        lat_all.append(lat)
-        lon_all.append(lon)
-        crs_all.append(crs)
-    return tuple(np.concatenate(a) for a in (s_all, lat_all, lon_all, crs_all))  # type: ignore[return-value]
+    nodes = np.asarray(frame.s_nm, dtype=float)
+    pieces = [
+        np.linspace(a, b, max(2, int(np.ceil((b - a) / ds_nm)) + 1))[:-1]
+        for a, b in zip(nodes[:-1], nodes[1:], strict=True)
+    ]
+    s = np.concatenate([*pieces, nodes[-1:]])
+    return (s, *centreline_points(frame, s))
 
 
 def _allowed_sog(ctx: PlanContext, t0, lat, lon, crs, times_h, speeds) -> tuple[np.ndarray, np.ndarray]:

@@ -53,6 +53,7 @@ __all__ = [
     "TimedStart",
     "block_fractions",
     "blocked_section",
+    "centreline_points",
     "clean_start",
     "timed_safe_start",
 ]
@@ -119,7 +120,7 @@ class DeadEnd:
         )
 
 
-def _centreline_points(frame: CorridorFrame, s_nm: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def centreline_points(frame: CorridorFrame, s_nm: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Latitude, longitude [deg] and course [deg true] of centreline points at along-track distances [nm]."""
     wp = frame.corridor.waypoints
     s = np.asarray(frame.s_nm, dtype=float)
@@ -146,7 +147,7 @@ def block_fractions(
     base = np.linspace(0.0, 1.0, m + 1)
     n_fine = max(2, int(np.ceil(d / CROSSING_STEP_NM)))
     fine = np.linspace(0.0, 1.0, n_fine + 1)
-    lat, lon, _ = _centreline_points(frame, from_nm + fine * d)
+    lat, lon, _ = centreline_points(frame, from_nm + fine * d)
     cell = sampler.grid_coordinates(np.full(fine.shape, t0), lat, lon)[:, 1:]
     cell = np.where(np.isfinite(cell), np.floor(cell), -1.0)
     change = np.flatnonzero(np.any(cell[1:] != cell[:-1], axis=1))
@@ -226,7 +227,7 @@ def timed_safe_start(
     for b in range(n_blocks):
         d = edges[b + 1] - edges[b]
         frac = block_fractions(frame, ctx.sampler, t0, edges[b], edges[b + 1], step_nm)  # both ends too
-        lat, lon, course = _centreline_points(frame, edges[b] + frac * d)
+        lat, lon, course = centreline_points(frame, edges[b] + frac * d)
         dt = d / speeds  # (K,)
         t_pts = times[:, None, None] + frac[None, None, :] * dt[None, :, None]  # (B, K, m)
         shape = t_pts.shape
@@ -249,7 +250,7 @@ def timed_safe_start(
         evaluations += extra
         prev, spd = np.nonzero(ok)
         if prev.size == 0:
-            mid = _centreline_points(frame, np.array([edges[b] + 0.5 * d]))
+            mid = centreline_points(frame, np.array([edges[b] + 0.5 * d]))
             return DeadEnd(
                 float(edges[b]),
                 float(edges[b + 1]),
@@ -298,7 +299,7 @@ def _refined_check(ctx, rules, frame, t0, block, ladder, ok, first) -> tuple[np.
     count = [0]
 
     def at(g: np.ndarray, s_nm: np.ndarray) -> CheckPoints:
-        lat, lon, course = _centreline_points(frame, from_nm + s_nm)
+        lat, lon, course = centreline_points(frame, from_nm + s_nm)
         t_h = times[prev[g]] + s_nm / d * dt[spd[g]]
         sea, covered = sample_sea(ctx.sampler, t0 + (t_h * _NS_PER_H).astype("timedelta64[ns]"), lat, lon)
         v = speeds[spd[g]]
