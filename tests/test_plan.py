@@ -231,3 +231,60 @@ def test_bad_inputs_name_the_value():
         )
     with pytest.raises(orx.ConfigError, match="strictly increasing"):
         Exclusion(np.array([T0, T0]), 0.0, 0.0, 10.0)
+
+
+def _storm_with_current() -> xr.Dataset:
+    """A storm moving east across a 1.5 m/s current to the north-east: every evaluation iterates its schedule."""
+    ds = orx.scenarios.moving_storm(
+        0.0, -32.0, 90.0, 8.0, peak_hs_m=11.0, radius_nm=240.0, start=T0, duration_h=120.0, step_h=3.0,
+        resolution_deg=0.5, bbox=(-8.0, 8.0, -40.0, -10.0),
+    )  # fmt: skip
+    u, v = 1.5 * np.sin(np.radians(45.0)), 1.5 * np.cos(np.radians(45.0))
+    shape = ds["hs_m"].shape
+    ds["current_u_ms"] = (ds["hs_m"].dims, np.full(shape, u), {"units": "m s-1"})
+    ds["current_v_ms"] = (ds["hs_m"].dims, np.full(shape, v), {"units": "m s-1"})
+    return ds
+
+
+def test_verify_reads_the_evaluation_the_plan_was_made_from_and_finds_what_a_fresh_evaluation_finds(monkeypatch):
+    """A plan made by from_context keeps its dense evaluation and verify at the same spacing reads it (one
+    evaluation of the track, not two); a copy without it (dataclasses.replace, or unpickled) is evaluated afresh,
+    and both find the same violations — kinds, legs, worst values — in a time-varying storm with a current (the
+    schedule a fixed point), with slow legs below the minimum load, bands, and an ETA missed."""
+    import dataclasses
+    import pickle
+
+    import optroute.plan.result as result_mod
+
+    wx = _storm_with_current()
+    wp = np.column_stack([np.linspace(0.0, 1.5, 9), np.linspace(-38.0, -14.0, 9)])
+    calls = []
+    real = result_mod.evaluate_track
+
+    def counted(*args, **kw):
+        calls.append(1)
+        return real(*args, **kw)
+
+    monkeypatch.setattr(result_mod, "evaluate_track", counted)
+    for stw, eta_h in (([4.0, 6.0, 20.0, 12.0, 5.0, 22.0, 9.0, 14.0], 90.0), ([15.0] * 8, None)):
+        eta = None if eta_h is None else T0 + np.timedelta64(int(eta_h * 3600), "s")
+        plan = Plan.from_schedule(wp, stw, departure=T0, ship=SHIP, weather=wx, eta=eta, step_nm=5.0)
+        calls.clear()
+        shared = plan.verify(step_nm=5.0)
+        assert not calls  # read, not evaluated again
+        fresh_copies = (dataclasses.replace(plan), pickle.loads(pickle.dumps(plan)))
+        assert "_dense" not in fresh_copies[1].__dict__  # not shipped with the plan
+        for fresh in fresh_copies:
+            calls.clear()
+            again = fresh.verify(step_nm=5.0)
+            assert len(calls) == 1
+            assert [(v.kind, v.leg) for v in again] == [(v.kind, v.leg) for v in shared]
+            for a, b in zip(again, shared, strict=True):
+                assert a.value == pytest.approx(b.value, rel=1e-9, abs=1e-12) and a.limit == b.limit
+                assert abs((a.time - b.time) / np.timedelta64(1, "s")) < 1e-3
+            assert again.points.leg.size == shared.points.leg.size
+        if eta_h is not None:  # the planted ones are there
+            assert {"power_below_min", "eta"} <= _kinds(shared)
+        calls.clear()
+        plan.verify(step_nm=2.5)  # another spacing: evaluated at it
+        assert len(calls) == 1

@@ -54,7 +54,7 @@ from optroute.physics.performance import PerformanceModel, default_model
 from optroute.physics.safety import BandRules, band_margins, is_speed_forbidden
 from optroute.physics.ship import Ship
 from optroute.plan.checkpoints import BAND_TOL_NM, CheckPoints, check_points
-from optroute.plan.evaluate import PlanContext, Violation, evaluate_track, legs_table, step_midpoints
+from optroute.plan.evaluate import DenseTrack, PlanContext, Violation, evaluate_track, legs_table, step_midpoints
 from optroute.search.route import Corridor
 from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
@@ -320,7 +320,7 @@ class Plan:
         tt = departure + _h_to_td(sched_h)
         d = geo.distance_nm(wp[:-1, 0], wp[:-1, 1], wp[1:, 0], wp[1:, 1])
         legs = legs_table(context, wp, tt, ev, d)
-        return cls(
+        plan = cls(
             legs=legs,
             waypoints=wp,
             times=tt,
@@ -333,6 +333,20 @@ class Plan:
             eta_shadow_price_t_per_h=float(eta_shadow_price_t_per_h),
             context=context,
         )
+        object.__setattr__(plan, "_dense", (float(step_nm), stw.copy(), ev))  # shared with verify at this spacing
+        return plan
+
+    def __getstate__(self) -> dict[str, Any]:
+        """The plan's fields for pickling, without the dense evaluation :meth:`verify` shares (a worker's payload)."""
+        return {k: v for k, v in self.__dict__.items() if k != "_dense"}
+
+    def _dense_track(self, stw: np.ndarray, sched_h: np.ndarray, step_nm: float) -> DenseTrack:
+        """The referee's dense evaluation of this plan at ``step_nm``: the one :meth:`from_context` made when it is of
+        this plan's speeds and spacing (:meth:`verify`), else :func:`evaluate_track` again."""
+        held = getattr(self, "_dense", None)
+        if held is not None and held[0] == step_nm and np.array_equal(held[1], stw):
+            return held[2]
+        return evaluate_track(self.context, self.waypoints, stw, self.departure, sched_h, step_nm)
 
     # ------------------------------------------------------------------ properties
     @property
@@ -422,6 +436,12 @@ class Plan:
         Beaufort number, wave sector) changes or may change between points, so every stretch longer
         than ``tol_nm`` above the MCR or below the minimum load is found too.
 
+        A plan made by :meth:`from_context` (every plan of the optimiser and of its start candidates) keeps the dense
+        evaluation it was made from, and a check at the same ``step_nm`` (and speeds) reads it instead of evaluating
+        the track a second time: the same function (:func:`optroute.plan.evaluate.evaluate_track`) on the same
+        pieces, at the times of the schedule that evaluation sailed (the plan's ``times`` are that schedule rounded
+        to the nanosecond). A plan built another way (:func:`dataclasses.replace`, unpickled) is evaluated afresh.
+
         Parameters
         ----------
         step_nm : float
@@ -472,7 +492,7 @@ class Plan:
         t0 = self.departure
         sched = _td_to_h(self.times - t0)
         stw = self.stw_kn
-        ev = evaluate_track(ctx, self.waypoints, stw, t0, sched, step)
+        ev = self._dense_track(stw, sched, step)
         wp = np.asarray(self.waypoints, dtype=float)
         d = geo.distance_nm(wp[:-1, 0], wp[:-1, 1], wp[1:, 0], wp[1:, 1])
         pts = check_points(
