@@ -4,7 +4,9 @@ Reference: the textbook bisection written out here — λ = 0, then 1, 4, 16 …
 time, then 12 halvings — over the public search at a fixed λ (``search_route(lambda_t_per_h=λ)``; a
 round is late when it raises :class:`InfeasibleETA` or :class:`NoSafePassage`, or arrives after the
 deadline).  The stopped bisection must give the same track (waypoints, cell by cell) with fewer
-searches, counted; the full one (the default) the reference's route and λ exactly.  The deadlines are
+searches, counted; the full one (the default) the reference's route and λ exactly.  Its calm-speed rule is
+checked against the bisection without it on a model of rounds, and the calm-water speed against the
+referee's speeds evaluated one by one.  The deadlines are
 an ETA and, without one, the weather's end (a forecast shorter than the least-fuel passage).
 """
 
@@ -14,7 +16,13 @@ import numpy as np
 import pytest
 
 from optroute.errors import InfeasibleETA, NoSafePassage
+from optroute.physics.passage import SeaState, evaluate_speeds
+from optroute.physics.performance import KwonModel
+from optroute.physics.safety import BandRules
+from optroute.search.objective_search import bisect_lambda
+from optroute.search.passage_physics import PassagePhysics
 from optroute.search.routing import search_route
+from optroute.weather import WeatherSampler
 from tests.test_routing import CARGO, OPEN_SEA, T0, _h, random_sea
 
 START, END = (0.0, 152.0), (1.0, 158.0)
@@ -94,7 +102,7 @@ def _calm_kn(lam):
 
 
 class _Round:
-    """A fixed-λ round's result as bisect_lambda reads it: 20 h earlier per knot of calm speed, 2 h per unit of λ."""
+    """A fixed-λ round's result as bisect_lambda reads it: 40 h earlier per knot of calm speed, 2 h per unit of λ."""
 
     def __init__(self, lam):
         self.arrival_h = 400.0 - 40.0 * (_calm_kn(lam) - 13.0) - 2.0 * lam
@@ -107,7 +115,6 @@ def test_a_lambda_sailing_no_faster_than_a_late_lambda_zero_is_taken_late_unsear
     """The rule against the bisection without it (the same rounds): the same λ and track where every λ of λ = 0's
     calm speed is late (ETA 370 h, 385 h), fewer searches, and only λs of λ = 0's calm speed skipped; where such a λ
     is in time (ETA 397 h: λ = 1.5 arrives at 397 h), the λ found is the next calm speed's, higher, and in time."""
-    from optroute.search.objective_search import bisect_lambda
 
     def search(calm):
         ran = []
@@ -132,12 +139,6 @@ def test_a_lambda_sailing_no_faster_than_a_late_lambda_zero_is_taken_late_unsear
 
 def test_calm_cheapest_speed_is_the_least_cost_per_mile_of_the_set_in_calm_water():
     """Against the referee's speeds evaluated one by one in a calm sea (numpy engine), the least (fuel + λ) / SOG."""
-    from optroute.physics.passage import SeaState, evaluate_speeds
-    from optroute.physics.performance import KwonModel
-    from optroute.physics.safety import BandRules
-    from optroute.search.passage_physics import PassagePhysics
-    from optroute.weather import WeatherSampler
-
     speeds = np.arange(5.0, 16.01, 0.5)
     ph = PassagePhysics(CARGO, KwonModel(CARGO), BandRules(), WeatherSampler(random_sea(5)), T0)
     zero, one = np.zeros(speeds.size), np.ones(speeds.size)
