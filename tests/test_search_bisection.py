@@ -4,7 +4,9 @@ Reference: the textbook bisection written out here — λ = 0, then 1, 4, 16 …
 time, then 12 halvings — over the public search at a fixed λ (``search_route(lambda_t_per_h=λ)``; a
 round is late when it raises :class:`InfeasibleETA` or :class:`NoSafePassage`, or arrives after the
 deadline).  The stopped bisection must give the same track (waypoints, cell by cell) with fewer
-searches, counted; the full one (the default) the reference's route and λ exactly.  The deadlines are
+searches, counted; the full one (the default) the reference's route and λ exactly.  Its calm-speed rule is
+checked against the bisection without it on a model of rounds, and the calm-water speed against the
+referee's speeds evaluated one by one.  The deadlines are
 an ETA and, without one, the weather's end (a forecast shorter than the least-fuel passage).
 """
 
@@ -14,7 +16,13 @@ import numpy as np
 import pytest
 
 from optroute.errors import InfeasibleETA, NoSafePassage
+from optroute.physics.passage import SeaState, evaluate_speeds
+from optroute.physics.performance import KwonModel
+from optroute.physics.safety import BandRules
+from optroute.search.objective_search import bisect_lambda
+from optroute.search.passage_physics import PassagePhysics
 from optroute.search.routing import search_route
+from optroute.weather import WeatherSampler
 from tests.test_routing import CARGO, OPEN_SEA, T0, _h, random_sea
 
 START, END = (0.0, 152.0), (1.0, 158.0)
@@ -85,3 +93,60 @@ def test_stopping_at_the_track_keeps_the_track_of_the_full_bisection(fastest, de
     assert stopped.total_duration_h <= deadline_h
     assert stopped.stats["searches"] < ref_searches
     assert stopped.stats["lambda_t_per_h"] >= ref_lam
+
+
+# ------------------------------------------------------------------ the calm-speed rule (bisect_lambda)
+def _calm_kn(lam):
+    """A calm-water speed that steps up by 0.5 kn at λ = 2.9, 3.2, 3.5, … (as a speed set's choice does)."""
+    return 13.0 + 0.5 * max(0.0, np.floor((lam - 2.6) / 0.3))
+
+
+class _Round:
+    """A fixed-λ round's result as bisect_lambda reads it: 40 h earlier per knot of calm speed, 2 h per unit of λ."""
+
+    def __init__(self, lam):
+        self.arrival_h = 400.0 - 40.0 * (_calm_kn(lam) - 13.0) - 2.0 * lam
+        self.total_fuel_t = 100.0 + 20.0 * lam
+        self.nodes = np.array([[int(lam >= 3.3)]])  # the track changes at λ = 3.3
+
+
+@pytest.mark.parametrize("eta_h", [370.0, 385.0, 397.0])
+def test_a_lambda_sailing_no_faster_than_a_late_lambda_zero_is_taken_late_unsearched(eta_h):
+    """The rule against the bisection without it (the same rounds): the same λ and track where every λ of λ = 0's
+    calm speed is late (ETA 370 h, 385 h), fewer searches, and only λs of λ = 0's calm speed skipped; where such a λ
+    is in time (ETA 397 h: λ = 1.5 arrives at 397 h), the λ found is the next calm speed's, higher, and in time."""
+
+    def search(calm):
+        ran = []
+
+        def run(lam, ceiling=None):
+            ran.append(lam)
+            return _Round(lam)
+
+        best, lam = bisect_lambda(run, eta_h, np.datetime64("2024-01-01"), stop_at_track=True, calm_speed_kn=calm)
+        return best, lam, ran
+
+    ref, ref_lam, ref_ran = search(None)
+    best, lam, ran = search(_calm_kn)
+    assert all(_calm_kn(x) > _calm_kn(0.0) for x in ran[1:])  # every λ searched after λ = 0 sails faster in calm
+    assert set(ran) <= set(ref_ran) or eta_h == 397.0
+    if eta_h < 397.0:
+        assert lam == ref_lam and best.nodes.tolist() == ref.nodes.tolist()
+        assert len(ran) < len(ref_ran)
+    else:
+        assert ref_lam < 2.9 <= lam and best.arrival_h <= eta_h
+
+
+def test_calm_cheapest_speed_is_the_least_cost_per_mile_of_the_set_in_calm_water():
+    """Against the referee's speeds evaluated one by one in a calm sea (numpy engine), the least (fuel + λ) / SOG."""
+    speeds = np.arange(5.0, 16.01, 0.5)
+    ph = PassagePhysics(CARGO, KwonModel(CARGO), BandRules(), WeatherSampler(random_sea(5)), T0)
+    zero, one = np.zeros(speeds.size), np.ones(speeds.size)
+    calm = SeaState(zero, one, zero, zero, zero, zero, zero)
+    _, sog, _, fuel, allowed = evaluate_speeds(CARGO, KwonModel(CARGO), BandRules(), zero, calm, speeds, engine="numpy")
+    chosen = set()
+    for lam in (0.0, 0.5, 2.0, 8.0, 50.0):
+        rate = np.where(allowed, (fuel + lam) / sog, np.inf)
+        chosen.add(ph.calm_cheapest_speed_kn(speeds, lam))
+        assert ph.calm_cheapest_speed_kn(speeds, lam) == speeds[int(np.argmin(rate))]
+    assert len(chosen) >= 3  # λ moves the choice

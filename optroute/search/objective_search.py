@@ -44,14 +44,18 @@ def explain_uncovered(exc: NoSafePassage, physics: PassagePhysics) -> Exception:
     return exc
 
 
-def run_objective(run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t, stop_at_track=False):
+def run_objective(
+    run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t, stop_at_track=False,
+    calm_speed_kn=None,
+):  # fmt: skip
     """The search result for the objective and the λ it used [t/h].
 
     ``run(lam)`` searches minimum time (``lam`` None) or least fuel + λ·time (``run(lam, ceiling)``: only
     routes cheaper than ``ceiling``, see :func:`bisect_lambda`).
     ``"time"`` runs it once; a given λ (or ``"cost"``: hourly cost / fuel price)
     runs it once and raises :class:`InfeasibleETA` if that route is later than
-    ``eta_h`` [h from ``t0``]; ``"fuel"`` bisects λ (:func:`bisect_lambda`, with ``stop_at_track``).
+    ``eta_h`` [h from ``t0``]; ``"fuel"`` bisects λ (:func:`bisect_lambda`, with ``stop_at_track`` and
+    ``calm_speed_kn``).
     """
     lam_used = 0.0
     if objective == "time":
@@ -66,11 +70,18 @@ def run_objective(run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, 
                 earliest_arrival=t0 + _h_to_td(res.arrival_h),
             )
     else:
-        res, lam_used = bisect_lambda(run, eta_h, t0, stop_at_track=stop_at_track)
+        res, lam_used = bisect_lambda(run, eta_h, t0, stop_at_track=stop_at_track, calm_speed_kn=calm_speed_kn)
     return res, lam_used
 
 
-def bisect_lambda(run: Callable, eta_h: float | None, t0: np.datetime64, *, stop_at_track: bool = False):
+def bisect_lambda(
+    run: Callable,
+    eta_h: float | None,
+    t0: np.datetime64,
+    *,
+    stop_at_track: bool = False,
+    calm_speed_kn: Callable[[float], float] | None = None,
+):
     """Least λ whose least-cost route arrives by the ETA (fuel objective).
 
     A λ whose route cannot be completed (too slow to finish inside the
@@ -90,7 +101,16 @@ def bisect_lambda(run: Callable, eta_h: float | None, t0: np.datetime64, *, stop
     late.  That is the unbounded round's outcome when it finds no route or a
     late one; it differs only where the label-setting search would return an
     in-time route dearer at that λ than the best one, which is then not
-    taken.  The route returned is the in-time route of the least λ tried.
+    taken.  With ``stop_at_track`` and ``calm_speed_kn`` (λ → the speed the
+    search sails at λ in calm water [kn],
+    :meth:`~optroute.search.passage_physics.PassagePhysics.calm_cheapest_speed_kn`),
+    once λ = 0's route is late a λ whose calm-water speed is no faster than
+    λ = 0's is taken as late without a search: its route trades fuel against
+    time as λ = 0's does wherever the weather is mild, and so is taken to be as
+    late, as the bisection takes every λ below a late one to be.  (This is a
+    rule, not a proof: where the weather makes such a λ sail faster than λ = 0
+    and arrive in time, the λ found is a higher one.)  The route returned is the
+    in-time route of the least λ tried.
     """
     failure: list[NoSafePassage] = []
 
@@ -107,11 +127,17 @@ def bisect_lambda(run: Callable, eta_h: float | None, t0: np.datetime64, *, stop
     slow = attempt(0.0)
     if not late(slow):
         return slow, 0.0
+    rule = stop_at_track and calm_speed_kn is not None
+    floor_kn = calm_speed_kn(0.0) if rule else np.nan
+
+    def tried(lam: float, ceiling: float | None = None):  # None: taken as late (the calm-speed rule above)
+        return None if rule and lam < 1e4 and calm_speed_kn(lam) <= floor_kn else attempt(lam, ceiling)
+
     lo, hi = 0.0, 1.0
-    fast = attempt(hi)
+    fast = tried(hi)
     while late(fast) and hi < 1e4:
         lo, hi = hi, hi * 4.0
-        fast = attempt(hi)
+        fast = tried(hi)
     if fast is None:
         raise failure[0]
     if late(fast):
@@ -126,7 +152,7 @@ def bisect_lambda(run: Callable, eta_h: float | None, t0: np.datetime64, *, stop
         # the best route's own cost at mid (with room for rounding): a search bounded by it finds that route or a
         # cheaper one at mid, and a round that fails under it stops early
         cap = best.total_fuel_t + mid * best.arrival_h
-        r = attempt(mid, cap * (1.0 + 1e-9) + 1e-9 if stop_at_track else None)
+        r = tried(mid, cap * (1.0 + 1e-9) + 1e-9 if stop_at_track else None)
         if late(r):
             lo = mid
             continue

@@ -169,6 +169,20 @@ class PassagePhysics:
 
         return self._with_kernel(cb, MODE_CHEAPEST, speeds, float(lambda_t_per_h), (0.0, 1.0, 0.0), check_nm)
 
+    def calm_cheapest_speed_kn(self, speeds_kn: np.ndarray, lambda_t_per_h: float) -> float:
+        """The speed of the set :meth:`segment_cheapest` sails at λ in calm water (no waves, wind or current) [kn].
+
+        :func:`optroute.physics.passage.cheapest_speed` at one point of a calm sea (NaN where no speed of the
+        set is allowed there).  The λ bisection's stand-in for the speeds a λ's route sails
+        (:func:`optroute.search.objective_search.bisect_lambda`).
+        """
+        zero = np.zeros(1)
+        calm = SeaState(zero, np.ones(1), zero, zero, zero, zero, zero)
+        choice = cheapest_speed(
+            self.ship, self.model, self.rules, zero, calm, speeds_kn, lambda_t_per_h, engine=self.engine
+        )
+        return float(choice.stw_kn[0])
+
     def cost_floor_per_nm(self, speeds_kn: np.ndarray, lambda_t_per_h: float, current_kn: float) -> float | None:
         """A lower bound on (fuel + λ·time) per nm of any leg at the speeds given [t/nm], or None.
 

@@ -199,7 +199,8 @@ def search_route(
         as a λ's route in time takes the same grid nodes as the best one so far
         (:func:`optroute.search.objective_search.bisect_lambda`), for a caller
         that keeps the track and sets the speeds again (:func:`optroute.plan_voyage`
-        does); default False, 12 halvings.
+        does), and once λ = 0 is late take a λ whose speed in calm water is no
+        faster than λ = 0's as late without searching it; default False, 12 halvings.
 
     Returns
     -------
@@ -346,8 +347,9 @@ def search_route(
 
     try:
         res, lam_used = run_objective(
-            run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t, stop_at_track
-        )
+            run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t, stop_at_track,
+            lambda lam: physics.calm_cheapest_speed_kn(speeds, lam),
+        )  # fmt: skip
     except NoSafePassage as exc:
         raise explain_uncovered(exc, physics) from None
     except InfeasibleETA as exc:
