@@ -288,3 +288,9 @@ def test_verify_reads_the_evaluation_the_plan_was_made_from_and_finds_what_a_fre
         calls.clear()
         plan.verify(step_nm=2.5)  # another spacing: evaluated at it
         assert len(calls) == 1
+        calls.clear()
+        moved = np.array(plan.waypoints, dtype=float)  # waypoints changed in place: evaluated again
+        moved[1:-1, 0] += 0.05
+        object.__setattr__(plan, "waypoints", moved)
+        plan.verify(step_nm=5.0)
+        assert len(calls) == 1

@@ -333,7 +333,9 @@ class Plan:
             eta_shadow_price_t_per_h=float(eta_shadow_price_t_per_h),
             context=context,
         )
-        object.__setattr__(plan, "_dense", (float(step_nm), stw.copy(), ev))  # shared with verify at this spacing
+        object.__setattr__(
+            plan, "_dense", (float(step_nm), stw.copy(), wp.copy(), ev)
+        )  # shared with verify at this spacing
         return plan
 
     def __getstate__(self) -> dict[str, Any]:
@@ -342,10 +344,15 @@ class Plan:
 
     def _dense_track(self, stw: np.ndarray, sched_h: np.ndarray, step_nm: float) -> DenseTrack:
         """The referee's dense evaluation of this plan at ``step_nm``: the one :meth:`from_context` made when it is of
-        this plan's speeds and spacing (:meth:`verify`), else :func:`evaluate_track` again."""
+        this plan's speeds, waypoints and spacing (:meth:`verify`), else :func:`evaluate_track` again."""
         held = getattr(self, "_dense", None)
-        if held is not None and held[0] == step_nm and np.array_equal(held[1], stw):
-            return held[2]
+        if (
+            held is not None
+            and held[0] == step_nm
+            and np.array_equal(held[1], stw)
+            and np.array_equal(held[2], self.waypoints)
+        ):
+            return held[3]
         return evaluate_track(self.context, self.waypoints, stw, self.departure, sched_h, step_nm)
 
     # ------------------------------------------------------------------ properties
