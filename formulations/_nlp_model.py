@@ -38,14 +38,13 @@ import numpy as np
 
 from formulations._buffers import Buffered, MemoCallback
 from formulations.common import Band, PowerModel, spline_weights
+from formulations.row_layout import leg_kinds, leg_row_numbers
 from formulations.splines import ratio_field_names, sector_weights, spline_weight_derivatives
 
 __all__ = [
     "ABS_EPS_KN",
     "heading_dev_deg",
     "power_ratio",
-    "row_blocks",
-    "row_bounds",
     "sample_physics",
     "side_free_row",
     "StructuredCores",
@@ -481,39 +480,15 @@ def structured_cores(
             ex = taylor(th[r0 + n_rat : r0 + n_rat + 3 * n_blk], 3)
             xs, yfs = pxa + fj * dx, pya + fj * dy
             excls.append(((xs - ex[0]) ** 2 + (yfs - ex[1]) ** 2 - ex[2] ** 2) / nlp.exclusion.radius_scale_nm**2)
-    g_parts = [tb - ta - dt_sum, *loads]
-    for b in range(nb):
-        g_parts += bands_res[b]
-    if nlp._has_current:
-        g_parts += drifts + sogs
-    if has_excl:
-        g_parts += excls
-    g_leg = ca.vertcat(*g_parts)
-    n_gl = g_leg.shape[0]
-    lam_leg = ca.SX.sym("lam", n_gl)
     sigma = ca.SX.sym("sigma")  # lam_f · fuel weight
     inputs = [z, geo, theta, beta]
-    hess = ca.hessian(sigma * fuel_sum + ca.dot(lam_leg, g_leg), z)[0]
     fopts = jit_options(jit)
     leg_grad = ca.Function("leg_grad", inputs, [fuel_sum, ca.gradient(fuel_sum, z)], fopts).map(n)
-    leg_jac = ca.Function("leg_jac", inputs, [g_leg, ca.jacobian(g_leg, z)], fopts).map(n)
-    triu = ca.vertcat(*[hess[a, b] for a, b in _TRIU])
-    leg_hess = ca.Function("leg_hess", [*inputs, sigma, lam_leg], [triu], fopts).map(n)
-
-    # ---- index bookkeeping ------------------------------------------------------------
+    blocks = _LegBlocks(tb - ta - dt_sum, loads, bands_res, drifts + sogs if nlp._has_current else [], excls)
+    groups = [_leg_group(nlp, blocks, legs, with_b, with_e, fuel_sum, sigma, inputs, fopts)
+              for legs, with_b, with_e in leg_kinds(nlp.row_legs, has_excl)]  # fmt: skip
     legs = np.arange(n)
     z_idx = np.vstack([legs, legs + 1, n + 1 + legs, 2 * n + 1 + legs, 2 * n + 2 + legs])  # (5, N)
-    rows = nlp._rows
-    local_rows = [rows["dyn"][0] + legs]
-    local_rows += [rows["load"][0] + legs * m + j for j in range(m)]
-    for b in range(nb):
-        local_rows += [rows["band"][0] + b * k_ + legs * m + j for j in range(m)]
-    if nlp._has_current:
-        local_rows += [rows["drift"][0] + legs * m + j for j in range(m)]
-        local_rows += [rows["sog"][0] + legs * m + j for j in range(m)]
-    if has_excl:
-        local_rows += [rows["excl"][0] + legs * m + j for j in range(m)]
-    g_idx = np.vstack(local_rows)  # (n_gl, N)
     c, nrm, tau = cor.centre_xy_nm, cor.normal_xy, cor.tangent_xy
     geo_fixed = ca.DM(np.vstack([c[:-1].T, c[1:].T, nrm[:-1].T, nrm[1:].T, tau.T]))
     beta_idx = np.array([[2 + b * k_ + k * m + j for k in range(n)] for b in range(nb) for j in range(m)])
@@ -544,26 +519,35 @@ def structured_cores(
     grad = grad + p[1] * ca.DM(e_t)
     f_val = p[0] * ca.sum2(fuel_k) + p[1] * (x[3 * n + 1] - x[2 * n + 1])
     grad_core = ca.Function("grad_f_core", [x, p, th], [f_val, grad])
-    # jac_g: leg_jac output (n_gl, 5·N), column c of leg k at 5k + c; vec order (k, c, r)
-    g_k, jac_k = leg_jac(*args)
-    jr = np.concatenate([np.tile(g_idx[:, k], _N_Z) for k in range(n)])
-    jc = np.concatenate([np.repeat(z_idx[:, k], n_gl) for k in range(n)])
-    sp_j, gat_j = _scatter(ng, nx, jr, jc, jr.size)
+    # jac_g and hess_lag: per group of legs with the same rows (_leg_kinds), its legs' columns of the inputs
+    jr, jc, j_src, hr, hc, h_src = [], [], [], [], [], []
     g_full = ca.MX.zeros(ng, 1)
-    g_full[g_idx.T.ravel().tolist()] = ca.vec(g_k)
-    jac = ca.MX(sp_j, ca.mtimes(gat_j, ca.vec(jac_k)))
+    for grp in groups:
+        ks = grp.legs
+        sel = ks.tolist()
+        grp_args = [zmat[:, sel], geo_dm[:, sel], th[:, sel], beta_mat[:, sel]] if ks.size < n else args
+        # leg_jac output (n_gl, 5·n_k), column c of the group's leg i at 5i + c; vec order (i, c, r)
+        g_k, jac_k = grp.jac(*grp_args)
+        jr += [np.tile(grp.rows[:, i], _N_Z) for i in range(ks.size)]
+        jc += [np.repeat(z_idx[:, k], grp.rows.shape[0]) for k in ks]
+        j_src.append(ca.vec(jac_k))
+        g_full[grp.rows.T.ravel().tolist()] = ca.vec(g_k)
+        # hess_lag: upper triangle of Σ_k ∇²(σ fuel_k + λ_k·g_k)
+        lam_mat = ca.reshape(lam_g[grp.rows.T.ravel().tolist()], grp.rows.shape[0], ks.size)
+        h_args = [zmat[:, sel], geo_dm[:, sel], th_h[:, sel], beta_mat[:, sel]] if ks.size < n else [
+            zmat, geo_dm, th_h, beta_mat]  # fmt: skip
+        h_src.append(ca.vec(grp.hess(*h_args, lam_f * p[0], lam_mat)))  # (15, n_k)
+        for k in ks:
+            for a, b in _TRIU:
+                ia, ib = z_idx[a, k], z_idx[b, k]
+                hr.append(min(ia, ib))
+                hc.append(max(ia, ib))
+    jr_a, jc_a = np.concatenate(jr), np.concatenate(jc)
+    sp_j, gat_j = _scatter(ng, nx, jr_a, jc_a, jr_a.size)
+    jac = ca.MX(sp_j, ca.mtimes(gat_j, ca.vertcat(*j_src)))
     jac_core = ca.Function("jac_g_core", [x, p, th], [g_full, jac])
-    # hess_lag: upper triangle of Σ_k ∇²(σ fuel_k + λ_k·g_k)
-    lam_mat = ca.reshape(lam_g[g_idx.T.ravel().tolist()], n_gl, n)
-    h_k = leg_hess(zmat, geo_dm, th_h, beta_mat, lam_f * p[0], lam_mat)  # (15, N)
-    hr, hc = [], []
-    for k in range(n):
-        for a, b in _TRIU:
-            ia, ib = z_idx[a, k], z_idx[b, k]
-            hr.append(min(ia, ib))
-            hc.append(max(ia, ib))
     sp_h, gat_h = _scatter(nx, nx, np.array(hr), np.array(hc), len(hr))
-    hess_full = ca.MX(sp_h, ca.mtimes(gat_h, ca.vec(h_k)))
+    hess_full = ca.MX(sp_h, ca.mtimes(gat_h, ca.vertcat(*h_src)))
     hess_core = ca.Function("hess_lag_core", [x, p, lam_f, lam_g, th_h], [hess_full])
 
     def taylor(weather: Any, numeric: bool | None = None) -> Any:
@@ -571,6 +555,48 @@ def structured_cores(
         return _taylor_source(nlp, x, zmat, n_theta, exact_hessian, lay, weather, numeric)
 
     return StructuredCores(grad_core, jac_core, hess_core, taylor)
+
+
+class _LegBlocks(NamedTuple):
+    """A leg's row expressions by block (:func:`structured_cores`): in :func:`row_blocks`' order."""
+
+    dyn: Any  # t_{k+1} − t_k − Σ dt
+    loads: list  # m engine loads
+    bands: list  # per band, m residuals
+    current: list  # m drift rows then m SOG rows (empty without current rows)
+    excls: list  # m exclusion residuals (empty without an exclusion)
+
+
+class _LegGroup(NamedTuple):
+    """Legs with the same rows: their indices, global row numbers (n_gl, n_k) and mapped leg functions."""
+
+    legs: np.ndarray
+    rows: np.ndarray
+    jac: Any  # (z, geo, theta, beta) ↦ (g_leg, ∂g_leg/∂z), mapped over the group
+    hess: Any  # (z, geo, theta_h, beta, σ, λ) ↦ upper triangle of ∇²(σ fuel + λ·g_leg), mapped
+
+
+def _leg_group(
+    nlp: Any, blocks: _LegBlocks, legs: np.ndarray, with_b: bool, with_e: bool, fuel: Any, sigma: Any,
+    inputs: list, fopts: dict,
+) -> _LegGroup:  # fmt: skip
+    """The mapped Jacobian and Hessian functions of the legs ``legs`` and their rows' global numbers.
+
+    The rows are numbered as :func:`formulations.row_layout.leg_row_numbers` says (:class:`~formulations.row_layout.RowLegs`).
+    """
+    parts = [blocks.dyn, *blocks.loads]
+    if with_b:
+        parts += [row for band_rows in blocks.bands for row in band_rows]
+    parts += blocks.current
+    if with_e:
+        parts += blocks.excls
+    g_leg = ca.vertcat(*parts)
+    lam_leg = ca.SX.sym("lam", g_leg.shape[0])
+    hess = ca.hessian(sigma * fuel + ca.dot(lam_leg, g_leg), inputs[0])[0]
+    triu = ca.vertcat(*[hess[a, b] for a, b in _TRIU])
+    jac = ca.Function("leg_jac", inputs, [g_leg, ca.jacobian(g_leg, inputs[0])], fopts).map(legs.size)
+    hess_f = ca.Function("leg_hess", [*inputs, sigma, lam_leg], [triu], fopts).map(legs.size)
+    return _LegGroup(legs, leg_row_numbers(nlp._rows, nlp.row_legs, legs, with_b, with_e), jac, hess_f)
 
 
 def _sample_coordinates(nlp: Any, zmat: Any) -> tuple[Any, Any, np.ndarray]:
@@ -730,60 +756,3 @@ class _TaylorMemo:
         if self._fns["hessian"] is self._fns["first"]:
             return self._get("first", x)
         return self._get("hessian", x)
-
-
-def row_blocks(mdl: dict[str, Any], t: Any, *, bands: bool, current: bool, exclusion: bool) -> tuple[list[Any], dict]:
-    """The corridor NLP's constraint blocks in their order, and each block's (first, end) row.
-
-    Time dynamics, engine load, band residuals (``bands``), drift and speed over ground (``current``),
-    exclusion (``exclusion``) — from :meth:`SpeedNLP.symbolic_model`'s expressions ``mdl`` and the arrival
-    times ``t``; shared by the single-weather and the ensemble (member) NLPs.
-    """
-    parts: list[Any] = []
-    rows: dict[str, tuple[int, int]] = {}
-
-    def add(name: str, expr: Any) -> None:
-        start = sum(p.shape[0] for p in parts)
-        rows[name] = (start, start + expr.shape[0])
-        parts.append(expr)
-
-    add("dyn", (t[1:] - t[:-1]) - mdl["dt_leg"])
-    add("load", mdl["load"])
-    if bands:
-        add("band", mdl["band_res"])
-    if current:
-        add("drift", mdl["h_perp"])
-        add("sog", mdl["sog"])
-    if exclusion:
-        add("excl", mdl["excl_res"])
-    return parts, rows
-
-
-def row_bounds(
-    rows: dict[str, tuple[int, int]],
-    n_rows: int,
-    power: Any,
-    *,
-    band: tuple[Any, Any] | None,
-    sog_min_kn: float | None,
-    exclusion: bool,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Lower and upper bounds of :func:`row_blocks`' rows: the dynamics equal 0, the engine load in
-    [``power.min_load``, ``power.max_load``], the band residuals in ``band`` (lower, upper; None: no band rows),
-    the drift angle within 60° (``|sin| ≤ √0.75``) and SOG ≥ ``sog_min_kn`` [kn] (None: no current rows), the
-    exclusion residuals ≥ 0. Rows past the blocks (``n_rows`` beyond the last block: a caller's own rows) are 0."""
-    lbg, ubg = np.zeros(n_rows), np.zeros(n_rows)
-
-    def set_rows(name: str, lo: Any, hi: Any) -> None:
-        a, b = rows[name]
-        lbg[a:b], ubg[a:b] = lo, hi
-
-    set_rows("load", power.min_load, power.max_load)
-    if band is not None:
-        set_rows("band", *band)
-    if sog_min_kn is not None:
-        set_rows("drift", -np.sqrt(0.75), np.sqrt(0.75))
-        set_rows("sog", sog_min_kn, np.inf)
-    if exclusion:
-        set_rows("excl", 0.0, np.inf)
-    return lbg, ubg

@@ -39,9 +39,10 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from formulations._nlp_model import row_blocks, row_bounds, side_free_row, structured_derivatives
+from formulations._nlp_model import side_free_row, structured_derivatives
 from formulations.common import FormulationInputError, broadcast_legs
 from formulations.ipopt_options import IPOPT_DEFAULTS
+from formulations.row_layout import row_blocks, row_bounds
 from formulations.speed_nlp import SpeedNLP
 
 __all__ = ["ETA_WEIGHT", "SLACK_TOL", "Phase1Problem", "Phase1Result", "solve_phase1"]
@@ -154,17 +155,20 @@ class Phase1Problem:
         k_ = n * m
         has_excl = nlp.exclusion is not None
         nx = 3 * n + 2
-        # slacks: load up, load down (K each), exclusion (K, with a circle), bands (K·B, band-major), ETA (1)
-        self._n_excl = k_ if has_excl else 0
-        ns = 2 * k_ + self._n_excl + k_ * nb + 1
+        # slacks: load up, load down (K each), exclusion (one per sample on nlp.exclusion_legs, with a circle), bands
+        # (B per sample on nlp.band_legs, band-major), ETA (1): one per row of the NLP's blocks
+        self._n_excl = nlp.row_legs.exclusion_samples.size if has_excl else 0
+        self._n_band = nlp.row_legs.band_samples.size * nb
+        ns = 2 * k_ + self._n_excl + self._n_band + 1
         z = ca.MX.sym("x", nx + ns)
         p = ca.MX.sym("p", 2 + k_ * nb + n)  # SpeedNLP's parameters: weights, band edges, leg power factors
         y, v, t = z[: n + 1], z[n + 1 : 2 * n + 1], z[2 * n + 1 : nx]
         mdl = dict(nlp.symbolic_model(y, v, t, p[2 : 2 + k_ * nb], p[2 + k_ * nb :]))
         if nb:
-            res, ratio = mdl["band_res"], mdl["ratio"]
+            res, on = mdl["band_res"], nlp.row_legs.band_samples  # the band rows: on the samples of band_legs
+            ratio, k_b = nlp.row_legs.select(mdl["ratio"], on), on.size
             mdl["band_res"] = ca.vertcat(*[
-                side_free_row(b, ratio[:, i], res[i * k_ : (i + 1) * k_]) for i, b in enumerate(nlp.bands)
+                side_free_row(b, ratio[:, i], res[i * k_b : (i + 1) * k_b]) for i, b in enumerate(nlp.bands)
             ])  # fmt: skip
         parts, rows = row_blocks(mdl, t, bands=bool(nb), current=nlp.has_current_rows, exclusion=has_excl)
         g_model = ca.vertcat(*parts)
@@ -255,7 +259,11 @@ class Phase1Problem:
         t0 = nlp.consistent_times(y0, v0) if time0_h is None else broadcast_legs(time0_h, n + 1, "time0_h")
         edge = [b.lower if np.isfinite(b.lower) else b.upper for b in nlp.bands]  # a one-edge band's residual
         p = np.concatenate([[0.0, 0.0], np.repeat(edge, k_), nlp.leg_power_factor])
-        band = (-np.inf, np.where(np.transpose(app.reshape(k_, nb)).ravel(), 0.0, np.inf)) if nb else None
+        band = (
+            (-np.inf, np.where(nlp.row_legs.band_rows_of(app & nlp.row_legs.band_legs[:, None, None]), 0.0, np.inf))
+            if nb
+            else None
+        )
         lbg, ubg = row_bounds(self._rows, self._ng + 1, nlp.power, band=band,
                               sog_min_kn=nlp.sog_min_kn if nlp.has_current_rows else None,
                               exclusion=bool(ne))  # fmt: skip
@@ -276,7 +284,7 @@ class Phase1Problem:
         yy, vv, tt = zz[: n + 1], zz[n + 1 : 2 * n + 1], zz[2 * n + 1 : nx]
         sl = np.maximum(zz[nx:], 0.0)
         frac = nlp.sample_layout.fraction
-        band = sl[2 * k_ + ne : 2 * k_ + ne + k_ * nb]
+        band = sl[2 * k_ + ne : 2 * k_ + ne + self._n_band]
         return Phase1Result(
             status=str(stats.get("return_status", "unknown")),
             success=bool(stats.get("success", False)),
@@ -285,8 +293,8 @@ class Phase1Problem:
             stw_kn=vv,
             time_h=tt,
             load_slack=(sl[:k_] + sl[k_ : 2 * k_]).reshape(n, m),
-            excl_slack=(sl[2 * k_ : 2 * k_ + ne] if ne else np.zeros(k_)).reshape(n, m),
-            band_slack=np.transpose(band.reshape(nb, k_)).reshape(n, m, nb),
+            excl_slack=nlp.row_legs.exclusion_samples_of(sl[2 * k_ : 2 * k_ + ne]) if ne else np.zeros((n, m)),
+            band_slack=nlp.row_legs.band_samples_of(band) if nb else np.zeros((n, m, 0)),
             eta_slack_h=float(sl[-1]),
             sample_time_h=tt[:-1, None] + frac * np.diff(tt)[:, None],
             sample_fraction=frac,

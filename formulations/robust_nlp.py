@@ -63,7 +63,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from formulations._buffers import CoreCallback, WeatherValues
-from formulations._nlp_model import row_blocks, row_bounds, structured_cores
+from formulations._nlp_model import structured_cores
 from formulations.common import (
     G_OVER_2PI_KN_S,
     Band,
@@ -76,6 +76,7 @@ from formulations.common import (
 )
 from formulations.disjunctive import select_sides
 from formulations.ipopt_options import IPOPT_DEFAULTS
+from formulations.row_layout import row_blocks, row_bounds
 from formulations.sample_layout import SampleLayout
 from formulations.speed_nlp import SampleState, SpeedNLP
 

@@ -47,7 +47,8 @@ the Fourth IMO GHG Study curve ``SFOC(L) = SFC_base (0.455 L² − 0.710 L + 1.2
 Danger bands (:class:`formulations.common.Band`) are imposed per leg, sample
 and band with the side fixed by the caller (``ratio ≤ lower`` or ``ratio ≥
 upper``) as smooth one-sided constraints, only where the band is declared
-applicable; :meth:`SpeedNLP.solve` reports the ratios and the Hs at every
+applicable (and only on the legs the caller says a band can apply on at all,
+``band_legs``; :mod:`formulations.row_layout`); :meth:`SpeedNLP.solve` reports the ratios and the Hs at every
 sample so that the outer loop (:mod:`formulations.disjunctive`) can re-check
 applicability, which moves with the route, and flip sides.
 
@@ -76,14 +77,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from formulations._buffers import SharedMap, WeatherValues
-from formulations._nlp_model import (
-    heading_dev_deg,
-    jit_compiler,
-    row_blocks,
-    row_bounds,
-    sample_physics,
-    structured_derivatives,
-)
+from formulations._nlp_model import heading_dev_deg, jit_compiler, sample_physics, structured_derivatives
 from formulations.common import (
     G_OVER_2PI_KN_S,
     Band,
@@ -96,6 +90,7 @@ from formulations.common import (
 )
 from formulations.ipopt_options import IPOPT_DEFAULTS, WARM_START_OPTIONS, checked_duals
 from formulations.nlp_result import NLPResult, SampleState
+from formulations.row_layout import RowLegs, row_blocks, row_bounds
 from formulations.sample_layout import SampleLayout, midpoint_layout
 
 __all__ = [
@@ -171,6 +166,10 @@ class SpeedNLP:
         quadrature weights; replaces the midpoint rule of ``samples_per_leg`` (then ``samples_per_leg``
         becomes ``M``). Row-only points (weight 0) put the load, band and exclusion rows where a referee
         checks the plan.
+    band_legs, exclusion_legs : array_like of bool, shape (N,), optional
+        The legs that carry the band rows and the exclusion rows (default: every leg). A caller leaves a leg out
+        where the row can never bind (no band can apply anywhere near it, the circle never comes near it); such a
+        leg's band applicability is then not imposed (:meth:`band_edges`), and its rows cost Ipopt nothing.
     """
 
     def __init__(
@@ -194,6 +193,8 @@ class SpeedNLP:
         exact_hessian: bool = False,
         build_solver: bool = True,
         sample_layout: SampleLayout | None = None,
+        band_legs: ArrayLike | None = None,
+        exclusion_legs: ArrayLike | None = None,
     ) -> None:
         started = time.perf_counter()
         n = corridor.n_legs
@@ -218,6 +219,8 @@ class SpeedNLP:
         if not (np.isfinite(f).all() and (f > 0).all()):
             raise FormulationInputError(f"leg_power_factor must be finite and positive, got {f!r}")
         self.leg_power_factor = f
+        #: the legs that carry the band and the exclusion rows, and those rows' order
+        self.row_legs = RowLegs.of(band_legs, exclusion_legs, n, m, len(self.bands))
         self.g_over_2pi = float(g_over_2pi_kn_s)
         self.sog_min_kn = float(sog_min_kn)
         for b in self.bands:
@@ -311,13 +314,15 @@ class SpeedNLP:
             "dev_deg": heading_dev_deg(_rep(sin_d, m), _rep(cos_d, m), col["h_perp"]),
         }
         if nb:
-            res["band_res"] = ca.vec(out[:, 8 : 8 + nb])  # band-major: b·K + sample
+            # band-major over the samples that carry band rows: b·K_b + i (i: the sample's rank among them)
+            res["band_res"] = ca.vec(self.row_legs.select(out[:, 8 : 8 + nb], self.row_legs.band_samples))
             res["ratio"] = out[:, 8 + nb : 8 + 2 * nb]
         if self.exclusion is not None:
             centre = self._excl_map(t_s.T).T  # (K, 3): cx, cy, r
             d2 = (x_s - centre[:, 0]) ** 2 + (yf_s - centre[:, 1]) ** 2
             res["excl_margin"] = ca.sqrt(d2 + 1e-12) - centre[:, 2]
-            res["excl_res"] = (d2 - centre[:, 2] ** 2) / self.exclusion.radius_scale_nm**2
+            excl_res = (d2 - centre[:, 2] ** 2) / self.exclusion.radius_scale_nm**2
+            res["excl_res"] = self.row_legs.select(excl_res, self.row_legs.exclusion_samples)
         return res
 
     # ------------------------------------------------------------------ build
@@ -346,42 +351,19 @@ class SpeedNLP:
         return self._state(values)
 
     @property
+    def n_rows(self) -> int:
+        """The number of constraint rows Ipopt sees (:func:`formulations.row_layout.row_blocks`)."""
+        return int(self._ng)
+
+    @property
     def has_current_rows(self) -> bool:
         """Whether the drift-angle and SOG rows are imposed (a current that can bind them)."""
         return bool(self._has_current)
 
     def band_edges(self, sides: np.ndarray, applies: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The band-edge parameter ``beta`` (band-major) and the band rows' bounds for sides and applicability
-        (N, m, B), as :meth:`solve` sets them."""
-        n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
-        k_ = n * m
-        lower = np.array([b.lower for b in self.bands])
-        upper = np.array([b.upper for b in self.bands])
-        side_arr = np.asarray(sides).astype(np.int8)
-        app_arr = np.asarray(applies, dtype=bool)
-        if side_arr.shape != (n, m, nb) or app_arr.shape != (n, m, nb):
-            raise FormulationInputError(
-                f"sides and applies must have shape {(n, m, nb)}, got {side_arr.shape} and {app_arr.shape}"
-            )
-        if not nb:
-            return np.zeros(0), np.zeros(0), np.zeros(0)
-        if not np.isin(side_arr, (-1, 1)).all():
-            raise FormulationInputError("sides must be -1 (ratio <= lower) or +1 (ratio >= upper)")
-        beta3 = np.where(side_arr < 0, lower[None, None, :], upper[None, None, :])
-        bad = app_arr & ~np.isfinite(beta3)
-        if bad.any():
-            k, j, b = np.argwhere(bad)[0]
-            raise FormulationInputError(
-                f"band {self.bands[b].name or b} has no side {int(side_arr[k, j, b])} (its edge is infinite): "
-                f"leg {k}, sample {j}"
-            )
-        beta3 = np.where(np.isfinite(beta3), beta3, 0.0)
-        beta = np.transpose(beta3.reshape(k_, nb)).ravel()
-        s_flat = np.transpose(side_arr.reshape(k_, nb)).ravel()
-        a_flat = np.transpose(app_arr.reshape(k_, nb)).ravel()
-        lo = np.where(a_flat & (s_flat > 0), 0.0, -np.inf)
-        hi = np.where(a_flat & (s_flat < 0), 0.0, np.inf)
-        return beta, lo, hi
+        (N, m, B), as :meth:`solve` sets them (:meth:`formulations.row_layout.RowLegs.band_edges`)."""
+        return self.row_legs.band_edges(self.bands, sides, applies)
 
     def _build(
         self,
@@ -612,7 +594,8 @@ class SpeedNLP:
         """
         layout = self.sample_layout
         rows = tuple(sorted((k, tuple(np.ravel(v).tolist())) for k, v in self._rows.items()))
-        return (self._nx, self._ng, rows, layout.fraction.tobytes(), layout.weight.tobytes(), self.n_bands)
+        masks = (self.row_legs.band_legs.tobytes(), self.row_legs.exclusion_legs.tobytes())
+        return (self._nx, self._ng, rows, layout.fraction.tobytes(), layout.weight.tobytes(), self.n_bands, *masks)
 
     def solve(
         self,
@@ -673,7 +656,6 @@ class SpeedNLP:
             Including Ipopt's status verbatim; check ``success`` and ``max_violation``.
         """
         n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
-        k_ = n * m
         if self._solver is None:
             raise FormulationInputError("this SpeedNLP was built with build_solver=False: it has no solver")
         if objective not in ("time", "fuel", "cost"):
@@ -754,8 +736,8 @@ class SpeedNLP:
         y, v, t = self._unpack(x)
         if nb:
             a, b = self._rows["band"]
-            lam_b = np.transpose(lam_g[a:b].reshape(nb, k_)).reshape(n, m, nb)
-            res = np.transpose(g[a:b].reshape(nb, k_)).reshape(n, m, nb)
+            lam_b = self.row_legs.band_samples_of(lam_g[a:b])
+            res = self.row_legs.band_samples_of(g[a:b], np.inf)
             active = app_arr & ((np.abs(lam_b) > 1e-8) | (np.abs(res) < 1e-6))
             lam_b = np.where(app_arr, lam_b, 0.0)
         else:

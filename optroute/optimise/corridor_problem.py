@@ -539,9 +539,21 @@ class PreparedCorridor(CorridorReport):
                 binding = self.binding.copy()  # the rejected plan's check points, and every leg it was rejected on
                 binding[[v.leg for v in violations if 0 <= v.leg < binding.size]] = True
                 st.row_points = only_where_binding(points_of(violations.points, plan.waypoints), binding)
+            st.forced_legs = self._rejected_legs(st.forced_legs, violations)
             call.retries, call.samples_per_leg = st.retries, st.samples_per_leg
             warm = {"offset_nm": sol.res.offset_nm, "stw_kn": sol.res.stw_kn}
         return None
+
+    def _rejected_legs(self, forced: np.ndarray | None, violations: list[Violation]) -> np.ndarray | None:
+        """``forced`` (N,) with the legs of the referee's band and exclusion ``violations``: those legs keep their band
+        and exclusion rows in the next build whatever the weather grid says (:func:`optroute.optimise.rows.nlp_row_legs`)."""
+        legs = [v.leg for v in violations if v.kind.startswith("band") or v.kind == "exclusion"]
+        legs = [k for k in legs if 0 <= k < self.frame.n_legs]
+        if not legs:
+            return forced
+        out = np.zeros(self.frame.n_legs, dtype=bool) if forced is None else forced.copy()
+        out[legs] = True
+        return out
 
     def _first_failure(
         self,
@@ -713,6 +725,7 @@ class PreparedCorridor(CorridorReport):
             "first_solve": call.first_solve or "not run",
             "constraint_rows": self.constraint_rows,
             "row_samples_per_leg": call.last.nlp.samples_per_leg if call.last is not None else None,
+            "row_legs": self._row_legs(call),
             "tightening": list(call.log),
             "power_table": self._table_stats(),
             "n_legs": self.frame.n_legs,
@@ -721,6 +734,16 @@ class PreparedCorridor(CorridorReport):
             "weather_nodes_filled": self.samples.filled,
             "prepared_horizon_h": self.horizon_h,
         }
+
+    @staticmethod
+    def _row_legs(call: _Call) -> dict[str, int] | None:
+        """The last solve's NLP: its rows, and the legs that carry band rows and exclusion rows (the others carry only
+        the dynamics, load and current rows: :func:`optroute.optimise.rows.nlp_row_legs`)."""
+        if call.last is None:
+            return None
+        nlp = call.last.nlp
+        return {"rows": nlp.n_rows, "legs": nlp.n_legs, "band": int(np.sum(nlp.row_legs.band_legs) if nlp.n_bands else 0),
+                "exclusion": int(np.sum(nlp.row_legs.exclusion_legs) if nlp.exclusion is not None else 0)}  # fmt: skip
 
     @property
     def fixed_path(self) -> bool:

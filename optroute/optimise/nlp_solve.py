@@ -26,7 +26,7 @@ from formulations.speed_nlp import NLPResult, SpeedNLP
 from optroute import units
 from optroute.geo.tracks import Exclusion, gc_points, project_to_polyline
 from optroute.optimise.nlp_inputs import CorridorFrame, formulation_bands, moving_exclusion
-from optroute.optimise.rows import sample_layout
+from optroute.optimise.rows import nlp_row_legs, sample_layout
 from optroute.optimise.timed_no_go import NoPassageWindows
 from optroute.physics.passage import best_speed
 from optroute.physics.safety import BandRules
@@ -93,6 +93,8 @@ class Tightening:
     log: list[str] = field(default_factory=list)
     # row-only samples per leg, fractions [-] of the referee's check points (optroute.optimise.rows); None: midpoints
     row_points: list[np.ndarray] | None = None
+    # legs the referee rejected a plan on: they keep their band and exclusion rows (rows.nlp_row_legs); None: none
+    forced_legs: np.ndarray | None = None
 
 
 @dataclass
@@ -208,6 +210,7 @@ class Problem:
             max_iter,
             *(b.tobytes() if b is not None else None for b in (st.y_lo, st.y_hi)),
             None if st.row_points is None else b"|".join(np.asarray(p, dtype=float).tobytes() for p in st.row_points),
+            None if st.forced_legs is None else np.asarray(st.forced_legs, dtype=bool).tobytes(),
         )
 
     def build(self, st: Tightening, *, max_iter: int | None = None) -> SpeedNLP:
@@ -248,6 +251,7 @@ class Problem:
         excl = None
         if self.exclusion is not None:
             excl = moving_exclusion(self.exclusion, self.frame, self.departure, extra_radius_nm=st.extra_radius_nm)
+        band_legs, excl_legs = nlp_row_legs(self.frame, self.grid, bands, excl, st.forced_legs)
         nlp = SpeedNLP(
             geom,
             self.grid,
@@ -255,6 +259,8 @@ class Problem:
             bands=bands,
             exclusion=excl,
             sample_layout=sample_layout(st.row_points, self.frame.n_legs, st.samples_per_leg),
+            band_legs=band_legs,
+            exclusion_legs=excl_legs,
             v_min_kn=self.v_min,
             v_max_kn=self.v_max,
             g_over_2pi_kn_s=a,

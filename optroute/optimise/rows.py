@@ -21,6 +21,12 @@ there with the leg's own speed), and the crossings and refinement points only wh
 (Hs in the NLP's weather grid reaches the bands' threshold near the leg at some time) or the exclusion circle
 comes within :data:`EXCLUSION_REACH_NM` of the leg's corridor. The NLP's arrays have as many samples on every
 leg as on its busiest one, so this trims the legs' row points, not always the per-leg sample count.
+
+The same test decides which legs carry band and exclusion rows at all (:func:`nlp_row_legs`, the NLP's
+``band_legs`` and ``exclusion_legs``, :class:`formulations.row_layout.RowLegs`): on the others those rows would be
+−∞…+∞ at every solve and still cost Ipopt and MUMPS at every iteration. It is taken per build, at the build's own
+band thresholds and circle (a tightened Hs back-off or radius widens it), plus the legs the referee rejected a plan
+on (``Tightening.forced_legs``).
 """
 
 from __future__ import annotations
@@ -29,6 +35,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from formulations.common import Band, MovingExclusion, WeatherGrid
 from formulations.sample_layout import SampleLayout, midpoint_layout, with_points
 from optroute import geodesy as geo
 from optroute.errors import OptrouteError
@@ -41,6 +48,8 @@ __all__ = [
     "ROW_PLACEMENTS",
     "canonical_rows",
     "binding_legs",
+    "exclusion_legs",
+    "nlp_row_legs",
     "legs_near_exclusion",
     "legs_that_can_bind",
     "only_where_binding",
@@ -200,18 +209,44 @@ def binding_legs(
     hs_apply = min((float(b.hs_min_m) for b in bands), default=None)
     near = None
     if ctx.exclusion is not None:
-        mv = moving_exclusion(ctx.exclusion, frame, departure)
-        t = mv.t_h
-        if t.size > 1:  # densely: the centre moves at most a tenth of the reach between samples
-            step = np.linalg.norm(np.diff(mv.centre_xy_nm, axis=0), axis=1)
-            n_sub = max(2, int(np.ceil(np.max(step) / (0.1 * EXCLUSION_REACH_NM))) + 1)
-            t = np.unique(np.concatenate([np.linspace(a, b, n_sub) for a, b in zip(t[:-1], t[1:], strict=True)]))
-        xy = np.column_stack([np.interp(t, mv.t_h, mv.centre_xy_nm[:, j]) for j in range(2)])
-        near = legs_near_exclusion(
-            frame.centre_xy_nm, np.asarray(frame.corridor.half_width_nm, dtype=float), xy,
-            np.interp(t, mv.t_h, mv.radius_nm),
-        )  # fmt: skip
+        near = exclusion_legs(frame, moving_exclusion(ctx.exclusion, frame, departure))
     return legs_that_can_bind(frame.s_nm, grid_s_nm, grid_hs_m, hs_apply, near)
+
+
+def exclusion_legs(frame: CorridorFrame, mv: MovingExclusion) -> np.ndarray:
+    """Per leg, whether the moving circle ``mv`` (the NLP's, in ``frame``'s flat frame) comes within
+    :data:`EXCLUSION_REACH_NM` of the leg's corridor at any time (:func:`legs_near_exclusion`, its track sampled so
+    that the centre moves at most a tenth of the reach between samples)."""
+    t = mv.t_h
+    if t.size > 1:
+        step = np.linalg.norm(np.diff(mv.centre_xy_nm, axis=0), axis=1)
+        n_sub = max(2, int(np.ceil(np.max(step) / (0.1 * EXCLUSION_REACH_NM))) + 1)
+        t = np.unique(np.concatenate([np.linspace(a, b, n_sub) for a, b in zip(t[:-1], t[1:], strict=True)]))
+    xy = np.column_stack([np.interp(t, mv.t_h, mv.centre_xy_nm[:, j]) for j in range(2)])
+    return legs_near_exclusion(
+        frame.centre_xy_nm, np.asarray(frame.corridor.half_width_nm, dtype=float), xy,
+        np.interp(t, mv.t_h, mv.radius_nm),
+    )  # fmt: skip
+
+
+def nlp_row_legs(
+    frame: CorridorFrame,
+    grid: WeatherGrid,
+    bands: tuple[Band, ...],
+    exclusion: MovingExclusion | None,
+    forced: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The legs that carry the NLP's band rows and its exclusion rows (``SpeedNLP``'s ``band_legs`` and
+    ``exclusion_legs``): where one of the NLP's ``bands`` can apply (:func:`legs_that_can_bind` at their lowest Hs
+    threshold on the NLP's weather ``grid``), where its circle ``exclusion`` comes near (:func:`exclusion_legs`),
+    and the legs ``forced`` (N,) (the referee rejected a plan there). Elsewhere those rows could never bind: their
+    bounds would be −∞…+∞ at every solve, and Ipopt and MUMPS would still carry them at every iteration."""
+    hs_apply = min((float(b.hs_min_m) for b in bands), default=None)
+    band = legs_that_can_bind(frame.s_nm, grid.s_nm, grid.hs_m, hs_apply)
+    excl = exclusion_legs(frame, exclusion) if exclusion is not None else np.zeros(frame.n_legs, dtype=bool)
+    if forced is not None:
+        band, excl = band | forced, excl | forced
+    return band, excl
 
 
 def only_where_binding(points: list[np.ndarray] | None, binding: np.ndarray) -> list[np.ndarray] | None:

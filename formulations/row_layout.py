@@ -1,0 +1,212 @@
+"""Which rows the corridor NLP imposes, on which legs, in which order (issue 13).
+
+:class:`formulations.speed_nlp.SpeedNLP` stacks its constraint rows in blocks (:func:`row_blocks`): time dynamics
+(one per leg), engine load (one per sample), danger bands (one per sample and band, band-major), drift and speed over
+ground (with a current that can bind them), exclusion circle (one per sample). A band row can bind only where the
+band applies (Hs at or above its threshold), an exclusion row only where the circle comes near; elsewhere its bounds
+are −∞…+∞ at every solve, yet Ipopt and MUMPS carry it at every iteration. :class:`RowLegs` says which legs carry
+the band rows and which the exclusion rows (the caller's knowledge of its weather and circle; default every leg),
+and maps per-sample arrays to those rows' order and back. The load, dynamics and current rows stay on every leg.
+
+Nothing here imports :mod:`optroute`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from formulations.common import Band, FormulationInputError
+
+__all__ = ["RowLegs", "leg_kinds", "leg_row_numbers", "row_blocks", "row_bounds"]
+
+
+@dataclass(frozen=True)
+class RowLegs:
+    """The legs that carry the band rows and the exclusion rows of an NLP of ``n_legs`` legs, ``per_leg`` samples
+    each and ``n_bands`` bands.
+
+    A band row of sample ``j`` of leg ``k`` is row ``b·K_b + i·m + j`` of the band block (``i`` the rank of leg ``k``
+    among :attr:`band_legs`, ``K_b`` their samples); an exclusion row ``i·m + j`` of the exclusion block.
+    """
+
+    band_legs: np.ndarray  # (N,) bool
+    exclusion_legs: np.ndarray  # (N,) bool
+    per_leg: int
+    n_bands: int
+
+    @classmethod
+    def of(cls, band_legs: ArrayLike | None, exclusion_legs: ArrayLike | None, n: int, m: int, nb: int) -> RowLegs:
+        """Checked masks (None: every leg)."""
+        return cls(_mask(band_legs, n, "band_legs"), _mask(exclusion_legs, n, "exclusion_legs"), int(m), int(nb))
+
+    @property
+    def band_samples(self) -> np.ndarray:
+        """The samples (index k·m + j) that carry band rows."""
+        return np.flatnonzero(np.repeat(self.band_legs, self.per_leg))
+
+    @property
+    def exclusion_samples(self) -> np.ndarray:
+        """The samples (index k·m + j) that carry an exclusion row."""
+        return np.flatnonzero(np.repeat(self.exclusion_legs, self.per_leg))
+
+    def select(self, expr: Any, samples: np.ndarray) -> Any:
+        """The rows ``samples`` of a (K, c) CasADi expression over every sample (itself when they are all)."""
+        return expr if samples.size == self.band_legs.size * self.per_leg else expr[samples.tolist(), :]
+
+    def band_rows_of(self, values: np.ndarray) -> np.ndarray:
+        """Per-sample values (N, m, B) in the band rows' order."""
+        flat = np.asarray(values).reshape(self.band_legs.size * self.per_leg, self.n_bands)[self.band_samples]
+        return np.transpose(flat).ravel()
+
+    def band_samples_of(self, rows: np.ndarray, fill: float = 0.0) -> np.ndarray:
+        """The inverse of :meth:`band_rows_of`: band-row values to (N, m, B), ``fill`` on legs without band rows."""
+        n, m, nb = self.band_legs.size, self.per_leg, self.n_bands
+        out = np.full((n * m, nb), fill, dtype=np.asarray(rows).dtype)
+        out[self.band_samples] = np.transpose(np.asarray(rows).reshape(nb, -1))
+        return out.reshape(n, m, nb)
+
+    def exclusion_samples_of(self, rows: np.ndarray, fill: float = 0.0) -> np.ndarray:
+        """Exclusion-row values to (N, m), ``fill`` on legs without exclusion rows."""
+        out = np.full(self.band_legs.size * self.per_leg, fill, dtype=np.asarray(rows).dtype)
+        out[self.exclusion_samples] = rows
+        return out.reshape(self.band_legs.size, self.per_leg)
+
+    def band_edges(
+        self, bands: tuple[Band, ...], sides: np.ndarray, applies: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The band-edge parameter ``beta`` (N·m·B, band-major over every sample) and the band rows' lower and upper
+        bounds for ``sides`` (−1: ``ratio ≤ lower``, +1: ``ratio ≥ upper``) and ``applies``, both (N, m, B).
+
+        A band is imposed where it applies on the legs that carry its rows; on the others it is not (the caller
+        leaves a leg out only where no band can apply)."""
+        n, m, nb = self.band_legs.size, self.per_leg, self.n_bands
+        side_arr = np.asarray(sides).astype(np.int8)
+        app_arr = np.asarray(applies, dtype=bool)
+        if side_arr.shape != (n, m, nb) or app_arr.shape != (n, m, nb):
+            raise FormulationInputError(
+                f"sides and applies must have shape {(n, m, nb)}, got {side_arr.shape} and {app_arr.shape}"
+            )
+        if not nb:
+            return np.zeros(0), np.zeros(0), np.zeros(0)
+        if not np.isin(side_arr, (-1, 1)).all():
+            raise FormulationInputError("sides must be -1 (ratio <= lower) or +1 (ratio >= upper)")
+        lower = np.array([b.lower for b in bands])
+        upper = np.array([b.upper for b in bands])
+        beta3 = np.where(side_arr < 0, lower[None, None, :], upper[None, None, :])
+        app_arr = app_arr & self.band_legs[:, None, None]
+        bad = app_arr & ~np.isfinite(beta3)
+        if bad.any():
+            k, j, b = np.argwhere(bad)[0]
+            raise FormulationInputError(
+                f"band {bands[b].name or b} has no side {int(side_arr[k, j, b])} (its edge is infinite): "
+                f"leg {k}, sample {j}"
+            )
+        beta = np.transpose(np.where(np.isfinite(beta3), beta3, 0.0).reshape(n * m, nb)).ravel()
+        s_flat, a_flat = self.band_rows_of(side_arr), self.band_rows_of(app_arr)
+        lo = np.where(a_flat & (s_flat > 0), 0.0, -np.inf)
+        hi = np.where(a_flat & (s_flat < 0), 0.0, np.inf)
+        return beta, lo, hi
+
+
+def _mask(legs: ArrayLike | None, n: int, name: str) -> np.ndarray:
+    if legs is None:
+        return np.ones(n, dtype=bool)
+    out = np.asarray(legs)
+    if out.shape != (n,) or out.dtype != bool:
+        raise FormulationInputError(f"{name} must be a bool array of shape ({n},), got {out.dtype} {out.shape}")
+    return out.copy()
+
+
+def leg_kinds(legs: RowLegs, has_excl: bool) -> list[tuple[np.ndarray, bool, bool]]:
+    """The legs grouped by the rows they carry: (leg indices, band rows, exclusion rows), non-empty groups only
+    (one group of every leg when every leg carries every row)."""
+    with_b = legs.band_legs & (legs.n_bands > 0)
+    with_e = legs.exclusion_legs & has_excl
+    out = []
+    for b in (True, False):
+        for e in (True, False):
+            ks = np.flatnonzero((with_b == b) & (with_e == e))
+            if ks.size:
+                out.append((ks, b, e))
+    return out
+
+
+def leg_row_numbers(
+    rows: dict[str, tuple[int, int]], legs: RowLegs, ks: np.ndarray, with_b: bool, with_e: bool
+) -> np.ndarray:
+    """The global numbers (n_gl, n_k) of the rows of the legs ``ks``, in a leg's order: dynamics, m loads, per band
+    m residuals (``with_b``), m drifts and m SOGs (when ``rows`` has them), m exclusion residuals (``with_e``)."""
+    m = legs.per_leg
+    idx = [rows["dyn"][0] + ks]
+    idx += [rows["load"][0] + ks * m + j for j in range(m)]
+    if with_b:
+        rank, k_b = np.cumsum(legs.band_legs)[ks] - 1, int(np.sum(legs.band_legs)) * m
+        idx += [rows["band"][0] + b * k_b + rank * m + j for b in range(legs.n_bands) for j in range(m)]
+    if "drift" in rows:
+        idx += [rows["drift"][0] + ks * m + j for j in range(m)]
+        idx += [rows["sog"][0] + ks * m + j for j in range(m)]
+    if with_e:
+        rank = np.cumsum(legs.exclusion_legs)[ks] - 1
+        idx += [rows["excl"][0] + rank * m + j for j in range(m)]
+    return np.vstack(idx)
+
+
+def row_blocks(mdl: dict[str, Any], t: Any, *, bands: bool, current: bool, exclusion: bool) -> tuple[list[Any], dict]:
+    """The corridor NLP's constraint blocks in their order, and each block's (first, end) row.
+
+    Time dynamics, engine load, band residuals (``bands``), drift and speed over ground (``current``),
+    exclusion (``exclusion``) — from :meth:`SpeedNLP.symbolic_model`'s expressions ``mdl`` and the arrival
+    times ``t``; shared by the single-weather and the ensemble (member) NLPs.
+    """
+    parts: list[Any] = []
+    rows: dict[str, tuple[int, int]] = {}
+
+    def add(name: str, expr: Any) -> None:
+        start = sum(p.shape[0] for p in parts)
+        rows[name] = (start, start + expr.shape[0])
+        parts.append(expr)
+
+    add("dyn", (t[1:] - t[:-1]) - mdl["dt_leg"])
+    add("load", mdl["load"])
+    if bands:
+        add("band", mdl["band_res"])
+    if current:
+        add("drift", mdl["h_perp"])
+        add("sog", mdl["sog"])
+    if exclusion:
+        add("excl", mdl["excl_res"])
+    return parts, rows
+
+
+def row_bounds(
+    rows: dict[str, tuple[int, int]],
+    n_rows: int,
+    power: Any,
+    *,
+    band: tuple[Any, Any] | None,
+    sog_min_kn: float | None,
+    exclusion: bool,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper bounds of :func:`row_blocks`' rows: the dynamics equal 0, the engine load in
+    [``power.min_load``, ``power.max_load``], the band residuals in ``band`` (lower, upper; None: no band rows),
+    the drift angle within 60° (``|sin| ≤ √0.75``) and SOG ≥ ``sog_min_kn`` [kn] (None: no current rows), the
+    exclusion residuals ≥ 0. Rows past the blocks (``n_rows`` beyond the last block: a caller's own rows) are 0."""
+    lbg, ubg = np.zeros(n_rows), np.zeros(n_rows)
+
+    def set_rows(name: str, lo: Any, hi: Any) -> None:
+        a, b = rows[name]
+        lbg[a:b], ubg[a:b] = lo, hi
+
+    set_rows("load", power.min_load, power.max_load)
+    if band is not None:
+        set_rows("band", *band)
+    if sog_min_kn is not None:
+        set_rows("drift", -np.sqrt(0.75), np.sqrt(0.75))
+        set_rows("sog", sog_min_kn, np.inf)
+    if exclusion:
+        set_rows("excl", 0.0, np.inf)
+    return lbg, ubg
