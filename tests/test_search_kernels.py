@@ -20,7 +20,7 @@ import optroute as orx
 from optroute import _numba
 from optroute.physics.passage import SeaState, evaluate_speeds
 from optroute.physics.performance import CalmWaterModel, KwonModel, PowerTableModel
-from optroute.physics.pointwise import point_params
+from optroute.physics.pointwise import cached_point_params, point_params
 from optroute.physics.safety import BandRules
 from optroute.search import RouteGrid, angular_resolution, compass, shortest_path
 from optroute.search.costs import LegEvaluator
@@ -295,7 +295,8 @@ def test_cheapest_speed_kernel_is_the_brute_force_argmin():
     # that of trying every speed of the set, the least (fuel + λ) / SOG
     from optroute.search.passage_kernels import _eval_at, cheapest_speed_at
 
-    p = point_params(CARGO, KwonModel(CARGO), BandRules())
+    # read only, as the search passes them, so the kernels are not compiled a second time for a writable array
+    p = cached_point_params(CARGO, KwonModel(CARGO), BandRules())
     rng = np.random.default_rng(15)
     speeds = np.arange(5.0, 15.01, 0.5)
     chosen = []
