@@ -20,7 +20,7 @@ import optroute as orx
 from optroute import _numba
 from optroute.physics.passage import SeaState, evaluate_speeds
 from optroute.physics.performance import CalmWaterModel, KwonModel, PowerTableModel
-from optroute.physics.pointwise import point_params
+from optroute.physics.pointwise import cached_point_params, point_params
 from optroute.physics.safety import BandRules
 from optroute.search import RouteGrid, angular_resolution, compass, shortest_path
 from optroute.search.costs import LegEvaluator
@@ -205,12 +205,15 @@ def test_dp_kernel_costs_random_legs_as_the_numpy_callback(sea):
         {"objective": "time"},
         {"objective": "time", "band_check_nm": None, "method": "dijkstra"},
         {"objective": "cost", "hourly_cost_per_h": 2400.0},
-        {"method": "dp", "objective": "fuel", "dp_options": {"dx_nm": 150.0, "dy_nm": 50.0, "half_width_nm": 100.0}},
+        {"method": "dp", "objective": "fuel", "dp_options": {"dx_nm": 150.0, "dy_nm": 50.0, "half_width_nm": 100.0},
+         "speeds_kn": np.arange(6.0, 16.01, 2.0)},
     ],
-)
+)  # fmt: skip
 def test_search_routes_are_those_of_the_numpy_callbacks(sea, kw):
     # 60 nm cells (were 40): still a search across the 850 nm box with every edge costed by both paths, on fewer
-    # edges; the numpy path (compiled=False) is the slow one and its cost scales with the edges
+    # edges; the numpy path (compiled=False) is the slow one and its cost scales with the edges. The DP on six
+    # speeds (6-16 kn; the default ladder is 5 kn to the top speed in 0.5 kn steps): the same lattice, every
+    # transition still costed by both paths, its route still weaving off the centreline (6 legs, 29.56 t)
     base = dict(departure=T0, cell_nm=60.0, snap_max_nm=400.0, **kw)
     fast = _quiet(search_route, *BOX, sea, CARGO, **base)
     slow = _quiet(search_route, *BOX, sea, CARGO, compiled=False, **base)
@@ -295,7 +298,8 @@ def test_cheapest_speed_kernel_is_the_brute_force_argmin():
     # that of trying every speed of the set, the least (fuel + λ) / SOG
     from optroute.search.passage_kernels import _eval_at, cheapest_speed_at
 
-    p = point_params(CARGO, KwonModel(CARGO), BandRules())
+    # read only, as the search passes them, so the kernels are not compiled a second time for a writable array
+    p = cached_point_params(CARGO, KwonModel(CARGO), BandRules())
     rng = np.random.default_rng(15)
     speeds = np.arange(5.0, 15.01, 0.5)
     chosen = []

@@ -255,8 +255,8 @@ def brake_power(p, stw_kn, hs_m, wave_angle_deg, wind_speed_ms):  # pragma: no c
         c_bf / 100.0,
         p[P_INV_SQRT_GL_KN],
         v_max,
-        KWON_SCAN_STEPS,
-        KWON_BISECTIONS,
+        np.int64(KWON_SCAN_STEPS),  # typed, not literal: one signature with _invert_kwon's
+        np.int64(KWON_BISECTIONS),
     )
     if not math.isfinite(v1):
         return np.inf
@@ -284,7 +284,7 @@ def brake_power_bound(p, stw_lo_kn, stw_hi_kn, bn_max):  # pragma: no cover - co
     a, b, c, inv = p[P_CU_A], p[P_CU_B], p[P_CU_C], p[P_INV_SQRT_GL_KN]
     if not kwon_weather_speed_increasing(stw_lo_kn, v_max, a, b, c, loss * (1.0 + 1e-6), inv):
         return np.inf
-    v1 = calm_speed_point(stw_hi_kn, a, b, c, loss, inv, v_max, KWON_SCAN_STEPS, KWON_BISECTIONS)
+    v1 = calm_speed_point(stw_hi_kn, a, b, c, loss, inv, v_max, np.int64(KWON_SCAN_STEPS), np.int64(KWON_BISECTIONS))
     if not math.isfinite(v1):
         return np.inf
     return calm_power(p, v1) * (1.0 + 1e-9)

@@ -562,7 +562,7 @@ def calm_speed_for_weather_kn(
 
     too_fast = v2 > v_max * (1.0 + 1e-12)  # slack: a V2 at the bound itself, up to rounding, is allowed
     arrays = np.broadcast_arrays(v2, a, b, c, loss_per_cu, inv_sqrt_gl_kn, v_max)
-    flat = [np.ascontiguousarray(x, dtype=float).ravel() for x in arrays]
+    flat = [np.array(x, dtype=float, order="C").ravel() for x in arrays]  # writable copies: one kernel signature
     v1 = _invert_kwon(*flat, _N_SCAN, _N_BISECT).reshape(v2.shape)
     v1 = np.where(too_fast, np.nan, v1)
     bad = np.isnan(v1)

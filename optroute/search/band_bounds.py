@@ -122,8 +122,8 @@ def _box_maxima(table, time_s, lat_deg, lon_deg, meta, c_lo, c_hi):  # pragma: n
     """(largest Hs, largest wind speed, any wind unknown, largest current speed) over the box's cells' nodes."""
     nt, ny, nx = time_s.size, lat_deg.size, lon_deg.size
     periodic = meta[_META_PERIODIC] != 0.0
-    t0, kt = _node_range(c_lo[0], c_hi[0], nt, False)
-    y0, ky = _node_range(c_lo[1], c_hi[1], ny, False)
+    t0, kt = _node_range(c_lo[0], c_hi[0], nt, np.bool_(False))  # typed, as ``periodic`` below: one signature
+    y0, ky = _node_range(c_lo[1], c_hi[1], ny, np.bool_(False))
     x0, kx = _node_range(c_lo[2], c_hi[2], nx, periodic)
     if nt == 1:
         kt = 1

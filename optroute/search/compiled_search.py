@@ -140,7 +140,7 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state, touched):  # p
     kmax = pf0.shape[1]
     buf = np.empty((4, kmax))
     refine = refine_workspace(k[3] > 0.0)
-    ws = leg_workspace(1, k[4].size)  # grown to the largest piece met (leg_points)
+    ws = leg_workspace(np.int64(1), k[4].size)  # grown to the largest piece met (leg_points); typed: one signature
     open_nodes = np.array([s], dtype=np.int64)
     relaxed = 0
     while open_nodes.size:

@@ -338,7 +338,7 @@ def resolve(
     for u in range(unresolved.size):
         grp = unresolved[u]
         lo, hi = group_start[grp], group_start[grp + 1]
-        bf, bt, bi = np.inf, np.inf, -1
+        bf, bt, bi = np.inf, np.inf, np.int64(-1)
         for r in range(lo, ptr[grp]):  # the labels already found, less those struck out
             c = order[r]
             if costed[c] and not rejected[c] and math.isfinite(fuel1[c]) and _beats(fuel1[c], t1[c], c, bf, bt, bi):

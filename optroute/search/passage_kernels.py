@@ -220,7 +220,7 @@ def check_count(length_nm, check_nm):  # pragma: no cover - compiled
 @jit
 def leg_points(length, n_pieces, check_nm):  # pragma: no cover - compiled
     """The most check points of any of a leg's ``n_pieces`` pieces (:func:`check_count`; 1 unchecked)."""
-    m = 1
+    m = np.int64(1)  # typed: leg_workspace has one signature
     if check_nm > 0.0:
         for k in range(n_pieces):
             m = max(m, check_count(length[k], check_nm))
@@ -352,8 +352,8 @@ def cost_legs(
     feas = np.zeros(n, dtype=np.bool_)
     uncovered = 0
     refine = refine_workspace(check_nm > 0.0)
-    full = (0.0, np.inf, True, 0.0)  # every leg costed in full
-    m = 1
+    full = (0.0, np.inf, np.bool_(True), 0.0)  # every leg costed in full (typed: the search's cost_leg signature)
+    m = np.int64(1)  # typed: leg_workspace has one signature
     for i in range(n):
         m = max(m, leg_points(length[i], n_pieces[i], check_nm))
     ws = leg_workspace(m, speeds.size)
@@ -424,7 +424,7 @@ def cost_dp_legs(p, w, lat, lon, course, frac, n_pieces, leg_of, t0_h, sog_kn, d
 @jit
 def dp_workspace():  # pragma: no cover - compiled
     """Work arrays of :func:`cost_dp_leg`: the sea at one point, a piece's three check points, the refinement's."""
-    ws, sl, scratch = refine_workspace(True)
+    ws, sl, scratch = refine_workspace(np.bool_(True))
     return np.empty(N_POINT_FIELDS), np.empty((3, N_POINT_FIELDS)), np.empty((5, 3)), ws, sl, scratch
 
 

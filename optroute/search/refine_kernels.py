@@ -187,7 +187,7 @@ def _needs_halving(a, i, n, sl):  # pragma: no cover - compiled
     if turn > TURN_DEG:
         return True
     ga, gb = a[i, _G], a[i + 1, _G]
-    hs_cert = _certified(ga, gb, _neighbour_slope(sl, 0, i, n), h, BAND_TOL_NM)
+    hs_cert = _certified(ga, gb, _neighbour_slope(sl, np.int64(0), i, n), h, BAND_TOL_NM)
     for q in range(1, _N_SLOPES):
         ma, mb = a[i, _M0 + q - 1], a[i + 1, _M0 + q - 1]
         if (ma <= 0.0 and ga <= 0.0) or (mb <= 0.0 and gb <= 0.0):
@@ -239,7 +239,7 @@ def piece_clear(
         :func:`optroute.search.band_bounds.piece_certified` certifies from its weather's node bounds (no point
         of it can fail) is True at once, without the points: the outcome is the same.
     """
-    if piece_certified(p, w, spd, sog_mode, la0, lo0, t0, s0, n0, lat, lon, length, CAPACITY, scratch):
+    if piece_certified(p, w, spd, sog_mode, la0, lo0, t0, s0, n0, lat, lon, length, np.int64(CAPACITY), scratch):
         return True
     a, b = ws[0], ws[1]
     for j in range(n0):

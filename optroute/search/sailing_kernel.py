@@ -158,7 +158,7 @@ def sail_search(
     s0 = src * 3 * L
     t_arr[s0], om[s0] = t0_h, 0
     f0 = t0_h + h_node[src]
-    n = _push(h1, h2, hs, 0, f0 if mode != MODE_FEWEST else 0.0, 0.0 if mode != MODE_FEWEST else f0, s0)
+    n = _push(h1, h2, hs, np.int64(0), f0 if mode != MODE_FEWEST else 0.0, 0.0 if mode != MODE_FEWEST else f0, s0)
     stats = np.zeros(4)
     found = -1
     while n > 0:
