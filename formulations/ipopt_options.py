@@ -1,8 +1,9 @@
 """Ipopt's options for the corridor NLPs, and the checked multipliers of a primal-dual warm start.
 
 :data:`IPOPT_DEFAULTS` are the options of every corridor NLP (:class:`formulations.speed_nlp.SpeedNLP`,
-:mod:`formulations.robust_nlp`); :data:`WARM_START_OPTIONS` are laid over them for a solve started from
-another solve's point and multipliers (:func:`checked_duals`).
+:mod:`formulations.robust_nlp`); :data:`PRIMAL_START_OPTIONS` are laid over them for SpeedNLP's solves from a start
+point alone, :data:`WARM_START_OPTIONS` for a solve started from another solve's point and multipliers
+(:func:`checked_duals`).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from numpy.typing import ArrayLike
 
 from formulations.common import FormulationInputError
 
-__all__ = ["IPOPT_DEFAULTS", "WARM_START_OPTIONS", "checked_duals"]
+__all__ = ["IPOPT_DEFAULTS", "PRIMAL_START_OPTIONS", "WARM_START_OPTIONS", "checked_duals"]
 
 IPOPT_DEFAULTS: dict[str, Any] = {
     "ipopt.print_level": 0,
@@ -32,13 +33,25 @@ IPOPT_DEFAULTS: dict[str, Any] = {
     "calc_lam_p": False,
     "no_nlp_grad": True,
 }
+#: Ipopt options of :class:`formulations.speed_nlp.SpeedNLP`'s solves from a start point without multipliers (its
+#: ``x0``: in the corridor solver a verified discrete plan): a monotone barrier from ``mu_init`` 1e-4 instead of the
+#: adaptive one from Ipopt's 0.1. From a lattice plan the adaptive barrier falls to about 1e-11 within a few
+#: iterations and then creeps along the bounds under a regularised (indefinite) Hessian on long corridors; the
+#: monotone barrier keeps the iterates central while the lateral offsets and speeds leave the lattice's plan
+#: (``python -m benchmarks.bench_nlp --scaling`` measures the whole call).
+PRIMAL_START_OPTIONS: dict[str, Any] = {
+    "ipopt.mu_strategy": "monotone",
+    "ipopt.mu_init": 1e-4,
+}
 #: Ipopt options of a primal-dual warm start (:meth:`formulations.speed_nlp.SpeedNLP.solve` with ``lam_x0``/``lam_g0``): the given point
 #: and multipliers are pushed only 1e-6 into the bounds' interior (Ipopt's defaults, 1e-3 for the warm start and
-#: 1e-2 for a cold one, move a converged neighbour's iterate off its active bounds).  The barrier parameter is left
-#: to :data:`IPOPT_DEFAULTS`' adaptive strategy: Ipopt reads ``mu_init`` only with ``mu_strategy="monotone"``
-#: (Ipopt's options reference), and a monotone barrier started small from a neighbouring ETA's point takes more
-#: iterations, not fewer, because that point is not on the new problem's central path.
+#: 1e-2 for a cold one, move a converged neighbour's iterate off its active bounds).  The barrier is Ipopt's adaptive
+#: one here, not :data:`PRIMAL_START_OPTIONS`' monotone one: Ipopt reads ``mu_init`` only with
+#: ``mu_strategy="monotone"`` (Ipopt's options reference), and a monotone barrier started small from a neighbouring
+#: ETA's point and multipliers takes more iterations, not fewer, because that point is not on the new problem's
+#: central path.
 WARM_START_OPTIONS: dict[str, Any] = {
+    "ipopt.mu_strategy": "adaptive",
     "ipopt.warm_start_init_point": "yes",
     "ipopt.warm_start_bound_push": 1e-6,
     "ipopt.warm_start_bound_frac": 1e-6,

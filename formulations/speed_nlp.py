@@ -88,7 +88,7 @@ from formulations.common import (
     WeatherGrid,
     broadcast_legs,
 )
-from formulations.ipopt_options import IPOPT_DEFAULTS, WARM_START_OPTIONS, checked_duals
+from formulations.ipopt_options import IPOPT_DEFAULTS, PRIMAL_START_OPTIONS, WARM_START_OPTIONS, checked_duals
 from formulations.nlp_result import NLPResult, SampleState
 from formulations.row_layout import RowLegs, row_blocks, row_bounds
 from formulations.sample_layout import SampleLayout, midpoint_layout
@@ -405,7 +405,7 @@ class SpeedNLP:
         )
         g = ca.vertcat(*parts)
         self._rows, self._ng, self._nx = rows, g.shape[0], nx
-        opts = dict(IPOPT_DEFAULTS)
+        opts = {**IPOPT_DEFAULTS, **PRIMAL_START_OPTIONS}
         opts.update(ipopt_options)
         opts["expand"] = expand
         if structured:
