@@ -457,11 +457,17 @@ class SpeedNLP:
         n = self.n_legs
         return x[: n + 1], x[n + 1 : 2 * n + 1], x[2 * n + 1 :]
 
-    def _eval(self, x: np.ndarray) -> dict[str, np.ndarray]:
+    def _eval(self, x: np.ndarray, names: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
+        """The diagnostic outputs at ``x``; only those in ``names`` when given (each output's conversion from
+        CasADi to numpy costs about as much as evaluating it, and most callers read one or two)."""
         beta = np.zeros(self.n_legs * self.samples_per_leg * self.n_bands)
         vals = self._diag(x, beta, self._factor_parameter())
         vals = vals if isinstance(vals, tuple | list) else [vals]
-        return {k: np.asarray(val, dtype=float) for k, val in zip(self._diag_names, vals, strict=True)}
+        return {
+            k: np.asarray(val, dtype=float)
+            for k, val in zip(self._diag_names, vals, strict=True)
+            if names is None or k in names
+        }
 
     def evaluate(self, offset_nm: ArrayLike, stw_kn: ArrayLike, time_h: ArrayLike) -> SampleState:
         """Per-sample conditions for given offsets (N+1,) [nm], speeds (N,) [kn] and times (N+1,) [h].
@@ -482,7 +488,7 @@ class SpeedNLP:
         y = broadcast_legs(offset_nm, n + 1, "offset_nm")
         v = broadcast_legs(stw_kn, n, "stw_kn")
         t = broadcast_legs(time_h, n + 1, "time_h")
-        return np.ravel(self._eval(self._pack(y, v, t))["fuel_leg"])
+        return np.ravel(self._eval(self._pack(y, v, t), ("fuel_leg",))["fuel_leg"])
 
     def _state(self, ev: dict[str, np.ndarray]) -> SampleState:
         n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
@@ -553,7 +559,7 @@ class SpeedNLP:
         power = np.empty((n, m, speeds.size))
         rate = np.empty((n, m, speeds.size))
         for i, v in enumerate(speeds):
-            ev = self._eval(self._pack(y, np.full(n, v), t))
+            ev = self._eval(self._pack(y, np.full(n, v), t), ("power", "rate"))
             power[:, :, i] = np.reshape(ev["power"], (n, m))
             rate[:, :, i] = np.reshape(ev["rate"], (n, m))
         return power, rate
@@ -569,7 +575,7 @@ class SpeedNLP:
         v = broadcast_legs(stw_kn, n, "stw_kn")
         t = np.concatenate([[0.0], np.cumsum(np.diff(self.corridor.s_nm) / v)])
         for _ in range(max(1, iterations)):
-            ev = self._eval(self._pack(y, v, t))
+            ev = self._eval(self._pack(y, v, t), ("dt_leg",))
             t = np.concatenate([[0.0], np.cumsum(ev["dt_leg"].ravel())])
         return t
 

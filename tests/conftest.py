@@ -128,15 +128,40 @@ def pytest_configure(config):
 
 # ---------------------------------------------------------------------------
 # Weather built once per test process and shared by the files that need the same one (read only: the tests
-# sample it, none changes it). Under ``--dist loadfile`` two files on one worker share it; on two workers
-# each builds it once.
+# sample it, none changes it). Under ``--dist loadfile`` two files on one worker share it; the North Pacific
+# storms (about 6 CPU-s to build, 64 MB) are built once per run: the first xdist worker that needs them builds
+# and pickles them into the run's temporary folder, the other loads that pickle (an exact copy: values, coordinates,
+# attributes and encodings) instead of building them a second time.
 # ---------------------------------------------------------------------------
+def _built_once_per_run(tmp_path_factory, name: str, build):
+    """``build()``, or under pytest-xdist the value another worker of this run built, loaded from its pickle."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - no flock (Windows): each worker builds its own
+        return build()
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        return build()
+    import pickle
+
+    root = tmp_path_factory.getbasetemp().parent  # this run's folder, shared by its workers
+    path = root / f"{name}.pickle"
+    with open(root / f"{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # the other worker waits (no CPU) while the first builds
+        if path.exists():
+            return pickle.loads(path.read_bytes())
+        value = build()
+        part = root / f"{name}.pickle.part"
+        part.write_bytes(pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL))
+        part.replace(path)
+        return value
+
+
 @pytest.fixture(scope="session")
-def north_pacific_storms():
+def north_pacific_storms(tmp_path_factory):
     """Boeing EP 2145155's San Diego -> Tokyo storms, ``scenarios.north_pacific_storms()`` at its defaults."""
     from optroute.weather import scenarios
 
-    return scenarios.north_pacific_storms()
+    return _built_once_per_run(tmp_path_factory, "north_pacific_storms", scenarios.north_pacific_storms)
 
 
 @pytest.fixture(scope="session")

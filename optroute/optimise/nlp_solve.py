@@ -591,13 +591,13 @@ def warm_rules(rules: BandRules, st: Tightening) -> BandRules:
 def _leg_rates(nlp: SpeedNLP, res: NLPResult, v: np.ndarray) -> np.ndarray:
     """Mean fuel rate [t/h] of every leg at per-leg speeds ``v`` (N,) [kn]: the NLP's own power at its samples."""
     n = nlp.n_legs
-    ev = nlp._eval(nlp._pack(res.offset_nm, np.asarray(v, dtype=float), res.time_h))
+    ev = nlp._eval(nlp._pack(res.offset_nm, np.asarray(v, dtype=float), res.time_h), ("rate",))
     # the quadrature's weights (row-only samples weigh 0; the midpoint rule 1/m each)
     return np.sum(np.reshape(ev["rate"], (n, nlp.samples_per_leg)) * nlp.sample_layout.weight, axis=1)
 
 
 def _leg_powers(nlp: SpeedNLP, res: NLPResult, v: np.ndarray) -> np.ndarray:
-    ev = nlp._eval(nlp._pack(res.offset_nm, np.asarray(v, dtype=float), res.time_h))
+    ev = nlp._eval(nlp._pack(res.offset_nm, np.asarray(v, dtype=float), res.time_h), ("power",))
     return np.reshape(ev["power"], (nlp.n_legs, nlp.samples_per_leg))
 
 
