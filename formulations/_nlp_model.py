@@ -519,23 +519,20 @@ def structured_cores(
     grad = grad + p[1] * ca.DM(e_t)
     f_val = p[0] * ca.sum2(fuel_k) + p[1] * (x[3 * n + 1] - x[2 * n + 1])
     grad_core = ca.Function("grad_f_core", [x, p, th], [f_val, grad])
-    # jac_g and hess_lag: per group of legs with the same rows (_leg_kinds), its legs' columns of the inputs
+    # jac_g and hess_lag: per group of legs with the same rows (row_layout.leg_kinds), its legs' columns of the inputs
     jr, jc, j_src, hr, hc, h_src = [], [], [], [], [], []
     g_full = ca.MX.zeros(ng, 1)
     for grp in groups:
         ks = grp.legs
-        sel = ks.tolist()
-        grp_args = [zmat[:, sel], geo_dm[:, sel], th[:, sel], beta_mat[:, sel]] if ks.size < n else args
         # leg_jac output (n_gl, 5·n_k), column c of the group's leg i at 5i + c; vec order (i, c, r)
-        g_k, jac_k = grp.jac(*grp_args)
+        g_k, jac_k = grp.jac(*_leg_columns(args, ks, n))
         jr += [np.tile(grp.rows[:, i], _N_Z) for i in range(ks.size)]
         jc += [np.repeat(z_idx[:, k], grp.rows.shape[0]) for k in ks]
         j_src.append(ca.vec(jac_k))
         g_full[grp.rows.T.ravel().tolist()] = ca.vec(g_k)
         # hess_lag: upper triangle of Σ_k ∇²(σ fuel_k + λ_k·g_k)
         lam_mat = ca.reshape(lam_g[grp.rows.T.ravel().tolist()], grp.rows.shape[0], ks.size)
-        h_args = [zmat[:, sel], geo_dm[:, sel], th_h[:, sel], beta_mat[:, sel]] if ks.size < n else [
-            zmat, geo_dm, th_h, beta_mat]  # fmt: skip
+        h_args = _leg_columns([zmat, geo_dm, th_h, beta_mat], ks, n)
         h_src.append(ca.vec(grp.hess(*h_args, lam_f * p[0], lam_mat)))  # (15, n_k)
         for k in ks:
             for a, b in _TRIU:
@@ -555,6 +552,11 @@ def structured_cores(
         return _taylor_source(nlp, x, zmat, n_theta, exact_hessian, lay, weather, numeric)
 
     return StructuredCores(grad_core, jac_core, hess_core, taylor)
+
+
+def _leg_columns(mats: list, legs: np.ndarray, n: int) -> list:
+    """The columns ``legs`` of each of the (·, ``n``) matrices ``mats`` (the matrices themselves when they are all)."""
+    return [a[:, legs.tolist()] for a in mats] if legs.size < n else mats
 
 
 class _LegBlocks(NamedTuple):

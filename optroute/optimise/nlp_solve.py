@@ -251,7 +251,7 @@ class Problem:
         excl = None
         if self.exclusion is not None:
             excl = moving_exclusion(self.exclusion, self.frame, self.departure, extra_radius_nm=st.extra_radius_nm)
-        band_legs, excl_legs = nlp_row_legs(self.frame, self.grid, bands, excl, st.forced_legs)
+        band_legs, excl_legs = nlp_row_legs(self.frame, self.grid.s_nm, self.grid.hs_m, bands, excl, st.forced_legs)
         nlp = SpeedNLP(
             geom,
             self.grid,

@@ -35,7 +35,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from formulations.common import Band, MovingExclusion, WeatherGrid
+from formulations.common import Band, MovingExclusion
 from formulations.sample_layout import SampleLayout, midpoint_layout, with_points
 from optroute import geodesy as geo
 from optroute.errors import OptrouteError
@@ -206,11 +206,9 @@ def binding_legs(
     (:func:`optroute.optimise.nlp_inputs.formulation_bands`).
     """
     bands, _, _ = formulation_bands(ctx.ship, ctx.rules, hs_margin=hs_margin)
-    hs_apply = min((float(b.hs_min_m) for b in bands), default=None)
-    near = None
-    if ctx.exclusion is not None:
-        near = exclusion_legs(frame, moving_exclusion(ctx.exclusion, frame, departure))
-    return legs_that_can_bind(frame.s_nm, grid_s_nm, grid_hs_m, hs_apply, near)
+    mv = moving_exclusion(ctx.exclusion, frame, departure) if ctx.exclusion is not None else None
+    band, near = nlp_row_legs(frame, grid_s_nm, grid_hs_m, bands, mv)
+    return band | near
 
 
 def exclusion_legs(frame: CorridorFrame, mv: MovingExclusion) -> np.ndarray:
@@ -231,18 +229,20 @@ def exclusion_legs(frame: CorridorFrame, mv: MovingExclusion) -> np.ndarray:
 
 def nlp_row_legs(
     frame: CorridorFrame,
-    grid: WeatherGrid,
+    grid_s_nm: np.ndarray,
+    grid_hs_m: np.ndarray,
     bands: tuple[Band, ...],
     exclusion: MovingExclusion | None,
     forced: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The legs that carry the NLP's band rows and its exclusion rows (``SpeedNLP``'s ``band_legs`` and
     ``exclusion_legs``): where one of the NLP's ``bands`` can apply (:func:`legs_that_can_bind` at their lowest Hs
-    threshold on the NLP's weather ``grid``), where its circle ``exclusion`` comes near (:func:`exclusion_legs`),
-    and the legs ``forced`` (N,) (the referee rejected a plan there). Elsewhere those rows could never bind: their
-    bounds would be −∞…+∞ at every solve, and Ipopt and MUMPS would still carry them at every iteration."""
+    threshold on the NLP's weather grid: along-track nodes ``grid_s_nm`` [nm], Hs ``grid_hs_m`` (t, s, y) [m]),
+    where its circle ``exclusion`` comes near (:func:`exclusion_legs`), and the legs ``forced`` (N,) (the referee
+    rejected a plan there). Elsewhere those rows could never bind: their bounds would be −∞…+∞ at every solve, and
+    Ipopt and MUMPS would still carry them at every iteration. :func:`binding_legs` is the union of the two."""
     hs_apply = min((float(b.hs_min_m) for b in bands), default=None)
-    band = legs_that_can_bind(frame.s_nm, grid.s_nm, grid.hs_m, hs_apply)
+    band = legs_that_can_bind(frame.s_nm, grid_s_nm, grid_hs_m, hs_apply)
     excl = exclusion_legs(frame, exclusion) if exclusion is not None else np.zeros(frame.n_legs, dtype=bool)
     if forced is not None:
         band, excl = band | forced, excl | forced
