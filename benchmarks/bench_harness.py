@@ -69,6 +69,10 @@ def run(quick: bool = False) -> dict[str, Any]:
     print(f"| SolverFailure in feasible cases | {s['solver_failure_cases']} ({100 * share:.1f} %) | < 2 % |")
     print(f"| minimum time a SolverFailure without any verified plan (feasibility undetermined) | "
           f"{len(s['undetermined_seeds'])} | |")  # fmt: skip
+    print(f"| plans that are the verified start (the NLP did not improve on it) | {s['start_plans']} of "
+          f"{s['plans_checked']} | |")  # fmt: skip
+    print(f"| of those, the start inside the NLP's own bands (optimiser's record) | "
+          f"{s['start_plans_inside_nlp_bands']} | |")  # fmt: skip
     b, a = summarise(other), summarise(results[: len(other)])
     n = len(other)
     print(f"| plans whose first NLP solve passed `verify()`, first {n} cases | {a['first_solve_verified']} of "

@@ -130,6 +130,8 @@ class CaseResult:
     messages: dict[str, str] = field(default_factory=dict)
     referee: dict[str, int] = field(default_factory=dict)
     first_solve: dict[str, str] = field(default_factory=dict)
+    # per plan: how many NLP samples its first verified start broke the NLP's bands at (the optimiser's record)
+    start_in_bands: dict[str, dict[str, int] | None] = field(default_factory=dict)
     feasible: bool = False
     cpu_s: float = 0.0
 
@@ -520,6 +522,7 @@ def _solve(
     res.findings[name], res.grazes[name] = check_plan(plan, wx, ship, eta=eta)
     res.referee[name] = len(plan.verify())  # the baseline: the plan's own referee at its default 5 nm
     res.first_solve[name] = str(plan.solver_stats.get("first_solve", "not recorded"))
+    res.start_in_bands[name] = plan.solver_stats.get("verified_start_in_nlp_bands")
     return plan
 
 
@@ -605,5 +608,13 @@ def summarise(results: list[CaseResult]) -> dict[str, Any]:
         # plans whose NLP's first solve passed verify() as it was (issue 13 item 3), of the plans returned
         "first_solve_verified": sum(v == "verified" for r in results for v in r.first_solve.values()),
         "plans_returned": sum(len(r.first_solve) for r in results),
+        # plans that are the verified start (the NLP did not improve on it), and of those the ones whose start lay
+        # inside the NLP's own (backed-off) bands: where the NLP began outside its feasible set
+        "start_plans": sum(o == "plan:start" for r in results for o in r.outcomes.values()),
+        "start_plans_inside_nlp_bands": sum(
+            r.outcomes.get(k) == "plan:start" and bool(v and v["samples"])
+            for r in results
+            for k, v in r.start_in_bands.items()
+        ),
         "cpu_s": sum(r.cpu_s for r in results),
     }

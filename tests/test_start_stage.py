@@ -134,3 +134,33 @@ def test_where_a_band_binds_the_dps_plan_rides_the_corridor_edge_verified_and_no
     assert st["starts"]["3-D DP"]["verified"] and "minimum-time plan" not in st["starts"]
     assert st["starts"]["3-D DP"]["score"] == pytest.approx(plan.total_fuel_t, rel=1e-9)
     assert out.verify() == [] and out.total_fuel_t <= plan.total_fuel_t * (1 + 1e-9)
+
+
+@pytest.mark.parametrize(("hs_m", "inside"), [(9.7, 18), (9.0, 0)])
+def test_a_verified_start_inside_the_nlps_backed_off_bands_is_counted_and_named(hs_m, inside):
+    # Beam seas (waves from the north on an eastbound equator track) with Tp equal to the ship's roll period:
+    # T_E = T when V cos(chi) = 0, so T_E / T_R = 1 at every speed, the middle of the synchronous-roll band
+    # (0.8, 1.2) (IMO MSC.1/Circ.1228; Boeing EP 2145155's threshold Hs >= 0.04 L = 10 m for L = 250 m). At Hs 9.7 m
+    # the rules impose no band, but the NLP imposes them from (1 - 0.05) x 10 m = 9.5 m: the start, verified by the
+    # referee, lies inside the NLP's band at every sample (6 legs x 3 samples), each below the rules' threshold. At
+    # 9.0 m neither imposes one.
+    from optroute.studies.front_points import WarmStart
+
+    assert 0.04 * SHIP.length_m == pytest.approx(10.0) and 0.95 * 10.0 < 9.7 < 10.0 and 9.0 < 0.95 * 10.0
+    wx = orx.scenarios.uniform(hs_m=hs_m, tp_s=SHIP.roll_period_s, wave_from_deg=0.0, bbox=(-5, 5, -35, -15),
+                               start=T0, duration_h=96, resolution_deg=1.0)  # fmt: skip
+    track = np.array([[0.0, -30.0], [0.0, -25.0]])
+    plan = optimise_corridor(orx.Corridor.from_waypoints(track, width_nm=0.0), wx, SHIP, departure=T0,
+                             eta=T0 + np.timedelta64(30, "h"), max_leg_nm=60.0, use_land_mask=False,
+                             warm_plan=WarmStart(track, np.array([12.0]), sole_start=True))  # fmt: skip
+    st = plan.solver_stats
+    assert plan.verify() == [] and st["start"] == "warm plan"
+    assert st["n_legs"] * st["samples_per_leg"] == 18
+    assert st["verified_start_in_nlp_bands"] == {
+        "samples": inside, "below_rules_threshold": inside, "back_off_only": 0, "inside_rules_band": 0
+    }  # fmt: skip
+    if (
+        plan.status == "start" and inside
+    ):  # the NLP found no better plan: the reason says where its start broke its rows
+        named = f"inside the NLP's bands at {inside} samples ({inside} below the rules' Hs threshold"
+        assert named in st["status_reason"]

@@ -57,6 +57,7 @@ from optroute.optimise.rescue import (
     first_failure,
     longer_horizon,
     route_plan,
+    start_in_nlp_bands,
     tighten,
     to_plan,
 )
@@ -106,6 +107,7 @@ class _Call:
     retries: int = 0
     first_solve: str | None = None  # the first solve's verdict: "verified", "mended", "rejected: ...", "Ipopt ..."
     starts: Starts | None = None  # the start stage's candidates and why the global starts ran
+    start_in_bands: dict[str, int] | None = None  # the first verified start solved from, inside the NLP's bands
     stage_cpu_s: dict[str, float] = field(default_factory=dict)
     _stage: tuple[str, float, float] | None = None  # the running stage: name, wall and CPU clocks at its start
 
@@ -508,6 +510,8 @@ class PreparedCorridor(CorridorReport):
         for attempt in range(self.max_retries + 1):
             emit(call.progress, "solve", 0.2 + 0.7 * attempt / (self.max_retries + 1))
             nlp = prob.build(st)
+            if attempt == 0 and cand.plan is not None and call.start_in_bands is None:
+                call.start_in_bands = start_in_nlp_bands(nlp, st, warm)
             eta_solve = None if call.cap_h is None else call.cap_h - st.eta_shift_h
             if eta_solve is not None and eta_solve <= 0:
                 break
@@ -647,7 +651,7 @@ class PreparedCorridor(CorridorReport):
         # a tie to the solver's tolerance (the start already optimal, as at a constant speed in calm water) keeps the
         # NLP's plan, with its multipliers and certificate; "worse" is beyond TIE_REL_TOL of the start's score
         if best is None or nlp_score > start.score + TIE_REL_TOL * max(1.0, abs(start.score)):
-            why = "its plan failed verification" if best is None else f"its plan scores {nlp_score:.6g}"
+            why = self._no_nlp_plan(call) if best is None else f"its plan scores {nlp_score:.6g}"
             stats["status_reason"] = f"the NLP did not improve on the verified {start.label} ({start.score:.6g}): {why}"
             stats["certificate"] = self._ship_certificate(start.plan, stats, cap_h, mode, objective)  # type: ignore[arg-type]
             self._finish(call, stats)
@@ -665,6 +669,20 @@ class PreparedCorridor(CorridorReport):
         self.last_duals = Duals.of(sol.res, sol.nlp)
         emit(call.progress, "done", 1.0)
         return replace(plan, status=status, solver_stats=stats, eta_shadow_price_t_per_h=shadow)
+
+    @staticmethod
+    def _no_nlp_plan(call: _Call) -> str:
+        """Why the NLP gave no verified plan: its first solve's verdict, and where the verified start broke its bands."""
+        first = call.first_solve or "not run"
+        why = "its plan failed verification" if first.startswith("rejected") else f"its first solve: {first}"
+        inside = call.start_in_bands
+        if inside and inside["samples"]:
+            why += (
+                f"; the verified start lies inside the NLP's bands at {inside['samples']} samples "
+                f"({inside['below_rules_threshold']} below the rules' Hs threshold, {inside['back_off_only']} in the "
+                f"edges' back-off, {inside['inside_rules_band']} inside the rules' band as the NLP evaluates it)"
+            )
+        return why
 
     @staticmethod
     def _finish(call: _Call, stats: dict[str, Any]) -> None:
@@ -723,6 +741,7 @@ class PreparedCorridor(CorridorReport):
             "stage_cpu_s": call.stage_cpu_s,
             "retries": call.retries,
             "first_solve": call.first_solve or "not run",
+            "verified_start_in_nlp_bands": call.start_in_bands,
             "constraint_rows": self.constraint_rows,
             "row_samples_per_leg": call.last.nlp.samples_per_leg if call.last is not None else None,
             "row_legs": self._row_legs(call),

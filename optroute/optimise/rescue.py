@@ -183,6 +183,36 @@ def tighten(st: Tightening, violations: list[Violation], plan: Plan, res: NLPRes
     st.log.append(f"retry {st.retries}: " + ", ".join(sorted({v.kind for v in violations})))
 
 
+def start_in_nlp_bands(nlp: SpeedNLP, st: Tightening, warm: Mapping[str, np.ndarray]) -> dict[str, int]:
+    """Where a start lies inside the NLP's bands (its samples, the NLP's own evaluation), counted by why.
+
+    The NLP imposes each band from ``(1 − hs_margin)`` times the rules' Hs threshold and with its edges moved out by
+    ``widen`` (:func:`~optroute.optimise.nlp_inputs.formulation_bands`); its rules for the IMO bands are conservative
+    (:func:`~optroute.optimise.nlp_inputs.formulation_bands`: no wave-angle sector for surf-riding, no wavelength
+    condition for the high-wave zone) and it sees a smoothed sea. A start the referee passed can therefore break
+    the NLP's band rows, and the NLP, started outside its own feasible set, may find no solution. Per
+    (sample, band) inside the NLP's band: ``"below_rules_threshold"`` (Hs under the rules' threshold there),
+    ``"back_off_only"`` (in the edges' back-off, outside the rules' band) or ``"inside_rules_band"`` (where the
+    rules' threshold is met and the ratio is inside the rules' band, as the NLP evaluates it); ``"samples"`` all.
+    """
+    y0 = np.clip(warm["offset_nm"], *nlp.corridor.offset_bounds())
+    v0 = np.clip(warm["stw_kn"], nlp.v_min_kn, nlp.v_max_kn)
+    state = nlp.evaluate(y0, v0, nlp.consistent_times(y0, v0))
+    out = {"samples": 0, "below_rules_threshold": 0, "back_off_only": 0, "inside_rules_band": 0}
+    for k, j, b in np.argwhere(state.inside):
+        band, ratio = nlp.bands[b], float(state.ratio[k, j, b])
+        lo = band.lower / (1.0 - st.widen) if np.isfinite(band.lower) else band.lower
+        hi = band.upper / (1.0 + st.widen) if np.isfinite(band.upper) else band.upper
+        if state.hs_m[k, j] < band.hs_min_m / (1.0 - st.hs_margin):
+            out["below_rules_threshold"] += 1
+        elif lo < ratio < hi:
+            out["inside_rules_band"] += 1
+        else:
+            out["back_off_only"] += 1
+        out["samples"] += 1
+    return out
+
+
 def route_plan(route: Route | None, ctx: PlanContext, step_nm: float) -> Plan | None:
     """The search route as a plan (one speed per leg), when it passes verification."""
     if route is None:
