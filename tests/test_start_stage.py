@@ -159,8 +159,7 @@ def test_a_verified_start_inside_the_nlps_backed_off_bands_is_counted_and_named(
     assert st["verified_start_in_nlp_bands"] == {
         "samples": inside, "below_rules_threshold": inside, "back_off_only": 0, "inside_rules_band": 0
     }  # fmt: skip
-    if (
-        plan.status == "start" and inside
-    ):  # the NLP found no better plan: the reason says where its start broke its rows
+    if plan.status == "start" and inside:
+        # the NLP found no better plan: the reason says where its start broke its rows
         named = f"inside the NLP's bands at {inside} samples ({inside} below the rules' Hs threshold"
         assert named in st["status_reason"]
