@@ -136,8 +136,9 @@ def test_bound_never_exceeds_the_referees_brute_force_on_a_three_leg_path(sea):
 
 def test_optimiser_plan_with_bands_is_within_the_stated_gap_of_the_bound(sea):
     # the optimiser starts from the dual's own schedule (moved 0.01 kn inside its speed intervals) among its
-    # verified starts and returns the best: 0.2 % above the bound here (measured; the stated gap is 1 %); the
-    # same schedule built by hand verifies and is no worse than the returned plan
+    # verified starts and returns a plan no worse: 0.2 % above the bound here (measured; the stated gap is 1 %);
+    # the same schedule built by hand verifies, above the bound, and the returned plan is no worse than it
+    # (measured: 90.838 t against the schedule's 90.880 t, with the NLP's back-offs fitted to that start)
     corridor = orx.Corridor(np.array([[0.0, -30.0], [0.0, -10.0]]), 0.0)
     eta_h = 100.0
     plan = optimise_corridor(
@@ -166,7 +167,7 @@ def test_optimiser_plan_with_bands_is_within_the_stated_gap_of_the_bound(sea):
     res = lagrangian_bound(prob.distance_nm, inner, prob.fuel_rate_tph, eta_h=eta_h)
     dual_plan = _plan(sea, plan.waypoints, res.primal_speed_kn, eta_h=eta_h)
     assert dual_plan.verify() == []
-    assert cert["bound_t"] <= dual_plan.total_fuel_t <= plan.total_fuel_t * (1 + 1e-9)
+    assert cert["bound_t"] <= dual_plan.total_fuel_t and plan.total_fuel_t <= dual_plan.total_fuel_t * (1 + 1e-9)
 
 
 def test_the_certificate_says_why_it_does_not_apply():

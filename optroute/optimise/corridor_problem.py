@@ -510,8 +510,8 @@ class PreparedCorridor(CorridorReport):
         for attempt in range(self.max_retries + 1):
             emit(call.progress, "solve", 0.2 + 0.7 * attempt / (self.max_retries + 1))
             nlp = prob.build(st)
-            if attempt == 0 and cand.plan is not None and call.start_in_bands is None:
-                call.start_in_bands = start_in_nlp_bands(nlp, st, warm)
+            if attempt == 0 and cand.plan is not None:
+                nlp = self._fitted_to_start(call, nlp, st, warm)
             eta_solve = None if call.cap_h is None else call.cap_h - st.eta_shift_h
             if eta_solve is not None and eta_solve <= 0:
                 break
@@ -547,6 +547,27 @@ class PreparedCorridor(CorridorReport):
             call.retries, call.samples_per_leg = st.retries, st.samples_per_leg
             warm = {"offset_nm": sol.res.offset_nm, "stw_kn": sol.res.stw_kn}
         return None
+
+    def _fitted_to_start(self, call: _Call, nlp: Any, st: Tightening, warm: Mapping[str, np.ndarray]) -> Any:
+        """The NLP of a first solve from a verified start, its band back-offs lowered so that the start is clear of them.
+
+        A start the referee passed can lie inside the NLP's backed-off bands (:func:`start_in_nlp_bands`); started
+        there, the NLP is outside its own feasible set and Ipopt reports it infeasible though the start is a plan. The
+        back-offs are lowered to half the start's clearance where that clears it (a rejection by the referee raises
+        them again, :func:`tighten`); where the NLP's own evaluation puts the start inside a rules' band, they stay.
+        The first such start's counts are the call's record (``verified_start_in_nlp_bands``).
+        """
+        counts, hs_margin, widen = start_in_nlp_bands(nlp, st, warm)
+        if call.start_in_bands is None:
+            call.start_in_bands = counts
+        if counts["inside_rules_band"] or (hs_margin, widen) == (st.hs_margin, st.widen):
+            return nlp
+        st.log.append(
+            f"back-offs fitted to the verified start: band edges {st.widen:.3g} -> {widen:.3g}, "
+            f"Hs threshold {st.hs_margin:.3g} -> {hs_margin:.3g}"
+        )
+        st.hs_margin, st.widen = hs_margin, widen
+        return self.problem.build(st)
 
     def _rejected_legs(self, forced: np.ndarray | None, violations: list[Violation]) -> np.ndarray | None:
         """``forced`` (N,) with the legs of the referee's band and exclusion ``violations``: those legs keep their band

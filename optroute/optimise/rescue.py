@@ -183,34 +183,50 @@ def tighten(st: Tightening, violations: list[Violation], plan: Plan, res: NLPRes
     st.log.append(f"retry {st.retries}: " + ", ".join(sorted({v.kind for v in violations})))
 
 
-def start_in_nlp_bands(nlp: SpeedNLP, st: Tightening, warm: Mapping[str, np.ndarray]) -> dict[str, int]:
-    """Where a start lies inside the NLP's bands (its samples, the NLP's own evaluation), counted by why.
+def start_in_nlp_bands(
+    nlp: SpeedNLP, st: Tightening, warm: Mapping[str, np.ndarray]
+) -> tuple[dict[str, int], float, float]:
+    """Where a start lies inside the NLP's bands (its samples, the NLP's own evaluation), counted by why, and the
+    back-offs that would clear it.
 
     The NLP imposes each band from ``(1 − hs_margin)`` times the rules' Hs threshold and with its edges moved out by
     ``widen`` (:func:`~optroute.optimise.nlp_inputs.formulation_bands`); its rules for the IMO bands are conservative
-    (:func:`~optroute.optimise.nlp_inputs.formulation_bands`: no wave-angle sector for surf-riding, no wavelength
-    condition for the high-wave zone) and it sees a smoothed sea. A start the referee passed can therefore break
-    the NLP's band rows, and the NLP, started outside its own feasible set, may find no solution. Per
-    (sample, band) inside the NLP's band: ``"below_rules_threshold"`` (Hs under the rules' threshold there),
-    ``"back_off_only"`` (in the edges' back-off, outside the rules' band) or ``"inside_rules_band"`` (where the
-    rules' threshold is met and the ratio is inside the rules' band, as the NLP evaluates it); ``"samples"`` all.
+    (no wave-angle sector for surf-riding, no wavelength condition for the high-wave zone) and it sees a smoothed
+    sea. A start the referee passed can therefore break the NLP's band rows, and the NLP, started outside its own
+    feasible set, may find no solution. Per (sample, band) inside the NLP's band: ``"below_rules_threshold"`` (Hs
+    under the rules' threshold there), ``"back_off_only"`` (in the edges' back-off, outside the rules' band) or
+    ``"inside_rules_band"`` (where the rules' threshold is met and the ratio is inside the rules' band, as the NLP
+    evaluates it); ``"samples"`` all.
+
+    Returns
+    -------
+    counts : dict of str to int
+    hs_margin, widen : float
+        ``st.hs_margin`` and ``st.widen`` lowered to half the start's clearance from the rules' threshold and edges
+        at the samples of the first two kinds (unchanged where there are none): with them the start is clear of the
+        NLP's bands but where the third kind puts it inside.
     """
     y0 = np.clip(warm["offset_nm"], *nlp.corridor.offset_bounds())
     v0 = np.clip(warm["stw_kn"], nlp.v_min_kn, nlp.v_max_kn)
     state = nlp.evaluate(y0, v0, nlp.consistent_times(y0, v0))
     out = {"samples": 0, "below_rules_threshold": 0, "back_off_only": 0, "inside_rules_band": 0}
+    hs_margin, widen = st.hs_margin, st.widen
     for k, j, b in np.argwhere(state.inside):
         band, ratio = nlp.bands[b], float(state.ratio[k, j, b])
+        rules_hs = band.hs_min_m / (1.0 - st.hs_margin)
         lo = band.lower / (1.0 - st.widen) if np.isfinite(band.lower) else band.lower
         hi = band.upper / (1.0 + st.widen) if np.isfinite(band.upper) else band.upper
-        if state.hs_m[k, j] < band.hs_min_m / (1.0 - st.hs_margin):
+        if state.hs_m[k, j] < rules_hs:
             out["below_rules_threshold"] += 1
+            hs_margin = min(hs_margin, 0.5 * (1.0 - state.hs_m[k, j] / rules_hs))
         elif lo < ratio < hi:
             out["inside_rules_band"] += 1
         else:
             out["back_off_only"] += 1
+            room = 1.0 - ratio / lo if lo > 0.0 and ratio <= lo else ratio / hi - 1.0
+            widen = min(widen, 0.5 * max(room, 0.0))
         out["samples"] += 1
-    return out
+    return out, hs_margin, widen
 
 
 def route_plan(route: Route | None, ctx: PlanContext, step_nm: float) -> Plan | None:
