@@ -137,7 +137,7 @@ def test_where_a_band_binds_the_dps_plan_rides_the_corridor_edge_verified_and_no
 
 
 @pytest.mark.parametrize(("hs_m", "inside"), [(9.7, 18), (9.0, 0)])
-def test_a_verified_start_inside_the_nlps_backed_off_bands_is_counted_and_named(hs_m, inside):
+def test_a_verified_start_inside_the_nlps_backed_off_bands_is_counted_and_improved_on(hs_m, inside):
     # Beam seas (waves from the north on an eastbound equator track) with Tp equal to the ship's roll period:
     # T_E = T when V cos(chi) = 0, so T_E / T_R = 1 at every speed, the middle of the synchronous-roll band
     # (0.8, 1.2) (IMO MSC.1/Circ.1228; Boeing EP 2145155's threshold Hs >= 0.04 L = 10 m for L = 250 m). At Hs 9.7 m

@@ -330,3 +330,20 @@ def test_a_sea_that_differs_from_the_forecast_beyond_the_threshold_triggers_repl
         eta=T0 + np.timedelta64(20, "h"), optimise_options={"use_land_mask": False}, step_h=0.5,
     )  # fmt: skip
     assert quiet.outcome.n_replans == 0
+
+
+def test_a_re_plan_that_keeps_its_start_says_why(storm_voyages):
+    # Every plan of the re-planned voyage records where its verified start lay inside the NLP's bands; a plan that is
+    # the start (the NLP found no better one) names the first solve's verdict and, where there were any, those samples.
+    _, _, _, replanned = storm_voyages
+    for plan in replanned.plans:
+        st = plan.solver_stats
+        record = st["verified_start_in_nlp_bands"]
+        assert record is None or record["samples"] == sum(v for k, v in record.items() if k != "samples")
+        if plan.status == "start":
+            assert (
+                f"its first solve: {st['first_solve']}" in st["status_reason"]
+                or "failed verification" in st["status_reason"]
+            )
+            if record and record["samples"]:
+                assert f"inside the NLP's bands at {record['samples']} samples" in st["status_reason"]
