@@ -136,8 +136,8 @@ def test_where_a_band_binds_the_dps_plan_rides_the_corridor_edge_verified_and_no
     assert out.verify() == [] and out.total_fuel_t <= plan.total_fuel_t * (1 + 1e-9)
 
 
-@pytest.mark.parametrize(("hs_m", "inside"), [(9.7, 18), (9.0, 0)])
-def test_a_verified_start_inside_the_nlps_backed_off_bands_is_counted_and_improved_on(hs_m, inside):
+@pytest.mark.parametrize(("hs_m", "inside", "hs_margin"), [(9.7, 18, 0.05), (9.0, 0, 0.05), (9.7, 18, 1.0)])
+def test_a_verified_start_inside_the_nlps_backed_off_bands_is_counted_and_improved_on(hs_m, inside, hs_margin):
     # Beam seas (waves from the north on an eastbound equator track) with Tp equal to the ship's roll period:
     # T_E = T when V cos(chi) = 0, so T_E / T_R = 1 at every speed, the middle of the synchronous-roll band
     # (0.8, 1.2) (IMO MSC.1/Circ.1228; Boeing EP 2145155's threshold Hs >= 0.04 L = 10 m for L = 250 m). At Hs 9.7 m
@@ -145,6 +145,7 @@ def test_a_verified_start_inside_the_nlps_backed_off_bands_is_counted_and_improv
     # referee, lies inside the NLP's band at every sample (6 legs x 3 samples), each below the rules' threshold. At
     # 9.0 m neither imposes one. The NLP's back-off is then fitted to the start (half its clearance, 0.015: from
     # 9.85 m), so the NLP starts clear of its bands and improves on the start (12 kn, arriving 5 h early), as at 9.0 m.
+    # A back-off of 1 (the NLP's bands from Hs 0) is fitted the same way: the rules' threshold is the rules' own.
     from optroute.studies.front_points import WarmStart
 
     assert 0.04 * SHIP.length_m == pytest.approx(10.0) and 0.95 * 10.0 < 9.7 < 10.0 and 9.0 < 0.95 * 10.0
@@ -153,7 +154,7 @@ def test_a_verified_start_inside_the_nlps_backed_off_bands_is_counted_and_improv
     track = np.array([[0.0, -30.0], [0.0, -25.0]])
     plan = optimise_corridor(orx.Corridor.from_waypoints(track, width_nm=0.0), wx, SHIP, departure=T0,
                              eta=T0 + np.timedelta64(30, "h"), max_leg_nm=60.0, use_land_mask=False,
-                             warm_plan=WarmStart(track, np.array([12.0]), sole_start=True))  # fmt: skip
+                             band_hs_margin=hs_margin, warm_plan=WarmStart(track, np.array([12.0]), sole_start=True))  # fmt: skip
     st = plan.solver_stats
     assert plan.verify() == [] and st["start"] == "warm plan"
     assert st["n_legs"] * st["samples_per_leg"] == 18

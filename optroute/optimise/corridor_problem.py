@@ -44,7 +44,7 @@ from optroute.errors import (
 )
 from optroute.optimise.corridor_setup import ProgressFn, emit, prepare_corridor
 from optroute.optimise.corridor_stats import CorridorReport
-from optroute.optimise.nlp_inputs import exclusion_frame_error_nm
+from optroute.optimise.nlp_inputs import exclusion_frame_error_nm, formulation_bands
 from optroute.optimise.nlp_solve import (
     Duals,
     Solved,
@@ -557,7 +557,8 @@ class PreparedCorridor(CorridorReport):
         them again, :func:`tighten`); where the NLP's own evaluation puts the start inside a rules' band, they stay.
         The first such start's counts are the call's record (``verified_start_in_nlp_bands``).
         """
-        counts, hs_margin, widen = start_in_nlp_bands(nlp, st, warm)
+        rules_bands, _, _ = formulation_bands(self.ship, self.rules)  # the rules' own: no back-offs
+        counts, hs_margin, widen = start_in_nlp_bands(nlp, st, warm, rules_bands)
         if call.start_in_bands is None:
             call.start_in_bands = counts
         if counts["inside_rules_band"] or (hs_margin, widen) == (st.hs_margin, st.widen):

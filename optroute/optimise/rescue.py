@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from formulations.common import Band
 from formulations.phase1 import SLACK_TOL
 from formulations.speed_nlp import NLPResult, SpeedNLP
 from optroute import geodesy as geo
@@ -184,7 +185,7 @@ def tighten(st: Tightening, violations: list[Violation], plan: Plan, res: NLPRes
 
 
 def start_in_nlp_bands(
-    nlp: SpeedNLP, st: Tightening, warm: Mapping[str, np.ndarray]
+    nlp: SpeedNLP, st: Tightening, warm: Mapping[str, np.ndarray], rules_bands: tuple[Band, ...]
 ) -> tuple[dict[str, int], float, float]:
     """Where a start lies inside the NLP's bands (its samples, the NLP's own evaluation), counted by why, and the
     back-offs that would clear it.
@@ -196,7 +197,8 @@ def start_in_nlp_bands(
     feasible set, may find no solution. Per (sample, band) inside the NLP's band: ``"below_rules_threshold"`` (Hs
     under the rules' threshold there), ``"back_off_only"`` (in the edges' back-off, outside the rules' band) or
     ``"inside_rules_band"`` (where the rules' threshold is met and the ratio is inside the rules' band, as the NLP
-    evaluates it); ``"samples"`` all.
+    evaluates it); ``"samples"`` all. ``rules_bands`` are the rules' own, in the NLP's order
+    (:func:`~optroute.optimise.nlp_inputs.formulation_bands` without back-offs).
 
     Returns
     -------
@@ -212,10 +214,8 @@ def start_in_nlp_bands(
     out = {"samples": 0, "below_rules_threshold": 0, "back_off_only": 0, "inside_rules_band": 0}
     hs_margin, widen = st.hs_margin, st.widen
     for k, j, b in np.argwhere(state.inside):
-        band, ratio = nlp.bands[b], float(state.ratio[k, j, b])
-        rules_hs = band.hs_min_m / (1.0 - st.hs_margin)
-        lo = band.lower / (1.0 - st.widen) if np.isfinite(band.lower) else band.lower
-        hi = band.upper / (1.0 + st.widen) if np.isfinite(band.upper) else band.upper
+        ratio = float(state.ratio[k, j, b])
+        rules_hs, lo, hi = rules_bands[b].hs_min_m, rules_bands[b].lower, rules_bands[b].upper
         if state.hs_m[k, j] < rules_hs:
             out["below_rules_threshold"] += 1
             hs_margin = min(hs_margin, 0.5 * (1.0 - state.hs_m[k, j] / rules_hs))
@@ -223,8 +223,13 @@ def start_in_nlp_bands(
             out["inside_rules_band"] += 1
         else:
             out["back_off_only"] += 1
-            room = 1.0 - ratio / lo if lo > 0.0 and ratio <= lo else ratio / hi - 1.0
-            widen = min(widen, 0.5 * max(room, 0.0))
+            if lo > 0.0 and ratio <= lo:
+                room = 1.0 - ratio / lo
+            elif np.isfinite(hi) and hi > 0.0 and ratio >= hi:
+                room = ratio / hi - 1.0
+            else:  # an edge at or below 0: no relative back-off clears it
+                room = 0.0
+            widen = min(widen, 0.5 * room)
         out["samples"] += 1
     return out, hs_margin, widen
 
