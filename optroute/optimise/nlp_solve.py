@@ -297,8 +297,7 @@ class Problem:
             "hourly_cost": hourly_cost,
         }
         if warm is not None:
-            y0 = np.clip(warm["offset_nm"], *nlp.corridor.offset_bounds())
-            v0 = np.clip(warm["stw_kn"], nlp.v_min_kn, nlp.v_max_kn)
+            y0, v0 = warm_point(nlp, warm)
         else:
             y0 = np.clip(np.zeros(n + 1), *nlp.corridor.offset_bounds())
             total = float(self.frame.s_nm[-1])
@@ -349,6 +348,14 @@ class Problem:
             iterations=iterations[0],
             sides_settled=out.finished,
         )
+
+
+def warm_point(nlp: SpeedNLP, warm: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+    """A warm start's offsets (N+1,) [nm] and leg speeds (N,) [kn] within ``nlp``'s bounds: the point its solve starts
+    from (with :meth:`SpeedNLP.consistent_times` for the times)."""
+    y0 = np.clip(warm["offset_nm"], *nlp.corridor.offset_bounds())
+    v0 = np.clip(warm["stw_kn"], nlp.v_min_kn, nlp.v_max_kn)
+    return y0, v0
 
 
 def band_solver(nlp: SpeedNLP, trial: Callable[[], SpeedNLP], kwargs: dict[str, Any]) -> Callable[..., InnerOutcome]:

@@ -33,6 +33,7 @@ from optroute.optimise.nlp_solve import (
     Tightening,
     clear_of_exclusion,
     safe_warm_start,
+    warm_point,
 )
 from optroute.optimise.phase1 import infeasible_eta, phase1_point
 from optroute.plan.result import Exclusion, Plan, PlanContext, Violation
@@ -208,8 +209,7 @@ def start_in_nlp_bands(
         at the samples of the first two kinds (unchanged where there are none): with them the start is clear of the
         NLP's bands but where the third kind puts it inside.
     """
-    y0 = np.clip(warm["offset_nm"], *nlp.corridor.offset_bounds())
-    v0 = np.clip(warm["stw_kn"], nlp.v_min_kn, nlp.v_max_kn)
+    y0, v0 = warm_point(nlp, warm)  # the point the solve starts from (Problem.solve)
     state = nlp.evaluate(y0, v0, nlp.consistent_times(y0, v0))
     out = {"samples": 0, "below_rules_threshold": 0, "back_off_only": 0, "inside_rules_band": 0}
     hs_margin, widen = st.hs_margin, st.widen
