@@ -20,16 +20,26 @@ pieces that start at most ``step_nm`` long and are halved adaptively (down to
   part of a leg's fuel is within :data:`FUEL_RTOL` of its integral;
 * the integrand jumps where the model's regime changes (Kwon 2008 takes the Beaufort number as an
   integer and the direction coefficient by sector: :func:`optroute.physics.passage.power_regime`;
-  the referee's 5 nm midpoints alone were 1–8 % off per leg in a cyclone's sharp wind field) or
+  a cyclone's sharp wind field changes it every few nm) or
   the sea stops being navigable; where the regime differs between two consecutive samples (the
-  leg's ends, the pieces' quarter points and midpoints) and the jump of ``q`` exceeds
-  :data:`FUEL_RTOL` times the leg's mean, the pieces around it are halved down to
-  :data:`MIN_PIECE_NM`, each then off by at most half its length times the jump.
+  leg's ends, the pieces' quarter points and midpoints), the pieces around them are halved down to
+  :data:`MIN_PIECE_NM` whatever the jump of ``q`` between the two (a third regime may lie between
+  them), and further (down to :data:`MIN_JUMP_PIECE_NM`) while half the piece times the jump exceeds
+  :data:`JUMP_SHARE` of the leg's tolerance: a bisection of the jump, each piece then off by at most
+  half its length times the jump;
+* between two samples of one regime the regime may still change and change back (a stretch of a higher
+  Beaufort number a few hundred metres long, between the quarter points of a piece); the distances of
+  Kwon's two drivers (wind speed or Hs, wave angle) to their nearest edges
+  (:func:`optroute.physics.passage.regime_distances`) are certified positive between the samples by the
+  referee's Lipschitz rule (:func:`optroute.search.band_refine.certified`, as
+  :mod:`optroute.plan.checkpoints` checks the engine's range), and the pieces around an interval that is
+  not are halved down to :data:`MIN_PIECE_NM`.
 
 The estimate of a leg's error (the Richardson terms plus the jumps' terms) is
 :attr:`DenseTrack.fuel_err_t`; ``tests/test_fuel_integration.py`` compares both with an
-independent brute force at 0.01 nm on random legs through a cyclone. A regime excursion shorter
-than the samples' spacing (a quarter piece) can be missed; it costs at most its length times its jump.
+independent brute force (every 0.01 nm, finer across jumps) on random legs through a cyclone. A
+regime excursion shorter than :data:`MIN_PIECE_NM`, or one the slope bound underestimates, can be
+missed; it costs at most its length times its jump.
 """
 
 from __future__ import annotations
@@ -47,10 +57,11 @@ from optroute.errors import ConfigError
 from optroute.geo import land
 from optroute.geo.tracks import Exclusion, gc_points
 from optroute.physics import seaway
-from optroute.physics.passage import SeaState, evaluate_speeds, power_regime
+from optroute.physics.passage import SeaState, evaluate_speeds, power_regime, regime_distances
 from optroute.physics.performance import PerformanceModel
 from optroute.physics.safety import BANDS, BandRules, band_margins
 from optroute.physics.ship import Ship
+from optroute.search.band_refine import certified, secant_slopes
 from optroute.search.route import Corridor
 from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
@@ -60,6 +71,8 @@ from optroute.weather.schema import VARIABLES
 
 __all__ = [
     "FUEL_RTOL",
+    "JUMP_SHARE",
+    "MIN_JUMP_PIECE_NM",
     "MIN_PIECE_NM",
     "DenseTrack",
     "PlanContext",
@@ -75,7 +88,11 @@ _SEA_VARS = tuple(VARIABLES)  # every canonical weather variable
 FUEL_RTOL = 1e-3
 """Relative tolerance of every leg's fuel and time integrals where the integrand is smooth [-]."""
 MIN_PIECE_NM = 0.02
-"""Shortest piece of the fuel integration [nm]: a jump of the fuel rate costs at most half of it times the jump."""
+"""Shortest piece of the fuel integration where the integrand is smooth or its regime may change unseen [nm]."""
+MIN_JUMP_PIECE_NM = 1e-4
+"""Shortest piece about a seen jump of the fuel rate [nm]: the jump costs at most half of it times the jump."""
+JUMP_SHARE = 0.1
+"""A seen jump is located until its piece's error is at most this share of the leg's tolerance [-]."""
 
 
 # --------------------------------------------------------------------------- violations and context
@@ -333,13 +350,17 @@ def _evaluate_pieces(ctx, wp, d, pieces, stw_kn, departure, times_h, iterations,
 
 
 def _per_nm(ctx: PlanContext, course: np.ndarray, sea: SeaState, stw: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Fuel [t/nm] and time [h/nm] per distance sailed, and the model's power regime, at points."""
+    """Fuel [t/nm] and time [h/nm] per distance sailed, the model's power regime and the distances of the
+    regime's two drivers to their nearest edges (:func:`optroute.physics.passage.regime_distances`; +inf for
+    a model that declares none), at points."""
     heading, sog, _, fuel, _ = evaluate_speeds(ctx.ship, ctx.model, ctx.rules, course, sea, stw)
     usable = np.isfinite(sog) & (sog > 0) & np.isfinite(heading)
     inv = np.where(usable, 1.0 / np.where(usable, sog, 1.0), np.inf)
     held = np.isfinite(heading)
-    regime = np.where(held, power_regime(ctx.model, np.where(held, heading, course), sea), -2)
-    return np.where(usable, fuel * inv, np.inf), inv, regime
+    at = np.where(held, heading, course)
+    regime = np.where(held, power_regime(ctx.model, at, sea), -2)
+    dist = regime_distances(ctx.model, at, sea) or (np.full(course.shape, np.inf),) * 2
+    return np.where(usable, fuel * inv, np.inf), inv, regime, *dist
 
 
 def _refine(ctx, wp, d, pieces, ev: DenseTrack, departure, rtol) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
@@ -365,13 +386,14 @@ def _refine(ctx, wp, d, pieces, ev: DenseTrack, departure, rtol) -> tuple[tuple[
 
     mid = ev.length_nm > 0
     ends = (ev.length_nm == 0) & (ev.frac <= 0.0), (ev.length_nm == 0) & (ev.frac >= 1.0)
-    g_all, u_all, r_all = _per_nm(ctx, ev.course, ev.sea, ev.stw)
-    end_vals = (g_all[ends[0]], r_all[ends[0]], g_all[ends[1]], r_all[ends[1]])
+    at_points = _per_nm(ctx, ev.course, ev.sea, ev.stw)
+    end_vals = tuple(x[ends[0]] for x in at_points), tuple(x[ends[1]] for x in at_points)
     pleg, a, b = pieces
     q1, q3 = quarters(pleg, a, b)
-    vals = [np.column_stack([q1[i], (g_all, u_all, r_all)[i][mid], q3[i]]) for i in range(3)]  # (g, u, r) x (q1, m, q3)
+    # (fuel per nm, time per nm, regime, regime distances...) x (first quarter, middle, third quarter)
+    vals = [np.column_stack([q1[i], x[mid], q3[i]]) for i, x in enumerate(at_points)]
     while True:
-        halve, err = _loose(pleg, (b - a) * d[pleg], d, vals, end_vals, rtol)
+        halve, err = _loose(pleg, a, b, d, vals, end_vals, rtol)
         if not halve.any():
             return (pleg, a, b), err
         c = 0.5 * (a + b)
@@ -391,12 +413,15 @@ def _refine(ctx, wp, d, pieces, ev: DenseTrack, departure, rtol) -> tuple[tuple[
         vals = [np.concatenate([v[~halve], nv[:k], nv[k:]])[order] for v, nv in zip(vals, new_vals, strict=True)]
 
 
-def _loose(pleg, h, d, vals, end_vals, rtol) -> tuple[np.ndarray, np.ndarray]:
+def _loose(pleg, a, b, d, vals, end_vals, rtol) -> tuple[np.ndarray, np.ndarray]:
     """Which pieces to halve, and every leg's fuel error estimate [t] (the module text's rule).
 
-    ``vals``: fuel per nm, time per nm and regime at each piece's (first quarter, middle, third quarter).
+    ``pleg, a, b``: each piece's leg and its ends as fractions of the leg; ``vals``: fuel per nm, time per
+    nm, regime and the regime distances at each piece's (first quarter, middle, third quarter);
+    ``end_vals``: the same at every leg's start and end.
     """
-    g, u, r = vals
+    g, u, r = vals[:3]
+    h = (b - a) * d[pleg]
     n = d.size
     with np.errstate(invalid="ignore"):
         fuel_err = 4.0 / 3.0 * np.abs(0.5 * (g[:, 0] + g[:, 2]) - g[:, 1]) * h  # Richardson: midpoint error ∝ h³
@@ -406,14 +431,65 @@ def _loose(pleg, h, d, vals, end_vals, rtol) -> tuple[np.ndarray, np.ndarray]:
     share = h / np.where(d > 0, d, 1.0)[pleg]
     loose = (fuel_err > rtol * fuel_leg[pleg] * share) | (time_err > rtol * time_leg[pleg] * share)
     # a regime change between consecutive samples of a leg (its ends included): the integrand jumps there
-    jump = _jumps(pleg, r, g, *end_vals)
-    mean_g = fuel_leg / np.where(d > 0, d, 1.0)
-    jumping = jump > rtol * mean_g[pleg]  # a smaller jump costs less than the tolerance over the whole leg
+    (g_start, r_start, *_), (g_stop, r_stop, *_) = end_vals
+    jump = _jumps(pleg, r, g, g_start, r_start, g_stop, r_stop)
     err_piece = np.where(jump > 0, np.maximum(fuel_err, 0.5 * jump * h), fuel_err)
     err = np.bincount(pleg, weights=np.where(np.isfinite(err_piece), err_piece, 0.0), minlength=n)
     err = np.where(np.isfinite(fuel_leg), err, np.inf)
-    halve = (jumping | loose) & (h >= 2.0 * MIN_PIECE_NM) & np.isfinite(fuel_leg[pleg])
+    navigable = np.isfinite(fuel_leg[pleg])
+    # a jump is located further while its piece's share of the error exceeds JUMP_SHARE of the leg's tolerance
+    pinned = (0.5 * jump * h > JUMP_SHARE * rtol * fuel_leg[pleg]) & (h >= 2.0 * MIN_JUMP_PIECE_NM)
+    changing = _regime_changes(pleg, a, b, d, vals, end_vals)
+    halve = (((loose | changing) & (h >= 2.0 * MIN_PIECE_NM)) | pinned) & navigable
     return halve, err
+
+
+def _regime_changes(pleg, a, b, d, vals, end_vals) -> np.ndarray:
+    """Per piece, whether the model's regime changes, or may change and change back, next to one of its samples.
+
+    The samples of every leg in sailing order (its start, each piece's quarter points and midpoint, its
+    end). Between two of different regimes the change is to be located (whatever the jump of the fuel
+    per nm: the regime may pass through a third one in between); between two of one regime, each
+    distance of a regime driver to its nearest edge must be certified positive over every stretch
+    longer than :data:`MIN_PIECE_NM` by the referee's Lipschitz rule
+    (:func:`optroute.search.band_refine.certified`, as :mod:`optroute.plan.checkpoints` checks the
+    engine's range). A piece that owns an end of such an interval is flagged.
+    """
+    p = pleg.size
+    starts = np.flatnonzero(np.r_[True, pleg[1:] != pleg[:-1]])
+    stops = np.r_[starts[1:], p] - 1
+    pos = a[:, None] + np.array([0.25, 0.5, 0.75]) * (b - a)[:, None]
+    n_s = 3 * p + 2 * starts.size
+    # the flat sequence: every leg's start, its pieces' three samples, its end
+    group = np.searchsorted(starts, np.arange(p), "right") - 1  # each piece's leg, counted among the legs here
+    slot = (3 * np.arange(p) + 2 * group + 1)[:, None] + np.arange(3)
+    first_slot, last_slot = slot[starts, 0] - 1, slot[stops, 2] + 1
+    leg_s = np.empty(n_s, dtype=pleg.dtype)
+    s_nm = np.empty(n_s)
+    owner = np.full(n_s, -1)
+    leg_s[slot], s_nm[slot], owner[slot] = pleg[:, None], pos * d[pleg][:, None], np.arange(p)[:, None]
+    leg_s[first_slot], s_nm[first_slot] = pleg[starts], 0.0
+    leg_s[last_slot], s_nm[last_slot] = pleg[stops], d[pleg[stops]]
+
+    def seq(k: int) -> np.ndarray:
+        out = np.empty(n_s)
+        out[slot] = vals[k]
+        out[first_slot], out[last_slot] = end_vals[0][k][pleg[starts]], end_vals[1][k][pleg[stops]]
+        return out
+
+    same = leg_s[1:] == leg_s[:-1]
+    r = seq(2)
+    one = same & (r[1:] == r[:-1]) & (r[1:] >= 0)
+    h = s_nm[1:] - s_nm[:-1]
+    doubt = same & (r[1:] != r[:-1])
+    for k in range(3, len(vals)):
+        m = seq(k)
+        doubt |= one & ~certified(m[:-1], m[1:], secant_slopes(m, s_nm, one), h, MIN_PIECE_NM)
+    out = np.zeros(p, dtype=bool)
+    for side in (owner[:-1], owner[1:]):
+        hit = doubt & (side >= 0)
+        out[side[hit]] = True
+    return out
 
 
 def _jumps(pleg, r, g, g_start, r_start, g_stop, r_stop) -> np.ndarray:
