@@ -37,7 +37,7 @@ import casadi as ca
 import numpy as np
 
 from formulations._buffers import Buffered, MemoCallback
-from formulations.common import Band, PowerModel, spline_weights
+from formulations.common import BELOW_BETA, Band, PowerModel, spline_weights
 from formulations.row_layout import leg_kinds, leg_row_numbers
 from formulations.splines import ratio_field_names, sector_weights, spline_weight_derivatives
 
@@ -197,7 +197,9 @@ def sample_physics(
     col : dict
         Weather fields at the sample by name (see ``WeatherGrid.field_names``).
     beta : SX
-        Band edge used in each band's residual (``lower`` or ``upper`` by side), length B.
+        Band edge used in each band's residual (``lower`` or ``upper`` by side), length B; at least half of
+        :data:`formulations.common.BELOW_BETA`: the residual is ``(Hs − hs_min_m) / hs_min_m`` instead (the sea
+        below the band's threshold, ``≤ 0`` when satisfied).
     power, bands, g_over_2pi
         The engine and calm-water baseline, the bands and ``A = g/2π`` [kn/s].
     ratio_axes : tuple, optional
@@ -257,7 +259,10 @@ def sample_physics(
             num = along
             den = {"v_over_c": a_ * per, "v_over_cg": 0.5 * a_ * per}.get(b.kind, b.param)
             scl = den
-        res.append((num - beta[i] * den) / scl)
+        res_i = (num - beta[i] * den) / scl
+        if b.hs_min_m > 0.0 and "hs_m" in col:  # the third disjunct: Hs below the band's threshold
+            res_i = ca.if_else(beta[i] >= 0.5 * BELOW_BETA, (col["hs_m"] - b.hs_min_m) / b.hs_min_m, res_i)
+        res.append(res_i)
         ratio.append(num / den)
     return {
         "dt": dt,

@@ -36,6 +36,8 @@ __all__ = [
     "PowerLawFuel",
     "PowerModel",
     "WeatherGrid",
+    "BELOW_BETA",
+    "BELOW_SIDE",
     "G_OVER_2PI_KN_S",
     "as_float_array",
     "broadcast_legs",
@@ -45,6 +47,16 @@ __all__ = [
 #: Deep-water phase speed per wave period, g/(2π) with g = 9.80665 m/s², in
 #: knots per second (physics.md §2: c = g T / 2π); 3.0339 kn/s.
 G_OVER_2PI_KN_S: float = 9.80665 / (2.0 * np.pi) / (1852.0 / 3600.0)
+
+
+#: A sample's band "side" meaning: the sea stays below the band's threshold there (``Hs < hs_min_m``), where the
+#: band does not apply whatever the ratio. The third disjunct of "ratio ≤ lower OR ratio ≥ upper OR Hs < hs_min_m",
+#: imposed where a start lies inside the band's ratio interval in seas below the threshold
+#: (:meth:`formulations.speed_nlp.SpeedNLP.default_sides`).
+BELOW_SIDE: int = 0
+#: The band-edge parameter ``β`` of a :data:`BELOW_SIDE` sample: no ratio edge is that large, so the residual
+#: (:func:`formulations._nlp_model.sample_physics`) switches to the Hs row on it.
+BELOW_BETA: float = 1e6
 
 
 class FormulationInputError(ValueError):

@@ -8,7 +8,8 @@ enumeration of the disjuncts (or Bonmin with big-M); every answer is re-checked.
 
 Everything here is solver-agnostic. A *side array* has any shape (``(N, B)`` for legs × bands on
 a fixed path, ``(N, m, B)`` for the NLP's samples) with entries −1 (``ratio ≤ lower``) or +1
-(``ratio ≥ upper``); an *applies* array of the same shape says where a band is imposed. The inner
+(``ratio ≥ upper``), or :data:`~formulations.common.BELOW_SIDE` (``Hs < hs_min_m``, where the band does not
+apply; the NLP's samples only); an *applies* array of the same shape says where a band is imposed. The inner
 solver is a callback ``solve(sides, applies) -> InnerOutcome``. Adapters:
 
 * :func:`convex_band_solver` wraps :func:`formulations.speed_convex.solve_speed_convex` on a
@@ -23,7 +24,10 @@ Modes:
 (b) :func:`improve_sides`: the outer loop — solve, re-check where each band applies at the
     solution (applicability only ever grows, a conservative rule that makes the loop finite),
     then try flipping the sides of groups whose band constraint is active (most binding first),
-    keep the first improvement, repeat until none improves (a 1-flip local search);
+    keep the first improvement, repeat until none improves (a 1-flip local search). A third
+    disjunct, "Hs stays below the band's threshold" (:data:`formulations.common.BELOW_SIDE`), holds
+    where a start lies inside a band's ratio interval in seas below the threshold, so that the
+    solve cannot carry it into the band's seas unseen; a binding one is released as a move;
 (c) :func:`enumerate_sides`: all ``2^G`` side combinations of the flippable groups (exact
     for a fixed applicability; ``G ≤ 16``), and :func:`bonmin_fixed_path`, the fixed-path problem
     as a convex MINLP with big-M constraints solved by Bonmin's branch and bound.
@@ -43,7 +47,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from formulations.common import FormulationInputError, PowerLawFuel, as_float_array, broadcast_legs
+from formulations.common import BELOW_SIDE, FormulationInputError, PowerLawFuel, as_float_array, broadcast_legs
 
 __all__ = [
     "BonminResult",
@@ -232,6 +236,17 @@ def _promising(
     return [move for move in moves if sum(per[g] for g in move) < floor]
 
 
+def _releases(cur: InnerOutcome, sides: np.ndarray, applies: np.ndarray, grp: np.ndarray) -> list[int]:
+    """Groups with a binding row "Hs below the threshold" (:data:`~formulations.common.BELOW_SIDE`), most binding
+    first: releasing one lets its samples into the band's seas on the side the solution is on there."""
+    if cur.side_at_solution is None:
+        return []
+    held = cur.active & (sides == BELOW_SIDE) & ~applies
+    labels = np.unique(grp[held])
+    strength = np.array([np.max(np.where(held & (grp == g), cur.weight, -np.inf)) for g in labels])
+    return [int(g) for g in labels[np.argsort(-strength, kind="stable")]]
+
+
 def _valid(out: InnerOutcome) -> bool:
     return bool(out.feasible and np.isfinite(out.objective) and (out.inside is None or not out.inside.any()))
 
@@ -265,7 +280,10 @@ def improve_sides(
        two groups together, at least one of them active (a 2-flip neighbourhood, which reaches
        the swaps a tight ETA needs: one leg to its fast side, another to its slow side); stop
        when nothing improves. Where the inner solve estimates each flip's change (``InnerOutcome.gain``)
-       only the moves estimated to improve are tried, the most promising first.
+       only the moves estimated to improve are tried, the most promising first. Before the flips, each
+       group whose row "Hs below the threshold" binds (:data:`~formulations.common.BELOW_SIDE`, where the
+       start lay inside the band's ratio interval in seas below its threshold) is released: those samples
+       take the side the solution is on and the band applies there, so the ship may enter the band's seas.
 
     Parameters
     ----------
@@ -336,12 +354,19 @@ def improve_sides(
                 moves += [(int(g), int(h)) for g, h in itertools.combinations(labels, 2)]
                 moves += [(int(g), h) for g in labels for h in others]
             moves = _promising(moves, grp, cur, rel_tol)
+            releases = _releases(cur, cur_s, cur_a, grp)
             improved, tried = False, 0
-            for move in moves:
+            for move in [("release", g) for g in releases] + moves:
                 if counter.exhausted:
                     break
-                mask = np.isin(grp, move) & flip_ok & cur_a
-                ts, ta, to = settle(_flip(cur_s, mask))
+                if move[0] == "release":  # a binding "Hs below the threshold" row becomes the side it is on
+                    mask = (grp == move[1]) & (cur_s == BELOW_SIDE) & ~cur_a
+                    released = cur_s.copy()
+                    released[mask] = cur.side_at_solution[mask]
+                    ts, ta, to = _settle(counter, released, cur_a | mask, max_applicability_rounds)
+                else:
+                    mask = np.isin(grp, move) & flip_ok & cur_a
+                    ts, ta, to = settle(_flip(cur_s, mask))
                 tried += 1
                 if _valid(to) and to.objective < cur.objective - rel_tol * max(1.0, abs(cur.objective)):
                     cur_s, cur_a, cur = ts, ta, to
@@ -349,7 +374,7 @@ def improve_sides(
                     improved = True
                     break
             if not improved:
-                finished = tried == len(moves)  # every move tried and none improves: a local optimum
+                finished = tried == len(moves) + len(releases)  # every move tried and none improves: a local optimum
                 break
     ok = _valid(cur)
     return DisjunctiveResult(

@@ -97,9 +97,10 @@ class NLPResult:
     band_multiplier : numpy.ndarray, shape (N, m, B)
         Multipliers of the band constraints (0 where not imposed) [objective units per unit ratio·scale].
     band_active : numpy.ndarray of bool, shape (N, m, B)
-        Band constraint imposed and binding (|multiplier| > 1e-8 or ratio within 1e-6 of its edge).
+        Band constraint imposed and binding (|multiplier| > 1e-8 or the row within 1e-6 of its bound: the ratio at
+        its edge, or on the side "Hs below the threshold" the sea at it).
     sides, applies : numpy.ndarray, shape (N, m, B)
-        The side (−1 / +1) and applicability used in this solve.
+        The side (−1 / +1, or :data:`formulations.common.BELOW_SIDE`) and applicability used in this solve.
     samples : SampleState
         Per-sample conditions at the solution (re-evaluated, for the outer loop and reports).
     max_violation : float

@@ -19,9 +19,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from formulations.common import Band, FormulationInputError
+from formulations.common import BELOW_BETA, BELOW_SIDE, Band, FormulationInputError
 
-__all__ = ["RowLegs", "leg_kinds", "leg_row_numbers", "row_blocks", "row_bounds"]
+__all__ = ["BELOW_MARGIN", "RowLegs", "leg_kinds", "leg_row_numbers", "row_blocks", "row_bounds"]
+
+BELOW_MARGIN = 1e-6
+"""How far below a band's threshold a sample on the side "Hs below the threshold" is kept, relative [-]: so that the
+solution lies strictly below it and the band does not apply there (``Hs ≥ hs_min_m`` applies)."""
 
 
 @dataclass(frozen=True)
@@ -79,10 +83,13 @@ class RowLegs:
         self, bands: tuple[Band, ...], sides: np.ndarray, applies: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The band-edge parameter ``beta`` (N·m·B, band-major over every sample) and the band rows' lower and upper
-        bounds for ``sides`` (−1: ``ratio ≤ lower``, +1: ``ratio ≥ upper``) and ``applies``, both (N, m, B).
+        bounds for ``sides`` (−1: ``ratio ≤ lower``, +1: ``ratio ≥ upper``, :data:`~formulations.common.BELOW_SIDE`:
+        ``Hs < hs_min_m``) and ``applies``, both (N, m, B).
 
         A band is imposed where it applies on the legs that carry its rows; on the others it is not (the caller
-        leaves a leg out only where no band can apply)."""
+        leaves a leg out only where no band can apply). A sample on the :data:`~formulations.common.BELOW_SIDE`
+        keeps the sea below the band's threshold by :data:`BELOW_MARGIN` (relative) wherever its leg carries the
+        band's rows, and must not be one where the band applies."""
         n, m, nb = self.band_legs.size, self.per_leg, self.n_bands
         side_arr = np.asarray(sides).astype(np.int8)
         app_arr = np.asarray(applies, dtype=bool)
@@ -92,8 +99,20 @@ class RowLegs:
             )
         if not nb:
             return np.zeros(0), np.zeros(0), np.zeros(0)
-        if not np.isin(side_arr, (-1, 1)).all():
-            raise FormulationInputError("sides must be -1 (ratio <= lower) or +1 (ratio >= upper)")
+        if not np.isin(side_arr, (-1, 1, BELOW_SIDE)).all():
+            raise FormulationInputError(
+                f"sides must be -1 (ratio <= lower), +1 (ratio >= upper) or {BELOW_SIDE} (Hs below the threshold)"
+            )
+        below = side_arr == BELOW_SIDE
+        if (below & app_arr).any():
+            k, j, b = np.argwhere(below & app_arr)[0]
+            raise FormulationInputError(
+                f"band {bands[b].name or b} applies at leg {k}, sample {j}, whose side is 'Hs below the threshold'; "
+                "give it side -1 or +1"
+            )
+        hs_min = np.array([b.hs_min_m for b in bands])
+        if (below & ~(hs_min > 0.0)[None, None, :]).any():
+            raise FormulationInputError("the side 'Hs below the threshold' needs a band with hs_min_m > 0")
         lower = np.array([b.lower for b in bands])
         upper = np.array([b.upper for b in bands])
         beta3 = np.where(side_arr < 0, lower[None, None, :], upper[None, None, :])
@@ -105,10 +124,11 @@ class RowLegs:
                 f"band {bands[b].name or b} has no side {int(side_arr[k, j, b])} (its edge is infinite): "
                 f"leg {k}, sample {j}"
             )
-        beta = np.transpose(np.where(np.isfinite(beta3), beta3, 0.0).reshape(n * m, nb)).ravel()
+        beta3 = np.where(below, BELOW_BETA, np.where(np.isfinite(beta3), beta3, 0.0))
+        beta = np.transpose(beta3.reshape(n * m, nb)).ravel()
         s_flat, a_flat = self.band_rows_of(side_arr), self.band_rows_of(app_arr)
         lo = np.where(a_flat & (s_flat > 0), 0.0, -np.inf)
-        hi = np.where(a_flat & (s_flat < 0), 0.0, np.inf)
+        hi = np.where(a_flat & (s_flat < 0), 0.0, np.where(s_flat == BELOW_SIDE, -BELOW_MARGIN, np.inf))
         return beta, lo, hi
 
 

@@ -79,6 +79,7 @@ from numpy.typing import ArrayLike
 from formulations._buffers import SharedMap, WeatherValues
 from formulations._nlp_model import heading_dev_deg, jit_compiler, sample_physics, structured_derivatives
 from formulations.common import (
+    BELOW_SIDE,
     G_OVER_2PI_KN_S,
     Band,
     CorridorGeometry,
@@ -90,7 +91,7 @@ from formulations.common import (
 )
 from formulations.ipopt_options import IPOPT_DEFAULTS, PRIMAL_START_OPTIONS, WARM_START_OPTIONS, checked_duals
 from formulations.nlp_result import NLPResult, SampleState
-from formulations.row_layout import RowLegs, row_blocks, row_bounds
+from formulations.row_layout import BELOW_MARGIN, RowLegs, row_blocks, row_bounds
 from formulations.sample_layout import SampleLayout, midpoint_layout
 
 __all__ = [
@@ -580,16 +581,23 @@ class SpeedNLP:
         return t
 
     def default_sides(self, state: SampleState) -> tuple[np.ndarray, np.ndarray]:
-        """Sides (−1/+1) and applicability (N, m, B) from the conditions of a (warm-start) state.
+        """Sides (−1/+1, or :data:`~formulations.common.BELOW_SIDE`) and applicability (N, m, B) from the conditions
+        of a (warm-start) state.
 
-        A sample takes the side it is on; inside a band, the nearer edge (in ratio) among the
-        band's allowed sides (:func:`formulations.disjunctive.select_sides`).
+        A sample takes the side it is on; inside a band, the nearer edge (in ratio) among the band's allowed sides
+        (:func:`formulations.disjunctive.select_sides`), except where the band does not apply because the sea is
+        below its threshold: there the third disjunct, "Hs stays below the threshold", is the side the start is on
+        (imposed as a row, so that the solve cannot carry that sample into the band's seas unseen).
         """
         from formulations.disjunctive import select_sides
 
         lower = np.array([b.lower for b in self.bands])
         upper = np.array([b.upper for b in self.bands])
-        return select_sides(state.ratio, lower, upper), state.applies.copy()
+        hs_min = np.array([b.hs_min_m for b in self.bands])
+        sides = select_sides(state.ratio, lower, upper)
+        inside = (state.ratio > lower) & (state.ratio < upper)
+        below = inside & ~state.applies & (hs_min > 0.0)[None, None, :]
+        return np.where(below, np.int8(BELOW_SIDE), sides).astype(np.int8), state.applies.copy()
 
     # ------------------------------------------------------------------ solve
     def dual_key(self) -> tuple[Any, ...]:
@@ -744,8 +752,11 @@ class SpeedNLP:
             a, b = self._rows["band"]
             lam_b = self.row_legs.band_samples_of(lam_g[a:b])
             res = self.row_legs.band_samples_of(g[a:b], np.inf)
-            active = app_arr & ((np.abs(lam_b) > 1e-8) | (np.abs(res) < 1e-6))
-            lam_b = np.where(app_arr, lam_b, 0.0)
+            below = side_arr == BELOW_SIDE  # "Hs below the threshold": its row's bound is -BELOW_MARGIN
+            imposed = app_arr | below
+            edge = np.where(below, -BELOW_MARGIN, 0.0)
+            active = imposed & ((np.abs(lam_b) > 1e-8) | (np.abs(res - edge) < 1e-6))
+            lam_b = np.where(imposed, lam_b, 0.0)
         else:
             lam_b = np.zeros((n, m, 0))
             active = np.zeros((n, m, 0), dtype=bool)

@@ -332,6 +332,18 @@ def test_a_sea_that_differs_from_the_forecast_beyond_the_threshold_triggers_repl
     assert quiet.outcome.n_replans == 0
 
 
+def test_every_plan_of_the_storm_voyage_improves_on_its_verified_start(storm_voyages):
+    # The re-plan's start (the 3-D DP, 62.12 t) sails inside the synchronous band where the sea is below the threshold;
+    # without the third disjunct ("Hs stays below the threshold") the first solve carried 27 such samples into the
+    # band's seas, every re-solve from there failed and the plan was the start. Now the first solve's plan stands.
+    _, _, _, replanned = storm_voyages
+    assert len(replanned.plans) >= 2
+    for plan in replanned.plans:
+        st = plan.solver_stats
+        assert plan.status != "start", st["status_reason"]
+        assert plan.total_fuel_t < st["start_score"]
+
+
 def test_a_re_plan_that_keeps_its_start_says_why(storm_voyages):
     # Every plan of the re-planned voyage records where its verified start lay inside the NLP's bands; a plan that is
     # the start (the NLP found no better one) names the first solve's verdict and, where there were any, those samples.
