@@ -48,7 +48,11 @@ Danger bands (:class:`formulations.common.Band`) are imposed per leg, sample
 and band with the side fixed by the caller (``ratio ≤ lower`` or ``ratio ≥
 upper``) as smooth one-sided constraints, only where the band is declared
 applicable (and only on the legs the caller says a band can apply on at all,
-``band_legs``; :mod:`formulations.row_layout`); :meth:`SpeedNLP.solve` reports the ratios and the Hs at every
+``band_legs``; :mod:`formulations.row_layout`). A sample where the band does not apply may
+instead take the band's third disjunct, ``Hs`` below its threshold
+(:data:`formulations.common.BELOW_SIDE`, a row ``(Hs − hs_min)/hs_min ≤ −ε``):
+:meth:`SpeedNLP.default_sides` gives it where the start lies inside the band's
+ratio interval in seas below the threshold. :meth:`SpeedNLP.solve` reports the ratios and the Hs at every
 sample so that the outer loop (:mod:`formulations.disjunctive`) can re-check
 applicability, which moves with the route, and flip sides.
 
@@ -645,8 +649,9 @@ class SpeedNLP:
         fuel_price, hourly_cost : float
             [currency/t] and [currency/h], for ``"cost"``.
         sides : array_like of int, shape (N, m, B), optional
-            −1: ``ratio ≤ lower``, +1: ``ratio ≥ upper`` per leg, sample and band; default from
-            the warm start (:meth:`default_sides`).
+            −1: ``ratio ≤ lower``, +1: ``ratio ≥ upper``, :data:`~formulations.common.BELOW_SIDE`: ``Hs`` below
+            the band's threshold (where the band does not apply) per leg, sample and band; default from the warm
+            start (:meth:`default_sides`).
         applies : array_like of bool, shape (N, m, B), optional
             Where each band constraint is imposed; default ``Hs ≥ hs_min`` at the warm start.
         offset0_nm, stw0_kn, time0_h : array_like, optional
