@@ -10,8 +10,8 @@ here uses the NLP or its power table (which is built from the same model through
 
 **The fuel and time integrals and their error.** A leg's fuel is ``∫ q(s) ds`` and its time
 ``∫ 1/SOG(s) ds`` along its length, ``q`` = fuel rate / SOG [t/nm], each by the midpoint rule on
-pieces that start at most ``step_nm`` long and are halved adaptively (down to
-:data:`MIN_PIECE_NM`):
+pieces that start at most ``step_nm`` long and are cut adaptively (down to
+:data:`MIN_PIECE_NM`, and about a large jump further):
 
 * where the integrand is smooth, a piece's midpoint error is 4/3 of the difference between its
   midpoint value and the mean of its two quarter points (the midpoint rule's error grows as the
@@ -20,25 +20,26 @@ pieces that start at most ``step_nm`` long and are halved adaptively (down to
   part of a leg's fuel is within :data:`FUEL_RTOL` of its integral;
 * the integrand jumps where the model's regime changes (Kwon 2008 takes the Beaufort number as an
   integer and the direction coefficient by sector: :func:`optroute.physics.passage.power_regime`;
-  a cyclone's sharp wind field changes it every few nm) or
-  the sea stops being navigable; where the regime differs between two consecutive samples (the
-  leg's ends, the pieces' quarter points and midpoints), the pieces around them are halved down to
-  :data:`MIN_PIECE_NM` whatever the jump of ``q`` between the two (a third regime may lie between
-  them), and further (down to :data:`MIN_JUMP_PIECE_NM`) while half the piece times the jump exceeds
-  :data:`JUMP_SHARE` of the leg's tolerance: a bisection of the jump, each piece then off by at most
-  half its length times the jump;
-* between two samples of one regime the regime may still change and change back (a stretch of a higher
-  Beaufort number a few hundred metres long, between the quarter points of a piece); the distances of
-  Kwon's two drivers (wind speed or Hs, wave angle) to their nearest edges
-  (:func:`optroute.physics.passage.regime_distances`) are certified positive between the samples by the
-  referee's Lipschitz rule (:func:`optroute.search.band_refine.certified`, as
-  :mod:`optroute.plan.checkpoints` checks the engine's range), and the pieces around an interval that is
-  not are halved down to :data:`MIN_PIECE_NM`.
+  a cyclone's sharp wind field changes it every few nm) or the sea stops being navigable. Where the
+  regime differs between two consecutive samples (the leg's ends, the pieces' quarter points and
+  midpoints) the pieces around them are halved down to :data:`REGIME_TOL_NM` whatever the jump of
+  ``q`` between the two (a third regime may lie between them); down to :data:`MIN_PIECE_NM` where the
+  jump exceeds :data:`FUEL_RTOL` times the leg's mean; and further (down to
+  :data:`MIN_JUMP_PIECE_NM`) while half the piece times the jump exceeds :data:`JUMP_SHARE` of the
+  leg's tolerance: a bisection of the jump, each piece then off by at most half its length times
+  the jump. A piece with a change to locate far below its length is cut in eight at once;
+* between two samples of one regime the regime may still change and change back (a stretch of a
+  higher Beaufort number a few hundred metres long, between the quarter points of a piece): the
+  distances of Kwon's two drivers (wind speed or Hs, wave angle) to their nearest edges
+  (:func:`optroute.physics.passage.regime_distances`) are certified positive over every stretch
+  longer than :data:`REGIME_TOL_NM` by the referee's Lipschitz rule
+  (:func:`optroute.search.band_refine.certified`, as :mod:`optroute.plan.checkpoints` checks the
+  engine's range), and the pieces around an interval that is not are halved.
 
 The estimate of a leg's error (the Richardson terms plus the jumps' terms) is
 :attr:`DenseTrack.fuel_err_t`; ``tests/test_fuel_integration.py`` compares both with an
 independent brute force (every 0.01 nm, finer across jumps) on random legs through a cyclone. A
-regime excursion shorter than :data:`MIN_PIECE_NM`, or one the slope bound underestimates, can be
+regime excursion shorter than :data:`REGIME_TOL_NM`, or one the slope bound underestimates, can be
 missed; it costs at most its length times its jump.
 """
 
@@ -61,7 +62,7 @@ from optroute.physics.passage import SeaState, evaluate_speeds, power_regime, re
 from optroute.physics.performance import PerformanceModel
 from optroute.physics.safety import BANDS, BandRules, band_margins
 from optroute.physics.ship import Ship
-from optroute.search.band_refine import certified, secant_slopes
+from optroute.search.band_refine import BAND_TOL_NM, certified, secant_slopes
 from optroute.search.route import Corridor
 from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
@@ -74,6 +75,7 @@ __all__ = [
     "JUMP_SHARE",
     "MIN_JUMP_PIECE_NM",
     "MIN_PIECE_NM",
+    "REGIME_TOL_NM",
     "DenseTrack",
     "PlanContext",
     "Violation",
@@ -88,11 +90,16 @@ _SEA_VARS = tuple(VARIABLES)  # every canonical weather variable
 FUEL_RTOL = 1e-3
 """Relative tolerance of every leg's fuel and time integrals where the integrand is smooth [-]."""
 MIN_PIECE_NM = 0.02
-"""Shortest piece of the fuel integration where the integrand is smooth or its regime may change unseen [nm]."""
+"""Shortest piece of the fuel integration where the integrand is smooth or jumps by more than the tolerance [nm]."""
 MIN_JUMP_PIECE_NM = 1e-4
 """Shortest piece about a seen jump of the fuel rate [nm]: the jump costs at most half of it times the jump."""
 JUMP_SHARE = 0.1
 """A seen jump is located until its piece's error is at most this share of the leg's tolerance [-]."""
+REGIME_TOL_NM = BAND_TOL_NM
+"""A change of the model's regime, or an excursion into another regime between samples, is located to this [nm]:
+the referee's tolerance for a band or the engine's range (:mod:`optroute.plan.checkpoints`)."""
+_EAGER_PARTS = 8
+"""Parts a piece is cut into at once where a regime change is to be located far below its length."""
 
 
 # --------------------------------------------------------------------------- violations and context
@@ -364,11 +371,12 @@ def _per_nm(ctx: PlanContext, course: np.ndarray, sea: SeaState, stw: np.ndarray
 
 
 def _refine(ctx, wp, d, pieces, ev: DenseTrack, departure, rtol) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
-    """The pieces halved until none is loose (:func:`_loose`), and every leg's fuel error estimate [t].
+    """The pieces cut until none is loose (:func:`_loose`), and every leg's fuel error estimate [t].
 
-    The ship is at a point at the time of ``ev``'s schedule (linear in distance between its points). A
-    halved piece's halves have its quarter points as midpoints, so each round evaluates only the new
-    halves' quarter points.
+    The ship is at a point at the time of ``ev``'s schedule (linear in distance between its points). A loose
+    piece is halved (its halves' midpoints are its quarter points: each round evaluates only the halves'
+    quarter points), or cut into :data:`_EAGER_PARTS` where a regime change is to be located far below its
+    length (one round instead of three; each round costs about as much however few its points).
     """
     offset = np.concatenate([[0.0], np.cumsum(d)])
     x_clock, t_clock = offset[ev.leg] + ev.frac * d[ev.leg], ev.time_h
@@ -379,42 +387,51 @@ def _refine(ctx, wp, d, pieces, ev: DenseTrack, departure, rtol) -> tuple[tuple[
         sea, _ = sample_sea(ctx.sampler, departure + _h_to_td(t_h), lat, lon)
         return _per_nm(ctx, course, sea, ev.stw[np.searchsorted(ev.leg, leg)])
 
-    def quarters(pleg, a, b) -> tuple[np.ndarray, ...]:
-        both = probe(np.concatenate([pleg, pleg]), np.concatenate([a + 0.25 * (b - a), a + 0.75 * (b - a)]))
-        p = pleg.size
-        return tuple(x[:p] for x in both), tuple(x[p:] for x in both)
+    def samples(pleg, a, b, where=(0.25, 0.75)) -> list[np.ndarray]:
+        """Every quantity of :func:`_per_nm` at the fractions ``where`` of each piece, one column each."""
+        at = probe(np.tile(pleg, len(where)), np.concatenate([a + f * (b - a) for f in where]))
+        return [x.reshape(len(where), -1).T for x in at]
 
     mid = ev.length_nm > 0
     ends = (ev.length_nm == 0) & (ev.frac <= 0.0), (ev.length_nm == 0) & (ev.frac >= 1.0)
     at_points = _per_nm(ctx, ev.course, ev.sea, ev.stw)
     end_vals = tuple(x[ends[0]] for x in at_points), tuple(x[ends[1]] for x in at_points)
     pleg, a, b = pieces
-    q1, q3 = quarters(pleg, a, b)
     # (fuel per nm, time per nm, regime, regime distances...) x (first quarter, middle, third quarter)
-    vals = [np.column_stack([q1[i], x[mid], q3[i]]) for i, x in enumerate(at_points)]
+    vals = [np.column_stack([q[:, 0], x[mid], q[:, 1]]) for q, x in zip(samples(pleg, a, b), at_points, strict=True)]
     while True:
-        halve, err = _loose(pleg, a, b, d, vals, end_vals, rtol)
+        halve, eager, err = _loose(pleg, a, b, d, vals, end_vals, rtol)
         if not halve.any():
             return (pleg, a, b), err
         c = 0.5 * (a + b)
-        h_leg, h_a, h_b = pleg[halve], a[halve], b[halve]
-        nl, nr = quarters(
-            np.concatenate([h_leg, h_leg]), np.concatenate([h_a, c[halve]]), np.concatenate([c[halve], h_b])
-        )
+        half, many = halve & ~eager, halve & eager
+        h_leg, h_a, h_b = pleg[half], a[half], b[half]
+        nl = samples(np.concatenate([h_leg, h_leg]), np.concatenate([h_a, c[half]]), np.concatenate([c[half], h_b]))
         k = h_leg.size
-        new_vals = [
-            np.column_stack([nl[i], np.concatenate([v[halve, 0], v[halve, 2]]), nr[i]]) for i, v in enumerate(vals)
+        halves = [
+            np.column_stack([q[:, 0], np.concatenate([v[half, 0], v[half, 2]]), q[:, 1]])
+            for q, v in zip(nl, vals, strict=True)
         ]
-        leg = np.concatenate([pleg[~halve], h_leg, h_leg])
-        lo = np.concatenate([a[~halve], h_a, c[halve]])
-        hi = np.concatenate([b[~halve], c[halve], h_b])
+        rep = np.repeat(np.flatnonzero(many), _EAGER_PARTS)
+        j = np.tile(np.arange(_EAGER_PARTS), int(many.sum()))
+        m_leg = pleg[rep]
+        m_a = a[rep] + (b[rep] - a[rep]) * j / _EAGER_PARTS
+        m_b = np.where(j + 1 == _EAGER_PARTS, b[rep], a[rep] + (b[rep] - a[rep]) * (j + 1) / _EAGER_PARTS)
+        parts = samples(m_leg, m_a, m_b, (0.25, 0.5, 0.75))
+        leg = np.concatenate([pleg[~halve], h_leg, h_leg, m_leg])
+        lo = np.concatenate([a[~halve], h_a, c[half], m_a])
+        hi = np.concatenate([b[~halve], c[half], h_b, m_b])
         order = np.lexsort((lo, leg))
         pleg, a, b = leg[order], lo[order], hi[order]
-        vals = [np.concatenate([v[~halve], nv[:k], nv[k:]])[order] for v, nv in zip(vals, new_vals, strict=True)]
+        vals = [
+            np.concatenate([v[~halve], hv[:k], hv[k:], pv])[order]
+            for v, hv, pv in zip(vals, halves, parts, strict=True)
+        ]
 
 
-def _loose(pleg, a, b, d, vals, end_vals, rtol) -> tuple[np.ndarray, np.ndarray]:
-    """Which pieces to halve, and every leg's fuel error estimate [t] (the module text's rule).
+def _loose(pleg, a, b, d, vals, end_vals, rtol) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which pieces to cut, which of them in :data:`_EAGER_PARTS` rather than two, and every leg's fuel error
+    estimate [t] (the module text's rule).
 
     ``pleg, a, b``: each piece's leg and its ends as fractions of the leg; ``vals``: fuel per nm, time per
     nm, regime and the regime distances at each piece's (first quarter, middle, third quarter);
@@ -439,9 +456,18 @@ def _loose(pleg, a, b, d, vals, end_vals, rtol) -> tuple[np.ndarray, np.ndarray]
     navigable = np.isfinite(fuel_leg[pleg])
     # a jump is located further while its piece's share of the error exceeds JUMP_SHARE of the leg's tolerance
     pinned = (0.5 * jump * h > JUMP_SHARE * rtol * fuel_leg[pleg]) & (h >= 2.0 * MIN_JUMP_PIECE_NM)
-    changing = _regime_changes(pleg, a, b, d, vals, end_vals)
-    halve = (((loose | changing) & (h >= 2.0 * MIN_PIECE_NM)) | pinned) & navigable
-    return halve, err
+    mean_g = fuel_leg / np.where(d > 0, d, 1.0)
+    jumping = jump > rtol * mean_g[pleg]  # a smaller seen jump costs less than the tolerance over the whole leg
+    # any regime change, or one that may happen and be undone between samples: located to REGIME_TOL_NM
+    changing = _regime_changes(pleg, a, b, d, vals, end_vals) & (h >= 2.0 * REGIME_TOL_NM)
+    halve = (((loose | jumping) & (h >= 2.0 * MIN_PIECE_NM)) | changing | pinned) & navigable
+    # a change to locate far below the piece's length: cut it in _EAGER_PARTS at once
+    eager = (
+        ((jumping | changing) & (h >= 2.0 * _EAGER_PARTS * REGIME_TOL_NM))
+        | (jumping & (h >= 2.0 * _EAGER_PARTS * MIN_PIECE_NM))
+        | (pinned & (h >= 2.0 * _EAGER_PARTS * MIN_JUMP_PIECE_NM))
+    )
+    return halve, eager & halve, err
 
 
 def _regime_changes(pleg, a, b, d, vals, end_vals) -> np.ndarray:
@@ -484,7 +510,7 @@ def _regime_changes(pleg, a, b, d, vals, end_vals) -> np.ndarray:
     doubt = same & (r[1:] != r[:-1])
     for k in range(3, len(vals)):
         m = seq(k)
-        doubt |= one & ~certified(m[:-1], m[1:], secant_slopes(m, s_nm, one), h, MIN_PIECE_NM)
+        doubt |= one & ~certified(m[:-1], m[1:], secant_slopes(m, s_nm, one), h, REGIME_TOL_NM)
     out = np.zeros(p, dtype=bool)
     for side in (owner[:-1], owner[1:]):
         hit = doubt & (side >= 0)
