@@ -18,7 +18,7 @@ import pytest
 from formulations.common import BELOW_BETA, BELOW_SIDE, Band, FormulationInputError
 from formulations.disjunctive import select_sides
 from formulations.row_layout import BELOW_MARGIN, RowLegs
-from tests.test_formulations_nlp import _rich_problem
+from tests.test_formulations_nlp import _rich_problem, assert_same_derivatives
 from tests.test_nlp_row_legs import _problem
 
 BAND = Band("te_over_tr", 0.8, 1.2, param=20.0, hs_min_m=3.0)
@@ -74,14 +74,7 @@ def test_structured_derivatives_of_the_third_disjunct_equal_casadis_automatic_on
     beta = rng.uniform(0.5, 1.5, n * 3 * 2)
     beta[rng.uniform(size=beta.size) < 0.5] = BELOW_BETA  # about half the samples on the third disjunct
     p = np.concatenate([[1.3, 0.7], beta, rng.uniform(0.5, 1.5, n)])
-    lam_g = rng.normal(size=exact._ng)
-    for name, args in (("nlp_jac_g", [x, p]), ("nlp_hess_l", [x, p, 0.8, lam_g])):
-        mine, ref = exact._solver.get_function(name)(*args), auto._solver.get_function(name)(*args)
-        mine = mine if isinstance(mine, tuple | list) else [mine]
-        ref = ref if isinstance(ref, tuple | list) else [ref]
-        for a, b in zip(mine, ref, strict=True):
-            a, b = np.array(a.full()), np.array(b.full())
-            np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(b).max()), err_msg=name)
+    assert_same_derivatives(exact._solver, auto._solver, x, p, rng.normal(size=exact._ng))
 
 
 def test_a_start_inside_the_ratio_band_in_low_seas_is_kept_out_of_the_band_seas() -> None:

@@ -134,12 +134,18 @@ def test_structured_derivatives_equal_casadi_automatic_differentiation() -> None
     # w, β, then the static per-leg power factors f_k
     p = np.concatenate([[1.3, 0.7], rng.uniform(0.5, 1.5, n * 3 * 2), rng.uniform(0.5, 1.5, n)])
     lam_g = rng.normal(size=exact._ng)
-    for name, args in (("nlp_grad_f", [x, p]), ("nlp_jac_g", [x, p]), ("nlp_hess_l", [x, p, 0.8, lam_g])):
-        mine = exact._solver.get_function(name)(*args)
-        ref = auto._solver.get_function(name)(*args)
-        mine = mine if isinstance(mine, tuple | list) else [mine]
-        ref = ref if isinstance(ref, tuple | list) else [ref]
-        for a, b in zip(mine, ref, strict=True):
+    assert_same_derivatives(exact._solver, auto._solver, x, p, lam_g, ("nlp_grad_f", "nlp_jac_g", "nlp_hess_l"))
+
+
+def assert_same_derivatives(mine: object, ref: object, x, p, lam_g, names=("nlp_jac_g", "nlp_hess_l")) -> None:
+    """The derivative functions ``names`` of two ``nlpsol`` solvers agree at ``(x, p)`` (and ``σ = 0.8, λ = lam_g``
+    for the Hessian of the Lagrangian) to 1e-9."""
+    for name in names:
+        args = [x, p, 0.8, lam_g] if name == "nlp_hess_l" else [x, p]
+        got, want = mine.get_function(name)(*args), ref.get_function(name)(*args)
+        got = got if isinstance(got, tuple | list) else [got]
+        want = want if isinstance(want, tuple | list) else [want]
+        for a, b in zip(got, want, strict=True):
             a, b = np.array(a.full()), np.array(b.full())
             np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(b).max()), err_msg=name)
 

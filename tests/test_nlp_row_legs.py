@@ -15,6 +15,7 @@ from formulations.phase1 import Phase1Problem
 from formulations.row_layout import RowLegs
 from formulations.speed_nlp import SpeedNLP
 from optroute.optimise.rows import legs_near_exclusion, legs_that_can_bind
+from tests.test_formulations_nlp import assert_same_derivatives
 
 N_LEGS = 30
 HS_MIN_M = 3.0
@@ -87,16 +88,7 @@ def test_leg_by_leg_derivatives_with_rows_on_some_legs_equal_casadis_automatic_o
         s_mine, s_ref, ng = ph_mine._solver, ph_ref._solver, ph_mine._ng + 1
         x = np.concatenate([x, rng.uniform(0.0, 1.0, ph_mine._ns)])
         assert ph_mine._ns == 2 * n * 3 + 3 * excl.sum() + 3 * 2 * band.sum() + 1  # a slack per row
-    lam = rng.normal(size=ng)
-    for name, args in (("nlp_jac_g", [x, p]), ("nlp_hess_l", [x, p, 0.8, lam])):
-        got, want = s_mine.get_function(name)(*args), s_ref.get_function(name)(*args)
-        got, want = (
-            (got if isinstance(got, tuple | list) else [got]),
-            (want if isinstance(want, tuple | list) else [want]),
-        )
-        for a, b in zip(got, want, strict=True):
-            a, b = np.array(a.full()), np.array(b.full())
-            np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(b).max()), err_msg=name)
+    assert_same_derivatives(s_mine, s_ref, x, p, rng.normal(size=ng))
 
 
 def test_row_legs_map_samples_to_rows_and_back_and_check_their_masks() -> None:
