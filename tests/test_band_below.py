@@ -18,7 +18,7 @@ import pytest
 from formulations.common import BELOW_BETA, BELOW_SIDE, Band, FormulationInputError
 from formulations.disjunctive import select_sides
 from formulations.row_layout import BELOW_MARGIN, RowLegs
-from tests.test_formulations_nlp import _rich_problem, assert_same_derivatives
+from tests.test_formulations_nlp import assert_same_derivatives, rich_pair
 from tests.test_nlp_row_legs import _problem
 
 BAND = Band("te_over_tr", 0.8, 1.2, param=20.0, hs_min_m=3.0)
@@ -66,11 +66,8 @@ def test_the_row_is_the_relative_height_of_the_sea_below_the_threshold() -> None
 
 
 def test_structured_derivatives_of_the_third_disjunct_equal_casadis_automatic_ones() -> None:
-    exact, _ = _rich_problem(exact_hessian=True)
-    auto, _ = _rich_problem(structured=False)
-    rng = np.random.default_rng(11)
+    exact, auto, x, rng = rich_pair(11)
     n = exact.n_legs
-    x = np.concatenate([rng.uniform(-20, 20, n + 1), rng.uniform(10, 20, n), np.linspace(0, 40, n + 1)])
     beta = rng.uniform(0.5, 1.5, n * 3 * 2)
     beta[rng.uniform(size=beta.size) < 0.5] = BELOW_BETA  # about half the samples on the third disjunct
     p = np.concatenate([[1.3, 0.7], beta, rng.uniform(0.5, 1.5, n)])

@@ -125,12 +125,20 @@ def _rich_problem(**kw: object) -> tuple[SpeedNLP, float]:
     return nlp, float(cor.s_nm[-1] / 14.0)
 
 
-def test_structured_derivatives_equal_casadi_automatic_differentiation() -> None:
+def rich_pair(seed: int) -> tuple[SpeedNLP, SpeedNLP, np.ndarray, np.random.Generator]:
+    """:func:`_rich_problem` with the structured exact derivatives and with CasADi's automatic ones, a random point
+    of it and the generator that drew it."""
     exact, _ = _rich_problem(exact_hessian=True)
     auto, _ = _rich_problem(structured=False)
-    rng = np.random.default_rng(3)
+    rng = np.random.default_rng(seed)
     n = exact.n_legs
     x = np.concatenate([rng.uniform(-20, 20, n + 1), rng.uniform(10, 20, n), np.linspace(0, 40, n + 1)])
+    return exact, auto, x, rng
+
+
+def test_structured_derivatives_equal_casadi_automatic_differentiation() -> None:
+    exact, auto, x, rng = rich_pair(3)
+    n = exact.n_legs
     # w, β, then the static per-leg power factors f_k
     p = np.concatenate([[1.3, 0.7], rng.uniform(0.5, 1.5, n * 3 * 2), rng.uniform(0.5, 1.5, n)])
     lam_g = rng.normal(size=exact._ng)
