@@ -463,7 +463,7 @@ def _loose(pleg, a, b, d, vals, end_vals, rtol) -> tuple[np.ndarray, np.ndarray,
     halve = (((loose | jumping) & (h >= 2.0 * MIN_PIECE_NM)) | changing | pinned) & navigable
     # a change to locate far below the piece's length: cut it in _EAGER_PARTS at once
     eager = (
-        ((jumping | changing) & (h >= 2.0 * _EAGER_PARTS * REGIME_TOL_NM))
+        (changing & (h >= 2.0 * _EAGER_PARTS * REGIME_TOL_NM))
         | (jumping & (h >= 2.0 * _EAGER_PARTS * MIN_PIECE_NM))
         | (pinned & (h >= 2.0 * _EAGER_PARTS * MIN_JUMP_PIECE_NM))
     )
@@ -477,7 +477,7 @@ def _regime_changes(pleg, a, b, d, vals, end_vals) -> np.ndarray:
     end). Between two of different regimes the change is to be located (whatever the jump of the fuel
     per nm: the regime may pass through a third one in between); between two of one regime, each
     distance of a regime driver to its nearest edge must be certified positive over every stretch
-    longer than :data:`MIN_PIECE_NM` by the referee's Lipschitz rule
+    longer than :data:`REGIME_TOL_NM` by the referee's Lipschitz rule
     (:func:`optroute.search.band_refine.certified`, as :mod:`optroute.plan.checkpoints` checks the
     engine's range). A piece that owns an end of such an interval is flagged.
     """
