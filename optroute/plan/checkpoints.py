@@ -68,6 +68,7 @@ from optroute.search.band_refine import (
     certified,
     crossing_nodes,
     intervals_to_halve,
+    regime_doubts,
     secant_slopes,
 )
 from optroute.units import h_to_timedelta as _h_to_td
@@ -296,14 +297,12 @@ def _engine_intervals(leg: np.ndarray, s: np.ndarray, f: dict[str, np.ndarray], 
     h = s[1:] - s[:-1]
     inside = f["inside"]
     both = same & inside[:-1] & inside[1:]
-    jump = both & (f["regime"][1:] != f["regime"][:-1])
-    smooth = both & ~jump
-    need = jump.copy()
+    smooth = both & (f["regime"][1:] == f["regime"][:-1])
+    dists = [m for key, m in f.items() if key.startswith("dist:")]
+    need = regime_doubts(same, inside, f["regime"], dists, s, tol_nm)
     for key, m in f.items():
         if key.startswith("margin:"):
             need |= smooth & ~certified(m[:-1], m[1:], secant_slopes(m, s, smooth), h, tol_nm)
-        elif key.startswith("dist:"):
-            need |= smooth & ~certified(m[:-1], m[1:], secant_slopes(m, s, both), h, tol_nm)
     return np.flatnonzero(need & (h > tol_nm))
 
 

@@ -62,7 +62,7 @@ from optroute.physics.passage import SeaState, evaluate_speeds, power_regime, re
 from optroute.physics.performance import PerformanceModel
 from optroute.physics.safety import BANDS, BandRules, band_margins
 from optroute.physics.ship import Ship
-from optroute.search.band_refine import BAND_TOL_NM, certified, secant_slopes
+from optroute.search.band_refine import BAND_TOL_NM, regime_doubts
 from optroute.search.route import Corridor
 from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
@@ -477,9 +477,8 @@ def _regime_changes(pleg, a, b, d, vals, end_vals) -> np.ndarray:
     end). Between two of different regimes the change is to be located (whatever the jump of the fuel
     per nm: the regime may pass through a third one in between); between two of one regime, each
     distance of a regime driver to its nearest edge must be certified positive over every stretch
-    longer than :data:`REGIME_TOL_NM` by the referee's Lipschitz rule
-    (:func:`optroute.search.band_refine.certified`, as :mod:`optroute.plan.checkpoints` checks the
-    engine's range). A piece that owns an end of such an interval is flagged.
+    longer than :data:`REGIME_TOL_NM`: the referee's rule for the engine's range,
+    :func:`optroute.search.band_refine.regime_doubts`. A piece that owns an end of such an interval is flagged.
     """
     p = pleg.size
     starts = np.flatnonzero(np.r_[True, pleg[1:] != pleg[:-1]])
@@ -503,14 +502,9 @@ def _regime_changes(pleg, a, b, d, vals, end_vals) -> np.ndarray:
         out[first_slot], out[last_slot] = end_vals[0][k][pleg[starts]], end_vals[1][k][pleg[stops]]
         return out
 
-    same = leg_s[1:] == leg_s[:-1]
-    r = seq(2)
-    one = same & (r[1:] == r[:-1]) & (r[1:] >= 0)
-    h = s_nm[1:] - s_nm[:-1]
-    doubt = same & (r[1:] != r[:-1])
-    for k in range(3, len(vals)):
-        m = seq(k)
-        doubt |= one & ~certified(m[:-1], m[1:], secant_slopes(m, s_nm, one), h, REGIME_TOL_NM)
+    r = seq(2)  # where the course is not held or the sea not navigable (r < 0) the leg's fuel is infinite: not cut
+    dists = [seq(k) for k in range(3, len(vals))]
+    doubt = regime_doubts(leg_s[1:] == leg_s[:-1], r >= 0, r, dists, s_nm, REGIME_TOL_NM)
     out = np.zeros(p, dtype=bool)
     for side in (owner[:-1], owner[1:]):
         hit = doubt & (side >= 0)

@@ -48,6 +48,7 @@ __all__ = [
     "certified",
     "crossing_nodes",
     "intervals_to_halve",
+    "regime_doubts",
     "secant_slopes",
 ]
 
@@ -84,6 +85,28 @@ def secant_slopes(m: np.ndarray, s: np.ndarray, same: np.ndarray) -> np.ndarray:
     left = np.concatenate([[0.0], np.where(same[:-1], sl[:-1], 0.0)])
     right = np.concatenate([np.where(same[1:], sl[1:], 0.0), [0.0]])
     return np.maximum(sl, np.maximum(left, right))
+
+
+def regime_doubts(
+    same: np.ndarray, inside: np.ndarray, regime: np.ndarray, dists: list[np.ndarray], s_nm: np.ndarray, tol_nm: float
+) -> np.ndarray:
+    """Per interval between consecutive points, whether the model's power regime changes across it, or may change and
+    change back inside it over a stretch longer than ``tol_nm``.
+
+    ``same``: the interval's two points on one group (leg); ``inside``: the points where the regime counts (both ends
+    must be); ``regime``: the key of :func:`~optroute.physics.passage.power_regime`; ``dists``: the distances of its
+    drivers to their nearest edges (:func:`~optroute.physics.passage.regime_distances`), certified positive by the
+    Lipschitz rule (:func:`certified`, slopes over the intervals with both ends inside:
+    a distance is continuous across a change of regime). The rule of the referee's check of the engine's range
+    (:func:`optroute.plan.checkpoints.engine_intervals_to_halve`) and of its fuel integral (:mod:`optroute.plan.evaluate`).
+    """
+    both = same & inside[:-1] & inside[1:]
+    jump = both & (regime[1:] != regime[:-1])
+    need = jump.copy()
+    h = s_nm[1:] - s_nm[:-1]
+    for m in dists:
+        need |= both & ~jump & ~certified(m[:-1], m[1:], secant_slopes(m, s_nm, both), h, tol_nm)
+    return need
 
 
 def crossing_nodes(
