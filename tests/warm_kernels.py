@@ -17,8 +17,14 @@ import numpy as np
 
 
 def warm() -> None:
-    """Run each kernel family once on a tiny problem (search, the 3-D DP, Kwon's inversion, the sampler, sailing)."""
+    """Run each kernel family once on a tiny problem.
+
+    Search, the 3-D DP, Kwon's inversion, the sampler, a search around an exclusion (the leg-batch costing),
+    sailing and its polar, the roll simulation and the parametric-roll observer.
+    """
     import optroute as orx
+    from optroute.observer.level import ObserverSettings, RightingMoment, observe
+    from optroute.observer.motions import Encounter, parametric_growth_rate_per_s, simulate_motions
     from optroute.physics.performance import KwonModel
     from optroute.physics.polar import Polar
     from optroute.physics.yacht import SailingVessel
@@ -42,6 +48,11 @@ def warm() -> None:
                 (30.0, -150.0), (31.0, -145.0), wx, ship, departure=t0, objective=objective, cell_nm=60,
                 use_land_mask=False,
             )  # fmt: skip
+        far = orx.Exclusion(np.array([t0]), 20.0, -150.0, 10.0)  # a search around it costs legs in batches
+        orx.search_route(
+            (30.0, -150.0), (31.0, -145.0), wx, ship, departure=t0, objective="time", cell_nm=60, exclusion=far,
+            use_land_mask=False,
+        )  # fmt: skip
         # the 3-D DP's leg kernels (the pieces checked by the referee's rules in SOG mode)
         orx.search_route(
             (30.0, -150.0), (31.0, -145.0), wx, ship, departure=t0, objective="fuel", eta=t0 + np.timedelta64(20, "h"),
@@ -55,6 +66,13 @@ def warm() -> None:
     )  # fmt: skip
     grid = SailingGrid(np.arange(7) * cell, np.arange(-2, 3) * cell)
     search_sailing_route((0.0, 0.0), (6 * cell, 0.0), wind, SailingVessel(polar, name="warm"), departure=t0, grid=grid)
+    polar.speed_kn_at(np.array([50.0, 120.0]), np.array([8.0, 12.0]))
+    enc = Encounter(hs_m=4.0, period_s=10.0, alpha_deg=0.0, speed_kn=10.0)
+    parametric_growth_rate_per_s(ship, enc)
+    m = simulate_motions(ship, enc, duration_s=60.0)
+    observe(
+        m.time_s, m.heave_m, m.roll_deg, settings=ObserverSettings.for_ship(ship), moment=RightingMoment.from_ship(ship)
+    )
 
 
 if __name__ == "__main__":
