@@ -272,7 +272,9 @@ def improve_sides(
     """Outer loop: applicability re-check plus flip local search over band sides.
 
     1. Solve with the given sides; re-check where the bands apply at the solution and re-solve
-       while that set grows (entries that newly apply take the side the solution is on).
+       while that set grows (entries that newly apply take the side ``side_at_solution`` the solve reports:
+       :func:`nlp_band_solver` gives the side of the point the re-solve starts from where that point is clear of
+       the band).
     2. If infeasible, repair greedily: flip the group that most reduces the reported
        infeasibility, until feasible or no flip helps.
     3. Local search: flip one group whose band constraint is active (most binding first) and
@@ -609,6 +611,20 @@ def nlp_band_solver(
     best: dict[str, float] = {"objective": float("inf")}
     calls = [0]
 
+    def _side_to_take(st: Any, feasible: bool) -> np.ndarray:
+        """The side of each sample at the solution; where the solution entered a band that did not apply at the
+        start of the solve (its sea rose above the threshold there), the side of the point the next solve starts
+        from, where that point lies outside the band: that point then meets the new row, instead of starting a
+        re-solve from a point that breaks it (on a following-seas case of ``bench_bands`` every such re-solve
+        ended Infeasible_Problem_Detected and the call returned its start)."""
+        side = select_sides(st.ratio, lower, upper)
+        if not (feasible and st.inside.any()) or not {"stw0_kn", "time0_h"} <= kwargs.keys():
+            return side
+        y0 = kwargs.get("offset0_nm")
+        at = nlp.evaluate(np.zeros(nlp.n_legs + 1) if y0 is None else y0, kwargs["stw0_kn"], kwargs["time0_h"])
+        clear = ~((at.ratio > lower) & (at.ratio < upper))
+        return np.where(st.inside & clear, select_sides(at.ratio, lower, upper), side).astype(np.int8)
+
     def solve(sides: np.ndarray, applies: np.ndarray) -> InnerOutcome:
         which = nlp if calls[0] == 0 or later is None else later()
         calls[0] += 1
@@ -624,7 +640,7 @@ def nlp_band_solver(
             active=res.band_active,
             weight=np.abs(res.band_multiplier),
             applies=st.applies,
-            side_at_solution=select_sides(st.ratio, lower, upper),
+            side_at_solution=_side_to_take(st, feasible),
             inside=st.inside,
             status=res.status,
             payload=res,

@@ -381,7 +381,8 @@ def flippable_groups(
     At the samples of ``state`` (the warm start: offsets (N+1,) [nm], times (N+1,) [h]) each side of a
     band is tested on ``n_speeds`` speeds in the NLP's speed range, with the NLP's own power
     (:meth:`SpeedNLP.power_at_speeds`, the tabulated ship model) within the load limits. A side no
-    allowed speed reaches cannot be flipped to: the flip would only cost a failed solve. Shape
+    allowed speed reaches cannot be flipped to: the flip would only cost a failed solve. The side a sample of the
+    start is on counts as reachable. Shape
     (N, m, B), constant over the samples of a group.
     """
     n, m, nb = nlp.n_legs, nlp.samples_per_leg, nlp.n_bands
@@ -393,8 +394,10 @@ def flippable_groups(
     for i, b in enumerate(nlp.bands):
         if len(b.allowed_sides) < 2:
             continue
-        low = np.any(ok_power & (ratio[:, :, i] <= b.lower), axis=-1)
-        high = np.any(ok_power & (ratio[:, :, i] >= b.upper), axis=-1)
+        # a side the start is on is reachable (the speed grid can miss a narrow window: above the surf-riding band
+        # and below the engine's limit, 25.60-25.62 kn for the 54 000 dwt ship in a following-seas case)
+        low = (state.ratio[:, :, i] <= b.lower) | np.any(ok_power & (ratio[:, :, i] <= b.lower), axis=-1)
+        high = (state.ratio[:, :, i] >= b.upper) | np.any(ok_power & (ratio[:, :, i] >= b.upper), axis=-1)
         both = low & high
         out[:, :, i] = np.all(both | ~state.applies[:, :, i], axis=1)[:, None]
     return out
