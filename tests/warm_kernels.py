@@ -41,6 +41,8 @@ def warm() -> None:
     for n in (5_000, 200_000):  # the sampler's serial and parallel kernels
         when = np.full(n, t0 + np.timedelta64(5, "h"))
         WeatherSampler(wx, engine="numba").sample(when, np.full(n, 30.0), np.linspace(-150.0, -140.0, n))
+    single = wx.astype("float32")  # a file's single-precision fields: the direction kernel's float32 signature
+    WeatherSampler(single, engine="numba").sample(np.array([t0]), np.array([30.0]), np.array([-150.0]))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for objective in ("time", "fuel"):
