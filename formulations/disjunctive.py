@@ -105,7 +105,9 @@ class InnerOutcome:
     applies : numpy.ndarray of bool or None
         Applicability re-evaluated at the solution (None: unchanged).
     side_at_solution : numpy.ndarray of int8 or None
-        Side each entry is on at the solution (for entries that newly apply).
+        The side an entry takes when it newly applies or is released: the side it is on at the solution, except
+        where the solution lies inside the band and the inner solver gives the side of the point its next solve
+        starts from (:func:`nlp_band_solver`, where that point is clear of the band).
     inside : numpy.ndarray of bool or None
         Entries that apply at the solution and lie strictly inside their band.
     status : str
