@@ -61,6 +61,7 @@ __all__ = [
     "nlp_band_solver",
     "nlp_groups",
     "select_sides",
+    "strictly_inside",
 ]
 
 
@@ -86,6 +87,16 @@ def select_sides(value: ArrayLike, lower: ArrayLike, upper: ArrayLike) -> np.nda
     side = np.where((v - lo) <= (hi - v), -1, 1)
     side = np.where(~np.isfinite(lo), 1, np.where(~np.isfinite(hi), -1, side))
     return side.astype(np.int8)
+
+
+def strictly_inside(value: ArrayLike, lower: ArrayLike, upper: ArrayLike) -> np.ndarray:
+    """Whether each value lies strictly inside its band (``lower < value < upper``): on neither side of it.
+
+    The complement of the sides :func:`select_sides` names without choosing; an edge value is on a side.
+    Shapes broadcast as in :func:`select_sides`.
+    """
+    v = np.asarray(value, dtype=float)
+    return (v > np.asarray(lower, dtype=float)) & (v < np.asarray(upper, dtype=float))
 
 
 @dataclass(frozen=True)
@@ -624,7 +635,7 @@ def nlp_band_solver(
             return side
         y0 = kwargs.get("offset0_nm")
         at = nlp.evaluate(np.zeros(nlp.n_legs + 1) if y0 is None else y0, kwargs["stw0_kn"], kwargs["time0_h"])
-        clear = ~((at.ratio > lower) & (at.ratio < upper))
+        clear = ~strictly_inside(at.ratio, lower, upper)
         return np.where(st.inside & clear, select_sides(at.ratio, lower, upper), side).astype(np.int8)
 
     def solve(sides: np.ndarray, applies: np.ndarray) -> InnerOutcome:

@@ -593,13 +593,13 @@ class SpeedNLP:
         below its threshold: there the third disjunct, "Hs stays below the threshold", is the side the start is on
         (imposed as a row, so that the solve cannot carry that sample into the band's seas unseen).
         """
-        from formulations.disjunctive import select_sides
+        from formulations.disjunctive import select_sides, strictly_inside
 
         lower = np.array([b.lower for b in self.bands])
         upper = np.array([b.upper for b in self.bands])
         hs_min = np.array([b.hs_min_m for b in self.bands])
         sides = select_sides(state.ratio, lower, upper)
-        inside = (state.ratio > lower) & (state.ratio < upper)
+        inside = strictly_inside(state.ratio, lower, upper)
         below = inside & ~state.applies & (hs_min > 0.0)[None, None, :]
         return np.where(below, np.int8(BELOW_SIDE), sides).astype(np.int8), state.applies.copy()
 
