@@ -79,6 +79,26 @@ def test_least_fuel_without_an_eta_starts_at_the_minimum_load_by_hand():
     assert plan.total_fuel_t == pytest.approx(by_hand, rel=1e-5)
 
 
+def test_an_eta_slower_than_the_minimum_load_starts_at_the_minimum_load_not_flat_out():
+    # calm water, a 20 nm wide corridor, an ETA at a mean 8 kn: under the engine's minimum load (12.3 kn in calm
+    # water for this ship), so no passage at the desired speed or below exists. The centreline start is the speed
+    # reduction raised into the engine's range by the referee's mend (a little above the minimum-load speed, 0.05 kn
+    # steps), arriving early, not the earliest passage flat out (148 t here); the optimum is the constant
+    # minimum-load speed, D / (calm speed at the minimum power) by hand, arriving well before the ETA
+    corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -20.0]], width_nm=20.0)
+    eta = T0 + np.timedelta64(int(corridor.length_nm / 8.0 * 3600.0), "s")
+    plan = optimise_corridor(corridor, _calm(), SHIP, departure=T0, eta=eta, objective="fuel", max_leg_nm=60.0)
+    st = plan.solver_stats
+    v = SHIP.calm_speed_kn(SHIP.min_power_kw)
+    by_hand = corridor.length_nm / v * float(SHIP.fuel_rate_tph(SHIP.min_power_kw))
+    assert 8.0 < v
+    assert st["start"] == "centreline start"
+    assert by_hand * (1.0 - 1e-9) <= st["start_score"] <= by_hand * 1.01  # flat out would be about 4 times this
+    assert plan.verify() == [] and plan.arrival <= eta
+    assert plan.total_fuel_t == pytest.approx(by_hand, rel=1e-6)
+    assert plan.duration_h == pytest.approx(corridor.length_nm / v, rel=1e-6)
+
+
 def test_the_minimum_load_schedule_is_the_slowest_the_referee_accepts_in_a_head_sea():
     from optroute.optimise.corridor_problem import PreparedCorridor
     from optroute.optimise.starts import MIN_LOAD_SLACK, minimum_load_plan

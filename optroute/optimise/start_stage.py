@@ -319,9 +319,15 @@ def _centre_candidate(
     def verify(warm: dict[str, np.ndarray]) -> Plan | None:
         return verified_plan(ctx, frame.waypoints(warm["offset_nm"]), warm["stw_kn"], t0, step, "start")
 
+    def mend(warm: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], Plan] | None:
+        plan, _ = repaired_plan(ctx, frame.waypoints(warm["offset_nm"]), warm["stw_kn"], t0, step, "start",
+                                v_min_kn=prepared.v_min, v_max_kn=prepared.v_max)  # fmt: skip
+        return None if plan is None else ({**warm, "stw_kn": np.asarray(plan.stw_kn, dtype=float)}, plan)
+
     centre, plan = clean_start(ctx, frame, t0, desired_kn=desired_speed(prepared.length_nm, cap_h, prepared.v_max,
                                objective), v_min_kn=prepared.v_min, v_max_kn=prepared.v_max, eta_h=cap_h,
-                               rules=warm_rules(prepared.rules, st), log=st.log, verify=verify)  # fmt: skip
+                               rules=warm_rules(prepared.rules, st), log=st.log, verify=verify,
+                               mend=mend)  # fmt: skip
     return _candidate(prepared, "centreline start", centre, plan, objective)
 
 
