@@ -25,6 +25,11 @@ synthetic weather, so the coastline is not applied (``use_land_mask=False``).  M
 over the repetitions, with the load average before and after.  ``--quick``: the first half of the corridor
 in 16 legs, 6 ETAs, one repetition.
 
+Beside the front, each of its last three ETAs before the slow-steaming end (where the engine's minimum load binds
+on most legs) is solved as a single :func:`optroute.optimise_corridor` call from the optimiser's own start, in
+this process after the front: fuel against the front's point at the same ETA (its continuation and monotone
+re-solves reach basins a single call need not), CPU seconds, Ipopt iterations and status.
+
 Then a study of 1 200 cases (3 ships × 4 distances × 100 ETAs; quick: 240) through
 :func:`optroute.studies.study.run_study` with its resumable store and text progress bar: serial
 (``"synchronous"``) against a 2-worker local cluster (start-up included), each run again on its
@@ -262,10 +267,35 @@ def run(quick: bool) -> dict[str, Any]:
         f"{len(many)} points over {MANY_ITERATIONS} iterations, {sum(p['iterations'] for p in many)} of "
         f"{sum(p['iterations'] for p in out['by_point'])}"
     )
+    out["single_calls"] = single_calls(warm, corridor, wx, ship, kw)
     save_png(warm.plot(), results_dir() / ("front_quick.png" if quick else "front.png"))
     with tempfile.TemporaryDirectory(prefix="optroute-bench-study-") as folder:
         out["study"] = study_throughput(quick, Path(folder))
     return out
+
+
+def single_calls(front: Any, corridor: Any, wx: Any, ship: Any, kw: dict[str, Any], k: int = 3) -> list[dict[str, Any]]:
+    """The front's last ``k`` interior ETAs each solved by one ``optimise_corridor`` call; fuel against the front's."""
+    interior = [i for i, kind in enumerate(front.solve.values) if str(kind) == "eta"][-k:]
+    rows = []
+    for i in interior:
+        eta_h = float(front.eta_h.values[i])
+        eta = T0 + np.timedelta64(int(round(eta_h * 3600.0)), "s")
+        cpu = time.process_time()
+        plan = orx.optimise_corridor(corridor, wx, ship, departure=T0, eta=eta, objective="fuel", **kw)
+        cpu = time.process_time() - cpu
+        st = plan.solver_stats
+        rows.append({"eta_h": eta_h, "single_fuel_t": plan.total_fuel_t, "front_fuel_t": float(front.fuel_t.values[i]),
+                     "cpu_s": cpu, "iterations": int(st["iterations"]), "status": plan.status,
+                     "start": str(st.get("start")), "arrival_h": plan.duration_h})  # fmt: skip
+    print("\n| ETA [h] | single call [t] | the front's point [t] | single / front | arrives [h] | CPU [s] | "
+          "iterations | status | start |")  # fmt: skip
+    print("|---:|---:|---:|---:|---:|---:|---:|---|---|")
+    for r in rows:
+        print(f"| {r['eta_h']:.1f} | {r['single_fuel_t']:.3f} | {r['front_fuel_t']:.3f} | "
+              f"{r['single_fuel_t'] / r['front_fuel_t']:.4f} | {r['arrival_h']:.1f} | {r['cpu_s']:.1f} | "
+              f"{r['iterations']} | {r['status']} | {r['start']} |")  # fmt: skip
+    return rows
 
 
 def calm_case(case: dict[str, Any]) -> dict[str, Any]:
