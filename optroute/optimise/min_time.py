@@ -348,9 +348,8 @@ def clean_start(
     with ``desired_kn`` on the legs where it found no allowed speed is handed to ``mend`` first (the referee's
     engine-range repair, :func:`optroute.optimise.starts.repaired_plan`): where the engine's minimum load is what
     forbids the desired speed, the legs are raised to it and the plan arrives a little early, instead of the
-    earliest passage flat out (on the 300-leg storm corridor of ``benchmarks/bench_front.py`` with an ETA at
-    288.5 h, that start scored 819.6 t and Ipopt took 1 209 iterations to 249.5 t; from the mended reduction,
-    254.6 t, it took 187 to 243.2 t).
+    earliest passage flat out, far from the least-fuel plan (``benchmarks/bench_front.py`` compares single calls
+    there with the front).
 
     The reduction is a point-by-point rule: it keeps each point out of the bands at the time of its
     own schedule but not between its points, and its slow legs can fall under the engine's minimum
@@ -394,18 +393,14 @@ def clean_start(
         return safe, verdict
     found = timed_safe_start(ctx, frame, t0, v_min_kn=v_min_kn, v_max_kn=max(desired_kn, v_min_kn), rules=rules)
     late = not isinstance(found, TimedStart) or (eta_h is not None and found.arrival_h > eta_h)
-    if late and desired_kn < v_max_kn and mend is not None:
-        raised = {
-            **safe,
-            "stw_kn": np.where(safe["stw_kn"] > v_min_kn + 1e-9, safe["stw_kn"], max(desired_kn, v_min_kn)),
-        }
-        mended = mend(raised)
+    if late and desired_kn < v_max_kn:
+        raised = np.where(safe["stw_kn"] > v_min_kn + 1e-9, safe["stw_kn"], max(desired_kn, v_min_kn))
+        mended = mend({**safe, "stw_kn": raised}) if mend is not None else None
         if mended is not None:
             if log is not None:
                 log.append("first start: no passage at the desired speed or below; the speed reduction, mended into "
                            "the engine's range by the referee")  # fmt: skip
             return mended
-    if late and desired_kn < v_max_kn:
         found = timed_safe_start(ctx, frame, t0, v_min_kn=v_min_kn, v_max_kn=v_max_kn, rules=rules)
     if not isinstance(found, TimedStart):
         # the backed-off bands (the rules given, from 0.9 of the Hs threshold) can close a passage the true bands leave
