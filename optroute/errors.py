@@ -52,11 +52,15 @@ class InfeasibleETA(OptrouteError):
         What was asked and why it cannot be met.
     earliest_arrival : numpy.datetime64 or None
         The earliest feasible arrival found [UTC], when known.
+    latest_arrival : numpy.datetime64 or None
+        For an ETA to be met exactly (``eta_mode="eq"``) later than every plan found arrives: the arrival of the
+        centreline sailed at the engine's minimum load, the slowest schedule it allows [UTC], when known.
     """
 
-    def __init__(self, message: str, earliest_arrival: Any = None) -> None:
+    def __init__(self, message: str, earliest_arrival: Any = None, latest_arrival: Any = None) -> None:
         super().__init__(message)
         self.earliest_arrival = earliest_arrival
+        self.latest_arrival = latest_arrival
 
 
 class SolverFailure(OptrouteError):

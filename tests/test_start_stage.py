@@ -99,6 +99,23 @@ def test_an_eta_slower_than_the_minimum_load_starts_at_the_minimum_load_not_flat
     assert plan.duration_h == pytest.approx(corridor.length_nm / v, rel=1e-6)
 
 
+def test_an_eta_to_be_met_exactly_after_the_slowest_schedule_is_infeasible_eta_not_a_solver_failure():
+    # the same calm corridor, the ETA at a mean 11 kn to be met exactly: the engine's minimum load holds the ship
+    # at 12.3 kn in calm water, D / v by hand, and the corridor's 20 nm width lengthens a track by at most
+    # hypot(60, 20) / 60 - 1 = 5.4 % over its 60 nm legs, so no plan arrives 14 % later than the minimum-load one:
+    # InfeasibleETA naming that arrival and eta_mode='le', not an Ipopt failure
+    corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -20.0]], width_nm=20.0)
+    eta = T0 + np.timedelta64(int(corridor.length_nm / 11.0 * 3600.0), "s")
+    v = SHIP.calm_speed_kn(SHIP.min_power_kw)
+    assert corridor.length_nm / 11.0 > corridor.length_nm / v * np.hypot(60.0, 20.0) / 60.0
+    with pytest.raises(orx.InfeasibleETA, match="eta_mode='le'") as info:
+        optimise_corridor(corridor, _calm(), SHIP, departure=T0, eta=eta, eta_mode="eq", objective="fuel",
+                          max_leg_nm=60.0)  # fmt: skip
+    latest_h = float((info.value.latest_arrival - T0) / np.timedelta64(1, "s")) / 3600.0
+    assert latest_h == pytest.approx(corridor.length_nm / v, rel=2e-3)
+    assert info.value.earliest_arrival is None
+
+
 def test_the_minimum_load_schedule_is_the_slowest_the_referee_accepts_in_a_head_sea():
     from optroute.optimise.corridor_problem import PreparedCorridor
     from optroute.optimise.starts import MIN_LOAD_SLACK, minimum_load_plan

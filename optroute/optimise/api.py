@@ -229,7 +229,9 @@ def optimise_corridor(
     ------
     InfeasibleETA
         The ETA cannot be met; ``earliest_arrival`` is the minimum-time plan's arrival (its solve started from
-        the elastic phase-1 problem's point where no start verifies, on a weather grid covering its passage).
+        the elastic phase-1 problem's point where no start verifies, on a weather grid covering its passage). With
+        ``eta_mode="eq"``, an ETA later than the centreline sailed at the engine's minimum load arrives, where no plan
+        arriving at the ETA was found: ``latest_arrival`` is that schedule's arrival.
     SolverFailure
         Ipopt fails (``status`` verbatim) or no tightened re-solve gives a plan that passes
         verification, and no verified plan meets the ETA (one that does, the minimum-time plan included, is
@@ -438,7 +440,8 @@ def _solve_honestly(prepared: Any, eta: Any, *, eta_mode: str, objective: str, w
     * :class:`SolverFailure`: a verified plan that meets the ETA (the error's best plan, or the minimum-time plan)
       is returned, the better by the objective, with ``status="start"`` and the failure in
       ``solver_stats["status_reason"]``; when the minimum-time plan arrives after the ETA it is
-      :class:`InfeasibleETA`; a cross-section where no speed is allowed at any time, or on a fixed path a section no
+      :class:`InfeasibleETA`, and so is an ETA to be met exactly (``eta_mode="eq"``) after the arrival of the
+      centreline sailed at the engine's minimum load (:func:`_slowest_plan`); a cross-section where no speed is allowed at any time, or on a fixed path a section no
       schedule reaches (:func:`optroute.optimise.barrier.fixed_path_barrier`), is :class:`NoSafePassage`;
       weather-coverage violations are :class:`WeatherCoverageError`.
     """
@@ -525,6 +528,32 @@ def _infeasible(prepared: Any, eta: Any, plans: list[Plan]) -> InfeasibleETA:
     )
 
 
+def _slowest_plan(prepared: Any) -> Plan | None:
+    """The centreline sailed at the engine's minimum load, verified without an ETA
+    (:func:`optroute.optimise.starts.minimum_load_plan`); None where the ship has no minimum power or it fails."""
+    from optroute.optimise.starts import minimum_load_plan
+
+    frame = prepared.frame
+    centre = frame.waypoints(np.zeros(frame.n_legs + 1))
+    return minimum_load_plan(prepared.plan_context(), centre, prepared.departure, prepared.verify_step_nm,
+                             v_min_kn=prepared.v_min, v_max_kn=prepared.v_max)  # fmt: skip
+
+
+def _too_late(prepared: Any, eta_t: np.datetime64, slowest: Plan) -> InfeasibleETA:
+    """InfeasibleETA for an ETA to be met exactly (``eta_mode="eq"``) later than every plan found arrives, the
+    centreline's slowest schedule (:func:`_slowest_plan`) included."""
+    pmin = float(prepared.plan_context().model.min_power_kw)
+    return InfeasibleETA(
+        f"the ETA {units.format_utc(eta_t)} is to be met exactly (eta_mode='eq'), and no plan was found that arrives "
+        f"so late: the centreline sailed at the engine's minimum load ({pmin:.0f} kW), the slowest the engine allows, "
+        f"arrives {slowest.duration_h:.2f} h after departure, at {units.format_utc(slowest.arrival)}, "
+        f"{units.timedelta_to_h(eta_t - slowest.arrival):.2f} h before the ETA (a track weaving across the corridor "
+        "is longer, and none was found that reaches the ETA either); use eta_mode='le' to arrive by the ETA (earlier, "
+        "and wait), or give an earlier ETA",
+        latest_arrival=slowest.arrival,
+    )
+
+
 def _after_failure(prepared: Any, eta: Any, exc: SolverFailure, route, kw: dict[str, Any]) -> Plan:
     """A SolverFailure turned into the truth: a verified plan, InfeasibleETA, NoSafePassage or coverage."""
     from optroute.optimise.starts import score
@@ -538,8 +567,14 @@ def _after_failure(prepared: Any, eta: Any, exc: SolverFailure, route, kw: dict[
     if meeting:
         best = min(meeting, key=lambda p: score(p, objective, prepared.fuel_price, prepared.hourly))
         return _restamp(prepared, best, eta, eta_mode, f"the best verified plan the call found; SolverFailure: {exc}")
-    if eta is not None and verified and eta_mode == "le":
-        raise _infeasible(prepared, eta, verified) from exc
+    if eta is not None and verified:
+        eta_t = units.as_utc_time(eta, "eta")
+        if eta_mode == "le" or all(p.arrival > eta_t for p in verified):
+            raise _infeasible(prepared, eta, verified) from exc
+        # eq: an ETA after every plan found may lie after the slowest schedule the engine allows
+        slowest = _slowest_plan(prepared)
+        if slowest is not None and slowest.arrival < eta_t:
+            raise _too_late(prepared, eta_t, slowest) from exc
     if "weather_coverage" in str(exc):
         end = prepared.sampler.extent["time"][1]
         raise WeatherCoverageError(
