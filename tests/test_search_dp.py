@@ -182,3 +182,55 @@ def test_leg_cost_contract_is_enforced():
         solve_dp(START, END, cubic, dx_nm=0.0)
     with pytest.raises(ConfigError, match="callable"):
         solve_dp(START, END, None)
+
+
+def _bent_stations(lat_mid: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """START → (lat_mid, 10°E) → END: one station at the bend, three lateral states 0.5° apart in latitude."""
+    lateral = np.array([-30.0, 0.0, 30.0])
+    lat = np.array([[0.0] * 3, [lat_mid - 0.5, lat_mid, lat_mid + 0.5], [0.0] * 3])
+    lon = np.array([[0.0] * 3, [10.0] * 3, [20.0] * 3])
+    return lat, lon, lateral
+
+
+def test_given_stations_match_brute_force_enumeration_on_a_bent_lattice():
+    # stations off the great circle (a bend 2° north at 10°E): the DP over them is exhaustive enumeration of the
+    # 3 paths × speed pairs, with the time-dependent costs
+    speeds = np.array([10.0, 14.0, 18.0, 22.0])
+    stations = _bent_stations(2.0)
+    eta = 90.0
+    r = solve_dp(START, END, _weather_cost, eta_h=eta, speeds_kn=speeds, dt_h=1e-3, horizon_h=140.0,
+                 stations=stations)  # fmt: skip
+    lat, lon, _ = stations
+    best = np.inf
+    for mid in range(3):
+        for v0, v1 in itertools.product(speeds, repeat=2):
+            t, f = 0.0, 0.0
+            for k, (a, b), v in ((0, (1, mid), v0), (1, (mid, 1), v1)):
+                dur, fu, _ = _weather_cost(np.array([lat[k, a]]), np.array([lon[k, a]]), np.array([lat[k + 1, b]]),
+                                           np.array([lon[k + 1, b]]), np.array([t]), np.array([v]))  # fmt: skip
+                t, f = t + float(dur[0]), f + float(fu[0])
+            if t <= eta:
+                best = min(best, f)
+    assert r.path.total_fuel_t == pytest.approx(best, rel=1e-12)
+    assert np.allclose(r.path.lat_deg[1], lat[1, r.path.lateral_index[1]])
+
+
+def test_stations_on_the_great_circle_give_the_dps_own_lattice_and_route():
+    kw = dict(dx_nm=450, dy_nm=60, half_width_nm=60, speeds_kn=[10.0, 14.0, 18.0], dt_h=0.5, horizon_h=140.0)
+    own = solve_dp(START, END, _weather_cost, eta_h=100.0, **kw)
+    given = solve_dp(START, END, _weather_cost, eta_h=100.0, **kw,
+                     stations=(own.stage_lat_deg, own.stage_lon_deg, 60.0 * np.arange(-1.0, 2.0)))  # fmt: skip
+    assert given.path.total_fuel_t == own.path.total_fuel_t
+    assert np.array_equal(given.path.lat_deg, own.path.lat_deg) and np.array_equal(given.path.sog_kn, own.path.sog_kn)
+
+
+def test_bad_stations_are_refused():
+    lat, lon, lateral = _bent_stations(2.0)
+    with pytest.raises(ConfigError, match="start"):
+        solve_dp((0.5, 0.0), END, cubic, stations=(lat, lon, lateral))
+    with pytest.raises(ConfigError, match="odd"):
+        solve_dp(START, END, cubic, stations=(lat[:, :2], lon[:, :2], lateral[:2]))
+    with pytest.raises(ConfigError, match="rise through 0"):
+        solve_dp(START, END, cubic, stations=(lat, lon, lateral[::-1]))
+    with pytest.raises(ConfigError, match="finite"):
+        solve_dp(START, END, cubic, stations=(np.where(lat > 1.9, np.nan, lat), lon, lateral))

@@ -116,6 +116,31 @@ def test_an_eta_to_be_met_exactly_after_the_slowest_schedule_is_infeasible_eta_n
     assert info.value.earliest_arrival is None
 
 
+def test_without_an_eta_in_a_storm_moving_with_the_ship_the_dp_finds_a_cheaper_schedule_than_the_slowest():
+    # benchmarks/bench_front.py's quick corridor (1 650 nm, 16 legs, +-20 nm) behind its 6 m storm moving east at
+    # 8 kn, the ship's way (240 h of it here): the slowest schedule the engine allows stays in the storm longest. The
+    # 3-D DP (every arrival time, speeds every 1 kn) finds a plan that burns less, both by the referee: the
+    # minimum-load premise fails, so the DP is a candidate wherever the weather changes in time; the plan is no
+    # worse than the best verified candidate
+    from optroute.optimise.start_stage import FREE_ARRIVAL_DP
+
+    wx = orx.scenarios.moving_storm(2.0, -150.0, 90.0, 8.0, peak_hs_m=6.0, radius_nm=300.0, start=T0, duration_h=240.0,
+                                    step_h=3.0, resolution_deg=0.5, bbox=(-12.0, 14.0, -160.0, -120.0))  # fmt: skip
+    corridor = orx.Corridor.from_waypoints([[0.0, -155.0], [4.0, -127.0]], width_nm=40.0)
+    plan = optimise_corridor(corridor, wx, SHIP, departure=T0, objective="fuel", use_land_mask=False,
+                             max_leg_nm=corridor.length_nm / 16 * (1 + 1e-9))  # fmt: skip
+    st = plan.solver_stats
+    dp, slow = st["starts"]["3-D DP"], st["starts"]["minimum-load schedule"]
+    assert st["global_starts"] == FREE_ARRIVAL_DP and dp["verified"] and slow["verified"]
+    assert dp["score"] < slow["score"] and plan.verify() == []
+    assert plan.total_fuel_t <= min(dp["score"], slow["score"]) * (1 + 1e-9)
+    # in weather that does not change in time the DP is not run: the minimum-load schedule alone
+    calm = optimise_corridor(orx.Corridor.from_waypoints([[0.0, -30.0], [0.0, -20.0]], width_nm=20.0), _calm(), SHIP,
+                             departure=T0, objective="fuel", max_leg_nm=60.0)  # fmt: skip
+    assert "does not change in time" in calm.solver_stats["global_starts"]
+    assert list(calm.solver_stats["starts"]) == ["minimum-load schedule"]
+
+
 def test_the_minimum_load_schedule_is_the_slowest_the_referee_accepts_in_a_head_sea():
     from optroute.optimise.corridor_problem import PreparedCorridor
     from optroute.optimise.starts import MIN_LOAD_SLACK, minimum_load_plan
@@ -171,6 +196,43 @@ def test_where_a_band_binds_the_dps_plan_rides_the_corridor_edge_verified_and_no
     assert st["starts"]["3-D DP"]["verified"] and "minimum-time plan" not in st["starts"]
     assert st["starts"]["3-D DP"]["score"] == pytest.approx(plan.total_fuel_t, rel=1e-9)
     assert out.verify() == [] and out.total_fuel_t <= plan.total_fuel_t * (1 + 1e-9)
+
+
+def test_on_a_bent_corridor_the_dps_stages_follow_the_bend_and_its_plan_is_the_start():
+    # the same storm crossing through a corridor bent 3 degrees north at 146 W (+-40 nm, 21 legs): the DP's stations
+    # are centreline waypoints whose chords keep the centreline between them within 4 nm (a tenth of the
+    # half-width), and every DP leg stays in the corridor (brute force: 1 000 points per leg projected on the centreline); the DP's plan
+    # verifies and is the start where a band can bind; the NLP ends no worse. The old start stage had no DP here
+    # (great circles only) and solved the minimum-time plan (594 t) as well: the same 335.60 t in 271 iterations
+    from optroute.optimise.starts import CHORD_TOL_SHARE, corridor_stations
+
+    c = _case()
+    eta = c["eta"]
+    corridor = orx.Corridor.from_waypoints([(30.0, -170.0), (33.0, -146.0), (30.0, -122.0)], width_nm=80.0)
+    prepared = PreparedCorridor(corridor, c["weather"], c["ship"], departure=c["departure"], latest_eta=eta,
+                                objective="fuel", rules=c["rules"], max_leg_nm=corridor.length_nm / 21 * (1 + 1e-9))  # fmt: skip
+    frame, hw = prepared.frame, 40.0
+    wp = frame.corridor.waypoints
+    lat, lon, lateral = corridor_stations(frame, 300.0, 3)
+    assert lateral.size == 7 and lat.shape[0] > 2
+    # the centreline between two stations lies within the tolerance of their chord, the bend included
+    at = [int(np.argmin(np.hypot(wp[:, 0] - la, wp[:, 1] - lo))) for la, lo in zip(lat[:, 3], lon[:, 3], strict=True)]
+    assert at[0] == 0 and at[-1] == wp.shape[0] - 1 and np.all(np.diff(at) > 0)
+    for i, j in zip(at[:-1], at[1:], strict=True):
+        xt = project_to_polyline(wp[[i, j]], wp[i : j + 1, 0], wp[i : j + 1, 1])[1]
+        assert np.max(np.abs(xt)) <= CHORD_TOL_SHARE * hw + 1e-6
+    # every chord between two lateral states of consecutive stations, walked and projected on the centreline
+    f = np.linspace(0.0, 1.0, 201)
+    a, b = (x.ravel() for x in np.meshgrid(np.arange(7), np.arange(7), indexing="ij"))
+    for k in range(1, lat.shape[0] - 2):
+        pts = gc_points(lat[k, a, None], lon[k, a, None], lat[k + 1, b, None], lon[k + 1, b, None], f[None, :])
+        assert np.max(project_to_polyline(wp, pts[0].ravel(), pts[1].ravel())[2]) <= hw + 1e-6
+    out = prepared.solve(eta, objective="fuel")
+    st = out.solver_stats
+    assert st["global_starts"].startswith("computed: a band or the exclusion can bind")
+    assert st["starts"]["3-D DP"]["verified"] and "minimum-time plan" not in st["starts"]
+    assert st["start"] == "3-D DP"
+    assert out.verify() == [] and out.total_fuel_t <= st["starts"]["3-D DP"]["score"] * (1 + 1e-9)
 
 
 @pytest.mark.parametrize(("hs_m", "inside", "hs_margin"), [(9.7, 18, 0.05), (9.0, 0, 0.05), (9.7, 18, 1.0)])

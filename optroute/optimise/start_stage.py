@@ -46,7 +46,6 @@ from optroute.optimise.rescue import plan_warm_start
 from optroute.optimise.starts import (
     Candidate,
     dp_route,
-    great_circle_corridor,
     minimum_load_plan,
     repaired_plan,
     route_stw,
@@ -80,6 +79,17 @@ DISCRETE_START_MODES = (True, False, "auto")
 TIME_LATTICE = {"dx_nm": 10.0, "stages": 36.0, "per_side": 3.0, "dt_h": 0.5, "speed_step_kn": 0.5}
 #: Longest block [nm] of the centreline's timed passage for a free-arrival minimum time where no local start verifies.
 FINE_BLOCK_NM = 10.0
+#: Why the 3-D DP is a candidate of least fuel (or cost) without an ETA: the weather changes in time along the corridor,
+#: so the slowest schedule (the minimum-load one) need not burn the least: behind a storm that moves with the ship (as
+#: on ``benchmarks/bench_front.py``'s corridor) the slowest schedule stays in it longest, and the NLP started there
+#: stays in that basin; the DP searches every arrival time.
+FREE_ARRIVAL_DP = (
+    "computed: no ETA, and the weather changes in time along the corridor (the slowest schedule need not burn the "
+    "least)"
+)
+#: The 3-D DP's speed step [kn] without an ETA: least fuel sails near the engine's minimum load, and a 2 kn ladder
+#: straddles it (the rung below under the minimum load, the one above well over it).
+FREE_ARRIVAL_STEP_KN = 1.0
 #: The order of the candidates among equal scores, and of the warm starts when none verifies.
 LABEL_ORDER = (
     "warm plan",
@@ -184,7 +194,8 @@ def start_stage(
     # grid, stands in for the minimum-time plan
     dp = found.get("3-D DP") or (found.get("search route") if route is not None and route.method == "dp" else None)
     free_time = objective == "time" and ctx.eta is None  # the minimum-time plan is this solve's own plan
-    if reason.startswith("computed") and (dp is None or dp.plan is None) and not free_time:
+    fallback = reason.startswith("computed") and reason != FREE_ARRIVAL_DP and not free_time
+    if fallback and (dp is None or dp.plan is None):
         fast = _timed(lambda: _minimum_time_candidate(prepared, ctx, objective, route))
         if fast is not None:
             found["minimum-time plan"] = fast
@@ -220,7 +231,8 @@ def global_starts_reason(
     fuel or cost by an ETA, where a danger band or the exclusion can bind on some leg of the corridor
     (:attr:`~optroute.optimise.corridor_problem.PreparedCorridor.binding`). For a free-arrival minimum time where no
     local start verifies, the 3-D DP's earliest passage within the weather's span is computed (the minimum-time
-    plan is that solve's own).
+    plan is that solve's own). For fuel or cost without an ETA where the weather changes in time along the corridor,
+    the 3-D DP alone (:data:`FREE_ARRIVAL_DP`; its speeds every :data:`FREE_ARRIVAL_STEP_KN`).
     """
     verified = any(c.plan is not None for c in local)
     if cap_h is None:
@@ -232,7 +244,10 @@ def global_starts_reason(
     if objective == "time":
         return "not computed: a local start verifies (minimum time)"
     if ctx.eta is None:
-        return "not computed: a local start verifies and there is no ETA (the weather's end bounds the passage)"
+        return FREE_ARRIVAL_DP if not prepared.samples.static else (
+            "not computed: a local start verifies, there is no ETA (the weather's end bounds the passage) and the "
+            "weather does not change in time along the corridor"
+        )  # fmt: skip
     binding = np.asarray(prepared.binding, dtype=bool)
     if binding.any():
         return f"computed: a band or the exclusion can bind on {int(binding.sum())} of {binding.size} legs"
@@ -351,20 +366,16 @@ def _minimum_time_candidate(prepared: Any, ctx: PlanContext, objective: str, rou
 
 
 def _dp_applies(prepared: Any, ctx: PlanContext, objective: str, route: Route | None, reason: str) -> bool:
-    """Whether the 3-D DP is a candidate: ``discrete_start`` True, or ``"auto"`` where the global starts are computed;
-    with an ETA for fuel or cost, or for a free-arrival minimum time where the stage computes the global starts (no
-    local start verifies); on a great-circle corridor, and not when the given route is the DP's own."""
+    """Whether the 3-D DP is a candidate: for fuel or cost ``discrete_start`` True, or ``"auto"`` where the global
+    starts are computed (:func:`global_starts_reason`); for a free-arrival minimum time where the stage computes
+    them (no local start verifies); on any corridor (its stages follow the centreline's bends,
+    :func:`optroute.optimise.starts.corridor_stations`), not when the given route is the DP's own."""
     mode = prepared.discrete_start
     wanted = mode is True or (mode == "auto" and reason.startswith("computed"))
     if objective == "time":
         wanted = mode is not False and ctx.eta is None and reason.startswith("computed")
-    elif ctx.eta is None:
-        return False
-    if not wanted:
-        return False
-    if route is not None and route.method == "dp":  # the given search route is the DP's plan already
-        return False
-    return great_circle_corridor(prepared.frame)
+    # a given search route that is the DP's plan already: not again
+    return wanted and not (route is not None and route.method == "dp")
 
 
 def time_lattice(prepared: Any) -> dict[str, float]:
@@ -385,6 +396,8 @@ def _dp_candidate(prepared: Any, ctx: PlanContext, objective: str, log: list[str
     Where the DP finds no route at all within the weather's span, its lattice statement is kept
     (``prepared.lattice_closed``) for a solve that ends without a verified plan."""
     opts = prepared.dp_options if objective != "time" else {**time_lattice(prepared), **prepared.dp_options}
+    if ctx.eta is None and objective != "time":
+        opts = {"speed_step_kn": FREE_ARRIVAL_STEP_KN, **opts}
     try:
         dp = dp_route(ctx, prepared.frame, departure=prepared.departure, eta=ctx.eta, objective=objective,
                       v_min_kn=prepared.v_min, v_max_kn=prepared.v_max, fuel_price=prepared.fuel_price,

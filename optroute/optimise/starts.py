@@ -7,9 +7,9 @@ scores the NLP's plan), and never returns a plan worse than the best verified on
 * ``"warm plan"`` — a given previous plan (a neighbouring ETA's, :func:`optroute.studies.tradeoff`);
 * ``"search route"`` — a given search route, its waypoints and speeds through water;
 * ``"3-D DP"`` — the 3-D dynamic programme (:mod:`optroute.search.dp`, via
-  :func:`optroute.search_route` with ``method="dp"``) run on the corridor itself, when its
-  centreline is one great circle (the DP's stages are on the great circle from start to end) and
-  there is an ETA: least fuel (or cost) by the ETA, the danger bands and the MCR inside;
+  :func:`optroute.search_route` with ``method="dp"``) run on the corridor itself (its stages on the
+  great circle from start to end, or following the centreline's bends, :func:`corridor_stations`):
+  least fuel (or cost) by the ETA, or without one, the danger bands and the MCR inside;
 * ``"minimum-time plan"`` — the corridor's minimum-time plan, where it meets the ETA;
 * ``"ship dual"`` — on a fixed path in static weather, the schedule of the ship's own dual bound;
 * ``"minimum-load schedule"`` — for least fuel without an ETA, the centreline sailed at the engine's minimum
@@ -46,6 +46,7 @@ from optroute.search.route import Route
 __all__ = [
     "ENGINE_KINDS",
     "Candidate",
+    "corridor_stations",
     "dp_route",
     "great_circle_corridor",
     "minimum_load_plan",
@@ -55,6 +56,11 @@ __all__ = [
     "verified_plan",
 ]
 
+#: Largest distance of a corridor's centreline from the 3-D DP's chord between two stations, as a share of the
+#: half-width (:func:`corridor_stations`); at least :data:`CHORD_TOL_MIN_NM`.
+CHORD_TOL_SHARE = 0.1
+#: Least chord tolerance [nm] (a fixed path: the chords follow the centreline's bends to this).
+CHORD_TOL_MIN_NM = 0.05
 #: The violations :func:`repaired_plan` mends: the engine's range, by the leg's speed alone.
 ENGINE_KINDS = ("power_below_min", "power_above_mcr")
 #: Rounds of :func:`repaired_plan` (each one evaluation and verification by the referee).
@@ -286,6 +292,49 @@ def great_circle_corridor(frame: CorridorFrame, tol_nm: float = 0.5) -> bool:
     return bool(np.max(np.abs(xt)) <= tol_nm)
 
 
+def corridor_stations(frame: CorridorFrame, dx_nm: float, per_side: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The 3-D DP's stages along a corridor whose centreline is not one great circle (``stations`` of
+    :func:`optroute.search.dp.solve_dp`).
+
+    The stations are centreline waypoints, chosen from the start: each is the farthest waypoint at most ``dx_nm``
+    along from the last whose chord (the great circle between the two) keeps every centreline waypoint between
+    within ``tol`` of it, ``tol`` :data:`CHORD_TOL_SHARE` of the least half-width (at least
+    :data:`CHORD_TOL_MIN_NM`), so that the stages follow the bends. Each station has ``per_side`` lateral states
+    each side on the corridor's bisecting normal there, evenly apart, the outermost inside the least half-width by
+    ``tol`` and the bulge of a chord between two offset points (:func:`~optroute.geo.tracks.inner_offset_nm`): a DP
+    leg stays in the corridor.
+
+    Returns
+    -------
+    lat_deg, lon_deg : numpy.ndarray, shape (K+1, 2n+1)
+        The lateral states of every stage [deg].
+    lateral_nm : numpy.ndarray, shape (2n+1,)
+        Their offsets [nm, starboard +].
+    """
+    wp = frame.corridor.waypoints
+    s_nm = frame.s_nm
+    hw = np.asarray(frame.corridor.half_width_nm, dtype=float) * np.ones(wp.shape[0])
+    half = float(np.min(hw[1:-1])) if wp.shape[0] > 2 else 0.0
+    tol = max(CHORD_TOL_SHARE * half, CHORD_TOL_MIN_NM)
+    nodes, i = [0], 0
+    while i < wp.shape[0] - 1:
+        j = i + 1
+        while j + 1 < wp.shape[0] and s_nm[j + 1] - s_nm[i] <= dx_nm:
+            _, xt, _, _ = project_to_polyline(wp[[i, j + 1]], wp[i + 1 : j + 1, 0], wp[i + 1 : j + 1, 1])
+            if np.max(np.abs(xt)) > tol:
+                break
+            j += 1
+        nodes.append(j)
+        i = j
+    k = np.asarray(nodes)
+    longest = float(np.max(np.diff(s_nm[k])))
+    room = max(inner_offset_nm(half, longest) - tol, 0.0)
+    p = int(per_side) if room > 0.0 else 0
+    lateral = room * (np.arange(2 * p + 1) - p) / max(p, 1)
+    lat, lon = frame.normal_points(k[:, None], -lateral[None, :])  # port + in the frame
+    return np.asarray(lat, dtype=float), np.asarray(lon, dtype=float), lateral
+
+
 def dp_route(
     ctx: PlanContext,
     frame: CorridorFrame,
@@ -308,8 +357,8 @@ def dp_route(
     lattice, not about every passage (the caller keeps it as such).
 
     Resolution (``options`` overrides, keys of :func:`optroute.search.dp.solve_dp` via ``dp_options``
-    plus ``speed_step_kn``): stages about 1/12 of the corridor apart (at least 20 nm), 3 lateral
-    states per side of the half-width (the outer ones inside it by the bulge of a leg between two of them,
+    plus ``speed_step_kn``): stages about 1/12 of the corridor apart (at least 20 nm; on a centreline that is not
+    one great circle, at its waypoints, :func:`corridor_stations`), 3 lateral states per side of the half-width (the outer ones inside it by the bulge of a leg between two of them,
     :func:`optroute.geo.tracks.inner_offset_nm`, so that the legs stay in the corridor), 1 h time bins, speeds every 2 kn over the NLP's range. A start, not
     the answer: it has to find the side of a storm or band, and the NLP refines it (on the storm crossing of
     ``benchmarks.bench_nlp`` the NLP ends on the same 74.85 t from this DP as from 5 states per side and
@@ -332,6 +381,13 @@ def dp_route(
     per_side = int(np.floor(hw / dy + 1e-9)) if dy > 0 else 0
     dp_opts = {"dx_nm": dx, "dt_h": 1.0, **opts, "half_width_nm": inner}
     dp_opts["dy_nm"] = min(dy, inner / per_side) if per_side > 0 else dy
+    if not great_circle_corridor(frame):  # the stages follow the centreline's bends
+        stations = corridor_stations(frame, dx, per_side)
+        dp_opts["stations"] = stations
+        per_side = stations[2].size // 2
+        dp_opts["dx_nm"] = float(np.max(geo.distance_nm(stations[0][:-1, per_side], stations[1][:-1, per_side],
+                                                        stations[0][1:, per_side], stations[1][1:, per_side])))  # fmt: skip
+        dp_opts["dy_nm"] = float(np.diff(stations[2])[0]) if per_side > 0 else dp_opts["dy_nm"]
     speeds = np.arange(max(v_min_kn, 3.0), v_max_kn + 1e-9, step)
     if objective == "time":  # racing past a storm can need the top speed itself (harness seed 20: 15.48 kn, not 15)
         speeds = np.unique(np.append(speeds, v_max_kn))

@@ -5,7 +5,8 @@ Ship routing as a multi-stage decision process (Shao et al.'s 3-D DP, after thei
 states every ΔY on the great circle perpendicular to it at each stage (within
 ± a half-width), and the control between two stages is the speed over ground,
 chosen from a discrete set (5–30 kn in the paper); the heading is fixed by the
-two grid points.  The forward recursion runs over stage × lateral position ×
+two grid points (or, given ``stations``, the lateral states of stages that follow a corridor's bends).  The
+forward recursion runs over stage × lateral position ×
 arrival time, so it gives, in one pass, the least fuel to reach the end in
 *every* arrival-time bin — the fuel-versus-ETA curve — and the fuel-minimal
 route and speed profile for a required ETA.
@@ -332,6 +333,35 @@ def _stage_geometry(
     return lat, lon, lateral, n_stages
 
 
+def _given_stations(
+    stations: tuple[ArrayLike, ArrayLike, ArrayLike], start: tuple[float, float], end: tuple[float, float]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """``stations`` checked: ``(lat, lon)`` (K+1, 2n+1) [deg] and ``lateral_nm`` (2n+1,) rising through 0 at the
+    centre column n, whose first and last rows' centres are ``start`` and ``end``; as :func:`_stage_geometry`'s."""
+    if not isinstance(stations, tuple | list) or len(stations) != 3:
+        raise ConfigError("stations must be (lat_deg, lon_deg, lateral_nm): the stages' lateral states")
+    lat = finite("stations' lat_deg", np.asarray(stations[0], dtype=float), error=ConfigError)
+    lon = finite("stations' lon_deg", np.asarray(stations[1], dtype=float), error=ConfigError)
+    lateral = finite("stations' lateral_nm", np.asarray(stations[2], dtype=float), error=ConfigError)
+    n_lat = lateral.size
+    if lat.ndim != 2 or lat.shape != lon.shape or lat.shape[0] < 2 or lat.shape[1] != n_lat or n_lat % 2 != 1:
+        raise ConfigError(
+            f"stations' lat_deg {lat.shape} and lon_deg {lon.shape} must be (stages + 1, lateral states), with an odd "
+            f"number of lateral states as in lateral_nm {lateral.shape}"
+        )
+    c = n_lat // 2
+    if lateral[c] != 0.0 or np.any(np.diff(lateral) <= 0.0):
+        raise ConfigError(f"stations' lateral_nm {lateral} must rise through 0 at its centre")
+    for name, row, point in (("start", 0, start), ("end", -1, end)):
+        gap = float(geo.distance_nm(lat[row, c], lon[row, c], point[0], point[1]))
+        if gap > 1e-6:
+            raise ConfigError(f"the stations' centre of the {name} row is {gap:.3g} nm from the {name} {point}")
+    lat, lon = lat.copy(), lon.copy()
+    lat[0], lon[0] = start  # only the centre is a state at the two ends
+    lat[-1], lon[-1] = end
+    return lat, lon, lateral, lat.shape[0] - 1
+
+
 def _early_step(step_fn: Transition, k: int, early: tuple, dest: np.ndarray, step: int | None) -> None:
     """The earliest-arrival labels of stage k + 1 from those of stage k (every reached lateral, destination, speed).
 
@@ -396,6 +426,7 @@ def solve_dp(
     max_batch: int = 400_000,
     labels_per_bin: int | None = DEFAULT_LABELS_PER_BIN,
     least_fuel_only: bool = False,
+    stations: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
 ) -> DPResult:
     """Forward 3-D DP: least fuel for every arrival time, and the route for ``eta_h``.
 
@@ -443,6 +474,12 @@ def solve_dp(
         fuel plus a lower bound on the fuel to the end exceeds the earliest route's fuel (see
         :func:`_fuel_cut`).  The route returned is the one found without it; the curve is NaN and
         :meth:`DPResult.path_for_eta` refuses.
+    stations : (lat_deg, lon_deg, lateral_nm), optional
+        The stages' lateral states themselves, for a centreline that is not one great circle (a corridor's,
+        :func:`optroute.optimise.starts.corridor_stations`): ``lat_deg``, ``lon_deg`` (K+1, 2n+1) [deg], row k
+        stage k, column j the lateral state ``lateral_nm[j]`` [nm, starboard +], rising through 0 at column n; the
+        centres of the first and last rows are ``start`` and ``end``. Replaces ``dx_nm``, ``dy_nm`` and
+        ``half_width_nm``'s great-circle lattice (``dy_nm`` still spaces the no-go checks by default).
 
     Returns
     -------
@@ -489,8 +526,12 @@ def solve_dp(
     if float(geo.distance_nm(*s, *e)) < 1e-6:
         raise ConfigError(f"start {s} and end {e} coincide; there is nothing to route")
 
-    n_half = int(np.floor(hw / dy + 1e-9))
-    lat, lon, lateral, n_stages = _stage_geometry(s, e, dx, dy, n_half)
+    if stations is None:
+        n_half = int(np.floor(hw / dy + 1e-9))
+        lat, lon, lateral, n_stages = _stage_geometry(s, e, dx, dy, n_half)
+    else:
+        lat, lon, lateral, n_stages = _given_stations(stations, s, e)
+        n_half = lateral.size // 2
     n_lat = lateral.size
     c = n_half
     rem_nm = geo.distance_nm(lat, lon, e[0], e[1])  # WGS84, as the legs
