@@ -26,6 +26,12 @@ SHIP = orx.Ship.preset("container_54k_dwt")
 T0 = np.datetime64("2024-01-10T00:00", "ns")
 
 
+@pytest.fixture(scope="module")
+def storm_crossing() -> dict:
+    """benchmarks.bench_nlp's storm crossing (``benchmarks._nlp_call._case``), built once for this module's tests."""
+    return _case()
+
+
 def _calm() -> object:
     return orx.scenarios.uniform(
         hs_m=0.0, tp_s=6.0, bbox=(-10, 10, -40, 0), start=T0, duration_h=240, resolution_deg=1.0
@@ -166,12 +172,14 @@ def test_the_minimum_load_schedule_is_the_slowest_the_referee_accepts_in_a_head_
     assert {v.leg for v in slower.verify() if v.kind == "power_below_min"} == set(range(plan.stw_kn.size))
 
 
-def test_where_a_band_binds_the_dps_plan_rides_the_corridor_edge_verified_and_no_minimum_time_plan_is_solved():
+def test_where_a_band_binds_the_dps_plan_rides_the_corridor_edge_verified_and_no_minimum_time_plan_is_solved(
+    storm_crossing,
+):
     # benchmarks.bench_nlp's storm crossing at 21 legs (2 477 nm, +-40 nm, a band can bind on 9 legs): the DP's
     # plan keeps to the corridor's edge on some legs. Its stages are 206 nm apart, and a great-circle leg between
     # two states at the half-width bulges 0.018 nm beyond it (> the referee's 0.01 nm), which made the referee
     # refuse this plan and the start stage solve the minimum-time plan (26 Ipopt solves; it lost, 546 t)
-    c = _case()
+    c = dict(storm_crossing)
     length, corridor, eta = c.pop("length_nm"), c["corridor"], c["eta"]
     prepared = PreparedCorridor(corridor, c["weather"], c["ship"], departure=c["departure"], latest_eta=eta,
                                 objective="fuel", rules=c["rules"], max_leg_nm=length / 21 * (1 + 1e-9))  # fmt: skip
@@ -198,7 +206,7 @@ def test_where_a_band_binds_the_dps_plan_rides_the_corridor_edge_verified_and_no
     assert out.verify() == [] and out.total_fuel_t <= plan.total_fuel_t * (1 + 1e-9)
 
 
-def test_on_a_bent_corridor_the_dps_stages_follow_the_bend_and_its_plan_is_the_start():
+def test_on_a_bent_corridor_the_dps_stages_follow_the_bend_and_its_plan_is_the_start(storm_crossing):
     # the same storm crossing through a corridor bent 3 degrees north at 146 W (+-40 nm, 21 legs): the DP's stations
     # are centreline waypoints whose chords keep the centreline between them within 4 nm (a tenth of the
     # half-width), and every DP leg stays in the corridor (brute force: 1 000 points per leg projected on the centreline); the DP's plan
@@ -206,7 +214,7 @@ def test_on_a_bent_corridor_the_dps_stages_follow_the_bend_and_its_plan_is_the_s
     # (great circles only) and solved the minimum-time plan (594 t) as well: the same 335.60 t in 271 iterations
     from optroute.optimise.starts import CHORD_TOL_SHARE, corridor_stations
 
-    c = _case()
+    c = dict(storm_crossing)
     eta = c["eta"]
     corridor = orx.Corridor.from_waypoints([(30.0, -170.0), (33.0, -146.0), (30.0, -122.0)], width_nm=80.0)
     prepared = PreparedCorridor(corridor, c["weather"], c["ship"], departure=c["departure"], latest_eta=eta,
