@@ -12,6 +12,8 @@ import time
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import optroute as orx
 from benchmarks._nlp_call import _case
@@ -271,3 +273,41 @@ def test_a_verified_start_inside_the_nlps_backed_off_bands_is_counted_and_improv
     assert plan.status != "start" and plan.total_fuel_t < st["start_score"]
     if inside:
         assert "back-offs fitted to the verified start" in " ".join(st["tightening"])
+
+
+@settings(max_examples=12, deadline=None)
+@given(
+    bend_lat=st.floats(-6.0, 6.0),
+    bend_lon=st.floats(-27.0, -23.0),
+    end_lat=st.floats(-3.0, 3.0),
+    width_nm=st.floats(0.0, 120.0),
+    leg_nm=st.floats(15.0, 80.0),
+    dx_nm=st.floats(30.0, 400.0),
+)
+def test_every_leg_between_corridor_stations_stays_in_the_corridor(
+    bend_lat, bend_lon, end_lat, width_nm, leg_nm, dx_nm
+):
+    # invariant of starts.corridor_stations on random bent corridors (no weather): the chords between any two lateral
+    # states of consecutive stations, walked at 41 points and projected on the centreline, stay within its
+    # half-width (to the referee's 0.01 nm), and the stations run from the start to the end at most dx_nm apart
+    # along it (a frame leg longer than dx_nm is one stage)
+    from optroute.optimise.nlp_inputs import build_frame
+    from optroute.optimise.starts import corridor_stations
+
+    corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [bend_lat, bend_lon], [end_lat, -20.0]], width_nm=width_nm)
+    frame = build_frame(corridor.resample(leg_nm))
+    wp, hw = frame.corridor.waypoints, width_nm / 2.0
+    lat, lon, lateral = corridor_stations(frame, dx_nm, 3)
+    c, last = lateral.size // 2, lat.shape[0] - 1
+    assert np.allclose([lat[0, c], lon[0, c], lat[-1, c], lon[-1, c]], [*wp[0], *wp[-1]], atol=1e-9)
+    assert np.all(np.abs(lateral) <= hw) and lateral.size in (1, 7)
+    s_at = project_to_polyline(wp, lat[:, c], lon[:, c])[0]
+    steps = np.diff(s_at)
+    assert np.all(steps > 0) and np.all((steps <= dx_nm + 1e-6) | (steps <= np.max(np.diff(frame.s_nm)) + 1e-6))
+    f = np.linspace(0.0, 1.0, 41)
+    for k in range(last):
+        src = [c] if k == 0 else range(lateral.size)  # the ends hold the centre only
+        dst = [c] if k + 1 == last else range(lateral.size)
+        a, b = (x.ravel() for x in np.meshgrid(src, dst, indexing="ij"))
+        pts = gc_points(lat[k, a, None], lon[k, a, None], lat[k + 1, b, None], lon[k + 1, b, None], f[None, :])
+        assert np.max(project_to_polyline(wp, pts[0].ravel(), pts[1].ravel())[2]) <= hw + 0.01
