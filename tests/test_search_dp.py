@@ -234,3 +234,20 @@ def test_bad_stations_are_refused():
         solve_dp(START, END, cubic, stations=(lat, lon, lateral[::-1]))
     with pytest.raises(ConfigError, match="finite"):
         solve_dp(START, END, cubic, stations=(np.where(lat > 1.9, np.nan, lat), lon, lateral))
+
+
+def test_a_fuel_cut_keeps_the_least_fuel_route_under_it_and_costs_fewer_legs():
+    # without an ETA the DP's route is the least fuel over every arrival; a cut 1 % above it keeps that route (the
+    # labels dropped are those whose fuel already exceeds it) and costs fewer legs; a cut below every route leaves
+    # the earliest route, and the curve is not kept
+    kw = dict(dx_nm=450, dy_nm=60, half_width_nm=60, speeds_kn=[10.0, 14.0, 18.0, 22.0], dt_h=0.5, horizon_h=140.0)
+    full = solve_dp(START, END, _weather_cost, **kw)
+    cut = solve_dp(START, END, _weather_cost, **kw, fuel_cut_t=full.path.total_fuel_t * 1.01)
+    assert cut.path.total_fuel_t == full.path.total_fuel_t and np.array_equal(cut.path.sog_kn, full.path.sog_kn)
+    assert cut.n_transitions < full.n_transitions
+    with pytest.raises(ConfigError, match="fuel_cut_t"):
+        cut.path_for_eta(100.0)
+    low = solve_dp(START, END, _weather_cost, **kw, fuel_cut_t=full.path.total_fuel_t * 0.5)
+    assert low.path.arrival_h == pytest.approx(full.earliest_arrival_h, abs=1e-9)
+    with pytest.raises(ConfigError, match="fuel_cut_t"):
+        solve_dp(START, END, _weather_cost, **kw, fuel_cut_t=-1.0)

@@ -90,6 +90,11 @@ FREE_ARRIVAL_DP = (
 #: The 3-D DP's speed step [kn] without an ETA: least fuel sails near the engine's minimum load, and a 2 kn ladder
 #: straddles it (the rung below under the minimum load, the one above well over it).
 FREE_ARRIVAL_STEP_KN = 1.0
+#: Arrival-time bins of the free-arrival DP per passage (the best verified candidate's): a resolution of 1 % of it.
+FREE_ARRIVAL_BINS = 100
+#: How far above the best verified candidate's fuel (a share) a route of the free-arrival DP is kept: room for the
+#: difference between the DP's own fuel figure (its 30 nm pieces, its speed over ground) and the referee's.
+FREE_ARRIVAL_CUT = 0.05
 #: The order of the candidates among equal scores, and of the warm starts when none verifies.
 LABEL_ORDER = (
     "warm plan",
@@ -183,7 +188,7 @@ def start_stage(
         found["centreline start"] = _timed(lambda: _centre_candidate(prepared, ctx, cap_h, objective, st))
     reason = global_starts_reason(prepared, ctx, list(found.values()), cap_h, objective)
     if _dp_applies(prepared, ctx, objective, route, reason):
-        dp = _timed(lambda: _dp_candidate(prepared, ctx, objective, st.log))
+        dp = _timed(lambda: _dp_candidate(prepared, ctx, objective, st.log, list(found.values())))
         if dp is not None:
             found["3-D DP"] = dp
         if objective == "time" and (dp is None or dp.plan is None):
@@ -390,14 +395,27 @@ def time_lattice(prepared: Any) -> dict[str, float]:
     }
 
 
-def _dp_candidate(prepared: Any, ctx: PlanContext, objective: str, log: list[str]) -> Candidate | None:
+def _dp_candidate(
+    prepared: Any, ctx: PlanContext, objective: str, log: list[str], local: list[Candidate]
+) -> Candidate | None:
     """The 3-D DP's plan on the corridor by the ETA, or its earliest for a free-arrival minimum time on
     :func:`time_lattice` (:func:`optroute.optimise.starts.dp_route`; ``dp_options`` override); None without one.
     Where the DP finds no route at all within the weather's span, its lattice statement is kept
-    (``prepared.lattice_closed``) for a solve that ends without a verified plan."""
+    (``prepared.lattice_closed``) for a solve that ends without a verified plan.
+
+    For least fuel (or cost) without an ETA, from the best verified ``local`` candidate (the minimum-load
+    schedule): speeds every :data:`FREE_ARRIVAL_STEP_KN`, arrival bins of its passage over
+    :data:`FREE_ARRIVAL_BINS` (at least 1 h), and for fuel its fuel plus :data:`FREE_ARRIVAL_CUT` as the DP's
+    ``fuel_cut_t``: only the labels of routes that can burn less (by the DP's own figure and its lower bound to the
+    end) are kept."""
     opts = prepared.dp_options if objective != "time" else {**time_lattice(prepared), **prepared.dp_options}
-    if ctx.eta is None and objective != "time":
-        opts = {"speed_step_kn": FREE_ARRIVAL_STEP_KN, **opts}
+    verified = [c for c in local if c.plan is not None]
+    if ctx.eta is None and objective != "time" and verified:
+        best = min(verified, key=lambda c: c.score)
+        dt_h = max(1.0, float(best.plan.duration_h) / FREE_ARRIVAL_BINS)
+        opts = {"speed_step_kn": FREE_ARRIVAL_STEP_KN, "dt_h": dt_h, **opts}
+        if objective == "fuel":
+            opts = {"fuel_cut_t": best.score * (1.0 + FREE_ARRIVAL_CUT), **opts}
     try:
         dp = dp_route(ctx, prepared.frame, departure=prepared.departure, eta=ctx.eta, objective=objective,
                       v_min_kn=prepared.v_min, v_max_kn=prepared.v_max, fuel_price=prepared.fuel_price,

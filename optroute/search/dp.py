@@ -213,12 +213,12 @@ class DPResult:
         InfeasibleETA
             No route found arrives by ``eta_h``.
         ConfigError
-            The DP ran with ``least_fuel_only`` (it kept only the labels its own route needed).
+            The DP ran with ``least_fuel_only`` or ``fuel_cut_t`` (it kept only the labels its own route needed).
         """
         if self.least_fuel_only:
             raise ConfigError(
-                f"path_for_eta({eta_h}) needs every label, and this DP ran with least_fuel_only=True; "
-                f"run solve_dp without it, or with eta_h={eta_h}"
+                f"path_for_eta({eta_h}) needs every label, and this DP ran with least_fuel_only=True or a "
+                f"fuel_cut_t; run solve_dp without them, or with eta_h={eta_h}"
             )
         return self._tables.path_for(float(eta_h))
 
@@ -427,6 +427,7 @@ def solve_dp(
     labels_per_bin: int | None = DEFAULT_LABELS_PER_BIN,
     least_fuel_only: bool = False,
     stations: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
+    fuel_cut_t: float | None = None,
 ) -> DPResult:
     """Forward 3-D DP: least fuel for every arrival time, and the route for ``eta_h``.
 
@@ -480,6 +481,11 @@ def solve_dp(
         stage k, column j the lateral state ``lateral_nm[j]`` [nm, starboard +], rising through 0 at column n; the
         centres of the first and last rows are ``start`` and ``end``. Replaces ``dx_nm``, ``dy_nm`` and
         ``half_width_nm``'s great-circle lattice (``dy_nm`` still spaces the no-go checks by default).
+    fuel_cut_t : float, optional
+        A fuel [t] no route of interest exceeds (an incumbent plan's): a label whose fuel plus the lower bound on
+        the fuel to the end (as ``least_fuel_only``'s, :func:`_fuel_cut`) exceeds it is dropped, so the binned
+        labels are those of the routes under it; where none arrives, the route returned is the earliest. The curve is
+        then NaN and :meth:`DPResult.path_for_eta` refuses, as with ``least_fuel_only``.
 
     Returns
     -------
@@ -579,14 +585,24 @@ def solve_dp(
             if not np.isfinite(early_t[k]).any():
                 break
             _early_step(step_fn, k, early, np.nonzero(valid[k + 1])[0], step)
+    if least_fuel_only or fuel_cut_t is not None:
         floor_per_nm = 0.0 if stages is None else float(np.min(stages.floor / stages.speeds))
-        cut = _fuel_cut(early_t[-1, c], early_f[-1, c], eta_h, floor_per_nm, rem_nm)
+        e_t, e_f = (early_t[-1, c], early_f[-1, c]) if least_fuel_only else (np.inf, np.inf)
+        tail, value = _fuel_cut(e_t, e_f, eta_h, floor_per_nm, rem_nm)
+        if fuel_cut_t is not None:
+            value = min(value, float(finite("fuel_cut_t", fuel_cut_t, minimum=0.0, strict=True, error=ConfigError)))
+        cut = (tail, value)
     for k in range(n_stages):
         src_l, src_b = np.nonzero(np.isfinite(fuel_t[k]))
+        dest = np.nonzero(valid[k + 1])[0]
+        if src_l.size == 0 and cut is not None and not least_fuel_only and np.isfinite(early_t[k]).any():
+            # a fuel cut dropped every label: the earliest-arrival labels go on alone (the route is the earliest)
+            _early_step(step_fn, k, early, dest, step)
+            append_stage((fuel_t, time_t, back_l, back_b, speed_i), widths, empty_stage(n_lat, n_bins))
+            continue
         if src_l.size == 0:
             break
-        dest = np.nonzero(valid[k + 1])[0]
-        if cut is None:  # earliest arrival: every reached lateral x every destination x every speed
+        if not least_fuel_only:  # earliest arrival: every reached lateral x every destination x every speed
             _early_step(step_fn, k, early, dest, step)
         # the binned fuel labels
         if stages is not None:
