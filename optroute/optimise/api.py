@@ -441,9 +441,10 @@ def _solve_honestly(prepared: Any, eta: Any, *, eta_mode: str, objective: str, w
       is returned, the better by the objective, with ``status="start"`` and the failure in
       ``solver_stats["status_reason"]``; when the minimum-time plan arrives after the ETA it is
       :class:`InfeasibleETA`, and so is an ETA to be met exactly (``eta_mode="eq"``) after the arrival of the
-      centreline sailed at the engine's minimum load (:func:`_slowest_plan`); a cross-section where no speed is allowed at any time, or on a fixed path a section no
-      schedule reaches (:func:`optroute.optimise.barrier.fixed_path_barrier`), is :class:`NoSafePassage`;
-      weather-coverage violations are :class:`WeatherCoverageError`.
+      centreline sailed at the engine's minimum load (:func:`_slowest_plan`); a cross-section where no speed is
+      allowed at any time, or on a fixed path a section no schedule reaches
+      (:func:`optroute.optimise.barrier.fixed_path_barrier`), is :class:`NoSafePassage`; weather-coverage
+      violations are :class:`WeatherCoverageError`.
     """
     _check_time_span(prepared, eta, objective)
     kw = {"eta_mode": eta_mode, "objective": objective, "progress": progress}

@@ -358,8 +358,10 @@ def dp_route(
 
     Resolution (``options`` overrides, keys of :func:`optroute.search.dp.solve_dp` via ``dp_options``
     plus ``speed_step_kn``): stages about 1/12 of the corridor apart (at least 20 nm; on a centreline that is not
-    one great circle, at its waypoints, :func:`corridor_stations`), 3 lateral states per side of the half-width (the outer ones inside it by the bulge of a leg between two of them,
-    :func:`optroute.geo.tracks.inner_offset_nm`, so that the legs stay in the corridor), 1 h time bins, speeds every 2 kn over the NLP's range. A start, not
+    one great circle, at its waypoints, :func:`corridor_stations`), 3 lateral states per side of the half-width
+    (the outer ones inside it by the bulge of a leg between two of them,
+    :func:`optroute.geo.tracks.inner_offset_nm`, so that the legs stay in the corridor), 1 h time bins, speeds
+    every 2 kn over the NLP's range. A start, not
     the answer: it has to find the side of a storm or band, and the NLP refines it (on the storm crossing of
     ``benchmarks.bench_nlp`` the NLP ends on the same 74.85 t from this DP as from 5 states per side and
     1 kn steps, which cost 7× the DP's CPU).

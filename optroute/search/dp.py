@@ -5,9 +5,9 @@ Ship routing as a multi-stage decision process (Shao et al.'s 3-D DP, after thei
 states every ΔY on the great circle perpendicular to it at each stage (within
 ± a half-width), and the control between two stages is the speed over ground,
 chosen from a discrete set (5–30 kn in the paper); the heading is fixed by the
-two grid points (or, given ``stations``, the lateral states of stages that follow a corridor's bends).  The
-forward recursion runs over stage × lateral position ×
-arrival time, so it gives, in one pass, the least fuel to reach the end in
+two grid points (or, given ``stations``, the lateral states of stages that
+follow a corridor's bends).  The forward recursion runs over stage × lateral
+position × arrival time, so it gives, in one pass, the least fuel to reach the end in
 *every* arrival-time bin — the fuel-versus-ETA curve — and the fuel-minimal
 route and speed profile for a required ETA.
 
