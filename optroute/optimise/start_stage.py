@@ -237,7 +237,8 @@ def global_starts_reason(
     (:attr:`~optroute.optimise.corridor_problem.PreparedCorridor.binding`). For a free-arrival minimum time where no
     local start verifies, the 3-D DP's earliest passage within the weather's span is computed (the minimum-time
     plan is that solve's own). For fuel or cost without an ETA where the weather changes in time along the corridor,
-    the 3-D DP alone (:data:`FREE_ARRIVAL_DP`; its speeds every :data:`FREE_ARRIVAL_STEP_KN`).
+    the 3-D DP alone (:data:`FREE_ARRIVAL_DP`; its speeds every :data:`FREE_ARRIVAL_STEP_KN`), unless a search route
+    is given: its time-dependent search over the arrival times is that call's global start (``plan_voyage``).
     """
     verified = any(c.plan is not None for c in local)
     if cap_h is None:
@@ -249,10 +250,17 @@ def global_starts_reason(
     if objective == "time":
         return "not computed: a local start verifies (minimum time)"
     if ctx.eta is None:
-        return FREE_ARRIVAL_DP if not prepared.samples.static else (
-            "not computed: a local start verifies, there is no ETA (the weather's end bounds the passage) and the "
-            "weather does not change in time along the corridor"
-        )  # fmt: skip
+        if prepared.samples.static:
+            return (
+                "not computed: a local start verifies, there is no ETA (the weather's end bounds the passage) and the "
+                "weather does not change in time along the corridor"
+            )
+        if any(c.label == "search route" for c in local):
+            return (
+                "not computed: no ETA, and the given route search's schedule, a search over the arrival times in this "
+                "weather, is a candidate"
+            )
+        return FREE_ARRIVAL_DP
     binding = np.asarray(prepared.binding, dtype=bool)
     if binding.any():
         return f"computed: a band or the exclusion can bind on {int(binding.sum())} of {binding.size} legs"
