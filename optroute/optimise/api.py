@@ -441,7 +441,8 @@ def _solve_honestly(prepared: Any, eta: Any, *, eta_mode: str, objective: str, w
       is returned, the better by the objective, with ``status="start"`` and the failure in
       ``solver_stats["status_reason"]``; when the minimum-time plan arrives after the ETA it is
       :class:`InfeasibleETA`, and so is an ETA to be met exactly (``eta_mode="eq"``) after the arrival of the
-      centreline sailed at the engine's minimum load (:func:`_slowest_plan`); a cross-section where no speed is
+      centreline sailed at the engine's minimum load
+      (:func:`~optroute.optimise.start_stage.centreline_minimum_load`); a cross-section where no speed is
       allowed at any time, or on a fixed path a section no schedule reaches
       (:func:`optroute.optimise.barrier.fixed_path_barrier`), is :class:`NoSafePassage`; weather-coverage
       violations are :class:`WeatherCoverageError`.
@@ -529,20 +530,9 @@ def _infeasible(prepared: Any, eta: Any, plans: list[Plan]) -> InfeasibleETA:
     )
 
 
-def _slowest_plan(prepared: Any) -> Plan | None:
-    """The centreline sailed at the engine's minimum load, verified without an ETA
-    (:func:`optroute.optimise.starts.minimum_load_plan`); None where the ship has no minimum power or it fails."""
-    from optroute.optimise.starts import minimum_load_plan
-
-    frame = prepared.frame
-    centre = frame.waypoints(np.zeros(frame.n_legs + 1))
-    return minimum_load_plan(prepared.plan_context(), centre, prepared.departure, prepared.verify_step_nm,
-                             v_min_kn=prepared.v_min, v_max_kn=prepared.v_max)  # fmt: skip
-
-
 def _too_late(prepared: Any, eta_t: np.datetime64, slowest: Plan) -> InfeasibleETA:
     """InfeasibleETA for an ETA to be met exactly (``eta_mode="eq"``) later than every plan found arrives, the
-    centreline's slowest schedule (:func:`_slowest_plan`) included."""
+    centreline's slowest schedule (:func:`~optroute.optimise.start_stage.centreline_minimum_load`) included."""
     pmin = float(prepared.plan_context().model.min_power_kw)
     return InfeasibleETA(
         f"the ETA {units.format_utc(eta_t)} is to be met exactly (eta_mode='eq'), and no plan was found that arrives "
@@ -572,8 +562,10 @@ def _after_failure(prepared: Any, eta: Any, exc: SolverFailure, route, kw: dict[
         eta_t = units.as_utc_time(eta, "eta")
         if eta_mode == "le" or all(p.arrival > eta_t for p in verified):
             raise _infeasible(prepared, eta, verified) from exc
+        from optroute.optimise.start_stage import centreline_minimum_load
+
         # eq: an ETA after every plan found may lie after the slowest schedule the engine allows
-        slowest = _slowest_plan(prepared)
+        slowest = centreline_minimum_load(prepared, prepared.plan_context())
         if slowest is not None and slowest.arrival < eta_t:
             raise _too_late(prepared, eta_t, slowest) from exc
     if "weather_coverage" in str(exc):

@@ -359,12 +359,20 @@ def _centre_candidate(
     return _candidate(prepared, "centreline start", centre, plan, objective)
 
 
+def centreline_minimum_load(prepared: Any, ctx: PlanContext) -> Plan | None:
+    """The corridor's centreline sailed at the engine's minimum load, verified in ``ctx``
+    (:func:`optroute.optimise.starts.minimum_load_plan`): the slowest schedule the engine allows there; None where the
+    ship has no minimum power or no round verifies."""
+    centre_wp = prepared.frame.waypoints(np.zeros(prepared.frame.n_legs + 1))
+    return minimum_load_plan(ctx, centre_wp, prepared.departure, prepared.verify_step_nm, v_min_kn=prepared.v_min,
+                             v_max_kn=prepared.v_max)  # fmt: skip
+
+
 def _minimum_load_candidate(prepared: Any, ctx: PlanContext) -> Candidate:
-    """The centreline sailed at the engine's minimum load (:func:`optroute.optimise.starts.minimum_load_plan`)."""
+    """The centreline sailed at the engine's minimum load (:func:`centreline_minimum_load`)."""
     frame = prepared.frame
     centre_wp = frame.waypoints(np.zeros(frame.n_legs + 1))
-    plan = minimum_load_plan(ctx, centre_wp, prepared.departure, prepared.verify_step_nm, v_min_kn=prepared.v_min,
-                             v_max_kn=prepared.v_max)  # fmt: skip
+    plan = centreline_minimum_load(prepared, ctx)
     stw = plan.stw_kn if plan is not None else np.full(frame.n_legs, prepared.v_min)
     return _candidate(prepared, "minimum-load schedule", track_warm_start(centre_wp, stw, frame), plan, "fuel")
 

@@ -355,7 +355,10 @@ def _given_stations(
     for name, row, point in (("start", 0, start), ("end", -1, end)):
         gap = float(geo.distance_nm(lat[row, c], lon[row, c], point[0], point[1]))
         if gap > 1e-6:
-            raise ConfigError(f"the stations' centre of the {name} row is {gap:.3g} nm from the {name} {point}")
+            raise ConfigError(
+                f"the stations' centre of the {name} row is {gap:.3g} nm from the {name} {point}; make the centre "
+                f"column's {name} the route's {name}"
+            )
     lat, lon = lat.copy(), lon.copy()
     lat[0], lon[0] = start  # only the centre is a state at the two ends
     lat[-1], lon[-1] = end
