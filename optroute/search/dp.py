@@ -83,11 +83,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from optroute import geodesy as geo
 from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
 from optroute.search.costs import unpack_cost
 from optroute.search.dp_kernels import BIN_TOL_H, stacked_inputs
+from optroute.search.dp_lattice import Lattice, Options, checked_options, lattice
 from optroute.search.dp_stages import (
     CompiledStages,
     LegCostFn,
@@ -314,57 +314,6 @@ class _Tables:
         )
 
 
-def _stage_geometry(
-    start: tuple[float, float], end: tuple[float, float], dx_nm: float, dy_nm: float, n_half: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    lat_s, lon_s = start
-    lat_e, lon_e = end
-    dist = float(geo.distance_nm(lat_s, lon_s, lat_e, lon_e))
-    n_stages = max(1, int(np.ceil(dist / dx_nm - 1e-9)))
-    clat, clon = geo.intermediate_points(lat_s, lon_s, lat_e, lon_e, np.linspace(0.0, 1.0, n_stages + 1))
-    course = np.empty(n_stages + 1)
-    course[:-1] = geo.initial_course_deg(clat[:-1], clon[:-1], lat_e, lon_e)
-    course[-1] = geo.initial_course_deg(lat_s, lon_s, lat_e, lon_e)  # unused: the end has no lateral states
-    lateral = dy_nm * (np.arange(2 * n_half + 1) - n_half)
-    side = np.where(lateral >= 0, 90.0, -90.0)
-    lat, lon = geo.destination(clat[:, None], clon[:, None], course[:, None] + side[None, :], np.abs(lateral)[None, :])
-    lat[0], lon[0] = lat_s, lon_s  # only the centre is a state at the two ends
-    lat[-1], lon[-1] = lat_e, lon_e
-    return lat, lon, lateral, n_stages
-
-
-def _given_stations(
-    stations: tuple[ArrayLike, ArrayLike, ArrayLike], start: tuple[float, float], end: tuple[float, float]
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """``stations`` checked: ``(lat, lon)`` (K+1, 2n+1) [deg] and ``lateral_nm`` (2n+1,) rising through 0 at the
-    centre column n, whose first and last rows' centres are ``start`` and ``end``; as :func:`_stage_geometry`'s."""
-    if not isinstance(stations, tuple | list) or len(stations) != 3:
-        raise ConfigError("stations must be (lat_deg, lon_deg, lateral_nm): the stages' lateral states")
-    lat = finite("stations' lat_deg", np.asarray(stations[0], dtype=float), error=ConfigError)
-    lon = finite("stations' lon_deg", np.asarray(stations[1], dtype=float), error=ConfigError)
-    lateral = finite("stations' lateral_nm", np.asarray(stations[2], dtype=float), error=ConfigError)
-    n_lat = lateral.size
-    if lat.ndim != 2 or lat.shape != lon.shape or lat.shape[0] < 2 or lat.shape[1] != n_lat or n_lat % 2 != 1:
-        raise ConfigError(
-            f"stations' lat_deg {lat.shape} and lon_deg {lon.shape} must be (stages + 1, lateral states), with an odd "
-            f"number of lateral states as in lateral_nm {lateral.shape}"
-        )
-    c = n_lat // 2
-    if lateral[c] != 0.0 or np.any(np.diff(lateral) <= 0.0):
-        raise ConfigError(f"stations' lateral_nm {lateral} must rise through 0 at its centre")
-    for name, row, point in (("start", 0, start), ("end", -1, end)):
-        gap = float(geo.distance_nm(lat[row, c], lon[row, c], point[0], point[1]))
-        if gap > 1e-6:
-            raise ConfigError(
-                f"the stations' centre of the {name} row is {gap:.3g} nm from the {name} {point}; make the centre "
-                f"column's {name} the route's {name}"
-            )
-    lat, lon = lat.copy(), lon.copy()
-    lat[0], lon[0] = start  # only the centre is a state at the two ends
-    lat[-1], lon[-1] = end
-    return lat, lon, lateral, lat.shape[0] - 1
-
-
 def _early_step(step_fn: Transition, k: int, early: tuple, dest: np.ndarray, step: int | None) -> None:
     """The earliest-arrival labels of stage k + 1 from those of stage k (every reached lateral, destination, speed).
 
@@ -505,214 +454,239 @@ def solve_dp(
     ConfigError
         Bad options, or a callback that breaks its contract.
     """
-    if not callable(leg_cost):
-        raise ConfigError(f"leg_cost must be callable, got {type(leg_cost).__name__}")
-    s = tuple(float(v) for v in finite("start (lat, lon) [deg]", start, error=ConfigError))
-    e = tuple(float(v) for v in finite("end (lat, lon) [deg]", end, error=ConfigError))
-    dx = float(finite("dx_nm", dx_nm, minimum=0.0, strict=True, error=ConfigError))
-    dy = float(finite("dy_nm", dy_nm, minimum=0.0, strict=True, error=ConfigError))
-    hw = float(finite("half_width_nm", half_width_nm, minimum=0.0, error=ConfigError))
-    dt = float(finite("dt_h", dt_h, minimum=0.0, strict=True, error=ConfigError))
-    speeds = np.arange(5.0, 30.5, 1.0) if speeds_kn is None else np.unique(np.asarray(speeds_kn, dtype=float))
-    speeds = finite("speeds_kn", speeds, minimum=0.0, strict=True, error=ConfigError)
-    if speeds.ndim != 1 or speeds.size == 0:
-        raise ConfigError("speeds_kn must be a non-empty 1-D set of speeds [kn]")
-    if eta_h is not None:
-        eta_h = float(finite("eta_h", eta_h, minimum=0.0, strict=True, error=ConfigError))
-    step = None if max_lateral_step is None else int(max_lateral_step)
-    n_labels = None
-    if labels_per_bin is not None:
-        n_labels = int(finite("labels_per_bin", labels_per_bin, minimum=1.0, error=ConfigError))
-        if n_labels != labels_per_bin:
-            raise ConfigError(f"labels_per_bin={labels_per_bin} must be a whole number >= 1, or None (every label)")
-    if step is not None and step < 0:
-        raise ConfigError(f"max_lateral_step={max_lateral_step} must be >= 0")
-    nogo_step = (
-        dy
-        if nogo_step_nm is None
-        else float(finite("nogo_step_nm", nogo_step_nm, minimum=0.0, strict=True, error=ConfigError))
-    )
-    if float(geo.distance_nm(*s, *e)) < 1e-6:
-        raise ConfigError(f"start {s} and end {e} coincide; there is nothing to route")
-
-    if stations is None:
-        n_half = int(np.floor(hw / dy + 1e-9))
-        lat, lon, lateral, n_stages = _stage_geometry(s, e, dx, dy, n_half)
-    else:
-        lat, lon, lateral, n_stages = _given_stations(stations, s, e)
-        n_half = lateral.size // 2
-    n_lat = lateral.size
-    c = n_half
-    rem_nm = geo.distance_nm(lat, lon, e[0], e[1])  # WGS84, as the legs
-    vmax, vmin = float(speeds.max()), float(speeds.min())
-    dist_total = float(geo.distance_nm(*s, *e))
-    horizon = (
-        dist_total / vmin
-        if horizon_h is None
-        else float(finite("horizon_h", horizon_h, minimum=0.0, strict=True, error=ConfigError))
-    )
-    if eta_h is not None:
-        horizon = max(horizon, eta_h)
-    # bin b holds the arrivals in (t_ref + b dt, t_ref + (b + 1) dt]: the ETA is a bin end, departure in bin 0
-    t_ref = (0.0 if eta_h is None else eta_h - np.ceil(eta_h / dt - 1e-12) * dt) - dt
-    n_bins = int(np.ceil((horizon - t_ref) / dt - BIN_TOL_H / dt))
-
-    valid = np.ones((n_stages + 1, n_lat), dtype=bool)
-    valid[0], valid[-1] = False, False
-    valid[0, c], valid[-1, c] = True, True
-    # per stage (n_lat, n_bins × width) tables, column bin × width + slot; a stage's width is its largest Pareto set
-    fuel_t, time_t, back_l, back_b, speed_i = ([a] for a in empty_stage(n_lat, n_bins)[:-1])
-    widths = [1]
-    # the earliest-arrival labels, one per (stage, lateral), propagated alongside (exact under FIFO)
-    early_t = np.full((n_stages + 1, n_lat), np.inf)
-    early_f = np.full((n_stages + 1, n_lat), np.inf)
-    early_back = np.full((n_stages + 1, n_lat, 2), -1, dtype=np.int64)
-    dists = [
-        geo.distance_nm(lat[k][:, None], lon[k][:, None], lat[k + 1][None, :], lon[k + 1][None, :])
-        for k in range(n_stages)
-    ]
-    b0 = int(np.ceil((0.0 - t_ref) / dt - BIN_TOL_H / dt)) - 1
-    fuel_t[0][c, b0], time_t[0][c, b0] = 0.0, 0.0
-    early_t[0, c], early_f[0, c] = 0.0, 0.0
-    if navigable is not None and not nav_check(navigable, np.array([s[0]]), np.array([s[1]]), np.array([0.0]))[0]:
-        raise NoSafePassage(f"the start {s} is in a no-go area at departure; move it or change the no-go mask")
-    step_fn = Transition(lat, lon, dists, speeds, leg_cost, navigable, nogo_step, rem_nm, vmax, horizon)
+    opt = checked_options(
+        leg_cost, start, end, eta_h, (dx_nm, dy_nm, half_width_nm, dt_h), speeds_kn, nogo_step_nm, max_lateral_step,
+        labels_per_bin,
+    )  # fmt: skip
+    lat_ = lattice(opt, stations, horizon_h)
+    labels = _Labels.at_departure(lat_)
+    if navigable is not None and not nav_check(navigable, np.array([opt.start[0]]), np.array([opt.start[1]]),
+                                               np.array([0.0]))[0]:  # fmt: skip
+        raise NoSafePassage(f"the start {opt.start} is in a no-go area at departure; move it or change the no-go mask")
+    step_fn = Transition(
+        lat_.lat, lat_.lon, lat_.dists, opt.speeds, leg_cost, navigable, opt.nogo_step, lat_.rem_nm,
+        float(opt.speeds.max()), lat_.horizon,
+    )  # fmt: skip
     kernel = getattr(leg_cost, "dp_kernel", None)
     inputs = None if kernel is None else stacked_inputs(kernel.members)
-    stages = None if inputs is None else CompiledStages(kernel, inputs, step_fn, (t_ref, dt, n_bins), n_labels)
+    stages = None if inputs is None else CompiledStages(kernel, inputs, step_fn, lat_.bins, opt.n_labels)
     step_fn.stages = stages
-    early = (early_t, early_f, early_back)
-    cut = None
     if least_fuel_only:  # the earliest route first: its fuel bounds the labels worth keeping
-        for k in range(n_stages):
-            if not np.isfinite(early_t[k]).any():
+        for k in range(lat_.n_stages):
+            if not np.isfinite(labels.early_t[k]).any():
                 break
-            _early_step(step_fn, k, early, np.nonzero(valid[k + 1])[0], step)
+            _early_step(step_fn, k, labels.early, lat_.destinations(k), opt.step)
+    cut = None
     if least_fuel_only or fuel_cut_t is not None:
         floor_per_nm = 0.0 if stages is None else float(np.min(stages.floor / stages.speeds))
-        e_t, e_f = (early_t[-1, c], early_f[-1, c]) if least_fuel_only else (np.inf, np.inf)
-        tail, value = _fuel_cut(e_t, e_f, eta_h, floor_per_nm, rem_nm)
+        c = lat_.centre
+        e_t, e_f = (labels.early_t[-1, c], labels.early_f[-1, c]) if least_fuel_only else (np.inf, np.inf)
+        tail, value = _fuel_cut(e_t, e_f, opt.eta_h, floor_per_nm, lat_.rem_nm)
         if fuel_cut_t is not None:
             value = min(value, float(finite("fuel_cut_t", fuel_cut_t, minimum=0.0, strict=True, error=ConfigError)))
         cut = (tail, value)
-    for k in range(n_stages):
-        src_l, src_b = np.nonzero(np.isfinite(fuel_t[k]))
-        dest = np.nonzero(valid[k + 1])[0]
-        if src_l.size == 0 and cut is not None and not least_fuel_only and np.isfinite(early_t[k]).any():
+    for k in range(lat_.n_stages):
+        src_l, src_b = np.nonzero(np.isfinite(labels.fuel[k]))
+        dest = lat_.destinations(k)
+        if src_l.size == 0 and cut is not None and not least_fuel_only and np.isfinite(labels.early_t[k]).any():
             # a fuel cut dropped every label: the earliest-arrival labels go on alone (the route is the earliest)
-            _early_step(step_fn, k, early, dest, step)
-            append_stage((fuel_t, time_t, back_l, back_b, speed_i), widths, empty_stage(n_lat, n_bins))
+            _early_step(step_fn, k, labels.early, dest, opt.step)
+            labels.append(empty_stage(lat_.n_lat, lat_.n_bins))
             continue
         if src_l.size == 0:
             break
         if not least_fuel_only:  # earliest arrival: every reached lateral x every destination x every speed
-            _early_step(step_fn, k, early, dest, step)
-        # the binned fuel labels
+            _early_step(step_fn, k, labels.early, dest, opt.step)
+        stage_cut = None if cut is None else (cut[0][k + 1], cut[1])
         if stages is not None:
-            src = (src_l, time_t[k][src_l, src_b], fuel_t[k][src_l, src_b])
-            won = list(stages.stage(k, src, dest, step, max_batch, rem_nm[k + 1],
-                                    None if cut is None else (cut[0][k + 1], cut[1])))  # fmt: skip
-            dl, db, slot, f1, tt, w_src, w_v = (np.concatenate(x) for x in zip(*won, strict=True)) if won else (
-                np.zeros(0, int), np.zeros(0, int), np.zeros(0, int), np.zeros(0), np.zeros(0), np.zeros(0, int),
-                np.zeros(0, int))  # fmt: skip
-            if cut is not None:  # the winners whose every route ends above the cut: dropped
-                keep = f1 + cut[0][k + 1, dl] <= cut[1]
-                dl, db, slot, f1, tt, w_src, w_v = (a[keep] for a in (dl, db, slot, f1, tt, w_src, w_v))
-            append_stage(
-                (fuel_t, time_t, back_l, back_b, speed_i), widths,
-                stage_tables(n_lat, n_bins, dl, db, slot, f1, tt, src_l[w_src], src_b[w_src], w_v),
-            )  # fmt: skip
-            continue
-        chunk = max(1, max_batch // max(dest.size * speeds.size, 1))
-        parts = []
-        for a in range(0, src_l.size, chunk):
-            sl, sb = src_l[a : a + chunk], src_b[a : a + chunk]
-            pos, lj, vi = combos(np.arange(sl.size), dest, speeds.size, None)
-            l0, b_src = sl[pos], sb[pos]
-            if step is not None:
-                keep = np.abs(lj - l0) <= step
-                l0, b_src, lj, vi = l0[keep], b_src[keep], lj[keep], vi[keep]
-            if l0.size == 0:
-                continue
-            t0 = time_t[k][l0, b_src]
-            ok, t1, fu, dur = step_fn.cost(k, l0, lj, vi, t0)
-            sel = np.nonzero(ok)[0]
-            f1 = fuel_t[k][l0[sel], b_src[sel]] + fu[sel]
-            tt = t1[sel]
-            b1 = np.ceil((tt - t_ref) / dt - BIN_TOL_H / dt).astype(np.int64) - 1
-            inside = (b1 >= 0) & (b1 < n_bins)
-            sel = sel[inside]
-            parts.append((f1[inside], tt[inside], b1[inside], l0[sel], lj[sel], vi[sel], b_src[sel], t0[sel], dur[sel]))
-        if not parts:
-            append_stage((fuel_t, time_t, back_l, back_b, speed_i), widths, empty_stage(n_lat, n_bins))
-            continue
-        f1, tt, b1, cl0, clj, cvi, cb, ct0, cdur = (np.concatenate(x) for x in zip(*parts, strict=True))
-        win, slot = pareto_winners(
-            clj * n_bins + b1,
-            f1,
-            tt,
-            lambda q, k=k, a=cl0, b=clj, c=ct0, d=cdur: step_fn.clear(k, a[q], b[q], c[q], d[q]),
-            n_labels,
-        )
-        if cut is not None:  # the winners whose every route ends above the cut: dropped
-            keep = f1[win] + cut[0][k + 1, clj[win]] <= cut[1]
-            win, slot = win[keep], slot[keep]
-        append_stage(
-            (fuel_t, time_t, back_l, back_b, speed_i), widths,
-            stage_tables(n_lat, n_bins, clj[win], b1[win], slot, f1[win], tt[win], cl0[win], cb[win], cvi[win]),
-        )  # fmt: skip
-    while len(fuel_t) < n_stages + 1:  # stages never reached
-        append_stage((fuel_t, time_t, back_l, back_b, speed_i), widths, empty_stage(n_lat, n_bins))
+            labels.append(
+                _compiled_stage(stages, labels, lat_, k, (src_l, src_b), dest, opt.step, max_batch, stage_cut)
+            )
+        else:
+            labels.append(_callback_stage(step_fn, labels, lat_, opt, k, (src_l, src_b), dest, max_batch, stage_cut))
+    while len(labels.fuel) < lat_.n_stages + 1:  # stages never reached
+        labels.append(empty_stage(lat_.n_lat, lat_.n_bins))
+    if not np.isfinite(labels.early_t[-1, lat_.centre]):
+        raise _no_route(labels, lat_, opt)
+    return _result(labels, lat_, opt, leg_cost, step_fn.count, cut is not None)
 
-    final_all = fuel_t[-1][c].reshape(n_bins, widths[-1])
+
+@dataclass(eq=False)
+class _Labels:
+    """The binned labels stage by stage (:func:`~optroute.search.dp_stages.stage_tables`: fuel [t], time [h], back
+    lateral, back column, speed index, each (n_lat, n_bins × width)), and the earliest-arrival label of every
+    (stage, lateral): time [h], fuel [t], back pointer (lateral, speed index), propagated alongside (exact under
+    FIFO)."""
+
+    fuel: list[np.ndarray]
+    time: list[np.ndarray]
+    back_l: list[np.ndarray]
+    back_b: list[np.ndarray]
+    speed_i: list[np.ndarray]
+    widths: list[int]
+    early_t: np.ndarray
+    early_f: np.ndarray
+    early_back: np.ndarray
+
+    @classmethod
+    def at_departure(cls, lat_: Lattice) -> _Labels:
+        """Stage 0: the start's one label, at time 0 with no fuel."""
+        n, c = lat_.n_stages, lat_.centre
+        fuel, time, back_l, back_b, speed_i = ([a] for a in empty_stage(lat_.n_lat, lat_.n_bins)[:-1])
+        early_t = np.full((n + 1, lat_.n_lat), np.inf)
+        early_f = np.full((n + 1, lat_.n_lat), np.inf)
+        b0 = lat_.bin_of(0.0)
+        fuel[0][c, b0], time[0][c, b0] = 0.0, 0.0
+        early_t[0, c], early_f[0, c] = 0.0, 0.0
+        early_back = np.full((n + 1, lat_.n_lat, 2), -1, dtype=np.int64)
+        return cls(fuel, time, back_l, back_b, speed_i, [1], early_t, early_f, early_back)
+
+    @property
+    def early(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return self.early_t, self.early_f, self.early_back
+
+    def append(self, stage: tuple) -> None:
+        """Append the next stage's tables (:func:`~optroute.search.dp_stages.stage_tables`)."""
+        append_stage((self.fuel, self.time, self.back_l, self.back_b, self.speed_i), self.widths, stage)
+
+
+def _compiled_stage(
+    stages: CompiledStages,
+    labels: _Labels,
+    lat_: Lattice,
+    k: int,
+    sources: tuple[np.ndarray, np.ndarray],
+    dest: np.ndarray,
+    step: int | None,
+    max_batch: int,
+    cut: tuple[np.ndarray, float] | None,
+) -> tuple:
+    """Stage k + 1's binned labels by the compiled stages (best first under the fuel floor) from stage k's
+    ``sources`` (lateral, column); ``cut``: the lower bound on the fuel to the end from each of its laterals [t]
+    and the cut [t], the winners above it dropped."""
+    src_l, src_b = sources
+    src = (src_l, labels.time[k][src_l, src_b], labels.fuel[k][src_l, src_b])
+    won = list(stages.stage(k, src, dest, step, max_batch, lat_.rem_nm[k + 1], cut))
+    dl, db, slot, f1, tt, w_src, w_v = (np.concatenate(x) for x in zip(*won, strict=True)) if won else (
+        np.zeros(0, int), np.zeros(0, int), np.zeros(0, int), np.zeros(0), np.zeros(0), np.zeros(0, int),
+        np.zeros(0, int))  # fmt: skip
+    if cut is not None:  # the winners whose every route ends above the cut: dropped
+        keep = f1 + cut[0][dl] <= cut[1]
+        dl, db, slot, f1, tt, w_src, w_v = (a[keep] for a in (dl, db, slot, f1, tt, w_src, w_v))
+    return stage_tables(lat_.n_lat, lat_.n_bins, dl, db, slot, f1, tt, src_l[w_src], src_b[w_src], w_v)
+
+
+def _callback_stage(
+    step_fn: Transition,
+    labels: _Labels,
+    lat_: Lattice,
+    opt: Options,
+    k: int,
+    sources: tuple[np.ndarray, np.ndarray],
+    dest: np.ndarray,
+    max_batch: int,
+    cut: tuple[np.ndarray, float] | None,
+) -> tuple:
+    """Stage k + 1's binned labels through the ``leg_cost`` callback: every transition from stage k's ``sources``
+    costed in batches of at most ``max_batch``, then each bin's Pareto winners that pass the no-go checks; ``cut``
+    as :func:`_compiled_stage`'s."""
+    src_l, src_b = sources
+    t_ref, dt, n_bins = lat_.bins
+    chunk = max(1, max_batch // max(dest.size * opt.speeds.size, 1))
+    parts = []
+    for a in range(0, src_l.size, chunk):
+        sl, sb = src_l[a : a + chunk], src_b[a : a + chunk]
+        pos, lj, vi = combos(np.arange(sl.size), dest, opt.speeds.size, None)
+        l0, b_src = sl[pos], sb[pos]
+        if opt.step is not None:
+            keep = np.abs(lj - l0) <= opt.step
+            l0, b_src, lj, vi = l0[keep], b_src[keep], lj[keep], vi[keep]
+        if l0.size == 0:
+            continue
+        t0 = labels.time[k][l0, b_src]
+        ok, t1, fu, dur = step_fn.cost(k, l0, lj, vi, t0)
+        sel = np.nonzero(ok)[0]
+        f1 = labels.fuel[k][l0[sel], b_src[sel]] + fu[sel]
+        tt = t1[sel]
+        b1 = np.ceil((tt - t_ref) / dt - BIN_TOL_H / dt).astype(np.int64) - 1
+        inside = (b1 >= 0) & (b1 < n_bins)
+        sel = sel[inside]
+        parts.append((f1[inside], tt[inside], b1[inside], l0[sel], lj[sel], vi[sel], b_src[sel], t0[sel], dur[sel]))
+    if not parts:
+        return empty_stage(lat_.n_lat, n_bins)
+    f1, tt, b1, cl0, clj, cvi, cb, ct0, cdur = (np.concatenate(x) for x in zip(*parts, strict=True))
+    win, slot = pareto_winners(
+        clj * n_bins + b1,
+        f1,
+        tt,
+        lambda q: step_fn.clear(k, cl0[q], clj[q], ct0[q], cdur[q]),
+        opt.n_labels,
+    )
+    if cut is not None:  # the winners whose every route ends above the cut: dropped
+        keep = f1[win] + cut[0][clj[win]] <= cut[1]
+        win, slot = win[keep], slot[keep]
+    return stage_tables(lat_.n_lat, n_bins, clj[win], b1[win], slot, f1[win], tt[win], cl0[win], cb[win], cvi[win])
+
+
+def _no_route(labels: _Labels, lat_: Lattice, opt: Options) -> NoSafePassage:
+    """NoSafePassage naming the last stage reached and its reachable state closest to the end."""
+    early_t = labels.early_t
+    k_reach = max(k for k in range(lat_.n_stages + 1) if np.isfinite(early_t[k]).any())
+    reach_l = np.nonzero(np.isfinite(early_t[k_reach]))[0]
+    q = int(reach_l[np.argmin(lat_.rem_nm[k_reach, reach_l])])
+    return NoSafePassage(
+        f"the DP found no route from {opt.start} to {opt.end} within {lat_.horizon:.1f} h: it stopped at stage "
+        f"{k_reach} of {lat_.n_stages}; the reachable state closest to the end is ({lat_.lat[k_reach, q]:.3f}, "
+        f"{lat_.lon[k_reach, q]:.3f}), {float(lat_.rem_nm[k_reach, q]):.1f} nm from it; widen half_width_nm, add "
+        "speeds, raise horizon_h or relax the no-go areas"
+    )
+
+
+def _result(
+    labels: _Labels, lat_: Lattice, opt: Options, leg_cost: LegCostFn, n_transitions: int, cut: bool
+) -> DPResult:
+    """The route for the ETA and the fuel-versus-arrival curve (NaN where a fuel ``cut`` dropped labels)."""
+    c, (t_ref, dt, n_bins) = lat_.centre, lat_.bins
+    final_all = labels.fuel[-1][c].reshape(n_bins, labels.widths[-1])
     best_slot = np.argmin(final_all, axis=1)
     final_f = final_all[np.arange(n_bins), best_slot]
-    final_t = time_t[-1][c].reshape(n_bins, widths[-1])[np.arange(n_bins), best_slot]
-    if not np.isfinite(early_t[-1, c]):
-        k_reach = max(k for k in range(n_stages + 1) if np.isfinite(early_t[k]).any())
-        reach_l = np.nonzero(np.isfinite(early_t[k_reach]))[0]
-        q = int(reach_l[np.argmin(rem_nm[k_reach, reach_l])])
-        raise NoSafePassage(
-            f"the DP found no route from {s} to {e} within {horizon:.1f} h: it stopped at stage {k_reach} of "
-            f"{n_stages}; the reachable state closest to the end is ({lat[k_reach, q]:.3f}, "
-            f"{lon[k_reach, q]:.3f}), {float(rem_nm[k_reach, q]):.1f} nm from it; widen half_width_nm, add "
-            "speeds, raise horizon_h or relax the no-go areas"
-        )
+    final_t = labels.time[-1][c].reshape(n_bins, labels.widths[-1])[np.arange(n_bins), best_slot]
     tables = _Tables(
-        fuel=fuel_t,
-        time=time_t,
-        back_l=back_l,
-        back_b=back_b,
-        speed_i=speed_i,
-        lat=lat,
-        lon=lon,
-        lateral_nm=lateral,
-        dist=dists,
-        speeds=speeds,
+        fuel=labels.fuel,
+        time=labels.time,
+        back_l=labels.back_l,
+        back_b=labels.back_b,
+        speed_i=labels.speed_i,
+        lat=lat_.lat,
+        lon=lat_.lon,
+        lateral_nm=lat_.lateral,
+        dist=lat_.dists,
+        speeds=opt.speeds,
         centre=c,
         leg_cost=leg_cost,
-        early_t=early_t,
-        early_f=early_f,
-        early_back=early_back,
+        early_t=labels.early_t,
+        early_f=labels.early_f,
+        early_back=labels.early_back,
     )
-    path = tables.path_for(eta_h)
+    path = tables.path_for(opt.eta_h)
     bin_end = t_ref + dt * (np.arange(n_bins) + 1.0)
     by_eta = np.minimum.accumulate(final_f)
-    by_eta = np.where(bin_end >= early_t[-1, c] - 1e-9, np.minimum(by_eta, early_f[-1, c]), by_eta)
-    if cut is not None:  # the labels above the cut were dropped: no curve
+    early_t, early_f = labels.early_t[-1, c], labels.early_f[-1, c]
+    by_eta = np.where(bin_end >= early_t - 1e-9, np.minimum(by_eta, early_f), by_eta)
+    if cut:  # the labels above the cut were dropped: no curve
         final_t, final_f, by_eta = (np.full(n_bins, np.nan) for _ in range(3))
     return DPResult(
         path=path,
-        eta_h=eta_h,
+        eta_h=opt.eta_h,
         curve_bin_end_h=bin_end,
         curve_arrival_h=final_t,
         curve_fuel_t=by_eta,
         curve_fuel_in_bin_t=final_f.copy(),
         earliest_arrival_h=tables.earliest(),
-        stage_lat_deg=lat,
-        stage_lon_deg=lon,
-        n_states=int(sum(np.isfinite(f).sum() for f in fuel_t)),
-        n_transitions=step_fn.count,
-        least_fuel_only=cut is not None,
+        stage_lat_deg=lat_.lat,
+        stage_lon_deg=lat_.lon,
+        n_states=int(sum(np.isfinite(f).sum() for f in labels.fuel)),
+        n_transitions=n_transitions,
+        least_fuel_only=cut,
         _tables=tables,
     )
