@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import xarray as xr
@@ -365,6 +366,79 @@ def weather_grid(
     NoSafePassage
         The weather is NaN at every node.
     """
+    nodes = _grid_nodes(frame, sampler, departure, (t_end_h, dt_h, ds_nm, dy_nm), leg_windows_h)
+    hold, y_axis, shape = nodes.hold, nodes.y_axis, nodes.shape
+    names = [
+        v
+        for v in ("hs_m", "tp_s", "tm_s", "wave_from_deg", "wind_u_ms", "wind_v_ms", "current_u_ms", "current_v_ms")
+        if v in sampler.variables
+    ]
+    got = {k: hold.spread(v) for k, v in sampler.sample(nodes.tt, nodes.la, nodes.lo, variables=names).items()}
+    fields, bad, has_current = _corridor_fields(got, nodes.along, shape)
+    hs = fields[0]
+    table: dict[str, object] = {}
+    capped, evaluations = 0.0, 0
+    if model is not None and base is not None and speeds_kn is not None and headings_deg is not None:
+        table, capped, evaluations = _power_table(got, fields, bad, nodes, model, base, speeds_kn, headings_deg)
+    t_axis = nodes.t_axis
+    varying = fields + ([np.asarray(table["power_ratio"])] if table else [])
+    static = t_axis.size > 1 and all(np.ptp(f, axis=0).max() <= 1e-12 * max(1.0, np.abs(f).max()) for f in varying)
+    if static:
+        t_axis = np.zeros(1)
+        fields = [f[:1] for f in fields]
+        if table:
+            table["power_ratio"] = np.asarray(table["power_ratio"])[:1]
+    grid = WeatherGrid(
+        t_h=t_axis,
+        s_nm=nodes.s_axis,
+        y_nm=y_axis,
+        hs_m=np.maximum(fields[0], 0.0),
+        period_s=fields[1],
+        wave_to_along=fields[2],
+        wave_to_across=fields[3],
+        current_along_kn=fields[4] if has_current else None,
+        current_across_kn=fields[5] if has_current else None,
+        method="smooth",
+        **table,  # type: ignore[arg-type]
+    )
+    good = ~bad & hold.kept[..., None]
+    samples = GridSamples(
+        hs_m=hs[good],
+        filled=int((bad & hold.kept[..., None]).sum()),
+        static=static or shape[0] == 1,
+        has_current=has_current,
+        power_capped_share=float(capped),
+        power_evaluations=int(evaluations),
+    )
+    return grid, samples
+
+
+class _Nodes(NamedTuple):
+    """The grid's axes (time [h since departure], along-track [nm], across-track [nm]), the centreline direction
+    at each (along, across) node [deg true], the (time, along, across) shape, the time hold and the times [UTC]
+    and positions [deg] sampled (the held nodes' only: :class:`_TimeHold`)."""
+
+    t_axis: np.ndarray
+    s_axis: np.ndarray
+    y_axis: np.ndarray
+    along: np.ndarray
+    shape: tuple[int, int, int]
+    hold: _TimeHold
+    tt: np.ndarray
+    la: np.ndarray
+    lo: np.ndarray
+
+
+def _grid_nodes(
+    frame: CorridorFrame,
+    sampler: WeatherSampler,
+    departure: np.datetime64,
+    spacing: tuple[float, float, float, float],
+    leg_windows_h: np.ndarray | None,
+) -> _Nodes:
+    """:func:`weather_grid`'s nodes (``spacing``: t_end_h, dt_h, ds_nm, dy_nm); WeatherCoverageError naming the
+    first node outside the weather."""
+    t_end_h, dt_h, ds_nm, dy_nm = spacing
     length = float(frame.s_nm[-1])
     t_axis = _uniform_axis(0.0, max(float(t_end_h), dt_h), dt_h, max_n=2000)
     s_axis = _uniform_axis(0.0, length, ds_nm, max_n=4000)
@@ -387,12 +461,16 @@ def weather_grid(
             f"the weather (lat {ext['lat']}, lon {ext['lon']}, time {units.format_utc(ext['time'][0])} to {units.format_utc(ext['time'][1])}); extend the "
             "forecast in space or time, or narrow the corridor"
         )
-    names = [
-        v
-        for v in ("hs_m", "tp_s", "tm_s", "wave_from_deg", "wind_u_ms", "wind_v_ms", "current_u_ms", "current_v_ms")
-        if v in sampler.variables
-    ]
-    got = {k: hold.spread(v) for k, v in sampler.sample(tt, la, lo, variables=names).items()}
+    return _Nodes(t_axis, s_axis, y_axis, along, shape, hold, tt, la, lo)
+
+
+def _corridor_fields(
+    got: dict[str, np.ndarray], along: np.ndarray, shape: tuple[int, int, int]
+) -> tuple[list[np.ndarray], np.ndarray, bool]:
+    """The formulation's fields from the sampled weather ``got``: Hs [m], period [s], the wave's unit direction
+    of travel along and to port of the centreline (``along`` [deg true] at each node) and, where there is a
+    current, its components [kn]; NaN nodes filled from the nearest navigable one. Returns ``(fields, NaN
+    nodes, has_current)``; NoSafePassage where every node is NaN."""
     period_name = "tp_s" if "tp_s" in got else "tm_s"
     hs, period, wfrom = got["hs_m"], got[period_name], got["wave_from_deg"]
     bad = ~(np.isfinite(hs) & np.isfinite(period) & np.isfinite(wfrom))
@@ -400,9 +478,7 @@ def weather_grid(
         raise NoSafePassage("the weather is NaN (no passage) at every node of the corridor's grid; check the corridor")
     zero = np.zeros(shape)
     cu, cv = got.get("current_u_ms", zero), got.get("current_v_ms", zero)
-    wu, wv = got.get("wind_u_ms", zero), got.get("wind_v_ms", zero)
     bad |= ~(np.isfinite(cu) & np.isfinite(cv))
-    raw_wind = (wu, wv)
     hs, period, cu, cv = (_fill_nearest(np.where(bad, np.nan, a), bad) for a in (hs, period, cu, cv))
     c = np.radians(along)[None]
     wto = np.radians(wfrom + 180.0)
@@ -412,58 +488,42 @@ def weather_grid(
     c_al = cu_kn * np.sin(c) + cv_kn * np.cos(c)
     c_ac = -cu_kn * np.cos(c) + cv_kn * np.sin(c)
     has_current = bool(np.max(np.hypot(cu_kn, cv_kn)) > 1e-9)
-    fields = [hs, period, w_al, w_ac] + ([c_al, c_ac] if has_current else [])
-    table: dict[str, object] = {}
-    capped, evaluations = 0.0, 0
-    if model is not None and base is not None and speeds_kn is not None and headings_deg is not None:
-        # the node's own sea (NaN nodes filled from the nearest navigable one, as the weather fields)
-        wfrom_f = _fill_nearest(np.where(bad, np.nan, wfrom), bad)
-        sample = {"hs_m": hs, period_name: period, "wave_from_deg": wfrom_f}
-        for name, raw in zip(("wind_u_ms", "wind_v_ms"), raw_wind, strict=True):
-            if name in got:
-                sample[name] = _fill_nearest(np.where(bad, np.nan, raw), bad)
-        sea = SeaState.from_sample({k: np.ravel(hold.take(v)) for k, v in sample.items()})
-        along_all = np.ravel(hold.take(np.broadcast_to(along[None], shape)))
-        tab = tabulate_ratio(model, base, sea, along_all, speeds_kn, headings_deg)
-        # one field per sector where the model declares its sectors, else the plain (nt, ns, ny, nv, nd) table
-        ratio, capped = (tab.ratio if tab.sector_edges_deg else tab.ratio[..., 0]), tab.capped_share
-        evaluations = ratio.size
-        table = {
-            "power_ratio": hold.spread(ratio.reshape(-1, y_axis.size, *ratio.shape[1:])),
-            "ratio_speed_kn": np.asarray(speeds_kn, dtype=float),
-            "ratio_heading_deg": tab.headings_deg,
-            "ratio_sector_edges_deg": tab.sector_edges_deg,
-        }
-    varying = fields + ([np.asarray(table["power_ratio"])] if table else [])
-    static = t_axis.size > 1 and all(np.ptp(f, axis=0).max() <= 1e-12 * max(1.0, np.abs(f).max()) for f in varying)
-    if static:
-        t_axis = np.zeros(1)
-        fields = [f[:1] for f in fields]
-        if table:
-            table["power_ratio"] = np.asarray(table["power_ratio"])[:1]
-    grid = WeatherGrid(
-        t_h=t_axis,
-        s_nm=s_axis,
-        y_nm=y_axis,
-        hs_m=np.maximum(fields[0], 0.0),
-        period_s=fields[1],
-        wave_to_along=fields[2],
-        wave_to_across=fields[3],
-        current_along_kn=fields[4] if has_current else None,
-        current_across_kn=fields[5] if has_current else None,
-        method="smooth",
-        **table,  # type: ignore[arg-type]
-    )
-    good = ~bad & hold.kept[..., None]
-    samples = GridSamples(
-        hs_m=hs[good],
-        filled=int((bad & hold.kept[..., None]).sum()),
-        static=static or shape[0] == 1,
-        has_current=has_current,
-        power_capped_share=float(capped),
-        power_evaluations=int(evaluations),
-    )
-    return grid, samples
+    return [hs, period, w_al, w_ac] + ([c_al, c_ac] if has_current else []), bad, has_current
+
+
+def _power_table(
+    got: dict[str, np.ndarray],
+    fields: list[np.ndarray],
+    bad: np.ndarray,
+    nodes: _Nodes,
+    model: PerformanceModel,
+    base: PowerModel,
+    speeds_kn: np.ndarray,
+    headings_deg: np.ndarray,
+) -> tuple[dict[str, object], float, int]:
+    """The ship's power ratio at every node, speed [kn] and heading [deg from the centreline]
+    (:func:`~optroute.optimise.power_table.tabulate_ratio`) in the node's own sea (``fields``' Hs and period, the
+    sampled direction and wind with NaN nodes filled as they are): the WeatherGrid's table entries, the share
+    capped and the model evaluations."""
+    hold, shape, y_axis = nodes.hold, nodes.shape, nodes.y_axis
+    period_name = "tp_s" if "tp_s" in got else "tm_s"
+    wfrom_f = _fill_nearest(np.where(bad, np.nan, got["wave_from_deg"]), bad)
+    sample = {"hs_m": fields[0], period_name: fields[1], "wave_from_deg": wfrom_f}
+    for name in ("wind_u_ms", "wind_v_ms"):
+        if name in got:
+            sample[name] = _fill_nearest(np.where(bad, np.nan, got[name]), bad)
+    sea = SeaState.from_sample({k: np.ravel(hold.take(v)) for k, v in sample.items()})
+    along_all = np.ravel(hold.take(np.broadcast_to(nodes.along[None], shape)))
+    tab = tabulate_ratio(model, base, sea, along_all, speeds_kn, headings_deg)
+    # one field per sector where the model declares its sectors, else the plain (nt, ns, ny, nv, nd) table
+    ratio, capped = (tab.ratio if tab.sector_edges_deg else tab.ratio[..., 0]), tab.capped_share
+    table = {
+        "power_ratio": hold.spread(ratio.reshape(-1, y_axis.size, *ratio.shape[1:])),
+        "ratio_speed_kn": np.asarray(speeds_kn, dtype=float),
+        "ratio_heading_deg": tab.headings_deg,
+        "ratio_sector_edges_deg": tab.sector_edges_deg,
+    }
+    return table, float(capped), int(ratio.size)
 
 
 # --------------------------------------------------------------------------- bands and exclusion
