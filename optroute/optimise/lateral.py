@@ -50,7 +50,7 @@ Sign conventions as :mod:`optroute.optimise.nlp_inputs`: offsets positive to **p
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import xarray as xr
@@ -534,7 +534,6 @@ def lateral_bounds(
     """
     n = frame.n_legs
     n1 = n + 1
-    hw = np.asarray(frame.corridor.half_width_nm, dtype=float)
     wp = frame.corridor.waypoints
     times = np.atleast_1d(np.asarray(times)).astype("datetime64[ns]")
     with_land = land._use_land(dataset, use_land_mask)
@@ -545,9 +544,6 @@ def lateral_bounds(
         dlat = float(np.min(np.abs(np.diff(dataset["lat"].values)))) * 60.0 if dataset["lat"].size > 1 else step
         step = min(step, max(dlat / 3.0, 0.25))
     lat_ = _Lattice(frame, step, step)
-    n_rows, n_cols = lat_.n_rows, lat_.y_nm.size
-    blocked_land = np.zeros((n_rows, n_cols), dtype=bool)
-    blocked_wx = np.zeros((n_rows, n_cols), dtype=bool)
     leg_times = _leg_times(times, leg_windows, n)
     if static_only and dataset is None:
         raise ConfigError(
@@ -555,6 +551,40 @@ def lateral_bounds(
             "over time; pass the canonical dataset (optimise_corridor with an xarray.Dataset, not a WeatherSampler)"
         )
     wx = _LegBlockers(dataset, leg_times, static_only) if dataset is not None else None
+    ok = _open_cells(frame, lat_, mask, wx, (sampler, dataset, leg_times), step, float(step_nm))
+    c0 = lat_.centre_col
+    for which, row, k in (("first", 0, 0), ("last", lat_.n_rows - 1, n)):
+        if not ok[row, c0]:
+            raise OnLandError(
+                f"the corridor's {which} waypoint ({wp[k, 0]:.4f}, {wp[k, 1]:.4f}) is not navigable (land, or NaN "
+                "weather at some time of the voyage); move it to open water (search_route snaps ports to the sea)"
+            )
+    ref = np.zeros(n1) if reference_port_nm is None else np.broadcast_to(np.asarray(reference_port_nm, float), (n1,))
+    ref_rows = (1.0 - lat_.row_f) * ref[lat_.row_leg] + lat_.row_f * ref[lat_.row_leg + 1]
+    first, last = _channel(ok, lat_, ref_rows, frame)
+    if n == 1:
+        return np.zeros(n1), np.zeros(n1)
+    return _channel_boxes(lat_.y_nm[first], lat_.y_nm[last], lat_, frame)
+
+
+def _open_cells(
+    frame: CorridorFrame,
+    lat_: _Lattice,
+    mask: Any,
+    wx: _LegBlockers | None,
+    weather: tuple[WeatherSampler, xr.Dataset | None, Any],
+    step: float,
+    step_nm: float,
+) -> np.ndarray:
+    """The lattice's cells (rows, columns) inside the corridor and navigable: not land (dilated by the mask's
+    cell diagonal away from the ends) and not the weather's no passage over each row's leg's times. Legs whose
+    padded sweep is clear by a box look-up are not sampled. ``weather``: the sampler, the canonical dataset or
+    None (then the sampler on a coarse lattice every ``step_nm``), and the legs' times (:func:`_leg_times`)."""
+    sampler, dataset, leg_times = weather
+    n = frame.n_legs
+    n_rows, n_cols = lat_.n_rows, lat_.y_nm.size
+    blocked_land = np.zeros((n_rows, n_cols), dtype=bool)
+    blocked_wx = np.zeros((n_rows, n_cols), dtype=bool)
     diag = float(mask.resolution_nm) * math.sqrt(2.0) if mask is not None else 0.0
     # legs whose whole (padded) sweep is clear need no lattice: a box look-up on the mask and the weather grid
     boxes = lat_.leg_boxes(frame, diag + 2.0 * step)
@@ -575,7 +605,7 @@ def lateral_bounds(
         if wx is not None:
             blocked_wx[rows] = wx.blocked(lat_.row_leg[rows], la, lo)
     if dataset is None:
-        stride = max(1, int(round(float(step_nm) / step)))
+        stride = max(1, int(round(step_nm / step)))
         rows_c = np.unique(np.concatenate([np.arange(0, n_rows, stride), [n_rows - 1]]))
         cols_c = np.unique(np.concatenate([np.arange(lat_.centre_col % stride, n_cols, stride), [0, n_cols - 1]]))
         la, lo = lat_.positions(rows_c, cols_c)
@@ -595,21 +625,18 @@ def lateral_bounds(
         blocked = dilated | blocked_wx
     else:
         blocked = raw
-    ok = inside & ~blocked
-    c0 = lat_.centre_col
-    for which, row, k in (("first", 0, 0), ("last", n_rows - 1, n)):
-        if not ok[row, c0]:
-            raise OnLandError(
-                f"the corridor's {which} waypoint ({wp[k, 0]:.4f}, {wp[k, 1]:.4f}) is not navigable (land, or NaN "
-                "weather at some time of the voyage); move it to open water (search_route snaps ports to the sea)"
-            )
-    ref = np.zeros(n1) if reference_port_nm is None else np.broadcast_to(np.asarray(reference_port_nm, float), (n1,))
-    ref_rows = (1.0 - lat_.row_f) * ref[lat_.row_leg] + lat_.row_f * ref[lat_.row_leg + 1]
-    first, last = _channel(ok, lat_, ref_rows, frame)
-    y = lat_.y_nm
-    lo_r, hi_r = y[first], y[last]
-    if n == 1:
-        return np.zeros(n1), np.zeros(n1)
+    return inside & ~blocked
+
+
+def _channel_boxes(
+    lo_r: np.ndarray, hi_r: np.ndarray, lat_: _Lattice, frame: CorridorFrame
+) -> tuple[np.ndarray, np.ndarray]:
+    """Waypoint bounds [nm, port +] from the channel's range per lattice row (``lo_r``, ``hi_r``): the boxes'
+    intersection, within the half-widths and pinned at the ends; where it is empty, the LP's boxes; NoSafePassage
+    naming the waypoint where none exists."""
+    n = frame.n_legs
+    hw = np.asarray(frame.corridor.half_width_nm, dtype=float)
+    wp = frame.corridor.waypoints
     y_lo, y_hi = _boxes_intersection(lo_r, hi_r, lat_, n)
     y_lo, y_hi = np.maximum(y_lo, -hw), np.minimum(y_hi, hw)
     y_lo[[0, -1]] = y_hi[[0, -1]] = 0.0
