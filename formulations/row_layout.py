@@ -19,9 +19,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from formulations.common import BELOW_BETA, BELOW_SIDE, Band, FormulationInputError
+from formulations.common import BELOW_BETA, BELOW_SIDE, Band, FormulationInputError, broadcast_legs
 
-__all__ = ["BELOW_MARGIN", "RowLegs", "leg_kinds", "leg_row_numbers", "row_blocks", "row_bounds"]
+__all__ = [
+    "BELOW_MARGIN",
+    "RowLegs",
+    "leg_kinds",
+    "leg_row_numbers",
+    "row_blocks",
+    "row_bounds",
+    "waypoint_time_bounds",
+]
 
 BELOW_MARGIN = 1e-6
 """How far below a band's threshold a sample on the side "Hs below the threshold" is kept, relative [-]: so that the
@@ -72,6 +80,20 @@ class RowLegs:
         out = np.full((n * m, nb), fill, dtype=np.asarray(rows).dtype)
         out[self.band_samples] = np.transpose(np.asarray(rows).reshape(nb, -1))
         return out.reshape(n, m, nb)
+
+    def band_activity(
+        self, lam_rows: np.ndarray, g_rows: np.ndarray, sides: np.ndarray, applies: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The band rows' multipliers per sample (N, m, B), 0 where no row is imposed, and where a band row is
+        active (an imposed row with a multiplier or at its edge: 0, or −:data:`BELOW_MARGIN` on the side "Hs below
+        the threshold"), from the band block's multipliers ``lam_rows`` and values ``g_rows`` at a solution."""
+        lam_b = self.band_samples_of(lam_rows)
+        res = self.band_samples_of(g_rows, np.inf)
+        below = sides == BELOW_SIDE  # "Hs below the threshold": its row's bound is -BELOW_MARGIN
+        imposed = applies | below
+        edge = np.where(below, -BELOW_MARGIN, 0.0)
+        active = imposed & ((np.abs(lam_b) > 1e-8) | (np.abs(res - edge) < 1e-6))
+        return np.where(imposed, lam_b, 0.0), active
 
     def exclusion_samples_of(self, rows: np.ndarray, fill: float = 0.0) -> np.ndarray:
         """Exclusion-row values to (N, m), ``fill`` on legs without exclusion rows."""
@@ -230,3 +252,36 @@ def row_bounds(
     if exclusion:
         set_rows("excl", 0.0, np.inf)
     return lbg, ubg
+
+
+def waypoint_time_bounds(
+    n: int, eta_h: float | None, eta_mode: str, time_lo_h: ArrayLike | None, time_hi_h: ArrayLike | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds on the ``n + 1`` waypoint times [h since departure]: departure at 0, arrival by (``"le"``) or at
+    (``"eq"``) ``eta_h``, and the caller's windows ``time_lo_h`` / ``time_hi_h`` (−inf / inf where none).
+
+    Raises
+    ------
+    FormulationInputError
+        A window holds NaN, or a waypoint's bounds are empty.
+    """
+    t_lo = np.zeros(n + 1)
+    t_hi = np.full(n + 1, np.inf)
+    t_hi[0] = 0.0
+    if eta_h is not None:
+        t_hi[n] = eta_h
+        if eta_mode == "eq":
+            t_lo[n] = eta_h
+    if time_lo_h is not None:
+        t_lo = np.maximum(t_lo, broadcast_legs(time_lo_h, n + 1, "time_lo_h", finite=False))
+    if time_hi_h is not None:
+        t_hi = np.minimum(t_hi, broadcast_legs(time_hi_h, n + 1, "time_hi_h", finite=False))
+    if np.any(np.isnan(t_lo) | np.isnan(t_hi)):
+        raise FormulationInputError("time_lo_h / time_hi_h hold NaN; give -inf / inf where a waypoint has no bound")
+    if np.any(t_lo > t_hi):
+        k = int(np.argmax(t_lo > t_hi))
+        raise FormulationInputError(
+            f"waypoint {k}'s time bounds are empty: {t_lo[k]:.6g} h > {t_hi[k]:.6g} h (time_lo_h / time_hi_h "
+            "against departure and the ETA); relax the time windows or give a later ETA"
+        )
+    return t_lo, t_hi

@@ -95,7 +95,7 @@ from formulations.common import (
 )
 from formulations.ipopt_options import IPOPT_DEFAULTS, PRIMAL_START_OPTIONS, WARM_START_OPTIONS, checked_duals
 from formulations.nlp_result import NLPResult, SampleState
-from formulations.row_layout import BELOW_MARGIN, RowLegs, row_blocks, row_bounds
+from formulations.row_layout import RowLegs, row_blocks, row_bounds, waypoint_time_bounds
 from formulations.sample_layout import SampleLayout, midpoint_layout
 
 __all__ = [
@@ -615,6 +615,22 @@ class SpeedNLP:
         masks = (self.row_legs.band_legs.tobytes(), self.row_legs.exclusion_legs.tobytes())
         return (self._nx, self._ng, rows, layout.fraction.tobytes(), layout.weight.tobytes(), self.n_bands, *masks)
 
+    def _warm_start(
+        self, eta_h: float | None, offset0_nm: ArrayLike | None, stw0_kn: ArrayLike | None, time0_h: ArrayLike | None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`solve`'s warm start: the offsets [nm] and the packed point (see its ``offset0_nm``, ``stw0_kn``,
+        ``time0_h``)."""
+        n = self.n_legs
+        y0 = np.zeros(n + 1) if offset0_nm is None else broadcast_legs(offset0_nm, n + 1, "offset0_nm")
+        if stw0_kn is None:
+            total = float(self.corridor.s_nm[-1] - self.corridor.s_nm[0])
+            guess = total / eta_h if eta_h is not None else 0.9 * float(np.mean(self.v_max_kn))
+            v0 = np.clip(np.full(n, guess), self.v_min_kn, self.v_max_kn)
+        else:
+            v0 = broadcast_legs(stw0_kn, n, "stw0_kn")
+        t0 = self.consistent_times(y0, v0) if time0_h is None else broadcast_legs(time0_h, n + 1, "time0_h")
+        return y0, self._pack(y0, v0, t0)
+
     def solve(
         self,
         *,
@@ -684,16 +700,7 @@ class SpeedNLP:
         if eta_h is not None and not (np.isfinite(eta_h) and eta_h > 0):
             raise FormulationInputError(f"eta_h must be a positive number of hours, got {eta_h}")
         weights = {"fuel": (1.0, 0.0), "time": (0.0, 1.0), "cost": (float(fuel_price), float(hourly_cost))}[objective]
-        # warm start
-        y0 = np.zeros(n + 1) if offset0_nm is None else broadcast_legs(offset0_nm, n + 1, "offset0_nm")
-        if stw0_kn is None:
-            total = float(self.corridor.s_nm[-1] - self.corridor.s_nm[0])
-            guess = total / eta_h if eta_h is not None else 0.9 * float(np.mean(self.v_max_kn))
-            v0 = np.clip(np.full(n, guess), self.v_min_kn, self.v_max_kn)
-        else:
-            v0 = broadcast_legs(stw0_kn, n, "stw0_kn")
-        t0 = self.consistent_times(y0, v0) if time0_h is None else broadcast_legs(time0_h, n + 1, "time0_h")
-        x0 = self._pack(y0, v0, t0)
+        y0, x0 = self._warm_start(eta_h, offset0_nm, stw0_kn, time0_h)
         # sides and applicability
         if nb and (sides is None or applies is None):
             d_sides, d_app = self.default_sides(self._state(self._eval(x0)))
@@ -707,25 +714,7 @@ class SpeedNLP:
         y_lo, y_hi = cor.offset_bounds()
         if fix_offsets:
             y_lo, y_hi = y0.copy(), y0.copy()
-        t_lo = np.zeros(n + 1)
-        t_hi = np.full(n + 1, np.inf)
-        t_hi[0] = 0.0
-        if eta_h is not None:
-            t_hi[n] = eta_h
-            if eta_mode == "eq":
-                t_lo[n] = eta_h
-        if time_lo_h is not None:
-            t_lo = np.maximum(t_lo, broadcast_legs(time_lo_h, n + 1, "time_lo_h", finite=False))
-        if time_hi_h is not None:
-            t_hi = np.minimum(t_hi, broadcast_legs(time_hi_h, n + 1, "time_hi_h", finite=False))
-        if np.any(np.isnan(t_lo) | np.isnan(t_hi)):
-            raise FormulationInputError("time_lo_h / time_hi_h hold NaN; give -inf / inf where a waypoint has no bound")
-        if np.any(t_lo > t_hi):
-            k = int(np.argmax(t_lo > t_hi))
-            raise FormulationInputError(
-                f"waypoint {k}'s time bounds are empty: {t_lo[k]:.6g} h > {t_hi[k]:.6g} h (time_lo_h / time_hi_h "
-                "against departure and the ETA); relax the time windows or give a later ETA"
-            )
+        t_lo, t_hi = waypoint_time_bounds(n, eta_h, eta_mode, time_lo_h, time_hi_h)
         lbx = np.concatenate([y_lo, self.v_min_kn, t_lo])
         ubx = np.concatenate([y_hi, self.v_max_kn, t_hi])
         x0 = np.clip(x0, lbx, ubx)
@@ -755,16 +744,9 @@ class SpeedNLP:
         y, v, t = self._unpack(x)
         if nb:
             a, b = self._rows["band"]
-            lam_b = self.row_legs.band_samples_of(lam_g[a:b])
-            res = self.row_legs.band_samples_of(g[a:b], np.inf)
-            below = side_arr == BELOW_SIDE  # "Hs below the threshold": its row's bound is -BELOW_MARGIN
-            imposed = app_arr | below
-            edge = np.where(below, -BELOW_MARGIN, 0.0)
-            active = imposed & ((np.abs(lam_b) > 1e-8) | (np.abs(res - edge) < 1e-6))
-            lam_b = np.where(imposed, lam_b, 0.0)
+            lam_b, active = self.row_legs.band_activity(lam_g[a:b], g[a:b], side_arr, app_arr)
         else:
-            lam_b = np.zeros((n, m, 0))
-            active = np.zeros((n, m, 0), dtype=bool)
+            lam_b, active = np.zeros((n, m, 0)), np.zeros((n, m, 0), dtype=bool)
         eta_mult = float(lam_x[2 * n + 1 + n]) if eta_h is not None else 0.0
         fuel_leg = ev["fuel_leg"].ravel()
         return NLPResult(
