@@ -1,7 +1,8 @@
 """Robust corridor NLP: build and solve against the number of ensemble members, exact Hessian against L-BFGS.
 
 The members are those of ``benchmarks.bench_voyage``'s robust plan (c) on its first case (the ensemble about the
-first forecast of the 300 nm-north storm, ``optroute.weather.scenarios.ensemble`` seed 1), prepared as
+first forecast of the 300 nm-north storm, ``optroute.weather.scenarios.ensemble`` seed 1 with the suite's forecast-error
+spread, ``bench_voyage.suite_error_spread``), prepared as
 ``optimise_corridor(robust="all")`` prepares them (18 legs, 5 samples a leg, the 31×36×41-node weather grid with
 the ship's power table, 44 fields). For each M: the :class:`formulations.robust_nlp.RobustSpeedNLP` build (wall and
 this process's CPU [s]: on a shared machine the CPU is the figure to compare) and
@@ -44,7 +45,7 @@ def _members(n: int) -> tuple[Any, list, Any, Any]:
     first = fc.displaced_storms(
         [bv._storm()], displacement_nm=dist, bearing_deg=brg, delay_h=delay, intensity_factor=fac
     )
-    ens = sc.ensemble(bv._storm_dataset, n, seed=1, storms=first, background_hs_m=1.5, **bv.ENSEMBLE, **bv.KW)
+    ens = sc.ensemble(bv._storm_dataset, n, seed=1, storms=first, background_hs_m=1.5, **bv.suite_error_spread(), **bv.KW)
     corridor = orx.Corridor.from_waypoints([bv.A, bv.B], width_nm=bv.ROBUST_WIDTH_NM)
     shared = bv.shared_options()
     cpu = time.process_time()

@@ -367,30 +367,14 @@ def optimise_robust(
             "points) or 'referee' (also at the referee's check points in every member)"
         )
     members = member_datasets(weather)
-    n_drop = int(np.floor(fraction * len(members) + 1e-9))  # members that may be violated
-    if robust == "chance" and math.comb(len(members), n_drop) > MAX_DROP_CHOICES:
-        raise ConfigError(
-            f"violation_fraction={violation_fraction!r} of {len(members)} members lets {n_drop} be violated: "
-            f"{math.comb(len(members), n_drop)} choices of members, more than the {MAX_DROP_CHOICES} solved exactly; "
-            "give a smaller fraction or fewer members, or use robust='cvar'"
-        )
+    n_drop = _dropped_count(robust, fraction, violation_fraction, len(members))
     shared = {
-        "departure": departure,
-        "latest_eta": eta,
-        "objective": objective,
-        "model": model,
-        "rules": rules,
-        "max_leg_nm": max_leg_nm,
-        "samples_per_leg": samples_per_leg,
-        "fuel_price_per_t": fuel_price_per_t,
-        "hourly_cost_per_h": hourly_cost_per_h,
-        "exclusion": exclusion,
-        "speed_range_kn": speed_range_kn,
-        "band_margin": band_margin,
-        "band_hs_margin": band_hs_margin,
-        "verify_step_nm": verify_step_nm,
+        "departure": departure, "latest_eta": eta, "objective": objective, "model": model, "rules": rules,
+        "max_leg_nm": max_leg_nm, "samples_per_leg": samples_per_leg, "fuel_price_per_t": fuel_price_per_t,
+        "hourly_cost_per_h": hourly_cost_per_h, "exclusion": exclusion, "speed_range_kn": speed_range_kn,
+        "band_margin": band_margin, "band_hs_margin": band_hs_margin, "verify_step_nm": verify_step_nm,
         "use_land_mask": use_land_mask,
-    }
+    }  # fmt: skip
     prepared, y_lo, y_hi = prepare_members(corridor, members, ship, shared, reference_member)
     ref = prepared[int(reference_member)]
     frame, t0 = ref.frame, ref.departure
@@ -404,56 +388,22 @@ def optimise_robust(
         "start_cpu_s": _time.process_time() - start_cpu,
         "start_evidence": None if evidence is None else str(evidence),
     }
-    state = {
-        "widen": ref.margin0,
-        "hs_margin": ref.hs_margin0,
-        "max_load": 1.0,
-        "min_load": ref.power.min_load,
-        "extra_radius_nm": 0.0,
-        "eta_shift_h": 0.0,
-        "leg_factor": np.ones(frame.n_legs),
-    }
+    state = _untightened(ref, frame.n_legs)
     points = _member_rows(prepared, eta_t, y_lo, y_hi, eta_h) if constraint_rows == "referee" else None
     log: list[str] = []
     counts = {"solves": 0, "iterations": 0, "solve_time_s": 0.0, "build_time_s": 0.0}
     last: RobustResult | None = None
-    options = dict(solver_options or {})
+    setup = (prepared, ref, y_lo, y_hi, exclusion, dict(solver_options or {}), robust, alpha)
     builds: dict[tuple[float, float, float], RobustSpeedNLP] = {}
     for retry in range(int(max_retries) + 1):
-        layout = sample_layout(points, frame.n_legs, ref.samples_per_leg)
-        key = (
-            state["widen"],
-            state["hs_margin"],
-            state["extra_radius_nm"],
-            layout.fraction.tobytes(),
-        )  # shapes a build
-        if key not in builds:
-            builds[key] = _build(prepared, ref, frame, y_lo, y_hi, state, exclusion, t0, options, robust, alpha, layout)
-            counts["build_time_s"] += builds[key].build_time_s
-        nlp = builds[key]
-        nlp.power = replace(nlp.power, max_load=state["max_load"], min_load=state["min_load"])
-        solve_kw = {
-            "eta_h": None if eta_h is None else eta_h - state["eta_shift_h"],
-            "objective": objective,
-            "fuel_price": ref.fuel_price,
-            "hourly_cost": ref.hourly,
-            "offset0_nm": warm["offset_nm"],
-            "stw0_kn": warm["stw_kn"],
-            "max_solves": int(band_solves),
-            "leg_power_factor": state["leg_factor"],
-        }
-        if robust == "chance":
-            candidates = nlp.solve_chance(max_dropped=n_drop, **solve_kw)
-        else:
-            candidates = (nlp.solve_sides(**solve_kw),)
-        for key_, res in (("solves", candidates[0].solves), ("iterations", candidates[0].iterations)):
-            counts[key_] += res
-        counts["solve_time_s"] += candidates[0].solve_time_s
+        nlp, candidates = _solve_once(
+            setup, builds, counts, state, sample_layout(points, frame.n_legs, ref.samples_per_leg),
+            (eta_h, objective, warm, int(band_solves), n_drop),
+        )  # fmt: skip
         last = candidates[0]
         picked, failing = _pick(candidates, ctx, frame, t0, ref, members, log, retry)
         if picked is not None:
             res, plan, violated = picked
-            status = "feasible" if not res.success else ("optimal" if res.sides_settled else "sides_unsettled")
             stats = _stats(plan, members, res, robust, alpha, int(reference_member), objective, ref)
             stats["robust"].update(
                 violation_fraction=fraction,
@@ -462,10 +412,9 @@ def optimise_robust(
                 drop_choices_solved=len(candidates),
             )
             stats.update(counts, retries=retry, tightening=log, ipopt_status=res.status, nlp_solves=counts["solves"])
-            stats.update(start)
-            stats["nlp_samples_per_leg"] = nlp.samples_per_leg  # the quadrature's and any row-only samples
+            stats.update(start, nlp_samples_per_leg=nlp.samples_per_leg)  # the quadrature's and row-only samples
             stats["total_time_s"] = _time.perf_counter() - started
-            return replace(plan, status=status, solver_stats=stats)
+            return replace(plan, status=_solved_status(res), solver_stats=stats)
         if failing is None:  # no usable solve: nothing the verification could say, tightening would not help
             break
         res, failing = failing
@@ -488,6 +437,84 @@ def optimise_robust(
     stats["status_reason"] = f"the robust NLP found no plan clean in every member ({log[-1] if log else ''})"
     stats["total_time_s"] = _time.perf_counter() - started
     return replace(plan, status="start", solver_stats=stats)
+
+
+def _untightened(ref: Any, n_legs: int) -> dict[str, Any]:
+    """The tightening state before any retry (:func:`_tighten` moves it): the reference member's band back-offs,
+    the engine's load range, no extra exclusion radius or ETA shift, and no leg's power raised."""
+    return {
+        "widen": ref.margin0,
+        "hs_margin": ref.hs_margin0,
+        "max_load": 1.0,
+        "min_load": ref.power.min_load,
+        "extra_radius_nm": 0.0,
+        "eta_shift_h": 0.0,
+        "leg_factor": np.ones(n_legs),
+    }
+
+
+def _solve_once(
+    setup: tuple,
+    builds: dict[tuple, RobustSpeedNLP],
+    counts: dict[str, float],
+    state: dict[str, Any],
+    layout: Any,
+    task: tuple[float | None, str, dict[str, np.ndarray], int, int],
+) -> tuple[RobustSpeedNLP, tuple[RobustResult, ...]]:
+    """The robust NLP at the tightening ``state`` (built once per shape: ``builds``) solved from the warm start.
+
+    ``setup``: (prepared members, reference member, lateral bounds lo / hi [nm], exclusion, solver options, mode,
+    CVaR level); ``task``: (ETA [h] or None, objective, warm start, band solves, members that may be dropped).
+    Returns the NLP and its candidates, best first (several for ``"chance"``); ``counts`` gains their solves,
+    iterations and times.
+    """
+    prepared, ref, y_lo, y_hi, exclusion, options, robust, alpha = setup
+    eta_h, objective, warm, band_solves, n_drop = task
+    key = (state["widen"], state["hs_margin"], state["extra_radius_nm"], layout.fraction.tobytes())  # shapes a build
+    if key not in builds:
+        builds[key] = _build(
+            prepared, ref, ref.frame, y_lo, y_hi, state, exclusion, ref.departure, options, robust, alpha, layout
+        )
+        counts["build_time_s"] += builds[key].build_time_s
+    nlp = builds[key]
+    nlp.power = replace(nlp.power, max_load=state["max_load"], min_load=state["min_load"])
+    solve_kw = {
+        "eta_h": None if eta_h is None else eta_h - state["eta_shift_h"],
+        "objective": objective,
+        "fuel_price": ref.fuel_price,
+        "hourly_cost": ref.hourly,
+        "offset0_nm": warm["offset_nm"],
+        "stw0_kn": warm["stw_kn"],
+        "max_solves": band_solves,
+        "leg_power_factor": state["leg_factor"],
+    }
+    if robust == "chance":
+        candidates = nlp.solve_chance(max_dropped=n_drop, **solve_kw)
+    else:
+        candidates = (nlp.solve_sides(**solve_kw),)
+    counts["solves"] += candidates[0].solves
+    counts["iterations"] += candidates[0].iterations
+    counts["solve_time_s"] += candidates[0].solve_time_s
+    return nlp, candidates
+
+
+def _dropped_count(robust: str, fraction: float, violation_fraction: Any, n_members: int) -> int:
+    """The members a ``"chance"`` plan may violate, ``⌊fraction · M⌋``; ConfigError where the choices of them are
+    more than :data:`~formulations.robust_nlp.MAX_DROP_CHOICES`."""
+    n_drop = int(np.floor(fraction * n_members + 1e-9))
+    if robust == "chance" and math.comb(n_members, n_drop) > MAX_DROP_CHOICES:
+        raise ConfigError(
+            f"violation_fraction={violation_fraction!r} of {n_members} members lets {n_drop} be violated: "
+            f"{math.comb(n_members, n_drop)} choices of members, more than the {MAX_DROP_CHOICES} solved exactly; "
+            "give a smaller fraction or fewer members, or use robust='cvar'"
+        )
+    return n_drop
+
+
+def _solved_status(res: RobustResult) -> str:
+    """``"feasible"`` where Ipopt stopped at a limit, else ``"optimal"``, or ``"sides_unsettled"`` where the band
+    re-imposition stopped on its budget."""
+    return "feasible" if not res.success else ("optimal" if res.sides_settled else "sides_unsettled")
 
 
 def _pick(candidates, ctx, frame, t0, ref, members, log: list[str], retry: int):
