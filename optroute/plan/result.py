@@ -51,10 +51,11 @@ from optroute.errors import ConfigError
 from optroute.geo import land
 from optroute.geo.tracks import Exclusion, gc_points, project_to_polyline
 from optroute.physics.performance import PerformanceModel, default_model
-from optroute.physics.safety import BandRules, band_margins, is_speed_forbidden
+from optroute.physics.safety import BandRules
 from optroute.physics.ship import Ship
 from optroute.plan.checkpoints import BAND_TOL_NM, CheckPoints, check_points
 from optroute.plan.evaluate import DenseTrack, PlanContext, Violation, evaluate_track, legs_table, step_midpoints
+from optroute.plan.referee_checks import Findings, check_bands, check_engine, check_geometry, check_sea
 from optroute.search.route import Corridor
 from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
@@ -417,6 +418,38 @@ class Plan:
             when = self.departure + _h_to_td(float(sched_h[k] + f * (sched_h[k + 1] - sched_h[k])))
             found[("land", k)] = (1.0, Violation("land", k, (float(lat[i]), float(lon[i])), when, 1.0, 0.0))
 
+    def _check_schedule(
+        self,
+        found: dict[tuple[str, int], tuple[float, Violation]],
+        leg_duration_h: np.ndarray,
+        sched: np.ndarray,
+        tol_h: float,
+        eta_t: np.datetime64 | None,
+        mode: str,
+    ) -> None:
+        """The planned times [h after departure] against those the planned speeds give (``leg_duration_h``) and the
+        arrival against the ETA (by it with ``mode`` ``"le"``, at it with ``"eq"``), within ``tol_h``; into
+        ``found``."""
+        # schedule: the planned times against the times the planned speeds give
+        sailed = np.concatenate([[0.0], np.cumsum(leg_duration_h)])
+        err = sailed - sched
+        bad = np.flatnonzero(np.abs(err) > tol_h)
+        if bad.size:
+            k = int(bad[np.argmax(np.abs(err[bad]))])
+            leg = max(k - 1, 0)
+            v = Violation(
+                "schedule", leg, tuple(float(x) for x in self.waypoints[k]), self.times[k], float(err[k]), tol_h
+            )
+            found[("schedule", leg)] = (abs(float(err[k])), v)
+        if eta_t is not None:
+            eta_h = float(_td_to_h(eta_t - self.departure))
+            offsets = [float(sched[-1]) - eta_h, float(sailed[-1]) - eta_h]  # planned and sailed arrival − ETA
+            late = max(offsets) if mode == "le" else max(offsets, key=abs)
+            if (mode == "le" and late > tol_h) or (mode == "eq" and abs(late) > tol_h):
+                leg = self.waypoints.shape[0] - 2
+                v = Violation("eta", leg, tuple(float(x) for x in self.waypoints[-1]), self.arrival, late, tol_h)
+                found[("eta", leg)] = (abs(late), v)
+
     def verify(
         self,
         *,
@@ -505,92 +538,15 @@ class Plan:
         pts = check_points(
             ctx, wp, stw, t0, d, ev, tol_nm=tol_nm, nodes=step_midpoints(d, step), power_rtol=float(power_rtol)
         )
-        found: dict[tuple[str, int], tuple[float, Violation]] = {}
-
-        def report(kind: str, mask: np.ndarray, value: np.ndarray, limit: Any, badness: np.ndarray) -> None:
-            limit = np.broadcast_to(np.asarray(limit, dtype=float), mask.shape)
-            for i in np.flatnonzero(mask):
-                key = (kind, int(pts.leg[i]))
-                if key not in found or badness[i] > found[key][0]:
-                    when = t0 + _h_to_td(pts.time_h[i])
-                    v = Violation(
-                        kind, key[1], (float(pts.lat[i]), float(pts.lon[i])), when, float(value[i]), float(limit[i])
-                    )
-                    found[key] = (float(badness[i]), v)
-
-        sea = pts.sea
-        nav = sea.navigable & pts.covered
-        ones = np.ones(pts.leg.shape)
-        report("weather_coverage", ~pts.covered, ones, 0.0, ones)
-        report("no_passage", pts.covered & ~sea.navigable, ones, 0.0, ones)
+        findings = Findings(pts, t0)
+        nav, held, ok = check_sea(findings, ctx)
         if ctx.land_mask_applies:
-            on_land = land.is_land(pts.lat, pts.lon)
-            report("land", on_land, ones, 0.0, ones)
-            self._land_between(found, step, sched)
-        held = np.isfinite(pts.heading)
-        report("course", nav & ~held, ones, 0.0, ones)
-        ok = nav & held
-        mcr, pmin = float(ctx.model.mcr_kw), float(ctx.model.min_power_kw)
-        p = np.where(np.isfinite(pts.power), pts.power, np.inf)
-        high = ok & (p > mcr * (1.0 + power_rtol))
-        report("power_above_mcr", high, p, mcr, np.where(np.isfinite(p), p, 1e300))
-        low = ok & (p < pmin * (1.0 - power_rtol))
-        report("power_below_min", low, p, pmin, pmin - p)
-        heading = np.where(held, pts.heading, pts.course)
-        hs = np.where(nav, sea.hs_m, 0.0)
-        per = np.where(nav, sea.period_s, 1.0)
-        wfrom = np.where(nav, sea.wave_from_deg, 0.0)
-        margins = band_margins(
-            ctx.ship, speed_kn=pts.stw, hs_m=hs, period_s=per, wave_from_deg=wfrom, heading_deg=heading, rules=ctx.rules
-        )
-        for band in ctx.rules.enabled_bands:
-            hit = ok & is_speed_forbidden(
-                ctx.ship,
-                speed_kn=pts.stw,
-                hs_m=hs,
-                period_s=per,
-                wave_from_deg=wfrom,
-                heading_deg=heading,
-                rules=ctx.rules,
-                band=band,
-            )
-            bm = margins[band]
-            below = bm.ratio < 0.5 * (bm.lo + bm.hi) if np.isfinite(bm.hi) else np.ones(bm.ratio.shape, dtype=bool)
-            edge = np.where(below, bm.lo, bm.hi)
-            report(f"band:{band}", hit, bm.ratio, edge, -np.asarray(bm.margin, dtype=float))
-        if ctx.corridor is not None:
-            cw = ctx.corridor.waypoints
-            s, _, dist, _ = project_to_polyline(cw, pts.lat, pts.lon)
-            hw = np.interp(s, ctx.corridor.along_track_nm, ctx.corridor.half_width_nm)
-            out = dist > hw + corridor_tol_nm
-            report("corridor", out, dist, hw, dist - hw)
-        if ctx.exclusion is not None:
-            when = t0 + _h_to_td(pts.time_h)
-            clat, clon, rad = ctx.exclusion.at(when)
-            dist = geo.distance_nm(pts.lat, pts.lon, clat, clon)
-            inside = dist < rad
-            report("exclusion", inside, dist, rad, rad - dist)
-        # schedule: the planned times against the times the planned speeds give
-        sailed = np.concatenate([[0.0], np.cumsum(ev.leg_duration_h)])
-        err = sailed - sched
-        bad = np.flatnonzero(np.abs(err) > tol_h)
-        if bad.size:
-            k = int(bad[np.argmax(np.abs(err[bad]))])
-            leg = max(k - 1, 0)
-            v = Violation(
-                "schedule", leg, tuple(float(x) for x in self.waypoints[k]), self.times[k], float(err[k]), tol_h
-            )
-            found[("schedule", leg)] = (abs(float(err[k])), v)
-        if eta_t is not None:
-            eta_h = float(_td_to_h(eta_t - t0))
-            offsets = [float(sched[-1]) - eta_h, float(sailed[-1]) - eta_h]  # planned and sailed arrival − ETA
-            late = max(offsets) if mode == "le" else max(offsets, key=abs)
-            if (mode == "le" and late > tol_h) or (mode == "eq" and abs(late) > tol_h):
-                leg = self.waypoints.shape[0] - 2
-                v = Violation("eta", leg, tuple(float(x) for x in self.waypoints[-1]), self.arrival, late, tol_h)
-                found[("eta", leg)] = (abs(late), v)
-        listed = [v for _, v in sorted(found.values(), key=lambda item: (item[1].leg, item[1].kind))]
-        return Verification(listed, tol_nm=pts.tol_nm, points=pts)
+            self._land_between(findings.found, step, sched)
+        check_engine(findings, ctx, ok, float(power_rtol))
+        check_bands(findings, ctx, nav, held)
+        check_geometry(findings, ctx, corridor_tol_nm)
+        self._check_schedule(findings.found, ev.leg_duration_h, sched, tol_h, eta_t, mode)
+        return Verification(findings.listed(), tol_nm=pts.tol_nm, points=pts)
 
     # ------------------------------------------------------------------ export
     def to_geojson(self) -> dict[str, Any]:
