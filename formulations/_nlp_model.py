@@ -28,7 +28,6 @@ The test suite checks the result against CasADi's automatic derivatives of the p
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -38,6 +37,7 @@ import numpy as np
 
 from formulations._buffers import Buffered, MemoCallback
 from formulations.common import BELOW_BETA, Band, PowerModel, spline_weights
+from formulations.ipopt_options import jit_options
 from formulations.row_layout import leg_kinds, leg_row_numbers
 from formulations.splines import ratio_field_names, sector_weights, spline_weight_derivatives
 
@@ -292,34 +292,6 @@ def side_free_row(band: Band, ratio: Any, res: Any) -> Any:
     return res if np.isfinite(band.lower) else -res
 
 
-def jit_compiler() -> str:
-    """The C compiler of ``jit=True``: ``$CC``, else ``gcc`` (CasADi's ``"shell"`` plugin default)."""
-    return os.environ.get("CC") or "gcc"
-
-
-def jit_options(jit: bool) -> dict[str, Any]:
-    """CasADi options that compile an SX function to C with the system compiler (``"shell"`` plugin).
-
-    The generated C source and the compiler's object and library files go to the system's temporary
-    directory (the shell plugin's ``directory`` option, uniquely named, removed when the function is
-    unloaded), never the working directory: a benchmark or a user's project folder is not written.
-    """
-    if not jit:
-        return {}
-    import tempfile
-
-    return {
-        "jit": True,
-        "compiler": "shell",
-        "jit_options": {
-            "flags": ["-O2"],
-            "verbose": False,
-            "compiler": jit_compiler(),
-            "directory": tempfile.gettempdir() + os.sep,
-        },  # fmt: skip
-    }
-
-
 def _taylor_function(fun: Any, n_out: int, name: str, *, time_only: bool, order: int) -> Any:
     """``(t, s, y) ↦ [F, F_t, F_y, F_tt, F_ty, F_yy]`` stacked (6·n_out); second derivatives 0 if order 1."""
     t, s, y = ca.MX.sym("t"), ca.MX.sym("s"), ca.MX.sym("y")
@@ -418,13 +390,87 @@ def structured_cores(
     k_ = n * m
     nx, ng = nlp._nx, nlp._ng
     cor = nlp.corridor
-    names = nlp.weather.field_names
-    has_excl = nlp.exclusion is not None
     layout = nlp.sample_layout  # fractions and quadrature weights (N, m): per-leg inputs of the leg function
-    # ---- per-leg SX function of z_k -------------------------------------------------
     # Taylor coefficients per field: (F, F_t, F_y), and (F_tt, F_ty, F_yy) only for the exact Hessian (without it
     # they would be inputs that are always 0: the same numbers, half the data and the leg functions' work)
     n_blk = 6 if exact_hessian else 3
+    leg = _leg_graph(nlp, n_blk, side_free_bands)
+    z, geo, theta, n_theta = leg.z, leg.geo, leg.theta, leg.n_theta
+    sigma = ca.SX.sym("sigma")  # lam_f · fuel weight
+    inputs = [z, geo, theta, leg.beta]
+    fopts = jit_options(jit)
+    leg_grad = ca.Function("leg_grad", inputs, [leg.fuel_sum, ca.gradient(leg.fuel_sum, z)], fopts).map(n)
+    groups = [_leg_group(nlp, leg.blocks, legs, with_b, with_e, leg.fuel_sum, sigma, inputs, fopts)
+              for legs, with_b, with_e in leg_kinds(nlp.row_legs, nlp.exclusion is not None)]  # fmt: skip
+    legs = np.arange(n)
+    z_idx = np.vstack([legs, legs + 1, n + 1 + legs, 2 * n + 1 + legs, 2 * n + 2 + legs])  # (5, N)
+    c, nrm, tau = cor.centre_xy_nm, cor.normal_xy, cor.tangent_xy
+    geo_fixed = ca.DM(np.vstack([c[:-1].T, c[1:].T, nrm[:-1].T, nrm[1:].T, tau.T]))
+    beta_idx = np.array([[2 + b * k_ + k * m + j for k in range(n)] for b in range(nb) for j in range(m)])
+    # ---- symbolic inputs of the nlpsol derivative functions ---------------------------
+    x = ca.MX.sym("x", nx)
+    p = ca.MX.sym("p", 2 + k_ * nb + n)  # weights, band edges, per-leg static power factors
+    geo_dm = ca.vertcat(geo_fixed, p[2 + k_ * nb :].T, ca.DM(np.vstack([layout.fraction.T, layout.weight.T])))
+    lam_f = ca.MX.sym("lam_f")
+    lam_g = ca.MX.sym("lam_g", ng)
+    zmat = ca.reshape(x[z_idx.T.ravel().tolist()], _N_Z, n)
+    beta_mat = ca.reshape(p[beta_idx.T.ravel().tolist()], nb * m, n) if nb else ca.MX.zeros(m, n)
+    dev_at = None
+    if leg.contract:  # the samples' heading deviations at a point, as the leg functions compute them
+        leg_dev = ca.Function("leg_dev", [z, geo, theta], [ca.vertcat(*leg.devs)]).map(n)
+        geo_dev = ca.vertcat(geo_fixed, ca.DM.zeros(1, n), ca.DM(np.vstack([layout.fraction.T, layout.weight.T])))
+        th_dev = ca.MX.sym("theta", n_theta * m, n)
+        dev_at = ca.Function("dev_at", [x, th_dev], [leg_dev(zmat, geo_dev, th_dev)])
+    lay = _RatioLayout(leg.plain, leg.r0, leg.n_rat, dev_at)
+    th = ca.MX.sym("theta", n_theta * m, n)
+    th_h = ca.MX.sym("theta_h", n_theta * m, n)
+    args = [zmat, geo_dm, th, beta_mat]
+    # grad_f
+    fuel_k, grad_k = leg_grad(*args)
+    sp_gf, gat_gf = _scatter(nx, 1, z_idx.T.ravel(), np.zeros(_N_Z * n, dtype=int), _N_Z * n)
+    grad = ca.densify(ca.MX(sp_gf, ca.mtimes(gat_gf, ca.vec(grad_k)))) * p[0]
+    e_t = np.zeros(nx)
+    e_t[2 * n + 1 + n], e_t[2 * n + 1] = 1.0, -1.0
+    grad = grad + p[1] * ca.DM(e_t)
+    f_val = p[0] * ca.sum2(fuel_k) + p[1] * (x[3 * n + 1] - x[2 * n + 1])
+    grad_core = ca.Function("grad_f_core", [x, p, th], [f_val, grad])
+    jac_core, hess_core = _jac_hess_cores(
+        nlp, groups, z_idx, (x, p, lam_f, lam_g), args, [zmat, geo_dm, th_h, beta_mat]
+    )
+
+    def taylor(weather: Any, numeric: bool | None = None) -> Any:
+        numeric = nlp.numeric_weather if numeric is None else bool(numeric and weather.method == "smooth")
+        return _taylor_source(nlp, x, zmat, n_theta, exact_hessian, lay, weather, numeric)
+
+    return StructuredCores(grad_core, jac_core, hess_core, taylor)
+
+
+class _LegGraph(NamedTuple):
+    """One leg's SX graph (:func:`_leg_graph`): its inputs ``z`` (the leg's offsets, speed, times), ``geo``,
+    ``theta`` (the samples' Taylor data, ``n_theta`` per sample), ``beta`` (band edges); its fuel [t] and row blocks;
+    the samples' heading deviations [deg]; and the layout of the Taylor data (the plain fields, where the ratio
+    block begins and its size, whether the power-ratio table comes contracted)."""
+
+    z: Any
+    geo: Any
+    theta: Any
+    beta: Any
+    fuel_sum: Any
+    blocks: _LegBlocks
+    devs: list
+    n_theta: int
+    plain: tuple[str, ...]
+    r0: int
+    n_rat: int
+    contract: bool
+
+
+def _leg_graph(nlp: Any, n_blk: int, side_free_bands: bool) -> _LegGraph:
+    """The per-leg SX function of z_k: the samples' physics (:func:`sample_physics`) on the weather's Taylor
+    polynomials of order ``n_blk // 3``, summed into the leg's fuel and stacked into its row blocks."""
+    m, nb = nlp.samples_per_leg, nlp.n_bands
+    names = nlp.weather.field_names
+    has_excl = nlp.exclusion is not None
     # with the weather read in numpy, the power-ratio table (speeds × headings of fields) comes contracted: one
     # Taylor polynomial of the ratio per sample (ratio_taylor_data) instead of the table's fields
     contract = bool(nlp.numeric_weather and nlp.weather.ratio_axes is not None)
@@ -485,46 +531,19 @@ def structured_cores(
             ex = taylor(th[r0 + n_rat : r0 + n_rat + 3 * n_blk], 3)
             xs, yfs = pxa + fj * dx, pya + fj * dy
             excls.append(((xs - ex[0]) ** 2 + (yfs - ex[1]) ** 2 - ex[2] ** 2) / nlp.exclusion.radius_scale_nm**2)
-    sigma = ca.SX.sym("sigma")  # lam_f · fuel weight
-    inputs = [z, geo, theta, beta]
-    fopts = jit_options(jit)
-    leg_grad = ca.Function("leg_grad", inputs, [fuel_sum, ca.gradient(fuel_sum, z)], fopts).map(n)
     blocks = _LegBlocks(tb - ta - dt_sum, loads, bands_res, drifts + sogs if nlp._has_current else [], excls)
-    groups = [_leg_group(nlp, blocks, legs, with_b, with_e, fuel_sum, sigma, inputs, fopts)
-              for legs, with_b, with_e in leg_kinds(nlp.row_legs, has_excl)]  # fmt: skip
-    legs = np.arange(n)
-    z_idx = np.vstack([legs, legs + 1, n + 1 + legs, 2 * n + 1 + legs, 2 * n + 2 + legs])  # (5, N)
-    c, nrm, tau = cor.centre_xy_nm, cor.normal_xy, cor.tangent_xy
-    geo_fixed = ca.DM(np.vstack([c[:-1].T, c[1:].T, nrm[:-1].T, nrm[1:].T, tau.T]))
-    beta_idx = np.array([[2 + b * k_ + k * m + j for k in range(n)] for b in range(nb) for j in range(m)])
-    # ---- symbolic inputs of the nlpsol derivative functions ---------------------------
-    x = ca.MX.sym("x", nx)
-    p = ca.MX.sym("p", 2 + k_ * nb + n)  # weights, band edges, per-leg static power factors
-    geo_dm = ca.vertcat(geo_fixed, p[2 + k_ * nb :].T, ca.DM(np.vstack([layout.fraction.T, layout.weight.T])))
-    lam_f = ca.MX.sym("lam_f")
-    lam_g = ca.MX.sym("lam_g", ng)
-    zmat = ca.reshape(x[z_idx.T.ravel().tolist()], _N_Z, n)
-    beta_mat = ca.reshape(p[beta_idx.T.ravel().tolist()], nb * m, n) if nb else ca.MX.zeros(m, n)
-    dev_at = None
-    if contract:  # the samples' heading deviations at a point, as the leg functions compute them
-        leg_dev = ca.Function("leg_dev", [z, geo, theta], [ca.vertcat(*devs)]).map(n)
-        geo_dev = ca.vertcat(geo_fixed, ca.DM.zeros(1, n), ca.DM(np.vstack([layout.fraction.T, layout.weight.T])))
-        th_dev = ca.MX.sym("theta", n_theta * m, n)
-        dev_at = ca.Function("dev_at", [x, th_dev], [leg_dev(zmat, geo_dev, th_dev)])
-    lay = _RatioLayout(plain, r0, n_rat, dev_at)
-    th = ca.MX.sym("theta", n_theta * m, n)
-    th_h = ca.MX.sym("theta_h", n_theta * m, n)
-    args = [zmat, geo_dm, th, beta_mat]
-    # grad_f
-    fuel_k, grad_k = leg_grad(*args)
-    sp_gf, gat_gf = _scatter(nx, 1, z_idx.T.ravel(), np.zeros(_N_Z * n, dtype=int), _N_Z * n)
-    grad = ca.densify(ca.MX(sp_gf, ca.mtimes(gat_gf, ca.vec(grad_k)))) * p[0]
-    e_t = np.zeros(nx)
-    e_t[2 * n + 1 + n], e_t[2 * n + 1] = 1.0, -1.0
-    grad = grad + p[1] * ca.DM(e_t)
-    f_val = p[0] * ca.sum2(fuel_k) + p[1] * (x[3 * n + 1] - x[2 * n + 1])
-    grad_core = ca.Function("grad_f_core", [x, p, th], [f_val, grad])
-    # jac_g and hess_lag: per group of legs with the same rows (row_layout.leg_kinds), its legs' columns of the inputs
+    return _LegGraph(z, geo, theta, beta, fuel_sum, blocks, devs, n_theta, plain, r0, n_rat, contract)
+
+
+def _jac_hess_cores(
+    nlp: Any, groups: list, z_idx: np.ndarray, syms: tuple, args: list, h_mats: list
+) -> tuple[Any, Any]:
+    """``jac_g_core`` (x, p, θ) and ``hess_lag_core`` (x, p, λ_f, λ_g, θ_h): per group of legs with the same rows
+    (:func:`formulations.row_layout.leg_kinds`), its legs' columns of the leg inputs (``args`` = z, geo, θ, β for
+    the Jacobian, ``h_mats`` = z, geo, θ_h, β for the Hessian), scattered into the whole problem's sparsity.
+    ``syms``: the symbols x, p, λ_f, λ_g."""
+    x, p, lam_f, lam_g = syms
+    n, nx, ng = nlp.n_legs, nlp._nx, nlp._ng
     jr, jc, j_src, hr, hc, h_src = [], [], [], [], [], []
     g_full = ca.MX.zeros(ng, 1)
     for grp in groups:
@@ -537,7 +556,7 @@ def structured_cores(
         g_full[grp.rows.T.ravel().tolist()] = ca.vec(g_k)
         # hess_lag: upper triangle of Σ_k ∇²(σ fuel_k + λ_k·g_k)
         lam_mat = ca.reshape(lam_g[grp.rows.T.ravel().tolist()], grp.rows.shape[0], ks.size)
-        h_args = _leg_columns([zmat, geo_dm, th_h, beta_mat], ks, n)
+        h_args = _leg_columns(h_mats, ks, n)
         h_src.append(ca.vec(grp.hess(*h_args, lam_f * p[0], lam_mat)))  # (15, n_k)
         for k in ks:
             for a, b in _TRIU:
@@ -547,16 +566,11 @@ def structured_cores(
     jr_a, jc_a = np.concatenate(jr), np.concatenate(jc)
     sp_j, gat_j = _scatter(ng, nx, jr_a, jc_a, jr_a.size)
     jac = ca.MX(sp_j, ca.mtimes(gat_j, ca.vertcat(*j_src)))
-    jac_core = ca.Function("jac_g_core", [x, p, th], [g_full, jac])
+    jac_core = ca.Function("jac_g_core", [x, p, args[2]], [g_full, jac])
     sp_h, gat_h = _scatter(nx, nx, np.array(hr), np.array(hc), len(hr))
     hess_full = ca.MX(sp_h, ca.mtimes(gat_h, ca.vertcat(*h_src)))
-    hess_core = ca.Function("hess_lag_core", [x, p, lam_f, lam_g, th_h], [hess_full])
-
-    def taylor(weather: Any, numeric: bool | None = None) -> Any:
-        numeric = nlp.numeric_weather if numeric is None else bool(numeric and weather.method == "smooth")
-        return _taylor_source(nlp, x, zmat, n_theta, exact_hessian, lay, weather, numeric)
-
-    return StructuredCores(grad_core, jac_core, hess_core, taylor)
+    hess_core = ca.Function("hess_lag_core", [x, p, lam_f, lam_g, h_mats[2]], [hess_full])
+    return jac_core, hess_core
 
 
 def _leg_columns(mats: list, legs: np.ndarray, n: int) -> list:

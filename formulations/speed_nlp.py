@@ -81,7 +81,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from formulations._buffers import SharedMap, WeatherValues
-from formulations._nlp_model import heading_dev_deg, jit_compiler, sample_physics, structured_derivatives
+from formulations._nlp_model import heading_dev_deg, sample_physics, structured_derivatives
 from formulations.common import (
     BELOW_SIDE,
     G_OVER_2PI_KN_S,
@@ -93,7 +93,13 @@ from formulations.common import (
     WeatherGrid,
     broadcast_legs,
 )
-from formulations.ipopt_options import IPOPT_DEFAULTS, PRIMAL_START_OPTIONS, WARM_START_OPTIONS, checked_duals
+from formulations.ipopt_options import (
+    IPOPT_DEFAULTS,
+    PRIMAL_START_OPTIONS,
+    WARM_START_OPTIONS,
+    checked_duals,
+    jit_compiler,
+)
 from formulations.nlp_result import NLPResult, SampleState
 from formulations.row_layout import RowLegs, row_blocks, row_bounds, waypoint_time_bounds
 from formulations.sample_layout import SampleLayout, midpoint_layout

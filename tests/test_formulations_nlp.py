@@ -351,7 +351,7 @@ def test_jit_writes_nothing_into_the_working_directory(tmp_path, monkeypatch):
 
     import casadi as ca
 
-    from formulations._nlp_model import jit_compiler, jit_options
+    from formulations.ipopt_options import jit_compiler, jit_options
 
     if shutil.which(jit_compiler()) is None:
         pytest.skip(f"no C compiler {jit_compiler()!r} on this machine")
