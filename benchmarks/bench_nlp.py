@@ -62,7 +62,6 @@ from formulations.common import (
     CorridorGeometry,
     PowerLawFuel,
     PowerModel,
-    WeatherGrid,
 )
 from formulations.disjunctive import (
     bonmin_fixed_path,
@@ -74,6 +73,7 @@ from formulations.disjunctive import (
     select_sides,
 )
 from formulations.speed_nlp import SpeedNLP
+from formulations.weather_grid import WeatherGrid
 
 LENGTH_NM = 5000.0
 SPEED_KN = 15.0

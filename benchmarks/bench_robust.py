@@ -45,7 +45,9 @@ def _members(n: int) -> tuple[Any, list, Any, Any]:
     first = fc.displaced_storms(
         [bv._storm()], displacement_nm=dist, bearing_deg=brg, delay_h=delay, intensity_factor=fac
     )
-    ens = sc.ensemble(bv._storm_dataset, n, seed=1, storms=first, background_hs_m=1.5, **bv.suite_error_spread(), **bv.KW)
+    ens = sc.ensemble(
+        bv._storm_dataset, n, seed=1, storms=first, background_hs_m=1.5, **bv.suite_error_spread(), **bv.KW
+    )
     corridor = orx.Corridor.from_waypoints([bv.A, bv.B], width_nm=bv.ROBUST_WIDTH_NM)
     shared = bv.shared_options()
     cpu = time.process_time()

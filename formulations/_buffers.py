@@ -122,7 +122,7 @@ class MemoCallback(CoreCallback):
 
 class WeatherValues(ca.Callback):
     """The weather fields at K points, ``(3, K) [t; s; y] ↦ (n_fields, K)``, as a CasADi function evaluated in
-    numpy (:meth:`formulations.common.WeatherGrid.tensor_spline`): the values of CasADi's
+    numpy (:meth:`formulations.weather_grid.WeatherGrid.tensor_spline`): the values of CasADi's
     ``WeatherGrid.interpolant`` without building it. No derivatives: the NLP built with it takes its
     derivatives from :func:`structured_derivatives`."""
 

@@ -67,7 +67,7 @@ def heading_dev_deg(sin_d: Any, cos_d: Any, h_perp: Any) -> Any:
 def power_ratio(
     col: dict[str, Any], v: Any, heading_dev_deg: Any, axes: tuple | None, lib: Any, cos_alpha: Any = None
 ) -> Any:
-    """The tabulated ``R = P_ship / P_calm`` [-] at a sample (:class:`formulations.common.WeatherGrid`).
+    """The tabulated ``R = P_ship / P_calm`` [-] at a sample (:class:`formulations.weather_grid.WeatherGrid`).
 
     ``col`` holds the table's values ``ratio_j_k`` (``ratio_j_k_sq`` per wave-angle sector q) interpolated to the
     sample's (t, s, y); ``v`` the speed through water [kn], ``heading_dev_deg`` the heading minus the centreline
@@ -203,7 +203,7 @@ def sample_physics(
     power, bands, g_over_2pi
         The engine and calm-water baseline, the bands and ``A = g/2π`` [kn/s].
     ratio_axes : tuple, optional
-        :attr:`formulations.common.WeatherGrid.ratio_axes`: the tabulated ship power ratio is read from
+        :attr:`formulations.weather_grid.WeatherGrid.ratio_axes`: the tabulated ship power ratio is read from
         ``col`` (:func:`power_ratio`); None: ``R = 1``.
     ratio_of : callable, optional
         ``ratio_of(v, heading_dev_deg)``: the power ratio from elsewhere than ``col`` (the leg functions of
@@ -369,7 +369,7 @@ class StructuredCores:
         ``(x, p, lam_f, lam_g, theta_h) ↦ triu ∇²(lam_f f + lam_g·g)``: upper triangle, sparse.
     taylor : callable
         ``taylor(weather, numeric=None)`` → an object whose ``first(x)`` and ``hessian(x)`` give the ``theta`` and
-        ``theta_h`` inputs for a :class:`~formulations.common.WeatherGrid` with the NLP's fields and axes
+        ``theta_h`` inputs for a :class:`~formulations.weather_grid.WeatherGrid` with the NLP's fields and axes
         (so that one set of cores serves several weathers: the members of :mod:`formulations.robust_nlp`);
         ``numeric`` (default: as the NLP reads its own weather) evaluates a ``"smooth"`` weather in numpy
         (:meth:`WeatherGrid.tensor_spline`), else through CasADi's ``WeatherGrid.taylor_function``.

@@ -1,6 +1,6 @@
 """One speed-and-offset schedule over the members of an ensemble: the corridor NLP stacked per member.
 
-The members ``m = 1..M`` of an ensemble are ``M`` weather grids (:class:`formulations.common.WeatherGrid`, each
+The members ``m = 1..M`` of an ensemble are ``M`` weather grids (:class:`formulations.weather_grid.WeatherGrid`, each
 with the ship's power table tabulated in that member's sea) on the same corridor and the same (t, s, y) grid. The
 decision is one plan — the lateral offsets ``y_k`` and the speeds through water ``V_k`` of
 :mod:`formulations.speed_nlp` — and, because the speed over ground depends on each member's current, one
@@ -71,7 +71,6 @@ from formulations.common import (
     FormulationInputError,
     MovingExclusion,
     PowerModel,
-    WeatherGrid,
     broadcast_legs,
 )
 from formulations.disjunctive import select_sides
@@ -79,6 +78,7 @@ from formulations.ipopt_options import IPOPT_DEFAULTS
 from formulations.row_layout import row_blocks, row_bounds
 from formulations.sample_layout import SampleLayout
 from formulations.speed_nlp import SampleState, SpeedNLP
+from formulations.weather_grid import WeatherGrid
 
 __all__ = ["MAX_DROP_CHOICES", "RobustResult", "RobustSpeedNLP"]
 

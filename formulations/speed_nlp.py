@@ -17,7 +17,7 @@ follow from the offsets. Every leg is sub-sampled at ``m`` points at
 fractions ``(j + ½)/m``; at each sample the position in corridor
 coordinates ``(s, y)`` and the time are interpolated linearly, the weather is
 read from a CasADi spline/interpolant over the corridor's ``(t, s, y)`` grid
-(:class:`formulations.common.WeatherGrid`; so the conditions move with the
+(:class:`formulations.weather_grid.WeatherGrid`; so the conditions move with the
 ship's timing), and every constraint is imposed.
 Leg time and fuel are midpoint-rule integrals over the samples:
 
@@ -30,7 +30,7 @@ port side ``u∥, u⊥``): the ship heads so as to cancel the cross-current,
 Power model: the ship's own, tabulated. The caller (the domain layer) evaluates its performance
 model — the same one that scores the plan — at every node of the corridor's weather grid for a
 handful of speeds through water and heading deviations from the centreline, and passes the ratio
-to a calm-water baseline (:class:`formulations.common.WeatherGrid`, ``power_ratio``):
+to a calm-water baseline (:class:`formulations.weather_grid.WeatherGrid`, ``power_ratio``):
 
     P = f_k · P_calm(V) · R(t, s, y, V, ψ)     [kW]
     P_calm(V) = Σ_j c_j V^{n_j}                 calm-water baseline (:class:`formulations.common.PowerModel`)
@@ -90,7 +90,6 @@ from formulations.common import (
     FormulationInputError,
     MovingExclusion,
     PowerModel,
-    WeatherGrid,
     broadcast_legs,
 )
 from formulations.ipopt_options import (
@@ -103,6 +102,7 @@ from formulations.ipopt_options import (
 from formulations.nlp_result import NLPResult, SampleState
 from formulations.row_layout import RowLegs, row_blocks, row_bounds, waypoint_time_bounds
 from formulations.sample_layout import SampleLayout, midpoint_layout
+from formulations.weather_grid import WeatherGrid
 
 __all__ = [
     "CorridorGeometry",

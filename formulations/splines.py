@@ -1,7 +1,7 @@
 """The B-spline machinery of the weather tables: Schoenberg's cubic quasi-interpolant, its derivatives, and
 its evaluation in numpy.
 
-Split out of :mod:`formulations.common` (the :class:`~formulations.common.WeatherGrid` it serves stays there).
+Split out of :mod:`formulations.common`; it serves :class:`~formulations.weather_grid.WeatherGrid`.
 Two ways to evaluate the same spline:
 
 * CasADi's ``Function.bspline`` (:func:`bspline_function`), differentiable by CasADi: what a caller that lets
@@ -47,7 +47,7 @@ def spline_weights(x: Any, x0: float, h: float, n: int, lib: Any) -> list[Any]:
     """Weights ``w_i(x)`` of the uniform cubic B-spline quasi-interpolant ``Σ_i w_i(x) f_i`` of nodes ``x0 + i h``.
 
     Schoenberg's quasi-interpolant with the data ``f_i`` as control points, extended linearly by one
-    node at either end (``f_{-1} = 2f_0 − f_1``), as :class:`formulations.common.WeatherGrid`'s spline along
+    node at either end (``f_{-1} = 2f_0 − f_1``), as :class:`formulations.weather_grid.WeatherGrid`'s spline along
     its axes: C², exact for linear data, within the data's range away from the ends. The centred cubic B-spline
     is written with truncated powers, ``B(u) = [(u+2)₊³ − 4(u+1)₊³ + 6u₊³ − 4(u−1)₊³]/6`` for
     ``|u| ≤ 2`` (0 beyond), so that the same expression serves ``numpy`` and CasADi (``lib`` provides
@@ -266,7 +266,7 @@ class TensorSpline:
     Notes
     -----
     The same function as :func:`bspline_function` of ``quasi_spline(grids, data)``, held at the nearest
-    edge outside the grid (as :meth:`formulations.common.WeatherGrid.interpolant`), with the derivative
+    edge outside the grid (as :meth:`formulations.weather_grid.WeatherGrid.interpolant`), with the derivative
     along an axis zero where the point is clamped on it (as ``WeatherGrid.taylor_function``).
     """
 

@@ -14,9 +14,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from formulations.common import Band, CorridorGeometry, PowerModel, WeatherGrid
+from formulations.common import Band, CorridorGeometry, PowerModel
 from formulations.sample_layout import MERGE_FRACTION, SampleLayout, midpoint_layout, with_points
 from formulations.speed_nlp import SpeedNLP
+from formulations.weather_grid import WeatherGrid
 
 # --------------------------------------------------------------------------- the layout
 

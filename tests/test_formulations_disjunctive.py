@@ -14,7 +14,6 @@ from formulations.common import (
     FormulationInputError,
     PowerLawFuel,
     PowerModel,
-    WeatherGrid,
 )
 from formulations.disjunctive import (
     InnerOutcome,
@@ -27,6 +26,7 @@ from formulations.disjunctive import (
     select_sides,
 )
 from formulations.speed_nlp import SpeedNLP
+from formulations.weather_grid import WeatherGrid
 from optroute.optimise.nlp_solve import flip_gains
 
 

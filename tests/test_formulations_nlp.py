@@ -16,10 +16,10 @@ from formulations.common import (
     MovingExclusion,
     PowerLawFuel,
     PowerModel,
-    WeatherGrid,
 )
 from formulations.speed_convex import solve_speed_convex
 from formulations.speed_nlp import SpeedNLP
+from formulations.weather_grid import WeatherGrid
 
 D = np.array([300.0, 500.0, 200.0, 400.0])
 K = np.array([1.0, 1.5, 0.8, 1.2]) * 1e-3

@@ -17,9 +17,10 @@ import pytest
 import formulations.speed_nlp as speed_nlp
 import formulations.splines as splines
 from formulations._nlp_model import power_ratio, ratio_taylor_data, sector_taylor_data
-from formulations.common import Band, CorridorGeometry, PowerModel, WeatherGrid
+from formulations.common import Band, CorridorGeometry, PowerModel
 from formulations.speed_nlp import SpeedNLP
 from formulations.splines import spline_weight_derivatives, spline_weights
+from formulations.weather_grid import WeatherGrid
 
 T_AXIS, S_AXIS, Y_AXIS = np.arange(0.0, 49.0, 6.0), np.linspace(0.0, 300.0, 7), np.linspace(-20.0, 20.0, 5)
 

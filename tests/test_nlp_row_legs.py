@@ -10,10 +10,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from formulations.common import Band, CorridorGeometry, FormulationInputError, MovingExclusion, PowerModel, WeatherGrid
+from formulations.common import Band, CorridorGeometry, FormulationInputError, MovingExclusion, PowerModel
 from formulations.phase1 import Phase1Problem
 from formulations.row_layout import RowLegs
 from formulations.speed_nlp import SpeedNLP
+from formulations.weather_grid import WeatherGrid
 from optroute.optimise.rows import legs_near_exclusion, legs_that_can_bind
 from tests.test_formulations_nlp import assert_same_derivatives
 

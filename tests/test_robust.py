@@ -20,8 +20,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import optroute as orx
-from formulations.common import CorridorGeometry, PowerModel, WeatherGrid
+from formulations.common import CorridorGeometry, PowerModel
 from formulations.robust_nlp import RobustSpeedNLP
+from formulations.weather_grid import WeatherGrid
 from optroute.errors import ConfigError
 from optroute.optimise.robust import cvar, member_datasets
 from optroute.weather import storms

@@ -41,7 +41,8 @@ import xarray as xr
 from numpy.typing import ArrayLike
 from scipy import ndimage
 
-from formulations.common import G_OVER_2PI_KN_S, Band, CorridorGeometry, MovingExclusion, PowerModel, WeatherGrid
+from formulations.common import G_OVER_2PI_KN_S, Band, CorridorGeometry, MovingExclusion, PowerModel
+from formulations.weather_grid import WeatherGrid
 from optroute import geodesy as geo
 from optroute import units
 from optroute.errors import NoSafePassage, WeatherCoverageError
@@ -198,7 +199,7 @@ def build_frame(corridor: Corridor) -> CorridorFrame:
 
 @dataclass(frozen=True)
 class GridSamples:
-    """The raw samples behind a :class:`~formulations.common.WeatherGrid`, for reports.
+    """The raw samples behind a :class:`~formulations.weather_grid.WeatherGrid`, for reports.
 
     Attributes
     ----------

@@ -14,7 +14,7 @@ the formulation as the ratio to a calm-water baseline::
 
     R(t, s, y, V, ψ) = P_model(V; sea at the node, heading = centreline direction − ψ) / P_calm(V)
 
-(:class:`formulations.common.WeatherGrid`, ``power_ratio``). The NLP evaluates it through the same
+(:class:`formulations.weather_grid.WeatherGrid`, ``power_ratio``). The NLP evaluates it through the same
 cubic B-spline quasi-interpolant as the weather, in (t, s, y) and in V and ψ (with the structured
 derivatives of :mod:`formulations._nlp_model`, exact Hessian), so it sees a smooth version of the
 true model that is exact wherever the model is linear along an axis, and within the local range of
