@@ -508,40 +508,7 @@ def run_study(
     store = Path(store)
     if not callable(case_fn):
         raise ConfigError(f"case_fn={case_fn!r} is not callable; pass a function taking a dict of axis values")
-    if progress is True or progress == "bar":
-        progress = TextProgress("study")
-    if progress is not None and not callable(progress):
-        raise ConfigError(
-            f"progress={progress!r} is not callable; pass a function (done, total) -> None, True (a text bar on "
-            "standard error) or None"
-        )
-    if (
-        isinstance(timeout_s, bool)
-        or not isinstance(timeout_s, numbers.Real)
-        or not math.isfinite(timeout_s)
-        or timeout_s <= 0
-    ):
-        raise ConfigError(f"timeout_s={timeout_s!r} must be a positive number of seconds, e.g. 10")
-    if (
-        isinstance(threads_per_worker, bool)
-        or not isinstance(threads_per_worker, numbers.Integral)
-        or threads_per_worker < 1
-    ):
-        raise ConfigError(f"threads_per_worker={threads_per_worker!r} must be an integer >= 1")
-    if n_workers is not None and (
-        isinstance(n_workers, bool) or not isinstance(n_workers, numbers.Integral) or n_workers < 0
-    ):
-        raise ConfigError(f"n_workers={n_workers!r} must be an integer >= 0 (0 runs in this process), or None")
-    if scheduler_address is not None and not isinstance(scheduler_address, str):
-        raise ConfigError(
-            f"scheduler_address={scheduler_address!r} must be a string such as 'tcp://127.0.0.1:8786', "
-            f"{SYNCHRONOUS!r}, or None"
-        )
-    if scheduler_address not in (None, SYNCHRONOUS) and n_workers is not None:
-        raise ConfigError(
-            f"n_workers={n_workers} applies to the local cluster only, but scheduler_address={scheduler_address!r} "
-            "was given; drop n_workers (the existing cluster has its own workers)"
-        )
+    progress = _checked_run_options(progress, timeout_s, threads_per_worker, n_workers, scheduler_address)
     synchronous = scheduler_address == SYNCHRONOUS or n_workers == 0
     out_path = Path(output) if output is not None else store / _store.DEFAULT_OUTPUT
     _store.output_format(out_path)
@@ -570,28 +537,7 @@ def run_study(
 
     with _writable_store(store), _store.locked(store):
         _store.remove_temporaries(store)
-        manifest = study_manifest(study_axes, case_fn)
-        stored = _store.read_manifest(store)
-        if stored is not None and resume:
-            diff = axes_difference(stored["axes"], manifest["axes"])
-            if diff is not None:
-                raise StudyError(
-                    f"study store {str(store)!r} holds a study with other axes: {diff}; use another store, or pass "
-                    "resume=False to delete its cases and start over"
-                )
-            manifest = stored
-        else:
-            if stored is not None:
-                for path in _store.list_cases(store, [len(a["labels"]) for a in stored["axes"]]).values():
-                    path.unlink()
-            try:
-                _store.write_json(store / _store.MANIFEST, manifest)
-            except OSError as exc:
-                raise StudyError(
-                    f"could not write the manifest of study store {str(store)!r} ({type(exc).__name__}: {exc}); "
-                    "free disk space or fix permissions, or choose another store"
-                ) from exc
-
+        manifest = _open_manifest(store, study_manifest(study_axes, case_fn), resume)
         expected = None if case_inputs is None else (lambda index: case_inputs(params(index)))
         checked = fingerprint.check_stored_cases(
             store, _store.list_cases(store, shape), expected, label, on_changed_inputs
@@ -647,6 +593,73 @@ def run_study(
                 "load_study(store, output=...) or run the study again (nothing is recomputed)"
             ) from exc
     return ds
+
+
+def _checked_run_options(
+    progress: Any, timeout_s: Any, threads_per_worker: Any, n_workers: Any, scheduler_address: Any
+) -> ProgressCallback | None:
+    """:func:`run_study`'s execution options checked (ConfigError naming a bad one); the progress callback
+    (``True`` or ``"bar"``: a text bar on standard error)."""
+    if progress is True or progress == "bar":
+        progress = TextProgress("study")
+    if progress is not None and not callable(progress):
+        raise ConfigError(
+            f"progress={progress!r} is not callable; pass a function (done, total) -> None, True (a text bar on "
+            "standard error) or None"
+        )
+    if (
+        isinstance(timeout_s, bool)
+        or not isinstance(timeout_s, numbers.Real)
+        or not math.isfinite(timeout_s)
+        or timeout_s <= 0
+    ):
+        raise ConfigError(f"timeout_s={timeout_s!r} must be a positive number of seconds, e.g. 10")
+    if (
+        isinstance(threads_per_worker, bool)
+        or not isinstance(threads_per_worker, numbers.Integral)
+        or threads_per_worker < 1
+    ):
+        raise ConfigError(f"threads_per_worker={threads_per_worker!r} must be an integer >= 1")
+    if n_workers is not None and (
+        isinstance(n_workers, bool) or not isinstance(n_workers, numbers.Integral) or n_workers < 0
+    ):
+        raise ConfigError(f"n_workers={n_workers!r} must be an integer >= 0 (0 runs in this process), or None")
+    if scheduler_address is not None and not isinstance(scheduler_address, str):
+        raise ConfigError(
+            f"scheduler_address={scheduler_address!r} must be a string such as 'tcp://127.0.0.1:8786', "
+            f"{SYNCHRONOUS!r}, or None"
+        )
+    if scheduler_address not in (None, SYNCHRONOUS) and n_workers is not None:
+        raise ConfigError(
+            f"n_workers={n_workers} applies to the local cluster only, but scheduler_address={scheduler_address!r} "
+            "was given; drop n_workers (the existing cluster has its own workers)"
+        )
+    return progress
+
+
+def _open_manifest(store: Path, manifest: dict[str, Any], resume: bool) -> dict[str, Any]:
+    """The study's manifest in ``store``: the stored one when resuming a study of the same axes (StudyError where
+    its axes differ); else ``manifest``, written after the stored cases are deleted."""
+    stored = _store.read_manifest(store)
+    if stored is not None and resume:
+        diff = axes_difference(stored["axes"], manifest["axes"])
+        if diff is not None:
+            raise StudyError(
+                f"study store {str(store)!r} holds a study with other axes: {diff}; use another store, or pass "
+                "resume=False to delete its cases and start over"
+            )
+        return stored
+    if stored is not None:
+        for path in _store.list_cases(store, [len(a["labels"]) for a in stored["axes"]]).values():
+            path.unlink()
+    try:
+        _store.write_json(store / _store.MANIFEST, manifest)
+    except OSError as exc:
+        raise StudyError(
+            f"could not write the manifest of study store {str(store)!r} ({type(exc).__name__}: {exc}); "
+            "free disk space or fix permissions, or choose another store"
+        ) from exc
+    return manifest
 
 
 def load_study(store: str | Path, *, output: str | Path | None = None) -> xr.Dataset:
