@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["NLPResult", "SampleState"]
+__all__ = ["NLPResult", "SampleState", "max_violation"]
 
 
 @dataclass(frozen=True)
@@ -131,3 +131,14 @@ class NLPResult:
     x_opt: np.ndarray = field(repr=False)
     lam_x: np.ndarray = field(repr=False)
     lam_g: np.ndarray = field(repr=False)
+
+
+def max_violation(
+    x: np.ndarray, lbx: np.ndarray, ubx: np.ndarray, g: np.ndarray, lbg: np.ndarray, ubg: np.ndarray
+) -> float:
+    """The largest violation of a solution: of the variables ``x`` outside ``[lbx, ubx]`` and of the rows ``g``
+    outside ``[lbg, ubg]`` (each in its own unit; 0 when every bound holds)."""
+    return max(
+        float(np.max(np.concatenate([[0.0], lbg - g, g - ubg]))),
+        float(np.max(np.concatenate([[0.0], lbx - x, x - ubx]))),
+    )

@@ -75,6 +75,7 @@ from formulations.common import (
 )
 from formulations.disjunctive import select_sides
 from formulations.ipopt_options import IPOPT_DEFAULTS
+from formulations.nlp_result import max_violation
 from formulations.row_layout import row_blocks, row_bounds
 from formulations.sample_layout import SampleLayout
 from formulations.speed_nlp import SampleState, SpeedNLP
@@ -555,10 +556,7 @@ class RobustSpeedNLP:
         stats = self._solver.stats()
         x = np.asarray(sol["x"], dtype=float).ravel()
         g = np.asarray(sol["g"], dtype=float).ravel()
-        viol = max(
-            float(np.max(np.concatenate([[0.0], lbg - g, g - ubg]))),
-            float(np.max(np.concatenate([[0.0], lbx_a - x, x - ubx_a]))),
-        )
+        viol = max_violation(x, lbx_a, ubx_a, g, lbg, ubg)
         y, v, t = self._split(x)
         vals = self._values(y, v, t, fac)
         return RobustResult(

@@ -99,7 +99,7 @@ from formulations.ipopt_options import (
     checked_duals,
     jit_compiler,
 )
-from formulations.nlp_result import NLPResult, SampleState
+from formulations.nlp_result import NLPResult, SampleState, max_violation
 from formulations.row_layout import RowLegs, row_blocks, row_bounds, waypoint_time_bounds
 from formulations.sample_layout import SampleLayout, midpoint_layout
 from formulations.weather_grid import WeatherGrid
@@ -736,15 +736,21 @@ class SpeedNLP:
         started = time.perf_counter()
         sol = solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **duals)
         elapsed = time.perf_counter() - started
-        stats = solver.stats()
+        return self._result(sol, solver.stats(), elapsed, (lbx, ubx, lbg, ubg), side_arr, app_arr, eta_h)
+
+    def _result(
+        self, sol: Any, stats: dict, elapsed: float, bounds: tuple, side_arr: np.ndarray, app_arr: np.ndarray,
+        eta_h: float | None,
+    ) -> NLPResult:  # fmt: skip
+        """:meth:`solve`'s result from Ipopt's solution ``sol`` and ``stats`` (its status verbatim), the bounds
+        ``(lbx, ubx, lbg, ubg)`` it was solved under (the largest violation) and the sides imposed."""
+        n, m, nb = self.n_legs, self.samples_per_leg, self.n_bands
+        lbx, ubx, lbg, ubg = bounds
         x = np.asarray(sol["x"], dtype=float).ravel()
         lam_x = np.asarray(sol["lam_x"], dtype=float).ravel()
         lam_g = np.asarray(sol["lam_g"], dtype=float).ravel()
         g = np.asarray(sol["g"], dtype=float).ravel()
-        viol = max(
-            float(np.max(np.concatenate([[0.0], lbg - g, g - ubg]))),
-            float(np.max(np.concatenate([[0.0], lbx - x, x - ubx]))),
-        )
+        viol = max_violation(x, lbx, ubx, g, lbg, ubg)
         ev = self._eval(x)
         state = self._state(ev)
         y, v, t = self._unpack(x)
