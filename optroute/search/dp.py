@@ -483,7 +483,9 @@ def solve_dp(
         e_t, e_f = (labels.early_t[-1, c], labels.early_f[-1, c]) if least_fuel_only else (np.inf, np.inf)
         tail, value = _fuel_cut(e_t, e_f, opt.eta_h, floor_per_nm, lat_.rem_nm)
         if fuel_cut_t is not None:
-            value = min(value, float(finite("fuel_cut_t", fuel_cut_t, minimum=0.0, strict=True, error=ConfigError)))
+            cut_t = finite("fuel_cut_t", fuel_cut_t, minimum=0.0, strict=True, error=ConfigError,
+                           fix="give an incumbent plan's fuel [t], or None for no cut")  # fmt: skip
+            value = min(value, float(cut_t))
         cut = (tail, value)
     for k in range(lat_.n_stages):
         src_l, src_b = np.nonzero(np.isfinite(labels.fuel[k]))

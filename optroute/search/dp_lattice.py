@@ -50,7 +50,11 @@ def given_stations(
     """``stations`` checked: ``(lat, lon)`` (K+1, 2n+1) [deg] and ``lateral_nm`` (2n+1,) rising through 0 at the
     centre column n, whose first and last rows' centres are ``start`` and ``end``; as :func:`stage_geometry`'s."""
     if not isinstance(stations, tuple | list) or len(stations) != 3:
-        raise ConfigError("stations must be (lat_deg, lon_deg, lateral_nm): the stages' lateral states")
+        raise ConfigError(
+            f"stations must be (lat_deg, lon_deg, lateral_nm), the stages' lateral states, got {type(stations).__name__}"
+            f"{'' if not isinstance(stations, tuple | list) else f' of {len(stations)} items'}; build them with "
+            "optroute.optimise.starts.corridor_stations"
+        )
     lat = finite("stations' lat_deg", np.asarray(stations[0], dtype=float), error=ConfigError)
     lon = finite("stations' lon_deg", np.asarray(stations[1], dtype=float), error=ConfigError)
     lateral = finite("stations' lateral_nm", np.asarray(stations[2], dtype=float), error=ConfigError)
