@@ -58,7 +58,10 @@ __all__ = [
     "case_weather",
     "centreline_passage",
     "check_plan",
+    "corridor_passage",
+    "decide_by_brute_force",
     "make_case",
+    "passage_plan",
     "run_case",
     "summarise",
 ]
@@ -134,6 +137,9 @@ class CaseResult:
     start_in_bands: dict[str, dict[str, int] | None] = field(default_factory=dict)
     feasible: bool = False
     cpu_s: float = 0.0
+    # a minimum-time SolverFailure without any plan, decided by :func:`decide_by_brute_force`: the arrival [h] of the
+    # brute force's passage whose plan verify() and check_plan pass, None where its lattice found none (undecided)
+    brute_force_h: float | None = None
 
 
 # --------------------------------------------------------------------------- the generator
@@ -426,6 +432,24 @@ def check_plan(
     return findings, grazes
 
 
+def _allowed(weather, ship, model, t_h: np.ndarray, speeds: np.ndarray, points: tuple, end_h: float) -> np.ndarray:
+    """Whether each (state, speed, point) is allowed: inside the weather's span, outside every band, within the
+    engine's range [minimum load, MCR]. ``t_h`` (states, speeds, points) [h]; ``speeds`` [kn]; ``points`` = (lat, lon,
+    heading) [deg] along the segment."""
+    shape, inside = t_h.shape, t_h <= end_h
+    when = T0 + (np.minimum(t_h, end_h).ravel() * 3.6e12).astype("timedelta64[ns]")
+    flat = [np.broadcast_to(np.asarray(a)[None, None, :], shape).ravel() for a in points]
+    v = np.broadcast_to(speeds[None, :, None], shape).ravel()
+    w = _sample(weather, when, flat[0], flat[1])
+    ratios = band_ratios(ship, v, w["hs_m"], w["tp_s"], w["wave_from_deg"], flat[2])
+    good = inside.ravel().copy()
+    for band, (lo, hi) in BAND_RANGES.items():
+        good &= ~((ratios[band] > lo) & (ratios[band] < hi))
+    power = evaluate_speeds(ship, model, DEFAULT_RULES, flat[2], SeaState.from_sample(w), v, engine="numpy")[2]
+    good &= (power <= ship.mcr_kw * (1.0 + 1e-6)) & (power >= model.min_power_kw * (1.0 - 1e-6))
+    return good.reshape(shape)
+
+
 def centreline_passage(
     case: Case,
     weather: xr.Dataset,
@@ -462,21 +486,8 @@ def centreline_passage(
         t_h = (
             times[:, None, None] + (s_nm - edges[b])[None, None, :] / speeds[None, :, None]
         )  # (states, speeds, points)
-        shape, inside = t_h.shape, t_h <= end_h
-        when = T0 + (np.minimum(t_h, end_h).ravel() * 3.6e12).astype("timedelta64[ns]")
-        flat = [
-            np.broadcast_to(np.asarray(a)[None, None, :], shape).ravel()
-            for a in (lat, lon, (np.asarray(baz) + 180.0) % 360.0)
-        ]
-        v = np.broadcast_to(speeds[None, :, None], shape).ravel()
-        w = _sample(weather, when, flat[0], flat[1])
-        ratios = band_ratios(ship, v, w["hs_m"], w["tp_s"], w["wave_from_deg"], flat[2])
-        good = inside.ravel().copy()
-        for band, (lo, hi) in BAND_RANGES.items():
-            good &= ~((ratios[band] > lo) & (ratios[band] < hi))
-        power = evaluate_speeds(ship, model, DEFAULT_RULES, flat[2], SeaState.from_sample(w), v, engine="numpy")[2]
-        good &= (power <= ship.mcr_kw * (1.0 + 1e-6)) & (power >= model.min_power_kw * (1.0 - 1e-6))
-        prev, spd = np.nonzero(good.reshape(shape).all(axis=2))
+        good = _allowed(weather, ship, model, t_h, speeds, (lat, lon, (np.asarray(baz) + 180.0) % 360.0), end_h)
+        prev, spd = np.nonzero(good.all(axis=2))
         if prev.size == 0:
             return None
         arrive = times[prev] + (edges[b + 1] - edges[b]) / speeds[spd]
@@ -490,6 +501,98 @@ def centreline_passage(
         out.append(speeds[spd[state]])
         state = int(prev[state])
     return arrival, np.array(out[::-1])
+
+
+def _station_points(case: Case, edges_nm: np.ndarray, offsets_nm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lat, lon) [deg] of each station (``edges_nm`` along the centreline geodesic) and lateral offset [nm, to
+    starboard of the centreline's course positive], each (stations, offsets); the ends are the case's end points."""
+    (lat0, lon0), (lat1, lon1) = case.waypoints
+    az, _, _ = WGS84.inv(lon0, lat0, lon1, lat1)
+    n = edges_nm.size
+    clon, clat, cbaz = WGS84.fwd(np.full(n, lon0), np.full(n, lat0), np.full(n, az), edges_nm * 1852.0)
+    normal = (np.asarray(cbaz) + 270.0) % 360.0  # the course + 90°
+    lat, lon = np.empty((n, offsets_nm.size)), np.empty((n, offsets_nm.size))
+    for k, y in enumerate(offsets_nm):
+        lon[:, k], lat[:, k], _ = WGS84.fwd(clon, clat, normal, np.full(n, y * 1852.0))
+    lat[0], lon[0], lat[-1], lon[-1] = lat0, lon0, lat1, lon1
+    return lat, lon
+
+
+def corridor_passage(
+    case: Case,
+    weather: xr.Dataset,
+    ship: orx.Ship,
+    *,
+    block_nm: float = 5.0,
+    lanes: int = 2,
+    max_shift: int = 1,
+    inside: float = 0.98,
+    speed_step_kn: float = 0.5,
+    bucket_h: float = 0.5,
+    step_nm: float = 0.5,
+    v_min_kn: float = 3.0,
+) -> tuple[float, np.ndarray, np.ndarray] | None:
+    """The earliest passage through the case's corridor by brute force, across its width, independently of the
+    optimiser (:func:`centreline_passage` on lanes).
+
+    Stations every ``block_nm`` at most along the centreline carry ``2 lanes + 1`` lateral positions spread over
+    ``inside`` of the corridor's width; a block joins a position to one at most ``max_shift`` lanes aside by the
+    WGS84 geodesic between them, sailed at one speed through water from the ladder, and is allowed when every point
+    ``step_nm`` apart (ends included) is, as in :func:`centreline_passage` (bands, engine range, weather span). The
+    earliest arrival per lane and ``bucket_h`` is kept. None: no passage on that lattice (a statement about the
+    lattice only); else (arrival [h after departure], waypoints (n, 2) [deg], the block speeds [kn]).
+    """
+    (lat0, lon0), (lat1, lon1) = case.waypoints
+    d_nm = WGS84.inv(lon0, lat0, lon1, lat1)[2] / 1852.0
+    edges = np.linspace(0.0, d_nm, int(math.ceil(d_nm / block_nm)) + 1)
+    offsets = np.linspace(-1.0, 1.0, 2 * lanes + 1) * 0.5 * case.width_nm * inside
+    plat, plon = _station_points(case, edges, offsets)
+    speeds = np.unique(np.append(np.arange(v_min_kn, ship.max_calm_speed_kn, speed_step_kn), ship.max_calm_speed_kn))
+    end_h = float((weather["time"].values[-1] - T0) / np.timedelta64(1, "h"))
+    model = KwonModel(ship)
+    states, back = {lanes: np.zeros(1)}, []  # lane -> arrival times [h]; per block, lane -> (lane, state, speed)
+    for b in range(edges.size - 1):
+        reached: dict[int, list] = {}
+        for i, times in states.items():
+            for j in range(max(0, i - max_shift), min(offsets.size, i + max_shift + 1)):
+                az, _, seg_m = WGS84.inv(plon[b, i], plat[b, i], plon[b + 1, j], plat[b + 1, j])
+                s_nm = np.linspace(0.0, seg_m / 1852.0, max(2, int(math.ceil(seg_m / 1852.0 / step_nm)) + 1))
+                n = s_nm.size
+                lon, lat, baz = WGS84.fwd(np.full(n, plon[b, i]), np.full(n, plat[b, i]), np.full(n, az), s_nm * 1852.0)
+                t_h = times[:, None, None] + s_nm[None, None, :] / speeds[None, :, None]
+                good = _allowed(weather, ship, model, t_h, speeds, (lat, lon, (np.asarray(baz) + 180.0) % 360.0), end_h)
+                prev, spd = np.nonzero(good.all(axis=2))
+                if prev.size:
+                    arrive = times[prev] + s_nm[-1] / speeds[spd]
+                    reached.setdefault(j, []).append((arrive, np.full(prev.size, i), prev, spd))
+        if not reached:
+            return None
+        states, back_b = {}, {}
+        for j, parts in reached.items():
+            arrive, lane, prev, spd = (np.concatenate(x) for x in zip(*parts, strict=True))
+            bucket = np.floor(arrive / bucket_h)
+            order = np.lexsort((arrive, bucket))
+            keep = order[np.concatenate([[True], np.diff(bucket[order]) != 0])]
+            states[j], back_b[j] = arrive[keep], (lane[keep], prev[keep], spd[keep])
+        back.append(back_b)
+    lane = min(states, key=lambda k: float(states[k].min()))
+    state = int(np.argmin(states[lane]))
+    arrival, wp, stw = float(states[lane][state]), [(plat[-1, lane], plon[-1, lane])], []
+    for b in range(len(back) - 1, -1, -1):
+        prev_lane, prev, spd = (a[state] for a in back[b][lane])
+        stw.append(speeds[spd])
+        lane, state = int(prev_lane), int(prev)
+        wp.append((plat[b, lane], plon[b, lane]))
+    return arrival, np.array(wp[::-1]), np.array(stw[::-1])
+
+
+def passage_plan(case: Case, weather: xr.Dataset, ship: orx.Ship, found: tuple) -> orx.Plan:
+    """The plan of a :func:`corridor_passage` (its waypoints and block speeds) in the case's corridor, by the library's
+    :meth:`optroute.Plan.from_schedule`, for :meth:`~optroute.Plan.verify` and :func:`check_plan` to judge."""
+    corridor = orx.Corridor.from_waypoints(np.array(case.waypoints), width_nm=case.width_nm)
+    return orx.Plan.from_schedule(
+        found[1], found[2], departure=T0, ship=ship, weather=weather, corridor=corridor, use_land_mask=False
+    )
 
 
 # --------------------------------------------------------------------------- running a case
@@ -572,6 +675,26 @@ def run_case(case: Case, *, max_leg_nm: float = 50.0, constraint_rows: str | Non
     return res
 
 
+def decide_by_brute_force(res: CaseResult, **lattice: Any) -> float | None:
+    """Whether a minimum time that ended in SolverFailure without any plan was feasible after all: the case's
+    :func:`corridor_passage` (``lattice`` its keywords), its plan judged by ``verify()`` and :func:`check_plan`.
+
+    Where that plan passes both, the case is feasible (``res.feasible``; the SolverFailure then counts against the
+    target) and ``res.brute_force_h`` is its arrival [h]; where the lattice finds no passage, or its plan fails a
+    check, the case stays undetermined. Returns ``res.brute_force_h``.
+    """
+    if res.feasible or res.outcomes.get("time") != "SolverFailure":
+        return res.brute_force_h
+    case, ship = res.case, orx.Ship.preset(res.case.ship)
+    wx = case_weather(case)
+    found = corridor_passage(case, wx, ship, **{"lanes": 2 if case.width_nm > 0 else 0, **lattice})
+    if found is not None:
+        plan = passage_plan(case, wx, ship, found)
+        if plan.verify() == [] and check_plan(plan, wx, ship) == ([], 0):
+            res.feasible, res.brute_force_h = True, plan.duration_h
+    return res.brute_force_h
+
+
 def summarise(results: list[CaseResult]) -> dict[str, Any]:
     """Counts over cases: plans, violations by kind, SolverFailure share of the feasible cases, outcomes."""
     kinds: dict[str, int] = {}
@@ -603,6 +726,8 @@ def summarise(results: list[CaseResult]) -> dict[str, Any]:
         "undetermined_seeds": [
             r.case.seed for r in results if not r.feasible and r.outcomes.get("time") == "SolverFailure"
         ],
+        # of those, the ones the harness's brute force across the corridor found a verified passage in
+        "brute_force_feasible_seeds": [r.case.seed for r in results if r.brute_force_h is not None],
         "violating": violating,
         "outcomes": outcomes,
         # plans whose NLP's first solve passed verify() as it was (issue 13 item 3), of the plans returned

@@ -28,8 +28,10 @@ from tests.harness import (
     case_weather,
     centreline_passage,
     check_plan,
+    corridor_passage,
     fuel_not_worse,
     make_case,
+    passage_plan,
     run_case,
     summarise,
 )
@@ -209,6 +211,12 @@ def test_a_passage_an_independent_brute_force_finds_is_planned():
     assert found is not None
     arrival_h, speeds = found
     assert speeds.min() <= 4.0 and speeds.max() == pytest.approx(ship.max_calm_speed_kn)
+    # the brute force across a corridor, on one lane (this fixed path), is the centreline's: the same blocks, speeds
+    # and arrival (its segments start at each station, not at the departure: the points agree to rounding)
+    lane = corridor_passage(case, wx, ship, block_nm=10.0, lanes=0)
+    assert lane is not None and lane[0] == pytest.approx(arrival_h, rel=1e-12)
+    np.testing.assert_array_equal(lane[2], speeds)
+    assert check_plan(passage_plan(case, wx, ship, lane), wx, ship) == ([], 0)
     plan = orx.optimise_corridor(corridor, wx, ship, departure=T0, objective="time")
     assert plan.verify() == [] and check_plan(plan, wx, ship) == ([], 0)
     assert plan.duration_h <= arrival_h * (1.0 + 1e-6)
