@@ -469,38 +469,14 @@ def centreline_passage(
     included), at the time the ship is there, is outside every band (:func:`band_ratios`, strictly inside a band
     range is out), within the engine's range [minimum load, MCR] and inside the weather's time span. Every arrival
     time at a block end is kept, one per ``bucket_h`` (the earliest). None: no passage on that lattice (a statement
-    about the lattice only); else (arrival [h after departure], the block speeds [kn]).
+    about the lattice only); else (arrival [h after departure], the block speeds [kn]). :func:`corridor_passage` on
+    its one lane.
     """
-    (lat0, lon0), (lat1, lon1) = case.waypoints
-    az, _, d_m = WGS84.inv(lon0, lat0, lon1, lat1)
-    edges = np.linspace(0.0, d_m / 1852.0, int(math.ceil(d_m / 1852.0 / block_nm)) + 1)
-    speeds = np.unique(np.append(np.arange(v_min_kn, ship.max_calm_speed_kn, speed_step_kn), ship.max_calm_speed_kn))
-    end_h = float((weather["time"].values[-1] - T0) / np.timedelta64(1, "h"))
-    model = KwonModel(ship)
-    times, back = np.zeros(1), []
-    for b in range(edges.size - 1):
-        s_nm = np.linspace(edges[b], edges[b + 1], max(2, int(math.ceil((edges[b + 1] - edges[b]) / step_nm)) + 1))
-        lon, lat, baz = WGS84.fwd(
-            np.full(s_nm.size, lon0), np.full(s_nm.size, lat0), np.full(s_nm.size, az), s_nm * 1852.0
-        )
-        t_h = (
-            times[:, None, None] + (s_nm - edges[b])[None, None, :] / speeds[None, :, None]
-        )  # (states, speeds, points)
-        good = _allowed(weather, ship, model, t_h, speeds, (lat, lon, (np.asarray(baz) + 180.0) % 360.0), end_h)
-        prev, spd = np.nonzero(good.all(axis=2))
-        if prev.size == 0:
-            return None
-        arrive = times[prev] + (edges[b + 1] - edges[b]) / speeds[spd]
-        order = np.lexsort((arrive, np.floor(arrive / bucket_h)))
-        keep = order[np.concatenate([[True], np.diff(np.floor(arrive[order] / bucket_h)) != 0])]
-        times = arrive[keep]
-        back.append((prev[keep], spd[keep]))
-    state, out = int(np.argmin(times)), []
-    arrival = float(times[state])
-    for prev, spd in reversed(back):
-        out.append(speeds[spd[state]])
-        state = int(prev[state])
-    return arrival, np.array(out[::-1])
+    found = corridor_passage(
+        case, weather, ship, block_nm=block_nm, lanes=0, speed_step_kn=speed_step_kn, bucket_h=bucket_h,
+        step_nm=step_nm, v_min_kn=v_min_kn,
+    )  # fmt: skip
+    return None if found is None else (found[0], found[2])
 
 
 def _station_points(case: Case, edges_nm: np.ndarray, offsets_nm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -533,7 +509,7 @@ def corridor_passage(
     v_min_kn: float = 3.0,
 ) -> tuple[float, np.ndarray, np.ndarray] | None:
     """The earliest passage through the case's corridor by brute force, across its width, independently of the
-    optimiser (:func:`centreline_passage` on lanes).
+    optimiser (on one lane, ``lanes=0``, along the centreline: :func:`centreline_passage`).
 
     Stations every ``block_nm`` at most along the centreline carry ``2 lanes + 1`` lateral positions spread over
     ``inside`` of the corridor's width; a block joins a position to one at most ``max_shift`` lanes aside by the
