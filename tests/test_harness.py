@@ -207,13 +207,12 @@ def test_a_passage_an_independent_brute_force_finds_is_planned():
     (the start stage's timed passage on 10 nm blocks, where no local start verifies) that passes the same check and
     arrives no later than that passage. About 5 CPU-s."""
     case, ship, wx, corridor = _case(20)
-    found = centreline_passage(case, wx, ship)
+    found = corridor_passage(case, wx, ship, block_nm=10.0, lanes=0)  # centreline_passage, with its waypoints
     assert found is not None
-    arrival_h, speeds = found
+    arrival_h, _, speeds = found
     assert speeds.min() <= 4.0 and speeds.max() == pytest.approx(ship.max_calm_speed_kn)
     # the brute force's own passage, made a plan, passes the 0.1 nm check and the referee
-    lane = corridor_passage(case, wx, ship, block_nm=10.0, lanes=0)
-    passage = passage_plan(case, wx, ship, lane)
+    passage = passage_plan(case, wx, ship, found)
     assert check_plan(passage, wx, ship) == ([], 0) and passage.verify() == []
     assert passage.duration_h == pytest.approx(arrival_h, rel=1e-9)
     plan = orx.optimise_corridor(corridor, wx, ship, departure=T0, objective="time")
