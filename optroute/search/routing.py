@@ -240,24 +240,10 @@ def search_route(
         raise ConfigError(f"objective={objective!r} is not known; use 'time', 'fuel' or 'cost'")
     if method not in ("astar", "dijkstra", "dp"):
         raise ConfigError(f"method={method!r} is not known; use 'astar', 'dijkstra' or 'dp'")
-    t0 = _as_time(departure, "departure")
-    eta_h = None
-    if eta is not None:
-        eta_t = _as_time(eta, "eta")
-        eta_h = float((eta_t - t0) / np.timedelta64(1, "s")) / 3600.0
-        if eta_h <= 0:
-            raise ConfigError(
-                f"eta={units.format_utc(eta_t)} is not after departure={units.format_utc(t0)}; give an arrival later than the departure"
-            )
+    t0, eta_h = _departure_and_eta_h(departure, eta)
     ds = weather if isinstance(weather, xr.Dataset) else None
     sampler = as_sampler(weather)
-    first_t, last_t = sampler.extent["time"]
-    if sampler.time_policy == "raise" and not first_t <= t0 <= last_t:
-        raise WeatherCoverageError(
-            f"departure={units.format_utc(t0)} lies outside the weather's time span {units.format_utc(first_t)} to "
-            f"{units.format_utc(last_t)}; give a departure inside "
-            "it or a forecast that covers it"
-        )
+    _require_departure_in_span(sampler, t0)
     model = model if model is not None else default_model(ship)
     rules = rules if rules is not None else BandRules()
     desired = float(desired_speed_kn if desired_speed_kn is not None else ship.design_speed_kn)
@@ -267,35 +253,13 @@ def search_route(
                fix="give the fuel price per tonne, > 0 (e.g. 600)")  # fmt: skip
         finite("hourly_cost_per_h", hourly_cost_per_h, minimum=0.0, error=ConfigError,
                fix="give the ship's cost per hour, >= 0 (0 makes the cost least fuel alone)")  # fmt: skip
-    top = min(ship.max_calm_speed_kn, 40.0)
-    speeds = (
-        finite("speeds_kn", speeds_kn, minimum=0.0, strict=True, error=ConfigError).ravel()
-        if speeds_kn is not None
-        else np.arange(5.0, np.floor(top * 2) / 2 + 1e-9, 0.5)
-    )
+    speeds = _speed_set(ship, speeds_kn)
     physics = PassagePhysics(ship, model, rules, sampler, t0, compiled=bool(compiled))
-
-    clearance = 0.5 * cell_nm if method != "dp" else 0.5
     snap_nm = float(snap_max_nm) if snap_max_nm is not None else 20.0 + 2.0 * cell_nm
-    for p, w in ((start, "start"), (end, "end")):  # outside the weather is not "on land": say which it is
-        sampler.require_area(*p, what=w)
-    start, end = (
-        land.snap_to_sea(
-            *p,
-            snap_nm,
-            clearance_nm=clearance,
-            weather=ds,
-            time=t0,
-            use_land_mask=use_land_mask,
-            what=w,
-            fix="give a position at sea, e.g. a pilot station off the port",
-        )
-        for p, w in ((start, "start"), (end, "end"))
-    )
-    # the fastest any leg can go over ground: the speed ceiling of the objective plus the strongest current
-    top_kn = desired if objective == "time" and lambda_t_per_h is None else float(speeds.max())
-    v_bound = top_kn + _max_current_kn(ds) + 1e-6
-
+    start, end = _snapped_ends(
+        start, end, sampler, ds, t0, snap_nm, clearance_nm=0.5 * cell_nm if method != "dp" else 0.5,
+        use_land_mask=use_land_mask,
+    )  # fmt: skip
     if method == "dp":
         coast = (
             use_land_mask
@@ -305,6 +269,83 @@ def search_route(
         return search_dp(
             physics, start, end, eta_h, speeds, dict(dp_options or {}), objective, t_start, bool(coast), exclusion
         )
+    # the fastest any leg can go over ground: the speed ceiling of the objective plus the strongest current
+    top_kn = desired if objective == "time" and lambda_t_per_h is None else float(speeds.max())
+    grid = RouteGrid.build(
+        start, end, cell_nm=cell_nm, margin_nm=margin_nm, navigable=_navigable(sampler, ds, t0, use_land_mask)
+    )
+    check = (
+        None
+        if band_check_nm is None
+        else float(finite("band_check_nm", band_check_nm, minimum=0.0, strict=True, error=ConfigError))
+    )
+    search = _GridSearch(
+        physics, grid, _neighbourhood(angular_resolution_deg, directions, radius_cells), exclusion, objective,
+        method, eta_h, desired, speed_step_kn, min_speed_kn, speeds, check, top_kn, top_kn + _max_current_kn(ds) + 1e-6,
+    )  # fmt: skip
+    try:
+        res, lam_used = run_objective(
+            search.run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t, stop_at_track,
+            lambda lam: physics.calm_cheapest_speed_kn(speeds, lam),
+        )  # fmt: skip
+    except NoSafePassage as exc:
+        raise explain_uncovered(exc, physics) from None
+    except InfeasibleETA as exc:
+        raise eta_as_time(exc, t0) from None
+    except WeatherCoverageError as exc:
+        last_t = sampler.extent["time"][1]
+        raise WeatherCoverageError(f"{exc} (the weather ends at {units.format_utc(last_t)})") from None
+    return _route_from_search(res, physics, t0, objective, method, lam_used, t_start, search.searches)
+
+
+def _departure_and_eta_h(departure: Any, eta: Any) -> tuple[np.datetime64, float | None]:
+    """The departure [UTC] and the ETA [h after it] (None without one), checked: the ETA after the departure."""
+    t0 = _as_time(departure, "departure")
+    if eta is None:
+        return t0, None
+    eta_t = _as_time(eta, "eta")
+    eta_h = float((eta_t - t0) / np.timedelta64(1, "s")) / 3600.0
+    if eta_h <= 0:
+        raise ConfigError(
+            f"eta={units.format_utc(eta_t)} is not after departure={units.format_utc(t0)}; give an arrival later than "
+            "the departure"
+        )
+    return t0, eta_h
+
+
+def _require_departure_in_span(sampler: WeatherSampler, t0: np.datetime64) -> None:
+    first_t, last_t = sampler.extent["time"]
+    if sampler.time_policy == "raise" and not first_t <= t0 <= last_t:
+        raise WeatherCoverageError(
+            f"departure={units.format_utc(t0)} lies outside the weather's time span {units.format_utc(first_t)} to "
+            f"{units.format_utc(last_t)}; give a departure inside it or a forecast that covers it"
+        )
+
+
+def _speed_set(ship: Ship, speeds_kn: ArrayLike | None) -> np.ndarray:
+    """The discrete speeds [kn]: those given, checked, or 5, 5.5, … up to the ship's calm-water top speed (≤ 40)."""
+    if speeds_kn is not None:
+        return finite("speeds_kn", speeds_kn, minimum=0.0, strict=True, error=ConfigError).ravel()
+    top = min(ship.max_calm_speed_kn, 40.0)
+    return np.arange(5.0, np.floor(top * 2) / 2 + 1e-9, 0.5)
+
+
+def _snapped_ends(start, end, sampler, ds, t0, snap_nm, *, clearance_nm, use_land_mask) -> tuple:
+    """Start and end inside the weather's area (else :class:`WeatherCoverageError`, not "on land"), moved to
+    navigable water within ``snap_nm`` with ``clearance_nm`` of sea around them (:func:`optroute.geo.land.snap_to_sea`)."""
+    for p, w in ((start, "start"), (end, "end")):  # outside the weather is not "on land": say which it is
+        sampler.require_area(*p, what=w)
+    return tuple(
+        land.snap_to_sea(
+            *p, snap_nm, clearance_nm=clearance_nm, weather=ds, time=t0, use_land_mask=use_land_mask, what=w,
+            fix="give a position at sea, e.g. a pilot station off the port",
+        )
+        for p, w in ((start, "start"), (end, "end"))
+    )  # fmt: skip
+
+
+def _navigable(sampler: WeatherSampler, ds: xr.Dataset | None, t0, use_land_mask: bool | None) -> Callable:
+    """The grid's navigability test: inside the weather at the departure and at sea (the coastline as asked)."""
 
     def nav(lat, lon):
         covered = sampler.covers(np.full(np.shape(lat), t0), lat, lon)
@@ -317,46 +358,35 @@ def search_route(
             )
         return out
 
-    grid = RouteGrid.build(start, end, cell_nm=cell_nm, margin_nm=margin_nm, navigable=nav)
-    hood = _neighbourhood(angular_resolution_deg, directions, radius_cells)
+    return nav
 
-    check = (
-        None
-        if band_check_nm is None
-        else float(finite("band_check_nm", band_check_nm, minimum=0.0, strict=True, error=ConfigError))
-    )
 
-    limit_h = _time_limit_h(sampler, t0, check)
+class _GridSearch:
+    """One grid search per call of :meth:`run` (a λ of the objective's outer search), counted in ``searches``
+    (the failing ones included: ``stats["searches"]``)."""
 
-    searches = [0]  # grid searches run, the failing ones included (stats["searches"])
+    def __init__(self, physics, grid, hood, exclusion, objective, method, eta_h, desired, step_kn, min_kn, speeds,
+                 check, top_kn, v_bound) -> None:  # fmt: skip
+        self.physics, self.grid, self.hood, self.exclusion = physics, grid, hood, exclusion
+        self.objective, self.method, self.eta_h = objective, method, eta_h
+        self.desired, self.step_kn, self.min_kn, self.speeds, self.check = desired, step_kn, min_kn, speeds, check
+        self.top_kn, self.v_bound = top_kn, v_bound
+        self.limit_h = _time_limit_h(physics.sampler, physics.departure, check)
+        self.searches = 0
 
-    def run(lam: float | None, ceiling: float | None = None):
-        searches[0] += 1
-        if objective == "time" and lam is None:
-            cb = _avoid(physics.segment_time(desired, speed_step_kn, min_speed_kn, check), exclusion, t0)
-            return shortest_path(
-                grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="time", eta_h=eta_h,
-                time_limit_h=limit_h,
-            )  # fmt: skip
-        cb = _avoid(physics.segment_cheapest(speeds, lam, check), exclusion, t0)
+    def run(self, lam: float | None, ceiling: float | None = None):
+        self.searches += 1
+        physics, t0 = self.physics, self.physics.departure
+        common = {"v_max_kn": self.v_bound, "method": self.method, "time_limit_h": self.limit_h}
+        if self.objective == "time" and lam is None:
+            cb = _avoid(physics.segment_time(self.desired, self.step_kn, self.min_kn, self.check), self.exclusion, t0)
+            return shortest_path(self.grid, self.hood, segment_cost=cb, objective="time", eta_h=self.eta_h, **common)
+        cb = _avoid(physics.segment_cheapest(self.speeds, lam, self.check), self.exclusion, t0)
         return shortest_path(
-            grid, hood, v_max_kn=v_bound, segment_cost=cb, method=method, objective="cost", lambda_t_per_h=lam,
-            cost_floor_per_nm=physics.cost_floor_per_nm(speeds, lam, v_bound - top_kn), time_limit_h=limit_h,
-            cost_ceiling=ceiling,
+            self.grid, self.hood, segment_cost=cb, objective="cost", lambda_t_per_h=lam,
+            cost_floor_per_nm=physics.cost_floor_per_nm(self.speeds, lam, self.v_bound - self.top_kn),
+            cost_ceiling=ceiling, **common,
         )  # fmt: skip
-
-    try:
-        res, lam_used = run_objective(
-            run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t, stop_at_track,
-            lambda lam: physics.calm_cheapest_speed_kn(speeds, lam),
-        )  # fmt: skip
-    except NoSafePassage as exc:
-        raise explain_uncovered(exc, physics) from None
-    except InfeasibleETA as exc:
-        raise eta_as_time(exc, t0) from None
-    except WeatherCoverageError as exc:
-        raise WeatherCoverageError(f"{exc} (the weather ends at {units.format_utc(last_t)})") from None
-    return _route_from_search(res, physics, t0, objective, method, lam_used, t_start, searches[0])
 
 
 def _time_limit_h(sampler: WeatherSampler, t0: np.datetime64, check_nm: float | None) -> float | None:
