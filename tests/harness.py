@@ -140,6 +140,10 @@ class CaseResult:
     # a minimum-time SolverFailure without any plan, decided by :func:`decide_by_brute_force`: the arrival [h] of the
     # brute force's passage whose plan verify() and check_plan pass, None where its lattice found none (undecided)
     brute_force_h: float | None = None
+    # that passage's verify() violations with its departure shifted [min -> count] (:func:`timing_margin`)
+    brute_force_margin: dict[int, int] | None = None
+    # per verified plan returned: its verify() violations with the departure a minute late
+    margins: dict[str, dict[int, int]] = field(default_factory=dict)
 
 
 # --------------------------------------------------------------------------- the generator
@@ -571,6 +575,39 @@ def passage_plan(case: Case, weather: xr.Dataset, ship: orx.Ship, found: tuple) 
     )
 
 
+#: Departure delays [min] at which :func:`timing_margin` re-judges a plan (the same waypoints and speeds). Only
+#: delays: every case's weather begins at its departure, so an earlier one is a coverage violation, not a finding.
+TIMING_SHIFTS_MIN = (1, 2, 5)
+
+
+def timing_margin(plan: orx.Plan, shifts_min: tuple[int, ...] = TIMING_SHIFTS_MIN) -> dict[int, int]:
+    """How many violations ``verify()`` finds in ``plan`` sailed with its departure shifted by each of ``shifts_min``
+    [min]: the same waypoints and speeds through water, the same ship, model, rules, weather, corridor, exclusion
+    and land check; no ETA (a later departure is late by its shift). Keyed by the shift.
+
+    A plan whose safety depends on keeping its schedule to the minute through a storm's bands is one no ship can
+    sail as planned: where leaving one minute late breaks it, the harness calls it a knife edge (:func:`knife_edge`). A brute-force passage that is one still makes its case feasible, and the case's
+    SolverFailure still counts against the target; the count of knife edges is reported beside it, for the
+    optimiser's plans as for the brute force's.
+    """
+    ctx = plan.context
+    weather = ctx.dataset if ctx.dataset is not None else ctx.sampler
+    out = {}
+    for m in shifts_min:
+        shifted = orx.Plan.from_schedule(
+            plan.waypoints, plan.legs["stw_kn"].to_numpy(), departure=plan.departure + np.timedelta64(m * 60, "s"),
+            ship=ctx.ship, weather=weather, model=ctx.model, rules=ctx.rules, corridor=ctx.corridor,
+            exclusion=ctx.exclusion, use_land_mask=ctx.use_land_mask,
+        )  # fmt: skip
+        out[m] = len(shifted.verify())
+    return out
+
+
+def knife_edge(margin: dict[int, int] | None) -> bool:
+    """Whether a :func:`timing_margin` shows the plan broken by a departure one minute late."""
+    return margin is not None and margin.get(1, 0) > 0
+
+
 # --------------------------------------------------------------------------- running a case
 
 
@@ -600,6 +637,8 @@ def _solve(
     res.outcomes[name] = f"plan:{plan.status}"
     res.findings[name], res.grazes[name] = check_plan(plan, wx, ship, eta=eta)
     res.referee[name] = len(plan.verify())  # the baseline: the plan's own referee at its default 5 nm
+    if res.referee[name] == 0:
+        res.margins[name] = timing_margin(plan, (1,))
     res.first_solve[name] = str(plan.solver_stats.get("first_solve", "not recorded"))
     res.start_in_bands[name] = plan.solver_stats.get("verified_start_in_nlp_bands")
     return plan
@@ -668,6 +707,7 @@ def decide_by_brute_force(res: CaseResult, **lattice: Any) -> float | None:
         plan = passage_plan(case, wx, ship, found)
         if plan.verify() == [] and check_plan(plan, wx, ship) == ([], 0):
             res.feasible, res.brute_force_h = True, plan.duration_h
+            res.brute_force_margin = timing_margin(plan)
     return res.brute_force_h
 
 
@@ -704,6 +744,11 @@ def summarise(results: list[CaseResult]) -> dict[str, Any]:
         ],
         # of those, the ones the harness's brute force across the corridor found a verified passage in
         "brute_force_feasible_seeds": [r.case.seed for r in results if r.brute_force_h is not None],
+        # of those, the ones whose passage breaks with its departure a minute early and a minute late (knife edges)
+        "knife_edge_seeds": [r.case.seed for r in results if knife_edge(r.brute_force_margin)],
+        # verified plans the optimiser returned, and of those the ones a minute's shift of departure breaks
+        "plans_timed": sum(len(r.margins) for r in results),
+        "plans_knife_edge": sum(knife_edge(m) for r in results for m in r.margins.values()),
         "violating": violating,
         "outcomes": outcomes,
         # plans whose NLP's first solve passed verify() as it was (issue 13 item 3), of the plans returned

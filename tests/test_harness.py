@@ -30,10 +30,12 @@ from tests.harness import (
     check_plan,
     corridor_passage,
     fuel_not_worse,
+    knife_edge,
     make_case,
     passage_plan,
     run_case,
     summarise,
+    timing_margin,
 )
 
 T0 = np.datetime64("2024-01-10T00:00", "ns")
@@ -103,6 +105,29 @@ def test_a_fuel_plan_worse_than_the_minimum_time_plan_at_its_eta_is_a_finding():
     assert found[0].value == uneven.total_fuel_t and found[0].limit == even.total_fuel_t
     assert fuel_not_worse(even, [uneven], uneven.arrival) == []  # the better plan is no finding
     assert fuel_not_worse(uneven, [even], even.arrival - np.timedelta64(1, "m")) == []  # late for that ETA: no bound
+
+
+def test_a_plan_that_leaves_the_band_a_few_seconds_before_it_applies_is_a_knife_edge():
+    """By hand: following seas at the synchronous-roll speed (T_E/T_R = 1), Hs rising linearly from 6 m at 0 h to
+    8 m at 6 h, so the band applies (Hs >= 0.04 L = 6.8 m) from 2.4 h. A plan arriving 10 s before then verifies;
+    leaving 1 or 5 min late puts its last 50 s or 290 s (0.17 / 0.98 nm at 12.2 kn) in the band, which
+    :func:`timing_margin` finds. Arriving 10 min early it has a margin of more than 5 min. A shift of 0 is the
+    plan itself."""
+    wx = _following_sea()
+    hours = (wx.time - wx.time[0]) / np.timedelta64(1, "h")
+    wx["hs_m"] = (6.0 + 2.0 * hours / 6.0).clip(max=8.0).broadcast_like(wx.hs_m).transpose(*wx.hs_m.dims)
+    v = _sync_roll_speed_kn(12.0)
+    sailing_h = orx.Plan.from_schedule(WP, [v], departure=T0, ship=SHIP, weather=wx).duration_h  # no current
+    plans = {}
+    for early_s in (10, 600):
+        departure = T0 + np.timedelta64(int(round((2.4 - sailing_h) * 3600.0 - early_s)), "s")
+        plans[early_s] = orx.Plan.from_schedule(WP, [v], departure=departure, ship=SHIP, weather=wx)
+        assert plans[early_s].verify() == []
+    edge = timing_margin(plans[10], (0, 1, 5))
+    assert edge[0] == 0 and edge[1] >= 1 and edge[5] >= 1 and knife_edge(edge)
+    roomy = timing_margin(plans[600], (1, 5))
+    assert roomy == {1: 0, 5: 0} and not knife_edge(roomy)
+    assert knife_edge(None) is False
 
 
 def test_the_generator_is_seeded():
