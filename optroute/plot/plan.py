@@ -109,7 +109,24 @@ def plan_profile_figure(plan: Plan, *, title: str | None = None, x: Literal["tim
     FigureCanvasAgg(fig)
     ax_v, ax_p, ax_h, ax_m = fig.subplots(4, 1, sharex=True, height_ratios=[1.0, 1.0, 0.9, 1.2])
 
-    # 1 - speed
+    _speed_panel(ax_v, legs, edges, x, dist_nm, time_h)
+    _power_panel(ax_p, legs, edges, ship)
+    threshold_m = _sea_panel(ax_h, legs, edges, ship, rules)
+    _margin_panel(ax_m, legs, edges, rules, threshold_m)
+    ax_m.set_xlabel("distance sailed [nm]" if x == "distance" else "time since departure [h]")
+    ax_m.set_xlim(edges[0], edges[-1])
+
+    fig.suptitle(
+        title
+        or f"Passage profile: {plan.distance_nm:,.0f} nm in {fmt_duration(plan.duration_h)}, "
+        f"{plan.total_fuel_t:,.0f} t fuel ({plan.status}); {getattr(ship, 'name', 'ship')}, "
+        f"{rules.rule_set} danger bands"
+    )
+    return fig
+
+
+def _speed_panel(ax_v, legs, edges: np.ndarray, x: str, dist_nm: np.ndarray, time_h: np.ndarray) -> None:
+    """Panel 1: SOG and STW [kn] per leg, the other of distance [nm] and days [d] along the top."""
     ax_v.stairs(
         legs["sog_kn"].to_numpy(dtype=float), edges, baseline=None, lw=2.0, color="C0", label="speed over ground (SOG)"
     )
@@ -138,7 +155,9 @@ def plan_profile_figure(plan: Plan, *, title: str | None = None, x: Literal["tim
         )
         top.set_xlabel("distance sailed [nm]")
 
-    # 2 - power against MCR and the minimum load
+
+def _power_panel(ax_p, legs, edges: np.ndarray, ship) -> None:
+    """Panel 2: brake power [MW] against the MCR and the minimum load, % MCR on the right."""
     mcr_mw = ship.mcr_kw / 1000.0
     ax_p.stairs(
         legs["power_kw"].to_numpy(dtype=float) / 1000.0,
@@ -163,7 +182,9 @@ def plan_profile_figure(plan: Plan, *, title: str | None = None, x: Literal["tim
     right.set_ylabel("[% MCR]")
     ax_p.legend(loc="lower left", fontsize=8, ncols=3)
 
-    # 3 - sea state against the bands' threshold
+
+def _sea_panel(ax_h, legs, edges: np.ndarray, ship, rules) -> float:
+    """Panel 3: Hs [m] (leg mean) against the bands' threshold; returns that threshold [m]."""
     hs = legs["hs_m"].to_numpy(dtype=float)
     threshold_m = rules.hs_threshold_fraction * ship.length_m
     ax_h.stairs(hs, edges, baseline=0.0, fill=True, color="C0", alpha=0.35, label="Hs (leg mean)")
@@ -177,8 +198,11 @@ def plan_profile_figure(plan: Plan, *, title: str | None = None, x: Literal["tim
     ax_h.set_ylim(0.0, 1.15 * max(threshold_m, float(np.nanmax(hs)) if np.isfinite(hs).any() else 0.0))
     ax_h.set_ylabel("Hs [m]")
     ax_h.legend(loc="upper left", fontsize=8, ncols=2)
+    return threshold_m
 
-    # 4 - margins to the danger bands
+
+def _margin_panel(ax_m, legs, edges: np.ndarray, rules, threshold_m: float) -> None:
+    """Panel 4: the smallest margin to each danger band per leg [ratio units], blank where a band does not apply."""
     finite_margins: list[np.ndarray] = []
     for band in BANDS:
         col = f"margin_{band}"
@@ -211,16 +235,6 @@ def plan_profile_figure(plan: Plan, *, title: str | None = None, x: Literal["tim
         ax_m.set_ylim(min(-0.05, 1.3 * lowest), max(0.25, min(1.5, 1.1 * highest)))
     ax_m.set_ylabel("margin to band\n[ratio units, > 0 clear]")
     ax_m.legend(loc="upper left", fontsize=7.5, ncols=3)
-    ax_m.set_xlabel("distance sailed [nm]" if x == "distance" else "time since departure [h]")
-    ax_m.set_xlim(edges[0], edges[-1])
-
-    fig.suptitle(
-        title
-        or f"Passage profile: {plan.distance_nm:,.0f} nm in {fmt_duration(plan.duration_h)}, "
-        f"{plan.total_fuel_t:,.0f} t fuel ({plan.status}); {getattr(ship, 'name', 'ship')}, "
-        f"{rules.rule_set} danger bands"
-    )
-    return fig
 
 
 def plan_map_figure(
