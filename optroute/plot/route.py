@@ -202,7 +202,23 @@ def hs_map(
     centre = 0.5 * (first.lon.min() + first.lon.max())
     lat_w, lon_w, hs = _hs_field(weather, t_map, centre)
     shifted = [(tr, tr.lon + 360.0 * np.round((centre - 0.5 * (tr.lon.min() + tr.lon.max())) / 360.0)) for tr in tracks]
-    # view: the weather's box, or about the tracks when the weather is global
+    x0, x1, y0, y1 = _map_view(lat_w, lon_w, shifted, tracks)
+
+    vmax = max(1.0, float(np.nanmax(hs)) if np.isfinite(hs).any() else 1.0)
+    mesh = ax.pcolormesh(lon_w, lat_w, hs, shading="auto", cmap="viridis", vmin=0.0, vmax=vmax, rasterized=True)
+    ax.figure.colorbar(mesh, ax=ax, label="significant wave height Hs [m]", shrink=0.8, pad=0.02)
+    if hs_threshold_m is not None and np.nanmax(hs) >= hs_threshold_m:
+        ax.contour(lon_w, lat_w, hs, levels=[hs_threshold_m], colors="red", linewidths=1.0)
+        ax.plot([], [], color="red", lw=1.0, label=f"Hs = {hs_threshold_m:.1f} m: the danger bands apply inside")
+    if weather.attrs.get("geography") != land.SYNTHETIC_GEOGRAPHY:
+        _draw_land(ax, (x0, x1, y0, y1), float(land_resolution_deg))
+    _draw_tracks(ax, shifted, t_map)
+    _frame(ax, x0, x1, y0, y1)
+    return t_map
+
+
+def _map_view(lat_w: np.ndarray, lon_w: np.ndarray, shifted: list, tracks: Sequence[Track]) -> tuple[float, ...]:
+    """The map's box (x0, x1, y0, y1) [deg]: the weather's, or about the tracks when the weather is global."""
     all_lon = np.concatenate([lo for _, lo in shifted])
     all_lat = np.concatenate([tr.lat for tr in tracks])
     x0, x1 = float(lon_w.min()), float(lon_w.max())
@@ -212,26 +228,25 @@ def hs_map(
         x0, x1 = max(x0, all_lon.min() - pad), min(x1, all_lon.max() + pad)
     if y1 - y0 >= 150.0:
         y0, y1 = max(y0, all_lat.min() - 10.0), min(y1, all_lat.max() + 10.0)
+    return x0, x1, y0, y1
 
-    vmax = max(1.0, float(np.nanmax(hs)) if np.isfinite(hs).any() else 1.0)
-    mesh = ax.pcolormesh(lon_w, lat_w, hs, shading="auto", cmap="viridis", vmin=0.0, vmax=vmax, rasterized=True)
-    ax.figure.colorbar(mesh, ax=ax, label="significant wave height Hs [m]", shrink=0.8, pad=0.02)
-    handles_extra = []
-    if hs_threshold_m is not None and np.nanmax(hs) >= hs_threshold_m:
-        ax.contour(lon_w, lat_w, hs, levels=[hs_threshold_m], colors="red", linewidths=1.0)
-        (h,) = ax.plot([], [], color="red", lw=1.0, label=f"Hs = {hs_threshold_m:.1f} m: the danger bands apply inside")
-        handles_extra.append(h)
-    if weather.attrs.get("geography") != land.SYNTHETIC_GEOGRAPHY:
-        step = float(land_resolution_deg)
-        glat = np.arange(y0, y1 + step / 2, step)
-        glon = np.arange(x0, x1 + step / 2, step)
-        la, lo = np.meshgrid(glat, glon, indexing="ij")
-        on_land = land.is_land(la.ravel(), ((lo.ravel() + 180.0) % 360.0) - 180.0).reshape(la.shape)
-        if on_land.any():
-            ax.contourf(glon, glat, on_land.astype(float), levels=[0.5, 1.5], colors=[LAND_COLOUR])
-            ax.contour(glon, glat, on_land.astype(float), levels=[0.5], colors="#6b5d3f", linewidths=0.5)
-            ax.fill_between([], [], color=LAND_COLOUR, label="land")
 
+def _draw_land(ax: Axes, box: tuple[float, ...], step: float) -> None:
+    """Shade the land (GLOBE mask) in ``box`` (x0, x1, y0, y1) [deg] on a raster of ``step`` [deg]."""
+    x0, x1, y0, y1 = box
+    glat = np.arange(y0, y1 + step / 2, step)
+    glon = np.arange(x0, x1 + step / 2, step)
+    la, lo = np.meshgrid(glat, glon, indexing="ij")
+    on_land = land.is_land(la.ravel(), ((lo.ravel() + 180.0) % 360.0) - 180.0).reshape(la.shape)
+    if on_land.any():
+        ax.contourf(glon, glat, on_land.astype(float), levels=[0.5, 1.5], colors=[LAND_COLOUR])
+        ax.contour(glon, glat, on_land.astype(float), levels=[0.5], colors="#6b5d3f", linewidths=0.5)
+        ax.fill_between([], [], color=LAND_COLOUR, label="land")
+
+
+def _draw_tracks(ax: Axes, shifted: list, t_map: np.datetime64) -> None:
+    """The tracks (the first in bold white), each ship's position at ``t_map``, the first track's ends."""
+    first = shifted[0][0]
     outline = [patheffects.Stroke(linewidth=4.4, foreground="black"), patheffects.Normal()]
     for k, (tr, lon_r) in enumerate(shifted):
         if k == 0:
@@ -280,6 +295,9 @@ def hs_map(
         label=f"ship positions at the map time {str(t_map)[:16]} UTC",
     )
 
+
+def _frame(ax: Axes, x0: float, x1: float, y0: float, y1: float) -> None:
+    """Limits, aspect (true at the box's mid-latitude), ticks in degrees E/W and N/S, labels, legend."""
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
     ax.set_aspect(1.0 / max(0.2, float(np.cos(np.radians(0.5 * (y0 + y1))))))
@@ -292,7 +310,6 @@ def hs_map(
     ax.set_xlabel("longitude")
     ax.set_ylabel("latitude")
     ax.legend(loc="lower left", fontsize=7.5, framealpha=0.9)
-    return t_map
 
 
 def route_map_figure(
