@@ -101,6 +101,20 @@ def band_polar_figure(
     ax.set_theta_zero_location("N")
     ax.set_theta_direction(-1)
 
+    handles = _band_areas(ax, ship, hs_m, period_s, max_speed_kn, rules, angle_step_deg)
+    if heading_deg is not None:
+        handles.append(_ship_heading(ax, heading_deg, wave_from_deg, speed_kn, max_speed_kn))
+    _polar_frame(ax, max_speed_kn)
+    _polar_title(fig, ax, ship, hs_m, period_s, rules, title)
+    if handles:
+        fig.legend(handles=handles, loc="outside lower center", ncols=2, fontsize=9, frameon=False)
+    return fig
+
+
+def _band_areas(
+    ax, ship: Any, hs_m: float, period_s: float, max_speed_kn: float, rules: BandRules, angle_step_deg: float
+) -> list:
+    """Shade each danger band on the polar axes; returns their legend patches."""
     # Shade where each band's signed margin (optroute.physics.safety.band_margins, ratio units) is <= 0.  The
     # margin is continuous in (α, V) inside a band's domain, so contourf draws the straight band edges
     # (V cos(180° − α) = const) smoothly instead of as a staircase.  α = wave_from − heading; any pair with
@@ -124,16 +138,22 @@ def band_polar_figure(
             continue
         ax.contourf(theta, radius, field, levels=[-_BIG, 0.0], colors=[BAND_COLOURS[band]], alpha=0.45)
         handles.append(Patch(facecolor=BAND_COLOURS[band], alpha=0.45, label=BAND_LABELS[band]))
+    return handles
 
-    if heading_deg is not None:
-        alpha_ship = float(seaway.relative_wave_angle_deg(heading_deg, wave_from_deg))
-        ax.plot([math.radians(alpha_ship)] * 2, [0.0, max_speed_kn], color="black", linestyle="--", linewidth=1.2)
-        label = f"heading {heading_deg:g}° true (α = {alpha_ship:g}°)"
-        if speed_kn is not None:
-            ax.plot([math.radians(alpha_ship)], [speed_kn], marker="o", color="black")
-            label += f", {speed_kn:.1f} kn"
-        handles.append(Patch(facecolor="none", edgecolor="black", linestyle="--", label=label))
 
+def _ship_heading(ax, heading_deg: float, wave_from_deg: float, speed_kn: float | None, max_speed_kn: float) -> Patch:
+    """The ship's heading as a dashed ray (and its speed as a dot); returns its legend patch."""
+    alpha_ship = float(seaway.relative_wave_angle_deg(heading_deg, wave_from_deg))
+    ax.plot([math.radians(alpha_ship)] * 2, [0.0, max_speed_kn], color="black", linestyle="--", linewidth=1.2)
+    label = f"heading {heading_deg:g}° true (α = {alpha_ship:g}°)"
+    if speed_kn is not None:
+        ax.plot([math.radians(alpha_ship)], [speed_kn], marker="o", color="black")
+        label += f", {speed_kn:.1f} kn"
+    return Patch(facecolor="none", edgecolor="black", linestyle="--", label=label)
+
+
+def _polar_frame(ax, max_speed_kn: float) -> None:
+    """Radius 0 to the top speed [kn]; the angle every 30° with head, beam and following seas named."""
     ax.set_ylim(0.0, max_speed_kn)
     ax.set_thetagrids(
         np.arange(0, 360, 30),
@@ -153,6 +173,10 @@ def band_polar_figure(
         ],
     )
     ax.set_rlabel_position(112.5)
+
+
+def _polar_title(fig: Figure, ax, ship: Any, hs_m: float, period_s: float, rules: BandRules, title: str | None) -> None:
+    """The ship, the sea state and the rules above the diagram; a note in the middle when no band applies."""
     c_kn = float(units.ms_to_kn(seaway.phase_speed_ms(period_s)))
     threshold = rules.hs_threshold_fraction * ship.length_m
     text = (
@@ -173,9 +197,6 @@ def band_polar_figure(
             fontsize=10,
             bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "grey"},
         )
-    if handles:
-        fig.legend(handles=handles, loc="outside lower center", ncols=2, fontsize=9, frameon=False)
-    return fig
 
 
 def save_png(fig: Figure, path: str | os.PathLike[str]) -> Path:
