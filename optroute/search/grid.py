@@ -185,16 +185,7 @@ class RouteGrid:
         cell = float(finite("cell_nm", cell_nm, minimum=0.0, strict=True, error=ConfigError))
         rho = float(finite("route_angle_deg", route_angle_deg, error=ConfigError))
         dist = float(geo.distance_nm(lat_s, lon_s, lat_e, lon_e))
-        if dist < 2.0 * cell:
-            raise ConfigError(
-                f"start and end are {dist:.3g} nm apart, less than two cells of {cell} nm; "
-                "use a smaller cell_nm or sail directly"
-            )
-        if dist > 150.0 * 60.0:
-            raise ConfigError(
-                f"start and end are {dist:.0f} nm ({dist / 60:.0f} deg of arc) apart: too far for one "
-                "gnomonic grid; split the voyage at an intermediate waypoint"
-            )
+        _check_span(dist, cell)
         # the plane is the gnomonic projection of the sphere: its centre and axis are spherical too,
         # so that the start->end line is exactly a grid row (true lengths are measured on WGS84)
         mid = unit_xyz(np.array(lat_s), np.array(lon_s)) + unit_xyz(np.array(lat_e), np.array(lon_e))
@@ -212,23 +203,7 @@ class RouteGrid:
         beta = float(np.mod(gamma + rho_used, 360.0))
         xs, ys = _plane_to_grid(float(es), float(ns), beta)
         xe, ye = xs + a * cell_used, ys + b * cell_used
-        if extent_nm is None:
-            if margin_nm is None:
-                margin = max(0.2 * dist, 5.0 * cell_used)
-            else:
-                margin = float(finite("margin_nm", margin_nm, minimum=0.0, error=ConfigError))
-            box = (min(xs, xe) - margin, max(xs, xe) + margin, min(ys, ye) - margin, max(ys, ye) + margin)
-        else:
-            box = tuple(float(v) for v in finite("extent_nm", extent_nm, error=ConfigError))
-            if len(box) != 4 or box[0] >= box[1] or box[2] >= box[3]:
-                raise ConfigError(f"extent_nm={extent_nm!r} must be (x_min, x_max, y_min, y_max) with min < max")
-            tol = 1e-6 * cell_used
-            for name, (x, y) in (("start", (xs, ys)), ("end", (xe, ye))):
-                if not (box[0] - tol <= x <= box[1] + tol and box[2] - tol <= y <= box[3] + tol):
-                    raise ConfigError(
-                        f"extent_nm={extent_nm!r} does not contain the {name}, at grid ({x:.1f}, {y:.1f}) nm; "
-                        "widen it or pass margin_nm instead"
-                    )
+        box = _grid_box((xs, ys), (xe, ye), cell_used, dist, margin_nm, extent_nm)
         # lattice anchored on the start: columns j with x = xs + (j - js) * cell
         j_lo = int(np.floor((box[0] - xs) / cell_used + 1e-9))
         j_hi = int(np.ceil((box[1] - xs) / cell_used - 1e-9))
@@ -354,6 +329,46 @@ class RouteGrid:
         ys = np.array([self.y_min_nm, self.y_min_nm + (self.ny - 1) * self.cell_nm])
         rho = np.hypot(xs[:, None], ys[None, :]).max()
         return float(np.degrees(np.arctan(rho / geo.EARTH_RADIUS_NM)))
+
+
+def _check_span(dist: float, cell: float) -> None:
+    """Start and end at least two cells apart and within one gnomonic plane (150° of arc); ``dist`` [nm]."""
+    if dist < 2.0 * cell:
+        raise ConfigError(
+            f"start and end are {dist:.3g} nm apart, less than two cells of {cell} nm; "
+            "use a smaller cell_nm or sail directly"
+        )
+    if dist > 150.0 * 60.0:
+        raise ConfigError(
+            f"start and end are {dist:.0f} nm ({dist / 60:.0f} deg of arc) apart: too far for one "
+            "gnomonic grid; split the voyage at an intermediate waypoint"
+        )
+
+
+def _grid_box(
+    start_xy: tuple[float, float], end_xy: tuple[float, float], cell_used: float, dist: float, margin_nm, extent_nm
+) -> tuple[float, ...]:
+    """The grid frame's box (x_min, x_max, y_min, y_max) [plane nm]: the start–end box with ``margin_nm`` (default
+    20 % of the distance ``dist``, at least 5 cells) on every side, or ``extent_nm`` checked to hold both ends."""
+    (xs, ys), (xe, ye) = start_xy, end_xy
+    if extent_nm is None:
+        if margin_nm is None:
+            margin = max(0.2 * dist, 5.0 * cell_used)
+        else:
+            margin = float(finite("margin_nm", margin_nm, minimum=0.0, error=ConfigError))
+        box = (min(xs, xe) - margin, max(xs, xe) + margin, min(ys, ye) - margin, max(ys, ye) + margin)
+    else:
+        box = tuple(float(v) for v in finite("extent_nm", extent_nm, error=ConfigError))
+        if len(box) != 4 or box[0] >= box[1] or box[2] >= box[3]:
+            raise ConfigError(f"extent_nm={extent_nm!r} must be (x_min, x_max, y_min, y_max) with min < max")
+        tol = 1e-6 * cell_used
+        for name, (x, y) in (("start", (xs, ys)), ("end", (xe, ye))):
+            if not (box[0] - tol <= x <= box[1] + tol and box[2] - tol <= y <= box[3] + tol):
+                raise ConfigError(
+                    f"extent_nm={extent_nm!r} does not contain the {name}, at grid ({x:.1f}, {y:.1f}) nm; "
+                    "widen it or pass margin_nm instead"
+                )
+    return box
 
 
 def _plane_to_grid(e: ArrayLike, n: ArrayLike, beta_deg: float) -> tuple[np.ndarray, np.ndarray]:
