@@ -322,6 +322,23 @@ def test_bad_arguments_and_unreachable_scheduler():
         tradeoff("Rotterdam", wx, SHIP, departure=T0)
     with pytest.raises(SchedulerUnreachable, match="127.0.0.1:9"):
         tradeoff(CORRIDOR, wx, SHIP, departure=T0, scheduler_address="tcp://127.0.0.1:9", timeout_s=2)
+    # where the front runs: the same checks and messages as optroute.study's (one function)
+    for kw, match in (
+        ({"n_workers": -1}, r"n_workers=-1 must be an integer >= 0"),
+        ({"n_workers": True}, r"n_workers=True must be an integer"),
+        ({"n_workers": 2, "scheduler_address": "tcp://127.0.0.1:9"}, "applies to the local cluster only"),
+        ({"scheduler_address": 8786}, r"scheduler_address=8786 must be a string"),
+        ({"timeout_s": 0}, r"timeout_s=0 must be a positive number of seconds"),
+    ):
+        with pytest.raises(orx.ConfigError, match=match):
+            tradeoff(CORRIDOR, wx, SHIP, departure=T0, **kw)
+
+
+def test_a_synchronous_scheduler_runs_the_front_in_this_process_as_n_workers_0():
+    wx = _calm()
+    serial = tradeoff(CORRIDOR, wx, SHIP, departure=T0, n=3, n_workers=0, **KW)
+    here = tradeoff(CORRIDOR, wx, SHIP, departure=T0, n=3, scheduler_address="synchronous", n_workers=2, **KW)
+    np.testing.assert_array_equal(here.fuel_t.values, serial.fuel_t.values)
 
 
 @settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -11,6 +11,8 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import contextlib
+import math
+import numbers
 import pickle
 import socket
 import struct
@@ -20,7 +22,15 @@ from typing import Any
 from optroute._store import StudyError
 from optroute.errors import ConfigError
 
-__all__ = ["SYNCHRONOUS", "SchedulerUnreachable", "check_picklable", "dask_client", "import_distributed", "probe"]
+__all__ = [
+    "SYNCHRONOUS",
+    "SchedulerUnreachable",
+    "check_cluster_options",
+    "check_picklable",
+    "dask_client",
+    "import_distributed",
+    "probe",
+]
 
 #: ``scheduler_address`` that runs every case in this process, one after the other.
 SYNCHRONOUS = "synchronous"
@@ -187,6 +197,42 @@ def _unreachable(address: str, timeout_s: float, exc: BaseException) -> Schedule
         f"({SYNCHRONOUS!r} runs in this process)",
         address,
     )
+
+
+def check_cluster_options(n_workers: Any, scheduler_address: Any, timeout_s: Any, threads_per_worker: Any = 1) -> None:
+    """Where a study or a front runs, checked: :class:`~optroute.errors.ConfigError` naming a bad value and what to give.
+
+    ``n_workers`` an integer >= 0 or None (0 runs in this process), ``scheduler_address`` a string (a Dask
+    scheduler's address, or :data:`SYNCHRONOUS`) or None, ``n_workers`` only with a local cluster,
+    ``timeout_s`` a positive number of seconds, ``threads_per_worker`` an integer >= 1.
+    """
+    if (
+        isinstance(timeout_s, bool)
+        or not isinstance(timeout_s, numbers.Real)
+        or not math.isfinite(timeout_s)
+        or timeout_s <= 0
+    ):
+        raise ConfigError(f"timeout_s={timeout_s!r} must be a positive number of seconds, e.g. 10")
+    if (
+        isinstance(threads_per_worker, bool)
+        or not isinstance(threads_per_worker, numbers.Integral)
+        or threads_per_worker < 1
+    ):
+        raise ConfigError(f"threads_per_worker={threads_per_worker!r} must be an integer >= 1")
+    if n_workers is not None and (
+        isinstance(n_workers, bool) or not isinstance(n_workers, numbers.Integral) or n_workers < 0
+    ):
+        raise ConfigError(f"n_workers={n_workers!r} must be an integer >= 0 (0 runs in this process), or None")
+    if scheduler_address is not None and not isinstance(scheduler_address, str):
+        raise ConfigError(
+            f"scheduler_address={scheduler_address!r} must be a string such as 'tcp://127.0.0.1:8786', "
+            f"{SYNCHRONOUS!r}, or None"
+        )
+    if scheduler_address not in (None, SYNCHRONOUS) and n_workers is not None:
+        raise ConfigError(
+            f"n_workers={n_workers} applies to the local cluster only, but scheduler_address={scheduler_address!r} "
+            "was given; drop n_workers (the existing cluster has its own workers)"
+        )
 
 
 @contextlib.contextmanager

@@ -44,7 +44,6 @@ from __future__ import annotations
 import contextlib
 import io
 import math
-import numbers
 import time
 import traceback
 import uuid
@@ -63,6 +62,7 @@ from optroute.studies import fingerprint
 from optroute.studies.cluster import (
     SYNCHRONOUS,
     SchedulerUnreachable,
+    check_cluster_options,
     check_picklable,
     dask_client,
     import_distributed,
@@ -607,33 +607,7 @@ def _checked_run_options(
             f"progress={progress!r} is not callable; pass a function (done, total) -> None, True (a text bar on "
             "standard error) or None"
         )
-    if (
-        isinstance(timeout_s, bool)
-        or not isinstance(timeout_s, numbers.Real)
-        or not math.isfinite(timeout_s)
-        or timeout_s <= 0
-    ):
-        raise ConfigError(f"timeout_s={timeout_s!r} must be a positive number of seconds, e.g. 10")
-    if (
-        isinstance(threads_per_worker, bool)
-        or not isinstance(threads_per_worker, numbers.Integral)
-        or threads_per_worker < 1
-    ):
-        raise ConfigError(f"threads_per_worker={threads_per_worker!r} must be an integer >= 1")
-    if n_workers is not None and (
-        isinstance(n_workers, bool) or not isinstance(n_workers, numbers.Integral) or n_workers < 0
-    ):
-        raise ConfigError(f"n_workers={n_workers!r} must be an integer >= 0 (0 runs in this process), or None")
-    if scheduler_address is not None and not isinstance(scheduler_address, str):
-        raise ConfigError(
-            f"scheduler_address={scheduler_address!r} must be a string such as 'tcp://127.0.0.1:8786', "
-            f"{SYNCHRONOUS!r}, or None"
-        )
-    if scheduler_address not in (None, SYNCHRONOUS) and n_workers is not None:
-        raise ConfigError(
-            f"n_workers={n_workers} applies to the local cluster only, but scheduler_address={scheduler_address!r} "
-            "was given; drop n_workers (the existing cluster has its own workers)"
-        )
+    check_cluster_options(n_workers, scheduler_address, timeout_s, threads_per_worker)
     return progress
 
 

@@ -123,6 +123,7 @@ from optroute.weather.sample import WeatherSampler
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
+from optroute.studies.cluster import SYNCHRONOUS, check_cluster_options
 from optroute.studies.front_points import (
     FORBIDDEN_OPTIONS,
     LEG_VARIABLES,
@@ -303,7 +304,8 @@ def tradeoff(
     scheduler_address : str, optional
         An existing Dask scheduler (``"tcp://host:port"``); one chain per worker.  An address that
         does not answer within ``timeout_s`` raises :class:`~optroute.studies.study.SchedulerUnreachable`
-        naming it.
+        naming it.  ``"synchronous"`` runs in this process, as ``n_workers`` 0 or 1 does (as for
+        :func:`optroute.study`).
     warm_start : bool or "primal"
         Warm-start each point from its neighbour's plan and multipliers (default).  ``"primal"``: from its
         plan alone; ``False``: every ETA from the optimiser's own start (both for benchmarks).
@@ -369,15 +371,7 @@ def tradeoff(
         raise ConfigError(f"tradeoff sets {bad} itself for every point; drop them from the keyword arguments")
     if etas is None and not (isinstance(n, numbers.Integral) and not isinstance(n, bool) and n >= 2):
         raise ConfigError(f"n={n!r} must be an integer >= 2 (the front's two ends and the points between)")
-    if n_workers is not None and (
-        isinstance(n_workers, bool) or not isinstance(n_workers, numbers.Integral) or n_workers < 0
-    ):
-        raise ConfigError(f"n_workers={n_workers!r} must be None or an integer >= 0")
-    if scheduler_address is not None and n_workers is not None:
-        raise ConfigError(
-            f"n_workers={n_workers} applies to a local cluster; with scheduler_address="
-            f"{scheduler_address!r} the cluster's own workers are used: drop n_workers"
-        )
+    check_cluster_options(n_workers, scheduler_address, timeout_s)
     if warm_start not in (True, False, "primal"):
         raise ConfigError(
             f"warm_start={warm_start!r} is not a warm start; use True (the neighbour's plan and multipliers), "
@@ -402,7 +396,7 @@ def tradeoff(
         dict(optimise_kwargs),
         token=front_token(corridor, weather, ship, t0, objective, optimise_kwargs),
     )
-    parallel = scheduler_address is not None or (n_workers or 0) >= 2
+    parallel = scheduler_address not in (None, SYNCHRONOUS) or (scheduler_address is None and (n_workers or 0) >= 2)
     if parallel:
         from optroute.studies.cluster import dask_client
 
