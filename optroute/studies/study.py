@@ -551,25 +551,8 @@ def run_study(
         if progress is not None:
             progress(n_done, total)
 
-        fresh: dict[tuple[int, ...], xr.Dataset] = {}  # cases decoded by the workers that stored them
-
-        def on_outcome(outcome: _Outcome) -> None:
-            nonlocal n_done
-            if outcome.case is not None:
-                fresh[outcome.index] = outcome.case
-            try:
-                if outcome.payload is not None:  # else a worker has stored it
-                    _store.write_case(store, outcome.index, outcome.payload)
-            except OSError as exc:
-                raise StudyError(
-                    f"could not store case {outcome.index} in {str(_store.cases_dir(store))!r} "
-                    f"({type(exc).__name__}: {exc}); free disk space or fix permissions, then run the study "
-                    f"again to resume ({n_done} of {total} cases are stored)"
-                ) from exc
-            n_done += 1
-            if progress is not None:
-                progress(n_done, total)
-
+        recorder = _Recorder(store, total, n_done, progress)
+        on_outcome = recorder.record
         if pending and synchronous:
             for index in pending:
                 on_outcome(_run_case(case_fn, index, params(index), reserved, inputs=inputs_of(index)))
@@ -583,7 +566,7 @@ def run_study(
                 retried = {index for index in pending if index in existing}
                 _run_distributed(client, case_fn, pending, params, reserved, on_outcome, store_arg, retried, inputs_of)
 
-        ds = _store.combine(store, manifest, fresh)
+        ds = _store.combine(store, manifest, recorder.fresh)
         try:
             _store.write_dataset(ds, out_path)
         except OSError as exc:
@@ -593,6 +576,32 @@ def run_study(
                 "load_study(store, output=...) or run the study again (nothing is recomputed)"
             ) from exc
     return ds
+
+
+class _Recorder:
+    """Stores each case's outcome as it arrives (unless a worker has stored it), keeps the cases the workers
+    decoded (``fresh``), and reports progress; a store that cannot be written is a :class:`StudyError` that says
+    how many cases are safe and how to resume."""
+
+    def __init__(self, store: Path, total: int, n_done: int, progress: ProgressCallback | None) -> None:
+        self.store, self.total, self.n_done, self.progress = store, total, n_done, progress
+        self.fresh: dict[tuple[int, ...], xr.Dataset] = {}  # cases decoded by the workers that stored them
+
+    def record(self, outcome: _Outcome) -> None:
+        if outcome.case is not None:
+            self.fresh[outcome.index] = outcome.case
+        try:
+            if outcome.payload is not None:  # else a worker has stored it
+                _store.write_case(self.store, outcome.index, outcome.payload)
+        except OSError as exc:
+            raise StudyError(
+                f"could not store case {outcome.index} in {str(_store.cases_dir(self.store))!r} "
+                f"({type(exc).__name__}: {exc}); free disk space or fix permissions, then run the study "
+                f"again to resume ({self.n_done} of {self.total} cases are stored)"
+            ) from exc
+        self.n_done += 1
+        if self.progress is not None:
+            self.progress(self.n_done, self.total)
 
 
 def _checked_run_options(
