@@ -578,21 +578,38 @@ def _dataset(
     n_chains: int,
 ) -> TradeoffFront:
     eta_h = np.array([p.eta_h for p in points], dtype=float)
-    n_wp = max((p.waypoints.shape[0] for p in points if p.waypoints is not None), default=0)
-    n_leg = max(n_wp - 1, 0)
+    data = {**_point_variables(points), **_track_variables(points)}
+    etas = np.array([spec.departure + h_to_timedelta(h) for h in eta_h], dtype="datetime64[ns]")
+    fuel = data["fuel_t"][1]
+    ok = np.isfinite(fuel)
+    knee = knee_index(eta_h[ok], fuel[ok])
+    attrs = {
+        "title": "optroute fuel-versus-ETA front",
+        "departure": str(spec.departure)[:19],
+        "objective": spec.objective,
+        "ship": spec.ship.name,
+        "corridor_length_nm": float(spec.corridor.length_nm),
+        "earliest_arrival_h": float(t_min),
+        "slow_steaming_limit_h": float(t_slow) if math.isfinite(t_slow) else "not solved",
+        "slow_steaming_limit": "least-fuel solve without an ETA: the engine's minimum load, the lowest speed or "
+        "the end of the weather, whichever binds first",
+        "knee_eta_h": float(eta_h[ok][knee]) if knee is not None else "none",
+        "monotonicity_resolves": int(resolves),
+        "risen_points": int(risen[0]),
+        "risen_resolves": int(risen[1]),
+        "chains": int(n_chains),
+        "conventions": "eta UTC; eta_h, waypoint_time_h hours after departure; lat/lon deg; heading deg true (to)",
+    }
+    return TradeoffFront(data, coords={"eta": etas, "eta_h": ("eta", eta_h, {"units": "h"})}, attrs=attrs)
+
+
+def _point_variables(points: list[FrontPoint]) -> dict[str, Any]:
+    """Each point's totals and how it was solved: one value per ETA."""
 
     def col(key: str) -> np.ndarray:
         return np.array([p.totals.get(key, math.nan) for p in points], dtype=float)
 
-    def padded(get: Callable[[FrontPoint], np.ndarray | None], size: int) -> np.ndarray:
-        out = np.full((len(points), size), np.nan)
-        for i, p in enumerate(points):
-            a = get(p)
-            if a is not None:
-                out[i, : a.size] = a
-        return out
-
-    data: dict[str, Any] = {
+    return {
         "fuel_t": ("eta", col("fuel_t"), {"units": "t", "long_name": "fuel burnt on the passage"}),
         "duration_h": ("eta", col("duration_h"), {"units": "h", "long_name": "passage time"}),
         "distance_nm": ("eta", col("distance_nm"), {"units": "nmi", "long_name": "distance sailed"}),
@@ -623,6 +640,23 @@ def _dataset(
             np.array([p.fuel_t if p.own_fuel_t is None else p.own_fuel_t for p in points], dtype=float),
             {"units": "t", "long_name": "fuel of the point's own solve (above fuel_t where it rose)"},
         ),
+    }
+
+
+def _track_variables(points: list[FrontPoint]) -> dict[str, Any]:
+    """Each point's waypoints, times and legs, NaN-padded to the longest track: (eta, waypoint) and (eta, leg)."""
+    n_wp = max((p.waypoints.shape[0] for p in points if p.waypoints is not None), default=0)
+    n_leg = max(n_wp - 1, 0)
+
+    def padded(get: Callable[[FrontPoint], np.ndarray | None], size: int) -> np.ndarray:
+        out = np.full((len(points), size), np.nan)
+        for i, p in enumerate(points):
+            a = get(p)
+            if a is not None:
+                out[i, : a.size] = a
+        return out
+
+    data: dict[str, Any] = {
         "waypoint_lat_deg": (
             ("eta", "waypoint"),
             padded(lambda p: None if p.waypoints is None else p.waypoints[:, 0], n_wp),
@@ -641,24 +675,4 @@ def _dataset(
     }
     for v in LEG_VARIABLES:
         data[f"leg_{v}"] = (("eta", "leg"), padded(lambda p, v=v: None if p.legs is None else p.legs.get(v), n_leg))
-    etas = np.array([spec.departure + h_to_timedelta(h) for h in eta_h], dtype="datetime64[ns]")
-    ok = np.isfinite(col("fuel_t"))
-    knee = knee_index(eta_h[ok], col("fuel_t")[ok])
-    attrs = {
-        "title": "optroute fuel-versus-ETA front",
-        "departure": str(spec.departure)[:19],
-        "objective": spec.objective,
-        "ship": spec.ship.name,
-        "corridor_length_nm": float(spec.corridor.length_nm),
-        "earliest_arrival_h": float(t_min),
-        "slow_steaming_limit_h": float(t_slow) if math.isfinite(t_slow) else "not solved",
-        "slow_steaming_limit": "least-fuel solve without an ETA: the engine's minimum load, the lowest speed or "
-        "the end of the weather, whichever binds first",
-        "knee_eta_h": float(eta_h[ok][knee]) if knee is not None else "none",
-        "monotonicity_resolves": int(resolves),
-        "risen_points": int(risen[0]),
-        "risen_resolves": int(risen[1]),
-        "chains": int(n_chains),
-        "conventions": "eta UTC; eta_h, waypoint_time_h hours after departure; lat/lon deg; heading deg true (to)",
-    }
-    return TradeoffFront(data, coords={"eta": etas, "eta_h": ("eta", eta_h, {"units": "h"})}, attrs=attrs)
+    return data
