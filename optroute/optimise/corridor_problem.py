@@ -121,6 +121,32 @@ class _Call:
         self._stage = None if stage is None else (stage, wall, cpu)
 
 
+def _check_choices(constraint_rows: Any, objective: Any, corridor: Any, samples_per_leg: Any) -> None:
+    """:class:`PreparedCorridor`'s choices checked: ConfigError naming a bad one and what to give."""
+    if constraint_rows not in ROW_PLACEMENTS:
+        raise ConfigError(
+            f"constraint_rows={constraint_rows!r} is not known; use 'referee' (the NLP's rows at the referee's "
+            "check points of its start) or 'midpoints' (at the quadrature's midpoints only)"
+        )
+    if objective not in ("time", "fuel", "cost"):
+        raise ConfigError(f"objective={objective!r} is not known; use 'time', 'fuel' or 'cost'")
+    if not isinstance(corridor, Corridor):
+        raise ConfigError(f"corridor must be an optroute.Corridor, got {type(corridor).__name__}")
+    if not (isinstance(samples_per_leg, int | np.integer) and samples_per_leg >= 1):
+        raise ConfigError(f"samples_per_leg={samples_per_leg!r} must be an integer >= 1")
+
+
+def _departure_and_eta(departure: Any, latest_eta: Any) -> tuple[np.datetime64, np.datetime64 | None]:
+    """The departure and the latest ETA [UTC] (None without one), the ETA after the departure."""
+    t0 = _as_time(departure, "departure")
+    eta_t = _as_time(latest_eta, "eta") if latest_eta is not None else None
+    if eta_t is not None and _hours(eta_t - t0) <= 0:
+        raise ConfigError(
+            f"eta={format_utc(eta_t)} is not after departure={format_utc(t0)}; give an arrival later than the departure"
+        )
+    return t0, eta_t
+
+
 class PreparedCorridor(CorridorReport):
     """The corridor NLP set up once for a range of ETAs; :meth:`solve` solves one ETA.
 
@@ -179,26 +205,10 @@ class PreparedCorridor(CorridorReport):
         # every argument, for the free-arrival minimum-time twin of this corridor (minimum_time_twin)
         self._arguments = {k: v for k, v in locals().items() if k not in ("self", "__class__")}
         self._twin: PreparedCorridor | None = None
-        if constraint_rows not in ROW_PLACEMENTS:
-            raise ConfigError(
-                f"constraint_rows={constraint_rows!r} is not known; use 'referee' (the NLP's rows at the referee's "
-                "check points of its start) or 'midpoints' (at the quadrature's midpoints only)"
-            )
+        _check_choices(constraint_rows, objective, corridor, samples_per_leg)
         self.constraint_rows = constraint_rows
         self._row_points: tuple[list[np.ndarray] | None] | None = None  # (rows,) once computed (_rows_from)
-        if objective not in ("time", "fuel", "cost"):
-            raise ConfigError(f"objective={objective!r} is not known; use 'time', 'fuel' or 'cost'")
-        if not isinstance(corridor, Corridor):
-            raise ConfigError(f"corridor must be an optroute.Corridor, got {type(corridor).__name__}")
-        t0 = _as_time(departure, "departure")
-        eta_t = _as_time(latest_eta, "eta") if latest_eta is not None else None
-        eta_user_h = _hours(eta_t - t0) if eta_t is not None else None
-        if eta_user_h is not None and eta_user_h <= 0:
-            raise ConfigError(
-                f"eta={format_utc(eta_t)} is not after departure={format_utc(t0)}; give an arrival later than the departure"
-            )
-        if not (isinstance(samples_per_leg, int | np.integer) and samples_per_leg >= 1):
-            raise ConfigError(f"samples_per_leg={samples_per_leg!r} must be an integer >= 1")
+        t0, eta_t = _departure_and_eta(departure, latest_eta)
         self.fuel_price = float(
             finite("fuel_price_per_t", fuel_price_per_t, minimum=0.0, strict=True, error=ConfigError)
         )
