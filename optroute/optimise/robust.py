@@ -428,9 +428,15 @@ def optimise_robust(
     plan = _lattice_plan(lattice, ctx, t0, ref, members)
     if plan is None:
         raise _failure(members, warm_plan, last, log, counts["solves"])
-    # the NLP found no plan clean in every member from the lattice's schedule, which is one: returned as the start
-    # (as a single weather's verified start where the NLP does not improve on it), never labelled optimal
     stats = _stats(plan, members, None, robust, alpha, int(reference_member), objective, ref)
+    return _as_start(plan, stats, fraction, counts, start, log, last, started)
+
+
+def _as_start(
+    plan: Plan, stats: dict, fraction: float, counts: dict, start: dict, log: list[str], last: Any, started: float
+) -> Plan:
+    """The lattice's common schedule, returned where the NLP found no plan clean in every member: labelled
+    ``"start"`` (as a single weather's verified start where the NLP does not improve on it), never optimal."""
     stats["robust"].update(violation_fraction=fraction, dropped_members=[], members_violated=[])
     stats.update(counts, **start, tightening=log, ipopt_status=None if last is None else last.status)
     stats.update(retries=sum(e.startswith("tightened for") for e in log), nlp_solves=counts["solves"])
