@@ -587,9 +587,10 @@ def timing_margin(plan: orx.Plan, shifts_min: tuple[int, ...] = TIMING_SHIFTS_MI
     and land check; no ETA (a later departure is late by its shift). Keyed by the shift.
 
     A plan whose safety depends on keeping its schedule to the minute through a storm's bands is one no ship can
-    sail as planned: where leaving one minute late breaks it, the harness calls it a knife edge (:func:`knife_edge`). A brute-force passage that is one still makes its case feasible, and the case's
-    SolverFailure still counts against the target; the count of knife edges is reported beside it, for the
-    optimiser's plans as for the brute force's.
+    sail as planned: where leaving one minute late breaks it, the harness calls it a knife edge (:func:`knife_edge`).
+    A brute-force passage that is one still makes its case feasible, and the case's SolverFailure still counts
+    against the target; the count of knife edges is reported beside it, for the optimiser's plans as for the brute
+    force's.
     """
     ctx = plan.context
     weather = ctx.dataset if ctx.dataset is not None else ctx.sampler
@@ -759,7 +760,7 @@ def summarise(results: list[CaseResult]) -> dict[str, Any]:
         ],
         # of those, the ones the harness's brute force across the corridor found a verified passage in
         "brute_force_feasible_seeds": [r.case.seed for r in results if r.brute_force_h is not None],
-        # of those, the ones whose passage breaks with its departure a minute early and a minute late (knife edges)
+        # of those, the ones whose passage breaks with its departure a minute late (knife edges, :func:`knife_edge`)
         "knife_edge_seeds": [r.case.seed for r in results if knife_edge(r.brute_force_margin)],
         # verified plans the optimiser returned, and of those the ones a minute's shift of departure breaks
         "plans_timed": sum(len(r.margins) for r in results),
