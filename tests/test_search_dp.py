@@ -171,6 +171,29 @@ def test_unreachable_end_raises_no_safe_passage():
         solve_dp(START, END, cubic, dx_nm=200, dy_nm=50, half_width_nm=100, speeds_kn=[10.0, 20.0], navigable=walled)
 
 
+def _band_clears_at_1_5_h(lat0, lon0, lat1, lon1, t0, sog):
+    """``cubic``, with every leg that leaves the first stage before 1.5 h infeasible (a band there that clears)."""
+    t, fuel, ok = cubic(lat0, lon0, lat1, lon1, t0, sog)
+    return t, fuel, ok & ~((np.asarray(lon0) > 0.05) & (np.asarray(t0) < 1.5))
+
+
+def test_a_later_label_passes_where_the_earliest_is_stopped_by_a_band_that_clears():
+    """Not FIFO, worked by hand: two 10 nm legs at 5 or 10 kn; at 10 kn the first stage is reached at 1 h, when the
+    second leg is still closed, at 5 kn at 2 h, after it clears. The earliest arrival is 5 kn then 10 kn,
+    d/5 + d/10 with d half the distance; the earliest-arrival label alone (10 kn first) finds no route."""
+    end = (0.0, 0.3335)
+    dist = float(geo.distance_nm(*START, *end))
+    r = solve_dp(START, end, _band_clears_at_1_5_h, dx_nm=dist / 2, half_width_nm=0, speeds_kn=[5.0, 10.0], dt_h=0.5)
+    expected = 0.5 * dist / 5.0 + 0.5 * dist / 10.0
+    assert r.earliest_arrival_h == pytest.approx(expected, rel=1e-9)
+    fastest = r.path_for_eta(r.earliest_arrival_h)
+    np.testing.assert_allclose(fastest.sog_kn, [5.0, 10.0])
+    assert fastest.arrival_h == pytest.approx(expected, rel=1e-9)
+    late = solve_dp(START, end, _band_clears_at_1_5_h, eta_h=3.5, dx_nm=dist / 2, half_width_nm=0,
+                    speeds_kn=[5.0, 10.0], dt_h=0.5)  # fmt: skip
+    np.testing.assert_allclose(late.path.sog_kn, [5.0, 10.0])  # the only route by 3.5 h
+
+
 def test_leg_cost_contract_is_enforced():
     def too_fast(lat0, lon0, lat1, lon1, t0, sog):
         d = geo.distance_nm(lat0, lon0, lat1, lon1)

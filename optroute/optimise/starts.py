@@ -417,7 +417,8 @@ def dp_route(
             f"stages about {dp_opts['dx_nm']:.3g} nm apart, {n_lat} lateral position{'s' * (n_lat > 1)}"
             + (f" {dp_opts['dy_nm']:.3g} nm apart" if n_lat > 1 else "")
             + f", one speed over ground per stage every {step:g} kn from {speeds[0]:g} to {speeds[-1]:.4g} kn, arrivals "
-            f"in {float(dp_opts['dt_h']):g} h bins keeping the cheapest and the earliest of each"
+            f"in {float(dp_opts['dt_h']):g} h bins keeping the cheapest of each, and the earliest arrival at each "
+            "position"
         )
         raise NoSafePassage(f"on the 3-D DP's lattice of this corridor ({lattice}) {exc}") from exc
     except OptrouteError:  # no passage by the ETA on the DP's grid: the other candidates remain

@@ -175,8 +175,10 @@ class DPResult:
         speed set this is not monotone (some arrival times are only reachable
         by costly speed mixes) — ``curve_fuel_t`` is its running minimum.
     earliest_arrival_h : float
-        Earliest arrival [h], from an earliest-arrival label propagated
-        alongside the binned ones (exact for FIFO legs).
+        Earliest arrival [h]: of an earliest-arrival label propagated
+        alongside the binned ones (exact for FIFO legs), or of a binned label
+        where that is earlier (a leg that is not FIFO, as where a band clears
+        in time, can stop the earliest label and let a later one through).
     stage_lat_deg, stage_lon_deg : ndarray, shape (K+1, L)
         Positions of every state [deg] (end stages: only the centre is used).
     n_states : int
@@ -242,7 +244,10 @@ class _Tables:
     early_back: np.ndarray
 
     def earliest(self) -> float:
-        return float(self.early_t[-1, self.centre])
+        """The earliest arrival found [h]: the earliest-arrival label's, or a binned label's where that is earlier
+        (legs that are not FIFO: where a band clears, the earliest label can be stopped and a later one pass)."""
+        binned = self.time[-1][self.centre][np.isfinite(self.fuel[-1][self.centre])]
+        return float(min(self.early_t[-1, self.centre], binned.min(initial=np.inf)))
 
     def path_for(self, eta_h: float | None) -> DPPath:
         k_end = len(self.fuel) - 1
@@ -250,7 +255,8 @@ class _Tables:
         t = self.time[k_end][self.centre]
         ok = np.isfinite(f) if eta_h is None else np.isfinite(f) & (t <= eta_h + 1e-9)
         early = self.earliest()
-        use_early = (eta_h is None or early <= eta_h + 1e-9) and (
+        fifo = float(self.early_t[-1, self.centre])  # inf where a later leg than the earliest label's got through
+        use_early = (eta_h is None or fifo <= eta_h + 1e-9) and (
             not ok.any() or self.early_f[-1, self.centre] < f[ok].min()
         )
         if use_early:
@@ -508,7 +514,7 @@ def solve_dp(
             labels.append(_callback_stage(step_fn, labels, lat_, opt, k, (src_l, src_b), dest, max_batch, stage_cut))
     while len(labels.fuel) < lat_.n_stages + 1:  # stages never reached
         labels.append(empty_stage(lat_.n_lat, lat_.n_bins))
-    if not np.isfinite(labels.early_t[-1, lat_.centre]):
+    if not (np.isfinite(labels.early_t[-1, lat_.centre]) or np.isfinite(labels.fuel[-1][lat_.centre]).any()):
         raise _no_route(labels, lat_, opt)
     return _result(labels, lat_, opt, leg_cost, step_fn.count, cut is not None)
 
@@ -632,9 +638,11 @@ def _callback_stage(
 
 def _no_route(labels: _Labels, lat_: Lattice, opt: Options) -> NoSafePassage:
     """NoSafePassage naming the last stage reached and its reachable state closest to the end."""
-    early_t = labels.early_t
-    k_reach = max(k for k in range(lat_.n_stages + 1) if np.isfinite(early_t[k]).any())
-    reach_l = np.nonzero(np.isfinite(early_t[k_reach]))[0]
+    reached = [
+        np.isfinite(labels.early_t[k]) | np.isfinite(labels.fuel[k]).any(axis=1) for k in range(len(labels.fuel))
+    ]
+    k_reach = max(k for k, r in enumerate(reached) if r.any())
+    reach_l = np.nonzero(reached[k_reach])[0]
     q = int(reach_l[np.argmin(lat_.rem_nm[k_reach, reach_l])])
     return NoSafePassage(
         f"the DP found no route from {opt.start} to {opt.end} within {lat_.horizon:.1f} h: it stopped at stage "
