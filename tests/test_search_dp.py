@@ -194,6 +194,36 @@ def test_a_later_label_passes_where_the_earliest_is_stopped_by_a_band_that_clear
     np.testing.assert_allclose(late.path.sog_kn, [5.0, 10.0])  # the only route by 3.5 h
 
 
+def _open_from_1_1_to_1_9_h(lat0, lon0, lat1, lon1, t0, sog):
+    """``cubic``, with the second leg open only when left between 1.1 and 1.9 h (a gap between two bands)."""
+    t, fuel, ok = cubic(lat0, lon0, lat1, lon1, t0, sog)
+    t0 = np.asarray(t0)
+    return t, fuel, ok & ((np.asarray(lon0) < 0.05) | ((t0 >= 1.1) & (t0 < 1.9)))
+
+
+def test_time_ranked_labels_keep_each_bins_earliest_where_the_cheapest_is_stopped():
+    """Worked by hand: two legs of d ≈ 10 nm at 5, 8 or 10 kn, the second open only when left between 1.1 and
+    1.9 h; bins of 1.1 h. The first stage is reached at d/10 ≈ 1.00 h (bin (0, 1.1], stopped), d/8 ≈ 1.25 h and
+    d/5 ≈ 2.00 h (both in (1.1, 2.2]; only 1.25 passes). Ranked by fuel the bin keeps 5 kn and no route is left;
+    ranked by time it keeps 8 kn, and the earliest arrival is d/8 + d/10, its fuel the cubic law's K d (8² + 10²)."""
+    end = (0.0, 0.3335)
+    dist = float(geo.distance_nm(*START, *end))
+    kw = dict(dx_nm=dist / 2, half_width_nm=0, speeds_kn=[5.0, 8.0, 10.0], dt_h=1.1)
+    with pytest.raises(NoSafePassage):
+        solve_dp(START, end, _open_from_1_1_to_1_9_h, **kw)
+    r = solve_dp(START, end, _open_from_1_1_to_1_9_h, label_value="time", **kw)
+    d = dist / 2
+    assert r.earliest_arrival_h == pytest.approx(d / 8.0 + d / 10.0, rel=1e-9)
+    assert r.path.arrival_h == pytest.approx(r.earliest_arrival_h, rel=1e-12)
+    np.testing.assert_allclose(r.path.sog_kn, [8.0, 10.0])
+    assert r.path.total_fuel_t == pytest.approx(K * d * (8.0**2 + 10.0**2), rel=1e-9)
+    assert np.isnan(r.curve_fuel_t).all()  # no fuel curve from time-ranked labels
+    with pytest.raises(ConfigError, match="label_value"):
+        solve_dp(START, end, cubic, label_value="cost", **kw)
+    with pytest.raises(ConfigError, match="least_fuel_only"):
+        solve_dp(START, end, cubic, label_value="time", least_fuel_only=True, **kw)
+
+
 def test_leg_cost_contract_is_enforced():
     def too_fast(lat0, lon0, lat1, lon1, t0, sog):
         d = geo.distance_nm(lat0, lon0, lat1, lon1)

@@ -41,14 +41,16 @@ CASES = {
     "no-go, any arrival": {"navigable": _storm, "nogo_step_nm": 25.0},
     "no-go, +-2 laterals, eta": {"navigable": _storm, "max_lateral_step": 2, "eta_h": 160.0},
 }
+#: ``CASES`` and the labels ranked by arrival time (not for least_fuel_only, which cuts by fuel)
+RANKED = {**CASES, "no-go, earliest per bin": {"navigable": _storm, "nogo_step_nm": 25.0, "label_value": "time"}}
 
 
-@pytest.mark.parametrize("case", CASES)
+@pytest.mark.parametrize("case", RANKED)
 def test_compiled_stages_keep_every_label_of_the_dp_that_costs_every_transition(sea, case):
     cb = _physics(sea).dp_leg(30.0)
     assert hasattr(cb, "dp_kernel")
     # six speeds, 6-16 kn in 2 kn steps: some 2 000 labels and 17 000-78 000 transitions compared table by table
-    kw = dict(dx_nm=180.0, dy_nm=45.0, half_width_nm=135.0, speeds_kn=np.arange(6.0, 16.5, 2.0), **CASES[case])
+    kw = dict(dx_nm=180.0, dy_nm=45.0, half_width_nm=135.0, speeds_kn=np.arange(6.0, 16.5, 2.0), **RANKED[case])
     fast, slow = solve_dp(START, END, cb, **kw), solve_dp(START, END, _plain(cb), **kw)
     for name in ("fuel", "time", "back_l", "back_b", "speed_i"):
         for a, b in zip(getattr(fast._tables, name), getattr(slow._tables, name), strict=True):

@@ -242,6 +242,7 @@ class _Tables:
     early_t: np.ndarray
     early_f: np.ndarray
     early_back: np.ndarray
+    by_time: bool = False  # the binned labels' "fuel" holds their arrival times (``label_value="time"``)
 
     def earliest(self) -> float:
         """The earliest arrival found [h]: the earliest-arrival label's, or a binned label's where that is earlier
@@ -256,9 +257,8 @@ class _Tables:
         ok = np.isfinite(f) if eta_h is None else np.isfinite(f) & (t <= eta_h + 1e-9)
         early = self.earliest()
         fifo = float(self.early_t[-1, self.centre])  # inf where a later leg than the earliest label's got through
-        use_early = (eta_h is None or fifo <= eta_h + 1e-9) and (
-            not ok.any() or self.early_f[-1, self.centre] < f[ok].min()
-        )
+        beats = (lambda: fifo < t[ok].min()) if self.by_time else (lambda: self.early_f[-1, self.centre] < f[ok].min())
+        use_early = np.isfinite(fifo) and (eta_h is None or fifo <= eta_h + 1e-9) and (not ok.any() or beats())
         if use_early:
             return self._early_path()
         if not ok.any():
@@ -282,7 +282,7 @@ class _Tables:
         lat_idx, bins, spd = lat_idx[::-1], bins[::-1], spd[::-1]
         times = np.array([self.time[k][lat_idx[k], bins[k]] for k in range(k_end + 1)])
         fuel = np.array([self.fuel[k][lat_idx[k], bins[k]] for k in range(k_end + 1)])
-        return self._make_path(np.array(lat_idx), np.array(spd), times, fuel)
+        return self._make_path(np.array(lat_idx), np.array(spd), times, fuel, binned=True)
 
     def _early_path(self) -> DPPath:
         k_end = len(self.fuel) - 1
@@ -296,14 +296,18 @@ class _Tables:
         ks = np.arange(k_end + 1)
         return self._make_path(li, np.array(spd[::-1]), self.early_t[ks, li], self.early_f[ks, li])
 
-    def _make_path(self, li: np.ndarray, spd: np.ndarray, times: np.ndarray, fuel: np.ndarray) -> DPPath:
+    def _make_path(
+        self, li: np.ndarray, spd: np.ndarray, times: np.ndarray, fuel: np.ndarray, binned: bool = False
+    ) -> DPPath:
         k_end = len(self.fuel) - 1
         lat = self.lat[np.arange(k_end + 1), li]
         lon = self.lon[np.arange(k_end + 1), li]
         dist = np.array([self.dist[k][li[k], li[k + 1]] for k in range(k_end)])
         sog = self.speeds[spd]
         out = self.leg_cost(lat[:-1], lon[:-1], lat[1:], lon[1:], times[:-1], sog)
-        _, _, _, extra = unpack_cost(out, k_end, "leg_cost")
+        _, leg_fuel, _, extra = unpack_cost(out, k_end, "leg_cost")
+        if binned and self.by_time:  # the binned labels' values are their times: the fuel is the legs'
+            fuel = np.concatenate([[0.0], np.cumsum(leg_fuel)])
         return DPPath(
             lat_deg=lat,
             lon_deg=lon,
@@ -386,6 +390,7 @@ def solve_dp(
     least_fuel_only: bool = False,
     stations: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
     fuel_cut_t: float | None = None,
+    label_value: str = "fuel",
 ) -> DPResult:
     """Forward 3-D DP: least fuel for every arrival time, and the route for ``eta_h``.
 
@@ -444,6 +449,12 @@ def solve_dp(
         the fuel to the end (as ``least_fuel_only``'s, :func:`_fuel_cut`) exceeds it is dropped, so the binned
         labels are those of the routes under it; where none arrives, the route returned is the earliest. The curve is
         then NaN and :meth:`DPResult.path_for_eta` refuses, as with ``least_fuel_only``.
+    label_value : {"fuel", "time"}
+        What ranks a bin's labels: their fuel (the fuel-versus-ETA curve), or their arrival time, so that every bin
+        keeps its earliest labels: for a minimum time where the legs are not FIFO (a band that clears lets a later
+        label through where the earliest is stopped, which the earliest-arrival label alone cannot follow). With
+        ``"time"`` the curve is NaN, the route's fuel is its legs' costed again, and neither ``least_fuel_only``
+        nor ``fuel_cut_t`` applies.
 
     Returns
     -------
@@ -462,8 +473,12 @@ def solve_dp(
     """
     opt = checked_options(
         leg_cost, start, end, eta_h, (dx_nm, dy_nm, half_width_nm, dt_h), speeds_kn, nogo_step_nm, max_lateral_step,
-        labels_per_bin,
+        labels_per_bin, label_value,
     )  # fmt: skip
+    if opt.by_time and (least_fuel_only or fuel_cut_t is not None):
+        raise ConfigError(
+            "least_fuel_only and fuel_cut_t cut labels by their fuel; with label_value='time' give neither"
+        )
     lat_ = lattice(opt, stations, horizon_h)
     labels = _Labels.at_departure(lat_)
     if navigable is not None and not nav_check(navigable, np.array([opt.start[0]]), np.array([opt.start[1]]),
@@ -475,7 +490,7 @@ def solve_dp(
     )  # fmt: skip
     kernel = getattr(leg_cost, "dp_kernel", None)
     inputs = None if kernel is None else stacked_inputs(kernel.members)
-    stages = None if inputs is None else CompiledStages(kernel, inputs, step_fn, lat_.bins, opt.n_labels)
+    stages = None if inputs is None else CompiledStages(kernel, inputs, step_fn, lat_.bins, opt.n_labels, opt.by_time)
     step_fn.stages = stages
     if least_fuel_only:  # the earliest route first: its fuel bounds the labels worth keeping
         for k in range(lat_.n_stages):
@@ -614,7 +629,7 @@ def _callback_stage(
         t0 = labels.time[k][l0, b_src]
         ok, t1, fu, dur = step_fn.cost(k, l0, lj, vi, t0)
         sel = np.nonzero(ok)[0]
-        f1 = labels.fuel[k][l0[sel], b_src[sel]] + fu[sel]
+        f1 = labels.fuel[k][l0[sel], b_src[sel]] + (dur if opt.by_time else fu)[sel]  # fuel [t], or time [h]
         tt = t1[sel]
         b1 = np.ceil((tt - t_ref) / dt - BIN_TOL_H / dt).astype(np.int64) - 1
         inside = (b1 >= 0) & (b1 < n_bins)
@@ -677,13 +692,14 @@ def _result(
         early_t=labels.early_t,
         early_f=labels.early_f,
         early_back=labels.early_back,
+        by_time=opt.by_time,
     )
     path = tables.path_for(opt.eta_h)
     bin_end = t_ref + dt * (np.arange(n_bins) + 1.0)
     by_eta = np.minimum.accumulate(final_f)
     early_t, early_f = labels.early_t[-1, c], labels.early_f[-1, c]
     by_eta = np.where(bin_end >= early_t - 1e-9, np.minimum(by_eta, early_f), by_eta)
-    if cut:  # the labels above the cut were dropped: no curve
+    if cut or opt.by_time:  # the labels above the cut were dropped, or ranked by time: no fuel curve
         final_t, final_f, by_eta = (np.full(n_bins, np.nan) for _ in range(3))
     return DPResult(
         path=path,

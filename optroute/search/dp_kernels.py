@@ -321,15 +321,16 @@ def joint_dp_leg(
 def resolve(
     ps, fields, tables, axes, geo_lat, geo_lon, geo_course, geo_frac, geo_n, dist, geom_of, speeds,
     order, group_start, unresolved, ptr, costed, fuel1, rejected,
-    src, lj, vi, t1, lb, src_l, src_t, src_f,
+    src, lj, vi, t1, lb, src_l, src_t, src_f, by_time,
 ):  # fmt: skip  # pragma: no cover - compiled
-    """Per unresolved group (one destination bin), its best (fuel, time, order) candidate not yet struck out.
+    """Per unresolved group (one destination bin), its best (value, time, order) candidate not yet struck out.
 
     The legs are costed in every member of ``ps, fields, tables, axes`` (:func:`stacked_inputs`, one member for a
     single weather) by :func:`joint_dp_leg`. Costs each group's candidates in order of their bound ``lb``
     only while the bound does not exceed the best label found (``ptr`` holds each group's progress,
-    ``costed`` / ``fuel1`` the labels: NaN where infeasible).  Returns ``(best candidate per group or -1,
-    legs costed, uncovered points)``.
+    ``costed`` / ``fuel1`` the labels: NaN where infeasible).  A label's value is its fuel [t], or with ``by_time``
+    its arrival [h] (``src_f`` then holds the sources' times and ``lb`` the arrivals: each bin's earliest labels).
+    Returns ``(best candidate per group or -1, legs costed, uncovered points)``.
     """
     work = dp_workspace()
     best_out = np.full(unresolved.size, -1, dtype=np.int64)
@@ -359,7 +360,7 @@ def resolve(
             n_costed += 1
             costed[c] = True
             if ok:
-                fuel1[c] = src_f[s] + f_sum * (dist[g] / sog)
+                fuel1[c] = src_f[s] + (1.0 if by_time else f_sum) * (dist[g] / sog)
                 if _beats(fuel1[c], t1[c], c, bf, bt, bi):
                     bf, bt, bi = fuel1[c], t1[c], c
             else:

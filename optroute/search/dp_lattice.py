@@ -95,6 +95,7 @@ class Options:
     step: int | None
     n_labels: int | None
     nogo_step: float
+    by_time: bool = False  # a bin's labels ranked by arrival time, not fuel (``label_value="time"``)
 
 
 def checked_options(
@@ -107,6 +108,7 @@ def checked_options(
     nogo_step_nm: float | None,
     max_lateral_step: int | None,
     labels_per_bin: int | None,
+    label_value: str = "fuel",
 ) -> Options:
     """:func:`solve_dp`'s arguments checked (``spacing`` = dx_nm, dy_nm, half_width_nm, dt_h); ConfigError naming a bad one."""
     if not callable(leg_cost):
@@ -139,7 +141,12 @@ def checked_options(
     )
     if float(geo.distance_nm(*s, *e)) < 1e-6:
         raise ConfigError(f"start {s} and end {e} coincide; there is nothing to route")
-    return Options(s, e, dx, dy, hw, dt, speeds, eta_h, step, n_labels, nogo_step)
+    if label_value not in ("fuel", "time"):
+        raise ConfigError(
+            f"label_value={label_value!r} is not known; use 'fuel' (least fuel per arrival bin) or 'time' (the "
+            "earliest arrival per bin, for a minimum time)"
+        )
+    return Options(s, e, dx, dy, hw, dt, speeds, eta_h, step, n_labels, nogo_step, label_value == "time")
 
 
 @dataclass(frozen=True, eq=False)

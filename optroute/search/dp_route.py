@@ -48,8 +48,8 @@ def search_dp(
     by ETA, None where no route arrives by it: :meth:`optroute.search.dp.DPResult.path_for_eta`); nodes are navigable where the weather allows passage,
     outside the moving ``exclusion`` and (``coast``) off land; ``eta_h`` [h from
     departure] or None.  With ``objective="time"`` (no ETA) the route is the DP's earliest arrival within the
-    horizon (the least fuel among the routes arriving then), its ``cost`` that arrival [h]; else the least-fuel
-    route.  Errors name the ETA's UTC time and the weather's extent.
+    horizon, each bin keeping its earliest labels (``label_value="time"``: a band that clears can stop the earliest
+    label and let a later one through), its ``cost`` that arrival [h]; else the least-fuel route.  Errors name the ETA's UTC time and the weather's extent.
     """
     if objective == "time" and eta_h is not None:
         raise ConfigError("the DP minimises fuel for an ETA; use objective='fuel' with method='dp'")
@@ -60,6 +60,8 @@ def search_dp(
     navigable = dp_navigable([physics], exclusion, coast)
     t_last = (sampler.extent["time"][1] - physics.departure) / np.timedelta64(1, "s") / 3600.0
     opts.setdefault("horizon_h", float(t_last))
+    if objective == "time":
+        opts.setdefault("label_value", "time")
     try:
         res = solve_dp(start, end, physics.dp_leg(piece_nm), eta_h=eta_h, speeds_kn=speeds, navigable=navigable, **opts)
     except NoSafePassage as exc:

@@ -262,16 +262,19 @@ class CompiledStages:
     """The binned labels of a stage from the compiled transitions (:mod:`optroute.search.dp_kernels`).
 
     The same winners as the loop over every transition: per (destination lateral, bin), the
-    transition of least (fuel, time, order) that is feasible and clear of the no-go areas.
+    transition of least (value, time, order) that is feasible and clear of the no-go areas; the value is
+    the fuel, or with ``by_time`` the arrival (the labels' "fuel" then holds their times, the floor is 1 h/h).
     """
 
     def __init__(
-        self, kernel: DPLegKernel | JointLegKernel, inputs: tuple, step_fn: Transition, bins: tuple, labels: int | None
-    ) -> None:
+        self, kernel: DPLegKernel | JointLegKernel, inputs: tuple, step_fn: Transition, bins: tuple, labels: int | None,
+        by_time: bool = False,
+    ) -> None:  # fmt: skip
         self.kernel, self.step_fn, self.labels = kernel, step_fn, labels
         self.t_ref, self.dt, self.n_bins = bins
         self.speeds = np.ascontiguousarray(step_fn.speeds, dtype=float)
-        self.floor = kernel.floor_tph(self.speeds)
+        self.by_time = np.bool_(by_time)
+        self.floor = np.ones(self.speeds.size) if by_time else kernel.floor_tph(self.speeds)
         self.inputs = inputs  # the members' (one for a single weather): dp_kernels.stacked_inputs
         self._geom_k: int = -1
         self._geom: tuple = ()
@@ -379,7 +382,7 @@ class CompiledStages:
             best, n_costed, unc = resolve(
                 *self.inputs, geom.lat_deg, geom.lon_deg, geom.course_deg, geom.frac, geom.n_pieces, geom.dist_nm,
                 geom_of, self.speeds, order, group_start, todo, ptr, costed, fuel1, rejected,
-                c_src, c_lj, c_vi, t1, lb, src_l, src_t, src_f,
+                c_src, c_lj, c_vi, t1, lb, src_l, src_t, src_f, self.by_time,
             )  # fmt: skip
             self.step_fn.count += int(n_costed)
             self.kernel.uncovered(int(unc))
