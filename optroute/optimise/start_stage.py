@@ -24,6 +24,11 @@ candidates (:func:`start_stage`) and never returns a plan worse by the referee t
   plan (the DP does not apply — no ETA, not a great circle, the time objective — or finds none; a given search
   route that is the DP's counts as the DP's): the DP's plan is the least fuel by the ETA on its grid, and the minimum-time plan, a race, rarely beats it (the storm crossing of
   ``benchmarks.bench_nlp``: 183.5 t against the DP's 75.4 t, and 0.7–1.0 CPU-s to solve).
+  For a free-arrival minimum time where no local start verifies, the DP's earliest passage within the weather's
+  span (each arrival bin keeping its earliest label, :func:`optroute.search.solve_dp`'s ``label_value="time"``)
+  and the centreline's timed passage (:func:`_fine_centre_candidate`) are both computed: two lattices, neither a
+  proof (harness seed 20: both 23.64 h, where the DP with its bins ranked by fuel found 29.96 h; seed 80: the DP
+  19.08 h, the centreline closed to the timed passage).
 
 The stage's record (``solver_stats["starts"]``) holds every candidate's score by the referee (``inf``
 unverified), whether it verified, its own estimate and the CPU seconds it cost.
