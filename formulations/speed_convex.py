@@ -169,22 +169,8 @@ def solve_speed_convex(
     FormulationInputError
         On a non-positive distance, NaN input, ``v_max ≤ 0`` or an unknown option.
     """
-    d = as_float_array(distance_nm, "distance_nm", ndim=1)
+    d, vmin, vmax = _checked_inputs(distance_nm, v_min_kn, v_max_kn, eta_h, eta_mode, objective, formulation)
     n = d.size
-    if n == 0 or (d <= 0.0).any():
-        raise FormulationInputError(f"distance_nm must be non-empty and positive, got {d}")
-    vmin = broadcast_legs(v_min_kn, n, "v_min_kn")
-    vmax = broadcast_legs(v_max_kn, n, "v_max_kn", finite=False)
-    if (vmin < 0.0).any() or (vmax <= 0.0).any():
-        raise FormulationInputError(f"speed bounds must satisfy 0 <= v_min and v_max > 0, got {vmin}, {vmax}")
-    if objective not in ("fuel", "cost", "time"):
-        raise FormulationInputError(f"objective must be 'fuel', 'cost' or 'time', got {objective!r}")
-    if eta_mode not in ("le", "eq"):
-        raise FormulationInputError(f"eta_mode must be 'le' or 'eq', got {eta_mode!r}")
-    if formulation not in ("powcone", "power"):
-        raise FormulationInputError(f"formulation must be 'powcone' or 'power', got {formulation!r}")
-    if eta_h is not None and not (np.isfinite(eta_h) and eta_h > 0):
-        raise FormulationInputError(f"eta_h must be a positive finite number of hours, got {eta_h}")
     coef = fuel.for_legs(n)
     p = fuel.exponent
 
@@ -197,29 +183,7 @@ def solve_speed_convex(
         v_ref = float(np.mean(finite)) if finite.size else 10.0
     scale = d / v_ref  # hours per unit of τ
     tau = cp.Variable(n, name="tau")
-
-    fuel_terms: list[cp.Expression] = []
-    constant = 0.0
-    cones: list[cp.Constraint] = []
-    for j, pj in enumerate(p):
-        w = coef[:, j] * d * v_ref ** (pj - 1.0)  # F_ij = w_ij τ_i^(1 - p_j)
-        if not np.any(w > 0.0):
-            continue
-        if pj == 1.0:
-            constant += float(w.sum())
-        elif pj == 0.0:
-            fuel_terms.append(w @ tau)
-        elif formulation == "power":
-            fuel_terms.append(w @ cp.power(tau, 1.0 - pj))
-        else:
-            s = cp.Variable(n, name=f"s{j}")
-            if pj > 1.0:  # s^(1/p) τ^(1 - 1/p) ≥ 1  ⇔  s ≥ τ^(1-p)
-                cones.append(cp.constraints.PowCone3D(s, tau, np.ones(n), np.full(n, 1.0 / pj)))
-            else:  # p < 0, q = 1 - p > 1: s^(1/q) · 1 ≥ |τ|  ⇔  s ≥ τ^q
-                q = 1.0 - pj
-                cones.append(cp.constraints.PowCone3D(s, np.ones(n), tau, np.full(n, 1.0 / q)))
-            fuel_terms.append(w @ s)
-    fuel_expr = cp.sum(cp.hstack(fuel_terms)) + constant if fuel_terms else cp.Constant(constant)
+    fuel_expr, cones = _fuel_expression(tau, coef * (d * 1.0)[:, None], p, v_ref, formulation)
     total_time = scale @ tau
     if objective == "fuel":
         obj = fuel_expr
@@ -242,36 +206,19 @@ def solve_speed_convex(
         eta_con = total_time <= eta_h if eta_mode == "le" else total_time == eta_h
         constraints.append(eta_con)
     problem = cp.Problem(cp.Minimize(obj), constraints)
-    opts = dict(_CLARABEL_DEFAULTS)
-    opts.update(solver_options or {})
-    data, chain, inverse = problem.get_problem_data(cp.CLARABEL, solver_opts=opts)
-    raw = chain.solve_via_data(problem, data, False, False, opts)
-    if str(raw.status) == "AlmostSolved" and solver_options is None:
-        # the tight tolerances were not reached: Clarabel's own defaults (1e-8) usually are
-        raw = chain.solve_via_data(problem, data, False, False, {})
-    problem.unpack_results(raw, chain, inverse)
+    raw = _solve_clarabel(problem, solver_options)
     elapsed = time.perf_counter() - started
 
     status = str(problem.status)
     solver_status = str(raw.status)
+    common = {"status": status, "solver_status": solver_status, "iterations": int(raw.iterations),
+              "solve_time_s": elapsed, "formulation": formulation}  # fmt: skip
     if tau.value is None or status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
         nan = np.full(n, np.nan)
-        return ConvexSpeedResult(
-            status=status,
-            solver_status=solver_status,
-            time_h=nan,
-            speed_kn=nan,
-            fuel_t=nan,
-            total_fuel_t=float("nan"),
-            duration_h=float("nan"),
-            objective=float("nan") if problem.value is None else float(problem.value),
-            eta_multiplier=float("nan"),
-            time_lower_dual=nan,
-            time_upper_dual=nan,
-            iterations=int(raw.iterations),
-            solve_time_s=elapsed,
-            formulation=formulation,
-        )
+        value = float("nan") if problem.value is None else float(problem.value)
+        return ConvexSpeedResult(time_h=nan, speed_kn=nan, fuel_t=nan, total_fuel_t=float("nan"),
+                                 duration_h=float("nan"), objective=value, eta_multiplier=float("nan"),
+                                 time_lower_dual=nan, time_upper_dual=nan, **common)  # fmt: skip
     t = np.asarray(tau.value, dtype=float) * scale
     leg_fuel = PowerLawFuel(coef, p).leg_fuel(d, t)
     # Duals are per unit of τ; per hour of the leg's time bound they are divided by dt/dτ = scale.
@@ -280,8 +227,6 @@ def solve_speed_convex(
     if upper is not None:
         up_dual[has_upper] = np.asarray(_dual(upper, int(has_upper.sum()))) / scale[has_upper]
     return ConvexSpeedResult(
-        status=status,
-        solver_status=solver_status,
         time_h=t,
         speed_kn=d / t,
         fuel_t=leg_fuel,
@@ -291,7 +236,78 @@ def solve_speed_convex(
         eta_multiplier=float(_dual(eta_con)) if eta_con is not None else 0.0,
         time_lower_dual=lo_dual,
         time_upper_dual=up_dual,
-        iterations=int(raw.iterations),
-        solve_time_s=elapsed,
-        formulation=formulation,
+        **common,
     )
+
+
+def _checked_inputs(
+    distance_nm: ArrayLike, v_min_kn: ArrayLike, v_max_kn: ArrayLike, eta_h: float | None, eta_mode: str,
+    objective: str, formulation: str,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """:func:`solve_speed_convex`'s legs and options checked: (distances [nm], v_min [kn], v_max [kn]) per leg."""
+    d = as_float_array(distance_nm, "distance_nm", ndim=1)
+    n = d.size
+    if n == 0 or (d <= 0.0).any():
+        raise FormulationInputError(f"distance_nm must be non-empty and positive, got {d}")
+    vmin = broadcast_legs(v_min_kn, n, "v_min_kn")
+    vmax = broadcast_legs(v_max_kn, n, "v_max_kn", finite=False)
+    if (vmin < 0.0).any() or (vmax <= 0.0).any():
+        raise FormulationInputError(f"speed bounds must satisfy 0 <= v_min and v_max > 0, got {vmin}, {vmax}")
+    if objective not in ("fuel", "cost", "time"):
+        raise FormulationInputError(f"objective must be 'fuel', 'cost' or 'time', got {objective!r}")
+    if eta_mode not in ("le", "eq"):
+        raise FormulationInputError(f"eta_mode must be 'le' or 'eq', got {eta_mode!r}")
+    if formulation not in ("powcone", "power"):
+        raise FormulationInputError(f"formulation must be 'powcone' or 'power', got {formulation!r}")
+    if eta_h is not None and not (np.isfinite(eta_h) and eta_h > 0):
+        raise FormulationInputError(f"eta_h must be a positive finite number of hours, got {eta_h}")
+    return d, vmin, vmax
+
+
+def _fuel_expression(
+    tau: cp.Variable, coef_d: np.ndarray, p: np.ndarray, v_ref: float, formulation: str
+) -> tuple[cp.Expression, list[cp.Constraint]]:
+    """Σ_i F_i as a CVXPY expression of the scaled leg times ``tau`` and the power cones it needs.
+
+    ``coef_d`` (n, terms) are the rate coefficients times each leg's length [nm], ``p`` the terms' speed exponents:
+    ``F_ij = w_ij τ_i^(1 - p_j)`` with ``w_ij = c_ij d_i v_ref^(p_j - 1)``; ``formulation`` "powcone" writes each
+    ``τ^(1-p)`` as a 3-D power cone (Clarabel's own), "power" through CVXPY's ``cp.power`` atom.
+    """
+    n = coef_d.shape[0]
+    fuel_terms: list[cp.Expression] = []
+    constant = 0.0
+    cones: list[cp.Constraint] = []
+    for j, pj in enumerate(p):
+        w = coef_d[:, j] * v_ref ** (pj - 1.0)  # F_ij = w_ij τ_i^(1 - p_j)
+        if not np.any(w > 0.0):
+            continue
+        if pj == 1.0:
+            constant += float(w.sum())
+        elif pj == 0.0:
+            fuel_terms.append(w @ tau)
+        elif formulation == "power":
+            fuel_terms.append(w @ cp.power(tau, 1.0 - pj))
+        else:
+            s = cp.Variable(n, name=f"s{j}")
+            if pj > 1.0:  # s^(1/p) τ^(1 - 1/p) ≥ 1  ⇔  s ≥ τ^(1-p)
+                cones.append(cp.constraints.PowCone3D(s, tau, np.ones(n), np.full(n, 1.0 / pj)))
+            else:  # p < 0, q = 1 - p > 1: s^(1/q) · 1 ≥ |τ|  ⇔  s ≥ τ^q
+                q = 1.0 - pj
+                cones.append(cp.constraints.PowCone3D(s, np.ones(n), tau, np.full(n, 1.0 / q)))
+            fuel_terms.append(w @ s)
+    fuel_expr = cp.sum(cp.hstack(fuel_terms)) + constant if fuel_terms else cp.Constant(constant)
+    return fuel_expr, cones
+
+
+def _solve_clarabel(problem: cp.Problem, solver_options: dict[str, float] | None):
+    """Clarabel's raw result of ``problem`` (unpacked into it) with :data:`_CLARABEL_DEFAULTS` and the caller's
+    options; where it stops at ``AlmostSolved`` with the default tight tolerances, solved again with Clarabel's own."""
+    opts = dict(_CLARABEL_DEFAULTS)
+    opts.update(solver_options or {})
+    data, chain, inverse = problem.get_problem_data(cp.CLARABEL, solver_opts=opts)
+    raw = chain.solve_via_data(problem, data, False, False, opts)
+    if str(raw.status) == "AlmostSolved" and solver_options is None:
+        # the tight tolerances were not reached: Clarabel's own defaults (1e-8) usually are
+        raw = chain.solve_via_data(problem, data, False, False, {})
+    problem.unpack_results(raw, chain, inverse)
+    return raw
