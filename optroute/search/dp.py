@@ -29,7 +29,11 @@ constant-speed candidate (16 labels: 1 140.11 t).  With the whole set
 sailed, the DP equals enumeration of its lattice at every bin end, whatever
 the bin width; in time-varying weather and no-go areas dominance on (fuel,
 time) is the usual label-setting assumption (waiting is not allowed, so an
-earlier label cannot always imitate a later one).
+earlier label cannot always imitate a later one). For a minimum time the bins
+can rank their labels by arrival instead (``label_value="time"``): each bin
+then keeps its earliest labels, the ones that a band clearing in time lets
+through where the cheapest (the slowest) and the single earliest-arrival label
+of each position are both stopped.
 
 The bins are aligned so that the required ETA is a bin edge, and they are
 closed at their end: a bin holds the arrivals after its start up to *and at*

@@ -49,7 +49,8 @@ def search_dp(
     outside the moving ``exclusion`` and (``coast``) off land; ``eta_h`` [h from
     departure] or None.  With ``objective="time"`` (no ETA) the route is the DP's earliest arrival within the
     horizon, each bin keeping its earliest labels (``label_value="time"``: a band that clears can stop the earliest
-    label and let a later one through), its ``cost`` that arrival [h]; else the least-fuel route.  Errors name the ETA's UTC time and the weather's extent.
+    label and let a later one through), its ``cost`` that arrival [h]; else the least-fuel route.  Errors name the
+    ETA's UTC time and the weather's extent.
     """
     if objective == "time" and eta_h is not None:
         raise ConfigError("the DP minimises fuel for an ETA; use objective='fuel' with method='dp'")
