@@ -246,6 +246,24 @@ def test_a_passage_an_independent_brute_force_finds_is_planned():
     assert plan.solver_stats["starts"]["timed passage"]["verified"]
 
 
+#: Arrival [h] of harness seed 80's passage found by the harness's own brute force across the corridor
+#: (:func:`tests.harness.corridor_passage`, its defaults: 5 nm blocks, 5 lanes), measured once (about 20 CPU-s).
+SEED_80_BRUTE_FORCE_H = 20.1379
+
+
+def test_where_the_cheapest_and_the_earliest_label_are_stopped_a_bins_earliest_label_passes():
+    """Harness seed 80 (the 25k dwt cargo ship in a 40 nm corridor, a storm crossing it): the minimum time ended in
+    SolverFailure. The 3-D DP's earliest-arrival label and each bin's cheapest label were all stopped about 70 nm out
+    while the band ahead cleared, and the centreline is closed to the timed passage; the DP's bins ranked by
+    arrival keep the labels that get through. The plan verifies, passes the 0.1 nm check and arrives no later than
+    the harness's brute-force passage. About 6 CPU-s."""
+    case, ship, wx, corridor = _case(80)
+    plan = orx.optimise_corridor(corridor, wx, ship, departure=T0, objective="time")
+    assert plan.verify() == [] and check_plan(plan, wx, ship) == ([], 0)
+    assert plan.duration_h <= SEED_80_BRUTE_FORCE_H
+    assert plan.solver_stats["starts"]["3-D DP"]["verified"]
+
+
 def test_where_no_lattice_finds_a_passage_the_failure_says_feasibility_is_not_established():
     """Harness seed 26 (the 25k dwt cargo ship in a 20 nm wide corridor, 238 nm, a storm): the NLP fails, and neither
     the 3-D DP across the corridor nor the centreline's timed passage finds a passage. That is no proof (seed 20's
