@@ -98,6 +98,11 @@ def run(quick: bool = False) -> dict[str, Any]:
           f"{s['plans_checked']} | |")  # fmt: skip
     print(f"| of those, the start inside the NLP's own bands (optimiser's record) | "
           f"{s['start_plans_inside_nlp_bands']} | |")  # fmt: skip
+    print(f"| the NLP model's largest error against the referee's fuel at its start, of "
+          f"{s['tabulation_start_measured']} plans | {100 * s['tabulation_start_max']:.1f} % | |")  # fmt: skip
+    print(f"| the same at the NLP's solution, of {s['tabulation_solution_measured']} plans; those above the stated "
+          f"bound | {100 * s['tabulation_solution_max']:.1f} %; {s['tabulation_solution_above_bound']} | "
+          f"≤ {100 * s['tabulation_bound']:g} %: `TABULATION_BOUND` |")  # fmt: skip
     b, a = summarise(other), summarise(results[: len(other)])
     n = len(other)
     print(f"| plans whose first NLP solve passed `verify()`, first {n} cases | {a['first_solve_verified']} of "

@@ -145,6 +145,9 @@ class CaseResult:
     # per verified plan returned: its verify() violations with the departure a minute late
     margins: dict[str, dict[int, int]] = field(default_factory=dict)
     timing_cpu_s: float = 0.0  # the CPU of those re-judgements [s], not in cpu_s
+    # per plan returned: the NLP model's fuel against the referee's, relative [-], at the NLP's warm start and at its
+    # solution (``solver_stats["start_tabulation"]`` / ``["tabulation"]``; NaN where the call did not record one)
+    tabulation: dict[str, tuple[float, float]] = field(default_factory=dict)
 
 
 # --------------------------------------------------------------------------- the generator
@@ -654,6 +657,9 @@ def _solve(
         res.margins[name] = timing_margin(plan, (1,))
         res.timing_cpu_s += time.process_time() - c0
     res.first_solve[name] = str(plan.solver_stats.get("first_solve", "not recorded"))
+    res.tabulation[name] = tuple(
+        float(plan.solver_stats.get(key, {}).get("rel_error", np.nan)) for key in ("start_tabulation", "tabulation")
+    )
     res.start_in_bands[name] = plan.solver_stats.get("verified_start_in_nlp_bands")
     return plan
 
@@ -779,5 +785,25 @@ def summarise(results: list[CaseResult]) -> dict[str, Any]:
             for r in results
             for k, v in r.start_in_bands.items()
         ),
+        # the NLP model's error against the referee (its stated bound, TABULATION_BOUND, is for a solution)
+        **_tabulation_counts(results),
         "cpu_s": sum(r.cpu_s for r in results),
+    }
+
+
+def _tabulation_counts(results: list[CaseResult]) -> dict[str, Any]:
+    """Over the plans returned: the largest |error| of the NLP model's fuel against the referee's at the NLP's start
+    and at its solution, the plans measured, and those above the optimiser's stated bound at a solution."""
+    from optroute.optimise.power_table import TABULATION_BOUND
+
+    start = np.array([abs(v[0]) for r in results for v in r.tabulation.values()], dtype=float)
+    sol = np.array([abs(v[1]) for r in results for v in r.tabulation.values()], dtype=float)
+    start, sol = start[np.isfinite(start)], sol[np.isfinite(sol)]
+    return {
+        "tabulation_bound": TABULATION_BOUND,
+        "tabulation_start_max": float(start.max()) if start.size else float("nan"),
+        "tabulation_start_measured": int(start.size),
+        "tabulation_solution_max": float(sol.max()) if sol.size else float("nan"),
+        "tabulation_solution_measured": int(sol.size),
+        "tabulation_solution_above_bound": int(np.sum(sol > TABULATION_BOUND)),
     }
