@@ -179,8 +179,10 @@ def test_table_by_regime_is_the_model_evaluated_at_every_node_in_every_sector() 
     sea = SeaState.from_sample(
         {"hs_m": rng.uniform(0.0, 15.0, n), "tp_s": 10.0, "wave_from_deg": wave_from, "wind_u_ms": wu, "wind_v_ms": wv}
     )
-    speeds = speed_nodes(3.0, 26.5)
-    tab = tabulate_ratio(model, base, sea, along, speeds, np.array([-30.0, 0.0, 30.0]))
+    given = speed_nodes(3.0, 26.5)
+    tab = tabulate_ratio(model, base, sea, along, given, np.array([-30.0, 0.0, 30.0]))
+    speeds = tab.speeds_kn  # Beaufort 12 among the seas: the speed step halved (SPEED_TOL)
+    np.testing.assert_allclose(speeds, np.linspace(given[0], given[-1], 2 * given.size - 1), rtol=1e-15, atol=0.0)
     assert tab.ratio.shape == (n, speeds.size, 1, 4)
     sectors = [(0.0, 30.0), (30.0, 60.0), (60.0, 150.0), (150.0, 180.0)]
     capped = 0
@@ -220,3 +222,57 @@ def test_kwon_power_is_one_function_of_its_regime_to_the_bit() -> None:
         first[int(key)] = rows[0]
     # not a vacuous claim: most regimes need their own power (C_β clipped at 0 gives calm water in a few)
     assert len({tuple(np.nan_to_num(r, posinf=-1.0)) for r in first.values()}) > 0.6 * keys.size
+
+
+def _spline_miss(model, base, sea, along, given: np.ndarray) -> float:
+    """Brute force: the largest relative miss, capped values aside, of the uniform cubic B-spline quasi-interpolant
+    through the model's ratio at ``given`` against the model's ratio at and halfway between those speeds, every
+    sector (the referee's ``power_at_heading`` at each speed, node by node)."""
+    from formulations.splines import spline_weights
+    from optroute.optimise.power_table import CAP_MCR
+    from optroute.physics.passage import power_at_heading
+
+    fine = np.linspace(given[0], given[-1], 2 * given.size - 1)
+    worst = 0.0
+    for sector in [(0.0, 30.0), (30.0, 60.0), (60.0, 150.0), (150.0, 180.0)]:
+
+        def ratio(v, sector=sector):
+            p = power_at_heading(model, v[None, :], along[:, None], sea.hs_m[:, None], sea.wave_from_deg[:, None],
+                                 sea.wind_u_ms[:, None], sea.wind_v_ms[:, None], wave_sector_deg=sector)  # fmt: skip
+            over = ~np.isfinite(p) | (p > CAP_MCR * model.mcr_kw)
+            return np.where(over, CAP_MCR * model.mcr_kw, p) / base.calm_power_kw(v)[None, :], over
+
+        at_given, _ = ratio(given)
+        exact, over = ratio(fine)
+        w = spline_weights(fine, float(given[0]), float(given[1] - given[0]), given.size, np)
+        fit = sum(w_j[None, :] * at_given[:, [j]] for j, w_j in enumerate(w))
+        worst = max(worst, float(np.max(np.abs(fit / exact - 1.0)[~over], initial=0.0)))
+    return worst
+
+
+@pytest.mark.parametrize(("hs_m", "halved"), [(3.0, False), (7.0, True)])
+def test_the_speed_step_is_halved_where_the_spline_misses_the_model_by_more_than_the_tolerance(hs_m, halved) -> None:
+    """Seas of 3 m and 7 m on 200 nodes: the table's ``speed_error`` is the brute-force miss of the spline through
+    the given speed nodes; in 3 m it is within :data:`SPEED_TOL` and the nodes are kept, in 7 m (Beaufort 8:
+    the ratio to calm water climbs steeply towards low speeds) it is not and the nodes are twice as dense, each
+    value the model's own there."""
+    from optroute.optimise.power_table import SPEED_TOL, tabulate_ratio
+    from optroute.physics.passage import SeaState
+
+    model = KwonModel(SHIP)
+    base, _ = baseline_power_model(model, v_min_kn=3.0, v_max_kn=26.5, min_load=0.1)
+    rng = np.random.default_rng(3)
+    n = 200
+    along = rng.uniform(0.0, 360.0, n)
+    sea = SeaState.from_sample({"hs_m": np.full(n, hs_m), "tp_s": 10.0, "wave_from_deg": along + rng.uniform(-20, 20, n),
+                                "wind_u_ms": np.nan, "wind_v_ms": np.nan})  # fmt: skip
+    given = speed_nodes(3.0, 26.5)
+    tab = tabulate_ratio(model, base, sea, along, given, np.zeros(1))
+    assert tab.speed_error == pytest.approx(_spline_miss(model, base, sea, along, given), rel=1e-9, abs=1e-12)
+    assert (tab.speed_error > SPEED_TOL) == halved
+    want = np.linspace(given[0], given[-1], 2 * given.size - 1) if halved else given
+    np.testing.assert_allclose(tab.speeds_kn, want, rtol=1e-15, atol=0.0)
+    assert tab.ratio.shape[1] == want.size
+    unchecked = tabulate_ratio(model, base, sea, along, tab.speeds_kn, np.zeros(1), speed_tol=None)
+    np.testing.assert_array_equal(tab.ratio, unchecked.ratio)  # the model's own values at the nodes kept
+    assert unchecked.capped_share == tab.capped_share and np.isnan(unchecked.speed_error)

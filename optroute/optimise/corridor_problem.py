@@ -201,6 +201,7 @@ class PreparedCorridor(CorridorReport):
         dp_options: Mapping[str, Any] | None = None,
         constraint_rows: str = "midpoints",
         timed_no_passage: bool = False,
+        speed_nodes_kn: np.ndarray | None = None,
     ) -> None:
         # every argument, for the free-arrival minimum-time twin of this corridor (minimum_time_twin)
         self._arguments = {k: v for k, v in locals().items() if k not in ("self", "__class__")}
@@ -219,6 +220,7 @@ class PreparedCorridor(CorridorReport):
             corridor, weather, ship, t0=t0, eta_t=eta_t, objective=objective, model=model, rules=rules,
             max_leg_nm=max_leg_nm, exclusion=exclusion, speed_range_kn=speed_range_kn, use_land_mask=use_land_mask,
             solver_options=solver_options, jit=jit, progress=progress, timed_no_passage=bool(timed_no_passage),
+            speeds_kn=speed_nodes_kn,
         )  # fmt: skip
         self.setup = su
         self.corridor, self.ship, self.model, self.rules = corridor, ship, su.model, su.rules

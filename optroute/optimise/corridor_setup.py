@@ -28,7 +28,7 @@ from optroute.errors import ConfigError, WeatherCoverageError
 from optroute.optimise.lateral import reach_windows
 from optroute.optimise.nlp_inputs import CorridorFrame, build_frame, dataset_spacing, lateral_bounds, weather_grid
 from optroute.optimise.nlp_solve import Problem
-from optroute.optimise.power_table import PowerTable, baseline_power_model, heading_nodes, speed_nodes
+from optroute.optimise.power_table import SPEED_TOL, PowerTable, baseline_power_model, heading_nodes, speed_nodes
 from optroute.optimise.timed_no_go import no_passage_windows
 from optroute.physics.performance import PerformanceModel, default_model
 from optroute.physics.safety import BandRules
@@ -212,6 +212,7 @@ def prepare_corridor(
     jit: bool,
     progress: ProgressFn | None,
     timed_no_passage: bool = False,
+    speeds_kn: np.ndarray | None = None,
 ) -> CorridorSetup:
     """Check the weather and speeds, build the NLP's weather grid, power table, lateral bounds and problem.
 
@@ -240,7 +241,8 @@ def prepare_corridor(
     emit(progress, "weather grid and power table", 0.05)
     min_load = float(model.min_power_kw) / float(model.mcr_kw)
     base, sfoc_err = baseline_power_model(model, v_min_kn=v_min, v_max_kn=v_max, min_load=min_load)
-    speeds = speed_nodes(v_min, v_max)
+    # the power table's speed nodes: checked and halved where the sea needs it, or given (a robust NLP's members share)
+    speeds = speed_nodes(v_min, v_max) if speeds_kn is None else np.asarray(speeds_kn, dtype=float)
     fixed_path = bool(np.all(np.asarray(cor.half_width_nm) == 0.0))
     headings = heading_nodes(fixed_path, any(v.startswith("current") for v in sampler.variables))
     # the ship can be on each leg only between its reach windows: the grid's weather and power table are
@@ -250,10 +252,12 @@ def prepare_corridor(
     grid, samples = weather_grid(
         frame, sampler, departure=t0, t_end_h=horizon, dt_h=dt_h, ds_nm=ds_nm, dy_nm=dy_nm,
         model=model, base=base, speeds_kn=speeds, headings_deg=headings, leg_windows_h=windows_h,
+        speed_tol=SPEED_TOL if speeds_kn is None else None,
     )  # fmt: skip
     table = PowerTable(
-        speeds, np.asarray(grid.ratio_heading_deg), samples.power_capped_share, samples.power_evaluations, sfoc_err
-    )
+        np.asarray(grid.ratio_speed_kn), np.asarray(grid.ratio_heading_deg), samples.power_capped_share,
+        samples.power_evaluations, sfoc_err, samples.power_speed_error,
+    )  # fmt: skip
     n_window = int(min(25, max(2, horizon / dt_h + 1)))
     window = t0 + np.array([_h_to_td(h) for h in np.linspace(0.0, horizon, n_window)])
     emit(progress, "lateral bounds", 0.1)

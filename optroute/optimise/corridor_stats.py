@@ -62,7 +62,8 @@ def table_error(
     -------
     dict
         ``nlp_fuel_t``, ``referee_fuel_t`` [t] and ``rel_error`` = NLP / referee − 1 [-] (NaN where the referee
-        cannot evaluate the track: it then gives no plan either).
+        cannot evaluate the track, it then gives no plan either, or finds a leg where no finite power makes the
+        speed: a start the NLP's clipped speeds put out of the engine's reach).
     """
     try:
         same = Plan.from_context(
@@ -77,7 +78,7 @@ def table_error(
     except OptrouteError:
         return {"nlp_fuel_t": float(nlp_fuel_t), "referee_fuel_t": float("nan"), "rel_error": float("nan")}
     referee = float(same.total_fuel_t)
-    rel = float(nlp_fuel_t) / referee - 1.0 if referee > 0 else float("nan")
+    rel = float(nlp_fuel_t) / referee - 1.0 if 0.0 < referee < np.inf else float("nan")  # inf: no finite power
     return {"nlp_fuel_t": float(nlp_fuel_t), "referee_fuel_t": referee, "rel_error": rel}
 
 
@@ -255,6 +256,7 @@ class CorridorReport:
             "capped_share": tb.capped_share,
             "evaluations": tb.evaluations,
             "sfoc_max_rel_error": tb.sfoc_max_rel_error,
+            "speed_error": tb.speed_error,
         }
 
     def _solution_stats(self, call: Any, sol: Solved, eta_solve: float | None) -> dict[str, Any]:

@@ -48,7 +48,7 @@ from optroute import units
 from optroute.errors import NoSafePassage, WeatherCoverageError
 from optroute.geo.tracks import Exclusion, gc_points, project_to_polyline
 from optroute.optimise.lateral import lateral_bounds
-from optroute.optimise.power_table import tabulate_ratio
+from optroute.optimise.power_table import SPEED_TOL, tabulate_ratio
 from optroute.physics import seaway
 from optroute.physics.passage import SeaState
 from optroute.physics.performance import PerformanceModel
@@ -215,6 +215,9 @@ class GridSamples:
         Share of the power table capped (:data:`optroute.optimise.power_table.CAP_MCR`); 0 without a table.
     power_evaluations : int
         Performance-model evaluations of the power table (0 without one).
+    power_speed_error : float
+        The table's largest relative error in the speed at its first speed nodes (its ``speed_error``,
+        :func:`~optroute.optimise.power_table.tabulate_ratio`); NaN without a table.
     """
 
     hs_m: np.ndarray
@@ -223,6 +226,7 @@ class GridSamples:
     has_current: bool
     power_capped_share: float = 0.0
     power_evaluations: int = 0
+    power_speed_error: float = float("nan")
 
 
 def _fill_nearest(arr: np.ndarray, bad: np.ndarray) -> np.ndarray:
@@ -328,6 +332,7 @@ def weather_grid(
     speeds_kn: np.ndarray | None = None,
     headings_deg: np.ndarray | None = None,
     leg_windows_h: np.ndarray | None = None,
+    speed_tol: float | None = SPEED_TOL,
 ) -> tuple[WeatherGrid, GridSamples]:
     """The weather on the corridor's (time, along-track, across-track) grid, and the ship's power table on it.
 
@@ -360,6 +365,9 @@ def weather_grid(
     evaluations (the reachable band of an ETA at 18 kn with a 24 kn top speed is about a quarter of
     the time span at every along-track node); an iterate outside the windows sees held weather.
 
+    ``speeds_kn`` are the table's speed nodes, halved in step where their spline misses the model by
+    more than ``speed_tol`` (:func:`~optroute.optimise.power_table.tabulate_ratio`; None: kept as given).
+
     Raises
     ------
     WeatherCoverageError
@@ -378,9 +386,11 @@ def weather_grid(
     fields, bad, has_current = _corridor_fields(got, nodes.along, shape)
     hs = fields[0]
     table: dict[str, object] = {}
-    capped, evaluations = 0.0, 0
+    capped, evaluations, speed_error = 0.0, 0, float("nan")
     if model is not None and base is not None and speeds_kn is not None and headings_deg is not None:
-        table, capped, evaluations = _power_table(got, fields, bad, nodes, model, base, speeds_kn, headings_deg)
+        table, capped, evaluations, speed_error = _power_table(
+            got, fields, bad, nodes, model, base, speeds_kn, headings_deg, speed_tol
+        )
     t_axis = nodes.t_axis
     varying = fields + ([np.asarray(table["power_ratio"])] if table else [])
     static = t_axis.size > 1 and all(np.ptp(f, axis=0).max() <= 1e-12 * max(1.0, np.abs(f).max()) for f in varying)
@@ -410,6 +420,7 @@ def weather_grid(
         has_current=has_current,
         power_capped_share=float(capped),
         power_evaluations=int(evaluations),
+        power_speed_error=float(speed_error),
     )
     return grid, samples
 
@@ -501,11 +512,13 @@ def _power_table(
     base: PowerModel,
     speeds_kn: np.ndarray,
     headings_deg: np.ndarray,
-) -> tuple[dict[str, object], float, int]:
+    speed_tol: float | None,
+) -> tuple[dict[str, object], float, int, float]:
     """The ship's power ratio at every node, speed [kn] and heading [deg from the centreline]
     (:func:`~optroute.optimise.power_table.tabulate_ratio`) in the node's own sea (``fields``' Hs and period, the
     sampled direction and wind with NaN nodes filled as they are): the WeatherGrid's table entries, the share
-    capped and the model evaluations."""
+    capped, the model evaluations and the speed axis's error (the table's speed nodes are ``speeds_kn`` or twice as
+    dense, :func:`~optroute.optimise.power_table.tabulate_ratio`)."""
     hold, shape, y_axis = nodes.hold, nodes.shape, nodes.y_axis
     period_name = "tp_s" if "tp_s" in got else "tm_s"
     wfrom_f = _fill_nearest(np.where(bad, np.nan, got["wave_from_deg"]), bad)
@@ -515,16 +528,16 @@ def _power_table(
             sample[name] = _fill_nearest(np.where(bad, np.nan, got[name]), bad)
     sea = SeaState.from_sample({k: np.ravel(hold.take(v)) for k, v in sample.items()})
     along_all = np.ravel(hold.take(np.broadcast_to(nodes.along[None], shape)))
-    tab = tabulate_ratio(model, base, sea, along_all, speeds_kn, headings_deg)
+    tab = tabulate_ratio(model, base, sea, along_all, speeds_kn, headings_deg, speed_tol)
     # one field per sector where the model declares its sectors, else the plain (nt, ns, ny, nv, nd) table
     ratio, capped = (tab.ratio if tab.sector_edges_deg else tab.ratio[..., 0]), tab.capped_share
     table = {
         "power_ratio": hold.spread(ratio.reshape(-1, y_axis.size, *ratio.shape[1:])),
-        "ratio_speed_kn": np.asarray(speeds_kn, dtype=float),
+        "ratio_speed_kn": np.asarray(tab.speeds_kn, dtype=float),
         "ratio_heading_deg": tab.headings_deg,
         "ratio_sector_edges_deg": tab.sector_edges_deg,
     }
-    return table, float(capped), int(ratio.size)
+    return table, float(capped), int(ratio.size), float(tab.speed_error)
 
 
 # --------------------------------------------------------------------------- bands and exclusion

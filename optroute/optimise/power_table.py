@@ -79,6 +79,7 @@ from typing import NamedTuple
 import numpy as np
 
 from formulations.common import PowerModel
+from formulations.splines import spline_weights
 from optroute.physics.passage import SeaState, model_sea, power_at_heading, sector_angle
 from optroute.physics.performance import PerformanceModel
 
@@ -106,10 +107,13 @@ TABULATION_BOUND = 0.03
 LEG_BOUND = 0.15
 #: Largest tabulated power as a multiple of the MCR [-] (where the model gives more, or none).
 CAP_MCR = 1.5
-#: Spacing of the speed nodes [kn] (at most; at least 4 nodes). In heavy weather the ratio to calm water climbs
-#: steeply towards low speeds (Kwon's loss against a cubic baseline), which a spline through nodes 3.5 kn apart
-#: missed by up to a third of the fuel at a discrete start in a cyclone (harness seed 5: 33.6 %, 7.8 % at 1.75 kn).
-SPEED_STEP_KN = 1.75
+#: Spacing of the speed nodes [kn] (at most; at least 4 nodes), halved where the sea needs it (:data:`SPEED_TOL`).
+SPEED_STEP_KN = 3.5
+#: Largest relative error [-] of the table's spline in the speed against the model, at the speed nodes and halfway
+#: between them, above which the speed step is halved (:func:`tabulate_ratio`). In heavy weather the ratio to calm
+#: water climbs steeply towards low speeds (Kwon's loss against a cubic baseline): a spline through nodes 3.5 kn
+#: apart missed a third of the fuel at a discrete start in a cyclone (harness seed 5: 33.6 %; 7.8 % at 1.75 kn).
+SPEED_TOL = 0.02
 #: Heading nodes relative to the centreline [deg] on a corridor with lateral freedom or a current.
 HEADINGS_DEG = (-30.0, -15.0, 0.0, 15.0, 30.0)
 
@@ -131,6 +135,10 @@ class PowerTable:
     sfoc_max_rel_error : float
         Largest relative error of the quadratic SFOC curve against the model's fuel rate per kW [-]
         (0 to rounding for the IMO curve of the built-in ships).
+    speed_error : float
+        Largest relative error of the spline in the speed through the first speed nodes (every
+        :data:`SPEED_STEP_KN` at most) against the model, at and halfway between them [-]; above
+        :data:`SPEED_TOL` the table was made on nodes twice as dense (:func:`tabulate_ratio`).
     """
 
     speeds_kn: np.ndarray
@@ -138,6 +146,7 @@ class PowerTable:
     capped_share: float
     evaluations: int
     sfoc_max_rel_error: float
+    speed_error: float = float("nan")
 
 
 def speed_nodes(v_min_kn: float, v_max_kn: float) -> np.ndarray:
@@ -196,6 +205,8 @@ class RatioTable(NamedTuple):
     headings_deg: np.ndarray  # (nd,) [deg, to port +]
     sector_edges_deg: tuple[float, ...]  # nq − 1 edges of the folded wave angle [deg]; () for one field
     capped_share: float  # share of values capped at CAP_MCR · MCR [-]
+    speeds_kn: np.ndarray  # (nv,) the speed nodes tabulated [kn]: the given ones, or twice as dense (SPEED_TOL)
+    speed_error: float  # the given nodes' spline against the model at those nodes and halfway between them [-]
 
 
 def _sectors(edges: tuple[float, ...]) -> list[tuple[float, float] | None]:
@@ -213,8 +224,14 @@ def tabulate_ratio(
     along_deg: np.ndarray,
     speeds_kn: np.ndarray,
     headings_deg: np.ndarray,
+    speed_tol: float | None = SPEED_TOL,
 ) -> RatioTable:
     """``R = P_model / P_calm`` at every node for every speed, heading node and wave-angle sector (module docstring).
+
+    The speed axis is checked: the table is evaluated at the given speed nodes and halfway between them, and where
+    the cubic spline through the given nodes (the NLP's, :func:`formulations.splines.spline_weights`) misses the
+    model by more than ``speed_tol`` (relative, values capped at :data:`CAP_MCR` aside) at any of them, the table
+    keeps every speed evaluated: nodes twice as dense. Its ``speed_error`` is that largest miss of the given nodes.
 
     A model that declares where it steps in the wave angle (``wave_sector_edges_deg``, Kwon's 30°, 60° and
     150°) is tabulated once per sector, as if the waves came from inside that sector
@@ -235,22 +252,47 @@ def tabulate_ratio(
     along_deg : numpy.ndarray, shape (N,)
         The centreline direction at each node [deg true].
     speeds_kn, headings_deg : numpy.ndarray
-        The nodes (nv,) [kn] and (nd,) [deg, to port +: heading = centreline direction − ψ].
+        The nodes (nv,) [kn], evenly spaced, and (nd,) [deg, to port +: heading = centreline direction − ψ].
+    speed_tol : float or None
+        Largest relative error of the spline in the speed kept without halving its step [-]; None: no check.
 
     Returns
     -------
     RatioTable
-        ``ratio`` (N, nv, nd', nq), the heading nodes kept (nd'), the sector edges (nq − 1) and the capped share.
+        ``ratio`` (N, nv, nd', nq), the heading nodes kept (nd'), the sector edges (nq − 1), the capped share,
+        the speed nodes (nv) and the spline's error in the speed.
     """
     edges = tuple(float(e) for e in getattr(model, "wave_sector_edges_deg", ()) or ())
     sectors = _sectors(edges)
     heads = np.asarray(headings_deg, dtype=float)
+    given = np.asarray(speeds_kn, dtype=float)
+    check = speed_tol is not None and given.size > 1
+    speeds = np.sort(np.concatenate([given, 0.5 * (given[1:] + given[:-1])])) if check else given
     if edges and heads.size > 1:
-        probe, capped = _evaluate(model, base, sea, along_deg, speeds_kn, heads[[0, -1]], sectors)
+        probe, capped = _evaluate(model, base, sea, along_deg, speeds, heads[[0, -1]], sectors)
         if np.array_equal(probe[:, :, 0], probe[:, :, 1]):
-            return RatioTable(probe[:, :, :1], np.zeros(1), edges, capped)
-    ratio, capped = _evaluate(model, base, sea, along_deg, speeds_kn, heads, sectors)
-    return RatioTable(ratio, heads, edges, capped)
+            return _speed_checked(probe[:, :, :1], np.zeros(1), edges, capped, speeds, check, speed_tol, base)
+    ratio, capped = _evaluate(model, base, sea, along_deg, speeds, heads, sectors)
+    return _speed_checked(ratio, heads, edges, capped, speeds, check, speed_tol, base)
+
+
+def _speed_checked(
+    ratio: np.ndarray, heads: np.ndarray, edges: tuple, capped: float, speeds: np.ndarray, check: bool,
+    tol: float | None, base: PowerModel,
+) -> RatioTable:  # fmt: skip
+    """The table on every other speed of ``speeds`` (the given nodes) where their spline is within ``tol`` of all
+    of ``ratio`` (N, nv, nd, nq) [-], else on all of them (without ``check``: as it is, error NaN)."""
+    if not check:
+        return RatioTable(ratio, heads, edges, capped, speeds, float("nan"))
+    coarse = speeds[::2]
+    w = np.array(spline_weights(speeds, float(coarse[0]), float(coarse[1] - coarse[0]), coarse.size, np))  # (nc, nv)
+    fit = np.einsum("cv,ncdq->nvdq", w, ratio[:, ::2])
+    exact = ratio < CAP_MCR * base.mcr_kw / base.calm_power_kw(speeds)[None, :, None, None] * (1.0 - 1e-9)
+    miss = np.abs(fit / ratio - 1.0)[exact & np.isfinite(ratio)]
+    error = float(miss.max()) if miss.size else 0.0
+    if error <= tol:
+        return RatioTable(ratio[:, ::2], heads, edges, float(np.mean(~exact[:, ::2])), coarse, error)
+    return RatioTable(ratio, heads, edges, capped, speeds, error)
 
 
 def _evaluate(

@@ -565,6 +565,13 @@ def prepare_members(corridor: Corridor, members: list[xr.Dataset], ship: Any, sh
             f"reference_member={reference!r} is not a member index; give an integer in [0, {len(members) - 1}]"
         )
     prepared = [PreparedCorridor(corridor, ds, ship, **shared) for ds in members]
+    # one power table's speed nodes for all: the densest any member's sea asked for (power_table.SPEED_TOL)
+    nodes = max((np.asarray(p.table.speeds_kn) for p in prepared), key=np.size)
+    prepared = [
+        p if np.array_equal(p.table.speeds_kn, nodes) else PreparedCorridor(corridor, ds, ship, **shared,
+                                                                             speed_nodes_kn=nodes)
+        for p, ds in zip(prepared, members, strict=True)
+    ]  # fmt: skip
     y_lo = np.max([p.y_lo for p in prepared], axis=0)
     y_hi = np.min([p.y_hi for p in prepared], axis=0)
     closed = np.flatnonzero(y_lo > y_hi)
