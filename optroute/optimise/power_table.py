@@ -99,7 +99,7 @@ __all__ = [
 #: Stated bound of ``|NLP fuel / referee fuel − 1|`` at an NLP solution on the default grids [-]: the largest
 #: measured, +1.9 % on the storm crossing from the 3-D DP's start (tests/test_one_model.py), with room to spare.
 #: Not a bound on every sea: ``python -m benchmarks.bench_harness`` reports the solutions of its random storm and
-#: cyclone cases above it (4 of 137, up to 6.0 %, where the Beaufort steps of Kwon's loss lie along the track).
+#: cyclone cases above it (4 of 137 solutions, the largest 6.0 %).
 TABULATION_BOUND = 0.03
 #: Stated bound of ``|NLP leg fuel / model leg fuel − 1|`` at the NLP's own samples at an NLP solution on the default
 #: grids [-] (:func:`sample_error`, ``solver_stats["tabulation"]["max_leg_rel_error"]``): the largest measured,
