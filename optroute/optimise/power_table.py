@@ -61,7 +61,8 @@ the same track and schedule, and, per leg and per sample, the NLP's power and fu
 model's evaluated at the NLP's own samples in the referee's weather (:func:`sample_error`; bound
 :data:`LEG_BOUND` per leg). :data:`TABULATION_BOUND` is the bound stated for the default grids
 (the NLP's weather grid at half the data's spacing, speed nodes every :data:`SPEED_STEP_KN` at
-most, halved where their spline misses the model by more than :data:`SPEED_TOL`, Kwon's sector fields) and checked in the tests at both NLP solutions of the storm crossing of
+most, halved where their spline misses the model by more than :data:`SPEED_TOL`, Kwon's sector
+fields) and checked in the tests at both NLP solutions of the storm crossing of
 ``benchmarks/bench_nlp.py`` section 4. What is left is the Beaufort number's integer steps in Hs
 (Kwon's BN from Hs), which the quasi-interpolant spreads over ±2 nodes in (t, s, y) (±15 nm along
 track, ±7.5 nm across, ±1.5 h): a smooth approximant of a step cannot be exact next to it. The referee,
