@@ -321,7 +321,9 @@ def _discrete(prepared: Any, label: str, ctx: PlanContext, route: Route, objecti
     plan, legs = repaired_plan(ctx, route.waypoints, stw, prepared.departure, prepared.verify_step_nm, "start",
                                v_min_kn=prepared.v_min, v_max_kn=prepared.v_max)  # fmt: skip
     if plan is not None and legs:
-        log.append(f"{label}: the referee found the engine outside its range; speeds mended on {legs} legs")
+        log.append(
+            f"{label}: the referee found the engine outside its range or a band grazed; speeds mended on {legs} legs"
+        )
     warm = track_warm_start(route.waypoints, plan.stw_kn if plan is not None else stw, prepared.frame)
     figure = float("inf")
     if label == "3-D DP" and objective in ("fuel", "cost"):
