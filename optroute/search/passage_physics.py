@@ -11,6 +11,7 @@ each piece of a leg and choose the speed there with
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -456,43 +457,7 @@ class PassagePhysics:
         from optroute.physics.passage import evaluate_speeds
 
         inputs = self.kernel_inputs()
-
-        def pieces(lat0, lon0, lat1, lon1):
-            dist = geo.distance_nm(lat0, lon0, lat1, lon1)
-            n_pc = np.maximum(1, np.ceil(dist / piece_nm)).astype(int)[:, None]
-            m = int(n_pc.max(initial=1))
-            f = (np.minimum(np.arange(m)[None, :], n_pc - 1) + 0.5) / n_pc  # padded with the last piece
-            return dist, n_pc, f, *points_along(lat0, lon0, lat1, lon1, f)
-
-        def pieces_clear(dist, n_pc, lat, lon, course, t_mid, sog_kn):
-            """Per leg: every own piece allowed at its ends and clear between them (as ``cost_dp_leg``)."""
-            length = dist / n_pc
-            own = np.arange(lat.shape[1])[None, :] < n_pc[:, None]
-            leg = np.nonzero(own)[0]
-            la, lo, crs, tm = lat[own], lon[own], course[own], t_mid[own]
-            ln, sog = length[leg], sog_kn[leg]
-            s = 0.5 * ln[:, None] * np.arange(3)[None, :]
-            tt = tm[:, None] + (s - 0.5 * ln[:, None]) / sog[:, None]
-            ends = s[:, [0, 2]] - 0.5 * ln[:, None]
-            e_la, e_lo, e_crs = (np.empty(ends.shape) for _ in range(3))
-            piece_points_flat(*(np.ascontiguousarray(np.repeat(a, 2)) for a in (la, lo, crs)), ends.ravel(),
-                              e_la.reshape(-1), e_lo.reshape(-1), e_crs.reshape(-1))  # fmt: skip
-            sea = self.sea(e_la.ravel(), e_lo.ravel(), tt[:, [0, 2]].ravel())
-            stw, _ = stw_for_sog(e_crs.ravel(), np.repeat(sog, 2), sea.current_u_ms, sea.current_v_ms)
-            ok_stw = np.isfinite(stw) & (stw > 0)
-            _, e_sog, _, _, allowed = evaluate_speeds(
-                self.ship, self.model, self.rules, e_crs.ravel(), sea, np.where(ok_stw, stw, 1.0), engine=self.engine
-            )
-            with np.errstate(invalid="ignore"):
-                clear = (ok_stw & allowed & (e_sog > 0)).reshape(-1, 2).all(axis=1)
-            q = np.flatnonzero(clear)
-            if q.size:
-                seg = np.repeat(0.5 * ln[q, None], 2, axis=1)
-                clear[q] = self.clear_between(la[q], lo[q], crs[q], ln[q], np.full(q.size, 3), seg, tt[q], sog[q],
-                                              sog_mode=True)  # fmt: skip
-            out = np.ones(lat.shape[0], dtype=bool)
-            np.logical_and.at(out, leg, clear)
-            return out
+        pieces = functools.partial(dp_pieces, piece_nm=float(piece_nm))
 
         def compiled(lat0, lon0, lat1, lon1, t0_h, sog_kn):
             # the DP costs each stage-to-stage leg at many times and speeds: its geometry once per leg
@@ -527,8 +492,8 @@ class PassagePhysics:
             dur = dist / sog_kn
             fuel = (np.where(np.isfinite(fuel_tph), fuel_tph, 0.0).reshape(n, m) * w).sum(axis=1) * dur
             feas = allowed.all(axis=1)
-            feas[feas] = pieces_clear(dist[feas], n_pc[feas, 0], lat[feas], lon[feas], course[feas], t[feas],
-                                      sog_kn[feas])  # fmt: skip
+            feas[feas] = self._dp_pieces_clear(dist[feas], n_pc[feas, 0], lat[feas], lon[feas], course[feas], t[feas],
+                                               sog_kn[feas])  # fmt: skip
             extra = {"stw_kn": (stw.reshape(n, m) * w).sum(axis=1), "power_kw": (power.reshape(n, m) * w).sum(axis=1)}
             return dur, np.where(feas, fuel, np.nan), feas, extra
 
@@ -536,9 +501,53 @@ class PassagePhysics:
             cost.dp_kernel = DPLegKernel(*inputs, pieces, self._count_uncovered)  # type: ignore[attr-defined]
         return cost
 
+    def _dp_pieces_clear(self, dist, n_pc, lat, lon, course, t_mid, sog_kn) -> np.ndarray:
+        """Per leg of :meth:`dp_leg`'s numpy callback: every own piece (:func:`dp_pieces`) allowed at its ends and
+        clear between them (as the compiled ``cost_dp_leg``)."""
+        from optroute.physics.currents import stw_for_sog
+
+        length = dist / n_pc
+        own = np.arange(lat.shape[1])[None, :] < n_pc[:, None]
+        leg = np.nonzero(own)[0]
+        la, lo, crs, tm = lat[own], lon[own], course[own], t_mid[own]
+        ln, sog = length[leg], sog_kn[leg]
+        s = 0.5 * ln[:, None] * np.arange(3)[None, :]
+        tt = tm[:, None] + (s - 0.5 * ln[:, None]) / sog[:, None]
+        ends = s[:, [0, 2]] - 0.5 * ln[:, None]
+        e_la, e_lo, e_crs = (np.empty(ends.shape) for _ in range(3))
+        piece_points_flat(*(np.ascontiguousarray(np.repeat(a, 2)) for a in (la, lo, crs)), ends.ravel(),
+                          e_la.reshape(-1), e_lo.reshape(-1), e_crs.reshape(-1))  # fmt: skip
+        sea = self.sea(e_la.ravel(), e_lo.ravel(), tt[:, [0, 2]].ravel())
+        stw, _ = stw_for_sog(e_crs.ravel(), np.repeat(sog, 2), sea.current_u_ms, sea.current_v_ms)
+        ok_stw = np.isfinite(stw) & (stw > 0)
+        _, e_sog, _, _, allowed = evaluate_speeds(
+            self.ship, self.model, self.rules, e_crs.ravel(), sea, np.where(ok_stw, stw, 1.0), engine=self.engine
+        )
+        with np.errstate(invalid="ignore"):
+            clear = (ok_stw & allowed & (e_sog > 0)).reshape(-1, 2).all(axis=1)
+        q = np.flatnonzero(clear)
+        if q.size:
+            seg = np.repeat(0.5 * ln[q, None], 2, axis=1)
+            clear[q] = self.clear_between(la[q], lo[q], crs[q], ln[q], np.full(q.size, 3), seg, tt[q], sog[q],
+                                          sog_mode=True)  # fmt: skip
+        out = np.ones(lat.shape[0], dtype=bool)
+        np.logical_and.at(out, leg, clear)
+        return out
+
     def _count_uncovered(self, n: int) -> None:
         self.calls += 1
         self.uncovered += n
+
+
+def dp_pieces(lat0: np.ndarray, lon0: np.ndarray, lat1: np.ndarray, lon1: np.ndarray, piece_nm: float) -> tuple:
+    """The 3-D DP's legs cut into pieces of at most ``piece_nm`` [nm] (each leg its own number, the legs padded to the
+    longest with their last piece): (length [nm], pieces per leg (n, 1), the pieces' midpoint fractions (n, m), and
+    their midpoints' lat [deg], lon [deg] and course [deg])."""
+    dist = geo.distance_nm(lat0, lon0, lat1, lon1)
+    n_pc = np.maximum(1, np.ceil(dist / piece_nm)).astype(int)[:, None]
+    m = int(n_pc.max(initial=1))
+    f = (np.minimum(np.arange(m)[None, :], n_pc - 1) + 0.5) / n_pc  # padded with the last piece
+    return dist, n_pc, f, *points_along(lat0, lon0, lat1, lon1, f)
 
 
 def leg_band_sides(ship: Ship, rules: BandRules, extra: dict[str, np.ndarray], leg_of: np.ndarray, n_legs: int):
