@@ -272,30 +272,30 @@ def tabulate_ratio(
     check = speed_tol is not None and given.size > 1
     speeds = np.sort(np.concatenate([given, 0.5 * (given[1:] + given[:-1])])) if check else given
     if edges and heads.size > 1:
-        probe, capped = _evaluate(model, base, sea, along_deg, speeds, heads[[0, -1]], sectors)
+        probe, over = _evaluate(model, base, sea, along_deg, speeds, heads[[0, -1]], sectors)
         if np.array_equal(probe[:, :, 0], probe[:, :, 1]):
-            return _speed_checked(probe[:, :, :1], np.zeros(1), edges, capped, speeds, check, speed_tol, base)
-    ratio, capped = _evaluate(model, base, sea, along_deg, speeds, heads, sectors)
-    return _speed_checked(ratio, heads, edges, capped, speeds, check, speed_tol, base)
+            return _speed_checked(probe[:, :, :1], over[:, :, :1], np.zeros(1), edges, speeds, check, speed_tol)
+    ratio, over = _evaluate(model, base, sea, along_deg, speeds, heads, sectors)
+    return _speed_checked(ratio, over, heads, edges, speeds, check, speed_tol)
 
 
 def _speed_checked(
-    ratio: np.ndarray, heads: np.ndarray, edges: tuple, capped: float, speeds: np.ndarray, check: bool,
-    tol: float | None, base: PowerModel,
+    ratio: np.ndarray, over: np.ndarray, heads: np.ndarray, edges: tuple, speeds: np.ndarray, check: bool,
+    tol: float | None,
 ) -> RatioTable:  # fmt: skip
     """The table on every other speed of ``speeds`` (the given nodes) where their spline is within ``tol`` of all
-    of ``ratio`` (N, nv, nd, nq) [-], else on all of them (without ``check``: as it is, error NaN)."""
+    of ``ratio`` (N, nv, nd, nq) [-] but its capped values (``over``, :func:`_evaluate`), else on all of them
+    (without ``check``: as it is, error NaN)."""
     if not check:
-        return RatioTable(ratio, heads, edges, capped, speeds, float("nan"))
+        return RatioTable(ratio, heads, edges, float(np.mean(over)) if over.size else 0.0, speeds, float("nan"))
     coarse = speeds[::2]
     w = np.array(spline_weights(speeds, float(coarse[0]), float(coarse[1] - coarse[0]), coarse.size, np))  # (nc, nv)
     fit = np.einsum("cv,ncdq->nvdq", w, ratio[:, ::2])
-    exact = ratio < CAP_MCR * base.mcr_kw / base.calm_power_kw(speeds)[None, :, None, None] * (1.0 - 1e-9)
-    miss = np.abs(fit / ratio - 1.0)[exact & np.isfinite(ratio)]
+    miss = np.abs(fit / ratio - 1.0)[~over]
     error = float(miss.max()) if miss.size else 0.0
     if error <= tol:
-        return RatioTable(ratio[:, ::2], heads, edges, float(np.mean(~exact[:, ::2])), coarse, error)
-    return RatioTable(ratio, heads, edges, capped, speeds, error)
+        ratio, over, speeds = ratio[:, ::2], over[:, ::2], coarse
+    return RatioTable(ratio, heads, edges, float(np.mean(over)) if over.size else 0.0, speeds, error)
 
 
 def _evaluate(
@@ -306,15 +306,15 @@ def _evaluate(
     speeds_kn: np.ndarray,
     headings_deg: np.ndarray,
     sectors: list[tuple[float, float] | None],
-) -> tuple[np.ndarray, float]:
-    """The ratio (N, nv, nd, nq) at the given heading nodes and sectors, capped at :data:`CAP_MCR`, and the capped
-    share."""
+) -> tuple[np.ndarray, np.ndarray]:
+    """The ratio (N, nv, nd, nq) at the given heading nodes and sectors, capped at :data:`CAP_MCR`, and where it is
+    capped (the model gives no finite power, or more than the cap)."""
     v = np.asarray(speeds_kn, dtype=float)[None, :]
     p_calm = base.calm_power_kw(v)
     cap = CAP_MCR * base.mcr_kw
     col = lambda a: np.asarray(a, dtype=float)[:, None]  # noqa: E731
     out = np.empty((np.size(along_deg), v.size, np.size(headings_deg), len(sectors)))
-    capped = 0
+    capped = np.zeros(out.shape, dtype=bool)
     for k, psi in enumerate(np.asarray(headings_deg, dtype=float)):
         at = model_sea(
             col(np.asarray(along_deg) - psi), col(sea.hs_m), col(sea.wave_from_deg), col(sea.wind_u_ms),
@@ -324,9 +324,9 @@ def _evaluate(
             at_q = {**at, "wave_angle_deg": sector_angle(at["wave_angle_deg"], sector)}
             p = _model_power(model, v, at_q, out.shape[0])
             over = ~np.isfinite(p) | (p > cap)
-            capped += int(over.sum())
+            capped[:, :, k, q] = over
             out[:, :, k, q] = np.where(over, cap, p) / p_calm
-    return out, capped / max(out.size, 1)
+    return out, capped
 
 
 def _model_power(model: PerformanceModel, v_kn: np.ndarray, at: dict[str, np.ndarray], n: int) -> np.ndarray:
