@@ -20,7 +20,7 @@ from formulations.common import Band
 from formulations.phase1 import SLACK_TOL
 from formulations.speed_nlp import NLPResult, SpeedNLP
 from optroute import geodesy as geo
-from optroute.errors import OptrouteError, SolverFailure
+from optroute.errors import SolverFailure
 from optroute.optimise.lateral import avoid_point
 from optroute.optimise.nlp_inputs import (
     CorridorFrame,
@@ -36,6 +36,7 @@ from optroute.optimise.nlp_solve import (
     warm_point,
 )
 from optroute.optimise.phase1 import infeasible_eta, phase1_point
+from optroute.optimise.starts import verified_plan
 from optroute.plan.result import Exclusion, Plan, PlanContext, Violation
 from optroute.search.route import Route
 from optroute.weather.sample import WeatherSampler
@@ -89,14 +90,6 @@ def certificate_reason(
     if objective == "time":
         return "objective 'time' (every leg at its top speed)"
     return None
-
-
-def _score(plan: Plan, objective: str, fuel_price: float, hourly: float) -> float:
-    if objective == "time":
-        return plan.duration_h
-    if objective == "fuel":
-        return plan.total_fuel_t
-    return fuel_price * plan.total_fuel_t + hourly * plan.duration_h
 
 
 def to_plan(ctx: PlanContext, frame: CorridorFrame, res: NLPResult, t0: np.datetime64, *, step_nm: float) -> Plan:
@@ -239,15 +232,8 @@ def route_plan(route: Route | None, ctx: PlanContext, step_nm: float) -> Plan | 
     if route is None:
         return None
     stw = np.where(np.isfinite(route.stw_kn) & (route.stw_kn > 0), route.stw_kn, route.sog_kn)
-    if not np.all(np.isfinite(stw) & (stw > 0)):
-        return None
-    try:
-        plan = Plan.from_context(
-            ctx, np.asarray(route.waypoints), stw, departure=route.departure, status="search", step_nm=step_nm
-        )
-    except OptrouteError:  # the fallback plan is optional; the failure being reported is what matters
-        return None
-    return plan if not plan.verify(step_nm=step_nm) else None
+    # the fallback plan is optional; the failure being reported is what matters
+    return verified_plan(ctx, route.waypoints, stw, route.departure, step_nm, "search")
 
 
 def longer_horizon(

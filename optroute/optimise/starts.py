@@ -48,6 +48,7 @@ __all__ = [
     "Candidate",
     "corridor_stations",
     "dp_route",
+    "evaluated_plan",
     "great_circle_corridor",
     "minimum_load_plan",
     "repaired_plan",
@@ -118,6 +119,19 @@ def score(plan: Plan, objective: str, fuel_price: float, hourly: float) -> float
     return fuel_price * plan.total_fuel_t + hourly * plan.duration_h
 
 
+def evaluated_plan(
+    ctx: PlanContext, waypoints: np.ndarray, stw_kn: np.ndarray, departure: np.datetime64, step_nm: float, status: str
+) -> Plan | None:
+    """The plan of a track and speeds through water as the referee evaluates it (not verified); None where it cannot
+    even be evaluated (past the weather's end, off its area): such a candidate is no start."""
+    try:
+        return Plan.from_context(
+            ctx, np.asarray(waypoints, dtype=float), stw_kn, departure=departure, status=status, step_nm=step_nm
+        )
+    except OptrouteError:
+        return None
+
+
 def verified_plan(
     ctx: PlanContext,
     waypoints: np.ndarray,
@@ -130,13 +144,8 @@ def verified_plan(
     stw = np.asarray(stw_kn, dtype=float)
     if not np.all(np.isfinite(stw) & (stw > 0)):
         return None
-    try:
-        plan = Plan.from_context(
-            ctx, np.asarray(waypoints, dtype=float), stw, departure=departure, status=status, step_nm=step_nm
-        )
-    except OptrouteError:  # a candidate that cannot even be evaluated is no start
-        return None
-    return plan if not plan.verify(step_nm=step_nm) else None
+    plan = evaluated_plan(ctx, waypoints, stw, departure, step_nm, status)
+    return plan if plan is not None and not plan.verify(step_nm=step_nm) else None
 
 
 def repaired_plan(
@@ -177,11 +186,8 @@ def repaired_plan(
         return None, 0
     moved: set[int] = set()
     for _ in range(REPAIR_ROUNDS + 1):
-        try:
-            plan = Plan.from_context(
-                ctx, np.asarray(waypoints, dtype=float), stw, departure=departure, status=status, step_nm=step_nm
-            )
-        except OptrouteError:  # a candidate that cannot even be evaluated is no start
+        plan = evaluated_plan(ctx, waypoints, stw, departure, step_nm, status)
+        if plan is None:
             return None, len(moved)
         found = plan.verify(step_nm=step_nm)
         if not found:
@@ -218,12 +224,8 @@ def _off_the_edge(
     for v in options:
         trial = stw.copy()
         trial[leg] = v
-        try:
-            plan = Plan.from_context(ctx, np.asarray(waypoints, dtype=float), trial, departure=departure,
-                                     status="candidate", step_nm=step_nm)  # fmt: skip
-        except OptrouteError:
-            continue
-        if not any(int(x.leg) == leg for x in plan.verify(step_nm=step_nm)):
+        plan = evaluated_plan(ctx, waypoints, trial, departure, step_nm, "candidate")
+        if plan is not None and not any(int(x.leg) == leg for x in plan.verify(step_nm=step_nm)):
             return v
     return options[0]
 
@@ -273,9 +275,8 @@ def minimum_load_plan(
     stw = np.full(wp.shape[0] - 1, v0)
     best: Plan | None = None
     for _ in range(MIN_LOAD_ROUNDS):
-        try:
-            plan = Plan.from_context(ctx, wp, stw, departure=departure, status="start", step_nm=step_nm)
-        except OptrouteError:  # a schedule that cannot even be evaluated (past the weather's end) is no start
+        plan = evaluated_plan(ctx, wp, stw, departure, step_nm, "start")
+        if plan is None:
             return best
         found = plan.verify(step_nm=step_nm)
         if any(v.kind not in ENGINE_KINDS for v in found):
