@@ -618,8 +618,7 @@ def nlp_band_solver(
     callable
         ``solve(sides, applies) -> InnerOutcome`` with arrays of shape (N, m, B).
     """
-    lower = np.array([b.lower for b in nlp.bands])
-    upper = np.array([b.upper for b in nlp.bands])
+    lower, upper = nlp.sample_edges()
     kwargs = dict(solve_kwargs)
     best: dict[str, float] = {"objective": float("inf")}
     calls = [0]

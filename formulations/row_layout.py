@@ -102,7 +102,12 @@ class RowLegs:
         return out.reshape(self.band_legs.size, self.per_leg)
 
     def band_edges(
-        self, bands: tuple[Band, ...], sides: np.ndarray, applies: np.ndarray
+        self,
+        bands: tuple[Band, ...],
+        sides: np.ndarray,
+        applies: np.ndarray,
+        *,
+        edges: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The band-edge parameter ``beta`` (N·m·B, band-major over every sample) and the band rows' lower and upper
         bounds for ``sides`` (−1: ``ratio ≤ lower``, +1: ``ratio ≥ upper``, :data:`~formulations.common.BELOW_SIDE`:
@@ -111,7 +116,8 @@ class RowLegs:
         A band is imposed where it applies on the legs that carry its rows; on the others it is not (the caller
         leaves a leg out only where no band can apply). A sample on the :data:`~formulations.common.BELOW_SIDE`
         keeps the sea below the band's threshold by :data:`BELOW_MARGIN` (relative) wherever its leg carries the
-        band's rows, and must not be one where the band applies."""
+        band's rows, and must not be one where the band applies. ``edges``: every sample's lower and upper edge,
+        (N, m, B) each (default the bands' own)."""
         n, m, nb = self.band_legs.size, self.per_leg, self.n_bands
         side_arr = np.asarray(sides).astype(np.int8)
         app_arr = np.asarray(applies, dtype=bool)
@@ -135,9 +141,12 @@ class RowLegs:
         hs_min = np.array([b.hs_min_m for b in bands])
         if (below & ~(hs_min > 0.0)[None, None, :]).any():
             raise FormulationInputError("the side 'Hs below the threshold' needs a band with hs_min_m > 0")
-        lower = np.array([b.lower for b in bands])
-        upper = np.array([b.upper for b in bands])
-        beta3 = np.where(side_arr < 0, lower[None, None, :], upper[None, None, :])
+        if edges is None:
+            lower = np.broadcast_to(np.array([b.lower for b in bands], dtype=float), side_arr.shape)
+            upper = np.broadcast_to(np.array([b.upper for b in bands], dtype=float), side_arr.shape)
+        else:
+            lower, upper = edges
+        beta3 = np.where(side_arr < 0, lower, upper)
         app_arr = app_arr & self.band_legs[:, None, None]
         bad = app_arr & ~np.isfinite(beta3)
         if bad.any():

@@ -73,6 +73,7 @@ and bands (IMO MSC.1/Circ.1228, Boeing EP 2145155; physics.md §2–3); SFOC
 
 from __future__ import annotations
 
+import copy
 import time
 from typing import Any, Literal
 
@@ -234,6 +235,7 @@ class SpeedNLP:
         self.row_legs = RowLegs.of(band_legs, exclusion_legs, n, m, len(self.bands))
         self.g_over_2pi = float(g_over_2pi_kn_s)
         self.sog_min_kn = float(sog_min_kn)
+        self._edges: tuple[np.ndarray, np.ndarray] | None = None  # per-sample band edges (:meth:`with_edges`)
         for b in self.bands:
             if not isinstance(b, Band):
                 raise FormulationInputError(f"bands must be Band instances, got {type(b).__name__}")
@@ -373,8 +375,40 @@ class SpeedNLP:
 
     def band_edges(self, sides: np.ndarray, applies: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The band-edge parameter ``beta`` (band-major) and the band rows' bounds for sides and applicability
-        (N, m, B), as :meth:`solve` sets them (:meth:`formulations.row_layout.RowLegs.band_edges`)."""
-        return self.row_legs.band_edges(self.bands, sides, applies)
+        (N, m, B), as :meth:`solve` sets them (:meth:`formulations.row_layout.RowLegs.band_edges`), at the
+        edges of :meth:`sample_edges`."""
+        return self.row_legs.band_edges(self.bands, sides, applies, edges=self.sample_edges())
+
+    def sample_edges(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every sample's band edges, lower and upper, shape (N, m, B) each: the bands' own, or those of
+        :meth:`with_edges`."""
+        if self._edges is not None:
+            return self._edges
+        shape = (self.n_legs, self.samples_per_leg, self.n_bands)
+        lower = np.broadcast_to(np.array([b.lower for b in self.bands], dtype=float), shape)
+        upper = np.broadcast_to(np.array([b.upper for b in self.bands], dtype=float), shape)
+        return lower, upper
+
+    def with_edges(self, lower: ArrayLike, upper: ArrayLike) -> SpeedNLP:
+        """This problem with its band edges set per sample: ``lower`` and ``upper`` of shape (N, m, B) [ratio].
+
+        The edges are a parameter of the built problem (the rows' ``β``), so nothing is rebuilt: the copy shares
+        the solver. Its sides, applicability, sample states (``inside``) and rows all use these edges. Each
+        sample's edge must keep the band's finite edges finite and ``lower ≤ upper``; use it to loosen a band
+        at a few samples (a start that an independent check passed lies inside the problem's band there).
+        """
+        shape = (self.n_legs, self.samples_per_leg, self.n_bands)
+        lo, hi = np.array(lower, dtype=float), np.array(upper, dtype=float)
+        if lo.shape != shape or hi.shape != shape:
+            raise FormulationInputError(f"lower and upper must have shape {shape}, got {lo.shape} and {hi.shape}")
+        own_lo, own_hi = self.sample_edges()
+        if (np.isfinite(lo) != np.isfinite(own_lo)).any() or (np.isfinite(hi) != np.isfinite(own_hi)).any():
+            raise FormulationInputError("per-sample band edges must be finite exactly where the band's own edges are")
+        if (lo > hi).any() or np.isnan(lo).any() or np.isnan(hi).any():
+            raise FormulationInputError("per-sample band edges need lower <= upper at every sample, without NaN")
+        out = copy.copy(self)
+        out._edges = (lo, hi)
+        return out
 
     def _build(
         self,
@@ -513,8 +547,7 @@ class SpeedNLP:
         else:
             ratio = np.zeros((n, m, 0))
         hs_min = np.array([b.hs_min_m for b in self.bands])
-        lower = np.array([b.lower for b in self.bands])
-        upper = np.array([b.upper for b in self.bands])
+        lower, upper = self.sample_edges()
         applies = hs[:, :, None] >= hs_min[None, None, :]
         tol = 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(lower), lower, 0.0)))  # solver tolerance
         inside = applies & (ratio > lower + tol) & (ratio < upper - tol)
@@ -601,8 +634,7 @@ class SpeedNLP:
         """
         from formulations.disjunctive import select_sides, strictly_inside
 
-        lower = np.array([b.lower for b in self.bands])
-        upper = np.array([b.upper for b in self.bands])
+        lower, upper = self.sample_edges()
         hs_min = np.array([b.hs_min_m for b in self.bands])
         sides = select_sides(state.ratio, lower, upper)
         inside = strictly_inside(state.ratio, lower, upper)

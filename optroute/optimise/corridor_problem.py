@@ -12,7 +12,8 @@ A solve, in stages: **start** — every candidate scored by the referee before t
 (:mod:`optroute.optimise.start_stage`: a given warm plan or search route, the ship's dual schedule, the
 centreline start, and where a band or the exclusion can bind or none of those verifies the 3-D DP on the
 corridor and its minimum-time plan); **solve** — Ipopt from it with the band outer loop
-(:meth:`~optroute.optimise.nlp_solve.Problem.solve`), the load, band and exclusion rows also at the
+(:meth:`~optroute.optimise.nlp_solve.Problem.solve`; a verified start the NLP's smoothed sea puts inside a band
+moves that sample's edge through the start), the load, band and exclusion rows also at the
 referee's check points of a canonical start (:mod:`optroute.optimise.rows`); **verify** — the plan of the solution by the
 referee; where it finds only the engine outside its range (the smooth power table cannot follow the
 model's steps between the NLP's samples) the speeds of those legs move to the limit
@@ -108,6 +109,7 @@ class _Call:
     first_solve: str | None = None  # the first solve's verdict: "verified", "mended", "rejected: ...", "Ipopt ..."
     starts: Starts | None = None  # the start stage's candidates and why the global starts ran
     start_in_bands: dict[str, int] | None = None  # the first verified start solved from, inside the NLP's bands
+    edges_through: int | None = None  # (sample, band) edges the first solve from a verified start moved through it
     stage_cpu_s: dict[str, float] = field(default_factory=dict)
     _stage: tuple[str, float, float] | None = None  # the running stage: name, wall and CPU clocks at its start
 
@@ -527,7 +529,11 @@ class PreparedCorridor(CorridorReport):
             eta_solve = None if call.cap_h is None else call.cap_h - st.eta_shift_h
             if eta_solve is not None and eta_solve <= 0:
                 break
-            sol = prob.solve(nlp, eta_h=eta_solve, warm=warm, budget=self.band_solves, **call.solve_kw)
+            through = attempt == 0 and cand.plan is not None  # a verified start: the NLP's edges pass through it
+            sol = prob.solve(nlp, eta_h=eta_solve, warm=warm, budget=self.band_solves, through_start=through,
+                             **call.solve_kw)  # fmt: skip
+            if through and call.edges_through is None:
+                call.edges_through = sol.edges_through
             if not sol.ok and self._usable_iterate(sol, call.ctx):
                 call.log.append(f"attempt {attempt}: kept Ipopt's last iterate ({sol.res.status}): its plan verifies")
                 sol = replace(sol, ok=True)
@@ -566,7 +572,9 @@ class PreparedCorridor(CorridorReport):
         A start the referee passed can lie inside the NLP's backed-off bands (:func:`start_in_nlp_bands`); started
         there, the NLP is outside its own feasible set and Ipopt reports it infeasible though the start is a plan. The
         back-offs are lowered to half the start's clearance where that clears it (a rejection by the referee raises
-        them again, :func:`tighten`); where the NLP's own evaluation puts the start inside a rules' band, they stay.
+        them again, :func:`tighten`); where the NLP's own evaluation puts the start inside a rules' band, they stay, and
+        the solve moves the edges of those samples alone through the start
+        (:func:`~optroute.optimise.nlp_solve.edges_through`; ``start_edges_moved`` counts them).
         The first such start's counts are the call's record (``verified_start_in_nlp_bands``).
         """
         rules_bands, _, _ = formulation_bands(self.ship, self.rules)  # the rules' own: no back-offs
@@ -776,6 +784,7 @@ class PreparedCorridor(CorridorReport):
             "retries": call.retries,
             "first_solve": call.first_solve or "not run",
             "verified_start_in_nlp_bands": call.start_in_bands,
+            "start_edges_moved": call.edges_through,
             "constraint_rows": self.constraint_rows,
             "row_samples_per_leg": call.last.nlp.samples_per_leg if call.last is not None else None,
             "row_legs": self._row_legs(call),

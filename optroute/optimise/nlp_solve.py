@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from formulations.common import PowerModel
-from formulations.disjunctive import InnerOutcome, improve_sides, nlp_band_solver, nlp_groups
+from formulations.disjunctive import InnerOutcome, improve_sides, nlp_band_solver, nlp_groups, select_sides
 from formulations.speed_nlp import NLPResult, SpeedNLP
 from optroute import units
 from optroute.geo.tracks import Exclusion, gc_points, project_to_polyline
@@ -44,6 +44,7 @@ __all__ = [
     "certificate",
     "clear_of_exclusion",
     "desired_speed",
+    "edges_through",
     "flip_gains",
     "flippable_groups",
     "route_warm_start",
@@ -116,6 +117,7 @@ class Solved:
     iterations: int = 0
     sides_settled: bool = True
     mended_legs: int = 0  # legs whose speed the referee's engine-range check moved (starts.repaired_plan)
+    edges_through: int = 0  # (sample, band) pairs whose edge moved through the verified start (edges_through)
 
 
 # --------------------------------------------------------------------------- the problem
@@ -286,8 +288,15 @@ class Problem:
         hourly_cost: float,
         warm: Mapping[str, Any] | None,
         budget: int,
+        through_start: bool = False,
     ) -> Solved:
-        """One solve with the band outer loop (side selection from the warm start, flips, applicability)."""
+        """One solve with the band outer loop (side selection from the warm start, flips, applicability).
+
+        ``through_start``: the warm start is a plan the referee passed; where it lies inside the NLP's bands (its
+        smoothed sea and conservative rules, :func:`~optroute.optimise.rescue.start_in_nlp_bands`) those samples'
+        edges move to the start's own ratio (:func:`edges_through`), so that the NLP starts inside its feasible set
+        and can only move those samples away from the band.
+        """
         n = nlp.n_legs
         kwargs: dict[str, Any] = {
             "eta_h": eta_h,
@@ -317,6 +326,11 @@ class Problem:
             self._count(res)
             return Solved(res, ok, 1, 0, [res.objective] if ok else [], nlp, iterations=int(res.iterations))
         state = nlp.evaluate(y0, v0, t0)
+        edges = edges_through(nlp, state) if through_start else None
+        moved = int(np.sum(state.inside)) if edges is not None else 0
+        if edges is not None:
+            nlp = nlp.with_edges(*edges)
+            state = nlp.evaluate(y0, v0, t0)
         sides, applies = nlp.default_sides(state)
         shape = sides.shape
         flippable = flippable_groups(nlp, state, y0, t0)
@@ -324,7 +338,8 @@ class Problem:
 
         def trial() -> SpeedNLP:
             if not trial_nlp:  # flip trials: an iteration cap, so that hopeless flips fail fast
-                trial_nlp.append(self.build(self._last_state, max_iter=self.trial_max_iter))
+                built = self.build(self._last_state, max_iter=self.trial_max_iter)
+                trial_nlp.append(built if edges is None else built.with_edges(*edges))
             return trial_nlp[0]
 
         inner = band_solver(nlp, trial, kwargs)
@@ -347,7 +362,26 @@ class Problem:
             nlp,
             iterations=iterations[0],
             sides_settled=out.finished,
+            edges_through=moved,
         )
+
+
+def edges_through(nlp: SpeedNLP, state: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    """Band edges (lower, upper), (N, m, B) each, through a start's samples that lie inside the NLP's bands; None
+    where none does.
+
+    At such a sample (``state.inside``: the band applies and the ratio is strictly inside it, as the NLP evaluates
+    the start) the nearer edge (:func:`formulations.disjunctive.select_sides`) moves to the start's ratio; every
+    other sample keeps the NLP's own edges. The NLP then holds that sample at least as far from the band as the
+    start, in its own sea.
+    """
+    if not nlp.n_bands or not state.inside.any():
+        return None
+    lower, upper = nlp.sample_edges()
+    side = select_sides(state.ratio, lower, upper)
+    lo = np.where(state.inside & (side < 0), state.ratio, lower)
+    hi = np.where(state.inside & (side > 0), state.ratio, upper)
+    return lo, hi
 
 
 def warm_point(nlp: SpeedNLP, warm: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
@@ -391,13 +425,15 @@ def flippable_groups(
     ok_power = _load_ok(nlp.power, power)
     ratio = _ratios_at_speeds(nlp, state, speeds)
     out = np.zeros((n, m, nb), dtype=bool)
+    lower, upper = nlp.sample_edges()
     for i, b in enumerate(nlp.bands):
         if len(b.allowed_sides) < 2:
             continue
         # a side the start is on is reachable (the speed grid can miss a narrow window: above the surf-riding band
         # and below the engine's limit, 25.60-25.62 kn for the 54 000 dwt ship in a following-seas case)
-        low = (state.ratio[:, :, i] <= b.lower) | np.any(ok_power & (ratio[:, :, i] <= b.lower), axis=-1)
-        high = (state.ratio[:, :, i] >= b.upper) | np.any(ok_power & (ratio[:, :, i] >= b.upper), axis=-1)
+        lo, hi = lower[:, :, i], upper[:, :, i]
+        low = (state.ratio[:, :, i] <= lo) | np.any(ok_power & (ratio[:, :, i] <= lo[:, :, None]), axis=-1)
+        high = (state.ratio[:, :, i] >= hi) | np.any(ok_power & (ratio[:, :, i] >= hi[:, :, None]), axis=-1)
         both = low & high
         out[:, :, i] = np.all(both | ~state.applies[:, :, i], axis=1)[:, None]
     return out
