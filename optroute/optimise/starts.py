@@ -55,6 +55,7 @@ __all__ = [
     "score",
     "track_warm_start",
     "verified_plan",
+    "warm_is_plan",
 ]
 
 #: Largest distance of a corridor's centreline from the 3-D DP's chord between two stations, as a share of the
@@ -298,7 +299,9 @@ def track_warm_start(waypoints: np.ndarray, stw_kn: np.ndarray, frame: CorridorF
 
     The track's vertices are projected on the centreline; its cross-track offset is interpolated
     (linearly in along-track distance) at the corridor's waypoints and clipped to the half-width;
-    each NLP leg takes the speed of the track leg nearest its midpoint.
+    each NLP leg takes the speed that sails it in the time the track takes over the same stretch
+    (:func:`_time_kept_speeds`; the track's arrival is kept where its legs and the NLP's differ), or, for a
+    track that doubles back along the centreline, the speed of the track leg nearest its midpoint.
     """
     wp = np.asarray(waypoints, dtype=float)
     stw = np.asarray(stw_kn, dtype=float)
@@ -309,13 +312,43 @@ def track_warm_start(waypoints: np.ndarray, stw_kn: np.ndarray, frame: CorridorF
     hw = np.asarray(frame.corridor.half_width_nm, dtype=float)
     offset = np.clip(offset, -hw, hw)
     offset[0] = offset[-1] = 0.0
-    mid_lat = 0.5 * (centre[:-1, 0] + centre[1:, 0])
-    mid_lon = units.wrap_180(centre[:-1, 1] + 0.5 * units.wrap_180(centre[1:, 1] - centre[:-1, 1]))
-    _, _, _, k = project_to_polyline(wp, mid_lat, mid_lon)
-    speed = stw[np.clip(k, 0, stw.size - 1)]
+    speed = _time_kept_speeds(s_t, stw, frame.s_nm) if np.all(np.diff(s_t) > 0) else np.full(frame.n_legs, np.nan)
+    if not np.all(np.isfinite(speed)):  # a track that doubles back along the centreline: the nearest leg's speed
+        mid_lat = 0.5 * (centre[:-1, 0] + centre[1:, 0])
+        mid_lon = units.wrap_180(centre[:-1, 1] + 0.5 * units.wrap_180(centre[1:, 1] - centre[:-1, 1]))
+        _, _, _, k = project_to_polyline(wp, mid_lat, mid_lon)
+        speed = stw[np.clip(k, 0, stw.size - 1)]
     fallback = float(np.nanmean(stw[np.isfinite(stw) & (stw > 0)])) if np.any(np.isfinite(stw) & (stw > 0)) else 10.0
     speed = np.where(np.isfinite(speed) & (speed > 0), speed, fallback)
     return {"offset_nm": offset, "stw_kn": speed}
+
+
+def warm_is_plan(cand: Candidate, frame: CorridorFrame) -> bool:
+    """Whether a candidate's warm start on the NLP's legs is its verified plan itself: the same waypoints (to 1e-9°)
+    and speeds (to 1e-9 kn). True of the starts made on the NLP's legs (the centreline start, the minimum-time plan);
+    false of a track mapped onto them (:func:`track_warm_start`: a 3-D DP's plan on its own stages takes one speed per
+    NLP leg), whose warm start the referee has not passed."""
+    plan = cand.plan
+    if plan is None:
+        return False
+    stw = np.asarray(cand.warm["stw_kn"], dtype=float)
+    wp = np.asarray(plan.waypoints, dtype=float)
+    if np.shape(plan.stw_kn) != stw.shape or wp.shape[0] != frame.n_legs + 1:
+        return False
+    track = np.asarray(frame.waypoints(np.asarray(cand.warm["offset_nm"], dtype=float)), dtype=float)
+    return bool(np.allclose(plan.stw_kn, stw, rtol=0.0, atol=1e-9) and np.allclose(wp, track, rtol=0.0, atol=1e-9))
+
+
+def _time_kept_speeds(s_track_nm: np.ndarray, stw_kn: np.ndarray, s_legs_nm: np.ndarray) -> np.ndarray:
+    """Each NLP leg's speed [kn] that sails it in the time the track's own speeds take over the same stretch of the
+    centreline (``s_legs_nm`` (N+1,) its ends; ``s_track_nm`` (M+1,) the track's vertices projected on it,
+    increasing; ``stw_kn`` (M,) its legs' speeds): the distance-weighted harmonic mean of the track's speeds over
+    the leg. NaN where a track speed is not positive and finite."""
+    hours = np.concatenate([[0.0], np.cumsum(np.diff(s_track_nm) / np.where(stw_kn > 0, stw_kn, np.nan))])
+    s = np.clip(s_legs_nm, s_track_nm[0], s_track_nm[-1])
+    t = np.interp(s, s_track_nm, hours)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.diff(s_legs_nm) / np.diff(t)
 
 
 def great_circle_corridor(frame: CorridorFrame, tol_nm: float = 0.5) -> bool:
