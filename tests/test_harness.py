@@ -264,24 +264,6 @@ def test_where_the_cheapest_and_the_earliest_label_are_stopped_a_bins_earliest_l
     assert plan.solver_stats["starts"]["3-D DP"]["verified"]
 
 
-def test_a_verified_start_inside_the_nlps_smoothed_bands_is_inside_its_feasible_set_after_all():
-    """Harness seed 4 (a storm, minimum time): the 3-D DP's plan passes the referee, but the NLP's smoothed sea puts
-    4 of its samples inside a rules' band. Started there the first solve ended Ipopt Infeasible_Problem_Detected
-    (16 solves, 1 008 iterations, then the start returned). Those samples' edges now pass through the start
-    (``optroute.optimise.nlp_solve.edges_through``): the first solve converges (its plan is then judged by the
-    referee), every moved edge is one the start lay inside, and the returned plan verifies, passes the 0.1 nm check
-    and is no slower than the start. About 2 CPU-s."""
-    case, ship, wx, corridor = _case(4)
-    plan = orx.optimise_corridor(corridor, wx, ship, departure=T0, objective="time")
-    stats = plan.solver_stats
-    inside = stats["verified_start_in_nlp_bands"]
-    assert inside["inside_rules_band"] > 0
-    assert stats["start_edges_moved"] == inside["samples"]
-    assert not stats["first_solve"].startswith("Ipopt"), stats["first_solve"]
-    assert plan.verify() == [] and check_plan(plan, wx, ship) == ([], 0)
-    assert plan.duration_h <= stats["start_score"] * (1.0 + 1e-9)
-
-
 def test_where_no_lattice_finds_a_passage_the_failure_says_feasibility_is_not_established():
     """Harness seed 26 (the 25k dwt cargo ship in a 20 nm wide corridor, 238 nm, a storm): the NLP fails, and neither
     the 3-D DP across the corridor nor the centreline's timed passage finds a passage. That is no proof (seed 20's

@@ -64,7 +64,7 @@ from optroute.optimise.rescue import (
 )
 from optroute.optimise.rows import ROW_PLACEMENTS, binding_legs, canonical_rows, only_where_binding, points_of
 from optroute.optimise.start_stage import Starts, discrete_start_mode, start_stage, warm_candidate
-from optroute.optimise.starts import ENGINE_KINDS, Candidate, repaired_plan, score
+from optroute.optimise.starts import ENGINE_KINDS, Candidate, repaired_plan, score, warm_is_plan
 from optroute.physics.performance import PerformanceModel
 from optroute.physics.safety import BandRules
 from optroute.physics.ship import Ship
@@ -529,7 +529,8 @@ class PreparedCorridor(CorridorReport):
             eta_solve = None if call.cap_h is None else call.cap_h - st.eta_shift_h
             if eta_solve is not None and eta_solve <= 0:
                 break
-            through = attempt == 0 and cand.plan is not None  # a verified start: the NLP's edges pass through it
+            # a start the referee passed, as the NLP sees it: the NLP's band edges may pass through it
+            through = attempt == 0 and warm_is_plan(cand, self.frame)
             sol = prob.solve(nlp, eta_h=eta_solve, warm=warm, budget=self.band_solves, through_start=through,
                              **call.solve_kw)  # fmt: skip
             if through and call.edges_through is None:
