@@ -264,6 +264,27 @@ def test_where_the_cheapest_and_the_earliest_label_are_stopped_a_bins_earliest_l
     assert plan.solver_stats["starts"]["3-D DP"]["verified"]
 
 
+def test_the_start_stages_dp_keeps_several_labels_per_bin_and_finds_the_cheaper_passage_by_the_eta():
+    """Harness seed 4 (a storm, least fuel by the ETA the harness gives: the minimum time × its factor). With one
+    label per arrival bin the 3-D DP's plan was no better than racing: the call returned the minimum-time plan's
+    25.54 t. A cheaper label that arrives later wins a bin on the way and loses the route that meets the ETA more
+    cheaply; the start stage's DP keeps 4 labels per bin (``DP_LABELS_PER_BIN``) and its verified plan burns far less.
+    Both plans pass the referee and the 0.1 nm check, and the least-fuel plan is never worse than the minimum-time
+    plan that meets the same ETA. About 4 CPU-s."""
+    case, ship, wx, corridor = _case(4)
+    fastest = orx.optimise_corridor(corridor, wx, ship, departure=T0, objective="time")
+    eta = T0 + np.timedelta64(int(round(fastest.duration_h * case.eta_factor * 3600.0)), "s")
+    plans = {  # the start stage's own default, and one label per bin as before
+        labels: orx.optimise_corridor(corridor, wx, ship, departure=T0, eta=eta, objective="fuel", dp_options=options)
+        for labels, options in ((4, {}), (1, {"labels_per_bin": 1}))
+    }
+    for plan in plans.values():
+        assert plan.verify() == [] and check_plan(plan, wx, ship, eta=eta) == ([], 0)
+        assert plan.total_fuel_t <= fastest.total_fuel_t * (1.0 + 1e-9)
+    assert plans[4].solver_stats["starts"]["3-D DP"]["verified"]
+    assert plans[4].total_fuel_t < 0.8 * plans[1].total_fuel_t
+
+
 def test_where_no_lattice_finds_a_passage_the_failure_says_feasibility_is_not_established():
     """Harness seed 26 (the 25k dwt cargo ship in a 20 nm wide corridor, 238 nm, a storm): the NLP fails, and neither
     the 3-D DP across the corridor nor the centreline's timed passage finds a passage. That is no proof (seed 20's

@@ -403,6 +403,13 @@ def corridor_stations(frame: CorridorFrame, dx_nm: float, per_side: int) -> tupl
     return np.asarray(lat, dtype=float), np.asarray(lon, dtype=float), lateral
 
 
+#: Labels the start stage's 3-D DP keeps per (stage, lateral, arrival bin) for fuel or cost: up to 4 of the bin's
+#: Pareto set on (fuel, time), cheapest first (:func:`optroute.search.solve_dp`'s ``labels_per_bin``). With one, a
+#: cheaper label that arrives later wins a bin on the way and the route that meets the ETA more cheaply is lost; 4
+#: costs the DP about twice its CPU. A minimum time ranks its bins by arrival (``label_value="time"``) and keeps one.
+DP_LABELS_PER_BIN = 4
+
+
 def dp_route(
     ctx: PlanContext,
     frame: CorridorFrame,
@@ -429,10 +436,10 @@ def dp_route(
     one great circle, at its waypoints, :func:`corridor_stations`), 3 lateral states per side of the half-width
     (the outer ones inside it by the bulge of a leg between two of them,
     :func:`optroute.geo.tracks.inner_offset_nm`, so that the legs stay in the corridor), 1 h time bins, speeds
-    every 2 kn over the NLP's range. A start, not
-    the answer: it has to find the side of a storm or band, and the NLP refines it (on the storm crossing of
-    ``benchmarks.bench_nlp`` the NLP ends on the same 74.85 t from this DP as from 5 states per side and
-    1 kn steps, which cost 7× the DP's CPU).
+    every 2 kn over the NLP's range, and for fuel or cost :data:`DP_LABELS_PER_BIN` labels per arrival bin (one per
+    bin, the DP's default, loses routes: a cheaper label that arrives later wins a bin on the way). A start, not the
+    answer: it has to find the side of a storm or band, and the NLP refines it; where the NLP's plan is rejected by
+    the referee in a storm this start is the plan returned, so its quality shows in the result.
     """
     from optroute.search.routing import search_route
 
@@ -449,7 +456,8 @@ def dp_route(
     dy = float(opts.get("dy_nm", max(hw / 3.0, 1.0)))
     inner = inner_offset_nm(hw, dx)
     per_side = int(np.floor(hw / dy + 1e-9)) if dy > 0 else 0
-    dp_opts = {"dx_nm": dx, "dt_h": 1.0, **opts, "half_width_nm": inner}
+    labels = {} if objective == "time" else {"labels_per_bin": DP_LABELS_PER_BIN}
+    dp_opts = {"dx_nm": dx, "dt_h": 1.0, **labels, **opts, "half_width_nm": inner}
     dp_opts["dy_nm"] = min(dy, inner / per_side) if per_side > 0 else dy
     if not great_circle_corridor(frame):  # the stages follow the centreline's bends
         stations = corridor_stations(frame, dx, per_side)
