@@ -461,7 +461,7 @@ class SpeedNLP:
         # the primal-dual warm start's solver (made on its first use): the same functions, WARM_START_OPTIONS
         # under the caller's options
         self._warm_opts = {**opts, **{k: v for k, v in WARM_START_OPTIONS.items() if k not in ipopt_options}}
-        self._warm_solver: Any = None
+        self._warm_solver: list[Any] = [None]  # built on first use; shared with the copies of with_edges
         self._solver = ca.nlpsol("speed_nlp", "ipopt", self._nlp_def, opts) if build_solver else None
         names = [*self.STATE_KEYS, "length", "dt_leg", "fuel_leg", "px", "py"]
         outs = [mdl[k] for k in names]
@@ -762,9 +762,9 @@ class SpeedNLP:
         p = np.concatenate([weights, beta, self._factor_parameter()])
         solver, duals = self._solver, checked_duals(lam_x0, lam_g0, self._nx, self._ng)
         if duals:
-            if self._warm_solver is None:
-                self._warm_solver = ca.nlpsol("speed_nlp_warm", "ipopt", self._nlp_def, self._warm_opts)
-            solver = self._warm_solver
+            if self._warm_solver[0] is None:
+                self._warm_solver[0] = ca.nlpsol("speed_nlp_warm", "ipopt", self._nlp_def, self._warm_opts)
+            solver = self._warm_solver[0]
         started = time.perf_counter()
         sol = solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, **duals)
         elapsed = time.perf_counter() - started

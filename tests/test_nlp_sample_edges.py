@@ -55,6 +55,7 @@ def test_edges_through_a_start_inside_the_band_let_the_nlp_sail_it_and_reach_the
     np.testing.assert_allclose(lo, ratio, rtol=1e-12)  # the nearer edge (lower: 0.094 against 0.106) moved
     np.testing.assert_array_equal(hi, 0.6)
     through = nlp.with_edges(lo, hi)
+    assert through._warm_solver is nlp._warm_solver  # the copy shares the built solvers, the warm-start one included
     assert not through.evaluate(y0, v0, t0).inside.any()
     assert nlp.evaluate(y0, v0, t0).inside.all()  # the original problem is unchanged
     eta_h = float(t0[-1])
