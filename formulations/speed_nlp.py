@@ -377,7 +377,7 @@ class SpeedNLP:
         """The band-edge parameter ``beta`` (band-major) and the band rows' bounds for sides and applicability
         (N, m, B), as :meth:`solve` sets them (:meth:`formulations.row_layout.RowLegs.band_edges`), at the
         edges of :meth:`sample_edges`."""
-        return self.row_legs.band_edges(self.bands, sides, applies, edges=self.sample_edges())
+        return self.row_legs.band_edges(self.bands, sides, applies, edges=self._edges)
 
     def sample_edges(self) -> tuple[np.ndarray, np.ndarray]:
         """Every sample's band edges, lower and upper, shape (N, m, B) each: the bands' own, or those of

@@ -327,8 +327,9 @@ class Problem:
             return Solved(res, ok, 1, 0, [res.objective] if ok else [], nlp, iterations=int(res.iterations))
         state = nlp.evaluate(y0, v0, t0)
         edges = edges_through(nlp, state) if through_start else None
-        moved = int(np.sum(state.inside)) if edges is not None else 0
+        moved = 0
         if edges is not None:
+            moved = int(np.sum(state.inside))
             nlp = nlp.with_edges(*edges)
             state = nlp.evaluate(y0, v0, t0)
         sides, applies = nlp.default_sides(state)
@@ -489,8 +490,7 @@ def flip_gains(
     jumps = np.abs(np.diff(np.where(in_range, cost, np.nan), axis=1))
     step = np.max(np.where(np.isfinite(jumps), jumps, 0.0), axis=1)  # the grid's largest cost step per leg
     ratio = _ratios_at_speeds(nlp, st, speeds)  # (N, m, B, K)
-    lower = np.array([b.lower for b in nlp.bands])[None, None, :, None]
-    upper = np.array([b.upper for b in nlp.bands])[None, None, :, None]
+    lower, upper = (e[..., None] for e in nlp.sample_edges())  # (N, m, B, 1), as the rows impose them
     side, app = res.sides[..., None], res.applies[..., None]
     keep = ~app | np.where(side < 0, ratio <= lower, ratio >= upper)  # (N, m, B, K)
     flip = ~app | np.where(side < 0, ratio >= upper, ratio <= lower)

@@ -23,9 +23,10 @@ Which of them are made, and when the costly ones (the DP, the minimum-time plan)
 A discrete candidate (a search route, the 3-D DP) is checked by its search at its own points only; where
 the referee finds the engine outside its range between them, or a danger band only grazed, its speeds are mended
 leg by leg (:func:`repaired_plan`) before it is scored. Each candidate becomes a warm start on the NLP's legs — its lateral offsets at the corridor's
-waypoints (its track projected on the centreline) and, for every NLP leg, the speed of the leg it
-sails there — so the NLP starts on the band sides the candidate keeps. Its plan is scored on its
-own waypoints: that is the plan a user would get from it.
+waypoints (its track projected on the centreline) and, for every NLP leg, the speed that sails it in the time
+the candidate takes there (:func:`track_warm_start`) — so the NLP starts on the band sides the candidate keeps and
+arrives when it does. Its plan is scored on its own waypoints: that is the plan a user would get from it; where
+its legs are not the NLP's, the warm start is not that plan (:func:`warm_is_plan`).
 """
 
 from __future__ import annotations
