@@ -99,6 +99,32 @@ def strictly_inside(value: ArrayLike, lower: ArrayLike, upper: ArrayLike) -> np.
     return (v > np.asarray(lower, dtype=float)) & (v < np.asarray(upper, dtype=float))
 
 
+def held_across_crossings(sides: ArrayLike, applies: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Sides and applicability (N, m, B) with each band's speed side held across the sea's rise through its threshold.
+
+    Along a leg (its ``m`` samples in order, one speed through water) a sample on the side "Hs below the threshold"
+    (:data:`~formulations.common.BELOW_SIDE`) next to a sample where the band applies on side −1 or +1 has the
+    threshold crossing between them: past it the band applies and the ratio, which moves with the sea between
+    the two samples, has to be on that side already — the referee finds the stretch in the band otherwise
+    (EP 2145155's guidance holds wherever ``Hs`` reaches the threshold, not only at the samples). Such a sample
+    takes its neighbour's side, imposed (applies True), so that the one disjunct holds at both ends of the
+    stretch. A stricter set, never a looser one; a sample between two neighbours on opposite sides keeps its
+    own (no single side holds across both crossings; the referee judges).
+    """
+    s = np.asarray(sides).astype(np.int8)
+    a = np.asarray(applies, dtype=bool)
+    if s.ndim != 3 or s.shape != a.shape:
+        raise FormulationInputError(f"sides and applies must both have shape (N, m, B), got {s.shape} and {a.shape}")
+    held = a & (s != BELOW_SIDE)
+    prev = np.zeros_like(s)
+    nxt = np.zeros_like(s)
+    prev[:, 1:] = np.where(held[:, :-1], s[:, :-1], 0)
+    nxt[:, :-1] = np.where(held[:, 1:], s[:, 1:], 0)
+    take = np.where(prev != 0, prev, nxt)
+    move = (s == BELOW_SIDE) & ~a & (take != 0) & ((prev == 0) | (nxt == 0) | (prev == nxt))
+    return np.where(move, take, s).astype(np.int8), a | move
+
+
 @dataclass(frozen=True)
 class InnerOutcome:
     """What an inner solve reports to the outer loop.

@@ -93,6 +93,7 @@ from formulations.common import (
     PowerModel,
     broadcast_legs,
 )
+from formulations.disjunctive import held_across_crossings
 from formulations.ipopt_options import (
     IPOPT_DEFAULTS,
     PRIMAL_START_OPTIONS,
@@ -746,6 +747,8 @@ class SpeedNLP:
             applies = d_app if applies is None else applies
         side_arr = np.zeros((n, m, nb), dtype=np.int8) if nb == 0 else np.asarray(sides).astype(np.int8)
         app_arr = np.zeros((n, m, nb), dtype=bool) if nb == 0 else np.asarray(applies, dtype=bool)
+        if nb and side_arr.shape == (n, m, nb):
+            side_arr, app_arr = held_across_crossings(side_arr, app_arr)
         beta, band_lo, band_hi = self.band_edges(side_arr, app_arr)  # band-major
         # variable bounds
         cor = self.corridor

@@ -62,7 +62,14 @@ from optroute.optimise.rescue import (
     tighten,
     to_plan,
 )
-from optroute.optimise.rows import ROW_PLACEMENTS, binding_legs, canonical_rows, only_where_binding, points_of
+from optroute.optimise.rows import (
+    ROW_PLACEMENTS,
+    binding_legs,
+    canonical_rows,
+    leg_end_rows,
+    only_where_binding,
+    points_of,
+)
 from optroute.optimise.start_stage import Starts, discrete_start_mode, start_stage, warm_candidate
 from optroute.optimise.starts import ENGINE_KINDS, Candidate, repaired_plan, score, warm_is_plan
 from optroute.physics.performance import PerformanceModel
@@ -497,9 +504,10 @@ class PreparedCorridor(CorridorReport):
         return best
 
     def _rows_from(self) -> list[np.ndarray] | None:
-        """The NLP's row points, once per prepared corridor (:func:`optroute.optimise.rows.canonical_rows`)."""
+        """The NLP's row points: the leg ends (:func:`optroute.optimise.rows.leg_end_rows`), or with
+        ``constraint_rows="referee"`` once per prepared corridor :func:`optroute.optimise.rows.canonical_rows`."""
         if self.constraint_rows != "referee":
-            return None
+            return leg_end_rows(self.frame.n_legs)
         if self._row_points is None:
             cap_h = self.prepared_cap_h
             speed = self.length_nm / cap_h if cap_h is not None and np.isfinite(cap_h) else self.ship.design_speed_kn

@@ -249,6 +249,21 @@ def nlp_row_legs(
     return band, excl
 
 
+def leg_end_rows(n_legs: int) -> list[np.ndarray]:
+    """The default NLP's row-only points (``constraint_rows="midpoints"``): both ends of each of ``n_legs`` legs,
+    as fractions (0 and 1), beside the quadrature's midpoints.
+
+    A leg's speed holds up to its end, where the next leg's begins: a sea that rises through a band's threshold
+    near a waypoint puts the stretch between the last midpoint of one leg and the first of the next in the band
+    unseen by midpoint rows (the head storm of ``benchmarks/bench_compare.py``: Hs 4.9 m at the last midpoint, 5.3 m
+    at the next, the parametric-roll ratio 0.56-0.59 at the waypoint between, where the referee rejected every
+    plan). With the ends carried, every leg's rows hold at its whole extent's two ends at its own speed, and
+    :func:`formulations.disjunctive.held_across_crossings` holds a band's side across a threshold crossing between
+    two samples of a leg.
+    """
+    return [np.array([0.0, 1.0])] * int(n_legs)
+
+
 def only_where_binding(points: list[np.ndarray] | None, binding: np.ndarray) -> list[np.ndarray] | None:
     """``points`` with the legs where nothing but the engine load can bind reduced to their ends (0 and 1)."""
     if points is None:
