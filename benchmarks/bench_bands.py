@@ -11,7 +11,7 @@
    between the DP's points (:func:`optroute.optimise.starts.repaired_plan`), and ``orx.optimise_corridor``
    started from that DP (the DP's route passed as ``route=``: the same start as ``discrete_start=True`` at the
    same resolution without running the DP twice; the NLP's time leaves the DP out), its rows at the referee's check
-   points (:data:`ROWS`), and beside it the same call with its rows at the midpoints only (the default). Printed per case: the share
+   points (:data:`ROWS`), and beside it the same call with its rows at the midpoints and leg ends (the default). Printed per case: the share
    of the NLP's legs where a band applies and where one binds (relative margin ≤ ``BIND_TOL``), NLP fuel / DP
    fuel, NLP time / DP time, whether the NLP's first solve verified, the status.
 2. **The side search against the exact optimum** (:mod:`benchmarks._bands_exact`): fixed paths of 20–60 legs.
@@ -41,7 +41,7 @@ HS_FRACTION = 0.016
 """Bands apply from Hs ≥ 0.016 L (4 m for the 250 m container ship; the patent's 0.04 L is 10 m)."""
 ROWS = "referee"
 """The NLP's row placement in the suite (``constraint_rows``): at the referee's check points. The same NLP with its
-rows at the midpoints only (``optimise_corridor``'s default) runs beside it on every case."""
+rows at the midpoints and leg ends (``optimise_corridor``'s default) runs beside it on every case."""
 BIND_TOL = 0.01
 """A band binds on a leg when the leg's smallest relative margin to a band (``Plan.legs`` ``margin_*``) is ≤ 1 %."""
 DP_FINE = {"dx_nm": 20.0, "dy_nm": 5.0, "dt_h": 0.5, "speed_step_kn": 0.5}
@@ -215,7 +215,7 @@ def run_case(case: Case, res: dict[str, float]) -> dict[str, Any]:
 
 
 def _at_midpoints(corridor: Any, wx: Any, ship: Any, eta: Any, rules: Any, route: Any) -> dict[str, Any]:
-    """The same NLP with its rows at the midpoints only (``optimise_corridor``'s default): its first solve verified,
+    """The same NLP with its rows at the midpoints and leg ends (``optimise_corridor``'s default): its first solve verified,
     its fuel [t] by the referee (nan where it raised) and its status."""
     import optroute as orx
     from optroute.errors import OptrouteError
@@ -293,8 +293,8 @@ def print_suite(s: dict[str, Any]) -> None:
           f"(targets ≤ 1.000 and ≤ 0.99); NLP ≤ DP on {s['nlp_le_dp']} of {s['cases']}; bands bind on ≥ 10 % of "
           f"the legs in {s['binding_cases']} of {s['cases']} cases; first solve verified in "
           f"{s['first_solve_verified']} of {s['cases']} with the rows at the referee's check points "
-          f"({s['first_solve_verified_midpoints']} of {s['cases']} with them at the midpoints only, same run); status "
-          f"optimal in {s['optimal']}; with the rows at the midpoints NLP / DP max {s['max_fuel_ratio_midpoints']:.4f}, "
+          f"({s['first_solve_verified_midpoints']} of {s['cases']} with them at the midpoints and leg ends, same run); status "
+          f"optimal in {s['optimal']}; with the rows at the midpoints and leg ends NLP / DP max {s['max_fuel_ratio_midpoints']:.4f}, "
           f"mean {s['mean_fuel_ratio_midpoints']:.4f}")  # fmt: skip
     for r in s["rows"]:
         if r.get("reason"):

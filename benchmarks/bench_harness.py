@@ -25,7 +25,7 @@ stays feasible.
 
 The first :data:`ROWS_CASES` cases are solved a second time with the NLP's rows also where the referee
 checks (``constraint_rows="referee"``, issue 13 item 3; the default places them at the quadrature's
-midpoints only): the share of plans whose first NLP solve passed ``verify()``, the SolverFailure
+midpoints and the leg ends): the share of plans whose first NLP solve passed ``verify()``, the SolverFailure
 count and the CPU are printed for both placements on those cases, measured in the same run.
 
 Run ``python -m benchmarks.bench_harness [--quick]`` or ``python -m benchmarks --only harness``:
@@ -114,7 +114,7 @@ def run(quick: bool = False) -> dict[str, Any]:
     print(f"| SolverFailure in feasible cases, first {n} cases: midpoint rows / referee rows | "
           f"{a['solver_failure_cases']} / {b['solver_failure_cases']} | |")  # fmt: skip
     print(
-        f"| CPU [s], first {n} cases: rows at the midpoints (default) / also where the referee checks | "
+        f"| CPU [s], first {n} cases: rows at the midpoints and leg ends (default) / also where the referee checks | "
         f"{a['cpu_s']:.0f} / {b['cpu_s']:.0f} | |"
     )
     print(f"| CPU [s], all {len(results)} cases, default rows | {s['cpu_s']:.0f} | |")

@@ -489,9 +489,9 @@ def bench_crossing_storm() -> dict[str, Any]:
         ("NLP from the 3-D DP", {"discrete_start": True, "dp_options": {**dp_res, "speed_step_kn": 1.0}}),
         ("default call (the start stage's own DP)", {}),
     ):
-        # the rows where the referee checks (the default) beside the former placement at the midpoints only
+        # the rows where the referee checks beside the default placement, at the midpoints and leg ends
         runs += [(label, {**extra, "constraint_rows": "referee"})]
-        runs += [(f"{label}, rows at midpoints only", {**extra, "constraint_rows": "midpoints"})]
+        runs += [(f"{label}, rows at midpoints and leg ends", {**extra, "constraint_rows": "midpoints"})]
     for label, extra in runs:
         t0 = time.perf_counter()
         plan = orx.optimise_corridor(corridor, wx, ship, **kw, **extra)

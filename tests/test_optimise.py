@@ -174,13 +174,10 @@ def test_iteration_limit_returns_a_verified_feasible_plan_not_an_optimal_one(max
         solver_options={"ipopt.max_iter": max_iter},
         use_land_mask=False,
     )
-    # the constant-speed optimum for the plan's own passage time: Ipopt's iterate at its limit meets the ETA within
-    # the referee's minute (Plan.verify's time_tol_h), not exactly (measured 72.0000117 h at max_iter 4)
-    hours = plan.duration_h
-    by_hand = hours * float(SHIP.fuel_rate_tph(SHIP.calm_power_kw(corridor.length_nm / hours)))
+    by_hand = 72.0 * float(SHIP.fuel_rate_tph(SHIP.calm_power_kw(corridor.length_nm / 72.0)))
     # never "optimal": Ipopt's iterate ("feasible") or, when it is no better, the verified start ("start")
     assert plan.status in ("feasible", "start") and plan.verify() == []
-    assert plan.total_fuel_t >= by_hand * (1 - 1e-9) and plan.duration_h <= 72.0 + 1.0 / 60.0
+    assert plan.total_fuel_t >= by_hand * (1 - 1e-9) and plan.duration_h <= 72.0 + 1e-6
     assert plan.solver_stats["ipopt_status"] == "Maximum_Iterations_Exceeded"
     assert plan.solver_stats["iterations"] >= max_iter
 
@@ -530,9 +527,7 @@ def test_prepared_corridor_solves_several_etas_as_independent_optimise_corridor_
         assert plan.total_fuel_t == pytest.approx(ref.total_fuel_t, rel=1e-6)
         assert plan.duration_h <= eta_h + 1e-6
         assert plan.solver_stats["constraint_rows"] == rows
-        # the default's rows: the midpoints and the two leg ends (optroute.optimise.rows.leg_end_rows)
-        extra = plan.solver_stats["row_samples_per_leg"] - plan.solver_stats["samples_per_leg"]
-        assert extra == 2 if rows == "midpoints" else extra >= 2
+        assert (plan.solver_stats["row_samples_per_leg"] > plan.solver_stats["samples_per_leg"]) == (rows == "referee")
         previous = plan
     assert prepared.problem.builds == 1  # the ETA is a solve parameter, not part of the build
     with pytest.raises(ConfigError, match="latest ETA"):

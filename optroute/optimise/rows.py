@@ -250,8 +250,8 @@ def nlp_row_legs(
 
 
 def leg_end_rows(n_legs: int) -> list[np.ndarray]:
-    """The default NLP's row-only points (``constraint_rows="midpoints"``): both ends of each of ``n_legs`` legs,
-    as fractions (0 and 1), beside the quadrature's midpoints.
+    """The default NLP's row-only points (``constraint_rows="midpoints"``) where a band or the exclusion can bind on
+    the corridor: both ends of each of ``n_legs`` legs, as fractions (0 and 1), beside the quadrature's midpoints.
 
     A leg's speed holds up to its end, where the next leg's begins: a sea that rises through a band's threshold
     near a waypoint puts the stretch between the last midpoint of one leg and the first of the next in the band
