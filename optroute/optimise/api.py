@@ -126,7 +126,8 @@ def optimise_corridor(
     constraint_rows : {"midpoints", "referee"}
         Where the NLP's engine-load, band and exclusion rows sit. ``"midpoints"`` (default): at the
         quadrature's midpoints, and both ends of every leg where a band or the exclusion can bind on
-        the corridor (:func:`optroute.optimise.rows.leg_end_rows`). ``"referee"``: also at the referee's check points of a canonical start —
+        the corridor (:func:`optroute.optimise.rows.leg_end_rows`). ``"referee"``: also at the
+        referee's check points of a canonical start —
         the centreline at the speed of the latest ETA (leg ends, weather-grid crossings, points near band
         edges; :func:`optroute.optimise.rows.canonical_rows`), the same for every ETA of a prepared
         corridor — on the legs where a band or the exclusion can bind (elsewhere the leg ends only, for
