@@ -87,3 +87,24 @@ def test_head_storm_nlp_plan_verifies_first_time_and_beats_the_dp_at_the_same_re
         warnings.simplefilter("ignore", UserWarning)
         dp = bench_compare.run_dp(sc, eta_h, "medium")
     assert dp["verify_clean"] and plan.total_fuel_t <= dp["fuel_t"]
+
+
+def test_the_robust_nlp_holds_each_members_sides_across_its_crossings_as_the_single_one() -> None:
+    # the stacked NLP imposes its members' sides through the same rule: a member's sample below the threshold next to
+    # one where the band applies takes that side (formulations.robust_nlp's solve, as SpeedNLP.solve)
+    from formulations.robust_nlp import RobustSpeedNLP
+    from tests.test_nlp_row_legs import BANDS, POWER, _problem
+
+    single, eta = _problem()
+    nlp = RobustSpeedNLP(single.corridor, [single.weather, single.weather], POWER, bands=BANDS, samples_per_leg=3,
+                         v_min_kn=6.0, v_max_kn=24.0)  # fmt: skip
+    shape = (2, nlp.n_legs, 3, len(BANDS))
+    sides, applies = np.full(shape, -1, dtype=np.int8), np.zeros(shape, dtype=bool)
+    sides[1, 4, 0, 0], sides[1, 4, 1, 0], applies[1, 4, 1, 0] = BELOW_SIDE, 1, True  # member 1, leg 4: B then +1
+    res = nlp.solve(eta_h=eta, sides=sides, applies=applies, offset0_nm=np.zeros(nlp.n_legs + 1),
+                    stw0_kn=np.full(nlp.n_legs, 15.0))  # fmt: skip
+    assert res.sides[1, 4, 0, 0] == 1 and res.applies[1, 4, 0, 0]
+    held = np.zeros(shape, dtype=bool)
+    held[1, 4, 0, 0] = True
+    np.testing.assert_array_equal(res.sides[~held], sides[~held])  # nothing else changes, in either member
+    np.testing.assert_array_equal(res.applies[~held], applies[~held])

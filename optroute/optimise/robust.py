@@ -78,6 +78,7 @@ from optroute.optimise.rows import (
     ROW_PLACEMENTS,
     binding_legs,
     canonical_rows,
+    leg_end_rows,
     only_where_binding,
     points_of,
     sample_layout,
@@ -299,8 +300,9 @@ def optimise_robust(
     reference_member : int
         The member whose context the returned plan is evaluated in (its ``legs``, ``total_fuel_t``).
     constraint_rows : {"midpoints", "referee"}
-        As :func:`optroute.optimise_corridor` (whose default, ``"referee"``, it receives from there): ``"referee"``
-        adds row-only samples at the referee's check points of the canonical start (the centreline at the ETA's
+        As :func:`optroute.optimise_corridor` (whose default, ``"midpoints"``, it receives from there):
+        ``"midpoints"`` the quadrature's midpoints and, where a band or the exclusion can bind in some member, the
+        leg ends (:func:`~optroute.optimise.rows.leg_end_rows`); ``"referee"`` adds row-only samples at the referee's check points of the canonical start (the centreline at the ETA's
         speed) in every member, on the legs where a band or the exclusion can bind in that member
         (:func:`_member_rows`, the union over the members, at most :data:`~optroute.optimise.rows.MAX_ROW_POINTS`
         a leg); after a plan fails a member, the rows move to that plan's check points in the failing members.
@@ -364,7 +366,7 @@ def optimise_robust(
     if constraint_rows not in ROW_PLACEMENTS:
         raise ConfigError(
             f"constraint_rows={constraint_rows!r} is not known; use 'midpoints' (the NLP's rows at its quadrature "
-            "points) or 'referee' (also at the referee's check points in every member)"
+            "points and leg ends) or 'referee' (also at the referee's check points in every member)"
         )
     members = member_datasets(weather)
     n_drop = _dropped_count(robust, fraction, violation_fraction, len(members))
@@ -389,7 +391,10 @@ def optimise_robust(
         "start_evidence": None if evidence is None else str(evidence),
     }
     state = _untightened(ref, frame.n_legs)
-    points = _member_rows(prepared, eta_t, y_lo, y_hi, eta_h) if constraint_rows == "referee" else None
+    if constraint_rows == "referee":
+        points = _member_rows(prepared, eta_t, y_lo, y_hi, eta_h)
+    else:  # the leg ends where a band or the exclusion can bind in some member, as optimise_corridor's rows
+        points = leg_end_rows(frame.n_legs) if any(p.binding.any() for p in prepared) else None
     log: list[str] = []
     counts = {"solves": 0, "iterations": 0, "solve_time_s": 0.0, "build_time_s": 0.0}
     last: RobustResult | None = None
