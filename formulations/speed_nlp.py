@@ -706,7 +706,10 @@ class SpeedNLP:
         sides : array_like of int, shape (N, m, B), optional
             −1: ``ratio ≤ lower``, +1: ``ratio ≥ upper``, :data:`~formulations.common.BELOW_SIDE`: ``Hs`` below
             the band's threshold (where the band does not apply) per leg, sample and band; default from the warm
-            start (:meth:`default_sides`).
+            start (:meth:`default_sides`). A sample on the third side next to one of its leg where the band
+            applies on −1/+1 is imposed on that side instead
+            (:func:`formulations.disjunctive.held_across_crossings`; the result's ``sides`` and ``applies`` are
+            those imposed).
         applies : array_like of bool, shape (N, m, B), optional
             Where each band constraint is imposed; default ``Hs ≥ hs_min`` at the warm start.
         offset0_nm, stw0_kn, time0_h : array_like, optional
