@@ -100,7 +100,8 @@ def strictly_inside(value: ArrayLike, lower: ArrayLike, upper: ArrayLike) -> np.
 
 
 def held_across_crossings(sides: ArrayLike, applies: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    """Sides and applicability (N, m, B) with each band's speed side held across the sea's rise through its threshold.
+    """Sides and applicability (..., N, m, B) with each band's speed side held across the sea's rise through its
+    threshold (any leading axes, e.g. the robust NLP's members, are independent problems).
 
     Along a leg (its ``m`` samples in order, one speed through water) a sample on the side "Hs below the threshold"
     (:data:`~formulations.common.BELOW_SIDE`) next to a sample where the band applies on side −1 or +1 has the
@@ -113,13 +114,15 @@ def held_across_crossings(sides: ArrayLike, applies: ArrayLike) -> tuple[np.ndar
     """
     s = np.asarray(sides).astype(np.int8)
     a = np.asarray(applies, dtype=bool)
-    if s.ndim != 3 or s.shape != a.shape:
-        raise FormulationInputError(f"sides and applies must both have shape (N, m, B), got {s.shape} and {a.shape}")
+    if s.ndim < 3 or s.shape != a.shape:
+        raise FormulationInputError(
+            f"sides and applies must both have shape (..., N, m, B), got {s.shape} and {a.shape}"
+        )
     held = a & (s != BELOW_SIDE)
     prev = np.zeros_like(s)
     nxt = np.zeros_like(s)
-    prev[:, 1:] = np.where(held[:, :-1], s[:, :-1], 0)
-    nxt[:, :-1] = np.where(held[:, 1:], s[:, 1:], 0)
+    prev[..., 1:, :] = np.where(held[..., :-1, :], s[..., :-1, :], 0)
+    nxt[..., :-1, :] = np.where(held[..., 1:, :], s[..., 1:, :], 0)
     take = np.where(prev != 0, prev, nxt)
     move = (s == BELOW_SIDE) & ~a & (take != 0) & ((prev == 0) | (nxt == 0) | (prev == nxt))
     return np.where(move, take, s).astype(np.int8), a | move

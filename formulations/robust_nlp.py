@@ -529,8 +529,7 @@ class RobustSpeedNLP:
                 f"sides and applies must have shape {shape}, got {sides.shape}, {applies.shape}"
             )
         if self.n_bands:  # each member's sides held across its seas' threshold crossings, as SpeedNLP.solve holds them
-            held = [held_across_crossings(sides[k], applies[k]) for k in range(mm)]
-            sides, applies = np.stack([h[0] for h in held]), np.stack([h[1] for h in held])
+            sides, applies = held_across_crossings(sides, applies)
         y0 = np.clip(broadcast_legs(offset0_nm, n + 1, "offset0_nm"), *self.corridor.offset_bounds())
         v0 = np.clip(broadcast_legs(stw0_kn, n, "stw0_kn"), self.v_min_kn, self.v_max_kn)
         fac = broadcast_legs(1.0 if leg_power_factor is None else leg_power_factor, n, "leg_power_factor")

@@ -504,12 +504,11 @@ class PreparedCorridor(CorridorReport):
         return best
 
     def _rows_from(self) -> list[np.ndarray] | None:
-        """The NLP's row points: the leg ends where a band or the exclusion can bind on some leg
-        (:func:`optroute.optimise.rows.leg_end_rows`; elsewhere none: the midpoints alone, the engine's range mended
-        by the referee's plan), or with ``constraint_rows="referee"`` once per prepared corridor
-        :func:`optroute.optimise.rows.canonical_rows`."""
+        """The NLP's row points: the leg ends where a band or the exclusion can bind
+        (:func:`optroute.optimise.rows.leg_end_rows`), or with ``constraint_rows="referee"`` once per prepared
+        corridor :func:`optroute.optimise.rows.canonical_rows`."""
         if self.constraint_rows != "referee":
-            return leg_end_rows(self.frame.n_legs) if self.binding.any() else None
+            return leg_end_rows(self.binding)
         if self._row_points is None:
             cap_h = self.prepared_cap_h
             speed = self.length_nm / cap_h if cap_h is not None and np.isfinite(cap_h) else self.ship.design_speed_kn

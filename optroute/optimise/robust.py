@@ -394,7 +394,7 @@ def optimise_robust(
     if constraint_rows == "referee":
         points = _member_rows(prepared, eta_t, y_lo, y_hi, eta_h)
     else:  # the leg ends where a band or the exclusion can bind in some member, as optimise_corridor's rows
-        points = leg_end_rows(frame.n_legs) if any(p.binding.any() for p in prepared) else None
+        points = leg_end_rows(np.any([p.binding for p in prepared], axis=0))
     log: list[str] = []
     counts = {"solves": 0, "iterations": 0, "solve_time_s": 0.0, "build_time_s": 0.0}
     last: RobustResult | None = None

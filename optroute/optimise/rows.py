@@ -249,9 +249,11 @@ def nlp_row_legs(
     return band, excl
 
 
-def leg_end_rows(n_legs: int) -> list[np.ndarray]:
-    """The default NLP's row-only points (``constraint_rows="midpoints"``) where a band or the exclusion can bind on
-    the corridor: both ends of each of ``n_legs`` legs, as fractions (0 and 1), beside the quadrature's midpoints.
+def leg_end_rows(binding: np.ndarray) -> list[np.ndarray] | None:
+    """The default NLP's row-only points (``constraint_rows="midpoints"``): where a band or the exclusion can bind on
+    some leg (``binding`` (N,), :func:`binding_legs`), both ends of every leg, as fractions (0 and 1), beside the
+    quadrature's midpoints; None where nothing can (the midpoints alone, the engine's range mended on the referee's
+    plan).
 
     A leg's speed holds up to its end, where the next leg's begins: a sea that rises through a band's threshold
     near a waypoint puts the stretch between the last midpoint of one leg and the first of the next in the band
@@ -261,7 +263,8 @@ def leg_end_rows(n_legs: int) -> list[np.ndarray]:
     :func:`formulations.disjunctive.held_across_crossings` holds a band's side across a threshold crossing between
     two samples of a leg.
     """
-    return [np.array([0.0, 1.0])] * int(n_legs)
+    ends = np.asarray(binding, dtype=bool)
+    return [np.array([0.0, 1.0])] * ends.size if ends.any() else None
 
 
 def only_where_binding(points: list[np.ndarray] | None, binding: np.ndarray) -> list[np.ndarray] | None:
