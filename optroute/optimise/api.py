@@ -62,6 +62,7 @@ def optimise_corridor(
     route: Route | None = None,
     warm_plan: Plan | None = None,
     max_leg_nm: float = 50.0,
+    band_leg_nm: float | None = None,
     samples_per_leg: int = 3,
     fuel_price_per_t: float = 600.0,
     hourly_cost_per_h: float = 0.0,
@@ -121,6 +122,16 @@ def optimise_corridor(
         the NLP has the same rows (``solver_stats["dual_starts"]`` counts such solves).
     max_leg_nm : float
         Longest NLP leg [nm]; the corridor is resampled on its great circles.
+    band_leg_nm : float or None
+        Longest NLP leg [nm] where a danger band or the exclusion can bind (on the NLP's weather grid,
+        :func:`optroute.optimise.rows.binding_legs`): those legs are cut further, so that the NLP can change
+        speed as often as the 3-D DP start does (:func:`optroute.optimise.rows.cut_where_binding`;
+        :data:`optroute.optimise.rows.BAND_LEG_NM`, 20 nm, the DP's stage spacing). Not for a free-arrival
+        minimum time (``objective="time"`` without an ETA). Default None: ``max_leg_nm`` everywhere. Not yet
+        the default: ``python -m benchmarks --only compare`` measures both side by side, and on some
+        cyclone and storm cases the NLP on the cut legs ends in a plan the referee rejects where the uncut
+        one verifies (the call then returns its verified start). ``solver_stats["n_legs"]`` gives the legs
+        solved.
     samples_per_leg : int
         NLP samples per leg of the midpoint-rule time and fuel (every constraint is imposed there too).
     constraint_rows : {"midpoints", "referee"}
@@ -268,6 +279,7 @@ def optimise_corridor(
         model=model,
         rules=rules,
         max_leg_nm=max_leg_nm,
+        band_leg_nm=band_leg_nm,
         samples_per_leg=samples_per_leg,
         fuel_price_per_t=fuel_price_per_t,
         hourly_cost_per_h=hourly_cost_per_h,

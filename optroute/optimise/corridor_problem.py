@@ -161,7 +161,7 @@ class PreparedCorridor(CorridorReport):
 
     Parameters
     ----------
-    corridor, weather, ship, departure, model, rules, max_leg_nm, samples_per_leg, fuel_price_per_t,
+    corridor, weather, ship, departure, model, rules, max_leg_nm, band_leg_nm, samples_per_leg, fuel_price_per_t,
     hourly_cost_per_h, exclusion, speed_range_kn, band_solves, max_retries,
     band_margin, band_hs_margin, verify_step_nm, solver_options, use_land_mask, jit, discrete_start, dp_options,
     constraint_rows, timed_no_passage
@@ -172,7 +172,10 @@ class PreparedCorridor(CorridorReport):
         ``objective`` is ``"fuel"`` or ``"cost"``, else a free-arrival horizon (1.3 × the passage at
         half the design speed), as :func:`optimise_corridor` without an ETA.
     objective : {"fuel", "time", "cost"}
-        Only for the default ``latest_eta``.
+        For the default ``latest_eta``, and where ``band_leg_nm`` applies: a free-arrival minimum time
+        (``"time"`` without ``latest_eta``) keeps ``max_leg_nm`` everywhere, since its 3-D DP start runs only where
+        no local start verifies and shorter legs let a poorer local start verify in its place (harness seeds 13
+        and 17).
 
     Notes
     -----
@@ -211,6 +214,7 @@ class PreparedCorridor(CorridorReport):
         constraint_rows: str = "midpoints",
         timed_no_passage: bool = False,
         speed_nodes_kn: np.ndarray | None = None,
+        band_leg_nm: float | None = None,
     ) -> None:
         # every argument, for the free-arrival minimum-time twin of this corridor (minimum_time_twin)
         self._arguments = {k: v for k, v in locals().items() if k not in ("self", "__class__")}
@@ -229,7 +233,8 @@ class PreparedCorridor(CorridorReport):
             corridor, weather, ship, t0=t0, eta_t=eta_t, objective=objective, model=model, rules=rules,
             max_leg_nm=max_leg_nm, exclusion=exclusion, speed_range_kn=speed_range_kn, use_land_mask=use_land_mask,
             solver_options=solver_options, jit=jit, progress=progress, timed_no_passage=bool(timed_no_passage),
-            speeds_kn=speed_nodes_kn,
+            speeds_kn=speed_nodes_kn, hs_margin=self.hs_margin0,
+            band_leg_nm=band_leg_nm if (eta_t is not None or objective != "time") else None,
         )  # fmt: skip
         self.setup = su
         self.corridor, self.ship, self.model, self.rules = corridor, ship, su.model, su.rules

@@ -29,6 +29,7 @@ from optroute.optimise.lateral import reach_windows
 from optroute.optimise.nlp_inputs import CorridorFrame, build_frame, dataset_spacing, lateral_bounds, weather_grid
 from optroute.optimise.nlp_solve import Problem
 from optroute.optimise.power_table import SPEED_TOL, PowerTable, baseline_power_model, heading_nodes, speed_nodes
+from optroute.optimise.rows import binding_legs, cut_where_binding
 from optroute.optimise.timed_no_go import no_passage_windows
 from optroute.physics.performance import PerformanceModel, default_model
 from optroute.physics.safety import BandRules
@@ -213,6 +214,8 @@ def prepare_corridor(
     progress: ProgressFn | None,
     timed_no_passage: bool = False,
     speeds_kn: np.ndarray | None = None,
+    band_leg_nm: float | None = None,
+    hs_margin: float = 0.0,
 ) -> CorridorSetup:
     """Check the weather and speeds, build the NLP's weather grid, power table, lateral bounds and problem.
 
@@ -254,6 +257,12 @@ def prepare_corridor(
         model=model, base=base, speeds_kn=speeds, headings_deg=headings, leg_windows_h=windows_h,
         speed_tol=SPEED_TOL if speeds_kn is None else None,
     )  # fmt: skip
+    if band_leg_nm is not None:  # the legs where a band or the exclusion can bind, cut shorter (band_legs)
+        binding = binding_legs(frame, grid.s_nm, grid.hs_m, (ship, rules, exclusion), hs_margin, t0)
+        finer = cut_where_binding(binding, np.diff(frame.s_nm), band_leg_nm)
+        if finer is not None:  # the same great circles: the weather grid, on (t, s, y), serves unchanged
+            frame = build_frame(cor.resample(finer))
+            windows = _leg_windows(frame, sampler, ds, t0, cap_h, v_max)
     table = PowerTable(
         np.asarray(grid.ratio_speed_kn), np.asarray(grid.ratio_heading_deg), samples.power_capped_share,
         samples.power_evaluations, sfoc_err, samples.power_speed_error,

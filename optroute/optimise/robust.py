@@ -78,6 +78,7 @@ from optroute.optimise.rows import (
     ROW_PLACEMENTS,
     binding_legs,
     canonical_rows,
+    cut_where_binding,
     leg_end_rows,
     only_where_binding,
     points_of,
@@ -266,6 +267,7 @@ def optimise_robust(
     route: Route | None = None,
     warm_plan: Plan | None = None,
     max_leg_nm: float = 50.0,
+    band_leg_nm: float | None = None,
     samples_per_leg: int = 3,
     fuel_price_per_t: float = 600.0,
     hourly_cost_per_h: float = 0.0,
@@ -306,6 +308,9 @@ def optimise_robust(
         speed) in every member, on the legs where a band or the exclusion can bind in that member
         (:func:`_member_rows`, the union over the members, at most :data:`~optroute.optimise.rows.MAX_ROW_POINTS`
         a leg); after a plan fails a member, the rows move to that plan's check points in the failing members.
+    band_leg_nm : float or None
+        As :func:`optroute.optimise_corridor`; the members share one set of legs, cut where a band or the exclusion
+        can bind in some member (:func:`prepare_members`).
     band_solves : int
         Solves of the band re-imposition loop (:meth:`RobustSpeedNLP.solve_sides`) per tightening.
     solver_options : mapping, optional
@@ -377,7 +382,7 @@ def optimise_robust(
         "band_margin": band_margin, "band_hs_margin": band_hs_margin, "verify_step_nm": verify_step_nm,
         "use_land_mask": use_land_mask,
     }  # fmt: skip
-    prepared, y_lo, y_hi = prepare_members(corridor, members, ship, shared, reference_member)
+    prepared, y_lo, y_hi = prepare_members(corridor, members, ship, shared, reference_member, band_leg_nm)
     ref = prepared[int(reference_member)]
     frame, t0 = ref.frame, ref.departure
     eta_t = as_utc_time(eta, "eta") if eta is not None else None
@@ -561,20 +566,38 @@ def _pick(candidates, ctx, frame, t0, ref, members, log: list[str], retry: int):
     return None, first_failing
 
 
-def prepare_members(corridor: Corridor, members: list[xr.Dataset], ship: Any, shared: dict[str, Any], reference: Any):
-    """Every member prepared as ``optimise_corridor`` prepares one weather, and the lateral bounds all allow."""
+def prepare_members(
+    corridor: Corridor,
+    members: list[xr.Dataset],
+    ship: Any,
+    shared: dict[str, Any],
+    reference: Any,
+    band_leg_nm: float | None = None,
+):
+    """Every member prepared as ``optimise_corridor`` prepares one weather, and the lateral bounds all allow.
+
+    The members share one power table's speed nodes (the densest any member's sea asked for,
+    :data:`~optroute.optimise.power_table.SPEED_TOL`) and one set of legs: with ``band_leg_nm`` [nm], the legs where a
+    band or the exclusion can bind in some member are cut to it (:func:`~optroute.optimise.rows.cut_where_binding`)
+    and every member is prepared again on those legs.
+    """
     from optroute.optimise.corridor_problem import PreparedCorridor
 
     if not (isinstance(reference, int | np.integer) and 0 <= reference < len(members)):
         raise ConfigError(
             f"reference_member={reference!r} is not a member index; give an integer in [0, {len(members) - 1}]"
         )
-    prepared = [PreparedCorridor(corridor, ds, ship, **shared) for ds in members]
-    # one power table's speed nodes for all: the densest any member's sea asked for (power_table.SPEED_TOL)
+    prepared = [PreparedCorridor(corridor, ds, ship, **shared, band_leg_nm=None) for ds in members]
     nodes = max((np.asarray(p.table.speeds_kn) for p in prepared), key=np.size)
+    ref = prepared[int(reference)]
+    cut = None
+    if band_leg_nm is not None and (shared["latest_eta"] is not None or shared["objective"] != "time"):
+        binding = np.any([p.binding for p in prepared], axis=0)
+        cut = cut_where_binding(binding, np.diff(ref.frame.s_nm), band_leg_nm)
+    legs = corridor if cut is None else ref.frame.corridor.resample(cut)
     prepared = [
-        p if np.array_equal(p.table.speeds_kn, nodes) else PreparedCorridor(corridor, ds, ship, **shared,
-                                                                             speed_nodes_kn=nodes)
+        p if cut is None and np.array_equal(p.table.speeds_kn, nodes)
+        else PreparedCorridor(legs, ds, ship, **shared, band_leg_nm=None, speed_nodes_kn=nodes)
         for p, ds in zip(prepared, members, strict=True)
     ]  # fmt: skip
     y_lo = np.max([p.y_lo for p in prepared], axis=0)

@@ -38,16 +38,21 @@ import numpy as np
 from formulations.common import Band, MovingExclusion
 from formulations.sample_layout import SampleLayout, midpoint_layout, with_points
 from optroute import geodesy as geo
-from optroute.errors import OptrouteError
+from optroute._checks import finite
+from optroute.errors import ConfigError, OptrouteError
 from optroute.optimise.nlp_inputs import CorridorFrame, formulation_bands, moving_exclusion
+from optroute.physics.safety import BandRules
+from optroute.physics.ship import Ship
 from optroute.plan.checkpoints import CheckPoints, row_points
-from optroute.plan.result import Plan, PlanContext
+from optroute.plan.result import Exclusion, Plan, PlanContext
 
 __all__ = [
     "MAX_ROW_POINTS",
     "ROW_PLACEMENTS",
     "canonical_rows",
+    "BAND_LEG_NM",
     "binding_legs",
+    "cut_where_binding",
     "exclusion_legs",
     "nlp_row_legs",
     "legs_near_exclusion",
@@ -195,20 +200,45 @@ def binding_legs(
     frame: CorridorFrame,
     grid_s_nm: np.ndarray,
     grid_hs_m: np.ndarray,
-    ctx: PlanContext,
+    ctx: PlanContext | tuple[Ship, BandRules, Exclusion | None],
     hs_margin: float,
     departure: np.datetime64,
 ) -> np.ndarray:
     """Per leg of a prepared corridor, whether a band or the exclusion can bind on it (:func:`legs_that_can_bind`).
 
     ``grid_s_nm`` and ``grid_hs_m`` are the NLP's weather grid (along-track nodes [nm], Hs (t, s, y) [m]), ``ctx``
-    the plan context (ship, rules, exclusion), ``hs_margin`` the applicability back-off [-]
-    (:func:`optroute.optimise.nlp_inputs.formulation_bands`).
+    the plan context or its (ship, rules, exclusion), ``hs_margin`` the applicability back-off [-]
+    (:func:`optroute.optimise.nlp_inputs.formulation_bands`), ``departure`` [UTC].
     """
-    bands, _, _ = formulation_bands(ctx.ship, ctx.rules, hs_margin=hs_margin)
-    mv = moving_exclusion(ctx.exclusion, frame, departure) if ctx.exclusion is not None else None
+    ship, rules, exclusion = (ctx.ship, ctx.rules, ctx.exclusion) if isinstance(ctx, PlanContext) else ctx
+    bands, _, _ = formulation_bands(ship, rules, hs_margin=hs_margin)
+    mv = moving_exclusion(exclusion, frame, departure) if exclusion is not None else None
     band, near = nlp_row_legs(frame, grid_s_nm, grid_hs_m, bands, mv)
     return band | near
+
+
+#: A longest NLP leg where a danger band or the exclusion can bind [nm] (``band_leg_nm`` of
+#: :func:`optroute.optimise_corridor`, which is off by default): the 3-D DP start's shortest stage spacing
+#: (:func:`optroute.optimise.starts.dp_route`).
+BAND_LEG_NM = 20.0
+
+
+def cut_where_binding(binding: np.ndarray, leg_nm: np.ndarray, band_leg_nm: float) -> np.ndarray | None:
+    """Per leg, the longest piece [nm] it is cut into (:meth:`optroute.search.route.Corridor.resample`):
+    ``band_leg_nm`` where a band or the exclusion can bind (``binding`` (N,), :func:`binding_legs`), the leg itself
+    elsewhere (``leg_nm`` (N,) [nm]); None where no binding leg is longer than ``band_leg_nm``.
+
+    A leg holds one speed and heading. Where a band binds, the 3-D DP's plan (the start of an ETA's solve there, its
+    stages about 20 nm apart) changes speed more often than a 50 nm leg can, and the NLP started from it cannot keep
+    it (``python -m benchmarks --only compare`` measures the NLP against the DP where the bands bind). The other legs
+    stay long: there only the engine load binds, and shorter legs would cost solve time and gain nothing.
+    """
+    step = float(finite("band_leg_nm", band_leg_nm, minimum=0.0, strict=True, error=ConfigError))
+    binding = np.asarray(binding, dtype=bool)
+    leg = np.asarray(leg_nm, dtype=float)
+    if not np.any(binding & (leg > step * (1.0 + 1e-9))):
+        return None
+    return np.where(binding, step, 2.0 * np.maximum(leg, step))
 
 
 def exclusion_legs(frame: CorridorFrame, mv: MovingExclusion) -> np.ndarray:

@@ -139,16 +139,22 @@ class Corridor:
             )
         return geo.destination(self.waypoints[:, 0], self.waypoints[:, 1], self.normal_course_deg(), off)
 
-    def resample(self, max_leg_nm: float) -> Corridor:
+    def resample(self, max_leg_nm: ArrayLike) -> Corridor:
         """The same corridor with legs no longer than ``max_leg_nm`` [nm], on the great circles.
 
-        The original waypoints are kept; half-widths are interpolated along track.
+        ``max_leg_nm`` is one length for every leg or one per leg (shape (n − 1,)): each leg is cut into the
+        fewest equal pieces no longer than its own. The original waypoints are kept; half-widths are
+        interpolated along track.
         """
-        step = float(finite("max_leg_nm", max_leg_nm, minimum=0.0, strict=True, error=ConfigError))
+        n_legs = self.waypoints.shape[0] - 1
+        given = finite("max_leg_nm", max_leg_nm, minimum=0.0, strict=True, error=ConfigError)
+        if given.ndim > 1 or given.size not in (1, n_legs):
+            raise ConfigError(f"max_leg_nm has shape {given.shape}; give one length [nm] or one per leg ({n_legs},)")
+        steps = np.broadcast_to(given.ravel(), (n_legs,))
         lats, lons, s_new = [self.waypoints[:1, 0]], [self.waypoints[:1, 1]], [np.zeros(1)]
         s = self.along_track_nm
         for k, d in enumerate(self.leg_distance_nm):
-            m = max(1, int(np.ceil(d / step - 1e-9)))
+            m = max(1, int(np.ceil(d / steps[k] - 1e-9)))
             f = np.arange(1, m + 1) / m
             la, lo = geo.intermediate_points(*self.waypoints[k], *self.waypoints[k + 1], f)
             lats.append(np.atleast_1d(la))
