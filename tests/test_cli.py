@@ -457,6 +457,7 @@ def bad_inputs(files: dict[str, Path], tmp: Path) -> list[tuple[list[str], list[
         # a fuel price of 0 leaves the cost objective (an hour worth hourly cost / price tonnes) undefined
         (opt + ["--objective", "cost", "--fuel-price", "0"], ["--fuel-price 0.0", "> 0", "--objective time"]),
         (opt + ["--hourly-cost", "-1"], ["--hourly-cost -1.0", ">= 0"]),
+        (opt + ["--band-leg-nm", "0"], ["--band-leg-nm 0.0", "> 0", "--max-leg-nm everywhere"]),
         (
             ["plan", "--ship", "container_54k_dwt", "--weather", "calm", "--from", "95,10", "--to", "0,0"],
             ["latitude 95 is outside [-90, 90]"],
@@ -879,3 +880,13 @@ def test_a_scheduler_error_names_the_study_commands_options(capsys, files, tmp_p
     assert code == 2 and out == "" and f"{address!r} answers, but not as a Dask scheduler" in line
     assert "leave out --scheduler for a local cluster (--workers 0 runs in this process)" in line
     assert not API_ONLY.search(line)
+
+
+def test_band_leg_nm_reaches_the_optimiser_only_when_given(files):
+    from optroute.cli import build_parser
+    from optroute.cli.voyage import optimise_kwargs
+
+    base = ["optimise", "--ship", "container_54k_dwt", "--corridor", str(files["csv"]), "--weather", "calm"]
+    given_ = optimise_kwargs(build_parser().parse_args([*base, "--band-leg-nm", "20"]))
+    assert given_["band_leg_nm"] == 20.0 and given_["max_leg_nm"] == 50.0
+    assert "band_leg_nm" not in optimise_kwargs(build_parser().parse_args(base))  # optimise_corridor's default

@@ -171,7 +171,7 @@ def parse_etas(text: str, departure: np.datetime64, what: str = "--etas") -> lis
 
 
 def check_cost_options(args: argparse.Namespace) -> None:
-    """Check ``--fuel-price`` [currency/t], ``--hourly-cost`` [currency/h] and ``--max-leg-nm`` [nm].
+    """Check ``--fuel-price`` [currency/t], ``--hourly-cost`` [currency/h], ``--max-leg-nm`` and ``--band-leg-nm`` [nm].
 
     The fuel price must be > 0: the cost objective values an hour at hourly cost / fuel price tonnes of fuel,
     so a price of 0 leaves it undefined.  An hourly cost of 0 is valid (least fuel alone).
@@ -195,6 +195,12 @@ def check_cost_options(args: argparse.Namespace) -> None:
         )
     if not (math.isfinite(args.max_leg_nm) and args.max_leg_nm > 0):
         raise ConfigError(f"--max-leg-nm {args.max_leg_nm!r} must be a finite length > 0 [nm]")
+    band = getattr(args, "band_leg_nm", None)
+    if band is not None and not (math.isfinite(band) and band > 0):
+        raise ConfigError(
+            f"--band-leg-nm {band!r} must be a finite length > 0 [nm], e.g. 20; leave it out to keep --max-leg-nm "
+            "everywhere"
+        )
 
 
 # --------------------------------------------------------------------------- ships and weather

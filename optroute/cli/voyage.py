@@ -66,6 +66,13 @@ def add_voyage_options(p: argparse.ArgumentParser, *, eta: bool = True) -> None:
     )
     p.add_argument("--max-leg-nm", type=float, default=50.0, metavar="NM", help="longest optimiser leg [nm]")
     p.add_argument(
+        "--band-leg-nm",
+        type=float,
+        default=None,
+        metavar="NM",
+        help="longest optimiser leg where a danger band can bind, e.g. 20 [nm] (default: --max-leg-nm everywhere)",
+    )
+    p.add_argument(
         "--cyclone",
         default=None,
         metavar="TRACK",
@@ -115,6 +122,8 @@ def optimise_kwargs(args: argparse.Namespace) -> dict[str, Any]:
         "hourly_cost_per_h": args.hourly_cost,
         "max_leg_nm": args.max_leg_nm,
     }
+    if getattr(args, "band_leg_nm", None) is not None:
+        kw["band_leg_nm"] = args.band_leg_nm
     if getattr(args, "eta_mode", None) is not None:
         kw["eta_mode"] = args.eta_mode
     if args.max_iter is not None:
