@@ -13,8 +13,9 @@ The ship is ``Ship.preset("container_54k_dwt")`` made stiff (GM 4.5 m, T_R ≈ 9
 applied from H_s ≥ 2 % of its length (5 m; EP 2145155's alternative threshold), so the storm's sea
 switches the bands on. For every scenario and ETA, side by side in one process:
 
-* **NLP**: ``optimise_corridor(objective="fuel")`` on the corridor (verified plan), and again with
-  ``band_leg_nm=20`` (its 30 nm legs cut to 20 nm or shorter where a band can bind; not yet the default);
+* **NLP**: ``optimise_corridor(objective="fuel", max_leg_nm=30)`` on the corridor (verified plan; its legs
+  cut to 20 nm or shorter where a band can bind, ``band_leg_nm``), and again with ``band_leg_nm=None``
+  (30 nm legs everywhere);
 * **speed stepping** (Boeing): the corridor's centreline (cut into 10 nm legs, one sea state
   each) sailed with ``optroute.search.routing.sail_route`` at the lowest desired speed on a 0.5 kn step
   whose arrival meets the ETA, forced slow-downs out of the bands included; its runtime is the
@@ -64,10 +65,9 @@ DP_RESOLUTIONS = {  # name: (dx [nm], dy [nm], dt [h], speed step [kn])
     "fine": (30.0, 5.0, 0.5, 0.25),
 }
 DP_SPEEDS_KN = (6.0, 26.0)
-#: The NLP again with its legs cut to this length [nm] where a band can bind (``band_leg_nm``; not yet the default)
-BAND_LEG_NM = 20.0
-NLP_CUT = f"NLP, {BAND_LEG_NM:g} nm legs where bands bind"
-METHODS = ("NLP", NLP_CUT, "speed stepping", *(f"DP {k}" for k in DP_RESOLUTIONS))
+#: The NLP again with its 30 nm legs left whole where a band can bind (``band_leg_nm=None``; the default cuts them)
+NLP_WHOLE = "NLP, 30 nm legs everywhere"
+METHODS = ("NLP", NLP_WHOLE, "speed stepping", *(f"DP {k}" for k in DP_RESOLUTIONS))
 
 
 def storm_sea(speed_kn: float, lon0_deg: float, wave_from_deg: float, *, peak_hs_m: float = 8.0,
@@ -171,13 +171,13 @@ def outcome(row: dict[str, Any]) -> Outcome:
                    row["verify"])  # fmt: skip
 
 
-def run_nlp(sc: Scenario, eta_h: float, band_leg_nm: float | None = None) -> dict[str, Any]:
+def run_nlp(sc: Scenario, eta_h: float, whole_legs: bool = False) -> dict[str, Any]:
     eta = T0 + np.timedelta64(int(round(eta_h * 3600)), "s")
-    name = "NLP" if band_leg_nm is None else NLP_CUT
+    name, kw = (NLP_WHOLE, {"band_leg_nm": None}) if whole_legs else ("NLP", {})
     t = time.perf_counter()
     try:
         plan = orx.optimise_corridor(sc.corridor, sc.weather, sc.ship, departure=T0, eta=eta, rules=sc.rules,
-                                     objective="fuel", max_leg_nm=30.0, band_leg_nm=band_leg_nm)  # fmt: skip
+                                     objective="fuel", max_leg_nm=30.0, **kw)  # fmt: skip
     except orx.OptrouteError as exc:
         return _failed(name, time.perf_counter() - t, exc)
     sec = time.perf_counter() - t
@@ -322,7 +322,7 @@ def run(quick: bool) -> dict[str, Any]:
     cases = []
     for sc in scenarios(quick):
         for eta_h in sc.etas_h:
-            rows = [run_nlp(sc, eta_h), run_nlp(sc, eta_h, BAND_LEG_NM), run_stepping(sc, eta_h),
+            rows = [run_nlp(sc, eta_h), run_nlp(sc, eta_h, whole_legs=True), run_stepping(sc, eta_h),
                     *(run_dp(sc, eta_h, lv) for lv in levels)]  # fmt: skip
             _ratios(rows)
             cases.append({"scenario": sc.name, "eta_h": eta_h, "rows": rows})

@@ -136,3 +136,21 @@ def test_ensemble_members_share_one_set_of_legs_cut_where_a_band_can_bind_in_any
     for p in cut:  # every member on the same legs: each binding leg of either member cut to 10 nm
         assert p.frame.n_legs == int(pieces.sum()) > whole[0].frame.n_legs
         np.testing.assert_array_equal(p.frame.s_nm, cut[0].frame.s_nm)
+
+
+def test_hs_under_read_is_the_largest_shortfall_in_a_bands_seas_by_hand() -> None:
+    # two bands, thresholds 10 m and 5 m; samples where the referee's sea reaches 0.8 x threshold count for that band
+    from formulations.common import Band
+    from optroute.optimise.rescue import hs_under_read
+
+    bands = (
+        Band("te_over_tr", 0.8, 1.2, param=10.0, hs_min_m=10.0, name="synchronous"),
+        Band("te_over_tr", 0.4, 0.6, param=10.0, hs_min_m=5.0, name="parametric"),
+    )
+    true = np.array([[9.0, 10.2, 3.0], [4.5, np.nan, 7.9]])
+    nlp = np.array([[8.95, 10.13, 2.0], [4.5, 9.0, 7.95]])
+    # band a (from 8 m): 0.05 and 0.07 m short -> 0.07 / 10; band b (from 4 m): 0.05, 0.07, 0.0 and -0.05 -> 0.07 / 5
+    assert hs_under_read(nlp, true, bands) == pytest.approx(0.07 / 5.0)
+    assert hs_under_read(nlp, true, bands[:1]) == pytest.approx(0.07 / 10.0)
+    # the 3 m sample reads 1 m under, but below both bands' seas: it does not count; an NLP reading over: 0
+    assert hs_under_read(true + 0.1, true, bands) == 0.0

@@ -457,7 +457,7 @@ def bad_inputs(files: dict[str, Path], tmp: Path) -> list[tuple[list[str], list[
         # a fuel price of 0 leaves the cost objective (an hour worth hourly cost / price tonnes) undefined
         (opt + ["--objective", "cost", "--fuel-price", "0"], ["--fuel-price 0.0", "> 0", "--objective time"]),
         (opt + ["--hourly-cost", "-1"], ["--hourly-cost -1.0", ">= 0"]),
-        (opt + ["--band-leg-nm", "0"], ["--band-leg-nm 0.0", "> 0", "--max-leg-nm everywhere"]),
+        (opt + ["--band-leg-nm", "0"], ["--band-leg-nm 0.0", "> 0", "one leg length everywhere"]),
         (
             ["plan", "--ship", "container_54k_dwt", "--weather", "calm", "--from", "95,10", "--to", "0,0"],
             ["latitude 95 is outside [-90, 90]"],

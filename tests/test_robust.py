@@ -202,9 +202,16 @@ def test_robust_plan_verifies_in_every_member_and_the_mean_plan_does_not(
     found = on_mean.verify(weather=members[1])  # the storm on the track
     assert found and {v.kind for v in found} == {"power_above_mcr"}
     assert on_mean.verify(weather=members[0]) == [] and on_mean.verify(weather=members[2]) == []
-    # the robust plan slows in the storm's member where the mean plan breaks the MCR
-    legs = sorted({v.leg for v in found})
-    assert np.all(robust.stw_kn[legs] < on_mean.stw_kn[legs])
+    # the robust plan slows in the storm's member where the mean plan breaks the MCR: it takes longer over each of
+    # those legs (compared by longitude on the fixed path along 30 deg N: the robust plan's legs are cut where a band
+    # can bind in some member, the mean plan's where one can in the mean, band_leg_nm)
+    for k in sorted({v.leg for v in found}):
+        lon_ab = on_mean.waypoints[[k, k + 1], 1]
+        hours = {
+            name: np.diff(np.interp(lon_ab, p.waypoints[:, 1], (p.times - T0) / np.timedelta64(1, "s")))[0]
+            for name, p in plans.items()
+        }
+        assert hours["robust"] > hours["ensemble mean"]
     stats = robust.solver_stats["robust"]
     assert stats["members"] == 3 and len(stats["member_fuel_t"]) == 3
     assert stats["fuel_mean_t"] == pytest.approx(np.mean(stats["member_fuel_t"]))
@@ -364,5 +371,6 @@ def test_referee_rows_plan_verifies_in_every_member(three_storms: xr.Dataset, co
     )
     for m in member_datasets(three_storms):
         assert plan.verify(weather=m) == []
-    assert plan.arrival <= ETA
+    # the waypoint times are sums of the legs' durations rounded to nanoseconds (measured 15 ns over on 18 legs)
+    assert plan.arrival <= ETA + np.timedelta64(1, "us")
     assert plan.solver_stats["nlp_samples_per_leg"] > OPTS["samples_per_leg"]

@@ -198,8 +198,8 @@ def check_cost_options(args: argparse.Namespace) -> None:
     band = getattr(args, "band_leg_nm", None)
     if band is not None and not (math.isfinite(band) and band > 0):
         raise ConfigError(
-            f"--band-leg-nm {band!r} must be a finite length > 0 [nm], e.g. 20; leave it out to keep --max-leg-nm "
-            "everywhere"
+            f"--band-leg-nm {band!r} must be a finite length > 0 [nm]: leave it out for 20 nm where a band can bind, "
+            "or give --max-leg-nm's length to keep one leg length everywhere"
         )
 
 

@@ -70,7 +70,8 @@ def add_voyage_options(p: argparse.ArgumentParser, *, eta: bool = True) -> None:
         type=float,
         default=None,
         metavar="NM",
-        help="longest optimiser leg where a danger band can bind, e.g. 20 [nm] (default: --max-leg-nm everywhere)",
+        help="longest optimiser leg where a danger band can bind [nm] (default 20; 0 is refused: give --max-leg-nm "
+        "or more to keep one length everywhere)",
     )
     p.add_argument(
         "--cyclone",

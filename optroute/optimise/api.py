@@ -32,6 +32,7 @@ from optroute import geodesy as geo
 from optroute import units
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, SolverFailure, WeatherCoverageError
 from optroute.optimise.corridor_problem import Objective, ProgressFn
+from optroute.optimise.rows import BAND_LEG_NM
 from optroute.physics.performance import PerformanceModel
 from optroute.physics.safety import BandRules
 from optroute.physics.ship import Ship
@@ -62,7 +63,7 @@ def optimise_corridor(
     route: Route | None = None,
     warm_plan: Plan | None = None,
     max_leg_nm: float = 50.0,
-    band_leg_nm: float | None = None,
+    band_leg_nm: float | None = BAND_LEG_NM,
     samples_per_leg: int = 3,
     fuel_price_per_t: float = 600.0,
     hourly_cost_per_h: float = 0.0,
@@ -125,13 +126,11 @@ def optimise_corridor(
     band_leg_nm : float or None
         Longest NLP leg [nm] where a danger band or the exclusion can bind (on the NLP's weather grid,
         :func:`optroute.optimise.rows.binding_legs`): those legs are cut further, so that the NLP can change
-        speed as often as the 3-D DP start does (:func:`optroute.optimise.rows.cut_where_binding`;
-        :data:`optroute.optimise.rows.BAND_LEG_NM`, 20 nm, the DP's stage spacing). Not for a free-arrival
-        minimum time (``objective="time"`` without an ETA). Default None: ``max_leg_nm`` everywhere. Not yet
-        the default: ``python -m benchmarks --only compare`` measures both side by side, and on some
-        cyclone and storm cases the NLP on the cut legs ends in a plan the referee rejects where the uncut
-        one verifies (the call then returns its verified start). ``solver_stats["n_legs"]`` gives the legs
-        solved.
+        speed as often as the 3-D DP start does (:func:`optroute.optimise.rows.cut_where_binding`).
+        Default :data:`optroute.optimise.rows.BAND_LEG_NM`, 20 nm, the DP's stage spacing; None:
+        ``max_leg_nm`` everywhere (``python -m benchmarks --only compare`` runs both side by side). Not for
+        a free-arrival minimum time (``objective="time"`` without an ETA). ``solver_stats["n_legs"]`` gives
+        the legs solved.
     samples_per_leg : int
         NLP samples per leg of the midpoint-rule time and fuel (every constraint is imposed there too).
     constraint_rows : {"midpoints", "referee"}

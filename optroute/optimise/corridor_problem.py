@@ -63,6 +63,7 @@ from optroute.optimise.rescue import (
     to_plan,
 )
 from optroute.optimise.rows import (
+    BAND_LEG_NM,
     ROW_PLACEMENTS,
     binding_legs,
     canonical_rows,
@@ -79,6 +80,7 @@ from optroute.plan.result import Exclusion, Plan, PlanContext, Violation
 from optroute.search.route import Corridor, Route
 from optroute.units import as_utc_time as _as_time
 from optroute.units import format_utc
+from optroute.units import h_to_timedelta as _h_to_td
 from optroute.units import timedelta_to_h as _hours
 from optroute.weather.sample import WeatherSampler
 
@@ -214,7 +216,7 @@ class PreparedCorridor(CorridorReport):
         constraint_rows: str = "midpoints",
         timed_no_passage: bool = False,
         speed_nodes_kn: np.ndarray | None = None,
-        band_leg_nm: float | None = None,
+        band_leg_nm: float | None = BAND_LEG_NM,
     ) -> None:
         # every argument, for the free-arrival minimum-time twin of this corridor (minimum_time_twin)
         self._arguments = {k: v for k, v in locals().items() if k not in ("self", "__class__")}
@@ -586,14 +588,16 @@ class PreparedCorridor(CorridorReport):
 
         A start the referee passed can lie inside the NLP's backed-off bands (:func:`start_in_nlp_bands`); started
         there, the NLP is outside its own feasible set and Ipopt reports it infeasible though the start is a plan. The
-        back-offs are lowered to half the start's clearance where that clears it (a rejection by the referee raises
-        them again, :func:`tighten`); where the NLP's own evaluation puts the start inside a rules' band, they stay, and
+        back-offs are lowered to half the start's clearance where that clears it, the Hs threshold's no lower than
+        the NLP's Hs reads under the referee's at the start's samples (:meth:`true_hs_m`,
+        :func:`~optroute.optimise.rescue.hs_under_read`; a rejection by the referee raises them again,
+        :func:`tighten`); where the NLP's own evaluation puts the start inside a rules' band, they stay, and
         the solve moves the edges of those samples alone through the start
         (:func:`~optroute.optimise.nlp_solve.edges_through`; ``start_edges_moved`` counts them).
         The first such start's counts are the call's record (``verified_start_in_nlp_bands``).
         """
         rules_bands, _, _ = formulation_bands(self.ship, self.rules)  # the rules' own: no back-offs
-        counts, hs_margin, widen = start_in_nlp_bands(nlp, st, warm, rules_bands)
+        counts, hs_margin, widen = start_in_nlp_bands(nlp, st, warm, rules_bands, true_hs=self.true_hs_m)
         if call.start_in_bands is None:
             call.start_in_bands = counts
         if counts["inside_rules_band"] or (hs_margin, widen) == (st.hs_margin, st.widen):
@@ -604,6 +608,17 @@ class PreparedCorridor(CorridorReport):
         )
         st.hs_margin, st.widen = hs_margin, widen
         return self.problem.build(st)
+
+    def true_hs_m(self, time_h: np.ndarray, s_nm: np.ndarray, y_nm: np.ndarray) -> np.ndarray:
+        """The referee's Hs [m] at corridor coordinates: times [h after departure], along-track and lateral (port +)
+        positions [nm]; NaN where the weather does not cover the point."""
+        lat, lon, _ = self.frame.points(s_nm, y_nm)
+        when = self.departure + _h_to_td(np.asarray(time_h, dtype=float))
+        covered = self.sampler.covers(when, lat, lon)
+        out = np.full(np.shape(lat), np.nan)
+        if covered.any():
+            out[covered] = self.sampler.sample(when[covered], lat[covered], lon[covered], ["hs_m"])["hs_m"]
+        return out
 
     def _rejected_legs(self, forced: np.ndarray | None, violations: list[Violation]) -> np.ndarray | None:
         """``forced`` (N,) with the legs of the referee's band and exclusion ``violations``: those legs keep their band

@@ -36,6 +36,7 @@ from optroute.optimise.nlp_solve import (
     warm_point,
 )
 from optroute.optimise.phase1 import infeasible_eta, phase1_point
+from optroute.optimise.rows import HS_SLACK
 from optroute.optimise.starts import verified_plan
 from optroute.plan.result import Exclusion, Plan, PlanContext, Violation
 from optroute.search.route import Route
@@ -179,7 +180,11 @@ def tighten(st: Tightening, violations: list[Violation], plan: Plan, res: NLPRes
 
 
 def start_in_nlp_bands(
-    nlp: SpeedNLP, st: Tightening, warm: Mapping[str, np.ndarray], rules_bands: tuple[Band, ...]
+    nlp: SpeedNLP,
+    st: Tightening,
+    warm: Mapping[str, np.ndarray],
+    rules_bands: tuple[Band, ...],
+    true_hs: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None,
 ) -> tuple[dict[str, int], float, float]:
     """Where a start lies inside the NLP's bands (its samples, the NLP's own evaluation), counted by why, and the
     back-offs that would clear it.
@@ -200,7 +205,12 @@ def start_in_nlp_bands(
     hs_margin, widen : float
         ``st.hs_margin`` and ``st.widen`` lowered to half the start's clearance from the rules' threshold and edges
         at the samples of the first two kinds (unchanged where there are none): with them the start is clear of the
-        NLP's bands but where the third kind puts it inside.
+        NLP's bands but where the third kind puts it inside. With ``true_hs`` (the referee's Hs [m] at the NLP's
+        samples: times [h after departure], along-track and lateral positions [nm], each (N, m)), ``hs_margin`` is
+        lowered no further than the NLP's Hs reads under the referee's at the start's samples in a band's seas
+        (:func:`hs_under_read`): below that, a sea the referee finds over the threshold could be one where the NLP
+        applies no band (the storm re-plan of ``tests/test_voyage_sim.py``: a back-off fitted to 0.52 % of the
+        threshold, an NLP plan rejected where its Hs read 0.5 % under the referee's).
     """
     y0, v0 = warm_point(nlp, warm)  # the point the solve starts from (Problem.solve)
     state = nlp.evaluate(y0, v0, nlp.consistent_times(y0, v0))
@@ -224,7 +234,32 @@ def start_in_nlp_bands(
                 room = 0.0
             widen = min(widen, 0.5 * room)
         out["samples"] += 1
+    if true_hs is not None and hs_margin < st.hs_margin:
+        floor = hs_under_read(state.hs_m, true_hs(state.time_h, state.s_nm, state.y_nm), rules_bands)
+        hs_margin = max(hs_margin, min(st.hs_margin, floor))
     return out, hs_margin, widen
+
+
+def hs_under_read(nlp_hs_m: np.ndarray, true_hs_m: np.ndarray, rules_bands: tuple[Band, ...]) -> float:
+    """How far the NLP's Hs reads under the referee's in a band's seas, as a share of that band's Hs threshold [-].
+
+    ``nlp_hs_m`` and ``true_hs_m`` are Hs [m] at the same samples (the NLP's smooth weather and the referee's
+    interpolation of the data); ``rules_bands`` the rules' own bands. Over the samples where the referee's sea reaches
+    ``(1 − HS_SLACK)`` of a band's threshold, the largest ``(true − nlp) / threshold``; 0 where there are none or the
+    NLP never reads under. The NLP applies a band from ``(1 − hs_margin)`` times the threshold by its own Hs: with
+    ``hs_margin`` at least this, every such sample the referee finds over the threshold is one where the NLP applies
+    the band.
+    """
+    nlp_hs, true = np.asarray(nlp_hs_m, dtype=float), np.asarray(true_hs_m, dtype=float)
+    out = 0.0
+    for band in rules_bands:
+        thr = float(band.hs_min_m)
+        if not thr > 0.0:
+            continue
+        near = np.isfinite(true) & (true >= (1.0 - HS_SLACK) * thr)
+        if near.any():
+            out = max(out, float(np.max(true[near] - nlp_hs[near])) / thr)
+    return out
 
 
 def route_plan(route: Route | None, ctx: PlanContext, step_nm: float) -> Plan | None:

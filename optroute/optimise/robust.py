@@ -75,6 +75,7 @@ from optroute.optimise.nlp_solve import VIOLATION_TOL, route_warm_start
 from optroute.optimise.rescue import LIMIT_STATUSES, plan_warm_start
 from optroute.optimise.robust_start import ensemble_dp_path
 from optroute.optimise.rows import (
+    BAND_LEG_NM,
     ROW_PLACEMENTS,
     binding_legs,
     canonical_rows,
@@ -267,7 +268,7 @@ def optimise_robust(
     route: Route | None = None,
     warm_plan: Plan | None = None,
     max_leg_nm: float = 50.0,
-    band_leg_nm: float | None = None,
+    band_leg_nm: float | None = BAND_LEG_NM,
     samples_per_leg: int = 3,
     fuel_price_per_t: float = 600.0,
     hourly_cost_per_h: float = 0.0,

@@ -217,9 +217,8 @@ def binding_legs(
     return band | near
 
 
-#: A longest NLP leg where a danger band or the exclusion can bind [nm] (``band_leg_nm`` of
-#: :func:`optroute.optimise_corridor`, which is off by default): the 3-D DP start's shortest stage spacing
-#: (:func:`optroute.optimise.starts.dp_route`).
+#: The longest NLP leg where a danger band or the exclusion can bind [nm] (``band_leg_nm`` of
+#: :func:`optroute.optimise_corridor`): the 3-D DP start's shortest stage spacing (:func:`optroute.optimise.starts.dp_route`).
 BAND_LEG_NM = 20.0
 
 
