@@ -222,7 +222,9 @@ def prepare_corridor(
     Parameters as in :class:`~optroute.optimise.corridor_problem.PreparedCorridor` (``t0`` its
     departure [UTC], ``eta_t`` its latest ETA [UTC] or None). With ``timed_no_passage`` the lateral bounds
     keep off the weather's fixed no-passage cells only, and the moving ones become the problem's time
-    windows (:func:`~optroute.optimise.timed_no_go.no_passage_windows`).
+    windows (:func:`~optroute.optimise.timed_no_go.no_passage_windows`). With ``band_leg_nm`` [nm] the legs where a
+    band or the exclusion can bind (:func:`~optroute.optimise.rows.binding_legs` at the Hs back-off ``hs_margin``
+    [-], on the weather grid built for the whole legs) are cut to it; None: the legs of ``max_leg_nm``.
     """
     sampler, ds = _weather(weather)
     n_wp = len(corridor.waypoints)
@@ -257,7 +259,7 @@ def prepare_corridor(
         model=model, base=base, speeds_kn=speeds, headings_deg=headings, leg_windows_h=windows_h,
         speed_tol=SPEED_TOL if speeds_kn is None else None,
     )  # fmt: skip
-    if band_leg_nm is not None:  # the legs where a band or the exclusion can bind, cut shorter (band_legs)
+    if band_leg_nm is not None:  # the legs where a band or the exclusion can bind, cut shorter (cut_where_binding)
         binding = binding_legs(frame, grid.s_nm, grid.hs_m, (ship, rules, exclusion), hs_margin, t0)
         finer = cut_where_binding(binding, np.diff(frame.s_nm), band_leg_nm)
         if finer is not None:  # the same great circles: the weather grid, on (t, s, y), serves unchanged
