@@ -209,8 +209,7 @@ def start_in_nlp_bands(
         samples: times [h after departure], along-track and lateral positions [nm], each (N, m)), ``hs_margin`` is
         lowered no further than the NLP's Hs reads under the referee's at the start's samples in a band's seas
         (:func:`hs_under_read`): below that, a sea the referee finds over the threshold could be one where the NLP
-        applies no band (the storm re-plan of ``tests/test_voyage_sim.py``: a back-off fitted to 0.52 % of the
-        threshold, an NLP plan rejected where its Hs read 0.5 % under the referee's).
+        applies no band (the storm re-plan of ``tests/test_voyage_sim.py`` is the case).
     """
     y0, v0 = warm_point(nlp, warm)  # the point the solve starts from (Problem.solve)
     state = nlp.evaluate(y0, v0, nlp.consistent_times(y0, v0))
