@@ -132,3 +132,13 @@ def test_hs_under_read_is_the_largest_shortfall_in_a_bands_seas_by_hand() -> Non
     assert hs_under_read(nlp, true, bands[:1]) == pytest.approx(0.07 / 10.0)
     # the 3 m sample reads 1 m under, but below both bands' seas: it does not count; an NLP reading over: 0
     assert hs_under_read(true + 0.1, true, bands) == 0.0
+
+
+@pytest.mark.parametrize("bad", [0.0, -5.0, np.inf, np.nan, "20 nm"])
+@pytest.mark.parametrize("objective", ["time", "fuel"])
+def test_a_band_leg_length_that_is_not_a_length_is_refused_naming_it_even_where_it_would_not_apply(bad, objective):
+    # a free-arrival minimum time never cuts its legs: the value is checked all the same
+    sc = bench_compare.scenarios(True)[0]
+    with pytest.raises(ConfigError, match=r"band_leg_nm.*None to keep max_leg_nm|band_leg_nm=.*not a number"):
+        PreparedCorridor(sc.corridor, sc.weather, sc.ship, departure=bench_compare.T0, objective=objective,
+                         rules=sc.rules, band_leg_nm=bad)  # fmt: skip

@@ -67,6 +67,7 @@ from optroute.optimise.rows import (
     ROW_PLACEMENTS,
     binding_legs,
     canonical_rows,
+    check_band_leg_nm,
     leg_end_rows,
     only_where_binding,
     points_of,
@@ -231,6 +232,7 @@ class PreparedCorridor(CorridorReport):
         self.hourly = float(finite("hourly_cost_per_h", hourly_cost_per_h, minimum=0.0, error=ConfigError))
         self.margin0 = float(finite("band_margin", band_margin, minimum=0.0, error=ConfigError))
         self.hs_margin0 = float(finite("band_hs_margin", band_hs_margin, minimum=0.0, error=ConfigError))
+        band_leg_nm = None if band_leg_nm is None else check_band_leg_nm(band_leg_nm)
         su = prepare_corridor(
             corridor, weather, ship, t0=t0, eta_t=eta_t, objective=objective, model=model, rules=rules,
             max_leg_nm=max_leg_nm, exclusion=exclusion, speed_range_kn=speed_range_kn, use_land_mask=use_land_mask,

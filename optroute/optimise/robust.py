@@ -79,6 +79,7 @@ from optroute.optimise.rows import (
     ROW_PLACEMENTS,
     binding_legs,
     canonical_rows,
+    check_band_leg_nm,
     cut_where_binding,
     leg_end_rows,
     only_where_binding,
@@ -383,6 +384,7 @@ def optimise_robust(
         "band_margin": band_margin, "band_hs_margin": band_hs_margin, "verify_step_nm": verify_step_nm,
         "use_land_mask": use_land_mask,
     }  # fmt: skip
+    band_leg_nm = None if band_leg_nm is None else check_band_leg_nm(band_leg_nm)
     prepared, y_lo, y_hi = prepare_members(corridor, members, ship, shared, reference_member, band_leg_nm)
     ref = prepared[int(reference_member)]
     frame, t0 = ref.frame, ref.departure

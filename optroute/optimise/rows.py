@@ -52,6 +52,7 @@ __all__ = [
     "canonical_rows",
     "BAND_LEG_NM",
     "binding_legs",
+    "check_band_leg_nm",
     "cut_where_binding",
     "exclusion_legs",
     "nlp_row_legs",
@@ -222,6 +223,14 @@ def binding_legs(
 BAND_LEG_NM = 20.0
 
 
+def check_band_leg_nm(band_leg_nm: float) -> float:
+    """``band_leg_nm`` [nm] as a float; ConfigError unless it is a finite length > 0."""
+    return float(
+        finite("band_leg_nm", band_leg_nm, minimum=0.0, strict=True, error=ConfigError,
+               fix="give a length in nm (20 by default), or None to keep max_leg_nm on every leg")
+    )  # fmt: skip
+
+
 def cut_where_binding(binding: np.ndarray, leg_nm: np.ndarray, band_leg_nm: float) -> np.ndarray | None:
     """Per leg, the longest piece [nm] it is cut into (:meth:`optroute.search.route.Corridor.resample`):
     ``band_leg_nm`` where a band or the exclusion can bind (``binding`` (N,), :func:`binding_legs`), the leg itself
@@ -232,7 +241,7 @@ def cut_where_binding(binding: np.ndarray, leg_nm: np.ndarray, band_leg_nm: floa
     it (``python -m benchmarks --only compare`` measures the NLP against the DP where the bands bind). The other legs
     stay long: there only the engine load binds, and shorter legs would cost solve time and gain nothing.
     """
-    step = float(finite("band_leg_nm", band_leg_nm, minimum=0.0, strict=True, error=ConfigError))
+    step = check_band_leg_nm(band_leg_nm)
     binding = np.asarray(binding, dtype=bool)
     leg = np.asarray(leg_nm, dtype=float)
     if not np.any(binding & (leg > step * (1.0 + 1e-9))):
