@@ -195,6 +195,51 @@ def _leg_windows(
     return reach_windows(frame, t0, cap_h, v_max + current_kn)
 
 
+def _cut_legs(
+    frame: CorridorFrame,
+    grid: Any,
+    ship_rules_exclusion: tuple[Ship, BandRules, Exclusion | None],
+    hs_margin: float,
+    t0: np.datetime64,
+    band_leg_nm: float | None,
+) -> CorridorFrame:
+    """``frame`` with the legs where a band or the exclusion can bind (:func:`~optroute.optimise.rows.binding_legs` on
+    the weather ``grid`` at the Hs back-off ``hs_margin`` [-]) cut to ``band_leg_nm`` [nm]
+    (:func:`~optroute.optimise.rows.cut_where_binding`); ``frame`` itself where none is cut or ``band_leg_nm`` is None."""
+    if band_leg_nm is None:
+        return frame
+    binding = binding_legs(frame, grid.s_nm, grid.hs_m, ship_rules_exclusion, hs_margin, t0)
+    finer = cut_where_binding(binding, np.diff(frame.s_nm), band_leg_nm)
+    return frame if finer is None else build_frame(frame.corridor.resample(finer))
+
+
+def _lateral(
+    frame: CorridorFrame,
+    sampler: WeatherSampler,
+    ds: xr.Dataset | None,
+    t0: np.datetime64,
+    horizon_dt_h: tuple[float, float],
+    windows: np.ndarray | None,
+    *,
+    use_land_mask: bool | None,
+    timed: bool,
+) -> tuple[np.ndarray, np.ndarray, Any]:
+    """The waypoints' lateral bounds [nm, port +] (:func:`~optroute.optimise.nlp_inputs.lateral_bounds`, over the
+    grid's time window ``horizon_dt_h``: its end and step [h]) and, with ``timed``, the moving no-passage cells as the
+    problem's time windows (:func:`~optroute.optimise.timed_no_go.no_passage_windows`; None otherwise)."""
+    horizon, dt_h = horizon_dt_h
+    n_window = int(min(25, max(2, horizon / dt_h + 1)))
+    window = t0 + np.array([_h_to_td(h) for h in np.linspace(0.0, horizon, n_window)])
+    hw_max = float(np.max(frame.corridor.half_width_nm))
+    step_nm = max(1.0, min(5.0, hw_max / 10.0)) if hw_max > 0 else 1.0
+    y_lo, y_hi = lateral_bounds(
+        frame, sampler=sampler, dataset=ds, times=window, use_land_mask=use_land_mask, step_nm=step_nm,
+        leg_windows=windows, static_only=timed,
+    )  # fmt: skip
+    no_passage = no_passage_windows(frame, ds, t0, y_lo, y_hi) if timed and ds is not None else None
+    return y_lo, y_hi, no_passage
+
+
 def prepare_corridor(
     corridor: Corridor,
     weather: xr.Dataset | WeatherSampler,
@@ -259,25 +304,17 @@ def prepare_corridor(
         model=model, base=base, speeds_kn=speeds, headings_deg=headings, leg_windows_h=windows_h,
         speed_tol=SPEED_TOL if speeds_kn is None else None,
     )  # fmt: skip
-    if band_leg_nm is not None:  # the legs where a band or the exclusion can bind, cut shorter (cut_where_binding)
-        binding = binding_legs(frame, grid.s_nm, grid.hs_m, (ship, rules, exclusion), hs_margin, t0)
-        finer = cut_where_binding(binding, np.diff(frame.s_nm), band_leg_nm)
-        if finer is not None:  # the same great circles: the weather grid, on (t, s, y), serves unchanged
-            frame = build_frame(cor.resample(finer))
-            windows = _leg_windows(frame, sampler, ds, t0, cap_h, v_max)
+    cut = _cut_legs(frame, grid, (ship, rules, exclusion), hs_margin, t0, band_leg_nm)
+    if cut is not frame:  # the same great circles: the weather grid, on (t, s, y), serves unchanged
+        frame, windows = cut, _leg_windows(cut, sampler, ds, t0, cap_h, v_max)
     table = PowerTable(
         np.asarray(grid.ratio_speed_kn), np.asarray(grid.ratio_heading_deg), samples.power_capped_share,
         samples.power_evaluations, sfoc_err, samples.power_speed_error,
     )  # fmt: skip
-    n_window = int(min(25, max(2, horizon / dt_h + 1)))
-    window = t0 + np.array([_h_to_td(h) for h in np.linspace(0.0, horizon, n_window)])
     emit(progress, "lateral bounds", 0.1)
-    step_nm = max(1.0, min(5.0, hw_max / 10.0)) if hw_max > 0 else 1.0
-    y_lo, y_hi = lateral_bounds(
-        frame, sampler=sampler, dataset=ds, times=window, use_land_mask=use_land_mask, step_nm=step_nm,
-        leg_windows=windows, static_only=timed_no_passage,
-    )  # fmt: skip
-    no_passage = no_passage_windows(frame, ds, t0, y_lo, y_hi) if timed_no_passage and ds is not None else None
+    y_lo, y_hi, no_passage = _lateral(
+        frame, sampler, ds, t0, (horizon, dt_h), windows, use_land_mask=use_land_mask, timed=timed_no_passage
+    )
     problem = Problem(
         frame=frame, grid=grid, samples=samples, power=base, ship=ship, rules=rules, y_lo=y_lo, y_hi=y_hi,
         v_min=v_min, v_max=v_max, exclusion=exclusion, departure=t0, solver_options=solver_options,
