@@ -43,9 +43,9 @@ from optroute.errors import (
     SolverFailure,
     WeatherCoverageError,
 )
-from optroute.optimise.corridor_setup import ProgressFn, emit, prepare_corridor
+from optroute.optimise.corridor_setup import ProgressFn, emit, prepare_corridor, recut
 from optroute.optimise.corridor_stats import CorridorReport
-from optroute.optimise.nlp_inputs import exclusion_frame_error_nm, formulation_bands
+from optroute.optimise.nlp_inputs import CorridorFrame, exclusion_frame_error_nm, formulation_bands
 from optroute.optimise.nlp_solve import (
     Duals,
     Solved,
@@ -276,6 +276,23 @@ class PreparedCorridor(CorridorReport):
         self.problem = su.problem
         # the flat frame's measured distance error near the exclusion's circle: the NLP's circle grows by it, so
         # that a plan on its edge is outside the referee's (WGS84) circle on the first solve
+        self.exclusion_backoff_nm = 0.0 if exclusion is None else exclusion_frame_error_nm(exclusion, self.frame)
+
+    def cut_to(self, frame: CorridorFrame) -> None:
+        """Solve on the legs of ``frame`` from now on: the same centreline's legs cut further, on the same great
+        circles (:func:`~optroute.optimise.corridor_setup.recut`: the weather grid and power table stay, the lateral
+        bounds and the problem are the new legs'). An ensemble's members share one cut (:mod:`optroute.optimise.robust`);
+        only before any solve."""
+        args = self._arguments
+        su = recut(
+            self.setup, frame, ship=self.ship, exclusion=self.exclusion, departure=self.departure,
+            use_land_mask=self.use_land_mask, timed_no_passage=bool(args["timed_no_passage"]),
+            solver_options=args["solver_options"], jit=bool(args["jit"]),
+        )  # fmt: skip
+        self.setup, self.frame, self.y_lo, self.y_hi, self.problem = su, su.frame, su.y_lo, su.y_hi, su.problem
+        self.__dict__.pop("binding", None)  # the cached property, of the old legs
+        self._row_points = None
+        exclusion = self.exclusion
         self.exclusion_backoff_nm = 0.0 if exclusion is None else exclusion_frame_error_nm(exclusion, self.frame)
 
     def minimum_time_twin(self) -> PreparedCorridor:

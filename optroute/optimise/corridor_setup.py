@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import shutil
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -41,7 +41,7 @@ from optroute.units import h_to_timedelta as _h_to_td
 from optroute.units import timedelta_to_h as _hours
 from optroute.weather.sample import WeatherSampler
 
-__all__ = ["CorridorSetup", "ProgressFn", "check_jit", "emit", "prepare_corridor", "time_window"]
+__all__ = ["CorridorSetup", "ProgressFn", "check_jit", "emit", "prepare_corridor", "recut", "time_window"]
 
 ProgressFn = Callable[[str, float], None]
 
@@ -92,6 +92,8 @@ class CorridorSetup:
         Centreline length [nm] (WGS84).
     problem : Problem
         The NLP builder and solver.
+    dt_h : float
+        The weather grid's time step [h] (the lateral bounds' time window is taken at it).
     """
 
     sampler: WeatherSampler
@@ -112,6 +114,7 @@ class CorridorSetup:
     y_hi: np.ndarray
     length_nm: float
     problem: Problem
+    dt_h: float
 
 
 def _weather(weather: Any) -> tuple[WeatherSampler, xr.Dataset | None]:
@@ -322,5 +325,34 @@ def prepare_corridor(
     )  # fmt: skip
     return CorridorSetup(
         sampler, ds, model, rules, v_min, v_max, data_end_h, cap_h, horizon, frame, grid, samples, base, table,
-        y_lo, y_hi, length, problem,
+        y_lo, y_hi, length, problem, dt_h,
     )  # fmt: skip
+
+
+def recut(
+    su: CorridorSetup,
+    frame: CorridorFrame,
+    *,
+    ship: Ship,
+    exclusion: Exclusion | None,
+    departure: np.datetime64,
+    use_land_mask: bool | None,
+    timed_no_passage: bool,
+    solver_options: Mapping[str, Any] | None,
+    jit: bool,
+) -> CorridorSetup:
+    """``su`` on the legs of ``frame`` (the same centreline's legs cut further, on the same great circles): its
+    weather grid and power table serve unchanged; the reach windows, lateral bounds and problem are the new legs'.
+    An ensemble's members share one cut (:func:`optroute.optimise.robust.prepare_members`). Other parameters as in
+    :func:`prepare_corridor` (``departure`` its ``t0``)."""
+    windows = _leg_windows(frame, su.sampler, su.dataset, departure, su.cap_h, su.v_max)
+    y_lo, y_hi, no_passage = _lateral(
+        frame, su.sampler, su.dataset, departure, (su.horizon_h, su.dt_h), windows, use_land_mask=use_land_mask,
+        timed=timed_no_passage,
+    )  # fmt: skip
+    problem = Problem(
+        frame=frame, grid=su.grid, samples=su.samples, power=su.power, ship=ship, rules=su.rules, y_lo=y_lo, y_hi=y_hi,
+        v_min=su.v_min, v_max=su.v_max, exclusion=exclusion, departure=departure, solver_options=solver_options,
+        jit=check_jit(jit), windows=no_passage,
+    )  # fmt: skip
+    return replace(su, frame=frame, y_lo=y_lo, y_hi=y_hi, problem=problem)

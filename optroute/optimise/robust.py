@@ -70,7 +70,7 @@ import xarray as xr
 from formulations.robust_nlp import MAX_DROP_CHOICES, RobustResult, RobustSpeedNLP
 from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, OptrouteError, SolverFailure
-from optroute.optimise.nlp_inputs import formulation_bands, moving_exclusion
+from optroute.optimise.nlp_inputs import build_frame, formulation_bands, moving_exclusion
 from optroute.optimise.nlp_solve import VIOLATION_TOL, route_warm_start
 from optroute.optimise.rescue import LIMIT_STATUSES, plan_warm_start
 from optroute.optimise.robust_start import ensemble_dp_path
@@ -580,9 +580,10 @@ def prepare_members(
     """Every member prepared as ``optimise_corridor`` prepares one weather, and the lateral bounds all allow.
 
     The members share one power table's speed nodes (the densest any member's sea asked for,
-    :data:`~optroute.optimise.power_table.SPEED_TOL`) and one set of legs: with ``band_leg_nm`` [nm], the legs where a
-    band or the exclusion can bind in some member are cut to it (:func:`~optroute.optimise.rows.cut_where_binding`)
-    and every member is prepared again on those legs.
+    :data:`~optroute.optimise.power_table.SPEED_TOL`; a member whose table had others is prepared again) and one set
+    of legs: with ``band_leg_nm`` [nm], the legs where a band or the exclusion can bind in some member are cut to it
+    (:func:`~optroute.optimise.rows.cut_where_binding`), each member's weather grid kept
+    (:meth:`~optroute.optimise.corridor_problem.PreparedCorridor.cut_to`).
     """
     from optroute.optimise.corridor_problem import PreparedCorridor
 
@@ -592,17 +593,18 @@ def prepare_members(
         )
     prepared = [PreparedCorridor(corridor, ds, ship, **shared, band_leg_nm=None) for ds in members]
     nodes = max((np.asarray(p.table.speeds_kn) for p in prepared), key=np.size)
-    ref = prepared[int(reference)]
-    cut = None
-    if band_leg_nm is not None and (shared["latest_eta"] is not None or shared["objective"] != "time"):
-        binding = np.any([p.binding for p in prepared], axis=0)
-        cut = cut_where_binding(binding, np.diff(ref.frame.s_nm), band_leg_nm)
-    legs = corridor if cut is None else ref.frame.corridor.resample(cut)
     prepared = [
-        p if cut is None and np.array_equal(p.table.speeds_kn, nodes)
-        else PreparedCorridor(legs, ds, ship, **shared, band_leg_nm=None, speed_nodes_kn=nodes)
+        p if np.array_equal(p.table.speeds_kn, nodes)
+        else PreparedCorridor(corridor, ds, ship, **shared, band_leg_nm=None, speed_nodes_kn=nodes)
         for p, ds in zip(prepared, members, strict=True)
     ]  # fmt: skip
+    if band_leg_nm is not None and (shared["latest_eta"] is not None or shared["objective"] != "time"):
+        whole = prepared[int(reference)].frame
+        cut = cut_where_binding(np.any([p.binding for p in prepared], axis=0), np.diff(whole.s_nm), band_leg_nm)
+        if cut is not None:
+            frame = build_frame(whole.corridor.resample(cut))
+            for p in prepared:
+                p.cut_to(frame)
     y_lo = np.max([p.y_lo for p in prepared], axis=0)
     y_hi = np.min([p.y_hi for p in prepared], axis=0)
     closed = np.flatnonzero(y_lo > y_hi)
