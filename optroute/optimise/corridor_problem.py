@@ -65,9 +65,9 @@ from optroute.optimise.rescue import (
 from optroute.optimise.rows import (
     BAND_LEG_NM,
     ROW_PLACEMENTS,
+    band_leg_for,
     binding_legs,
     canonical_rows,
-    check_band_leg_nm,
     leg_end_rows,
     only_where_binding,
     points_of,
@@ -232,13 +232,12 @@ class PreparedCorridor(CorridorReport):
         self.hourly = float(finite("hourly_cost_per_h", hourly_cost_per_h, minimum=0.0, error=ConfigError))
         self.margin0 = float(finite("band_margin", band_margin, minimum=0.0, error=ConfigError))
         self.hs_margin0 = float(finite("band_hs_margin", band_hs_margin, minimum=0.0, error=ConfigError))
-        band_leg_nm = None if band_leg_nm is None else check_band_leg_nm(band_leg_nm)
         su = prepare_corridor(
             corridor, weather, ship, t0=t0, eta_t=eta_t, objective=objective, model=model, rules=rules,
             max_leg_nm=max_leg_nm, exclusion=exclusion, speed_range_kn=speed_range_kn, use_land_mask=use_land_mask,
             solver_options=solver_options, jit=jit, progress=progress, timed_no_passage=bool(timed_no_passage),
             speeds_kn=speed_nodes_kn, hs_margin=self.hs_margin0,
-            band_leg_nm=band_leg_nm if (eta_t is not None or objective != "time") else None,
+            band_leg_nm=band_leg_for(band_leg_nm, objective=objective, eta_given=eta_t is not None),
         )  # fmt: skip
         self.setup = su
         self.corridor, self.ship, self.model, self.rules = corridor, ship, su.model, su.rules
@@ -274,9 +273,7 @@ class PreparedCorridor(CorridorReport):
         self.last_duals: Duals | None = None
         self.verify_step_nm = float(verify_step_nm)
         self.problem = su.problem
-        # the flat frame's measured distance error near the exclusion's circle: the NLP's circle grows by it, so
-        # that a plan on its edge is outside the referee's (WGS84) circle on the first solve
-        self.exclusion_backoff_nm = 0.0 if exclusion is None else exclusion_frame_error_nm(exclusion, self.frame)
+        self.exclusion_backoff_nm = self._exclusion_backoff()
 
     def cut_to(self, frame: CorridorFrame) -> None:
         """Solve on the legs of ``frame`` from now on: the same centreline's legs cut further, on the same great
@@ -292,8 +289,12 @@ class PreparedCorridor(CorridorReport):
         self.setup, self.frame, self.y_lo, self.y_hi, self.problem = su, su.frame, su.y_lo, su.y_hi, su.problem
         self.__dict__.pop("binding", None)  # the cached property, of the old legs
         self._row_points = None
-        exclusion = self.exclusion
-        self.exclusion_backoff_nm = 0.0 if exclusion is None else exclusion_frame_error_nm(exclusion, self.frame)
+        self.exclusion_backoff_nm = self._exclusion_backoff()
+
+    def _exclusion_backoff(self) -> float:
+        """The flat frame's measured distance error near the exclusion's circle [nm]: the NLP's circle grows by it, so
+        that a plan on its edge is outside the referee's (WGS84) circle on the first solve (0 without one)."""
+        return 0.0 if self.exclusion is None else exclusion_frame_error_nm(self.exclusion, self.frame)
 
     def minimum_time_twin(self) -> PreparedCorridor:
         """This corridor prepared as :func:`optroute.optimise_corridor` prepares it for ``objective="time"`` without an

@@ -41,7 +41,7 @@ from optroute.units import h_to_timedelta as _h_to_td
 from optroute.units import timedelta_to_h as _hours
 from optroute.weather.sample import WeatherSampler
 
-__all__ = ["CorridorSetup", "ProgressFn", "check_jit", "emit", "prepare_corridor", "recut", "time_window"]
+__all__ = ["CorridorSetup", "ProgressFn", "check_jit", "cut_frame", "emit", "prepare_corridor", "recut", "time_window"]
 
 ProgressFn = Callable[[str, float], None]
 
@@ -211,7 +211,12 @@ def _cut_legs(
     (:func:`~optroute.optimise.rows.cut_where_binding`); ``frame`` itself where none is cut or ``band_leg_nm`` is None."""
     if band_leg_nm is None:
         return frame
-    binding = binding_legs(frame, grid.s_nm, grid.hs_m, ship_rules_exclusion, hs_margin, t0)
+    return cut_frame(frame, binding_legs(frame, grid.s_nm, grid.hs_m, ship_rules_exclusion, hs_margin, t0), band_leg_nm)
+
+
+def cut_frame(frame: CorridorFrame, binding: np.ndarray, band_leg_nm: float) -> CorridorFrame:
+    """``frame`` with its legs flagged in ``binding`` (N,) cut to ``band_leg_nm`` [nm] on their great circles
+    (:func:`~optroute.optimise.rows.cut_where_binding`); ``frame`` itself where none is cut."""
     finer = cut_where_binding(binding, np.diff(frame.s_nm), band_leg_nm)
     return frame if finer is None else build_frame(frame.corridor.resample(finer))
 

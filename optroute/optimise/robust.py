@@ -70,17 +70,17 @@ import xarray as xr
 from formulations.robust_nlp import MAX_DROP_CHOICES, RobustResult, RobustSpeedNLP
 from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, OptrouteError, SolverFailure
-from optroute.optimise.nlp_inputs import build_frame, formulation_bands, moving_exclusion
+from optroute.optimise.corridor_setup import cut_frame
+from optroute.optimise.nlp_inputs import formulation_bands, moving_exclusion
 from optroute.optimise.nlp_solve import VIOLATION_TOL, route_warm_start
 from optroute.optimise.rescue import LIMIT_STATUSES, plan_warm_start
 from optroute.optimise.robust_start import ensemble_dp_path
 from optroute.optimise.rows import (
     BAND_LEG_NM,
     ROW_PLACEMENTS,
+    band_leg_for,
     binding_legs,
     canonical_rows,
-    check_band_leg_nm,
-    cut_where_binding,
     leg_end_rows,
     only_where_binding,
     points_of,
@@ -384,7 +384,7 @@ def optimise_robust(
         "band_margin": band_margin, "band_hs_margin": band_hs_margin, "verify_step_nm": verify_step_nm,
         "use_land_mask": use_land_mask,
     }  # fmt: skip
-    band_leg_nm = None if band_leg_nm is None else check_band_leg_nm(band_leg_nm)
+    band_leg_nm = band_leg_for(band_leg_nm, objective=objective, eta_given=eta is not None)
     prepared, y_lo, y_hi = prepare_members(corridor, members, ship, shared, reference_member, band_leg_nm)
     ref = prepared[int(reference_member)]
     frame, t0 = ref.frame, ref.departure
@@ -581,8 +581,9 @@ def prepare_members(
 
     The members share one power table's speed nodes (the densest any member's sea asked for,
     :data:`~optroute.optimise.power_table.SPEED_TOL`; a member whose table had others is prepared again) and one set
-    of legs: with ``band_leg_nm`` [nm], the legs where a band or the exclusion can bind in some member are cut to it
-    (:func:`~optroute.optimise.rows.cut_where_binding`), each member's weather grid kept
+    of legs: with ``band_leg_nm`` [nm] (the one that applies, :func:`~optroute.optimise.rows.band_leg_for`), the legs
+    where a band or the exclusion can bind in some member are cut to it
+    (:func:`~optroute.optimise.corridor_setup.cut_frame`), each member's weather grid kept
     (:meth:`~optroute.optimise.corridor_problem.PreparedCorridor.cut_to`).
     """
     from optroute.optimise.corridor_problem import PreparedCorridor
@@ -598,11 +599,10 @@ def prepare_members(
         else PreparedCorridor(corridor, ds, ship, **shared, band_leg_nm=None, speed_nodes_kn=nodes)
         for p, ds in zip(prepared, members, strict=True)
     ]  # fmt: skip
-    if band_leg_nm is not None and (shared["latest_eta"] is not None or shared["objective"] != "time"):
+    if band_leg_nm is not None:
         whole = prepared[int(reference)].frame
-        cut = cut_where_binding(np.any([p.binding for p in prepared], axis=0), np.diff(whole.s_nm), band_leg_nm)
-        if cut is not None:
-            frame = build_frame(whole.corridor.resample(cut))
+        frame = cut_frame(whole, np.any([p.binding for p in prepared], axis=0), band_leg_nm)
+        if frame is not whole:
             for p in prepared:
                 p.cut_to(frame)
     y_lo = np.max([p.y_lo for p in prepared], axis=0)

@@ -51,6 +51,7 @@ __all__ = [
     "ROW_PLACEMENTS",
     "canonical_rows",
     "BAND_LEG_NM",
+    "band_leg_for",
     "binding_legs",
     "check_band_leg_nm",
     "cut_where_binding",
@@ -229,6 +230,17 @@ def check_band_leg_nm(band_leg_nm: float) -> float:
         finite("band_leg_nm", band_leg_nm, minimum=0.0, strict=True, error=ConfigError,
                fix="give a length in nm (20 by default), or None to keep max_leg_nm on every leg")
     )  # fmt: skip
+
+
+def band_leg_for(band_leg_nm: float | None, *, objective: str, eta_given: bool) -> float | None:
+    """The ``band_leg_nm`` [nm] a corridor prepared for ``objective`` (with an ETA or not) is cut to, checked
+    (:func:`check_band_leg_nm`); None where it keeps its legs whole: without a length, and for a free-arrival minimum
+    time, whose 3-D DP start runs only where no local start verifies (cut legs let a poorer local start verify in its
+    place: harness seeds 13 and 17)."""
+    if band_leg_nm is None:
+        return None
+    step = check_band_leg_nm(band_leg_nm)
+    return step if (eta_given or objective != "time") else None
 
 
 def cut_where_binding(binding: np.ndarray, leg_nm: np.ndarray, band_leg_nm: float) -> np.ndarray | None:
