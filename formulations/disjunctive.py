@@ -244,7 +244,12 @@ def _settle(
 ) -> tuple[np.ndarray, np.ndarray, InnerOutcome]:
     """Solve, then re-check applicability at the solution until it is stable (it only grows).
 
-    Where the budget stops the re-checks while applicability still grows, ``solve.cut`` is set.
+    Where the budget stops the re-checks while applicability still grows, ``solve.cut`` is set. Where a re-check's
+    solve fails after a solve whose solution is clear of every band where it applies at that solution
+    (:func:`_valid`), that solution and its sides are kept: the re-check's rows (the newly applying samples, and
+    the samples :func:`held_across_crossings` holds beside them, which that solution may break) would only
+    constrain the later moves, and a failed solve is no better than a valid point — the caller's own check
+    judges it between the samples.
     """
     out = solve(sides, applies)
     for _ in range(max_rounds):
@@ -253,6 +258,7 @@ def _settle(
         new = out.applies & ~applies
         if not new.any():
             break
+        before = (sides, applies, out)
         sides = sides.copy()
         if out.side_at_solution is not None:
             sides[new] = out.side_at_solution[new]
@@ -261,6 +267,8 @@ def _settle(
             solve.cut = True
             break
         out = solve(sides, applies)
+        if not out.feasible and _valid(before[2]):
+            return before
     return sides, applies, out
 
 

@@ -126,6 +126,36 @@ def test_applicability_is_rechecked_at_the_solution_and_only_grows() -> None:
     assert seen == sorted(seen)  # applicability never shrinks
 
 
+def _recheck_fails(x_free: float) -> tuple[list[bool], object]:
+    # toy inner solver: unconstrained x = x_free; band (3, 4) applies when x > 2; a solve with the band imposed
+    # fails (as a re-check does where the rows it adds, e.g. held across a threshold crossing, cannot be met)
+    calls: list[bool] = []
+
+    def solve(sides: np.ndarray, applies: np.ndarray) -> InnerOutcome:
+        calls.append(bool(applies[0]))
+        if applies[0]:
+            return InnerOutcome(feasible=False, objective=float("inf"), active=np.zeros(1, bool), weight=np.ones(1),
+                                applies=None, side_at_solution=None, inside=None, infeasibility=1.0)  # fmt: skip
+        app = np.array([x_free > 2.0])
+        return InnerOutcome(
+            feasible=True, objective=(x_free - 5.0) ** 2, active=np.zeros(1, bool), weight=np.ones(1), applies=app,
+            side_at_solution=np.array([-1 if x_free <= 3.5 else 1], dtype=np.int8),
+            inside=app & (x_free > 3.0) & (x_free < 4.0),
+        )  # fmt: skip
+
+    return calls, improve_sides(solve, np.array([-1]), np.array([False]))
+
+
+def test_a_failed_recheck_keeps_the_solution_that_is_clear_of_the_band_and_no_other() -> None:
+    # x = 5 is clear of the band where it applies (x ≥ 4): the failed re-check's solve does not discard it
+    calls, res = _recheck_fails(5.0)
+    assert calls[:2] == [False, True]
+    assert res.feasible and res.objective == 0.0 and not res.applies[0]
+    # x = 3.5 lies inside the band where it applies: no valid point, and the result says so
+    calls, res = _recheck_fails(3.5)
+    assert calls[:2] == [False, True] and not res.feasible and res.objective == float("inf")
+
+
 def test_enumeration_refuses_too_many_groups() -> None:
     with pytest.raises(FormulationInputError, match="max_groups"):
         enumerate_sides(lambda s, a: None, np.ones(20), np.ones(20, dtype=bool), max_groups=16)  # type: ignore[arg-type,return-value]
