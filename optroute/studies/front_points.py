@@ -36,7 +36,7 @@ from optroute.physics.ship import Ship
 from optroute.plan.result import Plan
 from optroute.search.route import Corridor
 from optroute.studies import fingerprint
-from optroute.studies.threads import pin_solver_threads
+from optroute.studies.threads import solver_process
 from optroute.units import as_utc_time, format_utc, h_to_timedelta, timedelta_to_h
 from optroute.weather.sample import WeatherSampler
 
@@ -185,7 +185,7 @@ def solve_point(
     previous point is (:data:`SOLE_START`); an end's plan sped up across other chains' ETAs is compared with
     the centreline's start too.
     """
-    pin_solver_threads()  # one BLAS thread for Ipopt, in this process as on a Dask worker: the same rounding
+    solver_process()  # Ipopt's BLAS on one thread (the rounding of a Dask worker), glibc's thresholds raised
     started = _time.perf_counter()
     carry = retimed_start(warm, eta_h) if kind == "eta" else warm.carry if isinstance(warm, FrontPoint) else warm
     if not duals and carry is not None and carry.duals is not None:
