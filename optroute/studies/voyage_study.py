@@ -46,6 +46,7 @@ from optroute.search.route import Corridor
 from optroute.studies.fingerprint import CaseInput, dataset_digest, digest, file_digest
 from optroute.studies.front_points import FORBIDDEN_OPTIONS, FrontSpec, solve_point
 from optroute.studies.study import ProgressCallback, run_study
+from optroute.studies.threads import solver_process
 from optroute.units import as_utc_time, format_utc, h_to_timedelta, timedelta_to_h
 from optroute.weather.catalogue import load_weather, scenario_names
 from optroute.weather.scenarios import member
@@ -114,6 +115,7 @@ def voyage_case(
         The totals in :data:`TOTALS` (NaN when there is no plan), ``plan_status`` (``"optimal"``,
         ``"feasible"``, ``"infeasible: …"`` or ``"solver failure: <Ipopt status>"``) and ``iterations``.
     """
+    solver_process()  # before the route search too: in a Dask worker, glibc's thresholds the nanny pinned
     ship = ships[case["ship"]]
     wx = _weather(weathers[case["scenario"]])
     t0 = departure if departure is not None else np.datetime64(wx["time"].values[0], "ns")
