@@ -13,10 +13,10 @@ process solves, so a front is the same serial, on a cluster and on another machi
 
 The same nanny starts its workers with ``MALLOC_TRIM_THRESHOLD_=65536`` (Dask's remedy for unmanaged memory). Any
 such variable turns off glibc's dynamic mmap threshold, which stays at 128 KiB: every larger array (the NLP's
-weather blocks and buffers) is then mapped and unmapped, its pages zeroed, at every allocation. On the benchmarks'
-front (30 ETAs, 301 legs) that made a worker's solves 1.37 times slower than the same solves in this process (the
-front's slowest chain 22.5 s against 16.6 s serial, one worker alone), and 2 workers only 1.30 times faster than
-serial. :func:`solver_malloc` sets the two thresholds where glibc's dynamic rule would take them.
+weather blocks and buffers) is then mapped and unmapped, its pages zeroed, at every allocation, and a worker's
+solves run markedly slower than the same solves in a plain process (``python -m benchmarks.bench_front`` times a
+front serial and on 2 workers). :func:`solver_malloc` sets the two thresholds where glibc's dynamic rule would take
+them.
 """
 
 from __future__ import annotations
