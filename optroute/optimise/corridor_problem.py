@@ -362,8 +362,8 @@ class PreparedCorridor(CorridorReport):
     def binding(self) -> np.ndarray:
         """Per leg, whether a danger band or the exclusion can bind on it (:func:`optroute.optimise.rows.binding_legs`,
         at the first solve's Hs back-off); computed once. The start stage computes the global starts where any does."""
-        return binding_legs(self.frame, self.grid.s_nm, self.grid.hs_m, self.plan_context(), self.hs_margin0,
-                            self.departure)  # fmt: skip
+        return binding_legs(self.frame, self.grid.s_nm, self.grid.hs_m, (self.ship, self.rules, self.exclusion),
+                            self.hs_margin0, self.departure)  # fmt: skip
 
     def minimum_time_plan(self, route: Route | None = None) -> Plan | None:
         """The corridor's minimum-time plan (verified, any arrival): the plan :func:`optroute.optimise_corridor` gives

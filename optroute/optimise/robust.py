@@ -79,7 +79,6 @@ from optroute.optimise.rows import (
     BAND_LEG_NM,
     ROW_PLACEMENTS,
     band_leg_for,
-    binding_legs,
     canonical_rows,
     leg_end_rows,
     only_where_binding,
@@ -640,8 +639,7 @@ def _member_rows(prepared: list, eta_t: Any, y_lo: np.ndarray, y_hi: np.ndarray,
     for p in prepared:  # each member's rows only where a band or the exclusion can bind in it (as a single weather's)
         ctx = p.plan_context(eta_t, "le")
         rows = canonical_rows(ctx, p.frame, (y_lo, y_hi), speed, p.departure, p.verify_step_nm)
-        binding = binding_legs(p.frame, p.grid.s_nm, p.grid.hs_m, ctx, p.hs_margin0, p.departure)
-        per.append(only_where_binding(rows, binding))
+        per.append(only_where_binding(rows, p.binding))
     per = [r for r in per if r is not None]
     if not per:
         return None

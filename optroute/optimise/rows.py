@@ -202,17 +202,17 @@ def binding_legs(
     frame: CorridorFrame,
     grid_s_nm: np.ndarray,
     grid_hs_m: np.ndarray,
-    ctx: PlanContext | tuple[Ship, BandRules, Exclusion | None],
+    ship_rules_exclusion: tuple[Ship, BandRules, Exclusion | None],
     hs_margin: float,
     departure: np.datetime64,
 ) -> np.ndarray:
     """Per leg of a prepared corridor, whether a band or the exclusion can bind on it (:func:`legs_that_can_bind`).
 
-    ``grid_s_nm`` and ``grid_hs_m`` are the NLP's weather grid (along-track nodes [nm], Hs (t, s, y) [m]), ``ctx``
-    the plan context or its (ship, rules, exclusion), ``hs_margin`` the applicability back-off [-]
-    (:func:`optroute.optimise.nlp_inputs.formulation_bands`), ``departure`` [UTC].
+    ``grid_s_nm`` and ``grid_hs_m`` are the NLP's weather grid (along-track nodes [nm], Hs (t, s, y) [m]),
+    ``ship_rules_exclusion`` the ship, band rules and exclusion (or None), ``hs_margin`` the applicability back-off
+    [-] (:func:`optroute.optimise.nlp_inputs.formulation_bands`), ``departure`` [UTC].
     """
-    ship, rules, exclusion = (ctx.ship, ctx.rules, ctx.exclusion) if isinstance(ctx, PlanContext) else ctx
+    ship, rules, exclusion = ship_rules_exclusion
     bands, _, _ = formulation_bands(ship, rules, hs_margin=hs_margin)
     mv = moving_exclusion(exclusion, frame, departure) if exclusion is not None else None
     band, near = nlp_row_legs(frame, grid_s_nm, grid_hs_m, bands, mv)
@@ -245,8 +245,9 @@ def band_leg_for(band_leg_nm: float | None, *, objective: str, eta_given: bool) 
 
 def cut_where_binding(binding: np.ndarray, leg_nm: np.ndarray, band_leg_nm: float) -> np.ndarray | None:
     """Per leg, the longest piece [nm] it is cut into (:meth:`optroute.search.route.Corridor.resample`):
-    ``band_leg_nm`` where a band or the exclusion can bind (``binding`` (N,), :func:`binding_legs`), the leg itself
-    elsewhere (``leg_nm`` (N,) [nm]); None where no binding leg is longer than ``band_leg_nm``.
+    ``band_leg_nm`` where a band or the exclusion can bind (``binding`` (N,), :func:`binding_legs`), twice the leg
+    elsewhere (``leg_nm`` (N,) [nm], at least ``band_leg_nm``: the leg stays whole whatever the rounding of its
+    length in the resampling); None where no binding leg is longer than ``band_leg_nm``.
 
     A leg holds one speed and heading. Where a band binds, the 3-D DP's plan (the start of an ETA's solve there, its
     stages about 20 nm apart) changes speed more often than a 50 nm leg can, and the NLP started from it cannot keep
