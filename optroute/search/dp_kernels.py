@@ -46,7 +46,7 @@ import numpy as np
 from optroute import units
 from optroute._numba import jit
 from optroute.physics.pointwise import P_MIN_POWER, calm_power, fuel_rate
-from optroute.search.passage_kernels import cost_dp_leg, dp_workspace
+from optroute.search.passage_kernels import dp_leg_clear, dp_leg_midpoints, dp_workspace
 
 _FLOOR_SLACK = 1.0 - 1e-9  # rounding room: the bound stays below the kernel's sum over pieces
 _CURRENT_SLACK = 1.0 + 1e-9
@@ -297,17 +297,18 @@ def _beats(f, t, i, bf, bt, bi):  # pragma: no cover - compiled
 def joint_dp_leg(
     ps, fields, tables, axes, geo_lat, geo_lon, geo_course, geo_frac, geo_n, g, t0_h, sog_kn, dist, work
 ):  # fmt: skip  # pragma: no cover - compiled
-    """One DP leg (:func:`~optroute.search.passage_kernels.cost_dp_leg`) in every member of :func:`stacked_inputs`.
+    """One DP leg at its pieces' midpoints (:func:`~optroute.search.passage_kernels.dp_leg_midpoints`) in every
+    member of :func:`stacked_inputs`.
 
-    Returns ``(feasible in every member, the members' mean fuel rate [t/h], uncovered points)``; the members after
-    the first in which the leg is infeasible are not costed.
+    Returns ``(allowed at the midpoints in every member, the members' mean fuel rate [t/h], uncovered points)``;
+    the members after the first in which the leg is not allowed are not costed.
     """
     time_s, lat_deg, lon_deg, meta, offset_ns = axes
     total = 0.0
     uncovered = 0
     for m in range(ps.shape[0]):
         w = (fields[m], time_s, lat_deg, lon_deg, meta, offset_ns, tables[m])
-        ok, f_sum, _, _, unc = cost_dp_leg(
+        ok, f_sum, _, _, unc = dp_leg_midpoints(
             ps[m], w, geo_lat, geo_lon, geo_course, geo_frac, geo_n, g, t0_h, sog_kn, dist, work
         )
         uncovered += unc
@@ -318,18 +319,41 @@ def joint_dp_leg(
 
 
 @jit
+def joint_dp_clear(
+    ps, fields, tables, axes, geo_lat, geo_lon, geo_course, geo_frac, geo_n, g, t0_h, sog_kn, dist, work
+):  # fmt: skip  # pragma: no cover - compiled
+    """Whether a leg allowed at its midpoints in every member (:func:`joint_dp_leg`) is clear between them in every
+    member (:func:`~optroute.search.passage_kernels.dp_leg_clear`); ``(clear, uncovered points)``."""
+    time_s, lat_deg, lon_deg, meta, offset_ns = axes
+    uncovered = 0
+    for m in range(ps.shape[0]):
+        w = (fields[m], time_s, lat_deg, lon_deg, meta, offset_ns, tables[m])
+        clear, unc = dp_leg_clear(ps[m], w, geo_lat, geo_lon, geo_course, geo_frac, geo_n, g, t0_h, sog_kn, dist, work)
+        uncovered += unc
+        if not clear:
+            return False, uncovered
+    return True, uncovered
+
+
+@jit
 def resolve(
     ps, fields, tables, axes, geo_lat, geo_lon, geo_course, geo_frac, geo_n, dist, geom_of, speeds,
-    order, group_start, unresolved, ptr, costed, fuel1, rejected,
+    order, group_start, unresolved, ptr, costed, cleared, fuel1, rejected,
     src, lj, vi, t1, lb, src_l, src_t, src_f, by_time,
 ):  # fmt: skip  # pragma: no cover - compiled
     """Per unresolved group (one destination bin), its best (value, time, order) candidate not yet struck out.
 
     The legs are costed in every member of ``ps, fields, tables, axes`` (:func:`stacked_inputs`, one member for a
-    single weather) by :func:`joint_dp_leg`. Costs each group's candidates in order of their bound ``lb``
-    only while the bound does not exceed the best label found (``ptr`` holds each group's progress,
-    ``costed`` / ``fuel1`` the labels: NaN where infeasible).  A label's value is its fuel [t], or with ``by_time``
-    its arrival [h] (``src_f`` then holds the sources' times and ``lb`` the arrivals: each bin's earliest labels).
+    single weather) at their pieces' midpoints by :func:`joint_dp_leg`. Costs each group's candidates in order of
+    their bound ``lb`` only while the bound does not exceed the best label found (``ptr`` holds each group's
+    progress, ``costed`` / ``fuel1`` the labels: NaN where infeasible).  A label's value is its fuel [t], or with
+    ``by_time`` its arrival [h] (``src_f`` then holds the sources' times and ``lb`` the arrivals: each bin's
+    earliest labels).
+
+    The rest of a leg's check (:func:`joint_dp_clear`: its pieces' ends and between) does not change its value,
+    only whether it is feasible, so it is run only on a label about to become its group's best (``cleared``
+    records it): a label that never leads its group cannot be the group's best clear label, and its check is
+    spared.  The best labels are those of a DP that checks every leg in full.
     Returns ``(best candidate per group or -1, legs costed, uncovered points)``.
     """
     work = dp_workspace()
@@ -340,32 +364,42 @@ def resolve(
         grp = unresolved[u]
         lo, hi = group_start[grp], group_start[grp + 1]
         bf, bt, bi = np.inf, np.inf, np.int64(-1)
-        for r in range(lo, ptr[grp]):  # the labels already found, less those struck out
+        for r in range(lo, hi):
+            if r >= ptr[grp]:  # the labels already found first, then the next candidates by their bound
+                c = order[r]
+                if lb[c] > bf:
+                    break
+                ptr[grp] = r + 1
+                if rejected[c]:  # struck out before costing (a later label of a bin's Pareto set): never costed
+                    continue
+                s = src[c]
+                g = geom_of[src_l[s], lj[c]]
+                sog = speeds[vi[c]]
+                ok, f_sum, unc = joint_dp_leg(
+                    ps, fields, tables, axes, geo_lat, geo_lon, geo_course, geo_frac, geo_n, g, src_t[s], sog, dist,
+                    work,
+                )  # fmt: skip
+                uncovered += unc
+                n_costed += 1
+                costed[c] = True
+                fuel1[c] = src_f[s] + (1.0 if by_time else f_sum) * (dist[g] / sog) if ok else np.nan
             c = order[r]
-            if costed[c] and not rejected[c] and math.isfinite(fuel1[c]) and _beats(fuel1[c], t1[c], c, bf, bt, bi):
-                bf, bt, bi = fuel1[c], t1[c], c
-        r = ptr[grp]
-        while r < hi and lb[order[r]] <= bf:
-            c = order[r]
-            if rejected[c]:  # struck out before costing (a later label of a bin's Pareto set): never costed
-                r += 1
+            if not (costed[c] and not rejected[c] and math.isfinite(fuel1[c])):
                 continue
-            s = src[c]
-            g = geom_of[src_l[s], lj[c]]
-            sog = speeds[vi[c]]
-            ok, f_sum, unc = joint_dp_leg(
-                ps, fields, tables, axes, geo_lat, geo_lon, geo_course, geo_frac, geo_n, g, src_t[s], sog, dist, work
-            )
-            uncovered += unc
-            n_costed += 1
-            costed[c] = True
-            if ok:
-                fuel1[c] = src_f[s] + (1.0 if by_time else f_sum) * (dist[g] / sog)
-                if _beats(fuel1[c], t1[c], c, bf, bt, bi):
-                    bf, bt, bi = fuel1[c], t1[c], c
-            else:
-                fuel1[c] = np.nan
-            r += 1
-        ptr[grp] = r
+            if not _beats(fuel1[c], t1[c], c, bf, bt, bi):
+                continue
+            if not cleared[c]:
+                s = src[c]
+                g = geom_of[src_l[s], lj[c]]
+                clear, unc = joint_dp_clear(
+                    ps, fields, tables, axes, geo_lat, geo_lon, geo_course, geo_frac, geo_n, g, src_t[s], speeds[vi[c]],
+                    dist, work,
+                )  # fmt: skip
+                uncovered += unc
+                if not clear:
+                    fuel1[c] = np.nan
+                    continue
+                cleared[c] = True
+            bf, bt, bi = fuel1[c], t1[c], c
         best_out[u] = bi
     return best_out, n_costed, uncovered

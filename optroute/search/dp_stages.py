@@ -350,13 +350,14 @@ class CompiledStages:
         n_groups = starts.size
         ptr = group_start[:-1].copy()
         costed = np.zeros(key.size, dtype=bool)
+        cleared = np.zeros(key.size, dtype=bool)
         fuel1 = np.full(key.size, np.nan)
         rejected = np.zeros(key.size, dtype=bool)
         won, slots = [], []
         todo = np.arange(n_groups, dtype=np.int64)
         for slot in itertools.count() if self.labels is None else range(self.labels):
-            winner = self._round(k, todo, src_l, src_t, src_f, geom, geom_of, order, group_start, ptr, costed, fuel1,
-                                 rejected, c_src, c_lj, c_vi, t1, lb)  # fmt: skip
+            winner = self._round(k, todo, src_l, src_t, src_f, geom, geom_of, order, group_start, ptr,
+                                 (costed, cleared, fuel1, rejected), c_src, c_lj, c_vi, t1, lb)  # fmt: skip
             has = winner >= 0
             todo, w = todo[has], winner[has]
             if w.size == 0:
@@ -373,15 +374,16 @@ class CompiledStages:
         w, slot = np.concatenate(won), np.concatenate(slots)
         return c_lj[w], key[w] - c_lj[w] * self.n_bins, slot, fuel1[w], t1[w], c_src[w], c_vi[w]
 
-    def _round(self, k, todo, src_l, src_t, src_f, geom, geom_of, order, group_start, ptr, costed, fuel1, rejected,
-               c_src, c_lj, c_vi, t1, lb):  # fmt: skip
+    def _round(self, k, todo, src_l, src_t, src_f, geom, geom_of, order, group_start, ptr, labels, c_src, c_lj, c_vi,
+               t1, lb):  # fmt: skip
         """Per group in ``todo``, its least (fuel, time, order) candidate not struck out and clear of the no-go areas (-1: none)."""
+        costed, cleared, fuel1, rejected = labels  # resolve's per-candidate state (see its docstring)
         winner = np.full(todo.size, -1, dtype=np.int64)
         pos = np.arange(todo.size)
         while todo.size:
             best, n_costed, unc = resolve(
                 *self.inputs, geom.lat_deg, geom.lon_deg, geom.course_deg, geom.frac, geom.n_pieces, geom.dist_nm,
-                geom_of, self.speeds, order, group_start, todo, ptr, costed, fuel1, rejected,
+                geom_of, self.speeds, order, group_start, todo, ptr, costed, cleared, fuel1, rejected,
                 c_src, c_lj, c_vi, t1, lb, src_l, src_t, src_f, self.by_time,
             )  # fmt: skip
             self.step_fn.count += int(n_costed)

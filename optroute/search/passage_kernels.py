@@ -469,14 +469,13 @@ def _dp_piece_clear(p, w, la, lo, crs, length, t_mid, sog_kn, work):  # pragma: 
 
 
 @jit
-def cost_dp_leg(p, w, lat, lon, course, frac, n_pieces, g, t0_h, sog_kn, dist_nm, work):  # pragma: no cover - compiled
-    """One DP leg of geometry ``g`` (see :func:`cost_dp_legs`) left at ``t0_h`` [h] at ``sog_kn`` [kn].
+def dp_leg_midpoints(p, w, lat, lon, course, frac, n_pieces, g, t0_h, sog_kn, dist_nm, work):  # pragma: no cover - compiled
+    """One DP leg of geometry ``g`` (see :func:`cost_dp_legs`) left at ``t0_h`` [h] at ``sog_kn`` [kn], at its pieces' midpoints.
 
-    Returns ``(feasible, mean fuel rate [t/h], mean STW [kn], mean power [kW], uncovered points)``;
-    the leg's fuel is the mean rate times ``dist_nm[g] / sog_kn``.  Each piece is costed at its
-    midpoint (Shao et al.'s time-stepped simulation) and checked there, at its ends and between them
-    where the referee's rules look (:func:`_dp_piece_clear`, issue 14 item 1: a band entered between
-    two midpoints is found as ``Plan.verify()`` finds it).  ``work`` is :func:`dp_workspace`.
+    Returns ``(allowed at every midpoint, mean fuel rate [t/h], mean STW [kn], mean power [kW], uncovered
+    points)``; the leg's fuel is the mean rate times ``dist_nm[g] / sog_kn``.  Each piece is costed at its
+    midpoint (Shao et al.'s time-stepped simulation) and checked there; :func:`dp_leg_clear` checks the rest
+    of it.  ``work`` is :func:`dp_workspace`.
     """
     sea = work[0]
     npc = n_pieces[g]
@@ -498,11 +497,41 @@ def cost_dp_leg(p, w, lat, lon, course, frac, n_pieces, g, t0_h, sog_kn, dist_nm
         f_sum += fuel_tph * share
         s_sum += stw * share
         p_sum += power * share
+    return True, f_sum, s_sum, p_sum, uncovered
+
+
+@jit
+def dp_leg_clear(p, w, lat, lon, course, frac, n_pieces, g, t0_h, sog_kn, dist_nm, work):  # pragma: no cover - compiled
+    """Whether a DP leg allowed at its midpoints (:func:`dp_leg_midpoints`) is clear at its pieces' ends and between.
+
+    Every piece is checked where the referee's rules look (:func:`_dp_piece_clear`, issue 14 item 1: a band
+    entered between two midpoints is found as ``Plan.verify()`` finds it).  Returns ``(clear, uncovered points)``.
+    """
+    npc = n_pieces[g]
     length = dist_nm[g] / npc
+    uncovered = 0
     for j in range(npc):
         t = t0_h + (frac[g, j] * dist_nm[g]) / sog_kn
         clear, unc = _dp_piece_clear(p, w, lat[g, j], lon[g, j], course[g, j], length, t, sog_kn, work)
         uncovered += unc
         if not clear:
-            return False, np.nan, np.nan, np.nan, uncovered
+            return False, uncovered
+    return True, uncovered
+
+
+@jit
+def cost_dp_leg(p, w, lat, lon, course, frac, n_pieces, g, t0_h, sog_kn, dist_nm, work):  # pragma: no cover - compiled
+    """One DP leg of geometry ``g`` (see :func:`cost_dp_legs`): :func:`dp_leg_midpoints`, then :func:`dp_leg_clear`.
+
+    Returns ``(feasible, mean fuel rate [t/h], mean STW [kn], mean power [kW], uncovered points)``.
+    """
+    ok, f_sum, s_sum, p_sum, uncovered = dp_leg_midpoints(
+        p, w, lat, lon, course, frac, n_pieces, g, t0_h, sog_kn, dist_nm, work
+    )
+    if not ok:
+        return False, np.nan, np.nan, np.nan, uncovered
+    clear, unc = dp_leg_clear(p, w, lat, lon, course, frac, n_pieces, g, t0_h, sog_kn, dist_nm, work)
+    uncovered += unc
+    if not clear:
+        return False, np.nan, np.nan, np.nan, uncovered
     return True, f_sum, s_sum, p_sum, uncovered
