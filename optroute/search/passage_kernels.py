@@ -469,7 +469,9 @@ def _dp_piece_clear(p, w, la, lo, crs, length, t_mid, sog_kn, work):  # pragma: 
 
 
 @jit
-def dp_leg_midpoints(p, w, lat, lon, course, frac, n_pieces, g, t0_h, sog_kn, dist_nm, work):  # pragma: no cover - compiled
+def dp_leg_midpoints(
+    p, w, lat, lon, course, frac, n_pieces, g, t0_h, sog_kn, dist_nm, work
+):  # pragma: no cover - compiled
     """One DP leg of geometry ``g`` (see :func:`cost_dp_legs`) left at ``t0_h`` [h] at ``sog_kn`` [kn], at its pieces' midpoints.
 
     Returns ``(allowed at every midpoint, mean fuel rate [t/h], mean STW [kn], mean power [kW], uncovered
