@@ -31,8 +31,9 @@ import numpy as np
 from optroute import units
 from optroute._numba import jit
 from optroute.physics.pointwise import allowed_speed, cost_rate_floor, evaluate_speed, stw_for_sog
+from optroute.search.band_bounds import piece_certified
 from optroute.search.edge_geometry import frame_point, piece_frame
-from optroute.search.refine_kernels import piece_clear
+from optroute.search.refine_kernels import CAPACITY, piece_clear
 from optroute.search.refine_kernels import workspace as refine_workspace
 from optroute.weather.sample import N_POINT_FIELDS, sample_at
 
@@ -432,8 +433,10 @@ def dp_workspace():  # pragma: no cover - compiled
 def _dp_piece_clear(p, w, la, lo, crs, length, t_mid, sog_kn, work):  # pragma: no cover - compiled
     """Whether a DP piece (midpoint, course, length [nm], passed at ``t_mid`` [h] at ``sog_kn``) is clear end to end.
 
-    Its ends are checked as its midpoint (the speed through water making the SOG good, allowed), then
-    the stretches between by the referee's rules (:func:`optroute.search.refine_kernels.piece_clear`).
+    A piece the weather's node bounds certify (:func:`optroute.search.band_bounds.piece_certified`: no point of it,
+    its ends included, can have the speed not allowed) is clear without sampling it.  Otherwise its ends are
+    checked as its midpoint (the speed through water making the SOG good, allowed), then the stretches between by
+    the referee's rules (:func:`optroute.search.refine_kernels.piece_clear`).
     Returns ``(clear, uncovered points)``.
     """
     _, sea_pts, pts, ws, sl, scratch = work
@@ -447,6 +450,15 @@ def _dp_piece_clear(p, w, la, lo, crs, length, t_mid, sog_kn, work):  # pragma: 
             la_pts[j], lo_pts[j], crs_pts[j] = la, lo, crs
         else:
             la_pts[j], lo_pts[j], crs_pts[j] = frame_point(frame, s_pts[j] - 0.5 * length)
+    # np.bool_(True), np.int64(3): typed values, not literals. numba compiles a kernel once per argument type, and a
+    # literal constant is a type of its own, so with literals piece_clear (and piece_certified, _probe, _crossings,
+    # _box under it) compiled twice, once for this call and once for _checked_piece's; now both share one.
+    if piece_certified(
+        p, w, sog_kn, np.bool_(True), la_pts, lo_pts, t_pts, s_pts, np.int64(3), la, lo, length, np.int64(CAPACITY),
+        scratch,
+    ):  # fmt: skip
+        return True, uncovered
+    for j in range(3):
         sea = sea_pts[j]
         if not sample_at(w[0], w[1], w[2], w[3], w[4], w[5], t_pts[j], la_pts[j], lo_pts[j], sea):
             uncovered += 1
@@ -458,9 +470,6 @@ def _dp_piece_clear(p, w, la, lo, crs, length, t_mid, sog_kn, work):  # pragma: 
         sog, _, allowed = _eval_at(p, crs_pts[j], sea, stw)
         if not (allowed and sog > 0.0):
             return False, uncovered
-    # np.bool_(True), np.int64(3): typed values, not literals. numba compiles a kernel once per argument type, and a
-    # literal constant is a type of its own, so with literals piece_clear (and piece_certified, _probe, _crossings,
-    # _box under it) compiled twice, once for this call and once for _checked_piece's; now both share one.
     clear = piece_clear(
         p, w, sog_kn, np.bool_(True), la, lo, crs, length, s_pts, t_pts, np.int64(3), la_pts, lo_pts, crs_pts, sea_pts,
         ws, sl, scratch,
