@@ -82,7 +82,7 @@ def test_stage_legs_cost_random_transitions_as_the_referee_and_above_the_fuel_fl
     t0, sog = rng.uniform(0.0, 300.0, n), rng.uniform(5.0, 16.0, n)
     dur, fuel, feas, _, _, _ = cost_dp_legs(
         kernel.params, tuple(kernel.weather), geom.lat_deg, geom.lon_deg, geom.course_deg, geom.frac, geom.n_pieces,
-        g, t0, sog, geom.dist_nm,
+        g, t0, sog, geom.dist_nm, True,
     )  # fmt: skip
     r_dur, r_fuel, r_feas, _ = ref(lat0[g], lon0[g], lat1[g], lon1[g], t0, sog)
     np.testing.assert_array_equal(feas, r_feas)

@@ -100,6 +100,7 @@ from optroute.search.dp_stages import (
     append_stage,
     combos,
     empty_stage,
+    lazy_winners,
     nav_check,
     pareto_winners,
     stage_tables,
@@ -339,13 +340,17 @@ def _early_step(step_fn: Transition, k: int, early: tuple, dest: np.ndarray, ste
     l0, lj, vi = combos(el, dest, step_fn.speeds.size, step)
     if l0.size == 0:
         return
-    ok, t1, fu = step_fn(k, l0, lj, vi, early_t[k, l0])
+    t0 = early_t[k, l0]
+    # the legs checked at their pieces' midpoints first, and in full only as each lateral's candidate: the same winners
+    ok, t1, fu, dur = step_fn.cost(k, l0, lj, vi, t0, check=False)
     q = np.nonzero(ok)[0]
     f1 = early_f[k, l0[q]] + fu[q]
-    q = q[np.lexsort((f1, t1[q], lj[q]))]
-    first = np.ones(q.size, dtype=bool)
-    first[1:] = lj[q][1:] != lj[q][:-1]
-    q = q[first]
+
+    def clear(r: np.ndarray) -> np.ndarray:
+        i = q[r]
+        return step_fn.clear(k, l0[i], lj[i], t0[i], dur[i], between=vi[i])
+
+    q = q[lazy_winners(lj[q], t1[q], f1, clear)]  # per lateral, the earliest clear leg; ties: the least fuel
     early_t[k + 1, lj[q]] = t1[q]
     early_f[k + 1, lj[q]] = early_f[k, l0[q]] + fu[q]
     early_back[k + 1, lj[q], 0] = l0[q]

@@ -22,7 +22,7 @@ from optroute import geodesy as geo
 from optroute.errors import ConfigError
 from optroute.search.costs import unpack_cost
 from optroute.search.dp_kernels import DPLegKernel, JointLegKernel, enumerate_candidates, resolve
-from optroute.search.passage_kernels import cost_dp_legs
+from optroute.search.passage_kernels import clear_dp_legs, cost_dp_legs
 
 __all__ = ["CompiledStages", "LegCostFn", "NoGoFn", "Transition", "append_stage", "combos", "empty_stage",
            "in_every_member", "lazy_winners", "nav_check", "pareto_winners", "stage_tables"]  # fmt: skip
@@ -171,12 +171,16 @@ class Transition:
         return self._samples[k]
 
     def cost(
-        self, k: int, l0: np.ndarray, lj: np.ndarray, vi: np.ndarray, t0: np.ndarray
+        self, k: int, l0: np.ndarray, lj: np.ndarray, vi: np.ndarray, t0: np.ndarray, check: bool = True
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Cost legs; return (ok, t1, fuel, duration) with ok = feasible and within the horizon."""
+        """Cost legs; return (ok, t1, fuel, duration) with ok = feasible and within the horizon.
+
+        Without ``check`` the compiled legs are checked at their pieces' midpoints only (the callback's are checked
+        in full): :meth:`clear` with ``between`` checks the rest.
+        """
         sog = self.speeds[vi]
         if self.stages is not None:  # the compiled legs, their pieces computed once per stage
-            dur, fu, feas = self.stages.cost_legs(k, l0, lj, vi, t0)
+            dur, fu, feas = self.stages.cost_legs(k, l0, lj, vi, t0, check)
         else:
             out = self.leg_cost(self.lat[k, l0], self.lon[k, l0], self.lat[k + 1, lj], self.lon[k + 1, lj], t0, sog)
             dur, fu, feas, _ = unpack_cost(out, l0.size, "leg_cost")
@@ -193,8 +197,18 @@ class Transition:
         ok = feas & (t1 + self.rem_nm[k + 1, lj] / self.vmax <= self.horizon + 1e-9)
         return ok, t1, fu, dur
 
-    def clear(self, k: int, l0: np.ndarray, lj: np.ndarray, t0: np.ndarray, dur: np.ndarray) -> np.ndarray:
-        """Whether each leg stays out of the no-go areas (samples along it and the state reached)."""
+    def clear(
+        self, k: int, l0: np.ndarray, lj: np.ndarray, t0: np.ndarray, dur: np.ndarray, between: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Whether each leg stays out of the no-go areas (samples along it and the state reached); with ``between``
+        (the legs' speed indices), also clear between their pieces' midpoints (legs :meth:`cost` left unchecked)."""
+        good = self._clear_of_no_go(k, l0, lj, t0, dur)
+        if between is not None and self.stages is not None and good.any():
+            q = np.flatnonzero(good)
+            good[q] = self.stages.clear_legs(k, l0[q], lj[q], between[q], t0[q])
+        return good
+
+    def _clear_of_no_go(self, k: int, l0: np.ndarray, lj: np.ndarray, t0: np.ndarray, dur: np.ndarray) -> np.ndarray:
         if self.navigable is None:
             return np.ones(l0.size, dtype=bool)
         fr, plat, plon = self._samples_for(k)
@@ -204,15 +218,6 @@ class Transition:
             pt = t0[q, None] + fr[None, :] * dur[q, None]
             good[q] = nav_check(self.navigable, plat[l0[q], lj[q]], plon[l0[q], lj[q]], pt).all(axis=1)
         return good
-
-    def __call__(
-        self, k: int, l0: np.ndarray, lj: np.ndarray, vi: np.ndarray, t0: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        ok, t1, fu, dur = self.cost(k, l0, lj, vi, t0)
-        if ok.any():
-            q = np.nonzero(ok)[0]
-            ok[q] = self.clear(k, l0[q], lj[q], t0[q], dur[q])
-        return ok, t1, fu
 
 
 def in_every_member(n_legs: int, costs: list[Callable[[np.ndarray], tuple]], extras: tuple[str, ...]) -> tuple:
@@ -294,19 +299,18 @@ class CompiledStages:
             self._geom, self._geom_k = (geom, geom_of), k
         return self._geom
 
-    def cost_legs(self, k: int, l0: np.ndarray, lj: np.ndarray, vi: np.ndarray, t0: np.ndarray):
+    def cost_legs(
+        self, k: int, l0: np.ndarray, lj: np.ndarray, vi: np.ndarray, t0: np.ndarray, check: bool = True
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(duration [h], fuel [t], feasible) of legs from stage k, as the callback costs them: in every member,
-        each member costing only the legs the members before it allow; the fuel the members' mean."""
+        each member costing only the legs the members before it allow; the fuel the members' mean.  Without
+        ``check``, feasible at the pieces' midpoints only (:meth:`clear_legs` checks the rest)."""
         geom, geom_of = self._geometry(k)
         g, t0, sog = np.ascontiguousarray(geom_of[l0, lj]), np.ascontiguousarray(t0, dtype=float), self.speeds[vi]
 
         def member(m: DPLegKernel) -> Callable[[np.ndarray], tuple]:
             def cost(idx: np.ndarray) -> tuple:
-                _, f, ok, _, _, unc = cost_dp_legs(
-                    np.ascontiguousarray(m.params, dtype=float), tuple(m.weather), geom.lat_deg, geom.lon_deg,
-                    geom.course_deg, geom.frac, geom.n_pieces, g[idx], t0[idx], np.ascontiguousarray(sog[idx]),
-                    geom.dist_nm,
-                )  # fmt: skip
+                _, f, ok, _, _, unc = cost_dp_legs(*self._leg_args(m, geom, g[idx], t0[idx], sog[idx]), bool(check))
                 self.kernel.uncovered(int(unc))
                 return f, ok, {}
 
@@ -314,6 +318,29 @@ class CompiledStages:
 
         fuel, feas, _ = in_every_member(l0.size, [member(m) for m in self.kernel.members], ())
         return geom.dist_nm[g] / sog, fuel, feas  # cost_dp_legs's duration
+
+    def clear_legs(self, k: int, l0: np.ndarray, lj: np.ndarray, vi: np.ndarray, t0: np.ndarray) -> np.ndarray:
+        """Whether legs from stage k that :meth:`cost_legs` without ``check`` found feasible are clear between their
+        pieces' midpoints in every member (:func:`~optroute.search.passage_kernels.clear_dp_legs`)."""
+        geom, geom_of = self._geometry(k)
+        g, t0, sog = np.ascontiguousarray(geom_of[l0, lj]), np.ascontiguousarray(t0, dtype=float), self.speeds[vi]
+        clear = np.ones(l0.size, dtype=bool)
+        for m in self.kernel.members:
+            idx = np.flatnonzero(clear)
+            if idx.size == 0:
+                break
+            ok, unc = clear_dp_legs(*self._leg_args(m, geom, g[idx], t0[idx], sog[idx]))
+            self.kernel.uncovered(int(unc))
+            clear[idx] = ok
+        return clear
+
+    @staticmethod
+    def _leg_args(m: DPLegKernel, geom: Any, g: np.ndarray, t0: np.ndarray, sog: np.ndarray) -> tuple:
+        """The arguments of the DP's leg kernels for member ``m``: its parameters and weather, the legs' pieces."""
+        return (
+            np.ascontiguousarray(m.params, dtype=float), tuple(m.weather), geom.lat_deg, geom.lon_deg, geom.course_deg,
+            geom.frac, geom.n_pieces, np.ascontiguousarray(g), t0, np.ascontiguousarray(sog), geom.dist_nm,
+        )  # fmt: skip
 
     def stage(self, k: int, src: tuple, dest: np.ndarray, step: int | None, max_batch: int, rem_next: np.ndarray,
               cut: tuple[np.ndarray, float] | None = None):  # fmt: skip

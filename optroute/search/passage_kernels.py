@@ -370,7 +370,9 @@ def cost_legs(
 
 
 @jit
-def cost_dp_legs(p, w, lat, lon, course, frac, n_pieces, leg_of, t0_h, sog_kn, dist_nm):  # pragma: no cover - compiled
+def cost_dp_legs(
+    p, w, lat, lon, course, frac, n_pieces, leg_of, t0_h, sog_kn, dist_nm, check
+):  # pragma: no cover - compiled
     """The 3-D DP's legs at a commanded SOG, costed at each piece's midpoint and checked along it (``PassagePhysics.dp_leg``).
 
     Parameters
@@ -387,6 +389,10 @@ def cost_dp_legs(p, w, lat, lon, course, frac, n_pieces, leg_of, t0_h, sog_kn, d
         Departure [h] and commanded speed over ground [kn] of each leg.
     dist_nm : ndarray, shape (n_geometries,)
         Leg lengths [nm].
+    check : bool
+        Check each leg between its pieces' midpoints too (:func:`dp_leg_clear`); without it, only at the
+        midpoints (:func:`dp_leg_midpoints`: a leg found feasible is then feasible only if :func:`clear_dp_legs`
+        passes it).
 
     Returns
     -------
@@ -411,8 +417,8 @@ def cost_dp_legs(p, w, lat, lon, course, frac, n_pieces, leg_of, t0_h, sog_kn, d
     work = dp_workspace()
     uncovered = 0
     for i in range(n):
-        ok, f_sum, s_sum, p_sum, unc = cost_dp_leg(p, w, lat, lon, course, frac, n_pieces, leg_of[i], t0_h[i],
-                                                   sog_kn[i], dist_nm, work)  # fmt: skip
+        leg = (p, w, lat, lon, course, frac, n_pieces, leg_of[i], t0_h[i], sog_kn[i], dist_nm, work)
+        ok, f_sum, s_sum, p_sum, unc = cost_dp_leg(*leg) if check else dp_leg_midpoints(*leg)
         uncovered += unc
         if ok:
             feas[i] = True
@@ -420,6 +426,22 @@ def cost_dp_legs(p, w, lat, lon, course, frac, n_pieces, leg_of, t0_h, sog_kn, d
             stw_mean[i] = s_sum
             power_mean[i] = p_sum
     return dur, fuel, feas, stw_mean, power_mean, uncovered
+
+
+@jit
+def clear_dp_legs(p, w, lat, lon, course, frac, n_pieces, leg_of, t0_h, sog_kn, dist_nm):  # pragma: no cover - compiled
+    """Whether each leg of :func:`cost_dp_legs` (the same arguments, without ``check``), allowed at its pieces'
+    midpoints, is clear between them (:func:`dp_leg_clear`); ``(clear, uncovered points)``."""
+    n = sog_kn.size
+    clear = np.zeros(n, dtype=np.bool_)
+    work = dp_workspace()
+    uncovered = 0
+    for i in range(n):
+        clear[i], unc = dp_leg_clear(
+            p, w, lat, lon, course, frac, n_pieces, leg_of[i], t0_h[i], sog_kn[i], dist_nm, work
+        )
+        uncovered += unc
+    return clear, uncovered
 
 
 @jit

@@ -466,7 +466,7 @@ class PassagePhysics:
             dur, fuel, feas, stw_m, power_m, uncovered = passage_kernels.cost_dp_legs(
                 *inputs, *(np.ascontiguousarray(a, dtype=float) for a in (lat, lon, course, f)),
                 n_pc[:, 0].astype(np.int64), leg_of.ravel().astype(np.int64), np.ascontiguousarray(t0_h, dtype=float),
-                np.ascontiguousarray(sog_kn, dtype=float), dist,
+                np.ascontiguousarray(sog_kn, dtype=float), dist, True,
             )  # fmt: skip
             self.calls += 1
             self.uncovered += int(uncovered)
