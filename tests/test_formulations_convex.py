@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from formulations.common import FormulationInputError, NonConvexFuelModel, PowerLawFuel
@@ -122,6 +122,9 @@ def test_bad_inputs_raise_formulation_input_error() -> None:
     seed=st.integers(0, 2**31 - 1),
     slack=st.floats(1.05, 1.6),
 )
+# found by hypothesis: Clarabel stopped at AlmostSolved with the tight tolerances and with its own (before the retry
+# with its linear systems refined further)
+@example(n=12, seed=347, slack=1.15625)
 def test_unbounded_optimum_is_the_cube_root_split(n: int, seed: int, slack: float) -> None:
     rng = np.random.default_rng(seed)
     d = rng.uniform(20.0, 400.0, n)
