@@ -33,7 +33,7 @@ from optroute._numba import jit
 from optroute.physics.pointwise import allowed_speed, cost_rate_floor, evaluate_speed, stw_for_sog
 from optroute.search.band_bounds import piece_certified
 from optroute.search.edge_geometry import frame_point, piece_frame
-from optroute.search.refine_kernels import CAPACITY, piece_clear
+from optroute.search.refine_kernels import CAPACITY, piece_clear, refined_clear
 from optroute.search.refine_kernels import workspace as refine_workspace
 from optroute.weather.sample import N_POINT_FIELDS, sample_at
 
@@ -458,7 +458,8 @@ def _dp_piece_clear(p, w, la, lo, crs, length, t_mid, sog_kn, work):  # pragma: 
     A piece the weather's node bounds certify (:func:`optroute.search.band_bounds.piece_certified`: no point of it,
     its ends included, can have the speed not allowed) is clear without sampling it.  Otherwise its ends are
     checked as its midpoint (the speed through water making the SOG good, allowed), then the stretches between by
-    the referee's rules (:func:`optroute.search.refine_kernels.piece_clear`).
+    the referee's rules (:func:`optroute.search.refine_kernels.refined_clear`: ``piece_clear`` less the
+    certificate already tried).
     Returns ``(clear, uncovered points)``.
     """
     _, sea_pts, pts, ws, sl, scratch = work
@@ -473,8 +474,8 @@ def _dp_piece_clear(p, w, la, lo, crs, length, t_mid, sog_kn, work):  # pragma: 
         else:
             la_pts[j], lo_pts[j], crs_pts[j] = frame_point(frame, s_pts[j] - 0.5 * length)
     # np.bool_(True), np.int64(3): typed values, not literals. numba compiles a kernel once per argument type, and a
-    # literal constant is a type of its own, so with literals piece_clear (and piece_certified, _probe, _crossings,
-    # _box under it) compiled twice, once for this call and once for _checked_piece's; now both share one.
+    # literal constant is a type of its own, so with literals piece_certified and refined_clear (and _probe,
+    # _crossings, _box under them) compiled twice, once for these calls and once for _checked_piece's piece_clear.
     if piece_certified(
         p, w, sog_kn, np.bool_(True), la_pts, lo_pts, t_pts, s_pts, np.int64(3), la, lo, length, np.int64(CAPACITY),
         scratch,
@@ -492,7 +493,7 @@ def _dp_piece_clear(p, w, la, lo, crs, length, t_mid, sog_kn, work):  # pragma: 
         sog, _, allowed = _eval_at(p, crs_pts[j], sea, stw)
         if not (allowed and sog > 0.0):
             return False, uncovered
-    clear = piece_clear(
+    clear = refined_clear(  # certified above already: the refinement alone
         p, w, sog_kn, np.bool_(True), la, lo, crs, length, s_pts, t_pts, np.int64(3), la_pts, lo_pts, crs_pts, sea_pts,
         ws, sl, scratch,
     )  # fmt: skip

@@ -27,7 +27,7 @@ from optroute.search.band_refine import BAND_TOL_NM, CROSSING_PASSES, CROSSING_T
 from optroute.search.edge_geometry import frame_point, piece_frame
 from optroute.weather.sample import grid_coordinates_at, sample_at
 
-__all__ = ["CAPACITY", "N_FIELDS", "piece_clear", "workspace"]
+__all__ = ["CAPACITY", "N_FIELDS", "piece_clear", "refined_clear", "workspace"]
 
 CAPACITY = 2048
 """Most points one piece's check may use; a piece needing more is treated as failing (never seen: a
@@ -241,6 +241,21 @@ def piece_clear(
     """
     if piece_certified(p, w, spd, sog_mode, la0, lo0, t0, s0, n0, lat, lon, length, np.int64(CAPACITY), scratch):
         return True
+    return refined_clear(
+        p, w, spd, sog_mode, lat, lon, course, length, s0, t0, n0, la0, lo0, crs0, sea0, ws, sl, scratch
+    )
+
+
+@jit
+def refined_clear(
+    p, w, spd, sog_mode, lat, lon, course, length, s0, t0, n0, la0, lo0, crs0, sea0, ws, sl, scratch
+):  # pragma: no cover - compiled
+    """:func:`piece_clear` without the certificate: the regime crossings and the halvings, every point put evaluated.
+
+    For a caller that has tried :func:`optroute.search.band_bounds.piece_certified` on the piece already (the 3-D
+    DP's :func:`optroute.search.passage_kernels._dp_piece_clear`, before sampling the piece's ends); the
+    arguments and the result as :func:`piece_clear`'s.
+    """
     a, b = ws[0], ws[1]
     for j in range(n0):
         row = a[j]
