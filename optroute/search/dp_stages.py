@@ -324,14 +324,16 @@ class CompiledStages:
         pieces' midpoints in every member (:func:`~optroute.search.passage_kernels.clear_dp_legs`)."""
         geom, geom_of = self._geometry(k)
         g, t0, sog = np.ascontiguousarray(geom_of[l0, lj]), np.ascontiguousarray(t0, dtype=float), self.speeds[vi]
-        clear = np.ones(l0.size, dtype=bool)
-        for m in self.kernel.members:
-            idx = np.flatnonzero(clear)
-            if idx.size == 0:
-                break
-            ok, unc = clear_dp_legs(*self._leg_args(m, geom, g[idx], t0[idx], sog[idx]))
-            self.kernel.uncovered(int(unc))
-            clear[idx] = ok
+
+        def member(m: DPLegKernel) -> Callable[[np.ndarray], tuple]:
+            def check(idx: np.ndarray) -> tuple:
+                ok, unc = clear_dp_legs(*self._leg_args(m, geom, g[idx], t0[idx], sog[idx]))
+                self.kernel.uncovered(int(unc))
+                return np.zeros(idx.size), ok, {}  # (no fuel: only whether the legs are clear)
+
+            return check
+
+        _, clear, _ = in_every_member(l0.size, [member(m) for m in self.kernel.members], ())
         return clear
 
     @staticmethod
