@@ -22,10 +22,11 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import optroute as orx
-from optroute.physics.passage import SeaState, evaluate_speeds
+from optroute.physics.passage import SeaState, across_regime_edges, evaluate_speeds, power_regime
 from optroute.physics.performance import KwonModel
 from optroute.physics.safety import DEFAULT_RULES
 from optroute.plan.evaluate import FUEL_RTOL, evaluate_track
+from optroute.search.band_refine import SLOPE_SAFETY, certified, excursion_lengths, secant_slopes
 from optroute.units import timedelta_to_h
 from tests.harness import T0, WGS84, _sample, case_weather, make_case, run_case
 
@@ -93,6 +94,8 @@ def _brute_force_fuel(ds, ship, a, b, stw_kn, departure):
 @example(t_h=3.125, bearing=0.0, off_nm=0.0, course=43.0, length_nm=8.0, stw_kn=8.0)
 # a 0.18 nm excursion into a higher Beaufort number between two quarter points of a 4.6 nm piece: 0.7 % missed
 @example(t_h=19.1856, bearing=190.7786, off_nm=40.0378, course=208.9514, length_nm=50.3342, stw_kn=11.0448)
+# Beaufort 12 for 0.027 nm, shorter than the referee's tolerance, between two samples: the stated error bounds it
+@example(t_h=4.95703125, bearing=17.0, off_nm=4.125, course=179.0, length_nm=8.0, stw_kn=8.0)
 def test_a_legs_fuel_is_the_brute_force_integral_within_the_stated_error(
     cyclone, t_h, bearing, off_nm, course, length_nm, stw_kn
 ):
@@ -126,3 +129,59 @@ def test_the_harness_seeds_that_broke_the_fuel_accounting_pass_it(seed):
     res = run_case(make_case(seed))
     fuel = {name: [f for f in found if f.kind.startswith("fuel")] for name, found in res.findings.items()}
     assert res.findings and not any(fuel.values()), (res.outcomes, fuel)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    hs_m=st.floats(0.0, 14.0),
+    wave_from_deg=st.floats(0.0, 360.0),
+    wind_ms=st.one_of(st.just(float("nan")), st.floats(0.0, 40.0)),
+    wind_to_deg=st.floats(0.0, 360.0),
+    heading_deg=st.floats(0.0, 360.0),
+)
+def test_each_drivers_move_across_its_edge_lands_in_a_neighbouring_regime(
+    hs_m, wave_from_deg, wind_ms, wind_to_deg, heading_deg
+):
+    # Kwon (2008): the regime key is 4 * Beaufort number + direction sector (head, bow, beam, following)
+    model = KwonModel(orx.Ship.preset("container_8000teu"))
+    rad = math.radians(wind_to_deg)
+    sea = SeaState.uniform(
+        1, hs_m=hs_m, wave_from_deg=wave_from_deg, wind_u_ms=wind_ms * math.sin(rad), wind_v_ms=wind_ms * math.cos(rad)
+    )
+    base = int(power_regime(model, [heading_deg], sea)[0])
+    for driver, pair in enumerate(across_regime_edges(model, [heading_deg], sea)):
+        moved = [int(power_regime(model, [heading_deg], s)[0]) for s in pair]
+        assert any(k != base for k in moved)  # the nearest edge is crossed one way
+        for k in moved:
+            bn, sector = divmod(k, 4)
+            if driver == 0:  # the Beaufort number's driver: one number up or down, the sector kept
+                assert sector == base % 4 and abs(bn - base // 4) <= 1
+            else:  # the wave angle: one sector over, the Beaufort number kept
+                assert bn == base // 4 and abs(sector - base % 4) <= 1
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    m=st.lists(st.floats(-0.5, 3.0), min_size=3, max_size=8),
+    steps=st.lists(st.floats(0.01, 2.0), min_size=7, max_size=7),
+)
+def test_an_unseen_excursions_length_is_where_the_slope_bounds_worst_case_dips_below_zero(m, steps):
+    # the worst case the Lipschitz rule allows between two points: the function falls at the bound's slope from
+    # both ends (a V); sampled every 1e-4 of the interval, its stretch <= 0 is the length stated
+    m = np.asarray(m)
+    s = np.concatenate([[0.0], np.cumsum(steps[: m.size - 1])])
+    n = m.size - 1
+    same, inside, regime = np.ones(n, dtype=bool), np.ones(n + 1, dtype=bool), np.zeros(n + 1, dtype=int)
+    (length,) = excursion_lengths(same, inside, regime, [m], s)
+    slope = SLOPE_SAFETY * secant_slopes(m, s, same)
+    for k in range(n):
+        h = s[k + 1] - s[k]
+        if m[k] <= 0.0 or m[k + 1] <= 0.0:
+            assert length[k] == h  # an end on or past the edge: the whole interval
+            continue
+        x = np.linspace(0.0, h, 10_001)
+        worst = np.maximum(m[k] - slope[k] * x, m[k + 1] - slope[k] * (h - x))
+        assert length[k] == pytest.approx(np.mean(worst <= 0.0) * h, abs=2e-4 * h + 1e-12)
+        # and the referee's certificate to a tolerance holds exactly where the stretch is shorter
+        for tol in (0.05, 0.1, 0.5):
+            assert bool(certified(m[k], m[k + 1], slope[k] / SLOPE_SAFETY, h, tol)) == (length[k] < tol)

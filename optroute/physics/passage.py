@@ -21,7 +21,7 @@ points in one vectorised pass and keeps the fastest allowed one.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -364,6 +364,58 @@ def regime_distances(model: PerformanceModel, heading_deg: ArrayLike, sea: SeaSt
         return ()
     navigable = np.asarray(sea.navigable)
     return tuple(np.where(navigable, d, np.nan) for d in fn(**_regime_inputs(heading_deg, sea)))
+
+
+ACROSS_EDGE = 1e-6
+"""How far past a regime edge :func:`across_regime_edges` puts a driver, beyond its distance to the edge
+[the driver's unit: m/s, m or deg]."""
+
+
+def across_regime_edges(
+    model: PerformanceModel, heading_deg: ArrayLike, sea: SeaState
+) -> tuple[tuple[SeaState, SeaState], ...]:
+    """The sea state with each regime driver moved just past its nearest edge, down and up: one pair per driver.
+
+    The drivers and their distances are those of :func:`regime_distances`, in the same order: the
+    Beaufort number's driver (the wind speed [m/s], its direction kept, where the wind is known, else Hs
+    [m]) and the folded relative wave angle [deg] (moved by turning the waves' direction, which moves the
+    relative angle by as much). Each is moved by its distance plus :data:`ACROSS_EDGE`, so one of the two
+    states lies just across the nearest edge, in the neighbouring regime, and the other as far on this
+    side. The plan's fuel integration (:mod:`optroute.plan.evaluate`) evaluates the model there to bound
+    what a regime excursion too short for the referee to see can cost. Empty for a model that declares
+    no regimes.
+
+    Parameters
+    ----------
+    model : PerformanceModel
+    heading_deg : array_like, shape (N,)
+        Heading [deg true, to].
+    sea : SeaState
+        Sea state at the N points.
+    """
+    dists = regime_distances(model, heading_deg, sea)
+    if not dists:
+        return ()
+    step_bn, step_angle = (np.where(np.isfinite(m), m, 0.0) + ACROSS_EDGE for m in dists)
+    u, v = np.asarray(sea.wind_u_ms, dtype=float), np.asarray(sea.wind_v_ms, dtype=float)
+    speed, _ = units.wind_uv_to_speed_from_deg(u, v)
+    known, calm = np.isfinite(speed), np.isfinite(speed) & (speed <= 0.0)
+
+    def beaufort(sign: float) -> SeaState:
+        target = np.maximum(np.where(known, speed, 0.0) + sign * step_bn, 0.0)
+        scale = target / np.where(known & ~calm, speed, 1.0)  # the wind's speed to the target, its direction kept
+        hs = np.asarray(sea.hs_m, dtype=float)
+        return replace(
+            sea,
+            hs_m=np.where(known, hs, np.maximum(hs + sign * step_bn, 0.0)),
+            wind_u_ms=np.where(calm, target, u * scale),  # (a calm: blowing east)
+            wind_v_ms=np.where(calm, 0.0, v * scale),
+        )
+
+    def angle(sign: float) -> SeaState:
+        return replace(sea, wave_from_deg=units.wrap_360(np.asarray(sea.wave_from_deg) + sign * step_angle))
+
+    return (beaufort(-1.0), beaufort(1.0)), (angle(-1.0), angle(1.0))
 
 
 def _pick(choice_idx: np.ndarray, feasible: np.ndarray, arrays: tuple[np.ndarray, ...]) -> list[np.ndarray]:

@@ -36,11 +36,17 @@ pieces that start at most ``step_nm`` long and are cut adaptively (down to
   (:func:`optroute.search.band_refine.certified`, as :mod:`optroute.plan.checkpoints` checks the
   engine's range), and the pieces around an interval that is not are halved.
 
-The estimate of a leg's error (the Richardson terms plus the jumps' terms) is
-:attr:`DenseTrack.fuel_err_t`; ``tests/test_fuel_integration.py`` compares both with an
-independent brute force (every 0.01 nm, finer across jumps) on random legs through a cyclone. A
-regime excursion shorter than :data:`REGIME_TOL_NM`, or one the slope bound underestimates, can be
-missed; it costs at most its length times its jump.
+* an excursion that no sample sees (shorter than :data:`REGIME_TOL_NM` between two samples of one
+  regime, or, across a change, a second driver crossing too: a third regime between the two) is
+  bounded instead: its longest possible length by the same Lipschitz rule
+  (:func:`optroute.search.band_refine.excursion_lengths`) times the largest jump of ``q`` into a regime
+  neither sample is in (the model evaluated with each driver just across its nearest edge). The pieces
+  about one whose bound exceeds :data:`JUMP_SHARE` of the leg's tolerance are cut until it does not.
+
+The estimate of a leg's error (the Richardson terms, the seen jumps' terms and the unseen excursions'
+bounds) is :attr:`DenseTrack.fuel_err_t`; ``tests/test_fuel_integration.py`` compares both with an
+independent brute force (every 0.01 nm, finer across jumps) on random legs through a cyclone. An
+excursion the slope bound underestimates can still be missed.
 """
 
 from __future__ import annotations
@@ -58,11 +64,17 @@ from optroute.errors import ConfigError
 from optroute.geo import land
 from optroute.geo.tracks import Exclusion, gc_points
 from optroute.physics import seaway
-from optroute.physics.passage import SeaState, evaluate_speeds, power_regime, regime_distances
+from optroute.physics.passage import (
+    SeaState,
+    across_regime_edges,
+    evaluate_speeds,
+    power_regime,
+    regime_distances,
+)
 from optroute.physics.performance import PerformanceModel
 from optroute.physics.safety import BANDS, BandRules, band_margins
 from optroute.physics.ship import Ship
-from optroute.search.band_refine import BAND_TOL_NM, regime_doubts
+from optroute.search.band_refine import BAND_TOL_NM, excursion_lengths, regime_doubts
 from optroute.search.route import Corridor
 from optroute.units import as_utc_time as _as_time
 from optroute.units import h_to_timedelta as _h_to_td
@@ -100,6 +112,8 @@ REGIME_TOL_NM = BAND_TOL_NM
 the referee's tolerance for a band or the engine's range (:mod:`optroute.plan.checkpoints`)."""
 _EAGER_PARTS = 8
 """Parts a piece is cut into at once where a regime change is to be located far below its length."""
+_MAX_PARTS = 64
+"""Most parts a piece is cut into at once where an unseen excursion's bound is far above its share."""
 
 
 # --------------------------------------------------------------------------- violations and context
@@ -381,11 +395,15 @@ def _refine(ctx, wp, d, pieces, ev: DenseTrack, departure, rtol) -> tuple[tuple[
     offset = np.concatenate([[0.0], np.cumsum(d)])
     x_clock, t_clock = offset[ev.leg] + ev.frac * d[ev.leg], ev.time_h
 
-    def probe(leg: np.ndarray, frac: np.ndarray) -> tuple[np.ndarray, ...]:
+    def locate(leg: np.ndarray, frac: np.ndarray) -> tuple[np.ndarray, SeaState, np.ndarray]:
+        """The course [deg], the sea and the speed through water [kn] at fractions of legs, when the ship is there."""
         lat, lon, course = gc_points(wp[leg, 0], wp[leg, 1], wp[leg + 1, 0], wp[leg + 1, 1], frac)
         t_h = np.interp(offset[leg] + frac * d[leg], x_clock, t_clock)
         sea, _ = sample_sea(ctx.sampler, departure + _h_to_td(t_h), lat, lon)
-        return _per_nm(ctx, course, sea, ev.stw[np.searchsorted(ev.leg, leg)])
+        return course, sea, ev.stw[np.searchsorted(ev.leg, leg)]
+
+    def probe(leg: np.ndarray, frac: np.ndarray) -> tuple[np.ndarray, ...]:
+        return _per_nm(ctx, *locate(leg, frac))
 
     def samples(pleg, a, b, where=(0.25, 0.75)) -> list[np.ndarray]:
         """Every quantity of :func:`_per_nm` at the fractions ``where`` of each piece, one column each."""
@@ -401,10 +419,15 @@ def _refine(ctx, wp, d, pieces, ev: DenseTrack, departure, rtol) -> tuple[tuple[
     vals = [np.column_stack([q[:, 0], x[mid], q[:, 1]]) for q, x in zip(samples(pleg, a, b), at_points, strict=True)]
     while True:
         halve, eager, err = _loose(pleg, a, b, d, vals, end_vals, rtol)
+        cuts = np.where(eager, _EAGER_PARTS, 2)
         if not halve.any():
-            return (pleg, a, b), err
+            # only then: what an excursion the samples cannot see may cost (model evaluations about every doubt)
+            missed, cuts = _missed_excursions(ctx, locate, pleg, a, b, d, vals, end_vals, rtol)
+            halve = cuts >= 2
+            if not halve.any():
+                return (pleg, a, b), err + missed
         c = 0.5 * (a + b)
-        half, many = halve & ~eager, halve & eager
+        half, many = halve & (cuts == 2), halve & (cuts > 2)
         h_leg, h_a, h_b = pleg[half], a[half], b[half]
         nl = samples(np.concatenate([h_leg, h_leg]), np.concatenate([h_a, c[half]]), np.concatenate([c[half], h_b]))
         k = h_leg.size
@@ -412,11 +435,12 @@ def _refine(ctx, wp, d, pieces, ev: DenseTrack, departure, rtol) -> tuple[tuple[
             np.column_stack([q[:, 0], np.concatenate([v[half, 0], v[half, 2]]), q[:, 1]])
             for q, v in zip(nl, vals, strict=True)
         ]
-        rep = np.repeat(np.flatnonzero(many), _EAGER_PARTS)
-        j = np.tile(np.arange(_EAGER_PARTS), int(many.sum()))
+        rep = np.repeat(np.flatnonzero(many), cuts[many])
+        n_cut = cuts[rep]
+        j = np.arange(rep.size) - np.repeat(np.cumsum(cuts[many]) - cuts[many], cuts[many])  # each part's rank
         m_leg = pleg[rep]
-        m_a = a[rep] + (b[rep] - a[rep]) * j / _EAGER_PARTS
-        m_b = np.where(j + 1 == _EAGER_PARTS, b[rep], a[rep] + (b[rep] - a[rep]) * (j + 1) / _EAGER_PARTS)
+        m_a = a[rep] + (b[rep] - a[rep]) * j / n_cut
+        m_b = np.where(j + 1 == n_cut, b[rep], a[rep] + (b[rep] - a[rep]) * (j + 1) / n_cut)
         parts = samples(m_leg, m_a, m_b, (0.25, 0.5, 0.75))
         leg = np.concatenate([pleg[~halve], h_leg, h_leg, m_leg])
         lo = np.concatenate([a[~halve], h_a, c[half], m_a])
@@ -473,19 +497,34 @@ def _loose(pleg, a, b, d, vals, end_vals, rtol) -> tuple[np.ndarray, np.ndarray,
 def _regime_changes(pleg, a, b, d, vals, end_vals) -> np.ndarray:
     """Per piece, whether the model's regime changes, or may change and change back, next to one of its samples.
 
-    The samples of every leg in sailing order (its start, each piece's quarter points and midpoint, its
-    end). Between two of different regimes the change is to be located (whatever the jump of the fuel
-    per nm: the regime may pass through a third one in between); between two of one regime, each
-    distance of a regime driver to its nearest edge must be certified positive over every stretch
-    longer than :data:`REGIME_TOL_NM`: the referee's rule for the engine's range,
+    Between two samples (:func:`_sample_sequence`) of different regimes the change is to be located
+    (whatever the jump of the fuel per nm: the regime may pass through a third one in between); between
+    two of one regime, each distance of a regime driver to its nearest edge must be certified positive
+    over every stretch longer than :data:`REGIME_TOL_NM`: the referee's rule for the engine's range,
     :func:`optroute.search.band_refine.regime_doubts`. A piece that owns an end of such an interval is flagged.
+    """
+    leg_s, s_nm, owner, seq = _sample_sequence(pleg, a, b, d, vals, end_vals)
+    r = seq(2)  # where the course is not held or the sea not navigable (r < 0) the leg's fuel is infinite: not cut
+    dists = [seq(k) for k in range(3, len(vals))]
+    doubt = regime_doubts(leg_s[1:] == leg_s[:-1], r >= 0, r, dists, s_nm, REGIME_TOL_NM)
+    out = np.zeros(pleg.size, dtype=bool)
+    for side in (owner[:-1], owner[1:]):
+        hit = doubt & (side >= 0)
+        out[side[hit]] = True
+    return out
+
+
+def _sample_sequence(pleg, a, b, d, vals, end_vals):
+    """Every leg's samples in sailing order: its start, each piece's quarter points and midpoint, its end.
+
+    Returns each sample's leg, its distance along the leg [nm], the piece it belongs to (-1: a leg's end) and
+    ``seq(k)``, the quantity ``k`` of ``vals`` (:func:`_per_nm`'s order) along the sequence.
     """
     p = pleg.size
     starts = np.flatnonzero(np.r_[True, pleg[1:] != pleg[:-1]])
     stops = np.r_[starts[1:], p] - 1
     pos = a[:, None] + np.array([0.25, 0.5, 0.75]) * (b - a)[:, None]
     n_s = 3 * p + 2 * starts.size
-    # the flat sequence: every leg's start, its pieces' three samples, its end
     group = np.searchsorted(starts, np.arange(p), "right") - 1  # each piece's leg, counted among the legs here
     slot = (3 * np.arange(p) + 2 * group + 1)[:, None] + np.arange(3)
     first_slot, last_slot = slot[starts, 0] - 1, slot[stops, 2] + 1
@@ -502,14 +541,66 @@ def _regime_changes(pleg, a, b, d, vals, end_vals) -> np.ndarray:
         out[first_slot], out[last_slot] = end_vals[0][k][pleg[starts]], end_vals[1][k][pleg[stops]]
         return out
 
-    r = seq(2)  # where the course is not held or the sea not navigable (r < 0) the leg's fuel is infinite: not cut
-    dists = [seq(k) for k in range(3, len(vals))]
-    doubt = regime_doubts(leg_s[1:] == leg_s[:-1], r >= 0, r, dists, s_nm, REGIME_TOL_NM)
-    out = np.zeros(p, dtype=bool)
-    for side in (owner[:-1], owner[1:]):
-        hit = doubt & (side >= 0)
-        out[side[hit]] = True
-    return out
+    return leg_s, s_nm, owner, seq
+
+
+def _missed_excursions(ctx, locate, pleg, a, b, d, vals, end_vals, rtol) -> tuple[np.ndarray, np.ndarray]:
+    """Every leg's bound on the fuel [t] of regime excursions too short for the samples to see (the module text),
+    and in how many parts to cut each piece (0: none) because its share of it is too large.
+
+    Between two samples a driver may cross its edge and come back (or, across a change of regime, a second driver
+    cross too) over a stretch no longer than :func:`optroute.search.band_refine.excursion_lengths` allows; there the
+    fuel per nm is another regime's than either sample's. Each such stretch costs at most its length times the
+    largest jump of the fuel per nm, at the interval's two ends, into a regime that neither end is in (the model
+    evaluated with each driver just across its nearest edge: :func:`optroute.physics.passage.across_regime_edges`).
+    The pieces around an interval whose bound exceeds :data:`JUMP_SHARE` of the leg's tolerance are cut, down to
+    :data:`MIN_JUMP_PIECE_NM` as about a seen jump, in twice as many parts as the excess (up to :data:`_MAX_PARTS`):
+    the bound shrinks at least in proportion to the interval. A regime with no finite fuel (no speed the model can
+    make there) adds nothing: the referee's check of the engine's range owns that, to the same tolerance.
+    """
+    leg_s, s_nm, owner, seq = _sample_sequence(pleg, a, b, d, vals, end_vals)
+    r = seq(2)
+    lengths = excursion_lengths(leg_s[1:] == leg_s[:-1], r >= 0, r, [seq(k) for k in range(3, len(vals))], s_nm)
+    cuts = np.zeros(pleg.size, dtype=int)
+    doubt = np.flatnonzero(np.any(np.array(lengths) > 0.0, axis=0)) if lengths else np.zeros(0, dtype=int)
+    if doubt.size == 0:
+        return np.zeros(d.size), cuts
+    pts = np.unique(np.r_[doubt, doubt + 1])
+    course, sea, stw = locate(leg_s[pts], s_nm[pts] / d[leg_s[pts]])
+    heading = evaluate_speeds(ctx.ship, ctx.model, ctx.rules, course, sea, stw)[0]
+    at = np.where(np.isfinite(heading), heading, course)
+    q, _, r_at, *_ = _per_nm(ctx, course, sea, stw)
+    # every driver moved down and up at every point; the model evaluated (once, all together) where the regime moves
+    moved = [m for pair in across_regime_edges(ctx.model, at, sea) for m in pair]
+    r2 = np.array([np.where(np.isfinite(heading), power_regime(ctx.model, at, m), -2) for m in moved])
+    k, i = np.nonzero(r2 != r_at)  # (row-major: grouped by the moved state, as concatenated below)
+    q2 = np.full(r2.shape, np.nan)
+    if k.size:
+        fields = SeaState.__dataclass_fields__
+        sel = SeaState(
+            *(np.concatenate([np.asarray(getattr(m, f))[i[k == j]] for j, m in enumerate(moved)]) for f in fields)
+        )
+        q2[k, i] = _per_nm(ctx, course[i], sel, stw[i])[0]
+    cost = np.zeros(doubt.size)
+    for j, length in enumerate(lengths):
+        worst = np.zeros(doubt.size)
+        for end in (np.searchsorted(pts, doubt), np.searchsorted(pts, doubt + 1)):
+            for row in (2 * j, 2 * j + 1):
+                with np.errstate(invalid="ignore"):  # (inf - inf: no fuel figure on either side)
+                    jump = q2[row, end] - q[end]
+                third = (r2[row, end] != r[doubt]) & (r2[row, end] != r[doubt + 1]) & np.isfinite(jump)
+                worst = np.maximum(worst, np.where(third, np.abs(jump), 0.0))
+        cost += length[doubt] * worst
+    err = np.bincount(leg_s[doubt], weights=cost, minlength=d.size)
+    fuel_leg = np.bincount(pleg, weights=(b - a) * d[pleg] * vals[0][:, 1], minlength=d.size)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = cost / (JUMP_SHARE * rtol * fuel_leg[leg_s[doubt]])
+    # a stretch's bound shrinks at least as its piece does: cut each piece in enough parts at once
+    want = np.where(share > 1.0, 2.0 ** np.ceil(np.log2(np.clip(2.0 * share, 2.0, _MAX_PARTS))), 0.0)
+    for side in (owner[doubt], owner[doubt + 1]):
+        np.maximum.at(cuts, side[side >= 0], want[side >= 0].astype(int))
+    h = (b - a) * d[pleg]
+    return err, np.where(h >= cuts * MIN_JUMP_PIECE_NM, cuts, np.where(h >= 2.0 * MIN_JUMP_PIECE_NM, 2, 0))
 
 
 def _jumps(pleg, r, g, g_start, r_start, g_stop, r_stop) -> np.ndarray:

@@ -47,6 +47,7 @@ __all__ = [
     "band_functions",
     "certified",
     "crossing_nodes",
+    "excursion_lengths",
     "intervals_to_halve",
     "regime_doubts",
     "secant_slopes",
@@ -107,6 +108,32 @@ def regime_doubts(
     for m in dists:
         need |= both & ~jump & ~certified(m[:-1], m[1:], secant_slopes(m, s_nm, both), h, tol_nm)
     return need
+
+
+def excursion_lengths(
+    same: np.ndarray, inside: np.ndarray, regime: np.ndarray, dists: list[np.ndarray], s_nm: np.ndarray
+) -> list[np.ndarray]:
+    """Per regime driver, per interval between consecutive points of one regime, the longest stretch [nm] over which
+    the driver may cross its edge and come back unseen by the points.
+
+    What the Lipschitz rule of :func:`certified` leaves open (with the slopes of :func:`regime_doubts`): an interval
+    of one regime with both ends positive is certified to ``tol_nm`` exactly where this is below ``tol_nm``; the
+    whole interval where an end is on an edge, and across a change of regime (which :func:`regime_doubts` has
+    located: another driver may cross its edge too, into a third regime, anywhere between the two points); 0 where a
+    point is not inside. The arguments are those of :func:`regime_doubts`.
+    """
+    both = same & inside[:-1] & inside[1:]
+    change = both & (regime[1:] != regime[:-1])
+    h = s_nm[1:] - s_nm[:-1]
+    out = []
+    for m in dists:
+        slope = SLOPE_SAFETY * secant_slopes(m, s_nm, both)
+        m_a, m_b = m[:-1], m[1:]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            free = np.where(slope > 0.0, (m_a + m_b) / np.where(slope > 0.0, slope, 1.0), np.inf)
+            length = np.where((m_a > 0.0) & (m_b > 0.0) & ~change, np.clip(h - free, 0.0, h), h)
+        out.append(np.where(both, length, 0.0))
+    return out
 
 
 def crossing_nodes(
