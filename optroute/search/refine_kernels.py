@@ -124,7 +124,7 @@ def _crossings(a, b, n, w, frame, length, scratch):  # pragma: no cover - compil
     """Both sides of every cell change added (as :func:`~optroute.search.band_refine.crossing_nodes`); the count, -1 if full."""
     half = 0.45 * _XTOL
     for _ in range(CROSSING_PASSES):
-        k = 0
+        k = np.int64(0)  # not a literal 0: a literal would compile _copy_row/_copy_rows for Literal[int](0) too
         added = False
         for i in range(n):
             _copy_row(a, i, b, k)
@@ -288,7 +288,7 @@ def refined_clear(
             return False
     for _ in range(MAX_ROUNDS):
         _slopes(a, n, sl)
-        k = 0
+        k = np.int64(0)  # (as in _crossings)
         added = False
         for i in range(n):
             _copy_row(a, i, b, k)
