@@ -9,7 +9,7 @@ refuses to *decorate* the function: ``RuntimeError: cannot cache function
 ...: no locator available``, raised while importing the module, so that
 ``optroute`` could not be used at all (issue 14, failure 8).
 
-Two defences, neither importing numba when it is not needed:
+Three defences, none importing numba:
 
 * :func:`ensure_cache_dir`, called by ``optroute/__init__.py`` before any
   kernel module is imported, checks the folders numba would use (as numba
@@ -20,6 +20,12 @@ Two defences, neither importing numba when it is not needed:
 * :func:`njit`, the decorator of the physics and weather kernels, compiles
   without a cache (each run then compiles again, a few seconds) when even that
   fallback cannot be written, instead of failing.
+* :func:`clear_stale_in_tree`, called by :func:`ensure_cache_dir` when the
+  cache is numba's in-tree one: numba keys a kernel's cache on its own source
+  file's time stamp and size alone, so a kernel whose callee (or a constant it
+  reads) lives in another, edited module kept running the old code from the
+  cache.  The in-tree cache is cleared whenever any module of
+  :data:`SOURCE_PACKAGES` has changed since it was written.
 """
 
 from __future__ import annotations
@@ -31,11 +37,16 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["ensure_cache_dir", "jit", "njit"]
+__all__ = ["clear_stale_in_tree", "ensure_cache_dir", "jit", "njit", "sources_stamp"]
 
 #: The subpackages holding ``cache=True`` kernels (their ``__pycache__`` is numba's in-tree cache); ``""`` is the
 #: package itself (``geodesy``'s local WGS84 factor, compiled by ``optroute.search.edge_geometry``).
 KERNEL_PACKAGES = ("", "physics", "weather", "search")
+#: The subpackages whose code the kernels compile in (their own modules, the functions and constants they take from
+#: other modules): a change to any of their modules clears the in-tree cache (:func:`clear_stale_in_tree`).
+SOURCE_PACKAGES = ("", "physics", "weather", "geo", "search")
+#: The file in the package's ``__pycache__`` that records the sources the in-tree cache was compiled from.
+STAMP_FILE = "optroute-kernel-sources.stamp"
 _LOCATORS = ("UserProvidedCacheLocator", "InTreeCacheLocator", "UserWideCacheLocator")
 _warned = False
 
@@ -86,6 +97,7 @@ def ensure_cache_dir() -> Path | None:
     if "UserProvidedCacheLocator" in locators and user_dir and _writable(Path(user_dir)):
         return None
     if "InTreeCacheLocator" in locators and all(_writable(package / p / "__pycache__") for p in KERNEL_PACKAGES):
+        clear_stale_in_tree(package)
         return None
     if "UserWideCacheLocator" in locators and _writable(_user_wide()):
         return None
@@ -97,6 +109,54 @@ def ensure_cache_dir() -> Path | None:
     if config is not None:
         config.CACHE_DIR = str(folder)
     return folder
+
+
+def sources_stamp(package: Path) -> str:
+    """Every module of :data:`SOURCE_PACKAGES` under ``package`` as ``path mtime_ns size`` lines (numba's own key)."""
+    rows = []
+    for sub in SOURCE_PACKAGES:
+        for f in sorted((package / sub).glob("*.py")):
+            try:
+                st = f.stat()
+            except OSError:
+                continue
+            rows.append(f"{f.relative_to(package).as_posix()} {st.st_mtime_ns} {st.st_size}")
+    return "\n".join(rows) + "\n"
+
+
+def clear_stale_in_tree(package: Path) -> bool:
+    """Delete the in-tree kernel cache (``*.nbi``, ``*.nbc`` in :data:`KERNEL_PACKAGES`' ``__pycache__``) when the
+    sources it was compiled from have changed; record the sources. Whether it was cleared.
+
+    The record is :data:`STAMP_FILE` in ``package/__pycache__``, written whole (a temporary file renamed over it).
+    Best effort: a file that cannot be read, deleted or written is left as it is (numba then recompiles or
+    loads as it would without this check), and importing never fails for it.
+    """
+    stamp = package / "__pycache__" / STAMP_FILE
+    now = sources_stamp(package)
+    try:
+        if stamp.read_text() == now:
+            return False
+    except (OSError, UnicodeDecodeError):
+        pass  # no record yet (a fresh clone or installation): whatever cache there is predates it
+    cleared = False
+    for sub in KERNEL_PACKAGES:
+        for f in [*(package / sub / "__pycache__").glob("*.nbi"), *(package / sub / "__pycache__").glob("*.nbc")]:
+            try:
+                f.unlink()
+                cleared = True
+            except OSError:
+                pass
+    tmp = stamp.with_name(f"{STAMP_FILE}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(now)
+        os.replace(tmp, stamp)
+    except OSError:
+        try:
+            tmp.unlink()
+        except OSError:
+            pass
+    return cleared
 
 
 def njit(**options: Any) -> Callable[[Callable[..., Any]], Any]:

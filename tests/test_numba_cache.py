@@ -82,3 +82,48 @@ def test_no_cache_folder_at_all_compiles_the_kernels_uncached_with_one_warning(t
     assert out.returncode == 0, out.stderr[-3000:]
     assert "kernels ran" in out.stdout
     assert out.stderr.count("numba can write no cache folder") == 1
+
+
+def _fake_package(root: Path) -> Path:
+    """A package tree like optroute's: a module in each source package and in one outside them, each kernel
+    package's ``__pycache__`` holding a numba index and data file."""
+    from optroute._numba import KERNEL_PACKAGES, SOURCE_PACKAGES
+
+    for sub in {*SOURCE_PACKAGES, "optimise"}:
+        (root / sub).mkdir(parents=True, exist_ok=True)
+        (root / sub / "mod.py").write_text("X = 1\n")
+    for sub in KERNEL_PACKAGES:
+        (root / sub / "__pycache__").mkdir(exist_ok=True)
+    return root
+
+
+def _cache_files(root: Path, make: bool = False) -> list[Path]:
+    from optroute._numba import KERNEL_PACKAGES
+
+    files = [
+        root / sub / "__pycache__" / f"mod.kernel-1.py311.{ext}" for sub in KERNEL_PACKAGES for ext in ("nbi", "nbc")
+    ]
+    if make:
+        for f in files:
+            f.write_bytes(b"compiled")
+    return [f for f in files if f.exists()]
+
+
+def test_the_in_tree_cache_is_cleared_when_a_source_a_kernel_may_compile_in_changes(tmp_path):
+    # numba keys a kernel's cache on its own file only: an edited callee in another module kept the old code running
+    from optroute._numba import clear_stale_in_tree
+
+    root = _fake_package(tmp_path / "pkg")
+    _cache_files(root, make=True)
+    assert clear_stale_in_tree(root) and _cache_files(root) == []  # no record yet: the cache predates it
+    _cache_files(root, make=True)
+    assert not clear_stale_in_tree(root) and len(_cache_files(root)) == 8  # nothing changed: kept
+    (root / "optimise" / "mod.py").write_text("X = 2  # not code a kernel compiles in\n")
+    assert not clear_stale_in_tree(root) and len(_cache_files(root)) == 8
+    (root / "geo" / "mod.py").write_text("X = 22\n")  # a constant a search kernel could read
+    assert clear_stale_in_tree(root) and _cache_files(root) == []
+    _cache_files(root, make=True)
+    stamp = next((root / "__pycache__").glob("*.stamp"))
+    os.utime(root / "search" / "mod.py", ns=(0, 0))  # the same text with another time stamp (a checkout)
+    assert clear_stale_in_tree(root) and _cache_files(root) == []
+    assert stamp.read_text().count("\n") == 5 and not list((root / "__pycache__").glob("*.tmp"))
