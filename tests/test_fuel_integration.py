@@ -139,6 +139,8 @@ def test_the_harness_seeds_that_broke_the_fuel_accounting_pass_it(seed):
     wind_to_deg=st.floats(0.0, 360.0),
     heading_deg=st.floats(0.0, 360.0),
 )
+# a subnormal wind speed: scaling its vector to the target overflowed to NaN (the wind "unknown", Beaufort from Hs)
+@example(hs_m=1.0, wave_from_deg=0.0, wind_ms=5e-324, wind_to_deg=0.0, heading_deg=0.0)
 def test_each_drivers_move_across_its_edge_lands_in_a_neighbouring_regime(
     hs_m, wave_from_deg, wind_ms, wind_to_deg, heading_deg
 ):

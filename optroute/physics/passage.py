@@ -397,20 +397,14 @@ def across_regime_edges(
     if not dists:
         return ()
     step_bn, step_angle = (np.where(np.isfinite(m), m, 0.0) + ACROSS_EDGE for m in dists)
-    u, v = np.asarray(sea.wind_u_ms, dtype=float), np.asarray(sea.wind_v_ms, dtype=float)
-    speed, _ = units.wind_uv_to_speed_from_deg(u, v)
-    known, calm = np.isfinite(speed), np.isfinite(speed) & (speed <= 0.0)
+    speed, to_deg = units.uv_to_speed_to_deg(sea.wind_u_ms, sea.wind_v_ms)
+    known = np.isfinite(speed)
 
     def beaufort(sign: float) -> SeaState:
-        target = np.maximum(np.where(known, speed, 0.0) + sign * step_bn, 0.0)
-        scale = target / np.where(known & ~calm, speed, 1.0)  # the wind's speed to the target, its direction kept
         hs = np.asarray(sea.hs_m, dtype=float)
-        return replace(
-            sea,
-            hs_m=np.where(known, hs, np.maximum(hs + sign * step_bn, 0.0)),
-            wind_u_ms=np.where(calm, target, u * scale),  # (a calm: blowing east)
-            wind_v_ms=np.where(calm, 0.0, v * scale),
-        )
+        # the wind's speed to the target, its direction kept (where the wind is not known, it stays NaN)
+        u, v = units.speed_to_deg_to_uv(np.maximum(speed + sign * step_bn, 0.0), to_deg)
+        return replace(sea, hs_m=np.where(known, hs, np.maximum(hs + sign * step_bn, 0.0)), wind_u_ms=u, wind_v_ms=v)
 
     def angle(sign: float) -> SeaState:
         return replace(sea, wave_from_deg=units.wrap_360(np.asarray(sea.wave_from_deg) + sign * step_angle))
