@@ -377,11 +377,14 @@ def _per_nm(ctx: PlanContext, course: np.ndarray, sea: SeaState, stw: np.ndarray
     heading, sog, _, fuel, _ = evaluate_speeds(ctx.ship, ctx.model, ctx.rules, course, sea, stw)
     usable = np.isfinite(sog) & (sog > 0) & np.isfinite(heading)
     inv = np.where(usable, 1.0 / np.where(usable, sog, 1.0), np.inf)
-    held = np.isfinite(heading)
-    at = np.where(held, heading, course)
-    regime = np.where(held, power_regime(ctx.model, at, sea), -2)
+    at = np.where(np.isfinite(heading), heading, course)
     dist = regime_distances(ctx.model, at, sea) or (np.full(course.shape, np.inf),) * 2
-    return np.where(usable, fuel * inv, np.inf), inv, regime, *dist
+    return np.where(usable, fuel * inv, np.inf), inv, _regime(ctx, heading, at, sea), *dist
+
+
+def _regime(ctx: PlanContext, heading: np.ndarray, at: np.ndarray, sea: SeaState) -> np.ndarray:
+    """The model's power regime at the heading ``at`` [deg]; -2 where the course is not held (``heading`` NaN)."""
+    return np.where(np.isfinite(heading), power_regime(ctx.model, at, sea), -2)
 
 
 def _refine(ctx, wp, d, pieces, ev: DenseTrack, departure, rtol) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
@@ -566,14 +569,14 @@ def _missed_excursions(ctx, locate, pleg, a, b, d, vals, end_vals, rtol) -> tupl
     if doubt.size == 0:
         return np.zeros(d.size), cuts
     pts = np.unique(np.r_[doubt, doubt + 1])
-    course, sea, stw = locate(leg_s[pts], s_nm[pts] / d[leg_s[pts]])
+    q = seq(0)[pts]  # the fuel per nm the refinement sampled there
+    course, sea, stw = locate(leg_s[pts], s_nm[pts] / d[leg_s[pts]])  # the sea there, to move its drivers
     heading = evaluate_speeds(ctx.ship, ctx.model, ctx.rules, course, sea, stw)[0]
     at = np.where(np.isfinite(heading), heading, course)
-    q, _, r_at, *_ = _per_nm(ctx, course, sea, stw)
     # every driver moved down and up at every point; the model evaluated (once, all together) where the regime moves
     moved = [m for pair in across_regime_edges(ctx.model, at, sea) for m in pair]
-    r2 = np.array([np.where(np.isfinite(heading), power_regime(ctx.model, at, m), -2) for m in moved])
-    k, i = np.nonzero(r2 != r_at)  # (row-major: grouped by the moved state, as concatenated below)
+    r2 = np.array([_regime(ctx, heading, at, m) for m in moved])
+    k, i = np.nonzero(r2 != r[pts])  # (row-major: grouped by the moved state, as concatenated below)
     q2 = np.full(r2.shape, np.nan)
     if k.size:
         fields = SeaState.__dataclass_fields__
@@ -582,9 +585,10 @@ def _missed_excursions(ctx, locate, pleg, a, b, d, vals, end_vals, rtol) -> tupl
         )
         q2[k, i] = _per_nm(ctx, course[i], sel, stw[i])[0]
     cost = np.zeros(doubt.size)
+    ends = np.searchsorted(pts, doubt), np.searchsorted(pts, doubt + 1)  # each interval's two points among pts
     for j, length in enumerate(lengths):
         worst = np.zeros(doubt.size)
-        for end in (np.searchsorted(pts, doubt), np.searchsorted(pts, doubt + 1)):
+        for end in ends:
             for row in (2 * j, 2 * j + 1):
                 with np.errstate(invalid="ignore"):  # (inf - inf: no fuel figure on either side)
                     jump = q2[row, end] - q[end]
