@@ -70,3 +70,37 @@ def test_a_dask_workers_malloc_threshold_is_raised_and_a_plain_process_is_left_a
     assert worker["big"] == 1  # above 32 MiB: mapped, as glibc's own rule maps it
     plain = _run(env)  # no variable: glibc's dynamic rule stays, nothing is set
     assert plain["set"] is False
+
+
+_STUDY_CHILD = """
+import ctypes, json, sys
+from optroute.studies.threads import _casadi_openblas, solver_blas_threads
+from optroute.studies.study import run_study
+
+lib = _casadi_openblas()
+lib.openblas_set_num_threads(ctypes.c_int(2))  # a plain process's thread count on this 2-core machine
+before = solver_blas_threads()
+ds = run_study({"x": [1.0, 2.0]}, lambda p: {"blas_threads": float(solver_blas_threads())}, sys.argv[1],
+               scheduler_address="synchronous")
+print(json.dumps({"before": before, "in_case": ds["blas_threads"].values.tolist()}))
+"""
+
+
+def test_a_study_case_solves_with_ipopts_blas_on_one_thread_as_on_a_dask_worker(tmp_path):
+    """A user's case function given to ``run_study`` runs in a process set up as a Dask worker's solves are (one
+    thread for the OpenBLAS that Ipopt's MUMPS uses), so the same case rounds alike serial and on a cluster. Checked in
+    a fresh process, where nothing has pinned the thread count yet, through OpenBLAS's own getter."""
+    env = {k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")}
+    done = subprocess.run(
+        [sys.executable, "-c", _STUDY_CHILD, str(tmp_path / "store")],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    import json
+
+    out = json.loads(done.stdout.strip().splitlines()[-1])
+    if out["before"] < 2:  # OpenBLAS keeps one thread on a one-core machine: nothing to tell apart
+        pytest.skip("OpenBLAS runs one thread on this machine whatever is asked")
+    assert out["in_case"] == [1.0, 1.0]

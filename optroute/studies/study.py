@@ -70,6 +70,7 @@ from optroute.studies.cluster import (
 from optroute.studies.fingerprint import CaseInput
 from optroute.studies.progress import TextProgress
 from optroute.studies.study_axes import axes_difference, make_axes, study_manifest
+from optroute.studies.threads import solver_process
 
 __all__ = [
     "SYNCHRONOUS",
@@ -183,6 +184,9 @@ def _compute_case(
     ``KeyboardInterrupt`` and ``SystemExit`` pass through: they stop the
     study, which resumes later.
     """
+    # the case function solves in a process set up as every study's solves are (one BLAS thread for Ipopt, a Dask
+    # worker's allocator thresholds): the same case gives the same numbers serial and on a cluster
+    solver_process()
     start = time.perf_counter()
     try:
         ds = _as_dataset(case_fn(dict(params)), reserved)
@@ -402,7 +406,9 @@ def run_study(
         become variables with dimensions ``<name>_dim_0, ...``.  The names
         ``status``, ``runtime_s`` and the axis names are reserved.  Each case
         runs on its own, so keep its result small (totals, a front, a plan's
-        legs — not the weather).
+        legs — not the weather).  It runs in a process set up for solves
+        (:func:`optroute.studies.threads.solver_process`: Ipopt's BLAS on one
+        thread), serial as on a cluster, so a case gives the same numbers in both.
     store : str or path
         Directory of the study store, created if needed.  It holds
         ``manifest.json``, ``cases/<i>-<j>-<k>.nc`` (one file per finished
