@@ -21,6 +21,7 @@ import subprocess
 import sys
 import threading
 import time
+import warnings
 from collections import Counter
 from pathlib import Path
 
@@ -599,7 +600,13 @@ def test_bad_axes_are_config_errors(tmp_path, axes, match):
 def test_existing_cluster_through_its_address(tmp_path, monkeypatch):
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=None
+        n_workers=2,
+        threads_per_worker=1,
+        processes=False,
+        protocol="tcp",
+        host="127.0.0.1",
+        dashboard_address=None,
+        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
     ) as cluster:
         ds = run_study(AXES, fuel_case, tmp_path / "s", scheduler_address=cluster.scheduler_address)
         worker = next(iter(cluster.workers.values())).address
@@ -782,7 +789,13 @@ def test_study_on_a_loopback_scheduler_with_a_progress_bar_resumes_without_recom
     total = 3 * 2 * 10
     log = tmp_path / "log.txt"
     with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=None
+        n_workers=2,
+        threads_per_worker=1,
+        processes=False,
+        protocol="tcp",
+        host="127.0.0.1",
+        dashboard_address=None,
+        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
     ) as cluster:
         assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
         fn = functools.partial(fuel_case, log=str(log))
@@ -800,3 +813,18 @@ def test_study_on_a_loopback_scheduler_with_a_progress_bar_resumes_without_recom
         ds.fuel_t.values, np.where(d / eta > MAX_SPEED_KN, np.nan, k * d**3 / eta**2), rtol=1e-15
     )
     xr.testing.assert_identical(again, ds)
+
+
+def test_two_local_clusters_at_once_take_free_loopback_ports_without_a_warning():
+    """Each study's local cluster serves its scheduler's HTTP routes (health, metrics; no dashboard) on a free port of
+    the loopback interface, so a second study at the same time, or a notebook's cluster on Dask's default port 8787,
+    starts without Dask's "Port 8787 is already in use" warning (clusters without workers: no process is spawned)."""
+    pytest.importorskip("distributed")
+    from optroute.studies.cluster import dask_client
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with dask_client(None, 0, 1, 10.0) as first, dask_client(None, 0, 1, 10.0) as second:
+            servers = [c.cluster.scheduler.http_server for c in (first, second)]
+            assert [s.address for s in servers] == ["127.0.0.1", "127.0.0.1"]
+            assert servers[0].port != servers[1].port

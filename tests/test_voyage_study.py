@@ -58,6 +58,7 @@ def cluster():
         host="127.0.0.1",
         dashboard_address=None,
         worker_dashboard_address=None,
+        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},  # its HTTP routes on a free port, as a study's cluster
     ) as c:
         yield c
 

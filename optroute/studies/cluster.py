@@ -248,6 +248,10 @@ def dask_client(
             host="127.0.0.1",
             dashboard_address=None,
             worker_dashboard_address=None,
+            # no dashboard, but the scheduler still serves its health and metrics routes over HTTP, on port 8787 by
+            # default: a second study (or a notebook's cluster) then takes it and Dask warns "Port 8787 is already in
+            # use"; any free loopback port serves
+            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
         )
         try:
             client = distributed.Client(cluster, timeout=timeout_s, set_as_default=False)
