@@ -31,6 +31,7 @@ import xarray as xr
 
 from optroute import _store
 from optroute.errors import ConfigError, InfeasibleETA, OptrouteError
+from optroute.studies.cluster import SCHEDULER_HTTP_ADDRESS, dask_client
 from optroute.studies.study import SchedulerUnreachable, StudyError, load_study, run_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -597,17 +598,18 @@ def test_bad_axes_are_config_errors(tmp_path, axes, match):
         run_study(axes, fuel_case, tmp_path / "s", n_workers=0)
 
 
+def _threaded_cluster(distributed):
+    """A 2-worker cluster of threads in this process on the loopback interface, its scheduler's HTTP routes on a free
+    port (as a study's own cluster: :data:`~optroute.studies.cluster.SCHEDULER_HTTP_ADDRESS`)."""
+    return distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=None,
+        scheduler_kwargs={"dashboard_address": SCHEDULER_HTTP_ADDRESS},
+    )  # fmt: skip
+
+
 def test_existing_cluster_through_its_address(tmp_path, monkeypatch):
     distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(
-        n_workers=2,
-        threads_per_worker=1,
-        processes=False,
-        protocol="tcp",
-        host="127.0.0.1",
-        dashboard_address=None,
-        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-    ) as cluster:
+    with _threaded_cluster(distributed) as cluster:
         ds = run_study(AXES, fuel_case, tmp_path / "s", scheduler_address=cluster.scheduler_address)
         worker = next(iter(cluster.workers.values())).address
         with pytest.raises(SchedulerUnreachable, match="answers as a Dask Worker, not a scheduler"):
@@ -788,15 +790,7 @@ def test_study_on_a_loopback_scheduler_with_a_progress_bar_resumes_without_recom
     axes = {"ship": list(SHIP_K), "distance_nm": DISTANCE_NM, "eta_h": [150.0 + 10.0 * i for i in range(10)]}
     total = 3 * 2 * 10
     log = tmp_path / "log.txt"
-    with distributed.LocalCluster(
-        n_workers=2,
-        threads_per_worker=1,
-        processes=False,
-        protocol="tcp",
-        host="127.0.0.1",
-        dashboard_address=None,
-        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-    ) as cluster:
+    with _threaded_cluster(distributed) as cluster:
         assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
         fn = functools.partial(fuel_case, log=str(log))
         ds = run_study(axes, fn, tmp_path / "s", scheduler_address=cluster.scheduler_address, progress=True)
@@ -820,7 +814,6 @@ def test_two_local_clusters_at_once_take_free_loopback_ports_without_a_warning()
     the loopback interface, so a second study at the same time, or a notebook's cluster on Dask's default port 8787,
     starts without Dask's "Port 8787 is already in use" warning (clusters without workers: no process is spawned)."""
     pytest.importorskip("distributed")
-    from optroute.studies.cluster import dask_client
 
     with warnings.catch_warnings():
         warnings.simplefilter("error")

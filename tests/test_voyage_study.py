@@ -14,6 +14,7 @@ import xarray as xr
 
 import optroute as orx
 import optroute.studies.voyage_study as vs
+from optroute.studies.cluster import SCHEDULER_HTTP_ADDRESS
 from optroute.studies.study import SchedulerUnreachable
 from optroute.studies.tradeoff import tradeoff
 
@@ -58,7 +59,7 @@ def cluster():
         host="127.0.0.1",
         dashboard_address=None,
         worker_dashboard_address=None,
-        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},  # its HTTP routes on a free port, as a study's cluster
+        scheduler_kwargs={"dashboard_address": SCHEDULER_HTTP_ADDRESS},  # as a study's cluster
     ) as c:
         yield c
 

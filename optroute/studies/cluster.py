@@ -23,6 +23,7 @@ from optroute._store import StudyError
 from optroute.errors import ConfigError
 
 __all__ = [
+    "SCHEDULER_HTTP_ADDRESS",
     "SYNCHRONOUS",
     "SchedulerUnreachable",
     "check_cluster_options",
@@ -34,6 +35,10 @@ __all__ = [
 
 #: ``scheduler_address`` that runs every case in this process, one after the other.
 SYNCHRONOUS = "synchronous"
+#: Where a local cluster's scheduler serves its HTTP routes (health, metrics; no dashboard): any free loopback port.
+#: Dask's default, 8787, is taken by the second cluster running at once (another study, a notebook's), and Dask
+#: then warns "Port 8787 is already in use".
+SCHEDULER_HTTP_ADDRESS = "127.0.0.1:0"
 
 
 class SchedulerUnreachable(StudyError):
@@ -248,10 +253,7 @@ def dask_client(
             host="127.0.0.1",
             dashboard_address=None,
             worker_dashboard_address=None,
-            # no dashboard, but the scheduler still serves its health and metrics routes over HTTP, on port 8787 by
-            # default: a second study (or a notebook's cluster) then takes it and Dask warns "Port 8787 is already in
-            # use"; any free loopback port serves
-            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+            scheduler_kwargs={"dashboard_address": SCHEDULER_HTTP_ADDRESS},
         )
         try:
             client = distributed.Client(cluster, timeout=timeout_s, set_as_default=False)
