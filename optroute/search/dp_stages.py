@@ -305,44 +305,51 @@ class CompiledStages:
         """(duration [h], fuel [t], feasible) of legs from stage k, as the callback costs them: in every member,
         each member costing only the legs the members before it allow; the fuel the members' mean.  Without
         ``check``, feasible at the pieces' midpoints only (:meth:`clear_legs` checks the rest)."""
-        geom, geom_of = self._geometry(k)
-        g, t0, sog = np.ascontiguousarray(geom_of[l0, lj]), np.ascontiguousarray(t0, dtype=float), self.speeds[vi]
 
-        def member(m: DPLegKernel) -> Callable[[np.ndarray], tuple]:
-            def cost(idx: np.ndarray) -> tuple:
-                _, f, ok, _, _, unc = cost_dp_legs(*self._leg_args(m, geom, g[idx], t0[idx], sog[idx]), bool(check))
-                self.kernel.uncovered(int(unc))
-                return f, ok, {}
+        def run(args: tuple) -> tuple:
+            _, f, ok, _, _, unc = cost_dp_legs(*args, bool(check))
+            return f, ok, unc
 
-            return cost
-
-        fuel, feas, _ = in_every_member(l0.size, [member(m) for m in self.kernel.members], ())
-        return geom.dist_nm[g] / sog, fuel, feas  # cost_dp_legs's duration
+        dist, fuel, feas = self._in_members(k, l0, lj, vi, t0, run)
+        return dist / self.speeds[vi], fuel, feas  # cost_dp_legs's duration
 
     def clear_legs(self, k: int, l0: np.ndarray, lj: np.ndarray, vi: np.ndarray, t0: np.ndarray) -> np.ndarray:
         """Whether legs from stage k that :meth:`cost_legs` without ``check`` found feasible are clear between their
         pieces' midpoints in every member (:func:`~optroute.search.passage_kernels.clear_dp_legs`)."""
+
+        def run(args: tuple) -> tuple:
+            ok, unc = clear_dp_legs(*args)
+            return np.zeros(ok.size), ok, unc  # (no fuel: only whether the legs are clear)
+
+        return self._in_members(k, l0, lj, vi, t0, run)[2]
+
+    def _in_members(
+        self, k: int, l0: np.ndarray, lj: np.ndarray, vi: np.ndarray, t0: np.ndarray, run: Callable[[tuple], tuple]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A DP leg kernel ``run`` on the legs from stage k in every member (:func:`in_every_member`).
+
+        ``run(args)`` takes the kernel arguments of one member and a batch of legs (its parameters and weather, the
+        legs' pieces, departures [h] and SOG [kn], as :func:`~optroute.search.passage_kernels.clear_dp_legs` takes
+        them) and returns ``(fuel [t], feasible, uncovered points)``. Returns the legs' lengths [nm], the members'
+        mean fuel [t] and whether feasible in every member.
+        """
         geom, geom_of = self._geometry(k)
         g, t0, sog = np.ascontiguousarray(geom_of[l0, lj]), np.ascontiguousarray(t0, dtype=float), self.speeds[vi]
 
         def member(m: DPLegKernel) -> Callable[[np.ndarray], tuple]:
-            def check(idx: np.ndarray) -> tuple:
-                ok, unc = clear_dp_legs(*self._leg_args(m, geom, g[idx], t0[idx], sog[idx]))
+            def call(idx: np.ndarray) -> tuple:
+                f, ok, unc = run((
+                    np.ascontiguousarray(m.params, dtype=float), tuple(m.weather), geom.lat_deg, geom.lon_deg,
+                    geom.course_deg, geom.frac, geom.n_pieces, np.ascontiguousarray(g[idx]), t0[idx],
+                    np.ascontiguousarray(sog[idx]), geom.dist_nm,
+                ))  # fmt: skip
                 self.kernel.uncovered(int(unc))
-                return np.zeros(idx.size), ok, {}  # (no fuel: only whether the legs are clear)
+                return f, ok, {}
 
-            return check
+            return call
 
-        _, clear, _ = in_every_member(l0.size, [member(m) for m in self.kernel.members], ())
-        return clear
-
-    @staticmethod
-    def _leg_args(m: DPLegKernel, geom: Any, g: np.ndarray, t0: np.ndarray, sog: np.ndarray) -> tuple:
-        """The arguments of the DP's leg kernels for member ``m``: its parameters and weather, the legs' pieces."""
-        return (
-            np.ascontiguousarray(m.params, dtype=float), tuple(m.weather), geom.lat_deg, geom.lon_deg, geom.course_deg,
-            geom.frac, geom.n_pieces, np.ascontiguousarray(g), t0, np.ascontiguousarray(sog), geom.dist_nm,
-        )  # fmt: skip
+        fuel, feas, _ = in_every_member(l0.size, [member(m) for m in self.kernel.members], ())
+        return geom.dist_nm[g], fuel, feas
 
     def stage(self, k: int, src: tuple, dest: np.ndarray, step: int | None, max_batch: int, rem_next: np.ndarray,
               cut: tuple[np.ndarray, float] | None = None):  # fmt: skip
