@@ -5,7 +5,8 @@
   into 21 legs), each timed after import and after one warm-up call of itself, the two alternated (A B A B …,
   :func:`benchmarks._measure.alternate`). Target: ≤ 1 s each on this 2-core machine.
 * **Long corridors** (:func:`long_calls`): the whole call on ``bench_nlp``'s §4 great circle through the moving
-  13 m storm (time-varying weather) at 500 … 5 000 legs (:func:`benchmarks._nlp_call.whole_call`, ``jit=False``),
+  13 m storm (time-varying weather) at 500 … 5 000 legs (:func:`benchmarks._nlp_call.whole_call`, ``jit=False``
+  against ``jit=True``, what ``jit="auto"`` does there where a C compiler is found),
   time per call, Ipopt solves, and the fitted exponent of time against legs. Targets: ≤ 2 s at 500 legs, exponent
   ≤ 1.2. Quick mode: 62 and 124 legs only (the full sizes take minutes a call on a loaded machine).
 """
@@ -59,7 +60,7 @@ def long_calls(quick: bool) -> dict[str, Any]:
     from benchmarks._nlp_call import whole_call
 
     sizes = (62, 124) if quick else (496, 992, 1984, 4960)
-    return whole_call(True, sizes=sizes, jits=(False,)) if quick else whole_call(False, sizes=sizes, jits=(False,))
+    return whole_call(True, sizes=sizes, jits=(False,)) if quick else whole_call(False, sizes=sizes, jits=(False, True))
 
 
 def performance(quick: bool) -> dict[str, Any]:

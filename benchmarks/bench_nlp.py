@@ -157,7 +157,7 @@ def bench_500(quick: bool) -> dict[str, Any]:
         ("structured, jit=True", {"jit": True}),
         ("CasADi automatic derivatives", {"structured": False}),
     ):
-        if quick and "jit" in label:  # compiling the C code takes longer than the quick run's whole budget
+        if quick and "jit" in label:  # a cold compiler cache takes longer than the quick run's whole budget
             continue
         t0 = time.perf_counter()
         nlp = SpeedNLP(cor, wx, pw, bands=bands, v_min_kn=5, v_max_kn=24, **kw)

@@ -37,7 +37,7 @@ import numpy as np
 
 from formulations._buffers import Buffered, MemoCallback
 from formulations.common import BELOW_BETA, Band, PowerModel, spline_weights
-from formulations.ipopt_options import jit_options
+from formulations.compiled import compiled_function
 from formulations.row_layout import leg_kinds, leg_row_numbers
 from formulations.splines import ratio_field_names, sector_weights, spline_weight_derivatives
 
@@ -316,7 +316,12 @@ def _scatter(n_rows: int, n_cols: int, rows: np.ndarray, cols: np.ndarray, n_src
 
 
 def structured_derivatives(
-    nlp: Any, *, jit: bool = False, exact_hessian: bool = False, side_free_bands: bool = False
+    nlp: Any,
+    *,
+    jit: bool = False,
+    exact_hessian: bool = False,
+    side_free_bands: bool = False,
+    compiled: list[str] | None = None,
 ) -> dict[str, Any]:
     """``grad_f``, ``jac_g`` and ``hess_lag`` functions for ``nlpsol``, exact and assembled per leg.
 
@@ -328,7 +333,8 @@ def structured_derivatives(
     nlp : SpeedNLP
         The problem being built (its geometry, weather, ship, bands, row layout).
     jit : bool
-        Compile the per-leg SX functions to C (CasADi ``"shell"`` compiler plugin; needs ``cc``).
+        Compile the per-leg SX functions to C once per machine (:func:`formulations.compiled.compiled_function`;
+        a function stays interpreted where no compiler runs).
     exact_hessian : bool
         Include the weather's second derivatives in the Hessian. The default leaves them out
         (the weather enters the Hessian through its first derivatives only, as it does for a
@@ -338,6 +344,8 @@ def structured_derivatives(
     side_free_bands : bool
         The band rows are :func:`side_free_row`'s (the elastic phase-1 problem, :mod:`formulations.phase1`)
         instead of the sided residuals.
+    compiled : list of str, optional
+        With ``jit``, receives :attr:`StructuredCores.compiled` (how each leg function was compiled, or why not).
 
     Returns
     -------
@@ -345,6 +353,8 @@ def structured_derivatives(
         Options ``{"grad_f": ..., "jac_g": ..., "hess_lag": ...}`` for ``casadi.nlpsol``.
     """
     cores = structured_cores(nlp, jit=jit, exact_hessian=exact_hessian, side_free_bands=side_free_bands)
+    if compiled is not None:
+        compiled.extend(cores.compiled)
     memo = cores.taylor(nlp.weather)
     return {
         "grad_f": MemoCallback("grad_f", cores.grad, memo.first, ["x", "p"], ["f", "grad_f_x"], cache=True),
@@ -373,12 +383,16 @@ class StructuredCores:
         (so that one set of cores serves several weathers: the members of :mod:`formulations.robust_nlp`);
         ``numeric`` (default: as the NLP reads its own weather) evaluates a ``"smooth"`` weather in numpy
         (:meth:`WeatherGrid.tensor_spline`), else through CasADi's ``WeatherGrid.taylor_function``.
+    compiled : tuple of str
+        With ``jit``: per leg function, ``"<name>: cached"``, ``"<name>: compiled"`` or why it stays interpreted
+        (:func:`formulations.compiled.compiled_function`); empty without.
     """
 
     grad: Any
     jac: Any
     hess: Any
     taylor: Callable[[Any], Any]
+    compiled: tuple[str, ...] = ()
 
 
 def structured_cores(
@@ -398,9 +412,18 @@ def structured_cores(
     z, geo, theta, n_theta = leg.z, leg.geo, leg.theta, leg.n_theta
     sigma = ca.SX.sym("sigma")  # lam_f · fuel weight
     inputs = [z, geo, theta, leg.beta]
-    fopts = jit_options(jit)
-    leg_grad = ca.Function("leg_grad", inputs, [leg.fuel_sum, ca.gradient(leg.fuel_sum, z)], fopts).map(n)
-    groups = [_leg_group(nlp, leg.blocks, legs, with_b, with_e, leg.fuel_sum, sigma, inputs, fopts)
+    how: list[str] = []
+
+    def leg_function(name: str, ins: list, outs: list) -> Any:  # compiled through the disk cache with jit
+        fun = ca.Function(name, ins, outs)
+        if not jit:
+            return fun
+        fun, done = compiled_function(fun)
+        how.append(f"{name}: {done}")
+        return fun
+
+    leg_grad = leg_function("leg_grad", inputs, [leg.fuel_sum, ca.gradient(leg.fuel_sum, z)]).map(n)
+    groups = [_leg_group(nlp, leg.blocks, legs, with_b, with_e, leg.fuel_sum, sigma, inputs, leg_function)
               for legs, with_b, with_e in leg_kinds(nlp.row_legs, nlp.exclusion is not None)]  # fmt: skip
     legs = np.arange(n)
     z_idx = np.vstack([legs, legs + 1, n + 1 + legs, 2 * n + 1 + legs, 2 * n + 2 + legs])  # (5, N)
@@ -442,7 +465,7 @@ def structured_cores(
         numeric = nlp.numeric_weather if numeric is None else bool(numeric and weather.method == "smooth")
         return _taylor_source(nlp, x, zmat, n_theta, exact_hessian, lay, weather, numeric)
 
-    return StructuredCores(grad_core, jac_core, hess_core, taylor)
+    return StructuredCores(grad_core, jac_core, hess_core, taylor, tuple(how))
 
 
 class _LegGraph(NamedTuple):
@@ -599,7 +622,7 @@ class _LegGroup(NamedTuple):
 
 def _leg_group(
     nlp: Any, blocks: _LegBlocks, legs: np.ndarray, with_b: bool, with_e: bool, fuel: Any, sigma: Any,
-    inputs: list, fopts: dict,
+    inputs: list, leg_function: Callable[[str, list, list], Any],
 ) -> _LegGroup:  # fmt: skip
     """The mapped Jacobian and Hessian functions of the legs ``legs`` and their rows' global numbers.
 
@@ -615,8 +638,8 @@ def _leg_group(
     lam_leg = ca.SX.sym("lam", g_leg.shape[0])
     hess = ca.hessian(sigma * fuel + ca.dot(lam_leg, g_leg), inputs[0])[0]
     triu = ca.vertcat(*[hess[a, b] for a, b in _TRIU])
-    jac = ca.Function("leg_jac", inputs, [g_leg, ca.jacobian(g_leg, inputs[0])], fopts).map(legs.size)
-    hess_f = ca.Function("leg_hess", [*inputs, sigma, lam_leg], [triu], fopts).map(legs.size)
+    jac = leg_function("leg_jac", inputs, [g_leg, ca.jacobian(g_leg, inputs[0])]).map(legs.size)
+    hess_f = leg_function("leg_hess", [*inputs, sigma, lam_leg], [triu]).map(legs.size)
     return _LegGroup(legs, leg_row_numbers(nlp._rows, nlp.row_legs, legs, with_b, with_e), jac, hess_f)
 
 

@@ -1,5 +1,5 @@
-"""Ipopt's options for the corridor NLPs, the checked multipliers of a primal-dual warm start, and the options that
-compile the NLP's CasADi functions to C (``jit``).
+"""Ipopt's options for the corridor NLPs and the checked multipliers of a primal-dual warm start (the NLP's leg
+functions compiled to C: :mod:`formulations.compiled`).
 
 :data:`IPOPT_DEFAULTS` are the options of every corridor NLP (:class:`formulations.speed_nlp.SpeedNLP`,
 :mod:`formulations.robust_nlp`); :data:`PRIMAL_START_OPTIONS` are laid over them for SpeedNLP's solves from a start
@@ -9,7 +9,6 @@ point alone, :data:`WARM_START_OPTIONS` for a solve started from another solve's
 
 from __future__ import annotations
 
-import os
 from typing import Any
 
 import numpy as np
@@ -22,8 +21,6 @@ __all__ = [
     "PRIMAL_START_OPTIONS",
     "WARM_START_OPTIONS",
     "checked_duals",
-    "jit_compiler",
-    "jit_options",
 ]
 
 IPOPT_DEFAULTS: dict[str, Any] = {
@@ -93,31 +90,3 @@ def checked_duals(lam_x0: ArrayLike | None, lam_g0: ArrayLike | None, nx: int, n
             "multipliers of a problem with the same dual_key()"
         )
     return {"lam_x0": lam_x, "lam_g0": lam_g}
-
-
-def jit_compiler() -> str:
-    """The C compiler of ``jit=True``: ``$CC``, else ``gcc`` (CasADi's ``"shell"`` plugin default)."""
-    return os.environ.get("CC") or "gcc"
-
-
-def jit_options(jit: bool) -> dict[str, Any]:
-    """CasADi options that compile an SX function to C with the system compiler (``"shell"`` plugin).
-
-    The generated C source and the compiler's object and library files go to the system's temporary
-    directory (the shell plugin's ``directory`` option, uniquely named, removed when the function is
-    unloaded), never the working directory: a benchmark or a user's project folder is not written.
-    """
-    if not jit:
-        return {}
-    import tempfile
-
-    return {
-        "jit": True,
-        "compiler": "shell",
-        "jit_options": {
-            "flags": ["-O2"],
-            "verbose": False,
-            "compiler": jit_compiler(),
-            "directory": tempfile.gettempdir() + os.sep,
-        },  # fmt: skip
-    }

@@ -99,7 +99,6 @@ from formulations.ipopt_options import (
     PRIMAL_START_OPTIONS,
     WARM_START_OPTIONS,
     checked_duals,
-    jit_compiler,
 )
 from formulations.nlp_result import NLPResult, SampleState, max_violation
 from formulations.row_layout import RowLegs, row_blocks, row_bounds, waypoint_time_bounds
@@ -110,7 +109,6 @@ __all__ = [
     "CorridorGeometry",
     "MovingExclusion",
     "NLPResult",
-    "jit_compiler",
     "PowerModel",
     "SampleState",
     "SpeedNLP",
@@ -169,8 +167,8 @@ class SpeedNLP:
         Use the exact leg-by-leg derivatives of :func:`formulations._nlp_model.structured_derivatives`
         (default); ``False`` lets CasADi differentiate the MX graph (slower, same values).
     jit : bool
-        Compile the per-leg derivative functions to C with the system compiler (CasADi's
-        ``"shell"`` plugin): about 1.5 s more to build, solves about 1.6× faster.
+        Compile the per-leg derivative functions to C with the system compiler, once per machine
+        (:func:`formulations.compiled.compiled_function`'s disk cache); each stays interpreted where it cannot be.
     exact_hessian : bool
         Keep the weather's second derivatives in the Hessian (see
         :func:`formulations._nlp_model.structured_derivatives`; default False).
@@ -426,6 +424,8 @@ class SpeedNLP:
         # with the structured derivatives nothing differentiates the weather through CasADi: read it in numpy
         # (no CasADi spline of the grid is built; WeatherGrid.tensor_spline is built once per grid)
         self.numeric_weather = bool(structured and not expand and self.weather.method == "smooth")
+        #: with ``jit``: how each leg function was compiled, or why it stays interpreted (formulations.compiled)
+        self.compiled_functions: tuple[str, ...] = ()
         if self.numeric_weather:
             self._weather_values = WeatherValues(self.weather, k_)  # keep alive: the graphs call it
             self._interp_map = self._weather_values
@@ -455,7 +455,9 @@ class SpeedNLP:
         opts.update(ipopt_options)
         opts["expand"] = expand
         if structured:
-            self._derivatives = structured_derivatives(self, jit=jit, exact_hessian=exact_hessian)  # keep alive
+            how: list[str] = []
+            self._derivatives = structured_derivatives(self, jit=jit, exact_hessian=exact_hessian, compiled=how)
+            self.compiled_functions = tuple(how)
             opts.update(self._derivatives)
         param = ca.vertcat(weights, beta, fac)
         self._nlp_def = {"x": x, "p": param, "f": objective, "g": g}

@@ -345,23 +345,6 @@ def test_invalid_inputs_raise_formulation_input_error() -> None:
         nlp.solve(eta_h=100.0, objective="distance")  # type: ignore[arg-type]
 
 
-def test_jit_writes_nothing_into_the_working_directory(tmp_path, monkeypatch):
-    """CasADi's shell compiler writes its C source and objects to the temporary directory (issue 22)."""
-    import shutil
-
-    import casadi as ca
-
-    from formulations.ipopt_options import jit_compiler, jit_options
-
-    if shutil.which(jit_compiler()) is None:
-        pytest.skip(f"no C compiler {jit_compiler()!r} on this machine")
-    monkeypatch.chdir(tmp_path)
-    x = ca.SX.sym("x")
-    f = ca.Function("f", [x], [x**2 + ca.sin(x)], jit_options(True))
-    assert float(f(1.0)) == pytest.approx(1.0 + np.sin(1.0), rel=1e-12)
-    assert list(tmp_path.iterdir()) == []
-
-
 def test_phase1_derivatives_equal_central_differences_of_its_rows() -> None:
     # the elastic phase-1 problem on the NLP's numpy-spline weather (no CasADi derivatives of the weather): its
     # Jacobian and Lagrangian Hessian, assembled from the leg-by-leg derivatives and the slack matrix, against

@@ -76,7 +76,7 @@ def optimise_corridor(
     band_hs_margin: float = 0.05,
     verify_step_nm: float = 5.0,
     solver_options: Mapping[str, Any] | None = None,
-    jit: bool = False,
+    jit: bool | str = "auto",
     use_land_mask: bool | None = None,
     discrete_start: bool | Literal["auto"] = "auto",
     dp_options: Mapping[str, Any] | None = None,
@@ -176,14 +176,14 @@ def optimise_corridor(
         Longest piece of the plan's dense evaluation and verification [nm].
     solver_options : mapping, optional
         Ipopt/CasADi options for :class:`formulations.speed_nlp.SpeedNLP` (e.g. ``{"ipopt.max_iter": 100}``).
-    jit : bool
-        Compile the NLP's per-leg derivative functions to C (CasADi's ``"shell"`` plugin; needs a C compiler
-        ``cc`` on the PATH). Every call builds, so every call compiles, and the compilation costs more than the
-        faster Ipopt solves save: measured whole (``python -m benchmarks.bench_nlp --jit``, §4's great circle, calls
-        alternated after a warm-up of each, 2 December 2026 on 2 shared cores, load 3–17), a call with ``jit=True``
-        took 1.9× as long at 100 legs (median of 2) and 1.8× at 300 legs (one call each); the compilation added
-        ~220 s and ~120 s to the build while the Ipopt time fell only to 0.70× and 0.94×. Leave it off unless the
-        solves dominate and a build is reused.
+    jit : {"auto", True, False}
+        Compile the NLP's per-leg derivative functions to C with the system C compiler (``$CC``, else ``gcc``), once
+        per machine and ship: the libraries are cached on disk (``$OPTROUTE_CASADI_CACHE``, else
+        ``~/.cache/optroute/casadi``; :mod:`formulations.compiled`) and give the same numbers as the interpreted
+        functions, bit for bit. ``"auto"`` (default): from :data:`~optroute.optimise.corridor_setup.JIT_AUTO_LEGS`
+        legs on, where a compiler is found (the 500-leg storm corridor of ``benchmarks/_nlp_call.py``: Ipopt 8.1 s
+        interpreted, 6.0 s compiled; the first call on a machine also compiles, about 5 CPU-s); True: always (a
+        ConfigError without a compiler); False: never.
     use_land_mask : bool, optional
         Apply the real coastline (default: unless the weather declares synthetic geography).
     discrete_start : {"auto", True, False}

@@ -211,7 +211,7 @@ class PreparedCorridor(CorridorReport):
         solver_options: Mapping[str, Any] | None = None,
         use_land_mask: bool | None = None,
         progress: ProgressFn | None = None,
-        jit: bool = False,
+        jit: bool | str = "auto",
         discrete_start: bool | str = "auto",
         dp_options: Mapping[str, Any] | None = None,
         constraint_rows: str = "midpoints",
@@ -284,7 +284,7 @@ class PreparedCorridor(CorridorReport):
         su = recut(
             self.setup, frame, ship=self.ship, exclusion=self.exclusion, departure=self.departure,
             use_land_mask=self.use_land_mask, timed_no_passage=bool(args["timed_no_passage"]),
-            solver_options=args["solver_options"], jit=bool(args["jit"]),
+            solver_options=args["solver_options"], jit=args["jit"],
         )  # fmt: skip
         self.setup, self.frame, self.y_lo, self.y_hi, self.problem = su, su.frame, su.y_lo, su.y_hi, su.problem
         self.__dict__.pop("binding", None)  # the cached property, of the old legs
@@ -822,6 +822,7 @@ class PreparedCorridor(CorridorReport):
             "iterations": prob.iterations - i0,
             "build_time_s": prob.build_time_s - b0,
             "solve_time_s": prob.solve_time_s - t0,
+            "jit": list(prob.compiled) if prob.jit else "off",
             "start": start.label,
             "start_score": start.score,
             "warm_start": first.label,

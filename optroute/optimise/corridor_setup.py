@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from formulations.speed_nlp import jit_compiler
+from formulations.compiled import compiler
 from optroute import units
 from optroute._checks import finite
 from optroute.errors import ConfigError, WeatherCoverageError
@@ -41,7 +41,17 @@ from optroute.units import h_to_timedelta as _h_to_td
 from optroute.units import timedelta_to_h as _hours
 from optroute.weather.sample import WeatherSampler
 
-__all__ = ["CorridorSetup", "ProgressFn", "check_jit", "cut_frame", "emit", "prepare_corridor", "recut", "time_window"]
+__all__ = [
+    "JIT_AUTO_LEGS",
+    "CorridorSetup",
+    "ProgressFn",
+    "check_jit",
+    "cut_frame",
+    "emit",
+    "prepare_corridor",
+    "recut",
+    "time_window",
+]
 
 ProgressFn = Callable[[str, float], None]
 
@@ -52,14 +62,27 @@ def emit(progress: ProgressFn | None, stage: str, fraction: float) -> None:
         progress(stage, float(fraction))
 
 
-def check_jit(jit: bool) -> bool:
-    """``jit`` as a bool; True needs a C compiler for CasADi's ``"shell"`` plugin."""
-    if not isinstance(jit, bool | np.bool_):
-        raise ConfigError(f"jit={jit!r} must be True or False")
-    if jit and shutil.which(jit_compiler()) is None:
+#: ``jit="auto"`` compiles the NLP's leg functions from this many legs on (where a C compiler runs): there the
+#: interpreted Hessian and Jacobian are a large share of every Ipopt iteration (the 300-leg storm corridor of
+#: ``benchmarks/_nlp_call.py``: Ipopt 2.7 s interpreted, 1.8 s compiled; 500 legs: 8.1 and 6.0 s), and the
+#: compilation, once per machine and ship (:mod:`formulations.compiled`'s disk cache), is repaid within a few
+#: calls. Below it the few milliseconds saved per solve would take hundreds of calls to repay a compilation.
+JIT_AUTO_LEGS = 200
+
+
+def check_jit(jit: bool | str, n_legs: int) -> bool:
+    """Whether the NLP's leg functions are compiled (``jit`` True, False or ``"auto"``, :data:`JIT_AUTO_LEGS`, on
+    ``n_legs`` legs); True needs a C compiler (ConfigError without one), ``"auto"`` uses one where it finds it."""
+    auto = isinstance(jit, str) and jit == "auto"
+    if not (auto or isinstance(jit, bool | np.bool_)):
+        raise ConfigError(f"jit={jit!r} is not known; use True, False or 'auto' (compiled from {JIT_AUTO_LEGS} legs)")
+    found = shutil.which(compiler()[0]) is not None
+    if auto:
+        return bool(found and n_legs >= JIT_AUTO_LEGS)
+    if jit and not found:
         raise ConfigError(
-            f"jit=True compiles the NLP's derivatives with a C compiler, and {jit_compiler()!r} is not on the PATH; "
-            "install gcc or name another compiler in the CC environment variable, or use jit=False"
+            f"jit=True compiles the NLP's derivatives with a C compiler, and {compiler()[0]!r} is not on the PATH; "
+            "install gcc or name another compiler in the CC environment variable, or use jit='auto' or False"
         )
     return bool(jit)
 
@@ -263,7 +286,7 @@ def prepare_corridor(
     speed_range_kn: tuple[float, float] | None,
     use_land_mask: bool | None,
     solver_options: Mapping[str, Any] | None,
-    jit: bool,
+    jit: bool | str,
     progress: ProgressFn | None,
     timed_no_passage: bool = False,
     speeds_kn: np.ndarray | None = None,
@@ -326,7 +349,7 @@ def prepare_corridor(
     problem = Problem(
         frame=frame, grid=grid, samples=samples, power=base, ship=ship, rules=rules, y_lo=y_lo, y_hi=y_hi,
         v_min=v_min, v_max=v_max, exclusion=exclusion, departure=t0, solver_options=solver_options,
-        jit=check_jit(jit), windows=no_passage,
+        jit=check_jit(jit, frame.n_legs), windows=no_passage,
     )  # fmt: skip
     return CorridorSetup(
         sampler, ds, model, rules, v_min, v_max, data_end_h, cap_h, horizon, frame, grid, samples, base, table,
@@ -344,7 +367,7 @@ def recut(
     use_land_mask: bool | None,
     timed_no_passage: bool,
     solver_options: Mapping[str, Any] | None,
-    jit: bool,
+    jit: bool | str,
 ) -> CorridorSetup:
     """``su`` on the legs of ``frame`` (the same centreline's legs cut further, on the same great circles): its
     weather grid and power table serve unchanged; the reach windows, lateral bounds and problem are the new legs'.
@@ -358,6 +381,6 @@ def recut(
     problem = Problem(
         frame=frame, grid=su.grid, samples=su.samples, power=su.power, ship=ship, rules=su.rules, y_lo=y_lo, y_hi=y_hi,
         v_min=su.v_min, v_max=su.v_max, exclusion=exclusion, departure=departure, solver_options=solver_options,
-        jit=check_jit(jit), windows=no_passage,
+        jit=check_jit(jit, frame.n_legs), windows=no_passage,
     )  # fmt: skip
     return replace(su, frame=frame, y_lo=y_lo, y_hi=y_hi, problem=problem)

@@ -148,6 +148,8 @@ class Problem:
         self.frame, self.grid, self.samples, self.power = frame, grid, samples, power
         self.windows = windows  # a moving no-go area's time windows (optroute.optimise.timed_no_go), or None
         self.jit = bool(jit)
+        #: with jit, how the last build's leg functions were compiled, or why they stay interpreted
+        self.compiled: tuple[str, ...] = ()
         self.ship, self.rules = ship, rules
         self.y_lo, self.y_hi = y_lo, y_hi
         self.v_min, self.v_max = v_min, v_max
@@ -274,6 +276,7 @@ class Problem:
             # more than 500)
             exact_hessian=True,
         )
+        self.compiled = nlp.compiled_functions or self.compiled  # jit: how its leg functions were compiled
         self.build_time_s += _time.perf_counter() - started
         return nlp
 

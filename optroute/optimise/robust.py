@@ -284,7 +284,7 @@ def optimise_robust(
     reference_member: int = 0,
     constraint_rows: str = "midpoints",
     progress: Any = None,
-    jit: bool = False,
+    jit: bool | str = "auto",
     discrete_start: bool | str = "auto",
     dp_options: Mapping[str, Any] | None = None,
     timed_no_passage: bool = False,
@@ -320,7 +320,7 @@ def optimise_robust(
         ``benchmarks.bench_voyage`` stopping at Ipopt's iteration limit); ``{"ipopt.hessian_approximation":
         "limited-memory"}`` restores it.
     Other parameters
-        As :func:`optroute.optimise_corridor`; ``eta_mode`` must be ``"le"``; ``jit``, ``discrete_start=True``,
+        As :func:`optroute.optimise_corridor`; ``eta_mode`` must be ``"le"``; ``jit=True``, ``discrete_start=True``,
         ``dp_options`` and ``timed_no_passage`` are not available (ConfigError; the robust plan has no 3-D DP start); ``progress`` is not called.
 
     Returns
@@ -363,7 +363,7 @@ def optimise_robust(
         violation_fraction,
         eta_mode,
         {
-            "jit": jit,
+            "jit": not (jit is False or (isinstance(jit, str) and jit == "auto")),
             "discrete_start": discrete_start is True,
             "dp_options": dp_options,
             "timed_no_passage": timed_no_passage,
