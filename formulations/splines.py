@@ -6,8 +6,9 @@ Two ways to evaluate the same spline:
 
 * CasADi's ``Function.bspline`` (:func:`bspline_function`), differentiable by CasADi: what a caller that lets
   CasADi differentiate the graph needs (``SpeedNLP(structured=False)``, ``expand=True``, the robust NLP);
-* :class:`TensorSpline`, numpy over arrays of points, with the first and second partial derivatives in time
-  and across-track position from the derivatives of the basis functions. It holds the control points once;
+* :class:`TensorSpline`, a compiled kernel (numba) over arrays of points, with the first and second partial
+  derivatives in time and across-track position from the derivatives of the basis functions. It holds the
+  control points once;
   building it costs the padding of the data, nothing more. ``Function.bspline`` copies its coefficients
   through a Python list and, per derivative, builds another spline of the differenced coefficients: on a
   corridor's grid of ten million values that was most of the NLP's build time.
@@ -20,7 +21,7 @@ Units: whatever the axes and data carry (the corridor NLP: hours, nautical miles
 
 from __future__ import annotations
 
-import threading
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -38,9 +39,6 @@ __all__ = [
     "spline_weight_derivatives",
     "spline_weights",
 ]
-
-_CHUNK = 2048  # points per gather in TensorSpline.evaluate: bounds the (points, 64, fields) block in memory
-_HELD_BYTES = 64 * 2**20  # the largest gathered block TensorSpline keeps for the next call on the same cells
 
 
 def spline_weights(x: Any, x0: float, h: float, n: int, lib: Any) -> list[Any]:
@@ -233,28 +231,102 @@ def bspline_function(name: str, knots: list[np.ndarray], coef: np.ndarray, degre
     )
 
 
-def _basis(u: np.ndarray, order: int) -> np.ndarray:
-    """The four uniform cubic B-spline weights on a cell and their derivatives in the local coordinate ``u``.
+def _njit(fn: Callable[..., Any]) -> Any:
+    """``fn`` compiled by numba, kept in numba's on-disk cache where it can write one (else compiled once per
+    process: a read-only installation cannot fail to import for it)."""
+    import numba
 
-    Returns shape (order + 1, 4, K): ``[d^r/du^r B_{i+a}(u)]`` for ``r = 0..order``, ``a = 0..3``
-    (``B`` centred on the padded control points ``i .. i+3`` of the cell ``[i, i+1]``).
-    """
+    try:
+        return numba.njit(cache=True, error_model="numpy")(fn)
+    except RuntimeError:  # numba found no cache folder it can write
+        return numba.njit(error_model="numpy")(fn)
+
+
+@_njit
+def _cubic_weights(u: float, h: float, order: int, w: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The four uniform cubic B-spline weights on a cell at the local coordinate ``u`` in [0, 1] and, up to
+    ``order``, their derivatives along the axis of node spacing ``h``: ``w[r, a] = d^r/dx^r B_{i+a}`` (rows 0..order
+    of ``w`` (3, 4); ``B`` centred on the padded control points ``i .. i+3`` of the cell ``[i, i+1]``)."""
     v = 1.0 - u
-    u2, u3 = u * u, u * u * u
-    out = [
-        np.stack(
-            [v * v * v / 6.0, (3.0 * u3 - 6.0 * u2 + 4.0) / 6.0, (-3.0 * u3 + 3.0 * u2 + 3.0 * u + 1.0) / 6.0, u3 / 6.0]
-        )
-    ]
+    u2 = u * u
+    u3 = u2 * u
+    w[0, 0] = v * v * v / 6.0
+    w[0, 1] = (3.0 * u3 - 6.0 * u2 + 4.0) / 6.0
+    w[0, 2] = (-3.0 * u3 + 3.0 * u2 + 3.0 * u + 1.0) / 6.0
+    w[0, 3] = u3 / 6.0
     if order >= 1:
-        out.append(np.stack([-0.5 * v * v, 1.5 * u2 - 2.0 * u, -1.5 * u2 + u + 0.5, 0.5 * u2]))
+        w[1, 0] = -0.5 * v * v / h
+        w[1, 1] = (1.5 * u2 - 2.0 * u) / h
+        w[1, 2] = (-1.5 * u2 + u + 0.5) / h
+        w[1, 3] = 0.5 * u2 / h
     if order >= 2:
-        out.append(np.stack([v, 3.0 * u - 2.0, 1.0 - 3.0 * u, u]))
-    return np.stack(out)
+        h2 = h * h
+        w[2, 0] = v / h2
+        w[2, 1] = (3.0 * u - 2.0) / h2
+        w[2, 2] = (1.0 - 3.0 * u) / h2
+        w[2, 3] = u / h2
+
+
+#: The (t, y) derivative orders of the blocks of :meth:`TensorSpline.evaluate`: F, F_t, F_y, F_tt, F_ty, F_yy.
+_BLOCK_ORDERS = np.array([[0, 0], [1, 0], [0, 1], [2, 0], [1, 1], [0, 2]], dtype=np.int64)
+
+
+@_njit
+def _evaluate_points(
+    rows: np.ndarray, strides: np.ndarray, x0: np.ndarray, h: np.ndarray, hi: np.ndarray, n_cells: np.ndarray,
+    points: np.ndarray, n_blocks: int, out: np.ndarray,
+) -> None:  # fmt: skip  # pragma: no cover - compiled
+    """:meth:`TensorSpline.evaluate` into ``out`` (n_blocks, n_fields, K): per point, its cell, the basis weights
+    along each axis and the sum over the cell's 4 × 4 × 4 control points (``rows``, one contiguous row of fields
+    per node), each block's derivative zero along an axis where the point is held at the grid's edge."""
+    n_fields = rows.shape[1]
+    order = 2 if n_blocks > 3 else (1 if n_blocks > 1 else 0)
+    wts = np.zeros((3, 3, 4))  # per axis (t, s, y): derivative order × 4 weights
+    acc = np.zeros((n_blocks, n_fields))
+    wgt = np.zeros(n_blocks)
+    cell = np.zeros(3, dtype=np.int64)
+    held = np.zeros(3, dtype=np.bool_)
+    for k in range(points.shape[1]):
+        for ax in range(3):
+            p = points[ax, k]
+            held[ax] = p < x0[ax] or p > hi[ax]
+            r = (min(max(p, x0[ax]), hi[ax]) - x0[ax]) / h[ax]
+            cell[ax] = min(max(int(np.floor(r)), 0), n_cells[ax] - 1)
+            _cubic_weights(r - cell[ax], h[ax], order if ax != 1 else 0, wts[ax])
+        acc[:, :] = 0.0
+        base = cell[0] * strides[0] + cell[1] * strides[1] + cell[2]
+        for a in range(4):
+            for b in range(4):
+                for c in range(4):
+                    row = rows[base + a * strides[0] + b * strides[1] + c]
+                    for i in range(n_blocks):
+                        wgt[i] = wts[0, _BLOCK_ORDERS[i, 0], a] * wts[1, 0, b] * wts[2, _BLOCK_ORDERS[i, 1], c]
+                    if n_blocks == 1:  # one loop over the fields per block count: vectorised by the compiler
+                        for f in range(n_fields):
+                            acc[0, f] += wgt[0] * row[f]
+                    elif n_blocks == 3:
+                        for f in range(n_fields):
+                            x = row[f]
+                            acc[0, f] += wgt[0] * x
+                            acc[1, f] += wgt[1] * x
+                            acc[2, f] += wgt[2] * x
+                    else:
+                        for f in range(n_fields):
+                            x = row[f]
+                            acc[0, f] += wgt[0] * x
+                            acc[1, f] += wgt[1] * x
+                            acc[2, f] += wgt[2] * x
+                            acc[3, f] += wgt[3] * x
+                            acc[4, f] += wgt[4] * x
+                            acc[5, f] += wgt[5] * x
+        for i in range(n_blocks):
+            flat = (_BLOCK_ORDERS[i, 0] > 0 and held[0]) or (_BLOCK_ORDERS[i, 1] > 0 and held[2])
+            for f in range(n_fields):
+                out[i, f, k] = 0.0 if flat else acc[i, f]
 
 
 class TensorSpline:
-    """A uniform cubic tensor B-spline on (t, s, y) evaluated in numpy, with its derivatives in t and y.
+    """A uniform cubic tensor B-spline on (t, s, y) evaluated by a compiled kernel, with its derivatives in t and y.
 
     Parameters
     ----------
@@ -275,18 +347,13 @@ class TensorSpline:
         self.x0 = np.array([float(g[0]) for g in grids])
         self.h = np.array([float(g[1] - g[0]) for g in grids])
         self.hi = np.array([float(g[-1]) for g in grids])
-        self.n_cells = np.array([g.size - 1 for g in grids])
+        self.n_cells = np.array([g.size - 1 for g in grids], dtype=np.int64)
         shape = coef.shape[1:]
-        # control points as rows of fields: one contiguous row per (t, s, y) node, gathered 64 at a time
+        # control points as rows of fields: one contiguous row per (t, s, y) node, read 64 at a time
         self._rows = np.ascontiguousarray(np.moveaxis(coef, 0, -1)).reshape(-1, self.n_fields)
         #: the control points (n_fields, n0 + 2, n1 + 2, n2 + 2), a view of the rows (no second copy)
         self.coef = np.moveaxis(self._rows.reshape(*shape, self.n_fields), -1, 0)
-        strides = np.array([shape[1] * shape[2], shape[2], 1])
-        a, b, c = np.meshgrid(np.arange(4), np.arange(4), np.arange(4), indexing="ij")
-        self._strides = strides
-        self._offsets = (a * strides[0] + b * strides[1] + c * strides[2]).ravel()  # (64,), (a, b, c) C order
-        self._held: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}  # chunk -> (cells, control points)
-        self._lock = threading.Lock()  # the held blocks are updated in place: one evaluation at a time reads them
+        self._strides = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
 
     def evaluate(self, points: np.ndarray, order: int = 0) -> np.ndarray:
         """Values and partial derivatives at points (3, K) [t, s, y].
@@ -297,61 +364,9 @@ class TensorSpline:
             ``order=0``: (n_fields, K), the values ``F``. ``order=1``: (3·n_fields, K), ``[F, F_t, F_y]``
             stacked by block; ``order=2``: (6·n_fields, K), ``[F, F_t, F_y, F_tt, F_ty, F_yy]``.
         """
-        pts = np.asarray(points, dtype=float)
+        pts = np.ascontiguousarray(points, dtype=float)
         k_ = pts.shape[1]
         n_blocks = (1, 3, 6)[order]
         out = np.empty((n_blocks, self.n_fields, k_))
-        for start in range(0, k_, _CHUNK):
-            stop = min(k_, start + _CHUNK)
-            out[:, :, start:stop] = self._chunk(pts[:, start:stop], order, (start, k_))
+        _evaluate_points(self._rows, self._strides, self.x0, self.h, self.hi, self.n_cells, pts, n_blocks, out)
         return out.reshape(n_blocks * self.n_fields, k_)
-
-    def _block(self, base: np.ndarray, key: tuple[int, int]) -> np.ndarray:
-        """The control points of the cells whose first node is ``base`` (K,), (K, 64, n_fields).
-
-        The last gather of each chunk ``key`` (its first point, the call's number of points) is kept and brought up
-        to date in place for the points whose cell changed: the NLP asks its values and derivatives at iterates
-        whose samples mostly stay in their cells, and gathering the block afresh was most of an evaluation. Only
-        :meth:`_chunk` reads the returned block, before the next call.
-        """
-        held = self._held.get(key)
-        if held is not None and held[0].size == base.size:
-            cells, block = held
-            moved = np.flatnonzero(cells != base)
-            if moved.size:
-                block[moved] = self._rows[base[moved, None] + self._offsets[None, :]]
-                cells[moved] = base[moved]
-            return block
-        block = self._rows[base[:, None] + self._offsets[None, :]]
-        if block.nbytes <= _HELD_BYTES:
-            if len(self._held) >= 4:  # a few point sets (the NLP's samples, its rows); the oldest goes
-                self._held.pop(next(iter(self._held)))
-            self._held[key] = (base.copy(), block)
-        return block
-
-    def _chunk(self, pts: np.ndarray, order: int, key: tuple[int, int]) -> np.ndarray:
-        lo, hi = self.x0[:, None], self.hi[:, None]
-        inside = (pts >= lo) & (pts <= hi)
-        xc = np.minimum(np.maximum(pts, lo), hi)
-        r = (xc - lo) / self.h[:, None]
-        cell = np.clip(np.floor(r), 0, self.n_cells[:, None] - 1).astype(np.int64)
-        u = r - cell
-        wt = _basis(u[0], order) / (self.h[0] ** np.arange(order + 1))[:, None, None]  # (order+1, 4, K)
-        ws = _basis(u[1], 0)[0]  # (4, K)
-        wy = _basis(u[2], order) / (self.h[2] ** np.arange(order + 1))[:, None, None]
-        base = cell[0] * self._strides[0] + cell[1] * self._strides[1] + cell[2]
-        pairs = [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)][: (1, 3, 6)[order]]  # (t order, y order)
-        masks = [1.0, inside[0], inside[2], inside[0], inside[0] & inside[2], inside[2]]
-        weights = np.stack(
-            [
-                (wt[p][:, None, None, :] * ws[None, :, None, :] * wy[q][None, None, :, :]).reshape(64, -1)
-                for p, q in pairs
-            ]
-        )  # (blocks, 64, K)
-        with self._lock:
-            block = self._block(base, key)  # (K, 64, n_fields)
-            vals = np.matmul(np.transpose(weights, (2, 0, 1)), block)  # (K, blocks, n_fields)
-        vals = np.transpose(vals, (1, 2, 0))  # (blocks, n_fields, K)
-        for i in range(1, len(pairs)):
-            vals[i] *= masks[i]
-        return vals

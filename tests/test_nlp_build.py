@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 
 import formulations.speed_nlp as speed_nlp
-import formulations.splines as splines
 from formulations._nlp_model import power_ratio, ratio_taylor_data, sector_taylor_data
 from formulations.common import Band, CorridorGeometry, PowerModel
 from formulations.speed_nlp import SpeedNLP
@@ -117,14 +116,10 @@ def test_numpy_spline_reusing_its_cells_control_points_never_serves_another_cell
         np.testing.assert_allclose(spline.evaluate(pts, order), ref[:rows], rtol=1e-12, atol=1e-12)
 
 
-def test_numpy_spline_updating_the_cells_of_the_points_that_moved_equals_casadis_spline(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    """TensorSpline brings its kept control points up to date for the points whose cell changed (an NLP iterate
-    moves a few samples across a cell edge): every other point moved, then all back, at orders 0 and 2, with the
-    points split into several chunks of a call (a chunk of 16 here; 2 048 in use) — every answer is CasADi's
-    spline at those points."""
-    monkeypatch.setattr(splines, "_CHUNK", 16)
+def test_compiled_spline_of_points_moving_across_cells_between_calls_equals_casadis_spline() -> None:
+    """Successive calls of TensorSpline as an NLP makes them (an iterate moves a few samples across a cell edge):
+    every other point moved, then all back, at orders 0, 1 and 2 — every answer is CasADi's spline at those
+    points."""
     wx = _grid(seed=4)
     spline = wx.tensor_spline()
     rng = np.random.default_rng(5)
