@@ -36,6 +36,7 @@ import casadi as ca
 import numpy as np
 
 from formulations._buffers import Buffered, MemoCallback
+from formulations._jit import njit
 from formulations.common import BELOW_BETA, Band, PowerModel, spline_weights
 from formulations.compiled import compiled_function
 from formulations.row_layout import leg_kinds, leg_row_numbers
@@ -118,21 +119,60 @@ def ratio_taylor_data(fields: np.ndarray, v: np.ndarray, heading_dev_deg: np.nda
 
 def sector_taylor_data(fields: np.ndarray, v: np.ndarray, heading_dev_deg: np.ndarray, axes: tuple) -> np.ndarray:
     """:func:`ratio_taylor_data` of every wave-angle sector's table at once: ``fields`` (blocks, nq, nv, nd, K),
-    returns the nq blocks one after the other, (nq · ``RATIO_BLOCK[order]``, K).
+    returns the nq blocks one after the other, (nq · ``RATIO_BLOCK[order]``, K)."""
+    blocks, nq, nv, nd, k_ = fields.shape
+    flat = np.ascontiguousarray(fields).reshape(blocks, nq * nv * nd, k_)
+    return sector_taylor_data_at(flat, np.arange(nq * nv * nd).reshape(nq, nv, nd), v, heading_dev_deg, axes)
 
-    The speed and heading weights and their derivatives are the same for every sector, so they are computed once
-    and each contraction runs over all sectors and blocks together.
+
+#: The coefficients of a sector's power-ratio Taylor block after ``V*, δ*`` (:data:`RATIO_BLOCK`): per coefficient,
+#: the order of the speed weights' derivative, of the heading weights' and the table's block (F, F_t, F_y, F_tt,
+#: F_ty, F_yy): ``R, R_V, R_δ, R_t, R_y, R_VV, R_Vδ, R_Vt, R_Vy, R_δδ, R_δt, R_δy`` then ``R_tt, R_ty, R_yy``.
+_RATIO_TERMS = np.array(
+    [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, 2), (2, 0, 0), (1, 1, 0), (1, 0, 1), (1, 0, 2), (0, 2, 0),
+     (0, 1, 1), (0, 1, 2), (0, 0, 3), (0, 0, 4), (0, 0, 5)], dtype=np.int64,
+)  # fmt: skip
+
+
+def sector_taylor_data_at(
+    values: np.ndarray, table: np.ndarray, v: np.ndarray, heading_dev_deg: np.ndarray, axes: tuple
+) -> np.ndarray:
+    """:func:`sector_taylor_data` of the table's fields read from ``values`` (blocks, n_fields, K) where ``table``
+    (nq, nv, nd) says (the weather's own evaluation, :meth:`formulations.splines.TensorSpline.evaluate`: no copy of
+    the table's fields).
+
+    The speed and heading weights and their derivatives are the same for every sector: computed once; each
+    coefficient is one weighted sum over the table's nodes (:func:`_sector_terms`, compiled).
     """
     v0, dv, nv, d0, dd, nd = axes[:6]
     wv = spline_weight_derivatives(v, v0, dv, nv)  # (3, nv, K)
     wd = spline_weight_derivatives(heading_dev_deg, d0, dd, nd)  # (3, nd, K)
-    g = np.einsum("bkK,BqjkK->BbqjK", wd, fields)  # Σ_k ∂^b w_k ∂F_jk
-    r = np.einsum("ajK,BbqjK->abBqK", wv, g)  # Σ_jk ∂^a w_j ∂^b w_k ∂F_jk
-    terms = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, 2), (2, 0, 0), (1, 1, 0), (1, 0, 1), (1, 0, 2)]
-    terms += [(0, 2, 0), (0, 1, 1), (0, 1, 2)] + ([(0, 0, 3), (0, 0, 4), (0, 0, 5)] if fields.shape[0] == 6 else [])
-    coef = np.stack([r[a, b, blk] for a, b, blk in terms], axis=1)  # (nq, terms, K)
-    head = np.broadcast_to(np.stack([v, heading_dev_deg]), (coef.shape[0], 2, coef.shape[2]))
-    return np.concatenate([head, coef], axis=1).reshape(-1, coef.shape[2])
+    terms = _RATIO_TERMS[: RATIO_BLOCK[values.shape[0] // 3] - 2]
+    nq, k_ = table.shape[0], values.shape[2]
+    out = np.empty((nq, 2 + terms.shape[0], k_))
+    out[:, 0], out[:, 1] = v, heading_dev_deg
+    _sector_terms(np.ascontiguousarray(values), np.ascontiguousarray(table, dtype=np.int64), wv, wd, terms, out)
+    return out.reshape(-1, k_)
+
+
+@njit
+def _sector_terms(
+    values: np.ndarray, table: np.ndarray, wv: np.ndarray, wd: np.ndarray, terms: np.ndarray, out: np.ndarray
+) -> None:  # pragma: no cover - compiled
+    """``out[q, 2 + t, :] = Σ_jk ∂^a w_j(V*) ∂^b w_k(δ*) ∂F_{q j k}`` for each term ``t = (a, b, block)``, summed
+    over the speed nodes ``j`` and heading nodes ``k`` point by point (the points' axis last, contiguous)."""
+    nq, nv, nd = table.shape
+    k_ = values.shape[2]
+    for q in range(nq):
+        for t in range(terms.shape[0]):
+            a, b, blk = terms[t, 0], terms[t, 1], terms[t, 2]
+            row = out[q, 2 + t]
+            row[:] = 0.0
+            for j in range(nv):
+                for k in range(nd):
+                    field = values[blk, table[q, j, k]]
+                    for p in range(k_):
+                        row[p] += wv[a, j, p] * wd[b, k, p] * field[p]
 
 
 def ratio_taylor(block: Any, d_t: Any, d_y: Any, edges: tuple = ()) -> Callable[[Any, Any, Any], Any]:
@@ -751,7 +791,7 @@ class _NumericTaylor:
         if lay.size:
             dev = self._dev_at(x, self._shaped(full))[0].copy()  # (m, N) column-major: sample k·m + j
             v = np.repeat(np.asarray(x, dtype=float).ravel()[self._n + 1 : 2 * self._n + 1], self._m)
-            full[lay.start : e0] = sector_taylor_data(vals[:, self._table], v, dev, self._axes)
+            full[lay.start : e0] = sector_taylor_data_at(vals, self._table, v, dev, self._axes)
         first = full
         if order == 2:  # the gradient's and the Jacobian's data: no second derivatives of the weather
             first = full.copy()

@@ -21,10 +21,11 @@ Units: whatever the axes and data carry (the corridor NLP: hours, nautical miles
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+
+from formulations._jit import njit
 
 __all__ = [
     "TensorSpline",
@@ -231,18 +232,7 @@ def bspline_function(name: str, knots: list[np.ndarray], coef: np.ndarray, degre
     )
 
 
-def _njit(fn: Callable[..., Any]) -> Any:
-    """``fn`` compiled by numba, kept in numba's on-disk cache where it can write one (else compiled once per
-    process: a read-only installation cannot fail to import for it)."""
-    import numba
-
-    try:
-        return numba.njit(cache=True, error_model="numpy")(fn)
-    except RuntimeError:  # numba found no cache folder it can write
-        return numba.njit(error_model="numpy")(fn)
-
-
-@_njit
+@njit
 def _cubic_weights(u: float, h: float, order: int, w: np.ndarray) -> None:  # pragma: no cover - compiled
     """The four uniform cubic B-spline weights on a cell at the local coordinate ``u`` in [0, 1] and, up to
     ``order``, their derivatives along the axis of node spacing ``h``: ``w[r, a] = d^r/dx^r B_{i+a}`` (rows 0..order
@@ -271,7 +261,7 @@ def _cubic_weights(u: float, h: float, order: int, w: np.ndarray) -> None:  # pr
 _BLOCK_ORDERS = np.array([[0, 0], [1, 0], [0, 1], [2, 0], [1, 1], [0, 2]], dtype=np.int64)
 
 
-@_njit
+@njit
 def _evaluate_points(
     rows: np.ndarray, strides: np.ndarray, x0: np.ndarray, h: np.ndarray, hi: np.ndarray, n_cells: np.ndarray,
     points: np.ndarray, n_blocks: int, out: np.ndarray,
