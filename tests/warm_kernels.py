@@ -20,9 +20,12 @@ def warm() -> None:
     """Run each kernel family once on a tiny problem.
 
     Search, the 3-D DP, Kwon's inversion, the sampler, a search around an exclusion (the leg-batch costing),
-    sailing and its polar, the roll simulation and the parametric-roll observer.
+    sailing and its polar, the roll simulation and the parametric-roll observer, and the corridor NLP's weather
+    spline and power-table coefficients (``formulations``).
     """
     import optroute as orx
+    from formulations._nlp_model import sector_taylor_data
+    from formulations.splines import TensorSpline
     from optroute.observer.level import ObserverSettings, RightingMoment, observe
     from optroute.observer.motions import Encounter, parametric_growth_rate_per_s, simulate_motions
     from optroute.physics.performance import KwonModel
@@ -75,6 +78,14 @@ def warm() -> None:
     observe(
         m.time_s, m.heave_m, m.roll_deg, settings=ObserverSettings.for_ship(ship), moment=RightingMoment.from_ship(ship)
     )
+    rng = np.random.default_rng(0)
+    spline = TensorSpline([np.linspace(0.0, 1.0, 3)] * 3, rng.normal(size=(2, 5, 5, 5)))
+    for order in (0, 1, 2):
+        spline.evaluate(rng.uniform(0.0, 1.0, (3, 4)), order)
+    for blocks in (3, 6):
+        sector_taylor_data(
+            rng.normal(size=(blocks, 2, 3, 3, 4)), np.full(4, 10.0), np.zeros(4), (5.0, 5.0, 3, -10.0, 10.0, 3)
+        )
 
 
 if __name__ == "__main__":
