@@ -181,8 +181,8 @@ def optimise_corridor(
         per machine and ship: the libraries are cached on disk (``$OPTROUTE_CASADI_CACHE``, else
         ``~/.cache/optroute/casadi``; :mod:`formulations.compiled`) and give the same numbers as the interpreted
         functions, bit for bit. ``"auto"`` (default): from :data:`~optroute.optimise.corridor_setup.JIT_AUTO_LEGS`
-        legs on, where a compiler is found (the 500-leg storm corridor of ``benchmarks/_nlp_call.py``: Ipopt 8.1 s
-        interpreted, 6.0 s compiled; the first call on a machine also compiles, about 5 CPU-s); True: always (a
+        legs on, where a compiler is found (the 496-leg storm corridor of ``benchmarks/_nlp_call.py``: the whole
+        call 8.0 s interpreted, 5.6 s compiled; the first call on a machine also compiles, about 5 CPU-s); True: always (a
         ConfigError without a compiler); False: never.
     use_land_mask : bool, optional
         Apply the real coastline (default: unless the weather declares synthetic geography).

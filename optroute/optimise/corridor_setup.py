@@ -63,8 +63,8 @@ def emit(progress: ProgressFn | None, stage: str, fraction: float) -> None:
 
 
 #: ``jit="auto"`` compiles the NLP's leg functions from this many legs on (where a C compiler runs): there the
-#: interpreted Hessian and Jacobian are a large share of every Ipopt iteration (the 300-leg storm corridor of
-#: ``benchmarks/_nlp_call.py``: Ipopt 2.7 s interpreted, 1.8 s compiled; 500 legs: 8.1 and 6.0 s), and the
+#: interpreted Hessian and Jacobian are a large share of every Ipopt iteration (the 496-leg storm corridor of
+#: ``benchmarks/_nlp_call.py``: Ipopt 6.0 s interpreted, 3.5 s compiled, the whole call 8.0 and 5.6 s), and the
 #: compilation, once per machine and ship (:mod:`formulations.compiled`'s disk cache), is repaid within a few
 #: calls. Below it the few milliseconds saved per solve would take hundreds of calls to repay a compilation.
 JIT_AUTO_LEGS = 200
