@@ -395,3 +395,24 @@ def test_a_front_on_a_prepared_corridor_is_monotone_and_prepares_once(monkeypatc
     assert points_mod.front_token(corridor, wx, SMALL_SHIP, T0, "fuel", kw) != token
     ref = optimise_corridor(corridor, wx, SHIP, departure=T0, eta=T0 + np.timedelta64(80, "h"), **kw)
     assert fuel[1] == pytest.approx(ref.total_fuel_t, rel=1e-6)
+
+
+def test_a_front_point_skips_the_table_statistics_alone_and_plans_the_same():
+    # solve_prepared(tabulate=False), as a front's points solve: the same plan to the last bit, only the two
+    # power-table statistics (a referee evaluation each) left out; the front's own points carry none of them
+    from optroute.optimise.api import solve_prepared
+    from optroute.optimise.corridor_problem import PreparedCorridor
+
+    storm = orx.scenarios.moving_storm(0.0, -32.0, 90.0, 6.0, peak_hs_m=6.0, start=T0, duration_h=200.0,
+                                       bbox=(-10, 10, -40, 0))  # fmt: skip
+    corridor = orx.Corridor.from_waypoints([[0.0, -30.0], [1.0, -20.0]], width_nm=20.0)
+    prepared = PreparedCorridor(corridor, storm, SHIP, departure=T0, objective="fuel", **KW)
+    eta = T0 + np.timedelta64(60, "h")
+    full = solve_prepared(prepared, eta, objective="fuel")
+    lean = solve_prepared(prepared, eta, objective="fuel", tabulate=False)
+    assert full.solver_stats["tabulation"] and full.solver_stats["start_tabulation"]
+    assert lean.solver_stats["tabulation"] == {} and lean.solver_stats["start_tabulation"] == {}
+    assert lean.total_fuel_t == full.total_fuel_t and lean.status == full.status
+    np.testing.assert_array_equal(lean.stw_kn, full.stw_kn)
+    np.testing.assert_array_equal(lean.waypoints, full.waypoints)
+    assert points_mod.FRONT_TABULATION is False

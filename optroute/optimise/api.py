@@ -427,17 +427,22 @@ def solve_prepared(
     objective: str = "fuel",
     warm_plan: Plan | None = None,
     route: Route | None = None,
+    tabulate: bool = True,
 ) -> Plan:
     """:func:`optimise_corridor`'s solve and honest outcomes on a corridor prepared once (a front's points).
 
     ``prepared`` is a :class:`~optroute.optimise.corridor_problem.PreparedCorridor`; the rest as in
     :func:`optimise_corridor`, whose outcomes (plans, statuses, errors) this gives for the same solve.
+    ``tabulate=False``: no ``start_tabulation`` nor ``tabulation`` in ``solver_stats`` (two referee evaluations of
+    statistics alone; :meth:`~optroute.optimise.corridor_problem.PreparedCorridor.solve`).
     """
     kw = {"eta_mode": eta_mode, "objective": objective, "warm_plan": warm_plan, "route": route, "progress": None}
-    return _solve_honestly(prepared, eta, **kw)
+    return _solve_honestly(prepared, eta, tabulate=tabulate, **kw)
 
 
-def _solve_honestly(prepared: Any, eta: Any, *, eta_mode: str, objective: str, warm_plan, route, progress) -> Plan:
+def _solve_honestly(
+    prepared: Any, eta: Any, *, eta_mode: str, objective: str, warm_plan, route, progress, tabulate: bool = True
+) -> Plan:
     """``prepared.solve`` with outcomes that tell the truth about the plans the call found.
 
     The solve itself starts from the best candidate by the referee and never returns a plan worse than a verified
@@ -463,7 +468,7 @@ def _solve_honestly(prepared: Any, eta: Any, *, eta_mode: str, objective: str, w
     _check_time_span(prepared, eta, objective)
     kw = {"eta_mode": eta_mode, "objective": objective, "progress": progress}
     try:
-        return prepared.solve(eta, warm_plan=warm_plan, route=route, **kw)
+        return prepared.solve(eta, warm_plan=warm_plan, route=route, tabulate=tabulate, **kw)
     except InfeasibleETA as exc:
         fast = prepared.minimum_time_plan(route)
         if fast is None:  # no verified passage at all: closed, or the NLP's word for it

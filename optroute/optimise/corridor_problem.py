@@ -121,6 +121,7 @@ class _Call:
     start_in_bands: dict[str, int] | None = None  # the first verified start solved from, inside the NLP's bands
     edges_through: int | None = None  # (sample, band) edges the first solve from a verified start moved through it
     stage_cpu_s: dict[str, float] = field(default_factory=dict)
+    tabulate: bool = True  # the power table's error at the warm start and the solution (statistics alone)
     _stage: tuple[str, float, float] | None = None  # the running stage: name, wall and CPU clocks at its start
 
     def begin(self, stage: str | None) -> None:
@@ -435,6 +436,7 @@ class PreparedCorridor(CorridorReport):
         warm_plan: Plan | None = None,
         route: Route | None = None,
         progress: ProgressFn | None = None,
+        tabulate: bool = True,
     ) -> Plan:
         """Solve one ETA: :func:`optroute.optimise_corridor` on the prepared problem.
 
@@ -442,6 +444,10 @@ class PreparedCorridor(CorridorReport):
         ----------
         eta, eta_mode, objective, warm_plan, route, progress
             As in :func:`optimise_corridor`; ``eta`` at most the prepared ``latest_eta``.
+        tabulate : bool
+            Measure the power table's error at the warm start and at the solution (``solver_stats``'
+            ``start_tabulation`` and ``tabulation``: a referee evaluation of each, statistics alone). False (a
+            front's points, which keep none of it): both are ``{}``; the plan is the same.
 
         Returns
         -------
@@ -458,6 +464,7 @@ class PreparedCorridor(CorridorReport):
         """
         self.last_duals = None
         call = self._inputs(eta, eta_mode, objective, route, progress)  # stage: inputs
+        call.tabulate = bool(tabulate)
         emit(progress, "start", 0.15)  # stage: start
         call.begin("start")
         st = self._tightening()
@@ -517,7 +524,7 @@ class PreparedCorridor(CorridorReport):
 
         A discrete start the NLP cannot improve on costs time, not fuel: the plan stage keeps the start.
         """
-        call.start_table = self._table_at(call.ctx, first.warm)
+        call.start_table = self._table_at(call.ctx, first.warm) if call.tabulate else {}
         best: _Found | None = None
         tries = [first] + ([start] if first is not start and start.plan is not None else [])
         for k, cand in enumerate(tries):

@@ -132,26 +132,29 @@ def solution_stats(
     step_nm: float,
     model: PerformanceModel | None = None,
     sampler: WeatherSampler | None = None,
+    tabulate: bool = True,
 ) -> dict[str, Any]:
     """Statistics of the returned NLP solution: its table error by the referee, the NLP model's certificate.
 
     ``fixed`` says the path is fixed (no lateral freedom); ``samples`` is the weather grid's summary
     (:func:`optroute.optimise.nlp_inputs.weather_grid`); ``eta_solve`` the ETA solved [h after departure].
     With the ship's ``model`` and the ``sampler``, ``tabulation`` also holds the per-leg and per-sample errors
-    of :func:`leg_table_error`.
+    of :func:`leg_table_error`. ``tabulate=False``: ``tabulation`` is ``{}`` (no referee evaluation).
     """
     res = sol.res
-    tab = table_error(
-        ctx,
-        frame,
-        offset_nm=res.offset_nm,
-        stw_kn=res.stw_kn,
-        time_h=res.time_h,
-        nlp_fuel_t=float(res.total_fuel_t),
-        departure=departure,
-        step_nm=step_nm,
-    )
-    if model is not None and sampler is not None:
+    tab: dict[str, Any] = {}
+    if tabulate:
+        tab = table_error(
+            ctx,
+            frame,
+            offset_nm=res.offset_nm,
+            stw_kn=res.stw_kn,
+            time_h=res.time_h,
+            nlp_fuel_t=float(res.total_fuel_t),
+            departure=departure,
+            step_nm=step_nm,
+        )
+    if tabulate and model is not None and sampler is not None:
         tab.update(
             leg_table_error(
                 sol.nlp, frame, model, sampler, offset_nm=res.offset_nm, stw_kn=res.stw_kn, time_h=res.time_h,
@@ -278,4 +281,5 @@ class CorridorReport:
             step_nm=self.verify_step_nm,
             model=self.model,
             sampler=self.sampler,
+            tabulate=getattr(call, "tabulate", True),
         )

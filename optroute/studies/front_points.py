@@ -77,6 +77,10 @@ FORBIDDEN_OPTIONS = ("eta", "eta_mode", "objective", "warm_plan", "route", "depa
 #: chain's first point, started from an end's plan sped up across the ETAs of the chains between, is also compared
 #: with the centreline's start, unless that end is its neighbour in the front (``end_adjacent``).
 SOLE_START = True
+#: A front's solves measure no power-table error (``solver_stats``' ``start_tabulation`` and ``tabulation``, two
+#: referee evaluations per solve that :func:`point_from_plan` drops; on ``benchmarks/bench_front.py``'s storm corridor
+#: about a tenth of a front's CPU): :meth:`~optroute.optimise.corridor_problem.PreparedCorridor.solve`'s ``tabulate``.
+FRONT_TABULATION = False
 
 
 @dataclass(frozen=True)
@@ -227,6 +231,7 @@ def solve_point(
                     objective=objective,
                     warm_plan=carry,  # type: ignore[arg-type]
                     route=route,
+                    tabulate=FRONT_TABULATION,
                 )
                 plan_duals = prepared.last_duals  # this solve's multipliers, when its plan is the NLP's
     except InfeasibleETA as exc:
