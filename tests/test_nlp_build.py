@@ -4,7 +4,7 @@ References: the quasi-interpolant reproduces linear data exactly (Schoenberg; ``
 derivatives on a linear field are the field's slopes; CasADi's ``Function.bspline`` of the same control points
 and its derivative splines (de Boor 1978, ch. X) are the independent evaluation of the rest; a fresh build of
 the same problem is the reference of a re-solve. The structured derivatives' contracted power-ratio table
-(``formulations._nlp_model.ratio_taylor_data``) is checked against CasADi's automatic differentiation of the
+(``formulations._ratio_table.ratio_taylor_data``) is checked against CasADi's automatic differentiation of the
 table's own formula (``power_ratio``, ``spline_weights``).
 """
 
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import formulations.speed_nlp as speed_nlp
-from formulations._nlp_model import power_ratio, ratio_taylor_data, sector_taylor_data
+from formulations._ratio_table import power_ratio, ratio_taylor_data, sector_taylor_data
 from formulations.common import Band, CorridorGeometry, PowerModel
 from formulations.speed_nlp import SpeedNLP
 from formulations.splines import spline_weight_derivatives, spline_weights

@@ -19,7 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import optroute as orx
-from formulations._nlp_model import power_ratio
+from formulations._ratio_table import power_ratio
 from formulations.common import spline_weights
 from formulations.splines import SECTOR_RAMP_DEG
 from optroute.optimise.api import optimise_corridor

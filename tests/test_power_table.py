@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import optroute as orx
-from formulations._nlp_model import power_ratio
+from formulations._ratio_table import power_ratio
 from formulations.splines import SECTOR_RAMP_DEG, sector_weights
 from optroute.optimise.corridor_setup import _hours
 from optroute.optimise.lateral import reach_windows

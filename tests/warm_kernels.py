@@ -24,7 +24,7 @@ def warm() -> None:
     spline and power-table coefficients (``formulations``).
     """
     import optroute as orx
-    from formulations._nlp_model import sector_taylor_data
+    from formulations._ratio_table import sector_taylor_data
     from formulations.splines import TensorSpline
     from optroute.observer.level import ObserverSettings, RightingMoment, observe
     from optroute.observer.motions import Encounter, parametric_growth_rate_per_s, simulate_motions

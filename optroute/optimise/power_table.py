@@ -361,7 +361,7 @@ def sample_error(
     """The NLP's power against the model's at each of its own samples, and its fuel per leg against the model's.
 
     At an NLP solution both are at hand: the NLP's brake power at every sample (the table through its spline,
-    :func:`formulations._nlp_model.power_ratio`) and the sample's time, position, speed and heading, where the
+    :func:`formulations._ratio_table.power_ratio`) and the sample's time, position, speed and heading, where the
     model is evaluated by :func:`optroute.physics.passage.power_at_heading` in the referee's weather (the
     sampler's interpolation of the data) — the same function the table and the referee use. Where the model
     has no power or more than :data:`CAP_MCR` · MCR it is capped as in the table. What differs from the
