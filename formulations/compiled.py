@@ -9,7 +9,8 @@ CasADi version; the shared library is built once under that hash in a cache fold
 
 The flags keep the arithmetic as CasADi's virtual machine does it: ``-O1`` (no ``-ffast-math``) and
 ``-ffp-contract=off`` (no fused multiply-add), so that a compiled function gives the same numbers as the
-interpreted one, bit for bit, whichever machine compiles it (``tests/test_compiled.py``).
+interpreted one. ``tests/test_compiled.py`` checks that bit for bit on each machine the suite runs on: the C
+library's ``sin`` or ``pow`` could still differ in the last bit from the one CasADi was built with.
 
 Where no compiler runs, or the cache folder cannot be written, :func:`compiled_function` returns the function as it
 was (interpreted) and says why: compilation is a speed-up, never a condition.
@@ -42,7 +43,7 @@ COMPILE_TIMEOUT_S = 600.0
 
 def compiler() -> list[str]:
     """The C compiler's command: ``$CC`` split as a shell would (e.g. ``"ccache gcc"``), else ``gcc``."""
-    return shlex.split(os.environ.get("CC") or "gcc")
+    return shlex.split(os.environ.get("CC", "")) or ["gcc"]
 
 
 def _writable(folder: Path) -> bool:

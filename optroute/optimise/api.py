@@ -179,11 +179,11 @@ def optimise_corridor(
     jit : {"auto", True, False}
         Compile the NLP's per-leg derivative functions to C with the system C compiler (``$CC``, else ``gcc``), once
         per machine and ship: the libraries are cached on disk (``$OPTROUTE_CASADI_CACHE``, else
-        ``~/.cache/optroute/casadi``; :mod:`formulations.compiled`) and give the same numbers as the interpreted
-        functions, bit for bit. ``"auto"`` (default): from :data:`~optroute.optimise.corridor_setup.JIT_AUTO_LEGS`
-        legs on, where a compiler is found (the 496-leg storm corridor of ``benchmarks/_nlp_call.py``: the whole
-        call 8.0 s interpreted, 5.6 s compiled; the first call on a machine also compiles, about 5 CPU-s); True: always (a
-        ConfigError without a compiler); False: never.
+        ``~/.cache/optroute/casadi``; :mod:`formulations.compiled`), compiled for the interpreter's arithmetic
+        (``tests/test_compiled.py`` checks the numbers bit for bit). ``"auto"`` (default): from
+        :data:`~optroute.optimise.corridor_setup.JIT_AUTO_LEGS` legs on, where a compiler is found (the 496-leg storm
+        corridor of ``benchmarks/_nlp_call.py``: the whole call 8.0 s interpreted, 5.6 s compiled; the first call
+        on a machine also compiles, about 5 CPU-s); True: always (a ConfigError without a compiler); False: never.
     use_land_mask : bool, optional
         Apply the real coastline (default: unless the weather declares synthetic geography).
     discrete_start : {"auto", True, False}
