@@ -65,10 +65,18 @@ def power_ratio(
     return total
 
 
-#: Length of a sample's power-ratio Taylor block (:func:`ratio_taylor_data`): the expansion point ``(V*, δ*)`` and
-#: the coefficients ``R, R_V, R_δ, R_t, R_y, R_VV, R_Vδ, R_Vt, R_Vy, R_δδ, R_δt, R_δy`` (first derivatives of the
-#: weather only), then ``R_tt, R_ty, R_yy`` (with the weather's second derivatives).
-RATIO_BLOCK = {1: 14, 2: 17}
+#: The coefficients of a sector's power-ratio Taylor block after the expansion point ``(V*, δ*)``, in the order the
+#: leg functions read them (:func:`ratio_taylor`): per coefficient, the order of the speed weights' derivative, of
+#: the heading weights' and the table's block (F, F_t, F_y, F_tt, F_ty, F_yy): ``R, R_V, R_δ, R_t, R_y, R_VV, R_Vδ,
+#: R_Vt, R_Vy, R_δδ, R_δt, R_δy`` (first derivatives of the weather only), then ``R_tt, R_ty, R_yy`` (with the
+#: weather's second derivatives).
+_RATIO_TERMS = np.array(
+    [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, 2), (2, 0, 0), (1, 1, 0), (1, 0, 1), (1, 0, 2), (0, 2, 0),
+     (0, 1, 1), (0, 1, 2), (0, 0, 3), (0, 0, 4), (0, 0, 5)], dtype=np.int64,
+)  # fmt: skip
+#: Length of a sample's power-ratio Taylor block (:func:`ratio_taylor_data`) by the weather's derivative order:
+#: the expansion point and the coefficients of :data:`_RATIO_TERMS` that read the weather's blocks up to it.
+RATIO_BLOCK = {order: 2 + int(np.sum(_RATIO_TERMS[:, 2] < 3 * order)) for order in (1, 2)}
 
 
 def ratio_taylor_data(fields: np.ndarray, v: np.ndarray, heading_dev_deg: np.ndarray, axes: tuple) -> np.ndarray:
@@ -91,15 +99,6 @@ def sector_taylor_data(fields: np.ndarray, v: np.ndarray, heading_dev_deg: np.nd
     blocks, nq, nv, nd, k_ = fields.shape
     flat = np.ascontiguousarray(fields).reshape(blocks, nq * nv * nd, k_)
     return sector_taylor_data_at(flat, np.arange(nq * nv * nd).reshape(nq, nv, nd), v, heading_dev_deg, axes)
-
-
-#: The coefficients of a sector's power-ratio Taylor block after ``V*, δ*`` (:data:`RATIO_BLOCK`): per coefficient,
-#: the order of the speed weights' derivative, of the heading weights' and the table's block (F, F_t, F_y, F_tt,
-#: F_ty, F_yy): ``R, R_V, R_δ, R_t, R_y, R_VV, R_Vδ, R_Vt, R_Vy, R_δδ, R_δt, R_δy`` then ``R_tt, R_ty, R_yy``.
-_RATIO_TERMS = np.array(
-    [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, 2), (2, 0, 0), (1, 1, 0), (1, 0, 1), (1, 0, 2), (0, 2, 0),
-     (0, 1, 1), (0, 1, 2), (0, 0, 3), (0, 0, 4), (0, 0, 5)], dtype=np.int64,
-)  # fmt: skip
 
 
 def sector_taylor_data_at(
