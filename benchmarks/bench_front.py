@@ -55,6 +55,7 @@ import optroute as orx
 from benchmarks._cli import bench_main, results_dir
 from benchmarks._measure import alternate, load_line, timed_once, timing_table
 from optroute.plot.common import save_png
+from optroute.studies.cluster import SCHEDULER_HTTP_ADDRESS
 
 T0 = np.datetime64("2024-01-10T00:00", "ns")
 QUICK, FULL = (16, 6, 1), (300, 30, 2)
@@ -155,6 +156,7 @@ def run(quick: bool) -> dict[str, Any]:
             host="127.0.0.1",
             dashboard_address=None,
             worker_dashboard_address=None,
+            scheduler_kwargs={"dashboard_address": SCHEDULER_HTTP_ADDRESS},  # any free port, as a study's cluster
         )
     )
     cpu_serial: list[float] = []

@@ -98,6 +98,19 @@ def test_jit_modes(monkeypatch):
 
 
 @needs_cc
+def test_jit_true_refuses_a_cache_folder_it_cannot_write(tmp_path, monkeypatch):
+    # an explicit jit=True that would silently stay interpreted is refused; "auto" stays interpreted, no error
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    monkeypatch.setenv(CACHE_ENV, str(blocker))
+    with pytest.raises(ConfigError, match=f"{CACHE_ENV}=.*a-file.*cannot be written.*jit='auto' or False"):
+        check_jit(True, 10)
+    assert check_jit("auto", 10 * JIT_AUTO_LEGS) is True
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "fresh"))
+    assert check_jit(True, 10) is True
+
+
+@needs_cc
 def test_a_compiled_corridor_call_plans_the_same_to_the_last_bit_and_says_how_it_compiled(tmp_path, monkeypatch):
     # a storm crossing a free corridor, through optimise_corridor: jit=True against jit=False, its record in
     # solver_stats, and a second call served by the cache

@@ -183,7 +183,8 @@ def optimise_corridor(
         (``tests/test_compiled.py`` checks the numbers bit for bit). ``"auto"`` (default): from
         :data:`~optroute.optimise.corridor_setup.JIT_AUTO_LEGS` legs on, where a compiler is found (the 496-leg storm
         corridor of ``benchmarks/_nlp_call.py``: the whole call 8.0 s interpreted, 5.6 s compiled; the first call
-        on a machine also compiles, about 5 CPU-s); True: always (a ConfigError without a compiler); False: never.
+        on a machine also compiles, about 5 CPU-s); True: always (a ConfigError without a compiler or a writable cache
+        folder); False: never.
     use_land_mask : bool, optional
         Apply the real coastline (default: unless the weather declares synthetic geography).
     discrete_start : {"auto", True, False}

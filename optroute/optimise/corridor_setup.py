@@ -13,6 +13,7 @@ model, the referee's), the lateral bounds and land mask
 from __future__ import annotations
 
 import math
+import os
 import shutil
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
@@ -21,7 +22,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from formulations.compiled import compiler
+from formulations.compiled import CACHE_ENV, cache_dir, compiler
 from optroute import units
 from optroute._checks import finite
 from optroute.errors import ConfigError, WeatherCoverageError
@@ -72,7 +73,8 @@ JIT_AUTO_LEGS = 200
 
 def check_jit(jit: bool | str, n_legs: int) -> bool:
     """Whether the NLP's leg functions are compiled (``jit`` True, False or ``"auto"``, :data:`JIT_AUTO_LEGS`, on
-    ``n_legs`` legs); True needs a C compiler (ConfigError without one), ``"auto"`` uses one where it finds it."""
+    ``n_legs`` legs); True needs a C compiler and a writable cache folder (ConfigError without either), ``"auto"``
+    uses them where it finds them."""
     auto = isinstance(jit, str) and jit == "auto"
     if not (auto or isinstance(jit, bool | np.bool_)):
         raise ConfigError(f"jit={jit!r} is not known; use True, False or 'auto' (compiled from {JIT_AUTO_LEGS} legs)")
@@ -83,6 +85,12 @@ def check_jit(jit: bool | str, n_legs: int) -> bool:
         raise ConfigError(
             f"jit=True compiles the NLP's derivatives with a C compiler, and {compiler()[0]!r} is not on the PATH; "
             "install gcc or name another compiler in the CC environment variable, or use jit='auto' or False"
+        )
+    if jit and cache_dir() is None:
+        raise ConfigError(
+            f"jit=True keeps the compiled derivatives in a cache folder, and {CACHE_ENV}="
+            f"{os.environ.get(CACHE_ENV, '')!r} (or, unset, ~/.cache/optroute/casadi and the temporary folder) "
+            f"cannot be written; point {CACHE_ENV} at a writable folder, or use jit='auto' or False"
         )
     return bool(jit)
 
