@@ -554,7 +554,10 @@ class PreparedCorridor(CorridorReport):
     def _solve_from(
         self, call: _Call, cand: Candidate, *, diagnose: bool, verified_start: bool = False
     ) -> _Found | None:
-        """Solve from one candidate; where the referee rejects the plan, tighten the rows it flagged and solve again.
+        """Solve from one candidate; where the referee rejects the plan, tighten the rows it flagged and solve again:
+        from the candidate's plan again where it is a plan on the NLP's legs (:func:`warm_is_plan`; its samples inside
+        the tightened bands get their edges through it, :func:`~optroute.optimise.nlp_solve.edges_through`), else
+        from the rejected plan.
 
         ``diagnose``: a failed first solve goes to :func:`first_failure` (the elastic phase-1 problem): without a
         verified start an unreachable ETA raises :class:`~optroute.errors.InfeasibleETA`; with one
@@ -564,6 +567,7 @@ class PreparedCorridor(CorridorReport):
         st.log = call.log
         warm = clear_of_exclusion(dict(cand.warm), self.frame, self.exclusion, self.departure, self.y_lo, self.y_hi)
         st.row_points = self._rows_from()
+        first_warm, from_plan = warm, warm_is_plan(cand, self.frame)
         for attempt in range(self.max_retries + 1):
             emit(call.progress, "solve", 0.2 + 0.7 * attempt / (self.max_retries + 1))
             nlp = prob.build(st)
@@ -573,7 +577,7 @@ class PreparedCorridor(CorridorReport):
             if eta_solve is not None and eta_solve <= 0:
                 break
             # a start the referee passed, as the NLP sees it: the NLP's band edges may pass through it
-            through = attempt == 0 and warm_is_plan(cand, self.frame)
+            through = from_plan and warm is first_warm
             sol = prob.solve(nlp, eta_h=eta_solve, warm=warm, budget=self.band_solves, through_start=through,
                              **call.solve_kw)  # fmt: skip
             if through and call.edges_through is None:
@@ -607,7 +611,10 @@ class PreparedCorridor(CorridorReport):
                 st.row_points = only_where_binding(points_of(violations.points, plan.waypoints), binding)
             st.forced_legs = self._rejected_legs(st.forced_legs, violations)
             call.retries, call.samples_per_leg = st.retries, st.samples_per_leg
-            warm = {"offset_nm": sol.res.offset_nm, "stw_kn": sol.res.stw_kn}
+            # again from the verified start, inside the tightened problem by its edges through it; a rejected plan
+            # lies on the old edges, outside the widened bands' feasible set (the storm crossings of bench_bands:
+            # every retry from it infeasible, the start returned after 13 solves)
+            warm = first_warm if from_plan else {"offset_nm": sol.res.offset_nm, "stw_kn": sol.res.stw_kn}
         return None
 
     def _fitted_to_start(self, call: _Call, nlp: Any, st: Tightening, warm: Mapping[str, np.ndarray]) -> Any:
