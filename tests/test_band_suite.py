@@ -126,12 +126,13 @@ def test_closed_form_inner_solve_is_the_kkt_point_of_the_cubic_fuel() -> None:
     assert out.objective == pytest.approx(2 * 1e-3 * 100.0 * 20.0**2, rel=1e-9)
 
 
-def test_storm_crossing_solves_again_from_its_verified_start_after_a_rejection_and_beats_the_dp() -> None:
+def test_storm_crossing_solves_again_from_its_verified_start_when_the_retry_from_a_rejected_plan_fails() -> None:
     # bench_bands' storm crossing at 13 kn (a 9 m storm crossing the track, the DP at the suite's finest resolution):
-    # the first solve from the DP's route is rejected by the referee (bands between the NLP's samples). Solved again
-    # from the rejected plan, which lies on the old edges outside the tightened bands, every retry was infeasible
-    # and the DP's route came back after 13 solves; solved again from the verified route (its edges through it),
-    # the NLP's plan verifies and burns less than the DP's, both scored by the referee
+    # the first solve from the DP's route is rejected by the referee (bands between the NLP's samples), and the
+    # retry from the rejected plan, which lies on the old edges outside the tightened bands, is infeasible. The DP's
+    # route came back then (13 solves, NLP / DP 1.000); the next attempt now starts from the verified route again
+    # (its edges through it), and the NLP's plan verifies and burns less than the DP's, both scored by the referee.
+    # Three solves per side search keep the test short (the benchmark's twelve end at the same plan)
     case = next(c for c in bands._cases() if c.name == "storm crossing, 13 kn")
     ship, wx = orx.Ship.preset(case.ship), bands.weather(case)
     start, end = (bands.LAT, -155.0), (bands.LAT, -155.0 + case.span_deg)
@@ -142,8 +143,8 @@ def test_storm_crossing_solves_again_from_its_verified_start_after_a_rejection_a
     assert dp_plan.verify() == []
     corridor = orx.Corridor.from_waypoints([start, end], width_nm=2 * bands.HALF_WIDTH_NM)
     plan = orx.optimise_corridor(corridor, wx, ship, departure=bands.T0, eta=eta, rules=RULES, route=route,
-                                 max_leg_nm=bands.MAX_LEG_NM, use_land_mask=False)  # fmt: skip
+                                 max_leg_nm=bands.MAX_LEG_NM, use_land_mask=False, band_solves=3)  # fmt: skip
     st = plan.solver_stats
-    assert st["first_solve"].startswith("rejected: ") and st["retries"] >= 1
-    assert plan.status == "optimal" and plan.verify() == [] and plan.arrival <= eta
+    assert st["first_solve"].startswith("rejected: ") and "attempt 1: Ipopt Infeasible" in " ".join(st["tightening"])
+    assert plan.status in ("optimal", "sides_unsettled") and plan.verify() == [] and plan.arrival <= eta
     assert plan.total_fuel_t < 0.99 * dp_plan.total_fuel_t

@@ -134,14 +134,15 @@ def test_minimum_time_through_a_blocked_window_returns_the_verified_timed_passag
 
     monkeypatch.setattr(Problem, "_count", count)
     # the NLP imposes a band where it applies at its start's timing and cannot leave a band by timing alone
-    # (Hs below the threshold is not one of its sides): started inside its rows from the timed passage (the held
-    # sides' edges through it, edges_through), each solve, the retries from the same start included, converges to
-    # a plan the referee finds in the band. The call returns the verified start — the timed passage — with status
-    # "start", the referee's verdict and Ipopt's status verbatim, arriving within the hand bounds
+    # (Hs below the threshold is not one of its sides): each solve from the timed passage converges to a plan the
+    # referee finds in the band, and each retry from such a plan is infeasible. The call returns the verified start —
+    # the timed passage — with status "start", the referee's verdict and Ipopt's status verbatim (of the last
+    # solve, from the start again), arriving within the hand bounds
     best = optimise_corridor(_corridor(), sea, SHIP, departure=T0, objective="time", **KW)
     st = best.solver_stats
     assert best.status == "start" and st["ipopt_status"] == "Solve_Succeeded"
     assert st["first_solve"] == "rejected: band:synchronous_roll" and "failed verification" in st["status_reason"]
+    assert "attempt 1: Ipopt Infeasible_Problem_Detected" in st["tightening"]
     assert best.solver_stats["start"] == "centreline start"
     assert best.verify() == []
     v_max = float(min(SHIP.max_calm_speed_kn, 40.0))

@@ -20,15 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from formulations.common import BELOW_SIDE, PowerModel
-from formulations.disjunctive import (
-    InnerOutcome,
-    held_across_crossings,
-    improve_sides,
-    nlp_band_solver,
-    nlp_groups,
-    select_sides,
-)
+from formulations.common import PowerModel
+from formulations.disjunctive import InnerOutcome, improve_sides, nlp_band_solver, nlp_groups, select_sides
 from formulations.speed_nlp import NLPResult, SpeedNLP
 from optroute import units
 from optroute.geo.tracks import Exclusion, gc_points, project_to_polyline
@@ -339,12 +332,10 @@ class Problem:
         edges = edges_through(nlp, state) if through_start else None
         moved = 0
         if edges is not None:
-            moved = int(np.sum(state.inside) + np.sum(edges[2]))
-            nlp = nlp.with_edges(*edges[:2])
+            moved = int(np.sum(state.inside))
+            nlp = nlp.with_edges(*edges)
             state = nlp.evaluate(y0, v0, t0)
         sides, applies = nlp.default_sides(state)
-        if edges is not None:
-            applies = applies | edges[2]  # the held rows, on the side the start is on (edges_through)
         shape = sides.shape
         flippable = flippable_groups(nlp, state, y0, t0)
         trial_nlp: list[SpeedNLP] = []
@@ -352,7 +343,7 @@ class Problem:
         def trial() -> SpeedNLP:
             if not trial_nlp:  # flip trials: an iteration cap, so that hopeless flips fail fast
                 built = self.build(self._last_state, max_iter=self.trial_max_iter)
-                trial_nlp.append(built if edges is None else built.with_edges(*edges[:2]))
+                trial_nlp.append(built if edges is None else built.with_edges(*edges))
             return trial_nlp[0]
 
         inner = band_solver(nlp, trial, kwargs)
@@ -379,41 +370,22 @@ class Problem:
         )
 
 
-def edges_through(nlp: SpeedNLP, state: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """Band edges (lower, upper), (N, m, B) each, through a start's samples that lie inside the NLP's bands, and where
-    a side is held there though the band does not apply; None where no sample is inside a band.
+def edges_through(nlp: SpeedNLP, state: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    """Band edges (lower, upper), (N, m, B) each, through a start's samples that lie inside the NLP's bands; None
+    where none does.
 
-    Two kinds of sample are moved; every other keeps the NLP's own edges:
-
-    * inside a band where it applies (``state.inside``, as the NLP evaluates the start): the nearer edge
-      (:func:`formulations.disjunctive.select_sides`) moves to the start's ratio;
-    * inside the band's ratio range where the band does not apply, next to a sample of its leg where it does, or
-      next to such a sample in turn: :func:`formulations.disjunctive.held_across_crossings` holds the neighbour's
-      side there (the threshold crossing lies between them; a held sample holds its own neighbour on the next
-      solve), and the start, which the referee passed, breaks that row. The held side's edge moves to the start's
-      ratio and the row is imposed (the third array, True there): the NLP may move the sample out of the band,
-      not further in, as the hold means.
-
-    The NLP then holds every such sample at least as far from the band as the start, in its own sea, and starts
-    inside its own feasible set.
+    At such a sample (``state.inside``: the band applies and the ratio is strictly inside it, as the NLP evaluates
+    the start) the nearer edge (:func:`formulations.disjunctive.select_sides`) moves to the start's ratio; every
+    other sample keeps the NLP's own edges. The NLP then holds that sample at least as far from the band as the
+    start, in its own sea.
     """
-    if not nlp.n_bands:
+    if not nlp.n_bands or not state.inside.any():
         return None
     lower, upper = nlp.sample_edges()
-    sides, applies = nlp.default_sides(state)
-    held, held_applies = sides, applies
-    while True:  # a held sample holds its own neighbour on the next solve: the hold's reach along the leg
-        more, more_applies = held_across_crossings(held, held_applies)
-        if np.array_equal(more, held):
-            break
-        held, held_applies = more, more_applies
-    imposed = (sides == BELOW_SIDE) & (held != BELOW_SIDE)  # default_sides: BELOW only strictly inside the ratio band
-    if not (state.inside.any() or imposed.any()):
-        return None
-    side = np.where(imposed, held, np.where(state.inside, select_sides(state.ratio, lower, upper), 0))
-    lo = np.where(side < 0, state.ratio, lower)
-    hi = np.where(side > 0, state.ratio, upper)
-    return lo, hi, imposed
+    side = select_sides(state.ratio, lower, upper)
+    lo = np.where(state.inside & (side < 0), state.ratio, lower)
+    hi = np.where(state.inside & (side > 0), state.ratio, upper)
+    return lo, hi
 
 
 def warm_point(nlp: SpeedNLP, warm: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
