@@ -5,7 +5,7 @@ folder removed when the function is unloaded, so every process and every corrido
 the C source of a function (:class:`casadi.CodeGenerator`) is hashed together with the compiler, its flags and the
 CasADi version; the shared library is built once under that hash in a cache folder and loaded with
 :func:`casadi.external` from then on, by any process. A function whose code is already cached costs one
-``dlopen``.
+``dlopen``. A library not loaded for :data:`STALE_DAYS` days is removed when another is built.
 
 The flags keep the arithmetic as CasADi's virtual machine does it: ``-O1`` (no ``-ffast-math``) and
 ``-ffp-contract=off`` (no fused multiply-add), so that a compiled function gives the same numbers as the
@@ -24,10 +24,11 @@ import shlex
 import shutil
 import subprocess
 import tempfile
+import time
 from pathlib import Path
 from typing import Any
 
-__all__ = ["CACHE_ENV", "COMPILE_FLAGS", "cache_dir", "compiled_function", "compiler"]
+__all__ = ["CACHE_ENV", "COMPILE_FLAGS", "STALE_DAYS", "cache_dir", "compiled_function", "compiler"]
 
 #: The environment variable naming the cache folder (default: ``$XDG_CACHE_HOME/optroute/casadi``, else
 #: ``~/.cache/optroute/casadi``; ``<temp dir>/optroute-casadi-<uid>`` where neither can be written).
@@ -39,6 +40,10 @@ CACHE_ENV = "OPTROUTE_CASADI_CACHE"
 COMPILE_FLAGS = ("-O1", "-ffp-contract=off", "-fPIC", "-shared")
 #: Longest a compilation may take [s] before the function is kept interpreted.
 COMPILE_TIMEOUT_S = 600.0
+#: A cached library not loaded for this long [days] is removed when another is built: one is kept per ship, band
+#: set and sample layout (a few hundred kB each), so a cache that only grew would fill the disk over the studies of
+#: many ships. Loading it marks it used (its modification time); a process that has it loaded keeps its copy.
+STALE_DAYS = 60.0
 
 
 def compiler() -> list[str]:
@@ -99,6 +104,25 @@ def _build(source: str, library: Path, command: list[str]) -> str | None:
             leftover.unlink(missing_ok=True)
 
 
+def _touch(library: Path) -> None:
+    """Mark a cached library used now (its modification time), so that :func:`_prune` keeps it."""
+    try:
+        os.utime(library)
+    except OSError:  # a read-only cache still serves its libraries
+        pass
+
+
+def _prune(folder: Path, keep: Path) -> None:
+    """Remove the cache's libraries not used for :data:`STALE_DAYS` days, ``keep`` aside."""
+    oldest = time.time() - STALE_DAYS * 86400.0
+    for library in folder.glob("*.so"):
+        try:
+            if library != keep and library.stat().st_mtime < oldest:
+                library.unlink()
+        except OSError:  # removed by another process meanwhile, or not ours to remove
+            pass
+
+
 def compiled_function(fun: Any) -> tuple[Any, str]:
     """``fun`` (a CasADi SX function) compiled to C through the disk cache, and how.
 
@@ -122,11 +146,14 @@ def compiled_function(fun: Any) -> tuple[Any, str]:
     key = hashlib.sha256("\0".join([source, *command, *COMPILE_FLAGS, ca.__version__]).encode()).hexdigest()[:32]
     library = folder / f"{fun.name()}-{key}.so"
     how = "cached"
-    if not library.exists():
+    if library.exists():
+        _touch(library)
+    else:
         why = _build(source, library, command)
         if why is not None:
             return fun, why
         how = "compiled"
+        _prune(folder, keep=library)
     try:
         return ca.external(fun.name(), str(library)), how
     except RuntimeError as exc:  # an unreadable library: removed, so that the next build makes it again

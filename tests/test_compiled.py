@@ -43,6 +43,31 @@ def test_a_function_is_compiled_once_then_loaded_from_the_cache_with_the_interpr
         np.testing.assert_array_equal(np.asarray(second(x)).ravel(), expected)
 
 
+@needs_cc
+def test_a_build_removes_the_libraries_not_used_for_stale_days_and_a_load_marks_its_library_used(tmp_path, monkeypatch):
+    import os
+    import time
+
+    from formulations.compiled import STALE_DAYS
+
+    cache = tmp_path / "cache"
+    monkeypatch.setenv(CACHE_ENV, str(cache))
+    cache.mkdir()
+    stale, recent = cache / "leg_hess-0123.so", cache / "leg_jac-4567.so"
+    for path, age_days in ((stale, STALE_DAYS + 1.0), (recent, STALE_DAYS - 1.0)):
+        path.write_bytes(b"not a library")
+        then = time.time() - age_days * 86400.0
+        os.utime(path, (then, then))
+    _, how = compiled_function(_sx_function())
+    assert how == "compiled"
+    assert not stale.exists() and recent.exists()  # the one past STALE_DAYS removed, the younger kept
+    (built,) = [p for p in cache.glob("probe-*.so")]
+    then = time.time() - (STALE_DAYS + 1.0) * 86400.0
+    os.utime(built, (then, then))
+    _, how = compiled_function(_sx_function())
+    assert how == "cached" and built.stat().st_mtime > time.time() - 3600.0  # loading marked it used
+
+
 def test_without_a_compiler_or_a_writable_cache_the_function_stays_interpreted_and_says_why(tmp_path, monkeypatch):
     fun = _sx_function()
     monkeypatch.setenv("CC", str(tmp_path / "no-such-cc"))
