@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from optroute import geodesy as geo
-from optroute.geo.tracks import gc_points, inner_offset_nm, project_to_polyline
+from optroute.geo.tracks import gc_points, inner_offset_nm, project_to_polyline, within_of_polyline
 
 lats = st.floats(-80.0, 80.0)
 lons = st.floats(-180.0, 179.999)
@@ -138,6 +138,29 @@ def test_cross_track_of_a_polyline_against_karney():
             assert float(s) == pytest.approx(s_true + 0.5 * float(d), abs=1e-3)
             assert float(xt) == pytest.approx(off, abs=1e-3)
             assert float(dist) == pytest.approx(abs(off), abs=1e-3)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_corridor_screen_never_clears_a_point_the_projection_puts_beyond_the_radius(seed):
+    # polylines of 1-4 legs of 20-400 nm turning up to 60 degrees, points up to 120 nm off them and 20 % beyond
+    # their ends: where within_of_polyline clears a point, project_to_polyline (tested against Karney above) puts it
+    # within the radius; and a point well inside it (0.9 r - 1 nm) is always cleared, so the screen saves work
+    rng = np.random.default_rng(seed)
+    wp, course = [(rng.uniform(-60, 60), rng.uniform(-180, 180))], rng.uniform(0, 360)
+    for _ in range(rng.integers(1, 5)):
+        course += rng.uniform(-60, 60)
+        la, lo = geo.destination(*wp[-1], course, rng.uniform(20, 400))
+        wp.append((float(la), float(lo)))
+    wp = np.array(wp)
+    k, f = rng.integers(0, len(wp) - 1, 50), rng.uniform(-0.2, 1.2, 50)
+    la, lo, c = geo.points_along(wp[k, 0], wp[k, 1], wp[k + 1, 0], wp[k + 1, 1], np.clip(f, 0.0, 1.0))
+    lat, lon = geo.destination(la, lo, c + 90.0, rng.uniform(-120, 120, 50))
+    _, _, dist, _ = project_to_polyline(wp, lat, lon)
+    for r in rng.uniform(0.0, 130.0, 4):
+        cleared = within_of_polyline(wp, lat, lon, r)
+        assert np.all(dist[cleared] <= r)
+        assert np.all(cleared[dist <= 0.9 * r - 1.0])
 
 
 @pytest.mark.parametrize(("lat", "course", "half_nm", "leg_nm"), [(30.0, 95.0, 40.0, 206.0), (-55.0, 10.0, 120.0, 400.0),

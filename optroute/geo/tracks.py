@@ -24,7 +24,7 @@ from optroute.units import timedelta_to_h as _td_to_h
 if TYPE_CHECKING:
     from optroute.weather.cyclone_tracks import CycloneTrack
 
-__all__ = ["Exclusion", "gc_points", "inner_offset_nm", "project_to_polyline"]
+__all__ = ["Exclusion", "gc_points", "inner_offset_nm", "project_to_polyline", "within_of_polyline"]
 
 
 # --------------------------------------------------------------------------- geodesic helpers
@@ -84,6 +84,69 @@ def inner_offset_nm(half_width_nm: float, leg_along_nm: float) -> float:
     return float(min(h, half_width_nm))
 
 
+def _sphere_foot(
+    wp: np.ndarray, lat: np.ndarray, lon: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """The nearest leg of the polyline ``wp`` (n, 2) [deg] to each point (flat ``lat``, ``lon`` [deg]) on the R₁ sphere,
+    and the foot on it (:func:`project_to_polyline`'s first step).
+
+    Returns the leg index (M,), the foot's along-track position on the leg's WGS84 geodesic [nm from its start]
+    (the sphere's, scaled to the leg's WGS84 length; it may lie before 0 or past the leg's end), the sphere's signed
+    cross-track distance [nm], and every leg's WGS84 length [nm] and initial course [deg].
+    """
+    la0, lo0, la1, lo1 = wp[:-1, 0][None], wp[:-1, 1][None], wp[1:, 0][None], wp[1:, 1][None]
+    r = geo.EARTH_RADIUS_NM
+    d_sph = geo.sphere_distance_nm(la0, lo0, la1, lo1)
+    delta = geo.sphere_distance_nm(la0, lo0, lat[:, None], lon[:, None]) / r
+    dth = np.radians(
+        geo.sphere_initial_course_deg(la0, lo0, lat[:, None], lon[:, None])
+        - geo.sphere_initial_course_deg(la0, lo0, la1, lo1)
+    )
+    xt_s = r * np.arcsin(np.clip(np.sin(delta) * np.sin(dth), -1.0, 1.0))
+    at_s = r * np.arctan2(np.sin(delta) * np.cos(dth), np.cos(delta))
+    d_end = geo.sphere_distance_nm(la1, lo1, lat[:, None], lon[:, None])
+    on_leg = (at_s >= 0.0) & (at_s <= d_sph)
+    k = np.argmin(np.where(on_leg, np.abs(xt_s), np.minimum(delta * r, d_end)), axis=1)
+    rows = np.arange(lat.size)
+    # on WGS84, along the chosen leg
+    d_leg, c_leg, _ = geo.inverse(wp[:-1, 0], wp[:-1, 1], wp[1:, 0], wp[1:, 1])
+    length = d_leg[k]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        scale = np.where(d_sph[0, k] > 0, length / np.where(d_sph[0, k] > 0, d_sph[0, k], 1.0), 1.0)
+    return k, at_s[rows, k] * scale, xt_s[rows, k], (d_leg, c_leg)
+
+
+def within_of_polyline(waypoints: np.ndarray, lat_deg: ArrayLike, lon_deg: ArrayLike, radius_nm: float) -> np.ndarray:
+    """Which points are certainly within ``radius_nm`` [nm] of a geodesic polyline on WGS84: a cheap screen for
+    :func:`project_to_polyline`.
+
+    A point is, where its WGS84 distance to one point of the polyline is at most ``radius_nm``: the point on the
+    nearest leg's geodesic at the sphere's foot (:func:`project_to_polyline`'s first step, held on the leg). The
+    distance to the polyline is never larger, so a point this finds is within the radius; one it does not find may
+    be too (the caller measures it with :func:`project_to_polyline`).
+
+    Parameters
+    ----------
+    waypoints : ndarray, shape (n, 2)
+        Polyline (lat, lon) [deg].
+    lat_deg, lon_deg : array_like
+        Points [deg].
+    radius_nm : float
+        Distance [nm].
+
+    Returns
+    -------
+    ndarray of bool
+        The points' shape.
+    """
+    wp = np.asarray(waypoints, dtype=float)
+    lat = np.atleast_1d(np.asarray(lat_deg, dtype=float))
+    lon = np.atleast_1d(np.asarray(lon_deg, dtype=float))
+    k, s, _, (d_leg, c_leg) = _sphere_foot(wp, lat.ravel(), lon.ravel())
+    f_lat, f_lon, _ = geo.direct(wp[k, 0], wp[k, 1], c_leg[k], np.clip(s, 0.0, d_leg[k]))
+    return (geo.distance_nm(f_lat, f_lon, lat.ravel(), lon.ravel()) <= radius_nm).reshape(lat.shape)
+
+
 def project_to_polyline(
     waypoints: np.ndarray, lat_deg: ArrayLike, lon_deg: ArrayLike, *, refine: int = 2, clamp: bool = True
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -131,26 +194,8 @@ def project_to_polyline(
     lon = np.atleast_1d(np.asarray(lon_deg, dtype=float))
     shape = lat.shape
     lat, lon = lat.ravel(), lon.ravel()
-    la0, lo0, la1, lo1 = wp[:-1, 0][None], wp[:-1, 1][None], wp[1:, 0][None], wp[1:, 1][None]
-    r = geo.EARTH_RADIUS_NM
-    d_sph = geo.sphere_distance_nm(la0, lo0, la1, lo1)
-    delta = geo.sphere_distance_nm(la0, lo0, lat[:, None], lon[:, None]) / r
-    dth = np.radians(
-        geo.sphere_initial_course_deg(la0, lo0, lat[:, None], lon[:, None])
-        - geo.sphere_initial_course_deg(la0, lo0, la1, lo1)
-    )
-    xt_s = r * np.arcsin(np.clip(np.sin(delta) * np.sin(dth), -1.0, 1.0))
-    at_s = r * np.arctan2(np.sin(delta) * np.cos(dth), np.cos(delta))
-    d_end = geo.sphere_distance_nm(la1, lo1, lat[:, None], lon[:, None])
-    on_leg = (at_s >= 0.0) & (at_s <= d_sph)
-    k = np.argmin(np.where(on_leg, np.abs(xt_s), np.minimum(delta * r, d_end)), axis=1)
-    rows = np.arange(lat.size)
-    # on WGS84, along the chosen leg
-    d_leg, c_leg, _ = geo.inverse(wp[:-1, 0], wp[:-1, 1], wp[1:, 0], wp[1:, 1])
+    k, s, xt_sphere, (d_leg, c_leg) = _sphere_foot(wp, lat, lon)
     a_lat, a_lon, c0, length = wp[k, 0], wp[k, 1], c_leg[k], d_leg[k]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        scale = np.where(d_sph[0, k] > 0, length / np.where(d_sph[0, k] > 0, d_sph[0, k], 1.0), 1.0)
-    s = at_s[rows, k] * scale
     for _ in range(max(0, int(refine))):
         f_lat, f_lon, f_course = geo.direct(a_lat, a_lon, c0, s)
         dist, az, _ = geo.inverse(f_lat, f_lon, lat, lon)
@@ -159,11 +204,15 @@ def project_to_polyline(
     dist, az, _ = geo.inverse(f_lat, f_lon, lat, lon)
     xt = dist * np.sign(np.sin(np.radians(az - f_course)))
     if not refine:
-        xt = xt_s[rows, k] * geo.sphere_to_wgs84(lat, c0 + 90.0)[0]
-    d_start = geo.distance_nm(a_lat, a_lon, lat, lon)
-    d_stop = geo.distance_nm(wp[k + 1, 0], wp[k + 1, 1], lat, lon)
+        xt = xt_sphere * geo.sphere_to_wgs84(lat, c0 + 90.0)[0]
     inside = (s >= 0.0) & (s <= length)
-    out_dist = np.where(inside, np.abs(xt), np.minimum(d_start, d_stop))
+    out_dist = np.abs(xt)
+    beyond = np.flatnonzero(~inside)  # the foot past its leg's ends: the nearer end is the nearest point
+    if beyond.size:
+        end = k[beyond] + 1
+        d_start = geo.distance_nm(a_lat[beyond], a_lon[beyond], lat[beyond], lon[beyond])
+        d_stop = geo.distance_nm(wp[end, 0], wp[end, 1], lat[beyond], lon[beyond])
+        out_dist[beyond] = np.minimum(d_start, d_stop)
     s_start = np.concatenate([[0.0], np.cumsum(d_leg)])[:-1]
     at_k = np.clip(s, 0.0, length) if clamp else s
     return (
