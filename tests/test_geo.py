@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from optroute import geodesy as geo
-from optroute.geo.tracks import gc_points, inner_offset_nm, project_to_polyline, within_of_polyline
+from optroute.geo.tracks import gc_points, inner_offset_nm, project_to_polyline, within_distance_of_polyline
 
 lats = st.floats(-80.0, 80.0)
 lons = st.floats(-180.0, 179.999)
@@ -144,7 +144,7 @@ def test_cross_track_of_a_polyline_against_karney():
 @given(st.integers(0, 2**32 - 1))
 def test_the_corridor_screen_never_clears_a_point_the_projection_puts_beyond_the_radius(seed):
     # polylines of 1-4 legs of 20-400 nm turning up to 60 degrees, points up to 120 nm off them and 20 % beyond
-    # their ends: where within_of_polyline clears a point, project_to_polyline (tested against Karney above) puts it
+    # their ends: where within_distance_of_polyline clears a point, project_to_polyline (tested against Karney above) puts it
     # within the radius; and a point well inside it (0.9 r - 1 nm) is always cleared, so the screen saves work
     rng = np.random.default_rng(seed)
     wp, course = [(rng.uniform(-60, 60), rng.uniform(-180, 180))], rng.uniform(0, 360)
@@ -158,7 +158,7 @@ def test_the_corridor_screen_never_clears_a_point_the_projection_puts_beyond_the
     lat, lon = geo.destination(la, lo, c + 90.0, rng.uniform(-120, 120, 50))
     _, _, dist, _ = project_to_polyline(wp, lat, lon)
     for r in rng.uniform(0.0, 130.0, 4):
-        cleared = within_of_polyline(wp, lat, lon, r)
+        cleared = within_distance_of_polyline(wp, lat, lon, r)
         assert np.all(dist[cleared] <= r)
         assert np.all(cleared[dist <= 0.9 * r - 1.0])
 

@@ -24,7 +24,7 @@ from optroute.units import timedelta_to_h as _td_to_h
 if TYPE_CHECKING:
     from optroute.weather.cyclone_tracks import CycloneTrack
 
-__all__ = ["Exclusion", "gc_points", "inner_offset_nm", "project_to_polyline", "within_of_polyline"]
+__all__ = ["Exclusion", "gc_points", "inner_offset_nm", "project_to_polyline", "within_distance_of_polyline"]
 
 
 # --------------------------------------------------------------------------- geodesic helpers
@@ -116,7 +116,9 @@ def _sphere_foot(
     return k, at_s[rows, k] * scale, xt_s[rows, k], (d_leg, c_leg)
 
 
-def within_of_polyline(waypoints: np.ndarray, lat_deg: ArrayLike, lon_deg: ArrayLike, radius_nm: float) -> np.ndarray:
+def within_distance_of_polyline(
+    waypoints: np.ndarray, lat_deg: ArrayLike, lon_deg: ArrayLike, radius_nm: float
+) -> np.ndarray:
     """Which points are certainly within ``radius_nm`` [nm] of a geodesic polyline on WGS84: a cheap screen for
     :func:`project_to_polyline`.
 

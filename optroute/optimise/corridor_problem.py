@@ -558,10 +558,9 @@ class PreparedCorridor(CorridorReport):
         from the rejected plan. Where that solve fails and the candidate is a plan on the NLP's legs
         (:func:`warm_is_plan`), the next attempt starts from it again, its samples inside the tightened bands with
         their edges through it (:func:`~optroute.optimise.nlp_solve.edges_through`): the rejected plan lies on the
-        old edges, outside the widened bands' feasible set, and on bench_bands' storm crossings at 13 and 13.5 kn
-        every retry from it failed and the start came back after 13 solves (NLP / DP 1.000); from the start 0.975.
-        Where the retry from the rejected plan succeeds it stays first: on the 7 m storm crossing it reached 0.957
-        against 0.974 from the start.
+        old edges, outside the widened bands' feasible set, where Ipopt may find no point (the storm crossings of
+        ``benchmarks/bench_bands.py``). The rejected plan stays the first retry's start, nearer the optimum than the
+        verified start where that retry succeeds.
 
         ``diagnose``: a failed first solve goes to :func:`first_failure` (the elastic phase-1 problem): without a
         verified start an unreachable ETA raises :class:`~optroute.errors.InfeasibleETA`; with one

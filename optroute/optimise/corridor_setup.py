@@ -87,10 +87,15 @@ def check_jit(jit: bool | str, n_legs: int) -> bool:
             "install gcc or name another compiler in the CC environment variable, or use jit='auto' or False"
         )
     if jit and cache_dir() is None:
+        given = os.environ.get(CACHE_ENV)
+        where = (
+            f"{CACHE_ENV}={given!r} cannot be written"
+            if given
+            else f"neither ~/.cache/optroute/casadi nor the temporary folder can be written ({CACHE_ENV} is unset)"
+        )
         raise ConfigError(
-            f"jit=True keeps the compiled derivatives in a cache folder, and {CACHE_ENV}="
-            f"{os.environ.get(CACHE_ENV, '')!r} (or, unset, ~/.cache/optroute/casadi and the temporary folder) "
-            f"cannot be written; point {CACHE_ENV} at a writable folder, or use jit='auto' or False"
+            f"jit=True keeps the compiled derivatives in a cache folder, and {where}; point {CACHE_ENV} at a "
+            "writable folder, or use jit='auto' or False"
         )
     return bool(jit)
 

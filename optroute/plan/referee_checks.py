@@ -14,7 +14,7 @@ import numpy as np
 
 from optroute import geodesy as geo
 from optroute.geo import land
-from optroute.geo.tracks import project_to_polyline, within_of_polyline
+from optroute.geo.tracks import project_to_polyline, within_distance_of_polyline
 from optroute.physics.safety import band_margins, is_speed_forbidden
 from optroute.plan.checkpoints import CheckPoints
 from optroute.plan.evaluate import PlanContext, Violation
@@ -113,7 +113,7 @@ def check_geometry(findings: Findings, ctx: PlanContext, corridor_tol_nm: float)
         # the exact projection (six geodesic problems a point) only where the screen (two) cannot clear a point
         # within the narrowest half-width; 2 mm spare for the rounding of the two measures
         clear_nm = float(np.min(cor.half_width_nm)) + corridor_tol_nm - 1e-6
-        near = ~within_of_polyline(cor.waypoints, pts.lat, pts.lon, clear_nm)
+        near = ~within_distance_of_polyline(cor.waypoints, pts.lat, pts.lon, clear_nm)
         dist, hw = np.zeros(near.shape), np.zeros(near.shape)
         if near.any():
             s, _, dist[near], _ = project_to_polyline(cor.waypoints, pts.lat[near], pts.lon[near])
