@@ -154,13 +154,13 @@ def solution_stats(
             departure=departure,
             step_nm=step_nm,
         )
-    if tabulate and model is not None and sampler is not None:
-        tab.update(
-            leg_table_error(
-                sol.nlp, frame, model, sampler, offset_nm=res.offset_nm, stw_kn=res.stw_kn, time_h=res.time_h,
-                departure=departure,
-            )
-        )  # fmt: skip
+        if model is not None and sampler is not None:
+            tab.update(
+                leg_table_error(
+                    sol.nlp, frame, model, sampler, offset_nm=res.offset_nm, stw_kn=res.stw_kn, time_h=res.time_h,
+                    departure=departure,
+                )
+            )  # fmt: skip
     cert: dict[str, Any] = {"method": "not applicable", "gap": float("nan")}
     reason = certificate_reason(fixed, samples, res, exclusion, objective)
     if reason is None:
@@ -281,5 +281,5 @@ class CorridorReport:
             step_nm=self.verify_step_nm,
             model=self.model,
             sampler=self.sampler,
-            tabulate=getattr(call, "tabulate", True),
+            tabulate=call.tabulate,
         )
