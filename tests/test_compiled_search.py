@@ -1,7 +1,9 @@
 """The compiled search loop, the fuel objective's A* bound and the Kwon inversion by bracketed Newton.
 
 References: the Python search loop with the same compiled leg costing
-(``leg_batch``, no ``leg_kernel``) for the compiled loop; Dijkstra's label for
+(``leg_batch``, no ``leg_kernel``; batched, every edge its bounds allow costed)
+for the compiled loop (lazy edge costing); the standard library's ``heapq`` for
+its open set; Dijkstra's label for
 A*'s (admissibility, hypothesis); the numpy referee
 (``evaluate_speeds(engine="numpy")``) costing random sea states for the fuel
 floor, and a hand-worked calm-water minimum; a 200-step bisection of Kwon's
@@ -9,6 +11,8 @@ floor, and a hand-worked calm-water minimum; a 200-step bisection of Kwon's
 Bowditch's great-circle formulas (:func:`optroute.geodesy.destination`,
 :func:`~optroute.geodesy.initial_course_deg`) for the piece geometry.
 """
+
+import heapq
 
 import numpy as np
 import pytest
@@ -23,7 +27,7 @@ from optroute.physics.performance import KwonModel
 from optroute.physics.pointwise import cached_point_params, least_cost_per_nm
 from optroute.physics.safety import BandRules
 from optroute.physics.speed_loss import KWON_BISECTIONS, KWON_SCAN_STEPS, calm_speed_point, kwon_cu_coefficients
-from optroute.search import RouteGrid, compass, shortest_path
+from optroute.search import RouteGrid, compass, compiled_search, shortest_path
 from optroute.search.edge_geometry import piece_point, sphere_course, wgs84_scale
 from optroute.search.routing import PassagePhysics
 from optroute.weather import WeatherSampler
@@ -79,8 +83,30 @@ def test_compiled_loop_settles_the_python_loops_labels(rough, grid, objective, l
     np.testing.assert_allclose(fast.times_h, slow.times_h, rtol=0.0, atol=1e-9)
     assert fast.cost == pytest.approx(slow.cost, rel=1e-12)
     assert fast.total_fuel_t == pytest.approx(slow.total_fuel_t, rel=1e-12)
-    assert (fast.expanded, fast.evaluated_edges) == (slow.expanded, slow.evaluated_edges)
+    # the compiled loop costs an edge only when it is due (lazily): fewer edges than the batched loop, which costs
+    # every edge its bounds do not rule out, including those into nodes a better edge reaches first
+    assert fast.evaluated_edges < slow.evaluated_edges
     assert fast.callback_calls < slow.callback_calls
+
+
+@settings(max_examples=40, deadline=None)
+@given(ops=st.lists(st.one_of(st.integers(0, 6), st.none()), min_size=1, max_size=3000))
+def test_the_open_set_pops_its_entries_by_key_then_push_order(ops):
+    """The lazy search's binary heap against the standard library's (``heapq`` on (key, push number)), pushes
+    (integers: the key) and pops (None) interleaved, with many ties."""
+    fl, it = np.empty((1, 2)), np.empty((1, 4), dtype=np.int64)
+    n = np.int64(0)
+    ref, got, want = [], [], []
+    for i, key in enumerate(ops):
+        if key is not None:
+            fl, it, n = compiled_search._push(fl, it, n, key / 3.0, 0.0, np.int64(i), np.int64(-1), np.int64(-1),
+                                              np.int64(i))  # fmt: skip
+            heapq.heappush(ref, (key / 3.0, i))
+        elif ref:
+            n = compiled_search._pop(fl, it, n)
+            got.append(int(it[n, 0]))
+            want.append(heapq.heappop(ref)[1])
+    assert (got, int(n)) == (want, len(ref))
 
 
 def test_a_cost_floor_above_the_true_cost_is_refused(rough, grid):

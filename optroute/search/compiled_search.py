@@ -1,15 +1,17 @@
-"""The whole grid search in one compiled call: settling, edge tests, pruning, edge costing and label updates.
+"""The whole grid search in one compiled call: settling, edge tests, pruning, lazy edge costing and label updates.
 
 :class:`optroute.search.dijkstra._Search` alternates Python and compiled code
 per batch of settled nodes: select the batch, find the edges worth costing,
-cost them through the segment callback (whose compiled form walks the legs
+cost them all through the segment callback (whose compiled form walks the legs
 piece by piece, :func:`optroute.search.passage_kernels.cost_legs`), update the
 labels.  When the callback carries a :class:`LegKernel` (the physics callbacks
-of :mod:`optroute.search.passage_physics` do), :func:`run` does the same loop in numba,
-with the same three bookkeeping functions (:mod:`optroute.search._kernels`), the
-same leg costing (:func:`optroute.search.passage_kernels.cost_leg`) and the same
-piece geometry (:func:`optroute.search.edge_geometry.edge_pieces`), so the labels
-are those of the Python loop; only the interpreter between them is gone.
+of :mod:`optroute.search.passage_physics` do), :func:`run` does the search in
+numba with the same edge tests (:func:`optroute.search._kernels.candidates`),
+the same leg costing (:func:`optroute.search.passage_kernels.cost_leg`) and the
+same piece geometry (:func:`optroute.search.edge_geometry.edge_pieces`), so the
+labels are those of the Python loop; but it costs an edge only when the edge's
+lower bound is the least of the open set and its head is not settled yet (lazy
+A*), so most edges to a node that a better edge reaches first are never costed.
 """
 
 from __future__ import annotations
@@ -70,43 +72,100 @@ class LegKernel:
 
 
 @jit
-def _cost_batch(
-    k, u, v, o, tarr, tangent, piece_f0, piece_f1, piece_n, buf, refine, label, time_obj, rest_rate, ws
+def _cost_edge(
+    k, x, y, q, tarr, tangent, pf0, pf1, pn, buf, refine, label, time_obj, rest_rate, ws
 ):  # pragma: no cover - compiled
-    """Cost edges ``u → v`` (``refine``: :func:`optroute.search.refine_kernels.workspace`, ``ws``:
-    :func:`~optroute.search.passage_kernels.leg_workspace`); returns (duration, fuel, feasible, uncovered points,
-    the work arrays, grown to the batch's largest piece).
+    """Cost the edge ``x → y`` along offset ``q`` departing at ``tarr[x]`` (``refine``:
+    :func:`optroute.search.refine_kernels.workspace`, ``ws``: :func:`~optroute.search.passage_kernels.leg_workspace`);
+    returns (duration [h], fuel [t], feasible, uncovered points, the work arrays, grown to the leg's largest piece).
 
-    An edge that cannot improve ``label[v]`` (the labels before the batch) is dropped as soon as its cost so far
-    plus ``rest_rate`` times the length still to sail shows it (:func:`~optroute.search.passage_kernels.cost_leg`'s
-    ``stop``): returned infeasible, which the label update (strictly better only) treats as it would the edge's
-    full cost.  ``rest_rate`` is the search's lower bound of the objective per nm of any leg, less the speed
-    check's tolerance: 1 / ``v_max`` [h/nm] for time, the cost floor ρ [t/nm] for the cost objectives.
+    An edge that cannot improve ``label[y]`` is dropped as soon as its cost so far plus ``rest_rate`` times the
+    length still to sail shows it (:func:`~optroute.search.passage_kernels.cost_leg`'s ``stop``): returned
+    infeasible, which the label update (strictly better only) treats as it would the edge's full cost.
+    ``rest_rate`` is the search's lower bound of the objective per nm of any leg, less the speed check's
+    tolerance: 1 / ``v_max`` [h/nm] for time, the cost floor ρ [t/nm] for the cost objectives.
     """
-    n = u.size
-    dur, fu = np.empty(n), np.empty(n)
-    feas = np.zeros(n, dtype=np.bool_)
-    unc = 0
     p, w, mode, check_nm, speeds, lam, desired, step, vmin = k
-    for e in range(n):
-        q = o[e]
-        edge_pieces(tangent[u[e]], tangent[v[e]], piece_f0[q], piece_f1[q], piece_n[q], buf[0], buf[1], buf[2], buf[3])
-        m = leg_points(buf[3], piece_n[q], check_nm)
-        if ws[1].shape[0] < m:
-            ws = leg_workspace(m, speeds.size)
-        stop = (label[u[e]], label[v[e]], time_obj, rest_rate)
-        d, f, ok, c = cost_leg(
-            p, w, mode, check_nm, speeds, lam, desired, step, vmin, buf[0], buf[1], buf[2], buf[3], piece_n[q],
-            tarr[u[e]], refine, stop, ws,
-        )  # fmt: skip
-        unc += c
-        dur[e], fu[e], feas[e] = d, f, ok
-    return dur, fu, feas, unc, ws
+    edge_pieces(tangent[x], tangent[y], pf0[q], pf1[q], pn[q], buf[0], buf[1], buf[2], buf[3])
+    m = leg_points(buf[3], pn[q], check_nm)
+    if ws[1].shape[0] < m:
+        ws = leg_workspace(m, speeds.size)
+    stop = (label[x], label[y], time_obj, rest_rate)
+    d, f, ok, c = cost_leg(
+        p, w, mode, check_nm, speeds, lam, desired, step, vmin, buf[0], buf[1], buf[2], buf[3], pn[q], tarr[x],
+        refine, stop, ws,
+    )  # fmt: skip
+    return d, f, ok, c, ws
+
+
+# --------------------------------------------------------------------------- the open set: a binary heap
+# Entries are ordered by (key, push number); ``fl[i] = (key, value)``, ``it[i] = (node, parent, offset, push number)``.
+# A node's *label* entry has parent -1 and its label as value; an *edge* entry has the edge's tail as parent and
+# its great-circle length [nm] as value.
 
 
 @jit
-def run(graph, search, k, label, tarr, fuel, parent, poff, state, touched):  # pragma: no cover - compiled
-    """Settle nodes until the goal is settled or the open set is empty.
+def _before(fl, it, a, b):  # pragma: no cover - compiled
+    return fl[a, 0] < fl[b, 0] or (fl[a, 0] == fl[b, 0] and it[a, 3] < it[b, 3])
+
+
+@jit
+def _swap(fl, it, a, b):  # pragma: no cover - compiled
+    for c in range(2):
+        fl[a, c], fl[b, c] = fl[b, c], fl[a, c]
+    for c in range(4):
+        it[a, c], it[b, c] = it[b, c], it[a, c]
+
+
+@jit
+def _push(fl, it, n, key, value, node, parent, offset, stamp):  # pragma: no cover - compiled
+    """Add an entry; returns the heap's arrays (doubled when full) and its new size."""
+    if n == fl.shape[0]:
+        fl2, it2 = np.empty((2 * n, 2)), np.empty((2 * n, 4), dtype=np.int64)
+        fl2[:n], it2[:n] = fl, it
+        fl, it = fl2, it2
+    fl[n, 0], fl[n, 1] = key, value
+    it[n, 0], it[n, 1], it[n, 2], it[n, 3] = node, parent, offset, stamp
+    a = n
+    while a > 0 and _before(fl, it, a, (a - 1) // 2):
+        _swap(fl, it, a, (a - 1) // 2)
+        a = (a - 1) // 2
+    return fl, it, n + 1
+
+
+@jit
+def _pop(fl, it, n):  # pragma: no cover - compiled
+    """Move the least entry to row ``n - 1`` and restore the heap above it; returns the new size."""
+    n -= 1
+    _swap(fl, it, 0, n)
+    a = 0
+    while True:
+        b = 2 * a + 1
+        if b >= n:
+            break
+        if b + 1 < n and _before(fl, it, b + 1, b):
+            b += 1
+        if not _before(fl, it, b, a):
+            break
+        _swap(fl, it, a, b)
+        a = b
+    return n
+
+
+@jit
+def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no cover - compiled
+    """Settle nodes until the goal is settled or the open set is empty, costing each edge only when it is due.
+
+    Label-setting A* (Dijkstra with ``h = 0``) with lazy edge costing: settling a node pushes each of its edges
+    worth costing (:func:`optroute.search._kernels.candidates`) with its lower bound ``label[x] + ρ·length +
+    h[y]`` as key, not its cost.  The edge is costed only when its key is the least of the open set and its head
+    ``y`` is not yet settled; an improved ``label[y]`` pushes ``y``'s label entry (key ``label[y] + h[y]``), and
+    ``y`` is settled when that entry is the least.  Exact: with ``h`` consistent with the bound (so it is with the
+    true costs, which the bound does not exceed), every edge that could still improve ``y`` has a smaller key than
+    ``y``'s label entry, so it is costed first; the labels are those of the batched loop of
+    :meth:`optroute.search.dijkstra._Search._loop`, with the same leg costing
+    (:func:`optroute.search.passage_kernels.cost_leg`), which costs every edge to a node not yet settled that its
+    bounds do not rule out (many of them for nodes that a better edge reaches first).
 
     Parameters
     ----------
@@ -114,70 +173,87 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state, touched):  # p
         ``(ii, jj, di, dj, off, ny, nx, nav_pad, base_pad, cell_off, cell_n, all_navigable, xyz, tangent,
         piece_f0, piece_f1, piece_n)`` as held by ``_Search`` and ``LegEvaluator``.
     search : tuple
-        ``(start, goal, h, delta, f_slack, select_mode, rho, two_r, time_objective, lam, v_max, tol, t_goal,
-        t_limit, inv_v)``: ``rho`` the objective's lower bound per nm [h/nm or t/nm]; ``t_goal`` a lower bound on
-        each node's time to the goal [h], ``t_limit`` the time limit [h] (inf for none), ``inv_v`` = 1 / v_max
-        less the speed check's tolerance [h/nm] (see :func:`optroute.search._kernels.candidates`).
+        ``(start, goal, h, rho, two_r, time_objective, lam, v_max, tol, t_goal, t_limit, inv_v)``: ``rho`` the
+        objective's lower bound per nm [h/nm or t/nm]; ``t_goal`` a lower bound on each node's time to the goal
+        [h], ``t_limit`` the time limit [h] (inf for none), ``inv_v`` = 1 / v_max less the speed check's
+        tolerance [h/nm] (see :func:`optroute.search._kernels.candidates`).
     k : tuple
         :class:`LegKernel`'s fields but the callback.
-    label, tarr, fuel, parent, poff, state, touched : ndarray
+    label, tarr, fuel, parent, poff, state : ndarray
         The search's state, updated in place (start already open).
 
     Returns
     -------
     counts : ndarray of int, shape (6,)
-        Nodes expanded, edges costed, settling steps, points outside the weather,
-        error code (``ERR_*``), index of nothing (0).
+        Nodes settled, edges costed, settling steps (one a node), points outside the weather,
+        error code (``ERR_*``), heap entries pushed.
     bad : ndarray, shape (3,)
         Length [nm], duration [h] and cost of the edge that broke a bound (error only).
     """
     ii, jj, di, dj, off, ny, nx, nav_pad, base_pad, cell_off, cell_n, all_nav, xyz, tangent, pf0, pf1, pn = graph
-    s, g, h, delta, slack, mode, rho, two_r, time_obj, lam, vmax, tol, t_goal, t_limit, inv_v = search
+    s, g, h, rho, two_r, time_obj, lam, vmax, tol, t_goal, t_limit, inv_v = search
     # a lower bound on the objective per nm still to sail on any leg (the bound every costed edge is checked against)
     rest = inv_v if time_obj else rho * (1.0 - tol)
     counts = np.zeros(6, dtype=np.int64)
     bad = np.zeros(3)
-    kmax = pf0.shape[1]
-    buf = np.empty((4, kmax))
+    buf = np.empty((4, pf0.shape[1]))
     refine = refine_workspace(k[3] > 0.0)
     ws = leg_workspace(np.int64(1), k[4].size)  # grown to the largest piece met (leg_points); typed: one signature
-    open_nodes = np.array([s], dtype=np.int64)
-    relaxed = 0
-    while open_nodes.size:
-        batch, open_nodes = _kernels.select(open_nodes, label, h, delta, slack, mode)
-        for b in batch:
-            state[b] = 2
-        counts[0] += batch.size
-        counts[2] += 1
-        if state[g] == 2:
-            break
-        u, v, o, dist = _kernels.candidates(
-            batch, ii, jj, di, dj, off, ny, nx, nav_pad, base_pad, cell_off, cell_n, all_nav, state, label, h,
-            label[g], xyz, rho, two_r, tarr, t_goal, t_limit, inv_v,
-        )  # fmt: skip
-        if u.size == 0:
+    fl, it = np.empty((1024, 2)), np.empty((1024, 4), dtype=np.int64)
+    fl, it, n = _push(fl, it, np.int64(0), label[s] + h[s], label[s], s, np.int64(-1), np.int64(-1), np.int64(0))
+    pushed = 1
+    one = np.empty(1, dtype=np.int64)
+    while n:
+        n = _pop(fl, it, n)
+        y, x, q = it[n, 0], it[n, 1], it[n, 2]
+        if state[y] == 2:
             continue
-        dur, fu, feas, unc, ws = _cost_batch(
-            k, u, v, o, tarr, tangent, pf0, pf1, pn, buf, refine, label, time_obj, rest, ws
-        )  # fmt: skip
-        counts[1] += u.size
+        if x < 0:  # y's label entry: y is final unless a better label was pushed since
+            if fl[n, 1] != label[y]:
+                continue
+            state[y] = 2
+            counts[0] += 1
+            counts[2] += 1
+            if y == g:
+                break
+            one[0] = y
+            _, v, o, dist = _kernels.candidates(
+                one, ii, jj, di, dj, off, ny, nx, nav_pad, base_pad, cell_off, cell_n, all_nav, state, label, h,
+                label[g], xyz, rho, two_r, tarr, t_goal, t_limit, inv_v,
+            )  # fmt: skip
+            for e in range(v.size):
+                key = label[y] + rho * dist[e] + h[v[e]]
+                fl, it, n = _push(fl, it, n, key, dist[e], v[e], y, o[e], np.int64(pushed))
+                pushed += 1
+            continue
+        # an edge x → y whose bound is the least: the labels may have moved since it was pushed
+        d_nm = fl[n, 1]
+        lb = label[x] + rho * d_nm
+        if lb >= label[y] or lb + h[y] >= label[g]:
+            continue
+        dur, fu, feas, unc, ws = _cost_edge(k, x, y, q, tarr, tangent, pf0, pf1, pn, buf, refine, label, time_obj,
+                                            rest, ws)  # fmt: skip
+        counts[1] += 1
         counts[3] += unc
-        new = np.empty(u.size)
-        for e in range(u.size):
-            c = dur[e] if time_obj else fu[e] + lam * dur[e]
-            new[e] = label[u[e]] + c
-            if feas[e] and dur[e] * vmax < dist[e] * (1.0 - tol):
-                counts[4] = ERR_TOO_FAST
-            elif feas[e] and not time_obj and c < rho * dist[e] * (1.0 - tol):
-                counts[4] = ERR_TOO_CHEAP
-            if counts[4] != ERR_NONE:
-                bad[0], bad[1], bad[2] = dist[e], dur[e], c
-                return counts, bad
-        relaxed += 1
-        t1 = np.empty(u.size)
-        for e in range(u.size):
-            t1[e] = tarr[u[e]] + dur[e]
-        opened = _kernels.apply(u, v, o, new, t1, fu, feas, label, tarr, fuel, parent, poff, state, touched, relaxed)
-        if opened.size:
-            open_nodes = np.concatenate((open_nodes, opened))
+        if not feas:
+            continue
+        c = dur if time_obj else fu + lam * dur
+        if dur * vmax < d_nm * (1.0 - tol):
+            counts[4] = ERR_TOO_FAST
+        elif not time_obj and c < rho * d_nm * (1.0 - tol):
+            counts[4] = ERR_TOO_CHEAP
+        if counts[4] != ERR_NONE:
+            bad[0], bad[1], bad[2] = d_nm, dur, c
+            return counts, bad
+        new = label[x] + c
+        if new < label[y]:
+            label[y] = new
+            tarr[y] = tarr[x] + dur
+            fuel[y] = fuel[x] + fu
+            parent[y] = x
+            poff[y] = q
+            state[y] = 1
+            fl, it, n = _push(fl, it, n, new + h[y], new, y, np.int64(-1), np.int64(-1), np.int64(pushed))
+            pushed += 1
+    counts[5] = pushed
     return counts, bad

@@ -568,15 +568,15 @@ class _Search:
         bounds.  A* settles only nodes within ``δ`` of the least f, so that it
         does not expand nodes that textbook A* would never reach.
         """
+        kernel = getattr(self.ev.segment_cost, "leg_kernel", None)
+        if self.compiled and kernel is not None:
+            self._run_compiled(kernel)
+            return
         h = self.h
         # δ_w: a lower bound on the cost of any edge out of w (time at v_max; λ·time for "cost")
         delta = _edge_length_floor_nm(self.grid) / self.vmax * (1.0 - 1e-9) * self.weight
         open_nodes = np.array([self.s], dtype=np.int64)
         mode = 0 if not self.batched else (1 if self.method == "dijkstra" else 2)
-        kernel = getattr(self.ev.segment_cost, "leg_kernel", None)
-        if self.compiled and kernel is not None:
-            self._run_compiled(kernel, delta, mode)
-            return
         while open_nodes.size:
             if self.compiled:
                 batch, open_nodes = _kernels.select(open_nodes, self.label, h, delta, self.f_slack, mode)
@@ -623,19 +623,19 @@ class _Search:
             if opened.size:
                 open_nodes = np.concatenate([open_nodes, opened])
 
-    def _run_compiled(self, kernel: LegKernel, delta: np.ndarray, mode: int) -> None:
-        """The loop of :meth:`_loop`, compiled whole with the leg costing (:func:`compiled_search.run`)."""
+    def _run_compiled(self, kernel: LegKernel) -> None:
+        """The search compiled whole with the leg costing (:func:`compiled_search.run`): :meth:`_loop`'s labels,
+        each edge costed only when it is due (lazily, one node settled a step)."""
         ev, (ny, nx) = self.ev, self.grid.shape
         graph = (self.ii, self.jj, self.di, self.dj, self.off, ny, nx, self.nav_pad, self.base_pad, self.cell_off,
                  self.cell_n, self.all_navigable, ev.xyz, ev.tangent, ev.piece_f0, ev.piece_f1,
                  ev.piece_n.astype(np.int64))  # fmt: skip
-        search = (self.s, self.g, self.h, delta, self.f_slack, mode, self.weight / self.vmax,
-                  _TWO_R_FLOOR_NM, self.time_obj, self.lam, self.vmax, _SPEED_TOL, self.t_goal, self.t_limit,
-                  self.inv_v)  # fmt: skip
+        search = (self.s, self.g, self.h, self.weight / self.vmax, _TWO_R_FLOOR_NM, self.time_obj, self.lam,
+                  self.vmax, _SPEED_TOL, self.t_goal, self.t_limit, self.inv_v)  # fmt: skip
         k = (kernel.params, kernel.weather, kernel.mode, kernel.check_nm, kernel.speeds, kernel.lam,
              kernel.desired, kernel.step, kernel.vmin)  # fmt: skip
         counts, bad = compiled_search.run(graph, search, k, self.label, self.tarr, self.fuel, self.parent,
-                                          self.poff, self.state, self.touched)  # fmt: skip
+                                          self.poff, self.state)  # fmt: skip
         self.expanded += int(counts[0])
         self.evaluated += int(counts[1])
         self.batches += int(counts[2])
