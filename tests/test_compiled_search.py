@@ -27,7 +27,7 @@ from optroute.physics.performance import KwonModel
 from optroute.physics.pointwise import cached_point_params, least_cost_per_nm
 from optroute.physics.safety import BandRules
 from optroute.physics.speed_loss import KWON_BISECTIONS, KWON_SCAN_STEPS, calm_speed_point, kwon_cu_coefficients
-from optroute.search import RouteGrid, compass, compiled_search, shortest_path
+from optroute.search import RouteGrid, _heap, compass, shortest_path
 from optroute.search.edge_geometry import piece_point, sphere_course, wgs84_scale
 from optroute.search.routing import PassagePhysics
 from optroute.weather import WeatherSampler
@@ -92,19 +92,21 @@ def test_compiled_loop_settles_the_python_loops_labels(rough, grid, objective, l
 @settings(max_examples=40, deadline=None)
 @given(ops=st.lists(st.one_of(st.integers(0, 6), st.none()), min_size=1, max_size=3000))
 def test_the_open_set_pops_its_entries_by_key_then_push_order(ops):
-    """The lazy search's binary heap against the standard library's (``heapq`` on (key, push number)), pushes
-    (integers: the key) and pops (None) interleaved, with many ties."""
-    fl, it = np.empty((1, 2)), np.empty((1, 4), dtype=np.int64)
+    """The compiled searches' binary heap against the standard library's (``heapq`` on (key, push number)),
+    pushes (integers: the key) and pops (None) interleaved, with many ties; grown from one entry as the searches
+    grow it."""
+    h1, h2, hs = np.empty(1), np.empty(1), np.empty(1, dtype=np.int64)
     n = np.int64(0)
     ref, got, want = [], [], []
     for i, key in enumerate(ops):
         if key is not None:
-            fl, it, n = compiled_search._push(fl, it, n, key / 3.0, 0.0, np.int64(i), np.int64(-1), np.int64(-1),
-                                              np.int64(i))  # fmt: skip
+            if n == h1.size:
+                h1, h2, hs = _heap.grown(h1, n), _heap.grown(h2, n), _heap.grown(hs, n)
+            n = _heap.push(h1, h2, hs, n, key / 3.0, float(i), np.int64(i))
             heapq.heappush(ref, (key / 3.0, i))
         elif ref:
-            n = compiled_search._pop(fl, it, n)
-            got.append(int(it[n, 0]))
+            _, _, s, n = _heap.pop(h1, h2, hs, n)
+            got.append(int(s))
             want.append(heapq.heappop(ref)[1])
     assert (got, int(n)) == (want, len(ref))
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from optroute._numba import jit
-from optroute.search import _kernels
+from optroute.search import _heap, _kernels
 from optroute.search.edge_geometry import edge_pieces
 from optroute.search.passage_kernels import cost_leg, leg_points, leg_workspace
 from optroute.search.refine_kernels import workspace as refine_workspace
@@ -98,58 +98,26 @@ def _cost_edge(
     return d, f, ok, c, ws
 
 
-# --------------------------------------------------------------------------- the open set: a binary heap
-# Entries are ordered by (key, push number); ``fl[i] = (key, value)``, ``it[i] = (node, parent, offset, push number)``.
-# A node's *label* entry has parent -1 and its label as value; an *edge* entry has the edge's tail as parent and
-# its great-circle length [nm] as value.
+# --------------------------------------------------------------------------- the open set
+# The heap (:mod:`optroute.search._heap`) orders entries by (key, push number) and carries the push number; the
+# entry itself is kept at that number: ``val`` and ``ent = (node, parent, offset)``.  A node's *label* entry has
+# parent -1 and its label as value; an *edge* entry has the edge's tail as parent and its great-circle length [nm]
+# as value.
 
 
 @jit
-def _before(fl, it, a, b):  # pragma: no cover - compiled
-    return fl[a, 0] < fl[b, 0] or (fl[a, 0] == fl[b, 0] and it[a, 3] < it[b, 3])
-
-
-@jit
-def _swap(fl, it, a, b):  # pragma: no cover - compiled
-    for c in range(2):
-        fl[a, c], fl[b, c] = fl[b, c], fl[a, c]
-    for c in range(4):
-        it[a, c], it[b, c] = it[b, c], it[a, c]
-
-
-@jit
-def _push(fl, it, n, key, value, node, parent, offset, stamp):  # pragma: no cover - compiled
-    """Add an entry; returns the heap's arrays (doubled when full) and its new size."""
-    if n == fl.shape[0]:
-        fl2, it2 = np.empty((2 * n, 2)), np.empty((2 * n, 4), dtype=np.int64)
-        fl2[:n], it2[:n] = fl, it
-        fl, it = fl2, it2
-    fl[n, 0], fl[n, 1] = key, value
-    it[n, 0], it[n, 1], it[n, 2], it[n, 3] = node, parent, offset, stamp
-    a = n
-    while a > 0 and _before(fl, it, a, (a - 1) // 2):
-        _swap(fl, it, a, (a - 1) // 2)
-        a = (a - 1) // 2
-    return fl, it, n + 1
-
-
-@jit
-def _pop(fl, it, n):  # pragma: no cover - compiled
-    """Move the least entry to row ``n - 1`` and restore the heap above it; returns the new size."""
-    n -= 1
-    _swap(fl, it, 0, n)
-    a = 0
-    while True:
-        b = 2 * a + 1
-        if b >= n:
-            break
-        if b + 1 < n and _before(fl, it, b + 1, b):
-            b += 1
-        if not _before(fl, it, b, a):
-            break
-        _swap(fl, it, a, b)
-        a = b
-    return n
+def _enter(heap, entries, n, pushed, key, value, node, parent, offset):  # pragma: no cover - compiled
+    """Push one entry (growing the arrays when full); returns the heap, the entries and both counts."""
+    h1, h2, hs = heap
+    val, node_of, parent_of, offset_of = entries
+    if n == h1.size:
+        h1, h2, hs = _heap.grown(h1, n), _heap.grown(h2, n), _heap.grown(hs, n)
+    if pushed == val.size:
+        val, node_of = _heap.grown(val, pushed), _heap.grown(node_of, pushed)
+        parent_of, offset_of = _heap.grown(parent_of, pushed), _heap.grown(offset_of, pushed)
+    val[pushed], node_of[pushed], parent_of[pushed], offset_of[pushed] = value, node, parent, offset
+    n = _heap.push(h1, h2, hs, n, key, float(pushed), pushed)
+    return (h1, h2, hs), (val, node_of, parent_of, offset_of), n, pushed + 1
 
 
 @jit
@@ -199,17 +167,20 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no
     buf = np.empty((4, pf0.shape[1]))
     refine = refine_workspace(k[3] > 0.0)
     ws = leg_workspace(np.int64(1), k[4].size)  # grown to the largest piece met (leg_points); typed: one signature
-    fl, it = np.empty((1024, 2)), np.empty((1024, 4), dtype=np.int64)
-    fl, it, n = _push(fl, it, np.int64(0), label[s] + h[s], label[s], s, np.int64(-1), np.int64(-1), np.int64(0))
-    pushed = 1
+    none = np.int64(-1)
+    heap = (np.empty(1024), np.empty(1024), np.empty(1024, dtype=np.int64))
+    entries = (np.empty(1024), np.empty(1024, dtype=np.int64), np.empty(1024, dtype=np.int64),
+               np.empty(1024, dtype=np.int64))  # fmt: skip
+    heap, entries, n, pushed = _enter(heap, entries, np.int64(0), np.int64(0), label[s] + h[s], label[s], s, none,
+                                      none)  # fmt: skip
     one = np.empty(1, dtype=np.int64)
     while n:
-        n = _pop(fl, it, n)
-        y, x, q = it[n, 0], it[n, 1], it[n, 2]
+        _, _, a, n = _heap.pop(heap[0], heap[1], heap[2], n)
+        y, x, q = entries[1][a], entries[2][a], entries[3][a]
         if state[y] == 2:
             continue
         if x < 0:  # y's label entry: y is final unless a better label was pushed since
-            if fl[n, 1] != label[y]:
+            if entries[0][a] != label[y]:
                 continue
             state[y] = 2
             counts[0] += 1
@@ -223,11 +194,10 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no
             )  # fmt: skip
             for e in range(v.size):
                 key = label[y] + rho * dist[e] + h[v[e]]
-                fl, it, n = _push(fl, it, n, key, dist[e], v[e], y, o[e], np.int64(pushed))
-                pushed += 1
+                heap, entries, n, pushed = _enter(heap, entries, n, pushed, key, dist[e], v[e], y, o[e])
             continue
         # an edge x → y whose bound is the least: the labels may have moved since it was pushed
-        d_nm = fl[n, 1]
+        d_nm = entries[0][a]
         lb = label[x] + rho * d_nm
         if lb >= label[y] or lb + h[y] >= label[g]:
             continue
@@ -253,7 +223,6 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no
             parent[y] = x
             poff[y] = q
             state[y] = 1
-            fl, it, n = _push(fl, it, n, new + h[y], new, y, np.int64(-1), np.int64(-1), np.int64(pushed))
-            pushed += 1
+            heap, entries, n, pushed = _enter(heap, entries, n, pushed, new + h[y], new, y, none, none)
     counts[5] = pushed
     return counts, bad

@@ -30,61 +30,10 @@ import numpy as np
 
 from optroute._numba import jit
 from optroute.physics.polar import polar_speed_scalar
+from optroute.search._heap import grown, less, pop, push
 
 MODE_TIME, MODE_FEWEST, MODE_LAYERED = 0, 1, 2
 _RUN_TOL = 1e-9
-
-
-@jit(inline="always")
-def _less(a1, a2, b1, b2):  # pragma: no cover - compiled
-    return a1 < b1 or (a1 == b1 and a2 < b2)
-
-
-@jit
-def _push(h1, h2, hs, n, k1, k2, s):  # pragma: no cover - compiled
-    i = n
-    h1[i], h2[i], hs[i] = k1, k2, s
-    while i > 0:
-        p = (i - 1) >> 1
-        if _less(h1[i], h2[i], h1[p], h2[p]):
-            h1[i], h1[p] = h1[p], h1[i]
-            h2[i], h2[p] = h2[p], h2[i]
-            hs[i], hs[p] = hs[p], hs[i]
-            i = p
-        else:
-            break
-    return n + 1
-
-
-@jit
-def _pop(h1, h2, hs, n):  # pragma: no cover - compiled
-    k1, k2, s = h1[0], h2[0], hs[0]
-    n -= 1
-    h1[0], h2[0], hs[0] = h1[n], h2[n], hs[n]
-    i = 0
-    while True:
-        c = 2 * i + 1
-        if c >= n:
-            break
-        if c + 1 < n and _less(h1[c + 1], h2[c + 1], h1[c], h2[c]):
-            c += 1
-        if _less(h1[c], h2[c], h1[i], h2[i]):
-            h1[i], h1[c] = h1[c], h1[i]
-            h2[i], h2[c] = h2[c], h2[i]
-            hs[i], hs[c] = hs[c], hs[i]
-            i = c
-        else:
-            break
-    return k1, k2, s, n
-
-
-@jit
-def _grown(a, n):  # pragma: no cover - compiled
-    b = np.empty(2 * a.size, dtype=a.dtype)
-    # not b[:n] = a[:n]: that compiles numba's shape-mismatch error path (seconds, on every clean clone)
-    for i in range(n):
-        b[i] = a[i]
-    return b
 
 
 @jit(inline="always")
@@ -158,11 +107,11 @@ def sail_search(
     s0 = src * 3 * L
     t_arr[s0], om[s0] = t0_h, 0
     f0 = t0_h + h_node[src]
-    n = _push(h1, h2, hs, np.int64(0), f0 if mode != MODE_FEWEST else 0.0, 0.0 if mode != MODE_FEWEST else f0, s0)
+    n = push(h1, h2, hs, np.int64(0), f0 if mode != MODE_FEWEST else 0.0, 0.0 if mode != MODE_FEWEST else f0, s0)
     stats = np.zeros(4)
     found = -1
     while n > 0:
-        k1, k2, s, n = _pop(h1, h2, hs, n)
+        k1, k2, s, n = pop(h1, h2, hs, n)
         if done[s]:
             continue
         done[s] = True
@@ -202,16 +151,16 @@ def sail_search(
                 continue
             t2, o2 = t + length_nm[node, d] / spd, w_om + turn
             if mode == MODE_FEWEST:
-                better = _less(float(o2), t2, float(om[s2]), t_arr[s2])
+                better = less(float(o2), t2, float(om[s2]), t_arr[s2])
             else:
-                better = _less(t2, float(o2), t_arr[s2], float(om[s2]))
+                better = less(t2, float(o2), t_arr[s2], float(om[s2]))
             if better:
                 if n == h1.size:  # grow the heap
-                    h1, h2, hs = _grown(h1, n), _grown(h2, n), _grown(hs, n)
+                    h1, h2, hs = grown(h1, n), grown(h2, n), grown(hs, n)
                 t_arr[s2], om[s2], pred[s2] = t2, o2, s
                 twa_in[s2], spd_in[s2], mot_in[s2] = twa, spd, motoring
                 if mode == MODE_FEWEST:
-                    n = _push(h1, h2, hs, n, float(o2), t2 + h_node[nxt], s2)
+                    n = push(h1, h2, hs, n, float(o2), t2 + h_node[nxt], s2)
                 else:
-                    n = _push(h1, h2, hs, n, t2 + h_node[nxt], float(o2), s2)
+                    n = push(h1, h2, hs, n, t2 + h_node[nxt], float(o2), s2)
     return t_arr, om, pred, twa_in, spd_in, mot_in, found, stats
