@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import xarray as xr
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import optroute as orx
 from optroute import geodesy as orx_geodesy
@@ -119,6 +121,44 @@ def test_timed_safe_start_sails_calm_water_at_top_speed_and_waits_for_the_blocke
     )
     assert isinstance(dead, DeadEnd)
     assert dead.from_nm <= _nm(LON0, ZONE[1]) and dead.to_nm >= _nm(LON0, ZONE[0]) - 30.0
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    n=st.integers(1, 60),
+    seed=st.integers(0, 10_000),
+    bucket_h=st.sampled_from([0.25, 0.5, 2.0]),
+    strike=st.floats(0.0, 1.0),
+)
+def test_refining_each_buckets_earliest_pair_keeps_the_states_that_refining_every_pair_keeps(n, seed, bucket_h, strike):
+    """The timed start refines only each arrival bucket's earliest pair not yet struck, round by round; the
+    reference (brute force) strikes every pair the refinement fails, then keeps each bucket's earliest (ties in
+    the given order). The refinement is stood in for by a fixed random verdict per pair (arrivals with ties)."""
+    from optroute.optimise import min_time
+
+    rng = np.random.default_rng(seed)
+    prev, spd = np.divmod(rng.permutation(400)[:n], 20)
+    arrive = np.round(rng.uniform(0.0, 6.0, n), 1)  # ties within and across buckets
+    bad = rng.uniform(size=n) < strike
+    index = {(int(p), int(v)): i for i, (p, v) in enumerate(zip(prev, spd, strict=True))}
+    asked = []
+
+    def verdict(ctx, rules, frame, t0, block, ladder, pairs, first):
+        idx = np.array([index[(int(p), int(v))] for p, v in zip(*pairs, strict=True)], dtype=int)
+        asked.extend(idx.tolist())
+        return bad[idx], idx.size
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(min_time, "_refined_bad", verdict)
+        keep, count = min_time._earliest_refined(None, None, None, None, None, None, (prev, spd, arrive), None,
+                                                 bucket_h)  # fmt: skip
+    order = np.lexsort((arrive, np.floor(arrive / bucket_h)))
+    order = order[~bad[order]]
+    bucket = np.floor(arrive[order] / bucket_h)
+    want = order[np.concatenate([[True], bucket[1:] != bucket[:-1]])] if order.size else order
+    np.testing.assert_array_equal(keep, want)
+    assert count == len(asked) == len(set(asked))  # no pair refined twice
+    assert set(keep.tolist()) <= set(asked)  # every state kept was refined
 
 
 def test_minimum_time_through_a_blocked_window_returns_the_verified_timed_passage_honestly(sea, monkeypatch):

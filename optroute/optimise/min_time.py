@@ -246,10 +246,14 @@ def timed_safe_start(
             np.zeros(flat_t.size, dtype=np.int64), np.broadcast_to(frac * d, shape).ravel(), lat_f, lon_f, course_f,
             flat_t, sea, covered, heading, sog, power, speed_f,
         )  # fmt: skip
-        ok, extra = _refined_check(ctx, use_rules, frame, t0, (edges[b], d), (frac, times, dt, speeds), ok, first)
-        evaluations += extra
         prev, spd = np.nonzero(ok)
-        if prev.size == 0:
+        arrive = times[prev] + dt[spd]
+        # one state per bucket (the earliest whose points and the referee's refinement between them are allowed)
+        keep, extra = _earliest_refined(
+            ctx, use_rules, frame, t0, (edges[b], d), (frac, times, dt, speeds), (prev, spd, arrive), first, bucket_h
+        )  # fmt: skip
+        evaluations += extra
+        if keep.size == 0:
             mid = centreline_points(frame, np.array([edges[b] + 0.5 * d]))
             return DeadEnd(
                 float(edges[b]),
@@ -259,12 +263,7 @@ def timed_safe_start(
                 float(times.min()),
                 float(times.max()),
             )
-        arrive = times[prev] + dt[spd]
-        # one state per bucket (the earliest), within the window of the earliest arrival
-        order = np.lexsort((arrive, np.floor(arrive / bucket_h)))
-        bucket = np.floor(arrive[order] / bucket_h)
-        first = np.concatenate([[True], bucket[1:] != bucket[:-1]])
-        keep = order[first]
+        # within the window of the earliest arrival
         keep = keep[arrive[keep] <= arrive[keep].min() + window_h]
         times = arrive[keep]
         back.append((prev[keep], spd[keep]))
@@ -282,16 +281,42 @@ def timed_safe_start(
     )
 
 
-def _refined_check(ctx, rules, frame, t0, block, ladder, ok, first) -> tuple[np.ndarray, int]:
-    """``ok`` (states × speeds of a block) with the pairs struck that enter a band of ``rules`` or leave the
-    engine's range between the block's points (:func:`optroute.plan.checkpoints.refined`, the referee's
-    rule), and the evaluations added. ``block`` is (start [nm], length [nm]); ``ladder`` (fractions checked, state times [h],
-    block times [h] per speed, speeds [kn]); ``first`` the block's evaluated points, shape (B, K, m) raveled."""
+def _earliest_refined(ctx, rules, frame, t0, block, ladder, pairs, first, bucket_h) -> tuple[np.ndarray, int]:
+    """Per arrival bucket, the earliest of a block's (state, speed) pairs that neither enters a band of ``rules``
+    nor leaves the engine's range between the block's points (:func:`optroute.plan.checkpoints.refined`, the
+    referee's rule), and the evaluations this took.
+
+    ``pairs`` is (state, speed index, arrival [h]) of the pairs whose points are allowed; they are taken in the
+    order of (bucket, arrival) (ties in the given order), and the refinement checks only each bucket's first pair
+    not yet struck, round by round: the pairs kept are those the refinement of every pair would keep.  ``block``
+    is (start [nm], length [nm]); ``ladder`` (fractions checked, state times [h], block times [h] per speed,
+    speeds [kn]); ``first`` the block's evaluated points, shape (B, K, m) raveled.
+    """
+    prev, spd, arrive = pairs
+    order = np.lexsort((arrive, np.floor(arrive / bucket_h)))
+    bucket = np.floor(arrive / bucket_h)
+    struck = np.zeros(prev.size, dtype=bool)
+    checked = np.zeros(prev.size, dtype=bool)
+    count = 0
+    while True:
+        live = order[~struck[order]]
+        heads = live[np.concatenate([[True], bucket[live[1:]] != bucket[live[:-1]]])] if live.size else live
+        todo = heads[~checked[heads]]
+        if todo.size == 0:
+            return heads, count
+        bad, extra = _refined_bad(ctx, rules, frame, t0, block, ladder, (prev[todo], spd[todo]), first)
+        count += extra
+        checked[todo] = True
+        struck[todo[bad]] = True
+
+
+def _refined_bad(ctx, rules, frame, t0, block, ladder, pairs, first) -> tuple[np.ndarray, int]:
+    """Which (state, speed) ``pairs`` of a block enter a band of ``rules`` or leave the engine's range between
+    the block's points (:func:`optroute.plan.checkpoints.refined`), and the evaluations added; the arguments as
+    :func:`_earliest_refined`'s."""
     from_nm, d = block
     frac, times, dt, speeds = ladder
-    prev, spd = np.nonzero(ok)
-    if prev.size == 0:
-        return ok, 0
+    prev, spd = pairs
     m = frac.size
     flat = ((prev * speeds.size + spd)[:, None] * m + np.arange(m)[None, :]).ravel()
     pts = _take(first, flat, np.repeat(np.arange(prev.size), m))
@@ -309,9 +334,7 @@ def _refined_check(ctx, rules, frame, t0, block, ladder, ok, first) -> tuple[np.
         return CheckPoints(g, s_nm, lat, lon, course, t_h, sea, covered, heading, sog, power, v)
 
     refined(ctx, pts, at, rules=rules)
-    out = ok.copy()
-    out[prev[bad], spd[bad]] = False
-    return out, count[0]
+    return bad, count[0]
 
 
 def _take(pts: CheckPoints, idx: np.ndarray, group: np.ndarray) -> CheckPoints:
