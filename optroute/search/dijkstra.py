@@ -56,7 +56,12 @@ updates, batch selection) runs in numba when it is installed (``engine``),
 else in numpy with the same labels; the callback is called once per batch
 (whole-leg form) or once per piece position per batch (cell-by-cell form).
 The number of batches is bounded below by the voyage's duration over the
-shortest edge's duration, whatever the engine.
+shortest edge's duration, whatever the engine.  With the physics' own
+callbacks (a compiled leg cost) the whole search runs in numba
+(:mod:`optroute.search.compiled_search`) and settles one node a step with
+the same labels, but costs an edge only when its bound is the least of the
+open set and its end is not settled yet (lazy): a batch costs every edge its
+bounds allow, most of them into nodes that a better edge reaches first.
 """
 
 from __future__ import annotations
@@ -119,13 +124,13 @@ class SearchResult:
     lambda_t_per_h : float
         λ of the cost objective [t/h] (0 for ``"time"``).
     expanded : int
-        Nodes expanded (settled and their edges costed).
+        Nodes settled (their edges then costed, or with the compiled loop queued to be costed when due).
     evaluated_edges : int
-        Edges costed by the callback.
+        Edges costed by the callback (including those dropped part way, once they could not improve their end).
     callback_calls : int
         Calls of the cost callback.
     batches : int
-        Settling steps (``expanded`` for A*; fewer for batched Dijkstra).
+        Settling steps (``expanded`` for A* and for the compiled loop; fewer for batched Dijkstra).
     """
 
     nodes: np.ndarray
