@@ -260,6 +260,8 @@ def bench_physics(quick: bool) -> dict[str, Any]:
             for objective in ("time", "fuel"):
                 orx.search_route((40.0, -150.0), (42.0, -140.0), wx[name], ship, departure=wx["t0"], cell_nm=60.0,
                                  objective=objective)  # fmt: skip
+            _search_route_timed(dict(start=(40.0, -150.0), end=(42.0, -140.0), weather=wx[name], ship=ship,
+                                     departure=wx["t0"], cell_nm=60.0), "python")  # fmt: skip
         cases = [(name, cell, "time", "compiled") for cell in cells for name in ("calm", "storms")]
         cases += [(name, cell, "time", "python") for cell in cells for name in ("calm", "storms")]
         cases += [("storms", 120.0 if quick else 60.0, "fuel", "compiled")]
