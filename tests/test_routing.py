@@ -334,6 +334,34 @@ def test_dp_goes_round_land_like_the_grid_search():
     assert not land.is_land(pts["lat"], pts["lon"]).any()
 
 
+def test_a_grid_route_over_islands_between_its_nodes_names_those_legs_and_warns():
+    """San Diego towards Point Conception on 20 nm cells: the Channel Islands lie between the grid's open-water
+    nodes, and the grid tests the coastline at its cells' centres only, so legs of the route cross them. The route
+    names exactly the legs that touch land by the GLOBE coastline at 200 points of each leg's great circle
+    (:func:`optroute.geodesy.great_circle_points`, not the check's own 0.5 nm sampling), and warns; plan_voyage,
+    whose corridor about it is closed by an island, says so instead of advising plan_voyage."""
+    ship = orx.Ship.preset("container_8000teu")
+    wx = scenarios.calm(bbox=(27.0, 40.0, -126.0, -112.0), start=T0, duration_h=100.0, resolution_deg=1.0)
+    start, end = (32.7, -117.4604), (34.3, -121.0)
+    kw = dict(departure=T0, objective="time", cell_nm=20.0)
+    with pytest.warns(UserWarning, match="crosses land between its grid nodes"):
+        r = search_route(start, end, wx, ship, **kw)
+    wp = r.waypoints
+    on_land = [k for k in range(len(wp) - 1) if land.is_land(*geo.great_circle_points(*wp[k], *wp[k + 1], 200)).any()]
+    assert on_land and r.stats["legs_crossing_land"] == on_land
+    # without the coastline nothing is checked, and nothing is said
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        bare = search_route(start, end, wx, ship, use_land_mask=False, **kw)
+    assert bare.stats["legs_crossing_land"] == []
+    # plan_voyage on a corridor of ±2 nm about that route: closed by the island, and the error says why
+    with pytest.warns(UserWarning, match="crosses land"), pytest.raises(NoSafePassage) as err:
+        orx.plan_voyage(start, end, wx, ship, departure=T0, objective="time", corridor_width_nm=4.0,
+                        search_options={"cell_nm": 20.0})  # fmt: skip
+    text = str(err.value)
+    assert f"crosses land between its grid nodes on legs {on_land}" in text and "plan_voyage" not in text
+
+
 def test_dp_leg_cost_does_not_depend_on_the_legs_it_is_batched_with(rough):
     """A leg is cut into its own number of pieces: costed alone or beside a 10x longer leg, the same answer."""
     physics = PassagePhysics(CARGO, default_model(CARGO), BandRules(), WeatherSampler(rough), T0)

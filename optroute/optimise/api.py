@@ -32,6 +32,7 @@ from optroute import geodesy as geo
 from optroute import units
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, SolverFailure, WeatherCoverageError
 from optroute.optimise.corridor_problem import Objective, ProgressFn
+from optroute.optimise.lateral import ROUTE_AROUND
 from optroute.optimise.rows import BAND_LEG_NM
 from optroute.physics.performance import PerformanceModel
 from optroute.physics.safety import BandRules
@@ -377,19 +378,22 @@ def plan_voyage(
     except InfeasibleETA:
         route = search_route(start, end, weather, ship, objective="time", **common, **opts)
     corridor = route.corridor(width_nm=corridor_width_nm)
-    plan = optimise_corridor(
-        corridor,
-        weather,
-        ship,
-        departure=route.departure,
-        eta=eta,
-        objective=objective,
-        model=model,
-        rules=rules,
-        route=route,
-        exclusion=exclusion,
-        **optimise_kwargs,
-    )
+    try:
+        plan = optimise_corridor(
+            corridor,
+            weather,
+            ship,
+            departure=route.departure,
+            eta=eta,
+            objective=objective,
+            model=model,
+            rules=rules,
+            route=route,
+            exclusion=exclusion,
+            **optimise_kwargs,
+        )
+    except NoSafePassage as exc:
+        raise _over_land(exc, route) from exc
     stats = dict(plan.solver_stats)
     stats["search"] = {
         "method": route.method,
@@ -398,8 +402,29 @@ def plan_voyage(
         "fuel_t": route.total_fuel_t,
         "duration_h": route.total_duration_h,
         "stats": {k: v for k, v in route.stats.items() if np.isscalar(v)},
+        "legs_crossing_land": list(route.stats.get("legs_crossing_land", [])),
     }
     return replace(plan, solver_stats=stats)
+
+
+def _over_land(exc: NoSafePassage, route: Any) -> NoSafePassage:
+    """The corridor's NoSafePassage, saying when the searched route itself crosses land between its grid nodes.
+
+    The grid search tests the coastline at its cells' centres only (``route.stats["legs_crossing_land"]``): a
+    route over a peninsula gives a corridor closed by land across its whole width, and the corridor's own advice
+    (plan it with plan_voyage) is what the user did.
+    """
+    legs = list(route.stats.get("legs_crossing_land", []))
+    if not legs:
+        return exc
+    cell = float(route.stats.get("cell_nm", np.nan))
+    text = str(exc).removesuffix(f"; {ROUTE_AROUND}")
+    return NoSafePassage(
+        f"{text}: the searched route itself crosses land between its grid nodes on legs {legs} (the grid search "
+        f"tests the coastline at the centres of its {cell:.3g} nm cells only), so the corridor about it can lie "
+        "across land; search on other cells (search_options={'cell_nm': ...}: the route then meets the coast at "
+        "other nodes), or give optimise_corridor a corridor that keeps to the sea"
+    )
 
 
 def _robust(robust: Any, weather: Any, args: dict[str, Any]) -> Plan:

@@ -68,9 +68,11 @@ from optroute.weather.sample import WeatherSampler
 if TYPE_CHECKING:
     from optroute.optimise.nlp_inputs import CorridorFrame
 
-__all__ = ["LAND_STEP_MIN_NM", "avoid_point", "lateral_bounds", "reach_windows", "wave_nan"]
+__all__ = ["LAND_STEP_MIN_NM", "ROUTE_AROUND", "avoid_point", "lateral_bounds", "reach_windows", "wave_nan"]
 
 LAND_STEP_MIN_NM = 0.15
+#: The advice that ends the message of a corridor closed across its width (:func:`lateral_bounds`).
+ROUTE_AROUND = "widen the corridor, move it, or plan it with plan_voyage so that the search routes around"
 """Finest lattice spacing used for the land mask [nm] (the GSHHG backend is finer than this)."""
 
 _CHUNK_POINTS = 300_000
@@ -378,8 +380,7 @@ def _channel(
             raise NoSafePassage(
                 f"the corridor has no navigable passage at {_where(frame, lat_, i)}: land or no-passage weather "
                 f"closes all of ±{lat_.row_hw[i]:g} nm there (or the open water there is not connected to the "
-                "water before it); widen the corridor, move it, or plan it with plan_voyage so that the search "
-                "routes around"
+                f"water before it); {ROUTE_AROUND}"
             )
     last = [j for j in range(fr[n_rows - 1], fr[n_rows]) if cs_l[j] <= c0 < ce_l[j] and math.isfinite(cost_l[j])]
     if not last:

@@ -14,7 +14,9 @@ turns the answer into a :class:`~optroute.search.route.Route`.
 
 from __future__ import annotations
 
+import dataclasses
 import time as _time
+import warnings
 from collections.abc import Callable
 from typing import Any, Literal
 
@@ -210,7 +212,10 @@ def search_route(
         ``course_deg``, ``length_nm``, ``t_h`` entry [h from departure],
         ``duration_h``, ``stw_kn``, ``heading_deg``, ``power_kw``, …): the
         speed actually sailed on each piece; ``stats["searches"]`` the grid
-        searches run (the λ bisection's rounds, failing ones included).
+        searches run (the λ bisection's rounds, failing ones included);
+        ``stats["legs_crossing_land"]`` the legs that touch land between
+        their grid nodes, checked every 0.5 nm (a warning names the first):
+        the grid tests the coastline at its cells' centres only.
 
     Raises
     ------
@@ -260,14 +265,10 @@ def search_route(
         start, end, sampler, ds, t0, snap_nm, clearance_nm=0.5 * cell_nm if method != "dp" else 0.5,
         use_land_mask=use_land_mask,
     )  # fmt: skip
+    coast = _uses_coast(ds, use_land_mask)
     if method == "dp":
-        coast = (
-            use_land_mask
-            if use_land_mask is not None
-            else not (ds is not None and ds.attrs.get("geography") == land.SYNTHETIC_GEOGRAPHY)
-        )
         return search_dp(
-            physics, start, end, eta_h, speeds, dict(dp_options or {}), objective, t_start, bool(coast), exclusion
+            physics, start, end, eta_h, speeds, dict(dp_options or {}), objective, t_start, coast, exclusion
         )
     # the fastest any leg can go over ground: the speed ceiling of the objective plus the strongest current
     top_kn = desired if objective == "time" and lambda_t_per_h is None else float(speeds.max())
@@ -295,7 +296,8 @@ def search_route(
     except WeatherCoverageError as exc:
         last_t = sampler.extent["time"][1]
         raise WeatherCoverageError(f"{exc} (the weather ends at {units.format_utc(last_t)})") from None
-    return _route_from_search(res, physics, t0, objective, method, lam_used, t_start, search.searches)
+    route = _route_from_search(res, physics, t0, objective, method, lam_used, t_start, search.searches)
+    return _flag_land_crossings(route, coast, grid.cell_nm)
 
 
 def _departure_and_eta_h(departure: Any, eta: Any) -> tuple[np.datetime64, float | None]:
@@ -342,6 +344,46 @@ def _snapped_ends(start, end, sampler, ds, t0, snap_nm, *, clearance_nm, use_lan
         )
         for p, w in ((start, "start"), (end, "end"))
     )  # fmt: skip
+
+
+def _uses_coast(ds: xr.Dataset | None, use_land_mask: bool | None) -> bool:
+    """Whether the real coastline applies, as :func:`optroute.geo.land.navigable` decides: asked for, or by default
+    unless the weather declares a synthetic geography."""
+    if use_land_mask is not None:
+        return bool(use_land_mask)
+    return not (ds is not None and ds.attrs.get("geography") == land.SYNTHETIC_GEOGRAPHY)
+
+
+def _flag_land_crossings(route: Route, coast: bool, cell_nm: float) -> Route:
+    """The grid search's route with ``stats["legs_crossing_land"]``, its legs that touch land between their ends,
+    and ``stats["cell_nm"]``, the grid's cell [nm].
+
+    The grid tests the coastline at its nodes (each cell a leg crosses, at the cell's centre), so land narrower
+    than about a cell (an island, a peninsula) can lie under a leg between two open-water nodes.  Each leg is
+    checked every :data:`optroute.geo.land.DEFAULT_LEG_RESOLUTION_NM` along its great circle; where any
+    touches land a warning names the first and the fix.  Without the coastline (``coast`` False) nothing is
+    checked and the list is empty.
+    """
+    wp = np.asarray(route.waypoints, dtype=float)
+    legs = np.zeros(0, dtype=int)
+    if coast and wp.shape[0] > 1:
+        step = land.DEFAULT_LEG_RESOLUTION_NM
+        legs = np.flatnonzero(land.legs_cross_land(wp[:-1, 0], wp[:-1, 1], wp[1:, 0], wp[1:, 1], step,
+                                                   use_land_mask=True))  # fmt: skip
+    crossing = {"legs_crossing_land": [int(k) for k in legs], "cell_nm": float(cell_nm)}
+    route = dataclasses.replace(route, stats={**route.stats, **crossing})
+    if legs.size:
+        k = int(legs[0])
+        warnings.warn(
+            f"the searched route crosses land between its grid nodes on {legs.size} of its {wp.shape[0] - 1} legs "
+            f"(checked every {land.DEFAULT_LEG_RESOLUTION_NM:g} nm; route.stats['legs_crossing_land']), the "
+            f"first leg {k} from ({wp[k, 0]:.3f}, {wp[k, 1]:.3f}) to ({wp[k + 1, 0]:.3f}, {wp[k + 1, 1]:.3f}): "
+            f"the grid tests the coastline at the centres of its {cell_nm:.3g} nm cells only; search with a "
+            "smaller cell_nm, or optimise a corridor about the route (its track keeps off land)",
+            UserWarning,
+            stacklevel=3,
+        )
+    return route
 
 
 def _navigable(sampler: WeatherSampler, ds: xr.Dataset | None, t0, use_land_mask: bool | None) -> Callable:
