@@ -100,7 +100,7 @@ def _cost_edge(
 
 # --------------------------------------------------------------------------- the open set
 # The heap (:mod:`optroute.search._heap`) orders entries by (key, push number) and carries the push number; the
-# entry itself is kept at that number: ``val`` and ``ent = (node, parent, offset)``.  A node's *label* entry has
+# entry itself is kept at that number in ``entries = (value, node, parent, offset)``.  A node's *label* entry has
 # parent -1 and its label as value; an *edge* entry has the edge's tail as parent and its great-circle length [nm]
 # as value.
 
@@ -130,10 +130,11 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no
     ``y`` is not yet settled; an improved ``label[y]`` pushes ``y``'s label entry (key ``label[y] + h[y]``), and
     ``y`` is settled when that entry is the least.  Exact: with ``h`` consistent with the bound (so it is with the
     true costs, which the bound does not exceed), every edge that could still improve ``y`` has a smaller key than
-    ``y``'s label entry, so it is costed first; the labels are those of the batched loop of
-    :meth:`optroute.search.dijkstra._Search._loop`, with the same leg costing
-    (:func:`optroute.search.passage_kernels.cost_leg`), which costs every edge to a node not yet settled that its
-    bounds do not rule out (many of them for nodes that a better edge reaches first).
+    ``y``'s label entry, so it is costed first.  The labels are therefore those of the batched loop of
+    :meth:`optroute.search.dijkstra._Search._loop` (the same edge tests and leg costing,
+    :func:`optroute.search.passage_kernels.cost_leg`), which costs every edge its bounds allow into a node not yet
+    settled, many of them into nodes that a better edge reaches first.  On an exact tie between two parents'
+    labels the one costed first is kept (the batched loop keeps the earlier arrival within a batch).
 
     Parameters
     ----------
