@@ -27,7 +27,7 @@ from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, WeatherCo
 from optroute.geo import land
 from optroute.physics.performance import default_model
 from optroute.physics.safety import BandRules, band_margins, is_speed_forbidden
-from optroute.search import RouteGrid, angular_resolution, compass, shortest_path
+from optroute.search import RouteGrid, angular_resolution, compass, routing, shortest_path
 from optroute.search.routing import PassagePhysics, search_route
 from optroute.weather import WeatherSampler, scenarios
 from optroute.weather.schema import canonical_dataset
@@ -334,27 +334,54 @@ def test_dp_goes_round_land_like_the_grid_search():
     assert not land.is_land(pts["lat"], pts["lon"]).any()
 
 
-def test_a_grid_route_over_islands_between_its_nodes_names_those_legs_and_warns():
-    """San Diego towards Point Conception on 20 nm cells: the Channel Islands lie between the grid's open-water
-    nodes, and the grid tests the coastline at its cells' centres only, so legs of the route cross them. The route
-    names exactly the legs that touch land by the GLOBE coastline at 200 points of each leg's great circle
-    (:func:`optroute.geodesy.great_circle_points`, not the check's own 0.5 nm sampling), and warns; plan_voyage,
-    whose corridor about it is closed by an island, says so instead of advising plan_voyage."""
+def _land_points(wp, step_nm):
+    """Per leg of ``wp``, the GLOBE land points on its great circle every ``step_nm`` or less (independent of the
+    search's own walk: :func:`optroute.geodesy.great_circle_points` and :func:`optroute.geo.land.is_land`)."""
+    out = []
+    for k in range(len(wp) - 1):
+        n = int(np.ceil(float(geo.distance_nm(*wp[k], *wp[k + 1])) / step_nm)) + 1
+        out.append(int(land.is_land(*geo.great_circle_points(*wp[k], *wp[k + 1], n)).sum()))
+    return out
+
+
+def test_grid_routes_keep_off_islands_between_their_nodes(monkeypatch):
+    """San Diego towards Point Conception on 20 nm cells: the Channel Islands lie between open-water nodes. The
+    grid search walks each leg across a coastal cell on the coastline, so its route touches no land (GLOBE every
+    0.05 nm along each leg); the compiled (lazy) loop and the Python loop find the same route. Without the walk
+    (a coastline with no packed cells) the route crosses the islands: it names exactly those legs (against the
+    same independent sampling) and warns, and plan_voyage, whose ±2 nm corridor about it is then closed by an
+    island, says so instead of advising plan_voyage."""
     ship = orx.Ship.preset("container_8000teu")
     wx = scenarios.calm(bbox=(27.0, 40.0, -126.0, -112.0), start=T0, duration_h=100.0, resolution_deg=1.0)
     start, end = (32.7, -117.4604), (34.3, -121.0)
     kw = dict(departure=T0, objective="time", cell_nm=20.0)
-    with pytest.warns(UserWarning, match="crosses land between its grid nodes"):
-        r = search_route(start, end, wx, ship, **kw)
-    wp = r.waypoints
-    on_land = [k for k in range(len(wp) - 1) if land.is_land(*geo.great_circle_points(*wp[k], *wp[k + 1], 200)).any()]
-    assert on_land and r.stats["legs_crossing_land"] == on_land
-    # without the coastline nothing is checked, and nothing is said
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        bare = search_route(start, end, wx, ship, use_land_mask=False, **kw)
-    assert bare.stats["legs_crossing_land"] == []
-    # plan_voyage on a corridor of ±2 nm about that route: closed by the island, and the error says why
+        r = search_route(start, end, wx, ship, **kw)
+    assert r.stats["legs_crossing_land"] == [] and not any(_land_points(r.waypoints, 0.05))
+    # the Python loop (batched, its edges tested as they are generated) settles the same route
+    inner = routing.shortest_path
+
+    def python_loop(*args, **kwargs):
+        cb = kwargs["segment_cost"]
+
+        def plain(*a):
+            return cb(*a)
+
+        plain.leg_batch = cb.leg_batch
+        return inner(*args, **{**kwargs, "segment_cost": plain})
+
+    with monkeypatch.context() as m:
+        m.setattr(routing, "shortest_path", python_loop)
+        slow = search_route(start, end, wx, ship, **kw)
+    np.testing.assert_array_equal(slow.waypoints, r.waypoints)
+    assert slow.total_duration_h == pytest.approx(r.total_duration_h, rel=1e-12)
+    # without the walk
+    monkeypatch.setattr(routing.EdgeLand, "build", classmethod(lambda cls, grid, **k: None))
+    with pytest.warns(UserWarning, match="crosses land between its grid nodes"):
+        bare = search_route(start, end, wx, ship, **kw)
+    on_land = [k for k, n in enumerate(_land_points(bare.waypoints, 0.05)) if n]
+    assert on_land and bare.stats["legs_crossing_land"] == on_land
     with pytest.warns(UserWarning, match="crosses land"), pytest.raises(NoSafePassage) as err:
         orx.plan_voyage(start, end, wx, ship, departure=T0, objective="time", corridor_width_nm=4.0,
                         search_options={"cell_nm": 20.0})  # fmt: skip

@@ -52,6 +52,7 @@ import math
 import os
 import threading
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -71,12 +72,14 @@ __all__ = [
     "GlobeLandMask",
     "GshhgLandMask",
     "LandMask",
+    "PackedLand",
     "is_land",
     "default_land_mask_name",
     "land_mask",
     "leg_crosses_land",
     "legs_cross_land",
     "navigable",
+    "packed_land",
     "snap_to_sea",
     "weather_nan",
 ]
@@ -126,6 +129,42 @@ def _package_dir(package: str) -> Path:
             )
         )
     return Path(next(iter(spec.submodule_search_locations)))
+
+
+@dataclass(frozen=True, eq=False)
+class PackedLand:
+    """Rows of the GLOBE mask, bit-packed (8 cells a byte, the first in the high bit), for compiled look-ups.
+
+    A point ``(lat, lon)`` [deg], clipped to ``lat_range`` and ``lon_range``, is land when bit ``j & 7`` (from
+    the high end) of ``bits[i - row0, j >> 3]`` is set, with ``i`` and ``j`` the truncated
+    ``(lat - lat0) / dlat`` and ``(lon - lon0) / dlon`` clipped to ``[0, nlat)`` and ``[0, nlon)``: the look-up
+    of :meth:`GlobeLandMask.is_land`.  Rows outside ``bits`` are not loaded.
+    """
+
+    bits: np.ndarray
+    row0: int
+    lat0: float
+    dlat: float
+    lon0: float
+    dlon: float
+    nlat: int
+    nlon: int
+    lat_range: tuple[float, float]
+    lon_range: tuple[float, float]
+
+    def lat_deg_bounds(self) -> tuple[float, float]:
+        """The latitudes [deg] the loaded rows cover, (south, north)."""
+        a = self.lat0 + self.row0 * self.dlat
+        b = self.lat0 + (self.row0 + self.bits.shape[0]) * self.dlat
+        return min(a, b), max(a, b)
+
+
+def packed_land(lat_min_deg: float, lat_max_deg: float, *, mask: LandMask | str | None = None) -> PackedLand | None:
+    """The coastline between two latitudes [deg] as :class:`PackedLand`; None for a mask without packed cells
+    (GSHHG), whose users fall back to point look-ups."""
+    m = mask if mask is not None and not isinstance(mask, str) else land_mask(mask)
+    rows = getattr(m, "packed_rows", None)
+    return None if rows is None else rows(float(lat_min_deg), float(lat_max_deg))
 
 
 class GlobeLandMask:
@@ -190,6 +229,19 @@ class GlobeLandMask:
         j1 = int(np.clip((lon_max - self._lon0) / self._dlon, 0, self._nlon - 1))
         self._need_rows(np.arange(min(i0, i1), max(i0, i1) + 1))
         return bool(self._land_bits[min(i0, i1) : max(i0, i1) + 1, j0 >> 3 : (j1 >> 3) + 1].any())
+
+    def packed_rows(self, lat_min_deg: float, lat_max_deg: float) -> PackedLand:
+        """The mask's bit-packed rows from ``lat_min_deg`` to ``lat_max_deg`` [deg], inflated, for compiled look-ups
+        that answer as :meth:`is_land` does (:class:`PackedLand`)."""
+        i_lo, i_hi = (
+            int(np.clip((v - self._lat0) / self._dlat, 0, self._nlat - 1)) for v in (lat_max_deg, lat_min_deg)
+        )
+        lo, hi = min(i_lo, i_hi), max(i_lo, i_hi)
+        self._need_rows(np.arange(lo, hi + 1))
+        return PackedLand(
+            self._land_bits[lo : hi + 1], lo, self._lat0, self._dlat, self._lon0, self._dlon, self._nlat, self._nlon,
+            self._lat_range, self._lon_range,
+        )  # fmt: skip
 
     def is_land(self, lat_deg: np.ndarray, lon_deg: np.ndarray) -> np.ndarray:
         """True on land [bool array] for lat [deg] and lon [deg] in [-180, 180)."""

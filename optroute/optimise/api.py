@@ -410,9 +410,9 @@ def plan_voyage(
 def _over_land(exc: NoSafePassage, route: Any) -> NoSafePassage:
     """The corridor's NoSafePassage, saying when the searched route itself crosses land between its grid nodes.
 
-    The grid search tests the coastline at its cells' centres only (``route.stats["legs_crossing_land"]``): a
-    route over a peninsula gives a corridor closed by land across its whole width, and the corridor's own advice
-    (plan it with plan_voyage) is what the user did.
+    Where the grid search cannot walk its legs on the coastline (GSHHG) it tests the coastline at its cells'
+    centres only (``route.stats["legs_crossing_land"]``): a route over a peninsula gives a corridor closed by
+    land across its whole width, and the corridor's own advice (plan it with plan_voyage) is what the user did.
     """
     legs = list(route.stats.get("legs_crossing_land", []))
     if not legs:

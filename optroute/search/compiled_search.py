@@ -24,6 +24,7 @@ import numpy as np
 from optroute._numba import jit
 from optroute.search import _heap, _kernels
 from optroute.search.edge_geometry import edge_pieces
+from optroute.search.edge_land import crosses_coastal, on_land
 from optroute.search.passage_kernels import cost_leg, leg_points, leg_workspace
 from optroute.search.refine_kernels import workspace as refine_workspace
 
@@ -140,7 +141,9 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no
     ----------
     graph : tuple
         ``(ii, jj, di, dj, off, ny, nx, nav_pad, base_pad, cell_off, cell_n, all_navigable, xyz, tangent,
-        piece_f0, piece_f1, piece_n)`` as held by ``_Search`` and ``LegEvaluator``.
+        piece_f0, piece_f1, piece_n, coastal_pad, land_bits, land_blocks, land_par)`` as held by ``_Search`` and
+        ``LegEvaluator`` (the last four: :meth:`optroute.search.edge_land.EdgeLand.kernel_arrays`; an edge across
+        a coastal cell is walked on the coastline when it is due, and does not exist where it touches land).
     search : tuple
         ``(start, goal, h, rho, two_r, time_objective, lam, v_max, tol, t_goal, t_limit, inv_v)``: ``rho`` the
         objective's lower bound per nm [h/nm or t/nm]; ``t_goal`` a lower bound on each node's time to the goal
@@ -159,7 +162,9 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no
     bad : ndarray, shape (3,)
         Length [nm], duration [h] and cost of the edge that broke a bound (error only).
     """
-    ii, jj, di, dj, off, ny, nx, nav_pad, base_pad, cell_off, cell_n, all_nav, xyz, tangent, pf0, pf1, pn = graph
+    ii, jj, di, dj, off, ny, nx, nav_pad, base_pad, cell_off, cell_n, all_nav, xyz, tangent, pf0, pf1, pn = graph[:17]
+    coastal_pad, land_bits, land_blocks, land_par = graph[17:]
+    walk = land_par[0] > 0.0
     s, g, h, rho, two_r, time_obj, lam, vmax, tol, t_goal, t_limit, inv_v = search
     # a lower bound on the objective per nm still to sail on any leg (the bound every costed edge is checked against)
     rest = inv_v if time_obj else rho * (1.0 - tol)
@@ -202,6 +207,9 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no
         lb = label[x] + rho * d_nm
         if lb >= label[y] or lb + h[y] >= label[g]:
             continue
+        if walk and crosses_coastal(base_pad[x], cell_off, cell_n, q, coastal_pad):
+            if on_land(xyz[x], xyz[y], land_bits, land_blocks, land_par):
+                continue  # no such edge: it touches land between its nodes
         dur, fu, feas, unc, ws = _cost_edge(k, x, y, q, tarr, tangent, pf0, pf1, pn, buf, refine, label, time_obj,
                                             rest, ws)  # fmt: skip
         counts[1] += 1

@@ -77,6 +77,7 @@ from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, WeatherCo
 from optroute.search import _kernels, compiled_search
 from optroute.search.compiled_search import LegKernel
 from optroute.search.costs import EdgeCostFn, LegEvaluator, SegmentCostFn
+from optroute.search.edge_land import EdgeLand, edges_on_land, no_land_arrays
 from optroute.search.grid import RouteGrid, course_between_deg, segment_cells
 from optroute.search.neighbourhood import Neighbourhood
 
@@ -231,6 +232,7 @@ def shortest_path(
     cost_floor_per_nm: float | None = None,
     time_limit_h: float | None = None,
     cost_ceiling: float | None = None,
+    edge_land: EdgeLand | None = None,
 ) -> SearchResult:
     """Time-dependent shortest path from ``grid.start`` to ``grid.end``.
 
@@ -294,6 +296,10 @@ def shortest_path(
         there, so the A* pruning drops every edge that cannot beat it.  A route
         cheaper than the ceiling is found exactly as without it; if there is
         none, :class:`NoSafePassage` says so.
+    edge_land : EdgeLand, optional
+        The coastline between the nodes (:class:`optroute.search.edge_land.EdgeLand`): an edge that crosses a
+        cell that may hold land is walked on it and, where it touches land, does not exist.  Without it only
+        the navigable mask's nodes are tested.
 
     Returns
     -------
@@ -335,6 +341,8 @@ def shortest_path(
         weight = max(weight, floor * vmax)
     limit = np.inf if time_limit_h is None else float(finite("time_limit_h", time_limit_h, error=ConfigError))
     search = _Search(grid, neighbourhood, ev, vmax, method, objective, lam, batched, eng, weight)
+    if edge_land is not None:
+        search.land = edge_land.kernel_arrays(search.pad_shape, neighbourhood.radius_cells)
     search.t_limit = limit + TIME_LIMIT_SLACK_H
     if cost_ceiling is not None:
         search.ceiling = float(finite("cost_ceiling", cost_ceiling, error=ConfigError))
@@ -382,6 +390,8 @@ class _Search:
         pad = np.zeros((ny + 2 * r, nxp), dtype=bool)
         pad[r : r + ny, r : r + nx] = grid.navigable
         self.nav_pad = pad.ravel()
+        self.pad_shape = pad.shape
+        self.land = no_land_arrays(self.nav_pad.size)  # (coastal cells padded, packed rows, blocks, parameters)
         self.all_navigable = bool(grid.navigable.all())
         self.base_pad = (self.ii + r) * nxp + (self.jj + r)
         walks = [segment_cells(int(a), int(b))[0] for a, b in nb.offsets]
@@ -450,12 +460,12 @@ class _Search:
         """Edges out of ``batch`` that exist and could still improve a label: (u, v, offset, length [nm])."""
         if self.compiled:
             ny, nx = self.grid.shape
-            return _kernels.candidates(
+            return self._off_land(*_kernels.candidates(
                 batch, self.ii, self.jj, self.di, self.dj, self.off, ny, nx, self.nav_pad, self.base_pad,
                 self.cell_off, self.cell_n, self.all_navigable, self.state, self.label, self.h,
                 float(self.label[self.g]), self.ev.xyz, self.weight / self.vmax, _TWO_R_FLOOR_NM, self.tarr,
                 self.t_goal, self.t_limit, self.inv_v,
-            )  # fmt: skip
+            ))  # fmt: skip
         nbr = batch[:, None] + self.off[None, :]
         ok = self._edges_ok(batch)
         ok &= self.state[np.where(ok, nbr, 0)] != 2
@@ -471,7 +481,15 @@ class _Search:
         useful = np.nonzero(useful)[0]
         if useful.size < u.size:
             u, v, o, dist = u[useful], v[useful], o[useful], dist[useful]
-        return u, v, o, dist
+        return self._off_land(u, v, o, dist)
+
+    def _off_land(self, u: np.ndarray, v: np.ndarray, o: np.ndarray, dist: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The edges that do not touch land where they cross a coastal cell (:mod:`optroute.search.edge_land`;
+        the compiled loop tests each edge when it is due instead, with the same function)."""
+        if self.land[-1][0] <= 0.0 or u.size == 0:
+            return u, v, o, dist
+        wet = ~edges_on_land(u, v, o, self.ev.xyz, self.base_pad, self.cell_off, self.cell_n, *self.land)
+        return u[wet], v[wet], o[wet], dist[wet]
 
     def _relax(self, batch: np.ndarray) -> np.ndarray:
         """Cost the edges out of settled ``batch``; return the nodes opened for the first time."""
@@ -634,7 +652,7 @@ class _Search:
         ev, (ny, nx) = self.ev, self.grid.shape
         graph = (self.ii, self.jj, self.di, self.dj, self.off, ny, nx, self.nav_pad, self.base_pad, self.cell_off,
                  self.cell_n, self.all_navigable, ev.xyz, ev.tangent, ev.piece_f0, ev.piece_f1,
-                 ev.piece_n.astype(np.int64))  # fmt: skip
+                 ev.piece_n.astype(np.int64), *self.land)  # fmt: skip
         search = (self.s, self.g, self.h, self.weight / self.vmax, _TWO_R_FLOOR_NM, self.time_obj, self.lam,
                   self.vmax, _SPEED_TOL, self.t_goal, self.t_limit, self.inv_v)  # fmt: skip
         k = (kernel.params, kernel.weather, kernel.mode, kernel.check_nm, kernel.speeds, kernel.lam,

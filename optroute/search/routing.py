@@ -35,6 +35,7 @@ from optroute.physics.ship import Ship
 from optroute.physics.yacht import SailingVessel
 from optroute.search.dijkstra import shortest_path
 from optroute.search.dp_route import search_dp
+from optroute.search.edge_land import EdgeLand
 from optroute.search.exclusion import avoiding
 from optroute.search.fixed_route import sail_route
 from optroute.search.grid import RouteGrid
@@ -215,7 +216,9 @@ def search_route(
         searches run (the λ bisection's rounds, failing ones included);
         ``stats["legs_crossing_land"]`` the legs that touch land between
         their grid nodes, checked every 0.5 nm (a warning names the first):
-        the grid tests the coastline at its cells' centres only.
+        empty where the search walked its legs on the coastline
+        (:mod:`optroute.search.edge_land`, GLOBE), the nodes' test alone
+        otherwise (GSHHG); ``stats["cell_nm"]`` the grid's cell [nm].
 
     Raises
     ------
@@ -284,6 +287,8 @@ def search_route(
         physics, grid, _neighbourhood(angular_resolution_deg, directions, radius_cells), exclusion, objective,
         method, eta_h, desired, speed_step_kn, min_speed_kn, speeds, check, top_kn, top_kn + _max_current_kn(ds) + 1e-6,
     )  # fmt: skip
+    if coast:
+        search.edge_land = EdgeLand.build(grid)
     try:
         res, lam_used = run_objective(
             search.run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t, stop_at_track,
@@ -358,11 +363,13 @@ def _flag_land_crossings(route: Route, coast: bool, cell_nm: float) -> Route:
     """The grid search's route with ``stats["legs_crossing_land"]``, its legs that touch land between their ends,
     and ``stats["cell_nm"]``, the grid's cell [nm].
 
-    The grid tests the coastline at its nodes (each cell a leg crosses, at the cell's centre), so land narrower
-    than about a cell (an island, a peninsula) can lie under a leg between two open-water nodes.  Each leg is
-    checked every :data:`optroute.geo.land.DEFAULT_LEG_RESOLUTION_NM` along its great circle; where any
-    touches land a warning names the first and the fix.  Without the coastline (``coast`` False) nothing is
-    checked and the list is empty.
+    The grid tests the coastline at its nodes (each cell a leg crosses, at the cell's centre) and, with a
+    coastline it can walk (:class:`~optroute.search.edge_land.EdgeLand`, GLOBE), every leg across a cell with
+    land in it; with another one (GSHHG) land narrower than about a cell (an island, a peninsula) can lie
+    under a leg between two open-water nodes.  Each leg is checked every
+    :data:`optroute.geo.land.DEFAULT_LEG_RESOLUTION_NM` along its great circle; where any touches land a
+    warning names the first and the fix.  Without the coastline (``coast`` False) nothing is checked and the
+    list is empty.
     """
     wp = np.asarray(route.waypoints, dtype=float)
     legs = np.zeros(0, dtype=int)
@@ -415,11 +422,13 @@ class _GridSearch:
         self.top_kn, self.v_bound = top_kn, v_bound
         self.limit_h = _time_limit_h(physics.sampler, physics.departure, check)
         self.searches = 0
+        self.edge_land: EdgeLand | None = None  # the coastline between the nodes (set where it applies)
 
     def run(self, lam: float | None, ceiling: float | None = None):
         self.searches += 1
         physics, t0 = self.physics, self.physics.departure
-        common = {"v_max_kn": self.v_bound, "method": self.method, "time_limit_h": self.limit_h}
+        common = {"v_max_kn": self.v_bound, "method": self.method, "time_limit_h": self.limit_h,
+                  "edge_land": self.edge_land}  # fmt: skip
         if self.objective == "time" and lam is None:
             cb = _avoid(physics.segment_time(self.desired, self.step_kn, self.min_kn, self.check), self.exclusion, t0)
             return shortest_path(self.grid, self.hood, segment_cost=cb, objective="time", eta_h=self.eta_h, **common)
