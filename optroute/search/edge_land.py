@@ -5,9 +5,8 @@ centres; an island or a peninsula narrower than a cell can lie between two open-
 :class:`EdgeLand` closes that gap for the grid search: a cell is *coastal* when any GLOBE land cell lies in
 its bounding box of latitude and longitude (its outline sampled at quarter cells and widened by an eighth of
 a cell), and a leg that crosses a coastal cell is walked on the coastline every :data:`WALK_STEP_NM`
-(:func:`on_land`, the look-up of
-:meth:`optroute.geo.land.GlobeLandMask.is_land`) before it may be costed.  Legs through open-water cells
-only cost nothing more.  With a coastline source that has no packed cells (GSHHG) there is no
+(:func:`on_land`, the look-up of :meth:`optroute.geo.land.GlobeLandMask.is_land`) before it may be costed;
+a leg that touches land does not exist.  Legs through open-water cells only cost nothing more.  With a coastline source that has no packed cells (GSHHG) there is no
 :class:`EdgeLand`, and routes keep the node test (:func:`optroute.search.routing.search_route` then names the
 legs that cross land).
 """
@@ -97,15 +96,15 @@ def _latlon(x, y, z):  # pragma: no cover - compiled
 
 
 @jit
-def _blocks_hold_land(blocks, par, lat_a, lat_b, lon_a, lon_b):  # pragma: no cover - compiled
+def _blocks_hold_land(blocks, n_rows, par, lat_a, lat_b, lon_a, lon_b):  # pragma: no cover - compiled
     """Whether a 8 × 8-cell block touching the box (lat_a..lat_b, lon_a..lon_b) [deg] holds land; True where the
-    box leaves the longitude range or the loaded rows (the walk then looks)."""
+    box leaves the longitude range or the ``n_rows`` loaded rows (the walk then looks, and counts those as land)."""
     if lon_a < par[10] or lon_b >= par[11]:
         return True
     row0, lat0, dlat, lon0, dlon, nlat, nlon = int(par[1]), par[2], par[3], par[4], par[5], int(par[6]), int(par[7])
     i_a = min(max(int((max(lat_a, lat_b) - lat0) / dlat), 0), nlat - 1) - row0
     i_b = min(max(int((min(lat_a, lat_b) - lat0) / dlat), 0), nlat - 1) - row0
-    if i_a < 0 or i_b >= blocks.shape[0] * 8:
+    if i_a < 0 or i_b >= n_rows:
         return True
     j_a = min(max(int((lon_a - lon0) / dlon), 0), nlon - 1) >> 3
     j_b = min(max(int((lon_b - lon0) / dlon), 0), nlon - 1) >> 3
@@ -151,7 +150,7 @@ def on_land(a, b, bits, blocks, par):  # pragma: no cover - compiled
             dlon -= 360.0
         elif dlon < -180.0:
             dlon += 360.0
-        if _blocks_hold_land(blocks, par, lat0, lat1, min(lon0, lon0 + dlon), max(lon0, lon0 + dlon)):
+        if _blocks_hold_land(blocks, bits.shape[0], par, lat0, lat1, min(lon0, lon0 + dlon), max(lon0, lon0 + dlon)):
             for k in range(n_pts):
                 t = k / (n_pts - 1.0)
                 lon = lon0 + dlon * t
