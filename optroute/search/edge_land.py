@@ -2,13 +2,14 @@
 
 :class:`~optroute.search.grid.RouteGrid`'s navigable mask tests the coastline at its nodes, the cells'
 centres; an island or a peninsula narrower than a cell can lie between two open-water nodes, under a leg.
-:class:`EdgeLand` closes that gap for the grid search: a cell is *coastal* when any GLOBE land cell lies in
-its bounding box of latitude and longitude (its outline sampled at quarter cells and widened by an eighth of
-a cell), and a leg that crosses a coastal cell is walked on the coastline every :data:`WALK_STEP_NM`
-(:func:`on_land`, the look-up of :meth:`optroute.geo.land.GlobeLandMask.is_land`) before it may be costed;
-a leg that touches land does not exist.  Legs through open-water cells only cost nothing more.  With a coastline source that has no packed cells (GSHHG) there is no
-:class:`EdgeLand`, and routes keep the node test (:func:`optroute.search.routing.search_route` then names the
-legs that cross land).
+:class:`EdgeLand` closes that gap for the grid search.  A cell is *coastal* when any GLOBE land cell lies in
+its bounding box of latitude and longitude: its corners', widened by an eighth of a cell (a cell's side, a
+great circle, bulges from the straight line between its corners by at most L² tan(latitude) / 8R, 0.5 nm for
+a 120 nm cell at 45°, against the pad's 15 nm).  A leg that crosses a coastal cell is walked on the coastline
+every :data:`WALK_STEP_NM` (:func:`on_land`, the look-up of :meth:`optroute.geo.land.GlobeLandMask.is_land`)
+before it may be costed, and a leg that touches land does not exist.  Legs through open-water cells only cost
+nothing more.  With a coastline source that has no packed cells (GSHHG) there is no :class:`EdgeLand`, and
+routes keep the node test (:func:`optroute.search.routing.search_route` then names the legs that cross land).
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from optroute.search.grid import RouteGrid
 
 __all__ = ["WALK_STEP_NM", "EdgeLand", "edges_on_land", "no_land_arrays", "on_land"]
 
-_SUB = 4  # samples of a cell's outline per cell side
+_SUB = 1  # samples of a cell's outline per cell side: its corners (an edge's bulge is far below the pad)
 _R_NM = geo.EARTH_RADIUS_NM
 WALK_STEP_NM = 0.1
 """Largest spacing of the points a leg is walked at [nm]: a fifth of a GLOBE cell (0.5 nm), so that a leg
