@@ -47,12 +47,15 @@ class EdgeLand:
         Cells whose area may hold land.
     packed : PackedLand
         The GLOBE mask's rows over the grid (:func:`optroute.geo.land.packed_land`).
+    blocks : ndarray of bool, shape (row blocks, bytes)
+        Its 8 × 8-cell blocks (8 rows, one byte) that hold land.
     step_nm : float
         Largest spacing of the points walked along a leg [nm].
     """
 
     coastal: np.ndarray
     packed: land.PackedLand
+    blocks: np.ndarray
     step_nm: float = WALK_STEP_NM
 
     @classmethod
@@ -67,7 +70,8 @@ class EdgeLand:
         packed = land.packed_land(float(lat.min()) - 2 * pad_deg - 0.1, float(lat.max()) + 2 * pad_deg + 0.1, mask=mask)
         if packed is None:
             return None
-        return cls(_coastal_cells(lat, lon, ny, nx, pad_deg, packed), packed)
+        blocks = _blocks(packed)
+        return cls(_coastal_cells(lat, lon, ny, nx, pad_deg, packed, blocks), packed, blocks)
 
     def kernel_arrays(self, nav_pad_shape: tuple[int, int], radius: int) -> tuple:
         """``(coastal cells padded as the search's navigable mask, raveled; the packed rows; their 8 × 8-cell
@@ -83,7 +87,7 @@ class EdgeLand:
         p = self.packed
         par = np.array([self.step_nm, p.row0, p.lat0, p.dlat, p.lon0, p.dlon, p.nlat, p.nlon, *p.lat_range,
                         *p.lon_range, STRETCH_NM], dtype=float)  # fmt: skip
-        return np.ascontiguousarray(p.bits), _blocks(p), par
+        return np.ascontiguousarray(p.bits), self.blocks, par
 
 
 def no_land_arrays(nav_pad_size: int) -> tuple:
@@ -195,14 +199,17 @@ def _blocks(packed) -> np.ndarray:
     return nz.reshape(rows // 8, 8, bits.shape[1]).any(axis=1)
 
 
-def _coastal_cells(lat: np.ndarray, lon: np.ndarray, ny: int, nx: int, pad_deg: float, packed) -> np.ndarray:
-    """Cells (ny, nx) whose outline's bounding box, widened by ``pad_deg`` [deg of latitude], holds land."""
+def _coastal_cells(
+    lat: np.ndarray, lon: np.ndarray, ny: int, nx: int, pad_deg: float, packed, blocks: np.ndarray
+) -> np.ndarray:
+    """Cells (ny, nx) whose outline's bounding box, widened by ``pad_deg`` [deg of latitude], holds land (``blocks``:
+    :func:`_blocks` of ``packed``)."""
     s = _SUB
-    blocks = lambda a: np.lib.stride_tricks.sliding_window_view(a, (s + 1, s + 1))[::s, ::s]  # noqa: E731
-    la = blocks(lat)
+    cells = lambda a: np.lib.stride_tricks.sliding_window_view(a, (s + 1, s + 1))[::s, ::s]  # noqa: E731
+    la = cells(lat)
     lat_lo, lat_hi = la.min(axis=(2, 3)) - pad_deg, la.max(axis=(2, 3)) + pad_deg
     # longitudes relative to each cell's first corner: a cell across the antimeridian stays one interval
-    lo_all = blocks(lon)
+    lo_all = cells(lon)
     ref = lo_all[:, :, :1, :1]
     rel = units.wrap_180(lo_all - ref)
     coslat = np.maximum(np.cos(np.radians(np.maximum(np.abs(lat_lo), np.abs(lat_hi)))), 1e-3)
@@ -210,7 +217,7 @@ def _coastal_cells(lat: np.ndarray, lon: np.ndarray, ny: int, nx: int, pad_deg: 
     lon_lo = ref[:, :, 0, 0] + rel.min(axis=(2, 3)) - lon_pad
     lon_hi = ref[:, :, 0, 0] + rel.max(axis=(2, 3)) + lon_pad
     out = np.zeros((ny, nx), dtype=bool)
-    cum = _block_sums(packed)
+    cum = _block_sums(blocks)
     # a box over the antimeridian is looked up in two parts
     for shift in (0.0, 360.0, -360.0):
         a, b = np.clip(lon_lo + shift, -180.0, 180.0 - 1e-9), np.clip(lon_hi + shift, -180.0, 180.0 - 1e-9)
@@ -218,9 +225,8 @@ def _coastal_cells(lat: np.ndarray, lon: np.ndarray, ny: int, nx: int, pad_deg: 
     return out
 
 
-def _block_sums(packed) -> np.ndarray:
-    """Summed-area table of the 8 × 8-cell blocks (8 rows, one byte) of the packed rows that hold land."""
-    block = _blocks(packed)
+def _block_sums(block: np.ndarray) -> np.ndarray:
+    """Summed-area table of the blocks (:func:`_blocks`) that hold land."""
     cum = np.zeros((block.shape[0] + 1, block.shape[1] + 1), dtype=np.int64)
     cum[1:, 1:] = block.cumsum(axis=0).cumsum(axis=1)
     return cum
