@@ -27,7 +27,7 @@ from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, WeatherCo
 from optroute.geo import land
 from optroute.physics.performance import default_model
 from optroute.physics.safety import BandRules, band_margins, is_speed_forbidden
-from optroute.search import RouteGrid, angular_resolution, compass, routing, shortest_path
+from optroute.search import RouteGrid, angular_resolution, compass, dp_route, routing, shortest_path
 from optroute.search.routing import PassagePhysics, search_route
 from optroute.weather import WeatherSampler, scenarios
 from optroute.weather.schema import canonical_dataset
@@ -342,6 +342,30 @@ def _land_points(wp, step_nm):
         n = int(np.ceil(float(geo.distance_nm(*wp[k], *wp[k + 1])) / step_nm)) + 1
         out.append(int(land.is_land(*geo.great_circle_points(*wp[k], *wp[k + 1], n)).sum()))
     return out
+
+
+def test_dp_legs_keep_off_islands_between_their_states(monkeypatch):
+    """San Diego towards Point Conception on a 20 nm x 10 nm lattice: the Channel Islands lie between lattice
+    states whose no-go samples (every 10 nm) are at sea. The DP walks every leg on the coastline, so its route
+    touches no land (GLOBE every 0.05 nm along each leg, independent sampling); without the walk the least-fuel
+    route crosses an island on a leg."""
+    ship = orx.Ship.preset("container_8000teu")
+    wx = scenarios.calm(bbox=(27.0, 40.0, -126.0, -112.0), start=T0, duration_h=100.0, resolution_deg=1.0)
+    start, end = (32.7, -117.4604), (34.3, -121.0)
+    kw = dict(
+        departure=T0,
+        method="dp",
+        objective="fuel",
+        eta=T0 + np.timedelta64(16, "h"),
+        speeds_kn=np.arange(14.0, 20.1, 3.0),
+        dp_options=dict(dx_nm=20, dy_nm=10, half_width_nm=60, piece_nm=5),
+    )
+    r = search_route(start, end, wx, ship, **kw)
+    assert not any(_land_points(r.waypoints, 0.05))
+    monkeypatch.setattr(dp_route, "legs_on_land", lambda *legs: np.zeros(np.broadcast(*legs).shape, dtype=bool))
+    bare = search_route(start, end, wx, ship, **kw)
+    assert any(_land_points(bare.waypoints, 0.05))
+    assert bare.total_fuel_t <= r.total_fuel_t
 
 
 def test_grid_routes_keep_off_islands_between_their_nodes(monkeypatch):

@@ -163,6 +163,46 @@ def test_no_go_areas_are_avoided_when_sampled_densely_in_space_and_time():
     assert np.all(free.path.lateral_nm == 0) and p.total_fuel_t > free.path.total_fuel_t
 
 
+def _reef(lat0, lon0, lat1, lon1):
+    """A reef of no width on the meridian 10° E from 0.3° S to 0.3° N: True for the legs that cross it (their
+    latitude at 10° E, linear in longitude, within it), a test no point sampling can pass."""
+    lat0, lon0, lat1, lon1 = np.broadcast_arrays(lat0, lon0, lat1, lon1)
+    across = (lon0 - 10.0) * (lon1 - 10.0) <= 0.0
+    f = np.where(lon1 != lon0, (10.0 - lon0) / np.where(lon1 != lon0, lon1 - lon0, 1.0), 0.0)
+    return across & (np.abs(lat0 + f * (lat1 - lat0)) <= 0.3)
+
+
+def test_legs_blocked_keeps_every_leg_off_an_obstacle_between_the_states():
+    """A reef across the great circle, narrower than any no-go step: no leg of the path crosses it, the path leaves
+    the great circle and costs more than the free one, and the cheapest of all paths that avoid it (exhaustive
+    enumeration of the lateral sequences at one speed) is the one returned."""
+    kw = dict(eta_h=None, dx_nm=300, dy_nm=40, half_width_nm=80, speeds_kn=[14.0], horizon_h=200.0)
+    r = solve_dp(START, END, cubic, legs_blocked=_reef, **kw)
+    p = r.path
+    assert not _reef(p.lat_deg[:-1], p.lon_deg[:-1], p.lat_deg[1:], p.lon_deg[1:]).any()
+    free = solve_dp(START, END, cubic, **kw).path
+    assert _reef(free.lat_deg[:-1], free.lon_deg[:-1], free.lat_deg[1:], free.lon_deg[1:]).any()
+    assert p.total_fuel_t > free.total_fuel_t
+    lat, lon = r.stage_lat_deg, r.stage_lon_deg
+    n_stages, n_lat = lat.shape
+    centre = n_lat // 2
+    best = np.inf
+    for inner in itertools.product(range(n_lat), repeat=n_stages - 2):
+        seq = (centre, *inner, centre)
+        la, lo = lat[np.arange(n_stages), seq], lon[np.arange(n_stages), seq]
+        if _reef(la[:-1], lo[:-1], la[1:], lo[1:]).any():
+            continue
+        d = geo.distance_nm(la[:-1], lo[:-1], la[1:], lo[1:])
+        best = min(best, float(np.sum(K * d**3 / (d / 14.0) ** 2)))
+    assert p.total_fuel_t == pytest.approx(best, rel=1e-12)
+
+
+def test_legs_blocked_breaking_its_contract_is_named():
+    with pytest.raises(ConfigError, match=r"legs_blocked\(lat0, lon0, lat1, lon1\) returned"):
+        solve_dp(START, END, cubic, dx_nm=200, dy_nm=50, half_width_nm=100, speeds_kn=[10.0],
+                 legs_blocked=lambda *legs: np.zeros(3, dtype=bool))  # fmt: skip
+
+
 def test_unreachable_end_raises_no_safe_passage():
     def walled(lat, lon, t):
         return lon < 15.0

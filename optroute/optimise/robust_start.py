@@ -29,6 +29,7 @@ from optroute.search.dp import DPPath, solve_dp
 from optroute.search.dp_kernels import JointLegKernel
 from optroute.search.dp_route import dp_navigable
 from optroute.search.dp_stages import in_every_member
+from optroute.search.edge_land import legs_on_land
 from optroute.search.passage_physics import PassagePhysics
 from optroute.units import format_utc
 from optroute.units import h_to_timedelta as _h_to_td
@@ -84,6 +85,7 @@ def _solve(physics: list[PassagePhysics], frame: Any, eta_h: float, speeds: np.n
             _joint_cost([ph.dp_leg(PIECE_NM) for ph in physics]), eta_h=None, dx_nm=dx,
             dy_nm=max(half / 5.0, 1.0), half_width_nm=half, speeds_kn=speeds, dt_h=1.0,
             navigable=dp_navigable(physics, exclusion, coast), horizon_h=max(t_last, eta_h),
+            legs_blocked=legs_on_land if coast else None,
         )  # fmt: skip
     except NoSafePassage:
         return None, None

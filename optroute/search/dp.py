@@ -74,7 +74,9 @@ labels, with the legs that cannot win left uncosted.
 No-go areas (islands, moving storms) are a callable ``navigable(lat_deg,
 lon_deg, t_h) -> bool array``, checked at the state reached and at points
 along each leg every ``nogo_step_nm`` at the time the ship passes them
-(constant speed along the leg).
+(constant speed along the leg).  A fixed obstacle narrower than that step
+(an island, a cape) is a callable ``legs_blocked`` that tests whole legs: the
+coastline walked every 0.1 nm (:func:`optroute.search.edge_land.legs_on_land`).
 
 Sources: Shao et al. (3-D DP vs the IMO MEPC method; ΔX = 360 nm, ΔY = 75 nm,
 Δt = 1 h, speeds 5–30 kn); Bellman (1957).
@@ -95,6 +97,7 @@ from optroute.search.dp_lattice import Lattice, Options, checked_options, lattic
 from optroute.search.dp_stages import (
     CompiledStages,
     LegCostFn,
+    LegsBlockedFn,
     NoGoFn,
     Transition,
     append_stage,
@@ -392,6 +395,7 @@ def solve_dp(
     dt_h: float = 1.0,
     navigable: NoGoFn | None = None,
     nogo_step_nm: float | None = None,
+    legs_blocked: LegsBlockedFn | None = None,
     max_lateral_step: int | None = None,
     horizon_h: float | None = None,
     max_batch: int = 400_000,
@@ -429,6 +433,11 @@ def solve_dp(
         areas at that time.  Default: everywhere navigable.
     nogo_step_nm : float, optional
         Spacing of the no-go checks along each leg [nm]; default ``dy_nm``.
+    legs_blocked : callable, optional
+        ``legs_blocked(lat0_deg, lon0_deg, lat1_deg, lon1_deg) -> bool array``, True for a great-circle leg
+        that crosses a fixed obstacle anywhere along it (the coastline:
+        :func:`optroute.search.edge_land.legs_on_land`); called once per stage on all its (La, Lb) state pairs,
+        and such a leg does not exist. Default: none.
     max_lateral_step : int, optional
         Largest change of lateral index between stages; default: any.
     horizon_h : float, optional
@@ -495,7 +504,7 @@ def solve_dp(
         raise NoSafePassage(f"the start {opt.start} is in a no-go area at departure; move it or change the no-go mask")
     step_fn = Transition(
         lat_.lat, lat_.lon, lat_.dists, opt.speeds, leg_cost, navigable, opt.nogo_step, lat_.rem_nm,
-        float(opt.speeds.max()), lat_.horizon,
+        float(opt.speeds.max()), lat_.horizon, legs_blocked,
     )  # fmt: skip
     kernel = getattr(leg_cost, "dp_kernel", None)
     inputs = None if kernel is None else stacked_inputs(kernel.members)

@@ -13,6 +13,7 @@ from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
 from optroute.geo import land
 from optroute.physics.safety import BANDS
 from optroute.search.dp import solve_dp
+from optroute.search.edge_land import legs_on_land
 from optroute.search.objective_search import eta_as_time, explain_uncovered
 from optroute.search.passage_physics import PassagePhysics
 from optroute.search.route import Route
@@ -47,7 +48,8 @@ def search_dp(
     edges, for the run's least-fuel routes for them too, in ``stats["routes_for_eta_h"]``
     by ETA, None where no route arrives by it: :meth:`optroute.search.dp.DPResult.path_for_eta`); nodes are navigable where the weather allows passage,
     outside the moving ``exclusion`` and (``coast``) off land; ``eta_h`` [h from
-    departure] or None.  With ``objective="time"`` (no ETA) the route is the DP's earliest arrival within the
+    departure] or None; with ``coast`` every lattice leg is also walked on the coastline
+    (:func:`optroute.search.edge_land.legs_on_land`) and one that touches land does not exist.  With ``objective="time"`` (no ETA) the route is the DP's earliest arrival within the
     horizon, each bin keeping its earliest labels (``label_value="time"``: a band that clears can stop the earliest
     label and let a later one through), its ``cost`` that arrival [h]; else the least-fuel route.  Errors name the
     ETA's UTC time and the weather's extent.
@@ -59,6 +61,8 @@ def search_dp(
     sampler = physics.sampler
 
     navigable = dp_navigable([physics], exclusion, coast)
+    if coast:  # the coastline between the lattice's states, walked on every leg
+        opts.setdefault("legs_blocked", legs_on_land)
     t_last = (sampler.extent["time"][1] - physics.departure) / np.timedelta64(1, "s") / 3600.0
     opts.setdefault("horizon_h", float(t_last))
     if objective == "time":

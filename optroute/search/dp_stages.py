@@ -24,11 +24,12 @@ from optroute.search.costs import unpack_cost
 from optroute.search.dp_kernels import DPLegKernel, JointLegKernel, enumerate_candidates, resolve
 from optroute.search.passage_kernels import clear_dp_legs, cost_dp_legs
 
-__all__ = ["CompiledStages", "LegCostFn", "NoGoFn", "Transition", "append_stage", "combos", "empty_stage",
+__all__ = ["CompiledStages", "LegCostFn", "LegsBlockedFn", "NoGoFn", "Transition", "append_stage", "combos", "empty_stage",
            "in_every_member", "lazy_winners", "nav_check", "pareto_winners", "stage_tables"]  # fmt: skip
 
 LegCostFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray], Any]
 NoGoFn = Callable[[np.ndarray, np.ndarray, np.ndarray], ArrayLike]
+LegsBlockedFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], ArrayLike]
 
 _SPEED_TOL = 1e-9
 
@@ -152,13 +153,30 @@ class Transition:
         rem_nm: np.ndarray,
         vmax: float,
         horizon: float,
+        legs_blocked: LegsBlockedFn | None = None,
     ) -> None:
         self.lat, self.lon, self.dists, self.speeds = lat, lon, dists, speeds
         self.leg_cost, self.navigable, self.nogo_step = leg_cost, navigable, nogo_step
         self.rem_nm, self.vmax, self.horizon = rem_nm, vmax, horizon
+        self.legs_blocked = legs_blocked
         self.count = 0
         self.stages: CompiledStages | None = None
         self._samples: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._open: dict[int, np.ndarray] = {}
+
+    def _open_legs(self, k: int) -> np.ndarray:
+        """Which legs from stage k's states to stage k+1's (La, Lb) ``legs_blocked`` lets through, once per stage."""
+        if k not in self._open:
+            la0, lb0 = np.meshgrid(self.lat[k], self.lat[k + 1], indexing="ij")
+            lo0, lo1 = np.meshgrid(self.lon[k], self.lon[k + 1], indexing="ij")
+            out = np.asarray(self.legs_blocked(la0, lo0, lb0, lo1))  # type: ignore[misc]
+            if out.shape != la0.shape or out.dtype != bool:
+                raise ConfigError(
+                    f"legs_blocked(lat0, lon0, lat1, lon1) returned {out.dtype} of shape {out.shape}; "
+                    f"return a bool array of shape {la0.shape}"
+                )
+            self._open[k] = ~out
+        return self._open[k]
 
     def _samples_for(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if k not in self._samples:
@@ -209,10 +227,12 @@ class Transition:
         return good
 
     def _clear_of_no_go(self, k: int, l0: np.ndarray, lj: np.ndarray, t0: np.ndarray, dur: np.ndarray) -> np.ndarray:
-        if self.navigable is None:
-            return np.ones(l0.size, dtype=bool)
+        good = np.ones(l0.size, dtype=bool) if self.legs_blocked is None else self._open_legs(k)[l0, lj]
+        if self.navigable is None or not good.any():
+            return good
         fr, plat, plon = self._samples_for(k)
-        good = nav_check(self.navigable, self.lat[k + 1, lj], self.lon[k + 1, lj], t0 + dur)
+        q = np.flatnonzero(good)
+        good[q] = nav_check(self.navigable, self.lat[k + 1, lj[q]], self.lon[k + 1, lj[q]], t0[q] + dur[q])
         if plat is not None and good.any():
             q = np.nonzero(good)[0]
             pt = t0[q, None] + fr[None, :] * dur[q, None]

@@ -1,4 +1,4 @@
-"""The coastline between a grid's nodes: which cells may hold land, and the packed mask to walk legs on.
+"""The coastline between a search's states: which grid cells may hold land, and the packed mask to walk legs on.
 
 :class:`~optroute.search.grid.RouteGrid`'s navigable mask tests the coastline at its nodes, the cells'
 centres; an island or a peninsula narrower than a cell can lie between two open-water nodes, under a leg.
@@ -10,6 +10,8 @@ every :data:`WALK_STEP_NM` (:func:`on_land`, the look-up of :meth:`optroute.geo.
 before it may be costed, and a leg that touches land does not exist.  Legs through open-water cells only cost
 nothing more.  With a coastline source that has no packed cells (GSHHG) there is no :class:`EdgeLand`, and
 routes keep the node test (:func:`optroute.search.routing.search_route` then names the legs that cross land).
+The 3-D DP's lattice legs are walked the same way, on the rows their latitudes span (:func:`legs_on_land`,
+:class:`CoastWalk`).
 """
 
 from __future__ import annotations
@@ -22,9 +24,9 @@ from optroute import geodesy as geo
 from optroute import units
 from optroute._numba import jit
 from optroute.geo import land
-from optroute.search.grid import RouteGrid
+from optroute.search.grid import RouteGrid, unit_xyz
 
-__all__ = ["WALK_STEP_NM", "EdgeLand", "edges_on_land", "no_land_arrays", "on_land"]
+__all__ = ["WALK_STEP_NM", "CoastWalk", "EdgeLand", "edges_on_land", "legs_on_land", "no_land_arrays", "on_land"]
 
 _SUB = 1  # samples of a cell's outline per cell side: its corners (an edge's bulge is far below the pad)
 _R_NM = geo.EARTH_RADIUS_NM
@@ -38,6 +40,41 @@ the error is below 0.001 nm × tan(latitude))."""
 
 
 @dataclass(frozen=True, eq=False)
+class CoastWalk:
+    """The GLOBE coastline between two latitudes, packed, to walk legs on (:func:`on_land`).
+
+    Attributes
+    ----------
+    packed : PackedLand
+        The GLOBE mask's rows (:func:`optroute.geo.land.packed_land`).
+    blocks : ndarray of bool, shape (row blocks, bytes)
+        Its 8 × 8-cell blocks (8 rows, one byte) that hold land.
+    step_nm : float
+        Largest spacing of the points walked along a leg [nm].
+    """
+
+    packed: land.PackedLand
+    blocks: np.ndarray
+    step_nm: float = WALK_STEP_NM
+
+    @classmethod
+    def between(
+        cls, lat_min_deg: float, lat_max_deg: float, *, mask: land.LandMask | str | None = None
+    ) -> CoastWalk | None:
+        """The coastline from ``lat_min_deg`` to ``lat_max_deg`` [deg]; None when the mask has no packed cells."""
+        packed = land.packed_land(lat_min_deg, lat_max_deg, mask=mask)
+        return None if packed is None else cls(packed, _blocks(packed))
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(packed rows, their 8 × 8-cell blocks that hold land, the look-up's parameters)``: the arguments
+        ``bits, blocks, par`` of :func:`on_land`."""
+        p = self.packed
+        par = np.array([self.step_nm, p.row0, p.lat0, p.dlat, p.lon0, p.dlon, p.nlat, p.nlon, *p.lat_range,
+                        *p.lon_range, STRETCH_NM], dtype=float)  # fmt: skip
+        return np.ascontiguousarray(p.bits), self.blocks, par
+
+
+@dataclass(frozen=True, eq=False)
 class EdgeLand:
     """The coastline a grid search walks its legs on.
 
@@ -45,18 +82,12 @@ class EdgeLand:
     ----------
     coastal : ndarray of bool, shape (ny, nx)
         Cells whose area may hold land.
-    packed : PackedLand
-        The GLOBE mask's rows over the grid (:func:`optroute.geo.land.packed_land`).
-    blocks : ndarray of bool, shape (row blocks, bytes)
-        Its 8 × 8-cell blocks (8 rows, one byte) that hold land.
-    step_nm : float
-        Largest spacing of the points walked along a leg [nm].
+    walk : CoastWalk
+        The GLOBE mask's rows over the grid, packed.
     """
 
     coastal: np.ndarray
-    packed: land.PackedLand
-    blocks: np.ndarray
-    step_nm: float = WALK_STEP_NM
+    walk: CoastWalk
 
     @classmethod
     def build(cls, grid: RouteGrid, *, mask: land.LandMask | str | None = None) -> EdgeLand | None:
@@ -67,11 +98,10 @@ class EdgeLand:
         x, y = grid.node_xy_nm(fi[:, None], fj[None, :])
         lat, lon = grid.xy_to_latlon(x, y)
         pad_deg = grid.cell_nm / 8.0 / 60.0
-        packed = land.packed_land(float(lat.min()) - 2 * pad_deg - 0.1, float(lat.max()) + 2 * pad_deg + 0.1, mask=mask)
-        if packed is None:
+        walk = CoastWalk.between(float(lat.min()) - 2 * pad_deg - 0.1, float(lat.max()) + 2 * pad_deg + 0.1, mask=mask)
+        if walk is None:
             return None
-        blocks = _blocks(packed)
-        return cls(_coastal_cells(lat, lon, ny, nx, pad_deg, packed, blocks), packed, blocks)
+        return cls(_coastal_cells(lat, lon, ny, nx, pad_deg, walk.packed, walk.blocks), walk)
 
     def kernel_arrays(self, nav_pad_shape: tuple[int, int], radius: int) -> tuple:
         """``(coastal cells padded as the search's navigable mask, raveled; the packed rows; their 8 × 8-cell
@@ -79,15 +109,48 @@ class EdgeLand:
         pad = np.zeros(nav_pad_shape, dtype=bool)
         ny, nx = self.coastal.shape
         pad[radius : radius + ny, radius : radius + nx] = self.coastal
-        return (pad.ravel(), *self.walk_arrays())
+        return (pad.ravel(), *self.walk.arrays())
 
-    def walk_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(packed rows, their 8 × 8-cell blocks that hold land, the look-up's parameters)``: the arguments
-        ``bits, blocks, par`` of :func:`on_land`."""
-        p = self.packed
-        par = np.array([self.step_nm, p.row0, p.lat0, p.dlat, p.lon0, p.dlon, p.nlat, p.nlon, *p.lat_range,
-                        *p.lon_range, STRETCH_NM], dtype=float)  # fmt: skip
-        return np.ascontiguousarray(p.bits), self.blocks, par
+
+def legs_on_land(
+    lat0_deg: np.ndarray, lon0_deg: np.ndarray, lat1_deg: np.ndarray, lon1_deg: np.ndarray,
+    *, mask: land.LandMask | str | None = None,
+) -> np.ndarray:  # fmt: skip
+    """Whether each great-circle leg touches land, for legs anywhere (the 3-D DP's lattice legs).
+
+    With the GLOBE mask each leg is walked as a grid search's edge is (:func:`on_land`, every
+    :data:`WALK_STEP_NM`), on the mask's rows over the legs' latitudes widened by the legs' poleward bulge;
+    with a mask that has no packed cells (GSHHG) its points are looked up every
+    ``land.DEFAULT_LEG_RESOLUTION_NM`` (:func:`optroute.geo.land.legs_cross_land`).
+
+    Parameters
+    ----------
+    lat0_deg, lon0_deg, lat1_deg, lon1_deg : array_like
+        The legs' ends [deg, north and east positive], broadcast together.
+    mask : LandMask or str, optional
+        The coastline (:func:`optroute.geo.land.land_mask`).
+
+    Returns
+    -------
+    ndarray of bool
+        True for legs that touch land, in the broadcast shape.
+    """
+    la0, lo0, la1, lo1 = (np.asarray(v, dtype=float) for v in np.broadcast_arrays(lat0_deg, lon0_deg, lat1_deg,
+                                                                                   lon1_deg))  # fmt: skip
+    if la0.size == 0:
+        return np.zeros(la0.shape, dtype=bool)
+    a, b = unit_xyz(la0, lo0).reshape(-1, 3), unit_xyz(la1, lo1).reshape(-1, 3)
+    chord = np.linalg.norm(a - b, axis=1)
+    length_nm = float(np.max(2.0 * _R_NM * np.arcsin(np.minimum(chord / 2.0, 1.0))))
+    top = float(max(np.max(np.abs(la0)), np.max(np.abs(la1))))
+    # a great circle of length L rises above its ends' latitude phi by about L^2 tan(phi) / 8R (twice that here)
+    bulge_deg = length_nm**2 * np.tan(np.radians(min(top, 89.0))) / (4.0 * _R_NM) / 60.0 + 0.1
+    lo = max(float(min(la0.min(), la1.min())) - bulge_deg, -90.0)
+    hi = min(float(max(la0.max(), la1.max())) + bulge_deg, 90.0)
+    walk = CoastWalk.between(lo, hi, mask=mask)
+    if walk is None:
+        return land.legs_cross_land(la0, lo0, la1, lo1, mask=mask)
+    return _legs_on_land(a, b, *walk.arrays()).reshape(la0.shape)
 
 
 def no_land_arrays(nav_pad_size: int) -> tuple:
@@ -145,7 +208,7 @@ def on_land(a, b, bits, blocks, par):  # pragma: no cover - compiled
     ex, ey, ez = a[0] - b[0], a[1] - b[1], a[2] - b[2]
     d_nm = 2.0 * _R_NM * np.arcsin(min(np.sqrt(ex * ex + ey * ey + ez * ez) / 2.0, 1.0)) / 0.99
     n_s = max(int(np.ceil(d_nm / par[12])), 1)
-    n_pts = int(np.ceil(d_nm / n_s / par[0])) + 1
+    n_pts = max(int(np.ceil(d_nm / n_s / par[0])) + 1, 2)  # both ends, even of a leg of no length
     lat0, lon0 = _latlon(a[0], a[1], a[2])
     for s in range(1, n_s + 1):
         f = s / n_s
@@ -164,6 +227,15 @@ def on_land(a, b, bits, blocks, par):  # pragma: no cover - compiled
                     return True
         lat0, lon0 = lat1, lon1
     return False
+
+
+@jit
+def _legs_on_land(a, b, bits, blocks, par):  # pragma: no cover - compiled
+    """:func:`on_land` for each leg ``a[i] → b[i]`` (unit vectors)."""
+    out = np.zeros(a.shape[0], dtype=np.bool_)
+    for i in range(a.shape[0]):
+        out[i] = on_land(a[i], b[i], bits, blocks, par)
+    return out
 
 
 @jit
