@@ -174,6 +174,9 @@ def test_calm_san_diego_tokyo_is_the_great_circle_at_design_speed_and_calm_fuel(
     # the ports lie on land: the route runs between them snapped to open water, at most snap_max_nm away
     assert geo.distance_nm(*scenarios.SAN_DIEGO, *a) <= 20.0 + 2 * 80.0
     assert geo.distance_nm(*scenarios.TOKYO, *b) <= 20.0 + 2 * 80.0
+    np.testing.assert_allclose(r.stats["ends_moved_nm"], [geo.distance_nm(*scenarios.SAN_DIEGO, *a),
+                                                          geo.distance_nm(*scenarios.TOKYO, *b)], rtol=1e-12)  # fmt: skip
+    assert min(r.stats["ends_moved_nm"]) > 0.0  # both ports are on land (GLOBE)
     gc = float(geo.distance_nm(*a, *b))
     assert gc * (1 - 1e-9) <= r.total_distance_nm <= gc * 1.005
     # calm sea: the design speed all the way, the calm-water power and SFOC of the ship
@@ -362,6 +365,8 @@ def test_dp_legs_keep_off_islands_between_their_states(monkeypatch):
     )
     r = search_route(start, end, wx, ship, **kw)
     assert not any(_land_points(r.waypoints, 0.05))
+    np.testing.assert_allclose(r.stats["ends_moved_nm"], [geo.distance_nm(*start, *r.waypoints[0]),
+                                                          geo.distance_nm(*end, *r.waypoints[-1])], atol=1e-9)  # fmt: skip
     monkeypatch.setattr(dp_route, "legs_on_land", lambda *legs: np.zeros(np.broadcast(*legs).shape, dtype=bool))
     bare = search_route(start, end, wx, ship, **kw)
     assert any(_land_points(bare.waypoints, 0.05))

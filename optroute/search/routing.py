@@ -24,6 +24,7 @@ import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike
 
+from optroute import geodesy as geo
 from optroute import units
 from optroute._checks import finite
 from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage, WeatherCoverageError
@@ -218,7 +219,11 @@ def search_route(
         their grid nodes, checked every 0.5 nm (a warning names the first):
         empty where the search walked its legs on the coastline
         (:mod:`optroute.search.edge_land`, GLOBE), the nodes' test alone
-        otherwise (GSHHG); ``stats["cell_nm"]`` the grid's cell [nm].
+        otherwise (GSHHG); ``stats["cell_nm"]`` the grid's cell [nm].  For every
+        method, ``stats["ends_moved_nm"]`` holds how far the start and the end
+        were moved to open water [nm] (the grid search keeps half a cell of
+        sea about them: at 120 nm cells San Diego → Tokyo starts 78 nm off
+        San Diego and ends 102 nm off Tokyo, at 20 nm cells 15 and 36 nm).
 
     Raises
     ------
@@ -264,15 +269,18 @@ def search_route(
     speeds = _speed_set(ship, speeds_kn)
     physics = PassagePhysics(ship, model, rules, sampler, t0, compiled=bool(compiled))
     snap_nm = float(snap_max_nm) if snap_max_nm is not None else 20.0 + 2.0 * cell_nm
+    ports = (start, end)
     start, end = _snapped_ends(
         start, end, sampler, ds, t0, snap_nm, clearance_nm=0.5 * cell_nm if method != "dp" else 0.5,
         use_land_mask=use_land_mask,
     )  # fmt: skip
+    moved = {"ends_moved_nm": tuple(float(geo.distance_nm(*a, *b)) for a, b in zip(ports, (start, end), strict=True))}
     coast = _uses_coast(ds, use_land_mask)
     if method == "dp":
-        return search_dp(
+        route = search_dp(
             physics, start, end, eta_h, speeds, dict(dp_options or {}), objective, t_start, coast, exclusion
         )
+        return dataclasses.replace(route, stats={**route.stats, **moved})
     # the fastest any leg can go over ground: the speed ceiling of the objective plus the strongest current
     top_kn = desired if objective == "time" and lambda_t_per_h is None else float(speeds.max())
     grid = RouteGrid.build(
@@ -302,7 +310,7 @@ def search_route(
         last_t = sampler.extent["time"][1]
         raise WeatherCoverageError(f"{exc} (the weather ends at {units.format_utc(last_t)})") from None
     route = _route_from_search(res, physics, t0, objective, method, lam_used, t_start, search.searches)
-    return _flag_land_crossings(route, coast, grid.cell_nm)
+    return _flag_land_crossings(dataclasses.replace(route, stats={**route.stats, **moved}), coast, grid.cell_nm)
 
 
 def _departure_and_eta_h(departure: Any, eta: Any) -> tuple[np.datetime64, float | None]:
