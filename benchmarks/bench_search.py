@@ -436,8 +436,8 @@ def bench_plan_voyage(cell_nm: float) -> dict[str, Any]:
 
     Defaults otherwise (the fuel objective's λ bisection stopped at the track, corridor, NLP); each grid search
     is recorded (λ, CPU seconds, outcome: arrival [h] or the error).  The search snaps each port to open water
-    with half a cell of sea around it, so the voyage planned depends on the cells: the plan's distance and its
-    ends' distances from the two ports are reported with it.
+    (``PORT_CLEARANCE_NM`` of sea about it, half a cell where no route leaves such ends): the plan's distance
+    and its ends' distances from the two ports are reported with it.
     """
     import warnings
 
@@ -693,8 +693,8 @@ def run(quick: bool) -> dict[str, Any]:
     pv = None
     if not quick:
         print("### plan_voyage San Diego → Tokyo through the storms, end to end (target <= 10 s)\n")
-        print("Each port is snapped to open water with half a cell of sea about it: coarser cells plan a shorter "
-              "voyage, from farther off the ports.\n")  # fmt: skip
+        print("Each port is snapped to open water with `PORT_CLEARANCE_NM` of sea about it (half a cell where no "
+              "route leaves such ends).\n")  # fmt: skip
         print("| cells [nm] | wall [s] | CPU [s] | search [s] | searches (λ) | optimiser [s] | fuel [t] | plan [h] | "
               "plan [nm] | start off San Diego [nm] | end off Tokyo [nm] |")  # fmt: skip
         print("|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|")

@@ -169,15 +169,12 @@ def calm_pacific():
 
 def test_calm_san_diego_tokyo_is_the_great_circle_at_design_speed_and_calm_fuel(calm_pacific):
     ship = orx.Ship.preset("container_8000teu")
-    r = _quiet(search_route, scenarios.SAN_DIEGO, scenarios.TOKYO, calm_pacific, ship, departure=T0, cell_nm=80.0)
-    a, b = r.waypoints[0], r.waypoints[-1]
-    # the ports lie on land: the route runs between them snapped to open water, at most snap_max_nm away
-    assert geo.distance_nm(*scenarios.SAN_DIEGO, *a) <= 20.0 + 2 * 80.0
-    assert geo.distance_nm(*scenarios.TOKYO, *b) <= 20.0 + 2 * 80.0
-    np.testing.assert_allclose(r.stats["ends_moved_nm"], [geo.distance_nm(*scenarios.SAN_DIEGO, *a),
-                                                          geo.distance_nm(*scenarios.TOKYO, *b)], rtol=1e-12)  # fmt: skip
-    assert min(r.stats["ends_moved_nm"]) > 0.0  # both ports are on land (GLOBE)
-    gc = float(geo.distance_nm(*a, *b))
+    # without the coastline the ports stay where they are and the route is their great circle
+    r = search_route(scenarios.SAN_DIEGO, scenarios.TOKYO, calm_pacific, ship, departure=T0, cell_nm=80.0,
+                     use_land_mask=False)  # fmt: skip
+    np.testing.assert_allclose(r.waypoints[[0, -1]], [scenarios.SAN_DIEGO, scenarios.TOKYO], atol=1e-9)
+    np.testing.assert_allclose(r.stats["ends_moved_nm"], 0.0, atol=1e-9)
+    gc = float(geo.distance_nm(*scenarios.SAN_DIEGO, *scenarios.TOKYO))
     assert gc * (1 - 1e-9) <= r.total_distance_nm <= gc * 1.005
     # calm sea: the design speed all the way, the calm-water power and SFOC of the ship
     # the pieces' WGS84 lengths (local factor) sum to the legs' geodesic lengths within 1e-6
@@ -187,6 +184,26 @@ def test_calm_san_diego_tokyo_is_the_great_circle_at_design_speed_and_calm_fuel(
     np.testing.assert_allclose(r.stw_kn, ship.design_speed_kn, rtol=1e-12)
     assert r.cost == pytest.approx(r.total_duration_h)
     assert np.all((r.waypoints[:, 1] >= -180.0) & (r.waypoints[:, 1] < 180.0))  # across the antimeridian
+    # with it, the ports (on land by GLOBE) are snapped to open water, PORT_CLEARANCE_NM of it about them (not half
+    # a cell: the legs are walked on the coastline), and the route keeps off the land between them
+    land_r = _quiet(search_route, scenarios.SAN_DIEGO, scenarios.TOKYO, calm_pacific, ship, departure=T0, cell_nm=80.0)
+    a, b = land_r.waypoints[0], land_r.waypoints[-1]
+    moved = [geo.distance_nm(*scenarios.SAN_DIEGO, *a), geo.distance_nm(*scenarios.TOKYO, *b)]
+    np.testing.assert_allclose(land_r.stats["ends_moved_nm"], moved, rtol=1e-12)
+    assert land_r.stats["ends_clearance_nm"] == routing.PORT_CLEARANCE_NM < 40.0
+    assert 0.0 < min(moved) and max(moved) <= 20.0 + 2 * 80.0
+    assert land_r.stats["legs_crossing_land"] == [] and not land.is_land(*np.transpose(land_r.waypoints)).any()
+
+
+def test_ports_a_grid_cannot_leave_are_snapped_half_a_cell_out(calm_pacific, monkeypatch):
+    """With 2 nm of clearance Tokyo is snapped inside Tokyo Bay, where no edge of a 120 nm lattice leaves it (the
+    Uraga channel is 4 nm wide): the search then snaps the ports half a cell out, as it did before
+    PORT_CLEARANCE_NM, and says so in its stats."""
+    ship = orx.Ship.preset("container_8000teu")
+    monkeypatch.setattr(routing, "PORT_CLEARANCE_NM", 2.0)
+    r = _quiet(search_route, scenarios.SAN_DIEGO, scenarios.TOKYO, calm_pacific, ship, departure=T0, cell_nm=120.0)
+    assert r.stats["ends_clearance_nm"] == 60.0
+    assert r.stats["ends_moved_nm"][1] > 60.0 and r.stats["legs_crossing_land"] == []
 
 
 def test_calm_direction_sets_follow_the_mixing_theory():

@@ -80,6 +80,7 @@ __all__ = [
     "legs_cross_land",
     "navigable",
     "packed_land",
+    "packed_land_available",
     "snap_to_sea",
     "weather_nan",
 ]
@@ -157,6 +158,12 @@ class PackedLand:
         a = self.lat0 + self.row0 * self.dlat
         b = self.lat0 + (self.row0 + self.bits.shape[0]) * self.dlat
         return min(a, b), max(a, b)
+
+
+def packed_land_available(mask: LandMask | str | None = None) -> bool:
+    """Whether the mask has packed cells (:func:`packed_land`) that searches can walk legs on (GLOBE; not GSHHG)."""
+    m = mask if mask is not None and not isinstance(mask, str) else land_mask(mask)
+    return getattr(m, "packed_rows", None) is not None
 
 
 def packed_land(lat_min_deg: float, lat_max_deg: float, *, mask: LandMask | str | None = None) -> PackedLand | None:

@@ -52,7 +52,13 @@ from optroute.weather.sample import WeatherSampler
 Objective = Literal["time", "fuel", "cost"]
 Method = Literal["astar", "dijkstra", "dp"]
 
-__all__ = ["Method", "Objective", "PassagePhysics", "as_sampler", "sail_route", "search_route"]
+__all__ = ["PORT_CLEARANCE_NM", "Method", "Objective", "PassagePhysics", "as_sampler", "sail_route", "search_route"]
+
+
+PORT_CLEARANCE_NM = 10.0
+"""Most open water the grid search keeps about a snapped port where it walks its legs on the coastline [nm]:
+the default 20 nm cells' half cell, so that coarser cells start and end where those do, not farther out to sea
+(half a cell of a coarse grid would plan a shorter voyage)."""
 
 
 def _neighbourhood(angular_resolution_deg: float | None, directions: int | None, radius: int) -> Neighbourhood:
@@ -156,10 +162,13 @@ def search_route(
         geography (``attrs["geography"] == "synthetic"``).
     snap_max_nm : float, optional
         How far a port may be moved to reach navigable water [nm]; default
-        20 nm plus two grid cells.  The grid search needs open water of about
-        one cell around its end points (a 20 nm cell cannot enter Tokyo Bay),
-        so ports are snapped with a clearance of half a cell; the last miles
-        into port are pilotage, outside the routing problem.
+        20 nm plus two grid cells.  The grid search needs open water about
+        its end points (a 20 nm cell cannot enter Tokyo Bay): ports are
+        snapped with a clearance of half a cell, at most
+        :data:`PORT_CLEARANCE_NM` where its legs are walked on the coastline
+        (GLOBE), half a cell again where no route leaves such ends, so that a
+        coarse grid does not plan a shorter voyage; the last miles into port
+        are pilotage, outside the routing problem.
     band_check_nm : float or None
         Grid search: each piece's speed is checked (danger bands, MCR) at
         points at most this far apart along the piece [nm], ends included, at
@@ -221,9 +230,8 @@ def search_route(
         (:mod:`optroute.search.edge_land`, GLOBE), the nodes' test alone
         otherwise (GSHHG); ``stats["cell_nm"]`` the grid's cell [nm].  For every
         method, ``stats["ends_moved_nm"]`` holds how far the start and the end
-        were moved to open water [nm] (the grid search keeps half a cell of
-        sea about them: at 120 nm cells San Diego → Tokyo starts 78 nm off
-        San Diego and ends 102 nm off Tokyo, at 20 nm cells 15 and 36 nm).
+        were moved to open water [nm] and ``stats["ends_clearance_nm"]`` the
+        open water kept about them [nm] (``snap_max_nm``).
 
     Raises
     ------
@@ -269,48 +277,59 @@ def search_route(
     speeds = _speed_set(ship, speeds_kn)
     physics = PassagePhysics(ship, model, rules, sampler, t0, compiled=bool(compiled))
     snap_nm = float(snap_max_nm) if snap_max_nm is not None else 20.0 + 2.0 * cell_nm
-    ports = (start, end)
-    start, end = _snapped_ends(
-        start, end, sampler, ds, t0, snap_nm, clearance_nm=0.5 * cell_nm if method != "dp" else 0.5,
-        use_land_mask=use_land_mask,
-    )  # fmt: skip
-    moved = {"ends_moved_nm": tuple(float(geo.distance_nm(*a, *b)) for a, b in zip(ports, (start, end), strict=True))}
     coast = _uses_coast(ds, use_land_mask)
+
+    def ends(clearance_nm: float) -> tuple[tuple, tuple, dict]:
+        a, b = _snapped_ends(start, end, sampler, ds, t0, snap_nm, clearance_nm=clearance_nm,
+                             use_land_mask=use_land_mask)  # fmt: skip
+        moved = tuple(float(geo.distance_nm(*p, *q)) for p, q in ((start, a), (end, b)))
+        return a, b, {"ends_moved_nm": moved, "ends_clearance_nm": float(clearance_nm)}
+
     if method == "dp":
-        route = search_dp(
-            physics, start, end, eta_h, speeds, dict(dp_options or {}), objective, t_start, coast, exclusion
-        )
+        a, b, moved = ends(0.5)
+        route = search_dp(physics, a, b, eta_h, speeds, dict(dp_options or {}), objective, t_start, coast, exclusion)
         return dataclasses.replace(route, stats={**route.stats, **moved})
-    # the fastest any leg can go over ground: the speed ceiling of the objective plus the strongest current
-    top_kn = desired if objective == "time" and lambda_t_per_h is None else float(speeds.max())
-    grid = RouteGrid.build(
-        start, end, cell_nm=cell_nm, margin_nm=margin_nm, navigable=_navigable(sampler, ds, t0, use_land_mask)
-    )
-    check = (
-        None
-        if band_check_nm is None
-        else float(finite("band_check_nm", band_check_nm, minimum=0.0, strict=True, error=ConfigError))
-    )
-    search = _GridSearch(
-        physics, grid, _neighbourhood(angular_resolution_deg, directions, radius_cells), exclusion, objective,
-        method, eta_h, desired, speed_step_kn, min_speed_kn, speeds, check, top_kn, top_kn + _max_current_kn(ds) + 1e-6,
-    )  # fmt: skip
-    if coast:
-        search.edge_land = EdgeLand.build(grid)
-    try:
-        res, lam_used = run_objective(
-            search.run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t, stop_at_track,
-            lambda lam: physics.calm_cheapest_speed_kn(speeds, lam),
+
+    def grid_route(start: tuple, end: tuple, moved: dict) -> Route:
+        # the fastest any leg can go over ground: the speed ceiling of the objective plus the strongest current
+        top_kn = desired if objective == "time" and lambda_t_per_h is None else float(speeds.max())
+        grid = RouteGrid.build(
+            start, end, cell_nm=cell_nm, margin_nm=margin_nm, navigable=_navigable(sampler, ds, t0, use_land_mask)
+        )
+        check = (
+            None
+            if band_check_nm is None
+            else float(finite("band_check_nm", band_check_nm, minimum=0.0, strict=True, error=ConfigError))
+        )
+        search = _GridSearch(
+            physics, grid, _neighbourhood(angular_resolution_deg, directions, radius_cells), exclusion, objective,
+            method, eta_h, desired, speed_step_kn, min_speed_kn, speeds, check, top_kn, top_kn + _max_current_kn(ds) + 1e-6,
         )  # fmt: skip
-    except NoSafePassage as exc:
-        raise explain_uncovered(exc, physics) from None
-    except InfeasibleETA as exc:
-        raise eta_as_time(exc, t0) from None
-    except WeatherCoverageError as exc:
-        last_t = sampler.extent["time"][1]
-        raise WeatherCoverageError(f"{exc} (the weather ends at {units.format_utc(last_t)})") from None
-    route = _route_from_search(res, physics, t0, objective, method, lam_used, t_start, search.searches)
-    return _flag_land_crossings(dataclasses.replace(route, stats={**route.stats, **moved}), coast, grid.cell_nm)
+        if coast:
+            search.edge_land = EdgeLand.build(grid)
+        try:
+            res, lam_used = run_objective(
+                search.run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t, stop_at_track,
+                lambda lam: physics.calm_cheapest_speed_kn(speeds, lam),
+            )  # fmt: skip
+        except NoSafePassage as exc:
+            raise explain_uncovered(exc, physics) from None
+        except InfeasibleETA as exc:
+            raise eta_as_time(exc, t0) from None
+        except WeatherCoverageError as exc:
+            last_t = sampler.extent["time"][1]
+            raise WeatherCoverageError(f"{exc} (the weather ends at {units.format_utc(last_t)})") from None
+        route = _route_from_search(res, physics, t0, objective, method, lam_used, t_start, search.searches)
+        return _flag_land_crossings(dataclasses.replace(route, stats={**route.stats, **moved}), coast, grid.cell_nm)
+
+    half_cell = 0.5 * cell_nm
+    near = min(half_cell, PORT_CLEARANCE_NM) if coast and land.packed_land_available() else half_cell
+    if near < half_cell:  # ports nearer the coast, the legs walked on it; where no route leaves them, half a cell out
+        try:
+            return grid_route(*ends(near))
+        except NoSafePassage:
+            pass
+    return grid_route(*ends(half_cell))
 
 
 def _departure_and_eta_h(departure: Any, eta: Any) -> tuple[np.datetime64, float | None]:
