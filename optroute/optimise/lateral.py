@@ -71,9 +71,10 @@ if TYPE_CHECKING:
 __all__ = ["LAND_STEP_MIN_NM", "ROUTE_AROUND", "avoid_point", "lateral_bounds", "reach_windows", "wave_nan"]
 
 LAND_STEP_MIN_NM = 0.15
-#: The advice that ends the message of a corridor closed across its width (:func:`lateral_bounds`).
-ROUTE_AROUND = "widen the corridor, move it, or plan it with plan_voyage so that the search routes around"
 """Finest lattice spacing used for the land mask [nm] (the GSHHG backend is finer than this)."""
+
+ROUTE_AROUND = "widen the corridor, move it, or plan it with plan_voyage so that the search routes around"
+"""The advice that ends the message of a corridor closed across its width (:func:`lateral_bounds`)."""
 
 _CHUNK_POINTS = 300_000
 
