@@ -392,7 +392,7 @@ def read_waypoints(path: str | os.PathLike[str], weather: xr.Dataset | None = No
             "GeoJSON positions are [lon, lat], CSV columns lat,lon"
         )
     wp[:, 1] = units.wrap_180(wp[:, 1])
-    if land._use_land(weather, None):
+    if land.coastline_applies(weather, None):
         on_land = np.asarray(land.is_land(wp[:, 0], wp[:, 1]))
         if on_land.any():
             idx = np.flatnonzero(on_land)

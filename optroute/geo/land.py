@@ -73,6 +73,7 @@ __all__ = [
     "GshhgLandMask",
     "LandMask",
     "PackedLand",
+    "coastline_applies",
     "is_land",
     "default_land_mask_name",
     "land_mask",
@@ -489,7 +490,9 @@ def weather_nan(weather: Any, lat_deg: ArrayLike, lon_deg: ArrayLike, time: Any 
     return corner_nan | ~covered
 
 
-def _use_land(weather: Any, use_land_mask: bool | None) -> bool:
+def coastline_applies(weather: Any, use_land_mask: bool | None) -> bool:
+    """Whether the real coastline applies: ``use_land_mask`` when given, else unless ``weather`` (a dataset, or
+    None) declares a synthetic geography (``attrs["geography"] ==`` :data:`SYNTHETIC_GEOGRAPHY`)."""
     if use_land_mask is not None:
         return bool(use_land_mask)
     return not (weather is not None and weather.attrs.get("geography") == SYNTHETIC_GEOGRAPHY)
@@ -530,7 +533,7 @@ def navigable(
     """
     lat, lon = _positions(lat_deg, lon_deg)
     ok = np.ones(lat.shape, dtype=bool)
-    if _use_land(weather, use_land_mask):
+    if coastline_applies(weather, use_land_mask):
         ok &= ~is_land(lat, lon, mask=mask)
     if weather is not None:
         ok &= ~weather_nan(weather, lat, lon, time)

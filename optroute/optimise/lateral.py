@@ -538,7 +538,7 @@ def lateral_bounds(
     n1 = n + 1
     wp = frame.corridor.waypoints
     times = np.atleast_1d(np.asarray(times)).astype("datetime64[ns]")
-    with_land = land._use_land(dataset, use_land_mask)
+    with_land = land.coastline_applies(dataset, use_land_mask)
     mask = land.land_mask() if with_land else None
     step = land_step_nm(frame, mask) if mask is not None else float(step_nm)
     if mask is None and dataset is not None:

@@ -206,9 +206,7 @@ class PlanContext:
     @property
     def land_mask_applies(self) -> bool:
         """Whether the real coastline is checked."""
-        if self.use_land_mask is not None:
-            return bool(self.use_land_mask)
-        return not (self.dataset is not None and self.dataset.attrs.get("geography") == land.SYNTHETIC_GEOGRAPHY)
+        return land.coastline_applies(self.dataset, self.use_land_mask)
 
 
 # --------------------------------------------------------------------------- dense evaluation

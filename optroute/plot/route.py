@@ -210,7 +210,7 @@ def hs_map(
     if hs_threshold_m is not None and np.nanmax(hs) >= hs_threshold_m:
         ax.contour(lon_w, lat_w, hs, levels=[hs_threshold_m], colors="red", linewidths=1.0)
         ax.plot([], [], color="red", lw=1.0, label=f"Hs = {hs_threshold_m:.1f} m: the danger bands apply inside")
-    if weather.attrs.get("geography") != land.SYNTHETIC_GEOGRAPHY:
+    if land.coastline_applies(weather, None):
         _draw_land(ax, (x0, x1, y0, y1), float(land_resolution_deg))
     _draw_tracks(ax, shifted, t_map)
     _frame(ax, x0, x1, y0, y1)

@@ -277,7 +277,7 @@ def search_route(
     speeds = _speed_set(ship, speeds_kn)
     physics = PassagePhysics(ship, model, rules, sampler, t0, compiled=bool(compiled))
     snap_nm = float(snap_max_nm) if snap_max_nm is not None else 20.0 + 2.0 * cell_nm
-    coast = _uses_coast(ds, use_land_mask)
+    coast = land.coastline_applies(ds, use_land_mask)
 
     def ends(clearance_nm: float) -> tuple[tuple, tuple, dict]:
         a, b = _snapped_ends(start, end, sampler, ds, t0, snap_nm, clearance_nm=clearance_nm,
@@ -376,14 +376,6 @@ def _snapped_ends(start, end, sampler, ds, t0, snap_nm, *, clearance_nm, use_lan
         )
         for p, w in ((start, "start"), (end, "end"))
     )  # fmt: skip
-
-
-def _uses_coast(ds: xr.Dataset | None, use_land_mask: bool | None) -> bool:
-    """Whether the real coastline applies, as :func:`optroute.geo.land.navigable` decides: asked for, or by default
-    unless the weather declares a synthetic geography."""
-    if use_land_mask is not None:
-        return bool(use_land_mask)
-    return not (ds is not None and ds.attrs.get("geography") == land.SYNTHETIC_GEOGRAPHY)
 
 
 def _flag_land_crossings(route: Route, coast: bool, cell_nm: float) -> Route:

@@ -313,7 +313,7 @@ class SailingRoute:
         err = float(np.nanmax(np.abs(t - self.t_h))) if np.all(np.isfinite(t)) else float("inf")
         count = len(manoeuvres_along(twa, mot, self.time, self.t_h, self.lat_deg, self.lon_deg))
         on_land = np.zeros(self.course_deg.size, dtype=bool)
-        if weather.attrs.get("geography") != land.SYNTHETIC_GEOGRAPHY:
+        if land.coastline_applies(weather, None):
             la, lo = self.lat_deg, self.lon_deg
             on_land = land.legs_cross_land(la[:-1], lo[:-1], la[1:], lo[1:], 0.1, use_land_mask=True)
         ok = err < 1e-6 and bad.size == 0 and count == self.n_manoeuvres and not on_land.any()
@@ -580,8 +580,8 @@ def _graph(start, end, weather, directions, grid, cell_nm, margin_nm, use_land_m
     if grid is not None and not isinstance(grid, SailingGrid):
         raise ConfigError(f"grid must be a SailingGrid or SailingGraph, got {type(grid).__name__}")
     grid = grid or SailingGrid.around(start, end, cell_nm, margin_nm)
-    use = use_land_mask if use_land_mask is not None else weather.attrs.get("geography") != land.SYNTHETIC_GEOGRAPHY
-    return SailingGraph.build(grid, 16 if directions is None else int(directions), use_land_mask=bool(use))
+    use = land.coastline_applies(weather, use_land_mask)
+    return SailingGraph.build(grid, 16 if directions is None else int(directions), use_land_mask=use)
 
 
 def _no_route(cut: float, weather: xr.Dataset, vessel: SailingVessel) -> None:

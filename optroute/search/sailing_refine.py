@@ -215,7 +215,7 @@ def accept_refinement(
             route, f"rejected: no faster ({t[-1]:.4f} h against the graph's {route.passage_h:.4f} h)", started
         )
     if land.legs_cross_land(lat[:-1], lon[:-1], lat[1:], lon[1:], 0.25, weather=None,
-                            use_land_mask=weather.attrs.get("geography") != land.SYNTHETIC_GEOGRAPHY).any():  # fmt: skip
+                            use_land_mask=land.coastline_applies(weather, None)).any():  # fmt: skip
         return keep_graph_route(route, "rejected: a refined board touches land", started)
     time = route.time[0] + units.h_to_timedelta(t)
     man = manoeuvres_along(twa, np.zeros(twa.size, dtype=bool), time, t, lat, lon)
