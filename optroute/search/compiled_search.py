@@ -24,7 +24,7 @@ import numpy as np
 from optroute._numba import jit
 from optroute.search import _heap, _kernels
 from optroute.search.edge_geometry import edge_pieces
-from optroute.search.edge_land import crosses_coastal, on_land
+from optroute.search.edge_land import edge_on_land
 from optroute.search.passage_kernels import cost_leg, leg_points, leg_workspace
 from optroute.search.refine_kernels import workspace as refine_workspace
 
@@ -207,9 +207,9 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no
         lb = label[x] + rho * d_nm
         if lb >= label[y] or lb + h[y] >= label[g]:
             continue
-        if walk and crosses_coastal(base_pad[x], cell_off, cell_n, q, coastal_pad):
-            if on_land(xyz[x], xyz[y], land_bits, land_blocks, land_par):
-                continue  # no such edge: it touches land between its nodes
+        if walk and edge_on_land(xyz[x], xyz[y], base_pad[x], q, cell_off, cell_n, coastal_pad, land_bits, land_blocks,
+                                 land_par):  # fmt: skip
+            continue  # no such edge: it touches land between its nodes
         dur, fu, feas, unc, ws = _cost_edge(k, x, y, q, tarr, tangent, pf0, pf1, pn, buf, refine, label, time_obj,
                                             rest, ws)  # fmt: skip
         counts[1] += 1

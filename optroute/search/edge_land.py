@@ -26,7 +26,16 @@ from optroute._numba import jit
 from optroute.geo import land
 from optroute.search.grid import RouteGrid, unit_xyz
 
-__all__ = ["WALK_STEP_NM", "CoastWalk", "EdgeLand", "edges_on_land", "legs_on_land", "no_land_arrays", "on_land"]
+__all__ = [
+    "WALK_STEP_NM",
+    "CoastWalk",
+    "EdgeLand",
+    "edge_on_land",
+    "edges_on_land",
+    "legs_on_land",
+    "no_land_arrays",
+    "on_land",
+]
 
 _SUB = 1  # samples of a cell's outline per cell side: its corners (an edge's bulge is far below the pad)
 _R_NM = geo.EARTH_RADIUS_NM
@@ -248,17 +257,18 @@ def edges_on_land(
     if par[0] <= 0.0:
         return out
     for e in range(u.size):
-        if crosses_coastal(base_pad[u[e]], cell_off, cell_n, o[e], coastal_pad):
-            out[e] = on_land(xyz[u[e]], xyz[v[e]], bits, blocks, par)
+        out[e] = edge_on_land(xyz[u[e]], xyz[v[e]], base_pad[u[e]], o[e], cell_off, cell_n, coastal_pad, bits, blocks,
+                              par)  # fmt: skip
     return out
 
 
 @jit
-def crosses_coastal(base, cell_off, cell_n, q, coastal_pad):  # pragma: no cover - compiled
-    """Whether the edge along offset ``q`` from the node at padded index ``base`` crosses a coastal cell."""
+def edge_on_land(a, b, base, q, cell_off, cell_n, coastal_pad, bits, blocks, par):  # pragma: no cover - compiled
+    """Whether the edge from unit vector ``a`` (the node at padded index ``base``) to ``b`` along offset ``q``
+    crosses a coastal cell and touches land there (:func:`on_land`); the walk must be on (``par[0] > 0``)."""
     for c in range(cell_n[q]):
         if coastal_pad[base + cell_off[q, c]]:
-            return True
+            return on_land(a, b, bits, blocks, par)
     return False
 
 
