@@ -293,8 +293,8 @@ def _earliest_refined(ctx, rules, frame, t0, block, ladder, pairs, first, bucket
     speeds [kn]); ``first`` the block's evaluated points, shape (B, K, m) raveled.
     """
     prev, spd, arrive = pairs
-    order = np.lexsort((arrive, np.floor(arrive / bucket_h)))
     bucket = np.floor(arrive / bucket_h)
+    order = np.lexsort((arrive, bucket))
     struck = np.zeros(prev.size, dtype=bool)
     checked = np.zeros(prev.size, dtype=bool)
     count = 0
