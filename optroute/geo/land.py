@@ -161,17 +161,20 @@ class PackedLand:
         return min(a, b), max(a, b)
 
 
+def _mask_of(mask: LandMask | str | None) -> LandMask:
+    """The land mask itself, from a mask, its name or None (the default)."""
+    return land_mask(mask) if mask is None or isinstance(mask, str) else mask
+
+
 def packed_land_available(mask: LandMask | str | None = None) -> bool:
     """Whether the mask has packed cells (:func:`packed_land`) that searches can walk legs on (GLOBE; not GSHHG)."""
-    m = mask if mask is not None and not isinstance(mask, str) else land_mask(mask)
-    return getattr(m, "packed_rows", None) is not None
+    return getattr(_mask_of(mask), "packed_rows", None) is not None
 
 
 def packed_land(lat_min_deg: float, lat_max_deg: float, *, mask: LandMask | str | None = None) -> PackedLand | None:
     """The coastline between two latitudes [deg] as :class:`PackedLand`; None for a mask without packed cells
     (GSHHG), whose users fall back to point look-ups."""
-    m = mask if mask is not None and not isinstance(mask, str) else land_mask(mask)
-    rows = getattr(m, "packed_rows", None)
+    rows = getattr(_mask_of(mask), "packed_rows", None)
     return None if rows is None else rows(float(lat_min_deg), float(lat_max_deg))
 
 
@@ -363,8 +366,7 @@ def is_land(lat_deg: ArrayLike, lon_deg: ArrayLike, *, mask: LandMask | str | No
         True on land (lakes included), broadcast shape of the inputs.
     """
     lat, lon = _positions(lat_deg, lon_deg)
-    m = land_mask(mask) if mask is None or isinstance(mask, str) else mask
-    return np.asarray(m.is_land(lat, lon), dtype=bool).reshape(lat.shape)
+    return np.asarray(_mask_of(mask).is_land(lat, lon), dtype=bool).reshape(lat.shape)
 
 
 # --------------------------------------------------------------------------- weather NaN cells
