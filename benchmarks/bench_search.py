@@ -698,12 +698,12 @@ def run(quick: bool) -> dict[str, Any]:
         print("| cells [nm] | wall [s] | CPU [s] | search [s] | searches (λ) | optimiser [s] | fuel [t] | plan [h] | "
               "plan [nm] | start off San Diego [nm] | end off Tokyo [nm] |")  # fmt: skip
         print("|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|")
-        for cell in (120.0, 20.0):
-            pv = bench_plan_voyage(cell)
-            off = pv["ends_off_port_nm"]
-            print(f"| {cell:.0f} | {pv['total_s']:.1f} | {pv['cpu_s']:.1f} | {pv['search_s']:.1f} | "
-                  f"{pv['searches']} ({pv['lambda_t_per_h']}) | {pv['optimise_s']:.1f} | {pv['fuel_t']:.1f} | "
-                  f"{pv['duration_h']:.1f} | {pv['distance_nm']:.0f} | {off[0]:.1f} | {off[1]:.1f} |")  # fmt: skip
+        pv = [bench_plan_voyage(cell) for cell in (120.0, 20.0)]
+        for row in pv:
+            cell, off = row["cell_nm"], row["ends_off_port_nm"]
+            print(f"| {cell:.0f} | {row['total_s']:.1f} | {row['cpu_s']:.1f} | {row['search_s']:.1f} | "
+                  f"{row['searches']} ({row['lambda_t_per_h']}) | {row['optimise_s']:.1f} | {row['fuel_t']:.1f} | "
+                  f"{row['duration_h']:.1f} | {row['distance_nm']:.0f} | {off[0]:.1f} | {off[1]:.1f} |")  # fmt: skip
         print()
 
     s3 = bench_seed003(quick)
