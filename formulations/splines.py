@@ -354,7 +354,8 @@ class TensorSpline:
             ``order=0``: (n_fields, K), the values ``F``. ``order=1``: (3·n_fields, K), ``[F, F_t, F_y]``
             stacked by block; ``order=2``: (6·n_fields, K), ``[F, F_t, F_y, F_tt, F_ty, F_yy]``.
         """
-        pts = np.ascontiguousarray(points, dtype=float)
+        # C order and writable: a read-only array (a broadcast, xarray's values) would compile a second signature
+        pts = np.require(points, dtype=float, requirements=("C", "W"))
         k_ = pts.shape[1]
         n_blocks = (1, 3, 6)[order]
         out = np.empty((n_blocks, self.n_fields, k_))

@@ -19,8 +19,8 @@ import numpy as np
 def warm() -> None:
     """Run each kernel family once on a tiny problem.
 
-    Search, the 3-D DP, Kwon's inversion, the sampler, a search around an exclusion (the leg-batch costing),
-    sailing and its polar, the roll simulation and the parametric-roll observer, and the corridor NLP's weather
+    Search, the 3-D DP, Kwon's inversion, the sampler, a search around an exclusion (the leg-batch costing), the
+    coastline walks of the DP's legs and the batched loop's edges, sailing and its polar, the roll simulation and the parametric-roll observer, and the corridor NLP's weather
     spline and power-table coefficients (``formulations``).
     """
     import optroute as orx
@@ -31,6 +31,7 @@ def warm() -> None:
     from optroute.physics.performance import KwonModel
     from optroute.physics.polar import Polar
     from optroute.physics.yacht import SailingVessel
+    from optroute.search.edge_land import edges_on_land, legs_on_land
     from optroute.search.sailing import SailingGrid, search_sailing_route
     from optroute.weather import WeatherSampler
     from optroute.weather.schema import canonical_dataset
@@ -63,6 +64,14 @@ def warm() -> None:
             (30.0, -150.0), (31.0, -145.0), wx, ship, departure=t0, objective="fuel", eta=t0 + np.timedelta64(20, "h"),
             method="dp", dp_options={"dx_nm": 90.0, "dy_nm": 30.0, "half_width_nm": 30.0}, use_land_mask=False,
         )  # fmt: skip
+    # the coastline walks: the 3-D DP's lattice legs (the GLOBE rows of two legs off San Diego) and the batched
+    # loop's edges (no edge: the kernel compiles with the argument types the search passes, and returns)
+    legs_on_land(np.array([32.5, 33.0]), np.array([-117.5, -118.0]), np.array([33.0, 33.5]), np.array([-118.0, -119.0]))
+    none = np.zeros(0, dtype=np.int64)
+    edges_on_land(
+        none, none, none, np.zeros((1, 3)), none, np.zeros((1, 1), dtype=np.int64), none, np.zeros(1, dtype=bool),
+        np.zeros((1, 1), dtype=np.uint8), np.zeros((1, 1), dtype=bool), np.zeros(4),
+    )  # fmt: skip
     polar = Polar([0.0, 40.0, 90.0, 180.0], [5.0, 20.0], [[0, 0], [4.0, 6.0], [6.0, 8.0], [5.0, 7.0]], name="warm")
     cell = 1.0 / 60.0
     wind = canonical_dataset(
