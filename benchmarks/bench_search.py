@@ -39,9 +39,10 @@
    rounds with the limit and without it (:func:`bench_time_limit`).
 1e. Where the compiled A*'s time goes: the band check on (with and without the node-bound
    certificate of :mod:`optroute.search.band_bounds`) and off (:func:`bench_band_check_share`).
-1f. (full mode) ``plan_voyage`` San Diego → Tokyo through the storms at 120 nm
-   cells, end to end, each grid search listed (the issue's target is <= 10 s); before it, plan_voyage's
-   λ bisection stopped at the track beside its 12 halvings (:func:`bench_track_stop`).
+1f. (full mode) ``plan_voyage`` San Diego → Tokyo through the storms at 120 and 20 nm
+   cells, end to end (the issue's target is <= 10 s), at 20 nm with the λ bisected on the default coarser
+   grid beside the bisection on the route's own grid; before it, plan_voyage's λ bisection stopped at the
+   track beside its 12 halvings (:func:`bench_track_stop`).
 2. The graph sizes of seed 003's Table 1 (Gulf of Gdańsk, 595–3 222
    vertices, 7 514–200 236 edges, 8/16/32 directions): grids of about the
    same vertex counts, a sailing-boat polar under a slowly veering wind (head
@@ -431,8 +432,11 @@ def bench_time_limit(quick: bool) -> dict[str, Any]:
     return {"cell_nm": cell, "rows": rows}
 
 
-def bench_plan_voyage(cell_nm: float) -> dict[str, Any]:
+def bench_plan_voyage(cell_nm: float, lambda_cell_nm: float | None = None) -> dict[str, Any]:
     """``plan_voyage`` San Diego -> Tokyo through the storms at ``cell_nm`` [nm] cells, end to end.
+
+    ``lambda_cell_nm``: the search's ``lambda_cell_nm`` (None: its default coarser grid; ``cell_nm``: the λ
+    bisected on the route's own grid, as before that default).
 
     Defaults otherwise (the fuel objective's λ bisection stopped at the track, corridor, NLP); each grid search
     is recorded (λ, CPU seconds, outcome: arrival [h] or the error).  The search snaps each port to open water
@@ -463,7 +467,7 @@ def bench_plan_voyage(cell_nm: float) -> dict[str, Any]:
             warnings.simplefilter("ignore")
             t, cpu = time.perf_counter(), time.process_time()
             plan = orx.plan_voyage(orx.scenarios.SAN_DIEGO, orx.scenarios.TOKYO, wx, ship, departure=wx.time.values[0],
-                                   search_options={"cell_nm": cell_nm})  # fmt: skip
+                                   search_options={"cell_nm": cell_nm, "lambda_cell_nm": lambda_cell_nm})  # fmt: skip
             total, cpu = time.perf_counter() - t, time.process_time() - cpu
     finally:
         routing.shortest_path = inner
@@ -474,6 +478,7 @@ def bench_plan_voyage(cell_nm: float) -> dict[str, Any]:
             "fuel_t": plan.total_fuel_t, "duration_h": plan.duration_h, "search_objective": found.get("objective"),
             "lambda_t_per_h": search.get("lambda_t_per_h"), "searches": search.get("searches"),
             "rounds": rounds, "search_cpu_s": sum(r["cpu_s"] for r in rounds), "cell_nm": cell_nm,
+            "lambda_cell_nm": search.get("lambda_cell_nm"), "coarse_searches": search.get("coarse_searches", 0),
             "distance_nm": plan.distance_nm, "ends_off_port_nm": _ends_off_ports(plan.waypoints)}  # fmt: skip
 
 
@@ -490,8 +495,10 @@ def bench_track_stop(quick: bool) -> dict[str, Any]:
     """plan_voyage's λ bisection stopped at the track (its default) beside the 12 halvings (before), same run.
 
     San Diego -> Tokyo through the storms, no ETA (the weather's end binds), 60 nm cells (120 nm with
-    ``--quick``): CPU seconds of the call and of its route search, the grid searches run, the search's λ and
-    route fuel, and the plan's fuel by the referee.
+    ``--quick``): CPU seconds of the call and of its route search, the grid searches run (those of the coarser
+    grid the λ is bisected on by default among them), the search's λ and route fuel, and the plan's fuel by the
+    referee. Three rows: 12 halvings on the route's grid; stopped at the track on the route's grid
+    (``lambda_cell_nm`` = the cell); stopped at the track with the λ bisected on the default coarser grid.
     """
     import warnings
 
@@ -500,7 +507,7 @@ def bench_track_stop(quick: bool) -> dict[str, Any]:
     cell = 120.0 if quick else 60.0
     inner = routing.search_route
     rows = []
-    for stop in (False, True):
+    for stop, lam_cell in ((False, None), (True, cell), (True, None)):
         seen: dict[str, float] = {}
 
         def spy(*args: Any, seen: dict = seen, **kw: Any) -> Any:
@@ -517,12 +524,15 @@ def bench_track_stop(quick: bool) -> dict[str, Any]:
                 cpu = time.process_time()
                 plan = orx.plan_voyage(orx.scenarios.SAN_DIEGO, orx.scenarios.TOKYO, wx, ship,
                                        departure=wx.time.values[0],
-                                       search_options={"cell_nm": cell, "stop_at_track": stop})  # fmt: skip
+                                       search_options={"cell_nm": cell, "stop_at_track": stop,
+                                                       "lambda_cell_nm": lam_cell})  # fmt: skip
                 cpu = time.process_time() - cpu
         finally:
             routing.search_route = inner
         found = plan.solver_stats["search"]
-        rows.append({"stop_at_track": stop, "cpu_s": cpu, **seen, "searches": found["stats"]["searches"],
+        rows.append({"stop_at_track": stop, "lambda_cell_nm": found["stats"].get("lambda_cell_nm", cell),
+                     "coarse_searches": found["stats"].get("coarse_searches", 0), "cpu_s": cpu, **seen,
+                     "searches": found["stats"]["searches"],
                      "lambda_t_per_h": found["stats"]["lambda_t_per_h"], "route_fuel_t": found["fuel_t"],
                      "fuel_t": plan.total_fuel_t, "duration_h": plan.duration_h})  # fmt: skip
     return {"cell_nm": cell, "rows": rows}
@@ -682,28 +692,35 @@ def run(quick: bool) -> dict[str, Any]:
     ts = bench_track_stop(quick)
     print(f"### plan_voyage's λ bisection stopped at the track (default) against its 12 halvings, San Diego → "
           f"Tokyo, storms, no ETA, {ts['cell_nm']:g} nm cells, CPU seconds of this process, same run\n")  # fmt: skip
-    print("| λ bisection | plan_voyage CPU [s] | route search CPU [s] | searches | λ [t/h] | route fuel [t] | "
-          "plan fuel (referee) [t] | plan [h] | CPU / 12 halvings |")  # fmt: skip
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    print("| λ bisection | λ grid [nm] | plan_voyage CPU [s] | route search CPU [s] | searches (coarse) | λ [t/h] | "
+          "route fuel [t] | plan fuel (referee) [t] | plan [h] | CPU / 12 halvings |")  # fmt: skip
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in ts["rows"]:
-        print(f"| {'stopped at the track' if r['stop_at_track'] else '12 halvings (before)'} | {r['cpu_s']:.1f} | "
-              f"{r['search_cpu_s']:.1f} | {r['searches']} | {r['lambda_t_per_h']:.5g} | {r['route_fuel_t']:.2f} | "
-              f"{r['fuel_t']:.3f} | {r['duration_h']:.2f} | {r['cpu_s'] / ts['rows'][0]['cpu_s']:.2f} |")  # fmt: skip
+        label = "stopped at the track" if r["stop_at_track"] else "12 halvings (before)"
+        print(f"| {label} | {r['lambda_cell_nm']:g} | {r['cpu_s']:.1f} | {r['search_cpu_s']:.1f} | {r['searches']} "
+              f"({r['coarse_searches']}) | {r['lambda_t_per_h']:.5g} | {r['route_fuel_t']:.2f} | {r['fuel_t']:.3f} | "
+              f"{r['duration_h']:.2f} | {r['cpu_s'] / ts['rows'][0]['cpu_s']:.2f} |")  # fmt: skip
     print()
     pv = None
     if not quick:
         print("### plan_voyage San Diego → Tokyo through the storms, end to end (target <= 10 s)\n")
         print("Each port is snapped to open water with `PORT_CLEARANCE_NM` of sea about it (half a cell where no "
               "route leaves such ends).\n")  # fmt: skip
-        print("| cells [nm] | wall [s] | CPU [s] | search [s] | searches (λ) | optimiser [s] | fuel [t] | plan [h] | "
-              "plan [nm] | start off San Diego [nm] | end off Tokyo [nm] |")  # fmt: skip
-        print("|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|")
-        pv = [bench_plan_voyage(cell) for cell in (120.0, 20.0)]
+        print("The λ is bisected on a coarser grid by default (`lambda_cell_nm`; the row with the λ grid equal to the "
+              "cells is the bisection on the route's own grid, as before that default).\n")  # fmt: skip
+        print(
+            "| cells [nm] | λ grid [nm] | wall [s] | CPU [s] | search [s] | searches (coarse; λ) | optimiser [s] | "
+            "fuel [t] | plan [h] | plan [nm] | start off San Diego [nm] | end off Tokyo [nm] | CPU / λ on own grid |"
+        )
+        print("|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|")
+        pv = [bench_plan_voyage(cell, lam_cell) for cell, lam_cell in ((120.0, None), (20.0, 20.0), (20.0, None))]
         for row in pv:
             cell, off = row["cell_nm"], row["ends_off_port_nm"]
-            print(f"| {cell:.0f} | {row['total_s']:.1f} | {row['cpu_s']:.1f} | {row['search_s']:.1f} | "
-                  f"{row['searches']} ({row['lambda_t_per_h']}) | {row['optimise_s']:.1f} | {row['fuel_t']:.1f} | "
-                  f"{row['duration_h']:.1f} | {row['distance_nm']:.0f} | {off[0]:.1f} | {off[1]:.1f} |")  # fmt: skip
+            own = next(r for r in pv if r["cell_nm"] == cell and r["lambda_cell_nm"] == cell)
+            print(f"| {cell:.0f} | {row['lambda_cell_nm']:g} | {row['total_s']:.1f} | {row['cpu_s']:.1f} | "
+                  f"{row['search_s']:.1f} | {row['searches']} ({row['coarse_searches']}; {row['lambda_t_per_h']}) | "
+                  f"{row['optimise_s']:.1f} | {row['fuel_t']:.1f} | {row['duration_h']:.1f} | {row['distance_nm']:.0f} | "
+                  f"{off[0]:.1f} | {off[1]:.1f} | {row['cpu_s'] / own['cpu_s']:.2f} |")  # fmt: skip
         print()
 
     s3 = bench_seed003(quick)

@@ -6,7 +6,9 @@ round is late when it raises :class:`InfeasibleETA` or :class:`NoSafePassage`, o
 deadline).  The stopped bisection must give the same track (waypoints, cell by cell) with fewer
 searches, counted; the full one (the default) the reference's route and λ exactly.  Its calm-speed rule is
 checked against the bisection without it on a model of rounds, and the calm-water speed against the
-referee's speeds evaluated one by one.  The deadlines are
+referee's speeds evaluated one by one. The bisection on a coarser grid first (``lambda_cell_nm``,
+:func:`~optroute.search.objective_search.bisect_on_coarse`) is checked against the plain bisection on models of
+both grids' rounds, and its route against the fixed-λ search at the λ it reports.  The deadlines are
 an ETA and, without one, the weather's end (a forecast shorter than the least-fuel passage).
 """
 
@@ -15,13 +17,14 @@ import warnings
 import numpy as np
 import pytest
 
+from optroute import geodesy as geo
 from optroute.errors import InfeasibleETA, NoSafePassage
 from optroute.physics.passage import SeaState, evaluate_speeds
 from optroute.physics.performance import KwonModel
 from optroute.physics.safety import BandRules
-from optroute.search.objective_search import bisect_lambda
+from optroute.search.objective_search import bisect_lambda, bisect_on_coarse
 from optroute.search.passage_physics import PassagePhysics
-from optroute.search.routing import search_route
+from optroute.search.routing import LAMBDA_CELL_MAX_NM, LAMBDA_CELLS_ALONG, _lambda_cell_nm, search_route
 from optroute.weather import WeatherSampler
 from tests.test_routing import CARGO, OPEN_SEA, T0, _h, random_sea
 
@@ -150,3 +153,86 @@ def test_calm_cheapest_speed_is_the_least_cost_per_mile_of_the_set_in_calm_water
         chosen.add(ph.calm_cheapest_speed_kn(speeds, lam))
         assert ph.calm_cheapest_speed_kn(speeds, lam) == speeds[int(np.argmin(rate))]
     assert len(chosen) >= 3  # λ moves the choice
+
+
+# ------------------------------------------------------------------ λ bisected on a coarser grid (bisect_on_coarse)
+class _GridRound:
+    """A round of a grid whose routes arrive ``late_h`` after :class:`_Round`'s (a coarser or finer grid)."""
+
+    def __init__(self, lam, late_h):
+        base = _Round(lam)
+        self.arrival_h, self.total_fuel_t, self.nodes = base.arrival_h + late_h, base.total_fuel_t, base.nodes
+
+
+def _grid(late_h, ran, fails=False):
+    def run(lam, ceiling=None):
+        ran.append(lam)
+        if fails:
+            raise NoSafePassage("no passage between this grid's cells")
+        return _GridRound(lam, late_h)
+
+    return run
+
+
+@pytest.mark.parametrize(
+    "fine_late_h, coarse_fails", [(-3.0, False), (0.0, False), (12.0, False), (0.0, True)], ids=["fine earlier",
+    "same", "fine later", "coarse finds none"]
+)  # fmt: skip
+def test_a_coarse_grids_lambda_is_searched_once_on_the_route_grid_and_bisected_there_only_when_late(
+    fine_late_h, coarse_fails
+):
+    """Against :func:`bisect_lambda` run on each model grid alone (ETA 385 h): the coarse grid's λ where the route's
+    own grid's route at it is in time, after one search there; otherwise exactly the route grid's own bisection,
+    its rounds after the one at the coarse λ."""
+    t0, eta_h = np.datetime64("2024-01-01"), 385.0
+    coarse_alone, fine_alone = [], []
+    if not coarse_fails:
+        _, lam_coarse = bisect_lambda(_grid(0.0, coarse_alone), eta_h, t0, stop_at_track=True)
+    else:
+        with pytest.raises(NoSafePassage):
+            bisect_lambda(_grid(0.0, coarse_alone, fails=True), eta_h, t0, stop_at_track=True)
+    ref, ref_lam = bisect_lambda(_grid(fine_late_h, fine_alone), eta_h, t0, stop_at_track=True)
+    coarse, fine = [], []
+    best, lam = bisect_on_coarse(_grid(fine_late_h, fine), _grid(0.0, coarse, coarse_fails), eta_h, t0)
+    assert coarse == coarse_alone
+    if not coarse_fails and _GridRound(lam_coarse, fine_late_h).arrival_h <= eta_h:
+        assert lam == lam_coarse and fine == [lam_coarse] and best.arrival_h <= eta_h  # one round on the route grid
+    else:
+        assert (lam, best.arrival_h, best.nodes.tolist()) == (ref_lam, ref.arrival_h, ref.nodes.tolist())
+        assert fine == ([lam_coarse] if not coarse_fails else []) + fine_alone
+
+
+def test_the_lambda_grid_has_forty_cells_along_the_great_circle_at_most_120_nm_and_only_where_twice_as_coarse():
+    """The rule of ``search_route``'s default, worked by hand on WGS84 distances (geodesy)."""
+    sd, tokyo = (32.6, -117.4), (35.2, 140.0)
+    d = float(geo.distance_nm(*sd, *tokyo))  # about 4 800 nm
+    assert LAMBDA_CELLS_ALONG == 40 and LAMBDA_CELL_MAX_NM == 120.0
+    assert _lambda_cell_nm(None, 20.0, sd, tokyo) == 120.0 == min(120.0, d / 40.0)
+    short = (32.6, -117.4), (33.0, -135.0)  # about 890 nm: 22 nm cells, not twice 20
+    assert _lambda_cell_nm(None, 20.0, *short) == 20.0
+    assert _lambda_cell_nm(None, 10.0, *short) == pytest.approx(float(geo.distance_nm(*short[0], *short[1])) / 40.0)
+    assert _lambda_cell_nm(60.0, 20.0, *short) == 60.0  # given: used as it is
+    assert _lambda_cell_nm(10.0, 20.0, *short) == 20.0  # finer than the route's grid: the route's own
+
+
+def test_a_route_whose_lambda_was_bisected_on_a_coarser_grid_is_the_fixed_lambda_search_at_that_lambda():
+    """On a random sea with an ETA: the λ bisected on 40 nm cells, then the 20 nm grid's route; that route is the
+    fixed-λ search at the reported λ (the independent reference), in time, and the rounds of both grids are
+    counted. ``lambda_cell_nm`` = the route's own cell bisects there as before (no coarse round)."""
+    wx = random_sea(5, hs_m=(1.0, 5.0))
+    kw = dict(KW, cell_nm=20.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fastest = search_route(START, END, wx, CARGO, **kw)
+        eta = fastest.arrival + _h(6.0)
+        route = search_route(START, END, wx, CARGO, **kw, objective="fuel", eta=eta, stop_at_track=True,
+                             lambda_cell_nm=40.0)  # fmt: skip
+        lam = route.stats["lambda_t_per_h"]
+        fixed = search_route(START, END, wx, CARGO, **kw, objective="fuel", eta=eta, lambda_t_per_h=lam)
+        own = search_route(START, END, wx, CARGO, **kw, objective="fuel", eta=eta, stop_at_track=True)
+    assert lam > 0.0 and route.arrival <= eta
+    np.testing.assert_array_equal(route.waypoints, fixed.waypoints)
+    assert route.total_fuel_t == fixed.total_fuel_t
+    assert route.stats["lambda_cell_nm"] == 40.0 and route.stats["coarse_searches"] >= 2
+    assert route.stats["searches"] == route.stats["coarse_searches"] + 1
+    assert own.stats["lambda_cell_nm"] == 20.0 and own.stats["coarse_searches"] == 0

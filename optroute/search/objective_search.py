@@ -3,7 +3,8 @@
 :func:`run_objective` runs a search callback ``run(lam)`` (λ in t of fuel per
 hour, None for minimum time) for the objective asked; :func:`bisect_lambda`
 finds the least λ whose least-cost route arrives by the ETA (the fuel
-objective, as Boeing EP 2145155 trades fuel against time);
+objective, as Boeing EP 2145155 trades fuel against time), and
+:func:`bisect_on_coarse` finds it on a coarser grid first, for a caller that keeps only the track;
 :func:`eta_as_time` and :func:`explain_uncovered` turn the searches' errors
 into ones that name UTC times and the weather's extent.
 """
@@ -15,7 +16,7 @@ from collections.abc import Callable
 import numpy as np
 
 from optroute import units
-from optroute.errors import InfeasibleETA, NoSafePassage
+from optroute.errors import InfeasibleETA, NoSafePassage, WeatherCoverageError
 from optroute.search.passage_physics import PassagePhysics
 from optroute.units import h_to_timedelta as _h_to_td
 
@@ -46,7 +47,7 @@ def explain_uncovered(exc: NoSafePassage, physics: PassagePhysics) -> Exception:
 
 def run_objective(
     run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t, stop_at_track=False,
-    calm_speed_kn=None,
+    calm_speed_kn=None, coarse_run=None,
 ):  # fmt: skip
     """The search result for the objective and the λ it used [t/h].
 
@@ -55,7 +56,8 @@ def run_objective(
     ``"time"`` runs it once; a given λ (or ``"cost"``: hourly cost / fuel price)
     runs it once and raises :class:`InfeasibleETA` if that route is later than
     ``eta_h`` [h from ``t0``]; ``"fuel"`` bisects λ (:func:`bisect_lambda`, with ``stop_at_track`` and
-    ``calm_speed_kn``).
+    ``calm_speed_kn``), on the coarser grid's search ``coarse_run`` first where one is given with
+    ``stop_at_track`` (:func:`bisect_on_coarse`).
     """
     lam_used = 0.0
     if objective == "time":
@@ -69,9 +71,49 @@ def run_objective(
                 f"the ETA {eta_h:.1f} h after departure; raise the hourly cost or give a later ETA",
                 earliest_arrival=t0 + _h_to_td(res.arrival_h),
             )
+    elif coarse_run is not None and stop_at_track:
+        res, lam_used = bisect_on_coarse(run, coarse_run, eta_h, t0, calm_speed_kn=calm_speed_kn)
     else:
         res, lam_used = bisect_lambda(run, eta_h, t0, stop_at_track=stop_at_track, calm_speed_kn=calm_speed_kn)
     return res, lam_used
+
+
+def bisect_on_coarse(
+    run: Callable,
+    coarse_run: Callable,
+    eta_h: float | None,
+    t0: np.datetime64,
+    *,
+    calm_speed_kn: Callable[[float], float] | None = None,
+):
+    """The fuel objective's λ bisected on a coarser grid, then one search at that λ on the route's own grid.
+
+    :func:`bisect_lambda` with ``stop_at_track`` runs on ``coarse_run`` (the same search on a grid of larger
+    cells: each of its rounds costs a fraction of the route's grid's), and the route's own search ``run``
+    then runs once, at the λ it found. Where that route arrives by the ETA (and inside the weather) it is
+    returned; where it is late, or the coarse grid finds no λ (no passage between its larger cells, or no
+    route by the ETA), the bisection runs on the route's own grid as :func:`bisect_lambda` does, the coarse
+    rounds then only spent. Like ``stop_at_track`` this is a rule for a caller that keeps the track and sets
+    the speeds again: a λ below the coarse grid's could also be in time on the finer grid and is not looked
+    for there.
+
+    Returns
+    -------
+    (result, λ [t/h])
+        The route's own grid's search result and the λ it was searched at.
+    """
+    try:
+        _, lam = bisect_lambda(coarse_run, eta_h, t0, stop_at_track=True, calm_speed_kn=calm_speed_kn)
+    except (NoSafePassage, InfeasibleETA, WeatherCoverageError):
+        lam = None
+    if lam is not None:
+        try:
+            res = run(lam)
+        except NoSafePassage:
+            res = None
+        if res is not None and (eta_h is None or res.arrival_h <= eta_h):
+            return res, lam
+    return bisect_lambda(run, eta_h, t0, stop_at_track=True, calm_speed_kn=calm_speed_kn)
 
 
 def bisect_lambda(

@@ -52,13 +52,30 @@ from optroute.weather.sample import WeatherSampler
 Objective = Literal["time", "fuel", "cost"]
 Method = Literal["astar", "dijkstra", "dp"]
 
-__all__ = ["PORT_CLEARANCE_NM", "Method", "Objective", "PassagePhysics", "as_sampler", "sail_route", "search_route"]
+__all__ = [
+    "LAMBDA_CELLS_ALONG",
+    "LAMBDA_CELL_MAX_NM",
+    "PORT_CLEARANCE_NM",
+    "Method",
+    "Objective",
+    "PassagePhysics",
+    "as_sampler",
+    "sail_route",
+    "search_route",
+]
 
 
 PORT_CLEARANCE_NM = 10.0
 """Most open water the grid search keeps about a snapped port where it walks its legs on the coastline [nm]:
 the default 20 nm cells' half cell, so that coarser cells start and end where those do, not farther out to sea
 (half a cell of a coarse grid would plan a shorter voyage)."""
+
+LAMBDA_CELLS_ALONG = 40
+"""With ``stop_at_track``, the fuel objective's λ is bisected on a grid of about this many cells along the great
+circle (cells of at most :data:`LAMBDA_CELL_MAX_NM`), then searched once on the route's own grid
+(:func:`optroute.search.objective_search.bisect_on_coarse`), where that grid is at least twice as coarse."""
+LAMBDA_CELL_MAX_NM = 120.0
+"""The largest cell [nm] of the grid the λ is bisected on by default (:data:`LAMBDA_CELLS_ALONG`)."""
 
 
 def _neighbourhood(angular_resolution_deg: float | None, directions: int | None, radius: int) -> Neighbourhood:
@@ -110,6 +127,7 @@ def search_route(
     manoeuvre_penalty_h: float | None = None,
     sailing_grid: SailingGrid | SailingGraph | None = None,
     stop_at_track: bool = False,
+    lambda_cell_nm: float | None = None,
 ) -> Route | SailingRoute:
     """Search the route corridor through forecast weather.
 
@@ -214,6 +232,13 @@ def search_route(
         that keeps the track and sets the speeds again (:func:`optroute.plan_voyage`
         does), and once λ = 0 is late take a λ whose speed in calm water is no
         faster than λ = 0's as late without searching it; default False, 12 halvings.
+        With it the λ is bisected on a coarser grid first (``lambda_cell_nm``).
+    lambda_cell_nm : float, optional
+        Objective ``"fuel"`` with ``stop_at_track`` and no ``lambda_t_per_h``: the cell [nm] of the grid the λ
+        is bisected on before the route's own grid searches once at that λ (and bisects again only where that
+        route is late: :func:`optroute.search.objective_search.bisect_on_coarse`); default the great circle over
+        :data:`LAMBDA_CELLS_ALONG`, at most :data:`LAMBDA_CELL_MAX_NM`, and used only where at least twice
+        ``cell_nm``; ``cell_nm`` or less bisects on the route's own grid.
 
     Returns
     -------
@@ -228,7 +253,9 @@ def search_route(
         their grid nodes, checked every 0.5 nm (a warning names the first):
         empty where the search walked its legs on the coastline
         (:mod:`optroute.search.edge_land`, GLOBE), the nodes' test alone
-        otherwise (GSHHG); ``stats["cell_nm"]`` the grid's cell [nm].  For every
+        otherwise (GSHHG); ``stats["cell_nm"]`` the grid's cell [nm] and ``stats["lambda_cell_nm"]`` that
+        of the grid λ was bisected on, with ``stats["coarse_searches"]`` its rounds (also counted in
+        ``searches``).  For every
         method, ``stats["ends_moved_nm"]`` holds how far the start and the end
         were moved to open water [nm] and ``stats["ends_clearance_nm"]`` the
         open water kept about them [nm] (``snap_max_nm``).
@@ -275,6 +302,8 @@ def search_route(
         finite("hourly_cost_per_h", hourly_cost_per_h, minimum=0.0, error=ConfigError,
                fix="give the ship's cost per hour, >= 0 (0 makes the cost least fuel alone)")  # fmt: skip
     speeds = _speed_set(ship, speeds_kn)
+    if lambda_cell_nm is not None:
+        finite("lambda_cell_nm", lambda_cell_nm, minimum=0.0, strict=True, error=ConfigError)
     physics = PassagePhysics(ship, model, rules, sampler, t0, compiled=bool(compiled))
     snap_nm = float(snap_max_nm) if snap_max_nm is not None else 20.0 + 2.0 * cell_nm
     coast = land.coastline_applies(ds, use_land_mask)
@@ -290,27 +319,35 @@ def search_route(
         route = search_dp(physics, a, b, eta_h, speeds, dict(dp_options or {}), objective, t_start, coast, exclusion)
         return dataclasses.replace(route, stats={**route.stats, **moved})
 
-    def grid_route(start: tuple, end: tuple, moved: dict) -> Route:
-        # the fastest any leg can go over ground: the speed ceiling of the objective plus the strongest current
-        top_kn = desired if objective == "time" and lambda_t_per_h is None else float(speeds.max())
+    check = None if band_check_nm is None else float(
+        finite("band_check_nm", band_check_nm, minimum=0.0, strict=True, error=ConfigError)
+    )  # fmt: skip
+    # the fastest any leg can go over ground: the speed ceiling of the objective plus the strongest current
+    top_kn = desired if objective == "time" and lambda_t_per_h is None else float(speeds.max())
+
+    def grid_search(start: tuple, end: tuple, cell: float) -> _GridSearch:
         grid = RouteGrid.build(
-            start, end, cell_nm=cell_nm, margin_nm=margin_nm, navigable=_navigable(sampler, ds, t0, use_land_mask)
-        )
-        check = (
-            None
-            if band_check_nm is None
-            else float(finite("band_check_nm", band_check_nm, minimum=0.0, strict=True, error=ConfigError))
+            start, end, cell_nm=cell, margin_nm=margin_nm, navigable=_navigable(sampler, ds, t0, use_land_mask)
         )
         search = _GridSearch(
             physics, grid, _neighbourhood(angular_resolution_deg, directions, radius_cells), exclusion, objective,
             method, eta_h, desired, speed_step_kn, min_speed_kn, speeds, check, top_kn, top_kn + _max_current_kn(ds) + 1e-6,
         )  # fmt: skip
         if coast:
-            search.edge_land = EdgeLand.build(grid)
+            search.edge_land = EdgeLand.build(search.grid)
+        return search
+
+    def grid_route(start: tuple, end: tuple, moved: dict) -> Route:
+        search = grid_search(start, end, cell_nm)
+        lam_cell = cell_nm
+        coarse = None
+        if objective == "fuel" and lambda_t_per_h is None and stop_at_track:
+            lam_cell = _lambda_cell_nm(lambda_cell_nm, cell_nm, start, end)
+            coarse = grid_search(start, end, lam_cell) if lam_cell > cell_nm else None
         try:
             res, lam_used = run_objective(
                 search.run, objective, eta_h, t0, lambda_t_per_h, hourly_cost_per_h, fuel_price_per_t, stop_at_track,
-                lambda lam: physics.calm_cheapest_speed_kn(speeds, lam),
+                lambda lam: physics.calm_cheapest_speed_kn(speeds, lam), None if coarse is None else coarse.run,
             )  # fmt: skip
         except NoSafePassage as exc:
             raise explain_uncovered(exc, physics) from None
@@ -319,8 +356,10 @@ def search_route(
         except WeatherCoverageError as exc:
             last_t = sampler.extent["time"][1]
             raise WeatherCoverageError(f"{exc} (the weather ends at {units.format_utc(last_t)})") from None
-        route = _route_from_search(res, physics, t0, objective, method, lam_used, t_start, search.searches)
-        return _flag_land_crossings(dataclasses.replace(route, stats={**route.stats, **moved}), coast, grid.cell_nm)
+        n_coarse = 0 if coarse is None else coarse.searches
+        route = _route_from_search(res, physics, t0, objective, method, lam_used, t_start, search.searches + n_coarse)
+        stats = {**route.stats, **moved, "lambda_cell_nm": float(lam_cell), "coarse_searches": n_coarse}
+        return _flag_land_crossings(dataclasses.replace(route, stats=stats), coast, search.grid.cell_nm)
 
     half_cell = 0.5 * cell_nm
     near = min(half_cell, PORT_CLEARANCE_NM) if coast and land.packed_land_available() else half_cell
@@ -330,6 +369,16 @@ def search_route(
         except NoSafePassage:
             pass
     return grid_route(*ends(half_cell))
+
+
+def _lambda_cell_nm(given: float | None, cell_nm: float, start: tuple, end: tuple) -> float:
+    """The cell [nm] of the grid the fuel objective's λ is bisected on (``search_route``'s ``lambda_cell_nm``): the
+    one given, or the great circle over :data:`LAMBDA_CELLS_ALONG` (at most :data:`LAMBDA_CELL_MAX_NM`) where that
+    is at least twice ``cell_nm``; else ``cell_nm`` itself (the route's own grid)."""
+    if given is not None:
+        return max(float(given), float(cell_nm))
+    cell = min(LAMBDA_CELL_MAX_NM, float(geo.distance_nm(*start, *end)) / LAMBDA_CELLS_ALONG)
+    return cell if cell >= 2.0 * cell_nm else float(cell_nm)
 
 
 def _departure_and_eta_h(departure: Any, eta: Any) -> tuple[np.datetime64, float | None]:
