@@ -335,7 +335,8 @@ def plan_voyage(
 
     1. :func:`optroute.search_route` (objective ``"time"`` for a time plan, else ``"fuel"`` — or
        ``"cost"`` with the prices — with the ETA; the fuel objective's λ bisection with
-       ``stop_at_track=True``: only the route's track is kept); when the search cannot meet the ETA it
+       ``stop_at_track=True``: only the route's track is kept; on a long voyage the λ is bisected on a coarser
+       grid first, ``lambda_cell_nm``); when the search cannot meet the ETA it
        is run for minimum time instead, and the NLP decides (it may meet an ETA the grid cannot).
     2. ``route.corridor(width_nm=corridor_width_nm)``.
     3. :func:`optimise_corridor` warm-started from the route (its speeds and band sides).
