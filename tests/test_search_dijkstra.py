@@ -285,6 +285,29 @@ def test_impossible_eta_reports_the_earliest_arrival(small_grid):
     assert f"{r.arrival_h:.2f} h" in str(exc.value)
 
 
+@pytest.mark.parametrize("engine", ["numpy", "numba"])
+def test_a_cost_to_go_bound_is_taken_where_consistent_and_refused_where_an_edge_costs_less_than_it_drops(
+    small_grid, engine
+):
+    """A consistent bound (half of λ times the WGS84 distance to the end over v_max, worked here) gives the same
+    route; a bound that drops by more than an edge's cost along it raises."""
+    field = SpeedField(7)
+    nb = compass(16)
+    kw = dict(edge_cost=field.edge_cost, v_max_kn=V, objective="cost", lambda_t_per_h=2.0, engine=engine)
+    plain = shortest_path(small_grid, nb, **kw)
+    end = small_grid.end_latlon
+    h = 0.5 * 2.0 / V * geo.distance_nm(small_grid.lat_deg.ravel(), small_grid.lon_deg.ravel(), *end)
+    bounded = shortest_path(small_grid, nb, cost_to_go=h, **kw)
+    assert bounded.cost == pytest.approx(plain.cost, rel=1e-12)
+    np.testing.assert_array_equal(bounded.nodes, plain.nodes)
+    bad = np.zeros(small_grid.n_nodes)
+    bad[small_grid.flat(*small_grid.start)] = 10.0 * plain.cost  # the start's edges all cost less than that drop
+    with pytest.raises(ConfigError, match="cost_to_go"):
+        shortest_path(small_grid, nb, cost_to_go=bad, **kw)
+    with pytest.raises(ConfigError, match="one finite bound"):
+        shortest_path(small_grid, nb, cost_to_go=np.zeros(3), **kw)
+
+
 def test_callback_contract_is_enforced(small_grid):
     nb = compass(8)
     with pytest.raises(ConfigError, match="v_max_kn"):

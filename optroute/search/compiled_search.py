@@ -35,6 +35,8 @@ ERR_TOO_FAST = 1
 """A feasible edge sailed faster than ``v_max_kn``."""
 ERR_TOO_CHEAP = 2
 """A feasible edge cost less than the cost floor per nm times its length."""
+ERR_BELOW_BOUND = 3
+"""A feasible edge cheaper than the heuristic drops along it (``h`` inconsistent with the costs)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -221,6 +223,9 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no
             counts[4] = ERR_TOO_FAST
         elif not time_obj and c < rho * d_nm * (1.0 - tol):
             counts[4] = ERR_TOO_CHEAP
+        elif not time_obj and h[x] - h[y] > c * (1.0 + tol) + 1e-9 * h[x]:
+            counts[4] = ERR_BELOW_BOUND
+            dur = h[x] - h[y]  # reported as the drop
         if counts[4] != ERR_NONE:
             bad[0], bad[1], bad[2] = d_nm, dur, c
             return counts, bad

@@ -233,6 +233,7 @@ def shortest_path(
     time_limit_h: float | None = None,
     cost_ceiling: float | None = None,
     edge_land: EdgeLand | None = None,
+    cost_to_go: np.ndarray | None = None,
 ) -> SearchResult:
     """Time-dependent shortest path from ``grid.start`` to ``grid.end``.
 
@@ -300,6 +301,11 @@ def shortest_path(
         The coastline between the nodes (:class:`optroute.search.edge_land.EdgeLand`): an edge that crosses a
         cell that may hold land is walked on it and, where it touches land, does not exist.  Without it only
         the navigable mask's nodes are tested.
+    cost_to_go : ndarray, optional
+        Method ``"astar"``, objectives "cost" and "fuel": a lower bound on the cost from each node to the end
+        [t], flat as ``grid.flat``, consistent with every edge (``h(x) <= cost(x, y) + h(y)``; e.g.
+        :func:`optroute.search.cost_bound.cost_to_go`). The heuristic is the larger of it and ρ times the
+        distance; every costed edge is checked against it.
 
     Returns
     -------
@@ -346,6 +352,12 @@ def shortest_path(
     search.t_limit = limit + TIME_LIMIT_SLACK_H
     if cost_ceiling is not None:
         search.ceiling = float(finite("cost_ceiling", cost_ceiling, error=ConfigError))
+    if cost_to_go is not None and method == "astar" and objective != "time":
+        bound = np.asarray(cost_to_go, dtype=float)
+        if bound.shape != (grid.n_nodes,) or not np.all(np.isfinite(bound) & (bound >= 0.0)):
+            raise ConfigError(f"cost_to_go must hold one finite bound >= 0 per grid node ({grid.n_nodes}); got shape "
+                              f"{bound.shape}")  # fmt: skip
+        search.h_bound = bound
     return search.run(eta_h)
 
 
@@ -375,6 +387,7 @@ class _Search:
     ) -> None:
         self.grid, self.nb, self.ev = grid, nb, ev
         self.vmax, self.method, self.objective, self.lam = vmax, method, objective, lam
+        self.h_bound: np.ndarray | None = None  # a static lower bound on the cost to the end (cost_to_go)
         self.batched = batched
         self.f_slack = 0.5
         self.time_obj = objective == "time"
@@ -456,6 +469,12 @@ class _Search:
             f"cost floor {self.weight / self.vmax:.6g} t/nm; pass a true lower bound as cost_floor_per_nm (or none)"
         )
 
+    def _below_bound(self, dist: float, cost: float, drop: float) -> None:
+        raise ConfigError(
+            f"the cost callback costed a {dist:.1f} nm leg at {cost:.6g} t, below the {drop:.6g} t the cost_to_go "
+            "bound drops along it: the bound is not consistent with the costs; pass cost_to_go=None"
+        )
+
     def _candidates(self, batch: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Edges out of ``batch`` that exist and could still improve a label: (u, v, offset, length [nm])."""
         if self.compiled:
@@ -501,6 +520,12 @@ class _Search:
         self.evaluated += u.size
         self._check_speed(dist, dur, feas, fu)
         new = self.label[u] + (dur if self.time_obj else fu + self.lam * dur)
+        if self.h_bound is not None:
+            cost = fu + self.lam * dur
+            below = feas & (self.h[u] - self.h[v] > cost * (1.0 + _SPEED_TOL) + 1e-9 * self.h[u])
+            if below.any():
+                k = int(np.argmax(below))
+                self._below_bound(dist[k], cost[k], self.h[u[k]] - self.h[v[k]])
         if self.compiled:
             self.batches_relaxed += 1
             return _kernels.apply(
@@ -546,6 +571,8 @@ class _Search:
                 self._check_reachable()
             if self.method == "astar":
                 self.h = self.weight * _HEURISTIC_SHRINK * d_goal / self.vmax
+                if self.h_bound is not None:
+                    self.h = np.maximum(self.h, self.h_bound)
         self.label[self.s] = 0.0
         if self.g != self.s:
             self.label[self.g] = self.ceiling
@@ -668,6 +695,8 @@ class _Search:
             self._too_fast(float(bad[0]), float(bad[1]))
         if counts[4] == compiled_search.ERR_TOO_CHEAP:
             self._too_cheap(float(bad[0]), float(bad[2]))
+        if counts[4] == compiled_search.ERR_BELOW_BOUND:
+            self._below_bound(float(bad[0]), float(bad[2]), float(bad[1]))
 
     # ---------------------------------------------------------- output
     def _fail(self) -> None:

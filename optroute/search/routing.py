@@ -34,6 +34,7 @@ from optroute.physics.performance import PerformanceModel, default_model
 from optroute.physics.safety import BandRules
 from optroute.physics.ship import Ship
 from optroute.physics.yacht import SailingVessel
+from optroute.search import cost_bound
 from optroute.search.dijkstra import shortest_path
 from optroute.search.dp_route import search_dp
 from optroute.search.edge_land import EdgeLand
@@ -501,10 +502,14 @@ class _GridSearch:
             cb = _avoid(physics.segment_time(self.desired, self.step_kn, self.min_kn, self.check), self.exclusion, t0)
             return shortest_path(self.grid, self.hood, segment_cost=cb, objective="time", eta_h=self.eta_h, **common)
         cb = _avoid(physics.segment_cheapest(self.speeds, lam, self.check), self.exclusion, t0)
+        inputs = physics.kernel_inputs() if self.method == "astar" else None
+        bound = (
+            None if inputs is None else cost_bound.cost_to_go(*inputs, self.grid, self.hood.offsets, self.speeds, lam)
+        )
         return shortest_path(
             self.grid, self.hood, segment_cost=cb, objective="cost", lambda_t_per_h=lam,
             cost_floor_per_nm=physics.cost_floor_per_nm(self.speeds, lam, self.v_bound - self.top_kn),
-            cost_ceiling=ceiling, **common,
+            cost_ceiling=ceiling, cost_to_go=bound, **common,
         )  # fmt: skip
 
 
