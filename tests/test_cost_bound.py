@@ -12,8 +12,16 @@ import numpy as np
 import pytest
 
 import optroute as orx
-from optroute.physics.performance import CalmWaterModel
-from optroute.physics.pointwise import kwon_direction_coefficient, point_params
+from optroute.physics.performance import CalmWaterModel, KwonModel
+from optroute.physics.pointwise import (
+    P_FORM_DIV,
+    P_FORM_LINEAR,
+    P_V23,
+    beaufort_from_hs,
+    kwon_direction_coefficient,
+    kwon_form_coefficient,
+    point_params,
+)
 from optroute.physics.safety import BandRules
 from optroute.search import cost_bound
 from optroute.search.routing import search_route
@@ -139,3 +147,24 @@ def test_the_compiled_search_refuses_a_bound_that_drops_by_more_than_an_edge_cos
         warnings.simplefilter("ignore")
         search_route(START, END, random_sea(1), SHIP, departure=T0, objective="fuel", lambda_t_per_h=3.0, cell_nm=40.0,
                      **OPEN_SEA)  # fmt: skip
+
+
+def test_a_block_where_some_corners_lack_the_wind_counts_both_the_winds_beaufort_number_and_that_of_hs():
+    """Hs 6 m everywhere (Beaufort 8 by Hs), the wind calm where known and unknown at one node: the points next to that
+    node take Beaufort 8 from Hs, the others Beaufort 0 from the calm wind, so the loss floor is Beaufort 0's, zero;
+    where every node lacks the wind, Beaufort 8's: head seas' C_β times C_Form(8), by hand."""
+    params = point_params(SHIP, KwonModel(SHIP), BandRules())
+    nt, ny, nx = 2, 3, 3
+    fields = np.zeros((nt * ny * nx, 9))
+    fields[:, 0], fields[:, 1], fields[:, 3] = 6.0, 10.0, 1.0  # Hs, period, waves from the north
+    fields[4, 4:6] = np.nan  # one node without the wind
+    stats = cost_bound._block_stats(fields, nt, ny, nx, False, 4)
+    assert stats[0, 0, 1] == 0.0 and stats[0, 0, 2] == 1.0
+    assert np.all(cost_bound._loss_floors(params, stats, 0.0) == 0.0)
+    fields[:, 4:6] = np.nan
+    stats = cost_bound._block_stats(fields, nt, ny, nx, False, 4)
+    assert stats[0, 0, 1] == -1.0
+    head = cost_bound._loss_floors(params, stats, 0.0)[0, 0, 0]  # heading north into waves from the north
+    bn = beaufort_from_hs(6.0)
+    form = kwon_form_coefficient(bn, params[P_FORM_LINEAR], params[P_FORM_DIV], params[P_V23])
+    assert head == pytest.approx(kwon_direction_coefficient(0.0, bn) * form / 100.0, rel=1e-12) and head > 0.0

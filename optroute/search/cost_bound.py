@@ -84,15 +84,16 @@ _SECTOR_EDGES = np.array([30.0, 60.0, 150.0, 210.0, 300.0, 330.0])  # Kwon's C_Î
 
 @jit
 def _block_stats(fields, nt, ny, nx, periodic, b):  # pragma: no cover - compiled
-    """Per block of ``b`` x ``b`` cells over every time: (least wind bound, largest wind, wind unknown somewhere,
-    least Hs, largest Hs, mean wave direction [deg], the cone's half-angle [deg], largest current, sea nodes)."""
+    """Per block of ``b`` x ``b`` cells over every time: (least wind bound, largest wind (âˆ’1: no node knows the
+    wind), wind unknown somewhere, least Hs, largest Hs, mean wave direction [deg], the cone's half-angle [deg],
+    largest current, sea nodes)."""
     ncy, ncx = max(ny - 1, 1), (nx if periodic else max(nx - 1, 1))
     nby, nbx = (ncy + b - 1) // b, (ncx + b - 1) // b
     out = np.zeros((nby, nbx, 9))
     for by in range(nby):
         for bx in range(nbx):
             proj = np.full(_N_PROJ, np.inf)
-            w_max, unknown, hs_lo, hs_hi, c_max, ss, cc, n = 0.0, 0.0, np.inf, 0.0, 0.0, 0.0, 0.0, 0
+            w_max, unknown, hs_lo, hs_hi, c_max, ss, cc, n = -1.0, 0.0, np.inf, 0.0, 0.0, 0.0, 0.0, 0  # -1: no wind
             for t in range(nt):
                 for yi in range(by * b, min(by * b + b, ncy) + 1):
                     for k in range(bx * b, min(bx * b + b, ncx) + 1):
@@ -123,7 +124,7 @@ def _block_stats(fields, nt, ny, nx, periodic, b):  # pragma: no cover - compile
                         if math.isfinite(f[2]) and math.isfinite(f[3]):
                             dot = f[2] * math.sin(mean) + f[3] * math.cos(mean)
                             half = max(half, math.degrees(math.acos(min(max(dot, -1.0), 1.0))))
-            w_lo = max(0.0, np.max(proj)) if w_max > 0.0 else 0.0
+            w_lo = max(0.0, np.max(proj)) if w_max >= 0.0 else 0.0
             row = (w_lo, w_max, unknown, hs_lo, hs_hi, math.degrees(mean) % 360.0, half, c_max, float(n))
             for r in range(9):
                 out[by, bx, r] = row[r]
@@ -153,10 +154,11 @@ def _loss_floors(p, stats, widen_deg):  # pragma: no cover - compiled
             s = stats[by, bx]
             if s[8] == 0.0:
                 continue
-            bn_lo, bn_hi = beaufort_from_wind(s[0]), beaufort_from_wind(s[1])
-            if s[2] != 0.0:  # somewhere the wind is unknown: the Beaufort number of Hs there
-                bn_h_lo, bn_h_hi = beaufort_from_hs(s[3]), beaufort_from_hs(s[4])
-                bn_lo, bn_hi = (bn_h_lo, bn_h_hi) if s[1] == 0.0 else (min(bn_lo, bn_h_lo), max(bn_hi, bn_h_hi))
+            bn_lo, bn_hi = np.inf, -np.inf
+            if s[1] >= 0.0:  # where the wind is known, its Beaufort number
+                bn_lo, bn_hi = beaufort_from_wind(s[0]), beaufort_from_wind(s[1])
+            if s[2] != 0.0:  # where it is not (a corner without it), the Beaufort number of Hs there
+                bn_lo, bn_hi = min(bn_lo, beaufort_from_hs(s[3])), max(bn_hi, beaufort_from_hs(s[4]))
             for q in range(N_BINS):
                 c_lo, c_hi = 5.0 * q - widen_deg, 5.0 * q + 5.0 + widen_deg
                 lo, hi = s[5] - s[6] - c_hi, s[5] + s[6] - c_lo  # the wave angle from the bow
