@@ -90,7 +90,7 @@ class _Spy:
     def __call__(self, *args, **kw):
         if not self.on:
             return None
-        self.grid = args[2]
+        self.grid, self.args = args[2], args
         self.h = _COST_TO_GO(*args, **kw)
         return self.h
 
@@ -168,3 +168,17 @@ def test_a_block_where_some_corners_lack_the_wind_counts_both_the_winds_beaufort
     bn = beaufort_from_hs(6.0)
     form = kwon_form_coefficient(bn, params[P_FORM_LINEAR], params[P_FORM_DIV], params[P_V23])
     assert head == pytest.approx(kwon_direction_coefficient(0.0, bn) * form / 100.0, rel=1e-12) and head > 0.0
+
+
+def test_the_bound_at_another_lambda_from_the_kept_edge_floors_equals_one_built_afresh(monkeypatch):
+    """A λ bisection asks the same grid at many λ: the edge floors are kept per grid, and the bound they give at a
+    second λ is the one a fresh build gives, to the last bit."""
+    _, spy = _search(monkeypatch, random_sea(2, current_ms=0.7), 1.0, on=True)
+    args = spy.args[:5]  # the search's model, weather, grid, neighbourhood and speeds
+    first = _COST_TO_GO(*args, 1.0)
+    again = _COST_TO_GO(*args, 4.0)  # from the kept floors
+    cost_bound._PREPARED.clear()
+    fresh = _COST_TO_GO(*args, 4.0)
+    np.testing.assert_array_equal(first, spy.h)
+    np.testing.assert_array_equal(again, fresh)
+    assert not np.array_equal(first, again)

@@ -38,6 +38,8 @@ cheaper. Units: speeds [kn], wind and current [m/s], λ [t/h], costs [t].
 from __future__ import annotations
 
 import math
+import weakref
+from typing import NamedTuple
 
 import numpy as np
 from scipy.sparse import csr_matrix
@@ -202,14 +204,16 @@ def _course_deg(lat1, lon1, lat2, lon2):  # pragma: no cover - compiled
 
 
 @jit
-def _edge_weights(
-    lat, lon, nav, di, dj, coords, ktab, rate, k_max, b, periodic, nx_w, lat_step
+def _edge_floors(
+    lat, lon, nav, di, dj, coords, ktab, k_max, b, periodic, nx_w, lat_step
 ):  # pragma: no cover - compiled
-    """(tail, head, lower bound [t]) of every edge between navigable nodes (see the module text)."""
+    """(tail, head, length floor [nm], rate-table index of the loss floor) of every edge between navigable nodes
+    (see the module text): an edge's bound is its length floor times the rate at that index, at any λ."""
     ny, nx = lat.shape
     nby, nbx = ktab.shape[0], ktab.shape[1]
     n_max = ny * nx * di.size
-    tail, head, w = np.empty(n_max, dtype=np.int64), np.empty(n_max, dtype=np.int64), np.empty(n_max)
+    tail, head = np.empty(n_max, dtype=np.int64), np.empty(n_max, dtype=np.int64)
+    length, index = np.empty(n_max), np.empty(n_max, dtype=np.int64)
     m = 0
     for i in range(ny):
         for j in range(nx):
@@ -251,9 +255,9 @@ def _edge_weights(
                                 k_e = min(k_e, ktab[by, bx, q % N_BINS])
                     k_e = min(k_e, k_max)  # no sea in the box: the edge is no passage, any bound holds
                 idx = int(math.floor(k_e / k_max * (_K_STEPS - 1.0))) if k_max > 0.0 else 0
-                tail[m], head[m], w[m] = i * nx + j, i2 * nx + j2, rate[min(max(idx, 0), _K_STEPS - 1)] * d_nm
+                tail[m], head[m], length[m], index[m] = i * nx + j, i2 * nx + j2, d_nm, min(max(idx, 0), _K_STEPS - 1)
                 m += 1
-    return tail[:m], head[:m], w[:m]
+    return tail[:m], head[:m], length[:m], index[:m]
 
 
 @jit
@@ -266,6 +270,59 @@ def _node_coords(lat, lon, time_s, lat_w, lon_w, meta, offset_ns):  # pragma: no
         for j in range(nx):
             if grid_coordinates_at(time_s, lat_w, lon_w, meta, offset_ns, 0.0, lat[i, j], lon[i, j], buf):
                 out[i, j, 0], out[i, j, 1] = buf[1], buf[2]
+    return out
+
+
+class _EdgeFloors(NamedTuple):
+    """What the bound keeps of a grid, a weather and a speed set, at any λ: the reverse graph's CSR structure, its
+    edges' length floors [nm] and rate-table indices (in the structure's order), the rate table's inputs."""
+
+    indptr: np.ndarray
+    indices: np.ndarray
+    length_nm: np.ndarray
+    index: np.ndarray
+    n_nodes: int
+    goal: int
+    c_max_kn: float
+    k_max: float
+
+
+_PREPARED: dict[tuple, tuple[weakref.ref, weakref.ref, _EdgeFloors]] = {}
+
+
+def _edge_floors_of(params, weather, grid, offsets, speeds) -> _EdgeFloors:
+    """The λ-independent part of :func:`cost_to_go` (the block statistics, loss floors and every edge's floor),
+    built once per grid, weather fields (and departure), neighbourhood, model and speed set, and dropped with the
+    grid: a λ bisection searches the same grid at many λ."""
+    fields = weather[0]
+    key = (id(grid), id(fields), int(weather[5]), params.tobytes(), np.asarray(offsets).tobytes(), speeds.tobytes())
+    hit = _PREPARED.get(key)
+    if hit is not None and hit[0]() is grid and hit[1]() is fields:
+        return hit[2]
+    _, time_s, lat_w, lon_w, meta, offset_ns = weather[:6]
+    periodic = bool(meta[_META_PERIODIC] != 0.0)
+    nx_w = lon_w.size
+    stats = _block_stats(np.ascontiguousarray(fields), time_s.size, lat_w.size, nx_w, periodic, BLOCK_CELLS)
+    c_max_kn = float(np.max(stats[..., 7], initial=0.0)) / _MS_PER_KN
+    v_min = float(np.min(speeds[speeds > 0.0]))
+    widen = math.degrees(math.asin(min(1.0, c_max_kn / v_min))) if c_max_kn > 0.0 else 0.0
+    ktab = _loss_floors(params, stats, widen)
+    finite = ktab[np.isfinite(ktab)]
+    k_max = float(finite.max()) if finite.size else 0.0
+    lat, lon = np.ascontiguousarray(grid.lat_deg, dtype=float), np.ascontiguousarray(grid.lon_deg, dtype=float)
+    coords = _node_coords(lat, lon, time_s, lat_w, lon_w, meta, np.int64(offset_ns))
+    di, dj = (np.ascontiguousarray(offsets[:, k], dtype=np.int64) for k in (0, 1))
+    lat_step = float(np.min(np.abs(np.diff(lat_w)))) if lat_w.size > 1 else 180.0
+    tail, head, length, index = _edge_floors(lat, lon, np.ascontiguousarray(grid.navigable), di, dj, coords, ktab,
+                                             k_max, float(BLOCK_CELLS), periodic, float(nx_w), lat_step)  # fmt: skip
+    n = grid.n_nodes
+    # the reverse graph's structure, its entries numbered by edge (one edge per node pair: one per offset)
+    order = csr_matrix((np.arange(1.0, tail.size + 1.0), (head, tail)), shape=(n, n))
+    edge = order.data.astype(np.int64) - 1
+    out = _EdgeFloors(order.indptr, order.indices, length[edge], index[edge], n, int(grid.flat(*grid.end)), c_max_kn,
+                      k_max)  # fmt: skip
+    _PREPARED[key] = (weakref.ref(grid), weakref.ref(fields), out)
+    weakref.finalize(grid, _PREPARED.pop, key, None)
     return out
 
 
@@ -297,25 +354,10 @@ def cost_to_go(
     """
     if params[P_KWON] == 0.0:
         return None
-    fields, time_s, lat_w, lon_w, meta, offset_ns = weather[:6]
-    periodic = bool(meta[_META_PERIODIC] != 0.0)
-    nt, ny_w, nx_w = time_s.size, lat_w.size, lon_w.size
-    stats = _block_stats(np.ascontiguousarray(fields), nt, ny_w, nx_w, periodic, BLOCK_CELLS)
-    c_max_kn = float(np.max(stats[..., 7], initial=0.0)) / _MS_PER_KN
     speeds = np.ascontiguousarray(speeds_kn, dtype=float)
-    v_min = float(np.min(speeds[speeds > 0.0]))
-    widen = math.degrees(math.asin(min(1.0, c_max_kn / v_min))) if c_max_kn > 0.0 else 0.0
-    ktab = _loss_floors(params, stats, widen)
-    finite = ktab[np.isfinite(ktab)]
-    k_max = float(finite.max()) if finite.size else 0.0
-    rate = _rate_table(params, speeds, float(lambda_t_per_h), c_max_kn, k_max)
-    lat, lon = np.ascontiguousarray(grid.lat_deg, dtype=float), np.ascontiguousarray(grid.lon_deg, dtype=float)
-    coords = _node_coords(lat, lon, time_s, lat_w, lon_w, meta, np.int64(offset_ns))
-    di, dj = (np.ascontiguousarray(offsets[:, k], dtype=np.int64) for k in (0, 1))
-    lat_step = float(np.min(np.abs(np.diff(lat_w)))) if lat_w.size > 1 else 180.0
-    tail, head, w = _edge_weights(lat, lon, np.ascontiguousarray(grid.navigable), di, dj, coords, ktab, rate, k_max,
-                                  float(BLOCK_CELLS), periodic, float(nx_w), lat_step)  # fmt: skip
-    n = grid.n_nodes
-    reverse = csr_matrix((w, (head, tail)), shape=(n, n))  # summed duplicates cannot occur: one edge per offset
-    h = _scipy_dijkstra(reverse, indices=int(grid.flat(*grid.end)))
+    g = _edge_floors_of(params, weather, grid, offsets, speeds)
+    rate = _rate_table(params, speeds, float(lambda_t_per_h), g.c_max_kn, g.k_max)
+    # a weight of 0 (no speed of the set reachable at that loss: no passage) may count as no edge either way
+    reverse = csr_matrix((rate[g.index] * g.length_nm, g.indices, g.indptr), shape=(g.n_nodes, g.n_nodes))
+    h = _scipy_dijkstra(reverse, indices=g.goal)
     return np.where(np.isfinite(h), h, 0.0)
