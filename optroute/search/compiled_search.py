@@ -164,7 +164,8 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no
         Nodes settled, edges costed, settling steps (one a node), points outside the weather,
         error code (``ERR_*``), heap entries pushed.
     bad : ndarray, shape (3,)
-        Length [nm], duration [h] and cost of the edge that broke a bound (error only).
+        Length [nm], duration [h] (for ``ERR_BELOW_BOUND`` the heuristic's drop along it [t]) and cost of the edge
+        that broke a bound (error only).
     """
     ii, jj, di, dj, off, ny, nx, nav_pad, base_pad, cell_off, cell_n, all_nav, xyz, tangent, pf0, pf1, pn = graph[:17]
     coastal_pad, land_bits, land_blocks, land_par = graph[17:]
@@ -227,9 +228,8 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no
             counts[4] = ERR_TOO_CHEAP
         elif not time_obj and h[x] - h[y] > c * (1.0 + tol) + 1e-9 * h[x]:
             counts[4] = ERR_BELOW_BOUND
-            dur = h[x] - h[y]  # reported as the drop
-        if counts[4] != ERR_NONE:
-            bad[0], bad[1], bad[2] = d_nm, dur, c
+        if counts[4] != ERR_NONE:  # (length, duration or, below the bound, the bound's drop, cost)
+            bad[0], bad[1], bad[2] = d_nm, h[x] - h[y] if counts[4] == ERR_BELOW_BOUND else dur, c
             return counts, bad
         new = label[x] + c
         if new < label[y]:

@@ -519,9 +519,9 @@ class _Search:
         dur, fu, feas, _ = self.ev.evaluate(u, v, o, t0)
         self.evaluated += u.size
         self._check_speed(dist, dur, feas, fu)
-        new = self.label[u] + (dur if self.time_obj else fu + self.lam * dur)
-        if self.h_bound is not None:
-            cost = fu + self.lam * dur
+        cost = dur if self.time_obj else fu + self.lam * dur
+        new = self.label[u] + cost
+        if self.h_bound is not None:  # (cost objectives only)
             below = feas & (self.h[u] - self.h[v] > cost * (1.0 + _SPEED_TOL) + 1e-9 * self.h[u])
             if below.any():
                 k = int(np.argmax(below))

@@ -111,9 +111,14 @@ def bisect_on_coarse(
             res = run(lam)
         except NoSafePassage:
             res = None
-        if res is not None and (eta_h is None or res.arrival_h <= eta_h):
+        if not _late(res, eta_h):
             return res, lam
     return bisect_lambda(run, eta_h, t0, stop_at_track=True, calm_speed_kn=calm_speed_kn)
+
+
+def _late(result, eta_h: float | None) -> bool:
+    """Whether a λ round counts as late: no route (None), or one arriving after the ETA [h] where there is one."""
+    return result is None or (eta_h is not None and result.arrival_h > eta_h)
 
 
 def bisect_lambda(
@@ -164,7 +169,7 @@ def bisect_lambda(
             return None
 
     def late(r) -> bool:
-        return r is None or (eta_h is not None and r.arrival_h > eta_h)
+        return _late(r, eta_h)
 
     slow = attempt(0.0)
     if not late(slow):
