@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from optroute import geodesy as geo
-from optroute.errors import InfeasibleETA, NoSafePassage
+from optroute.errors import ConfigError, InfeasibleETA, NoSafePassage
 from optroute.physics.passage import SeaState, evaluate_speeds
 from optroute.physics.performance import KwonModel
 from optroute.physics.safety import BandRules
@@ -236,3 +236,9 @@ def test_a_route_whose_lambda_was_bisected_on_a_coarser_grid_is_the_fixed_lambda
     assert route.stats["lambda_cell_nm"] == 40.0 and route.stats["coarse_searches"] >= 2
     assert route.stats["searches"] == route.stats["coarse_searches"] + 1
     assert own.stats["lambda_cell_nm"] == 20.0 and own.stats["coarse_searches"] == 0
+
+
+@pytest.mark.parametrize("bad", [0.0, -20.0, float("nan")])
+def test_a_lambda_cell_that_is_no_length_is_refused_naming_it_and_the_fix(bad):
+    with pytest.raises(ConfigError, match=r"lambda_cell_nm .*got .*give the cell \[nm\]"):
+        _search(random_sea(5, hs_m=(1.0, 5.0)), objective="fuel", stop_at_track=True, lambda_cell_nm=bad)

@@ -356,7 +356,8 @@ def shortest_path(
         bound = np.asarray(cost_to_go, dtype=float)
         if bound.shape != (grid.n_nodes,) or not np.all(np.isfinite(bound) & (bound >= 0.0)):
             raise ConfigError(f"cost_to_go must hold one finite bound >= 0 per grid node ({grid.n_nodes}); got shape "
-                              f"{bound.shape}")  # fmt: skip
+                              f"{bound.shape}; pass the bound flat as grid.flat (optroute.search.cost_bound.cost_to_go), "
+                              "or None")  # fmt: skip
         search.h_bound = bound
     return search.run(eta_h)
 

@@ -304,7 +304,8 @@ def search_route(
                fix="give the ship's cost per hour, >= 0 (0 makes the cost least fuel alone)")  # fmt: skip
     speeds = _speed_set(ship, speeds_kn)
     if lambda_cell_nm is not None:
-        finite("lambda_cell_nm", lambda_cell_nm, minimum=0.0, strict=True, error=ConfigError)
+        finite("lambda_cell_nm", lambda_cell_nm, minimum=0.0, strict=True, error=ConfigError,
+               fix="give the cell [nm] of the grid to bisect λ on (e.g. 120), or leave it out for the default")  # fmt: skip
     physics = PassagePhysics(ship, model, rules, sampler, t0, compiled=bool(compiled))
     snap_nm = float(snap_max_nm) if snap_max_nm is not None else 20.0 + 2.0 * cell_nm
     coast = land.coastline_applies(ds, use_land_mask)
