@@ -1,6 +1,6 @@
 """The fuel objective's static cost-to-go bound (:mod:`optroute.search.cost_bound`), the stronger A* heuristic.
 
-References: Kwon's direction coefficient swept over the wave angle by brute force; the trilinear weather's
+References: the trilinear weather's
 convex combinations sampled at random inside each block; and the search itself run without the bound (the
 heuristic ρ × distance of :func:`optroute.physics.pointwise.least_cost_per_nm`), whose route's own cost from
 each of its nodes to the end the bound may not exceed, and whose route the search with the bound must find.
@@ -30,19 +30,6 @@ from tests.test_routing import OPEN_SEA, T0, random_sea
 
 SHIP = orx.Ship.preset("container_8000teu")
 START, END = (-8.0, 150.0), (10.0, 174.0)  # about 1 800 nm across random_sea's box
-
-
-@pytest.mark.parametrize("seed", range(4))
-def test_the_least_direction_coefficient_is_the_least_of_a_fine_sweep_of_wave_angles(seed):
-    """Against the coefficient evaluated every 0.01° (and at the ends) over random intervals of angles, BN 0-12."""
-    rng = np.random.default_rng(seed)
-    for _ in range(40):
-        lo = rng.uniform(-400.0, 400.0)
-        hi = lo + rng.choice([rng.uniform(0.1, 5.0), rng.uniform(5.0, 200.0)])
-        bn = float(rng.integers(0, 13))
-        sweep = np.r_[np.arange(lo, hi, 0.01), hi]
-        brute = min(kwon_direction_coefficient(a, bn) for a in sweep)
-        assert cost_bound._least_direction_coefficient(bn, lo, hi) == pytest.approx(brute, abs=1e-12)
 
 
 def _fields(wx):
@@ -91,8 +78,9 @@ class _Spy:
         if not self.on:
             return None
         self.grid, self.args = args[2], args
-        self.h = _COST_TO_GO(*args, **kw)
-        return self.h
+        self.bound = _COST_TO_GO(*args, **kw)
+        self.h = self.bound.to_end_t
+        return self.bound
 
 
 def _search(monkeypatch, wx, lam, on):
@@ -121,6 +109,12 @@ def test_the_bound_stays_below_the_routes_own_cost_from_each_of_its_nodes_and_th
     assert nodes[0] == grid.flat(*grid.start) and nodes[-1] == grid.flat(*grid.end)
     assert np.all(spy.h[nodes] <= rest * (1.0 + 1e-9) + 1e-9)
     assert spy.h[nodes[0]] > 0.0
+    # each leg's own bound (the lazy key's) positive and below its cost
+    offsets = [tuple(o) for o in np.asarray(spy.args[3])]
+    ij = np.column_stack(grid.unflat(nodes))
+    q = [offsets.index(tuple(d)) for d in np.diff(ij, axis=0)]
+    legs = spy.bound.edge_t[nodes[:-1], q]
+    assert np.all(legs <= cost * (1.0 + 1e-9)) and np.all(legs > 0.0)
     # the same route, found costing fewer edges
     np.testing.assert_array_equal(bounded.waypoints, plain.waypoints)
     assert bounded.cost == pytest.approx(plain.cost, rel=1e-12)
@@ -134,13 +128,29 @@ def test_the_calm_water_model_has_no_loss_to_bound():
     assert cost_bound.cost_to_go(params, tuple(pw), None, np.zeros((1, 2), dtype=int), np.array([10.0]), 1.0) is None
 
 
+def test_the_compiled_search_refuses_an_edge_floor_above_the_edges_cost(monkeypatch):
+    """The whole-compiled search checks each costed edge against its own floor too."""
+
+    def edge_too_high(params, weather, grid, offsets, speeds, lam):
+        bound = _COST_TO_GO(params, weather, grid, offsets, speeds, lam)
+        edge = bound.edge_t.copy()
+        edge[grid.flat(*grid.start)] = 1e6  # no edge out of the start costs a million tonnes
+        return cost_bound.CostBound(bound.to_end_t, edge)
+
+    monkeypatch.setattr(cost_bound, "cost_to_go", edge_too_high)
+    with warnings.catch_warnings(), pytest.raises(orx.ConfigError, match="edge_cost_floor"):
+        warnings.simplefilter("ignore")
+        search_route(START, END, random_sea(1), SHIP, departure=T0, objective="fuel", lambda_t_per_h=3.0, cell_nm=40.0,
+                     **OPEN_SEA)  # fmt: skip
+
+
 def test_the_compiled_search_refuses_a_bound_that_drops_by_more_than_an_edge_costs(monkeypatch):
     """The whole-compiled search (the physics' leg kernel) checks each costed edge against the heuristic."""
 
     def too_high(params, weather, grid, offsets, speeds, lam):
         h = np.zeros(grid.n_nodes)
         h[grid.flat(*grid.start)] = 1e6  # no edge out of the start costs a million tonnes
-        return h
+        return cost_bound.CostBound(h, np.zeros((grid.n_nodes, len(offsets))))
 
     monkeypatch.setattr(cost_bound, "cost_to_go", too_high)
     with warnings.catch_warnings(), pytest.raises(orx.ConfigError, match="cost_to_go"):
@@ -179,6 +189,7 @@ def test_the_bound_at_another_lambda_from_the_kept_edge_floors_equals_one_built_
     again = _COST_TO_GO(*args, 4.0)  # from the kept floors
     cost_bound._PREPARED.clear()
     fresh = _COST_TO_GO(*args, 4.0)
-    np.testing.assert_array_equal(first, spy.h)
-    np.testing.assert_array_equal(again, fresh)
-    assert not np.array_equal(first, again)
+    for a, b in ((first, spy.bound), (again, fresh)):
+        np.testing.assert_array_equal(a.to_end_t, b.to_end_t)
+        np.testing.assert_array_equal(a.edge_t, b.edge_t)
+    assert not np.array_equal(first.to_end_t, again.to_end_t)

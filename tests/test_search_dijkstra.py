@@ -308,6 +308,40 @@ def test_a_cost_to_go_bound_is_taken_where_consistent_and_refused_where_an_edge_
         shortest_path(small_grid, nb, cost_to_go=np.zeros(3), **kw)
 
 
+@pytest.mark.parametrize("engine", ["numpy", "numba"])
+def test_an_edge_cost_floor_is_taken_where_below_every_edges_cost_and_refused_where_an_edge_costs_less(
+    small_grid, engine
+):
+    """Each edge floored at half of λ times its WGS84 length over v_max (worked here, below any cost of the speed
+    field) beside the matching cost-to-go: the same route; a floor above an edge's cost, a floor of the wrong shape
+    or one without a cost-to-go raise."""
+    field = SpeedField(7)
+    nb = compass(16)
+    kw = dict(edge_cost=field.edge_cost, v_max_kn=V, objective="cost", lambda_t_per_h=2.0, engine=engine)
+    plain = shortest_path(small_grid, nb, **kw)
+    lat, lon = small_grid.lat_deg.ravel(), small_grid.lon_deg.ravel()
+    h = 0.5 * 2.0 / V * geo.distance_nm(lat, lon, *small_grid.end_latlon)
+    ny, nx = small_grid.shape
+    ii, jj = np.divmod(np.arange(small_grid.n_nodes), nx)
+    floor = np.zeros((small_grid.n_nodes, nb.offsets.shape[0]))
+    for q, (di, dj) in enumerate(nb.offsets):
+        i2, j2 = ii + di, jj + dj
+        on = (i2 >= 0) & (i2 < ny) & (j2 >= 0) & (j2 < nx)
+        k = np.flatnonzero(on)
+        floor[k, q] = 0.5 * 2.0 / V * geo.distance_nm(lat[k], lon[k], lat[i2[k] * nx + j2[k]], lon[i2[k] * nx + j2[k]])
+    floored = shortest_path(small_grid, nb, cost_to_go=h, edge_cost_floor=floor, **kw)
+    assert floored.cost == pytest.approx(plain.cost, rel=1e-12)
+    np.testing.assert_array_equal(floored.nodes, plain.nodes)
+    bad = floor.copy()
+    bad[small_grid.flat(*small_grid.start)] = 10.0 * plain.cost  # above every edge out of the start
+    with pytest.raises(ConfigError, match="edge_cost_floor"):
+        shortest_path(small_grid, nb, cost_to_go=h, edge_cost_floor=bad, **kw)
+    with pytest.raises(ConfigError, match="one finite bound >= 0 per grid node and offset"):
+        shortest_path(small_grid, nb, cost_to_go=h, edge_cost_floor=floor[:, :3], **kw)
+    with pytest.raises(ConfigError, match="pass cost_to_go with it"):
+        shortest_path(small_grid, nb, edge_cost_floor=floor, **kw)
+
+
 def test_callback_contract_is_enforced(small_grid):
     nb = compass(8)
     with pytest.raises(ConfigError, match="v_max_kn"):

@@ -313,7 +313,7 @@ def test_cheapest_speed_kernel_is_the_brute_force_argmin():
             sog, fuel, ok = _eval_at(p, course, sea, v)
             if ok and sog > 0.0:
                 rate[k] = (fuel + lam) / sog
-        stw, sog, fuel, ok = cheapest_speed_at(p, course, sea, speeds, lam)
+        stw, sog, fuel, ok = cheapest_speed_at(p, course, sea, speeds, lam, np.empty(speeds.size))
         assert ok == np.isfinite(rate).any()
         if ok:
             k = int(np.argmin(rate))

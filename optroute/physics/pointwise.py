@@ -62,11 +62,15 @@ __all__ = [
     "brake_power_bound",
     "cached_point_params",
     "cost_rate_floor",
+    "cost_rate_floor_in_sea",
     "evaluate_speed",
     "heading_for_course",
     "kwon_direction_coefficient",
+    "kwon_direction_range",
     "kwon_form_coefficient",
+    "kwon_loss_per_cu",
     "least_cost_per_nm",
+    "loss_range_at",
     "point_params",
     "stw_for_sog",
     "wrap_360",
@@ -229,6 +233,45 @@ def kwon_form_coefficient(bn, linear, divisor, v23):  # pragma: no cover - compi
     return linear * bn + bn**6.5 / (divisor * v23)
 
 
+_SECTOR_EDGES = np.array([30.0, 60.0, 150.0, 210.0, 300.0, 330.0])  # Kwon's C_β sectors from the bow [deg]
+
+
+@jit
+def kwon_direction_range(bn, lo_deg, hi_deg):  # pragma: no cover - compiled
+    """Kwon's (2008) least and greatest C_β at Beaufort ``bn`` over wave angles from the bow in [lo, hi] [deg].
+
+    C_β is constant on each sector (:func:`kwon_direction_coefficient`): its values at the ends and on either side
+    of every sector edge inside the interval (1e-6° apart) are all it takes.
+    """
+    least = min(kwon_direction_coefficient(lo_deg, bn), kwon_direction_coefficient(hi_deg, bn))
+    most = max(kwon_direction_coefficient(lo_deg, bn), kwon_direction_coefficient(hi_deg, bn))
+    for turn in range(int(math.floor(lo_deg / 360.0)), int(math.floor(hi_deg / 360.0)) + 1):
+        for e in _SECTOR_EDGES:
+            for a in (e - 1e-6, e, e + 1e-6):
+                x = a + 360.0 * turn
+                if lo_deg <= x <= hi_deg:
+                    c = kwon_direction_coefficient(x, bn)
+                    least, most = min(least, c), max(most, c)
+    return least, most
+
+
+@jit
+def _beaufort_of(hs_m, wind_speed_ms):  # pragma: no cover - compiled
+    """The Beaufort number Kwon's loss takes: the wind's where it is known, else that of Hs."""
+    return beaufort_from_wind(wind_speed_ms) if math.isfinite(wind_speed_ms) else beaufort_from_hs(hs_m)
+
+
+@jit
+def kwon_loss_per_cu(p, hs_m, wave_angle_deg, wind_speed_ms):  # pragma: no cover - compiled
+    """Kwon's (2008) speed loss per C_U, C_β C_Form / 100, of a sea met ``wave_angle_deg`` from the bow [-]."""
+    bn = _beaufort_of(hs_m, wind_speed_ms)
+    return (
+        kwon_direction_coefficient(wave_angle_deg, bn)
+        * kwon_form_coefficient(bn, p[P_FORM_LINEAR], p[P_FORM_DIV], p[P_V23])
+        / 100.0
+    )
+
+
 @jit
 def calm_power(p, stw_kn):  # pragma: no cover - compiled
     """Calm-water brake power by the admiralty law, Δ^(2/3) V³ / C_adm [kW]."""
@@ -240,10 +283,7 @@ def brake_power(p, stw_kn, hs_m, wave_angle_deg, wind_speed_ms):  # pragma: no c
     """Brake power [kW] of the model in ``p``: calm water, or Kwon's equivalent calm speed's (``inf`` if none)."""
     if p[P_KWON] == 0.0:
         return calm_power(p, stw_kn)
-    bn = beaufort_from_wind(wind_speed_ms) if math.isfinite(wind_speed_ms) else beaufort_from_hs(hs_m)
-    c_bf = kwon_direction_coefficient(wave_angle_deg, bn) * kwon_form_coefficient(
-        bn, p[P_FORM_LINEAR], p[P_FORM_DIV], p[P_V23]
-    )
+    loss_per_cu = kwon_loss_per_cu(p, hs_m, wave_angle_deg, wind_speed_ms)
     v_max = p[P_VMAX_KN]
     if stw_kn > v_max * (1.0 + 1e-12):
         return np.inf
@@ -252,7 +292,7 @@ def brake_power(p, stw_kn, hs_m, wave_angle_deg, wind_speed_ms):  # pragma: no c
         p[P_CU_A],
         p[P_CU_B],
         p[P_CU_C],
-        c_bf / 100.0,
+        loss_per_cu,
         p[P_INV_SQRT_GL_KN],
         v_max,
         np.int64(KWON_SCAN_STEPS),  # typed, not literal: one signature with _invert_kwon's
@@ -307,6 +347,68 @@ def cost_rate_floor(p, stw_kn, lam_t_per_h, current_kn):  # pragma: no cover - c
     SOG is at most v + |current| (see :func:`least_cost_per_nm`).
     """
     power = max(calm_power(p, stw_kn), p[P_MIN_POWER])
+    return (fuel_rate(p, power) + lam_t_per_h) / (stw_kn + current_kn)
+
+
+@jit
+def loss_range_at(p, course_deg, hs_m, wave_from_deg, wind_u_ms, wind_v_ms, current_kn, stw_min_kn):
+    # pragma: no cover - compiled
+    """The least and greatest Kwon loss per C_U [-] of any speed >= ``stw_min_kn`` [kn] making good ``course_deg``
+    [deg true] at a point: (0, 0) for the calm-water model or where the sea is not known.
+
+    The heading crabs off the course by at most asin(current / STW) (:func:`heading_for_course`), so the wave angle
+    from the bow lies within that (and 1e-6°) of the course's; C_β's range over it (:func:`kwon_direction_range`)
+    times C_Form / 100 at the point's Beaufort number (:func:`kwon_loss_per_cu`'s).
+    """
+    if p[P_KWON] == 0.0 or not (math.isfinite(hs_m) and math.isfinite(wave_from_deg)):
+        return 0.0, 0.0
+    bn = _beaufort_of(hs_m, math.hypot(wind_u_ms, wind_v_ms))
+    crab = math.degrees(math.asin(min(1.0, current_kn / stw_min_kn))) if current_kn > 0.0 else 0.0
+    alpha = wrap_360(wave_from_deg - course_deg)
+    lo, hi = kwon_direction_range(bn, alpha - crab - 1e-6, alpha + crab + 1e-6)
+    form = kwon_form_coefficient(bn, p[P_FORM_LINEAR], p[P_FORM_DIV], p[P_V23]) / 100.0
+    return lo * form, hi * form
+
+
+@jit
+def _cu_range(p, fn_lo, fn_hi):  # pragma: no cover - compiled
+    """Least and greatest of Kwon's C_U = a + b Fn + c Fn² over [fn_lo, fn_hi] (the ends and the vertex)."""
+    a, b, c = p[P_CU_A], p[P_CU_B], p[P_CU_C]
+    u1, u2 = a + fn_lo * (b + c * fn_lo), a + fn_hi * (b + c * fn_hi)
+    least, most = min(u1, u2), max(u1, u2)
+    if c != 0.0:
+        f = -b / (2.0 * c)
+        if fn_lo < f < fn_hi:
+            u = a + f * (b + c * f)
+            least, most = min(least, u), max(most, u)
+    return least, most
+
+
+@jit
+def cost_rate_floor_in_sea(p, stw_kn, lam_t_per_h, current_kn, loss_lo, loss_hi):  # pragma: no cover - compiled
+    """A lower bound on (fuel + λ) / SOG [t/nm] of ``stw_kn`` in a sea whose Kwon loss per C_U lies in
+    [``loss_lo``, ``loss_hi``] (:func:`loss_range_at`), the current at most ``current_kn`` [kn]; ``inf`` where no
+    calm speed makes ``stw_kn`` good (:func:`brake_power` is then infinite).
+
+    :func:`cost_rate_floor` with the calm speed's floor in place of ``stw_kn``: :func:`brake_power` takes the least
+    V1 in [V, V_max] with V1 (1 − L(V1)) >= V, L = max(k C_U(Fn(V1)), 0) (Kwon 2008).  With L_hi the largest L
+    over [V, V_max], V1 <= X = min(V / (1 − L_hi), V_max) (X itself makes V good); with L_lo the least L over
+    [V, X], V <= V1 (1 − L(V1)) <= V1 (1 − L_lo), so V1 >= V / (1 − L_lo) and the admiralty power at V1 is at
+    least P_calm(V) / (1 − L_lo)³.
+    """
+    if p[P_KWON] == 0.0 or loss_hi <= 0.0:
+        return cost_rate_floor(p, stw_kn, lam_t_per_h, current_kn)
+    v_max = p[P_VMAX_KN]
+    if stw_kn > v_max * (1.0 + 1e-12):
+        return np.inf
+    inv = p[P_INV_SQRT_GL_KN]
+    fn_v = stw_kn * inv
+    l_hi = max(loss_hi * _cu_range(p, fn_v, max(fn_v, v_max * inv))[1], 0.0)
+    x = v_max if l_hi >= 1.0 else min(stw_kn / (1.0 - l_hi), v_max)
+    l_lo = max(loss_lo * _cu_range(p, fn_v, max(fn_v, x * inv))[0], 0.0)
+    if l_lo >= 1.0:
+        return np.inf
+    power = max(calm_power(p, stw_kn) / (1.0 - l_lo) ** 3, p[P_MIN_POWER])
     return (fuel_rate(p, power) + lam_t_per_h) / (stw_kn + current_kn)
 
 

@@ -37,6 +37,8 @@ ERR_TOO_CHEAP = 2
 """A feasible edge cost less than the cost floor per nm times its length."""
 ERR_BELOW_BOUND = 3
 """A feasible edge cheaper than the heuristic drops along it (``h`` inconsistent with the costs)."""
+ERR_BELOW_FLOOR = 4
+"""A feasible edge cheaper than its own lower bound (``edge_floor``)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,13 +130,15 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no
     """Settle nodes until the goal is settled or the open set is empty, costing each edge only when it is due.
 
     Label-setting A* (Dijkstra with ``h = 0``) with lazy edge costing: settling a node pushes each of its edges
-    worth costing (:func:`optroute.search._kernels.candidates`) with its lower bound ``label[x] + ρ·length +
-    h[y]`` as key, not its cost.  The edge is costed only when its key is the least of the open set and its head
+    worth costing (:func:`optroute.search._kernels.candidates`) with its lower bound ``label[x] + b(x, y) +
+    h[y]`` as key, not its cost, ``b`` the larger of ρ·length and the edge's own floor (``floor``, checked on every
+    costed edge).  The edge is costed only when its key is the least of the open set and its head
     ``y`` is not yet settled; an improved ``label[y]`` pushes ``y``'s label entry (key ``label[y] + h[y]``), and
     ``y`` is settled when that entry is the least.  Exact: with ``h`` consistent with the true costs
     (``h(x) <= cost(x, y) + h(y)``: the geodesic heuristic is, being consistent with the bound, which the costs do not
     undercut; a ``cost_to_go`` bound is checked on every costed edge), every edge that could still improve ``y`` has
-    a smaller key than ``y``'s label entry (its key is at most its tail's label plus its cost plus ``h(y)``; an
+    a smaller key than ``y``'s label entry (its key is at most its tail's label plus its cost plus ``h(y)``, ``b``
+    being at most the cost; an
     unsettled tail's own entry is smaller still, by consistency), so it is costed first.  The labels are therefore those of the batched loop of
     :meth:`optroute.search.dijkstra._Search._loop` (the same edge tests and leg costing,
     :func:`optroute.search.passage_kernels.cost_leg`), which costs every edge its bounds allow into a node not yet
@@ -149,10 +153,12 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no
         ``LegEvaluator`` (the last four: :meth:`optroute.search.edge_land.EdgeLand.kernel_arrays`; an edge across
         a coastal cell is walked on the coastline when it is due, and does not exist where it touches land).
     search : tuple
-        ``(start, goal, h, rho, two_r, time_objective, lam, v_max, tol, t_goal, t_limit, inv_v)``: ``rho`` the
-        objective's lower bound per nm [h/nm or t/nm]; ``t_goal`` a lower bound on each node's time to the goal
+        ``(start, goal, h, rho, two_r, time_objective, lam, v_max, tol, t_goal, t_limit, inv_v, floor)``: ``rho``
+        the objective's lower bound per nm [h/nm or t/nm]; ``t_goal`` a lower bound on each node's time to the goal
         [h], ``t_limit`` the time limit [h] (inf for none), ``inv_v`` = 1 / v_max less the speed check's
-        tolerance [h/nm] (see :func:`optroute.search._kernels.candidates`).
+        tolerance [h/nm] (see :func:`optroute.search._kernels.candidates`); ``floor`` a lower bound on each edge's
+        cost [t] at ``x · n_offsets + q`` for the edge ``x → x + off[q]`` (``shortest_path``'s
+        ``edge_cost_floor``), or empty.
     k : tuple
         :class:`LegKernel`'s fields but the callback.
     label, tarr, fuel, parent, poff, state : ndarray
@@ -170,7 +176,8 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no
     ii, jj, di, dj, off, ny, nx, nav_pad, base_pad, cell_off, cell_n, all_nav, xyz, tangent, pf0, pf1, pn = graph[:17]
     coastal_pad, land_bits, land_blocks, land_par = graph[17:]
     walk = land_par[0] > 0.0
-    s, g, h, rho, two_r, time_obj, lam, vmax, tol, t_goal, t_limit, inv_v = search
+    s, g, h, rho, two_r, time_obj, lam, vmax, tol, t_goal, t_limit, inv_v, floor = search
+    m_off = di.size if floor.size else 0  # floor[x · m + q]: edge x → x + off[q]'s lower bound; empty: ρ · length
     # a lower bound on the objective per nm still to sail on any leg (the bound every costed edge is checked against)
     rest = inv_v if time_obj else rho * (1.0 - tol)
     counts = np.zeros(6, dtype=np.int64)
@@ -204,12 +211,14 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no
                 label[g], xyz, rho, two_r, tarr, t_goal, t_limit, inv_v,
             )  # fmt: skip
             for e in range(v.size):
-                key = label[y] + rho * dist[e] + h[v[e]]
+                lb_e = max(rho * dist[e], floor[y * m_off + o[e]]) if m_off else rho * dist[e]
+                key = label[y] + lb_e + h[v[e]]
                 heap, entries, n, pushed = _enter(heap, entries, n, pushed, key, dist[e], v[e], y, o[e])
             continue
         # an edge x → y whose bound is the least: the labels may have moved since it was pushed
         d_nm = entries[0][a]
-        lb = label[x] + rho * d_nm
+        floor_e = floor[x * m_off + q] if m_off else 0.0
+        lb = label[x] + max(rho * d_nm, floor_e)
         if lb >= label[y] or lb + h[y] >= label[g]:
             continue
         if walk and edge_on_land(xyz[x], xyz[y], base_pad[x], q, cell_off, cell_n, coastal_pad, land_bits, land_blocks,
@@ -228,8 +237,11 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no
             counts[4] = ERR_TOO_CHEAP
         elif not time_obj and h[x] - h[y] > c * (1.0 + tol) + 1e-9 * h[x]:
             counts[4] = ERR_BELOW_BOUND
-        if counts[4] != ERR_NONE:  # (length, duration or, below the bound, the bound's drop, cost)
-            bad[0], bad[1], bad[2] = d_nm, h[x] - h[y] if counts[4] == ERR_BELOW_BOUND else dur, c
+        elif floor_e > c * (1.0 + tol) + 1e-12:
+            counts[4] = ERR_BELOW_FLOOR
+        if counts[4] != ERR_NONE:  # (length, duration or, below a bound, the bound's drop or the floor, cost)
+            bad[0], bad[2] = d_nm, c
+            bad[1] = h[x] - h[y] if counts[4] == ERR_BELOW_BOUND else (floor_e if counts[4] == ERR_BELOW_FLOOR else dur)
             return counts, bad
         new = label[x] + c
         if new < label[y]:

@@ -4,8 +4,9 @@ The fuel and cost objectives' A* heuristic is ρ times the geodesic distance to 
 floor of (fuel + λ·time) per nm (:func:`optroute.physics.pointwise.least_cost_per_nm`): it ignores the
 weather, and a westbound ship in a Beaufort 5 westerly everywhere pays 8 % more per mile than that.
 :func:`cost_to_go` bounds each edge of the grid by the weather it may meet, whatever the time, and
-returns the least such bound from every node to the end (a backward Dijkstra on the static graph,
-scipy's compiled one): a heuristic consistent with every edge the search costs.
+returns those bounds with the least such bound from every node to the end (a backward Dijkstra on the static
+graph, scipy's compiled one): a heuristic consistent with every edge the search costs, and the edge's own
+bound, by which the compiled search defers costing it (:func:`optroute.search.compiled_search.run`).
 
 Why each edge's weight is a lower bound on its cost, at any departure time:
 
@@ -31,8 +32,8 @@ Why each edge's weight is a lower bound on its cost, at any departure time:
   the edge's floor is the least over the blocks that box touches and the course bins of that interval,
   times a lower bound on its length (the chord's arc at the least WGS84/sphere scale, shrunk by 1e-5).
 
-The search checks every costed edge against the heuristic (``h(x) ≤ cost + h(y)``) and raises if one is
-cheaper. Units: speeds [kn], wind and current [m/s], λ [t/h], costs [t].
+The search checks every costed edge against the heuristic (``h(x) ≤ cost + h(y)``) and its own bound, and
+raises if one is cheaper. Units: speeds [kn], wind and current [m/s], λ [t/h], costs [t].
 """
 
 from __future__ import annotations
@@ -63,13 +64,13 @@ from optroute.physics.pointwise import (
     beaufort_from_wind,
     calm_power,
     fuel_rate,
-    kwon_direction_coefficient,
+    kwon_direction_range,
     kwon_form_coefficient,
 )
 from optroute.physics.speed_loss import KWON_BISECTIONS, KWON_SCAN_STEPS, calm_speed_point
 from optroute.weather.sample import grid_coordinates_at
 
-__all__ = ["cost_to_go"]
+__all__ = ["CostBound", "cost_to_go"]
 
 BLOCK_CELLS = 4
 """Weather cells per block side (2° blocks on a 0.5° weather grid)."""
@@ -81,7 +82,6 @@ _SHRINK = 1.0 - 1e-5  # as the search's heuristic: the pieces sum to the geodesi
 _TWO_R_FLOOR_NM = 2.0 * geo.EARTH_RADIUS_NM * geo.SPHERE_TO_WGS84_MIN
 _MS_PER_KN = units.MS_PER_KN
 _META_PERIODIC = 12  # PointWeather.meta's periodic-longitude flag (optroute.weather.sample's layout)
-_SECTOR_EDGES = np.array([30.0, 60.0, 150.0, 210.0, 300.0, 330.0])  # Kwon's C_β sectors from the bow [deg]
 
 
 @jit
@@ -134,19 +134,6 @@ def _block_stats(fields, nt, ny, nx, periodic, b):  # pragma: no cover - compile
 
 
 @jit
-def _least_direction_coefficient(bn, lo, hi):  # pragma: no cover - compiled
-    """Kwon's least C_β at Beaufort ``bn`` over wave angles from the bow in [lo, hi] [deg] (sector-constant)."""
-    best = min(kwon_direction_coefficient(lo, bn), kwon_direction_coefficient(hi, bn))
-    for turn in range(int(math.floor(lo / 360.0)), int(math.floor(hi / 360.0)) + 1):
-        for e in _SECTOR_EDGES:
-            for a in (e - 1e-6, e, e + 1e-6):
-                x = a + 360.0 * turn
-                if lo <= x <= hi:
-                    best = min(best, kwon_direction_coefficient(x, bn))
-    return best
-
-
-@jit
 def _loss_floors(p, stats, widen_deg):  # pragma: no cover - compiled
     """Per block and 5° course bin: the least C_β C_Form / 100 (inf where the block has no sea)."""
     nby, nbx = stats.shape[0], stats.shape[1]
@@ -170,7 +157,7 @@ def _loss_floors(p, stats, widen_deg):  # pragma: no cover - compiled
                 bn = bn_lo
                 while bn <= bn_hi:
                     form = kwon_form_coefficient(bn, p[P_FORM_LINEAR], p[P_FORM_DIV], p[P_V23])
-                    best = min(best, _least_direction_coefficient(bn, lo, hi) * form / 100.0)
+                    best = min(best, kwon_direction_range(bn, lo, hi)[0] * form / 100.0)
                     bn += 1.0
                 out[by, bx, q] = max(best, 0.0)
     return out
@@ -207,12 +194,13 @@ def _course_deg(lat1, lon1, lat2, lon2):  # pragma: no cover - compiled
 def _edge_floors(
     lat, lon, nav, di, dj, coords, ktab, k_max, b, periodic, nx_w, lat_step
 ):  # pragma: no cover - compiled
-    """(tail, head, length floor [nm], rate-table index of the loss floor) of every edge between navigable nodes
-    (see the module text): an edge's bound is its length floor times the rate at that index, at any λ."""
+    """(tail, head, offset, length floor [nm], rate-table index of the loss floor) of every edge between navigable
+    nodes (see the module text): an edge's bound is its length floor times the rate at that index, at any λ."""
     ny, nx = lat.shape
     nby, nbx = ktab.shape[0], ktab.shape[1]
     n_max = ny * nx * di.size
     tail, head = np.empty(n_max, dtype=np.int64), np.empty(n_max, dtype=np.int64)
+    offset = np.empty(n_max, dtype=np.int64)
     length, index = np.empty(n_max), np.empty(n_max, dtype=np.int64)
     m = 0
     for i in range(ny):
@@ -255,9 +243,10 @@ def _edge_floors(
                                 k_e = min(k_e, ktab[by, bx, q % N_BINS])
                     k_e = min(k_e, k_max)  # no sea in the box: the edge is no passage, any bound holds
                 idx = int(math.floor(k_e / k_max * (_K_STEPS - 1.0))) if k_max > 0.0 else 0
-                tail[m], head[m], length[m], index[m] = i * nx + j, i2 * nx + j2, d_nm, min(max(idx, 0), _K_STEPS - 1)
+                tail[m], head[m], offset[m] = i * nx + j, i2 * nx + j2, o
+                length[m], index[m] = d_nm, min(max(idx, 0), _K_STEPS - 1)
                 m += 1
-    return tail[:m], head[:m], length[:m], index[:m]
+    return tail[:m], head[:m], offset[:m], length[:m], index[:m]
 
 
 @jit
@@ -273,12 +262,24 @@ def _node_coords(lat, lon, time_s, lat_w, lon_w, meta, offset_ns):  # pragma: no
     return out
 
 
+class CostBound(NamedTuple):
+    """A lower bound on the fuel objective's cost (:func:`cost_to_go`): to the end from each node, and of each edge."""
+
+    to_end_t: np.ndarray
+    """(n_nodes,) the least bound to the end [t], flat as ``grid.flat`` (0 where no static path reaches it)."""
+    edge_t: np.ndarray
+    """(n_nodes, n_offsets) each edge's own bound [t] by its tail and neighbourhood offset (0 where it has none)."""
+
+
 class _EdgeFloors(NamedTuple):
     """What the bound keeps of a grid, a weather and a speed set, at any λ: the reverse graph's CSR structure, its
-    edges' length floors [nm] and rate-table indices (in the structure's order), the rate table's inputs."""
+    edges' length floors [nm], rate-table indices and places ``tail · n_offsets + offset`` (in the structure's
+    order), the rate table's inputs."""
 
     indptr: np.ndarray
     indices: np.ndarray
+    place: np.ndarray
+    n_offsets: int
     length_nm: np.ndarray
     index: np.ndarray
     n_nodes: int
@@ -313,14 +314,15 @@ def _edge_floors_of(params, weather, grid, offsets, speeds) -> _EdgeFloors:
     coords = _node_coords(lat, lon, time_s, lat_w, lon_w, meta, np.int64(offset_ns))
     di, dj = (np.ascontiguousarray(offsets[:, k], dtype=np.int64) for k in (0, 1))
     lat_step = float(np.min(np.abs(np.diff(lat_w)))) if lat_w.size > 1 else 180.0
-    tail, head, length, index = _edge_floors(lat, lon, np.ascontiguousarray(grid.navigable), di, dj, coords, ktab,
+    tail, head, offset, length, index = _edge_floors(lat, lon, np.ascontiguousarray(grid.navigable), di, dj, coords, ktab,
                                              k_max, float(BLOCK_CELLS), periodic, float(nx_w), lat_step)  # fmt: skip
     n = grid.n_nodes
     # the reverse graph's structure, its entries numbered by edge (one edge per node pair: one per offset)
     order = csr_matrix((np.arange(1.0, tail.size + 1.0), (head, tail)), shape=(n, n))
     edge = order.data.astype(np.int64) - 1
-    out = _EdgeFloors(order.indptr, order.indices, length[edge], index[edge], n, int(grid.flat(*grid.end)), c_max_kn,
-                      k_max)  # fmt: skip
+    place = (tail * di.size + offset)[edge]
+    out = _EdgeFloors(order.indptr, order.indices, place, int(di.size), length[edge], index[edge], n,
+                      int(grid.flat(*grid.end)), c_max_kn, k_max)  # fmt: skip
     _PREPARED[key] = (weakref.ref(grid), weakref.ref(fields), out)
     weakref.finalize(grid, _PREPARED.pop, key, None)
     return out
@@ -328,8 +330,9 @@ def _edge_floors_of(params, weather, grid, offsets, speeds) -> _EdgeFloors:
 
 def cost_to_go(
     params: np.ndarray, weather: tuple, grid, offsets: np.ndarray, speeds_kn: np.ndarray, lambda_t_per_h: float
-) -> np.ndarray | None:
-    """A consistent lower bound on (fuel + λ·time) [t] from every grid node to the end (see the module text).
+) -> CostBound | None:
+    """A lower bound on (fuel + λ·time) [t] of every edge of the grid, and the least such to the end from every node
+    (see the module text): a heuristic consistent with the edges' bounds, so with their costs.
 
     Parameters
     ----------
@@ -348,9 +351,9 @@ def cost_to_go(
 
     Returns
     -------
-    ndarray, shape (n_nodes,) or None
-        The bound per node, flat as ``grid.flat`` (0 where no static path reaches the end); None for the
-        calm-water model (no loss to bound: ρ is the bound).
+    CostBound or None
+        The bound per node to the end and per edge; None for the calm-water model (no loss to bound: ρ is the
+        bound).
     """
     if params[P_KWON] == 0.0:
         return None
@@ -358,6 +361,9 @@ def cost_to_go(
     g = _edge_floors_of(params, weather, grid, offsets, speeds)
     rate = _rate_table(params, speeds, float(lambda_t_per_h), g.c_max_kn, g.k_max)
     # a weight of 0 (no speed of the set reachable at that loss: no passage) may count as no edge either way
-    reverse = csr_matrix((rate[g.index] * g.length_nm, g.indices, g.indptr), shape=(g.n_nodes, g.n_nodes))
+    weight = rate[g.index] * g.length_nm
+    reverse = csr_matrix((weight, g.indices, g.indptr), shape=(g.n_nodes, g.n_nodes))
     h = _scipy_dijkstra(reverse, indices=g.goal)
-    return np.where(np.isfinite(h), h, 0.0)
+    edge = np.zeros(g.n_nodes * g.n_offsets)
+    edge[g.place] = weight
+    return CostBound(np.where(np.isfinite(h), h, 0.0), edge.reshape(g.n_nodes, g.n_offsets))

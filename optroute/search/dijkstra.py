@@ -234,6 +234,7 @@ def shortest_path(
     cost_ceiling: float | None = None,
     edge_land: EdgeLand | None = None,
     cost_to_go: np.ndarray | None = None,
+    edge_cost_floor: np.ndarray | None = None,
 ) -> SearchResult:
     """Time-dependent shortest path from ``grid.start`` to ``grid.end``.
 
@@ -306,6 +307,12 @@ def shortest_path(
         [t], flat as ``grid.flat``, consistent with every edge (``h(x) <= cost(x, y) + h(y)``; e.g.
         :func:`optroute.search.cost_bound.cost_to_go`). The heuristic is the larger of it and ρ times the
         distance; every costed edge is checked against it.
+    edge_cost_floor : ndarray, shape (n_nodes, n_offsets), optional
+        With ``cost_to_go``: a lower bound on each edge's cost [t] by its tail (flat as ``grid.flat``) and its
+        offset in ``neighbourhood.offsets`` (e.g. :attr:`optroute.search.cost_bound.CostBound.edge_t`), at least
+        ``cost_to_go``'s drop along the edge.  The compiled search defers an edge by it rather than by ρ times its
+        length (:func:`optroute.search.compiled_search.run`): the same labels, fewer edges costed.  Every costed
+        edge is checked against it.
 
     Returns
     -------
@@ -359,6 +366,19 @@ def shortest_path(
                               f"{bound.shape}; pass the bound flat as grid.flat (optroute.search.cost_bound.cost_to_go), "
                               "or None")  # fmt: skip
         search.h_bound = bound
+        if edge_cost_floor is not None:
+            floor_t = np.asarray(edge_cost_floor, dtype=float)
+            shape = (grid.n_nodes, neighbourhood.offsets.shape[0])
+            if floor_t.shape != shape or not np.all(np.isfinite(floor_t) & (floor_t >= 0.0)):
+                raise ConfigError(f"edge_cost_floor must hold one finite bound >= 0 per grid node and offset {shape}; "
+                                  f"got shape {floor_t.shape}; pass CostBound.edge_t of "
+                                  "optroute.search.cost_bound.cost_to_go, or None")  # fmt: skip
+            search.edge_floor = np.ascontiguousarray(floor_t.ravel())
+    elif edge_cost_floor is not None:
+        raise ConfigError(
+            "edge_cost_floor is a bound of the cost objectives' A* beside cost_to_go; pass cost_to_go "
+            "with it (method='astar', objective 'cost' or 'fuel'), or neither"
+        )
     return search.run(eta_h)
 
 
@@ -389,6 +409,7 @@ class _Search:
         self.grid, self.nb, self.ev = grid, nb, ev
         self.vmax, self.method, self.objective, self.lam = vmax, method, objective, lam
         self.h_bound: np.ndarray | None = None  # a static lower bound on the cost to the end (cost_to_go)
+        self.edge_floor = np.zeros(0)  # a lower bound on each edge's cost, flat by (tail, offset); none: empty
         self.batched = batched
         self.f_slack = 0.5
         self.time_obj = objective == "time"
@@ -476,6 +497,12 @@ class _Search:
             "bound drops along it: the bound is not consistent with the costs; pass cost_to_go=None"
         )
 
+    def _below_floor(self, dist: float, cost: float, floor_t: float) -> None:
+        raise ConfigError(
+            f"the cost callback costed a {dist:.1f} nm leg at {cost:.6g} t, below its edge_cost_floor {floor_t:.6g} t: "
+            "the floor is not a lower bound of the costs; pass edge_cost_floor=None"
+        )
+
     def _candidates(self, batch: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Edges out of ``batch`` that exist and could still improve a label: (u, v, offset, length [nm])."""
         if self.compiled:
@@ -527,6 +554,12 @@ class _Search:
             if below.any():
                 k = int(np.argmax(below))
                 self._below_bound(dist[k], cost[k], self.h[u[k]] - self.h[v[k]])
+            if self.edge_floor.size:
+                floor_t = self.edge_floor[u * self.di.size + o]
+                below = feas & (floor_t > cost * (1.0 + _SPEED_TOL) + 1e-12)
+                if below.any():
+                    k = int(np.argmax(below))
+                    self._below_floor(dist[k], cost[k], floor_t[k])
         if self.compiled:
             self.batches_relaxed += 1
             return _kernels.apply(
@@ -682,7 +715,7 @@ class _Search:
                  self.cell_n, self.all_navigable, ev.xyz, ev.tangent, ev.piece_f0, ev.piece_f1,
                  ev.piece_n.astype(np.int64), *self.land)  # fmt: skip
         search = (self.s, self.g, self.h, self.weight / self.vmax, _TWO_R_FLOOR_NM, self.time_obj, self.lam,
-                  self.vmax, _SPEED_TOL, self.t_goal, self.t_limit, self.inv_v)  # fmt: skip
+                  self.vmax, _SPEED_TOL, self.t_goal, self.t_limit, self.inv_v, self.edge_floor)  # fmt: skip
         k = (kernel.params, kernel.weather, kernel.mode, kernel.check_nm, kernel.speeds, kernel.lam,
              kernel.desired, kernel.step, kernel.vmin)  # fmt: skip
         counts, bad = compiled_search.run(graph, search, k, self.label, self.tarr, self.fuel, self.parent,
@@ -698,6 +731,8 @@ class _Search:
             self._too_cheap(float(bad[0]), float(bad[2]))
         if counts[4] == compiled_search.ERR_BELOW_BOUND:
             self._below_bound(float(bad[0]), float(bad[2]), float(bad[1]))
+        if counts[4] == compiled_search.ERR_BELOW_FLOOR:
+            self._below_floor(float(bad[0]), float(bad[2]), float(bad[1]))
 
     # ---------------------------------------------------------- output
     def _fail(self) -> None:

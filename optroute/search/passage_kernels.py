@@ -30,7 +30,14 @@ import numpy as np
 
 from optroute import units
 from optroute._numba import jit
-from optroute.physics.pointwise import allowed_speed, cost_rate_floor, evaluate_speed, stw_for_sog
+from optroute.physics.pointwise import (
+    allowed_speed,
+    cost_rate_floor,
+    cost_rate_floor_in_sea,
+    evaluate_speed,
+    loss_range_at,
+    stw_for_sog,
+)
 from optroute.search.band_bounds import piece_certified
 from optroute.search.edge_geometry import frame_point, piece_frame
 from optroute.search.refine_kernels import CAPACITY, piece_clear, refined_clear
@@ -76,26 +83,31 @@ def best_speed_at(p, course, sea, desired, step, vmin):  # pragma: no cover - co
 
 
 @jit
-def cheapest_speed_at(p, course, sea, speeds, lam):  # pragma: no cover - compiled
+def cheapest_speed_at(p, course, sea, speeds, lam, floors):  # pragma: no cover - compiled
     """The allowed speed of ``speeds`` minimising (fuel + λ) / SOG, as :func:`~optroute.physics.passage.cheapest_speed`.
 
-    The least rate, the first speed of the set on ties.  The speed of the least cost floor
-    (:func:`~optroute.physics.pointwise.cost_rate_floor`) is tried first, then the others in order, each skipped
-    when its floor cannot beat the best so far: the same choice whatever the order (a skipped speed's rate
-    is above the best; ties go to the lower index), with few speeds tried where the weather is mild.
+    The least rate, the first speed of the set on ties.  Each speed's floor of the rate in this sea
+    (:func:`~optroute.physics.pointwise.cost_rate_floor_in_sea`, written into ``floors``) is found first; the speed
+    of the least floor is tried first, then the others in order, each skipped when its floor cannot beat the best
+    so far: the same choice whatever the order (a skipped speed's rate is above the best; ties go to the lower
+    index), with few speeds tried (the floor takes the point's own Kwon loss, so it is close to the rate).
     """
     cur = math.hypot(sea[5], sea[6]) / _MS_PER_KN
+    v_lo = np.inf
+    for k in range(speeds.size):
+        v_lo = min(v_lo, speeds[k])
+    loss_lo, loss_hi = loss_range_at(p, course, sea[0], sea[2], sea[3], sea[4], cur, v_lo)
     k0, f0 = 0, np.inf
     for k in range(speeds.size):
-        floor = cost_rate_floor(p, speeds[k], lam, cur)
-        if floor < f0:
-            k0, f0 = k, floor
+        floors[k] = cost_rate_floor_in_sea(p, speeds[k], lam, cur, loss_lo, loss_hi)
+        if floors[k] < f0:
+            k0, f0 = k, floors[k]
     best, k_best = np.inf, -1
     b_sog, b_fuel = np.nan, np.nan
     for r in range(-1, speeds.size):
         k = k0 if r < 0 else r
-        if r == k0 or cost_rate_floor(p, speeds[k], lam, cur) * _FLOOR_SLACK >= best:
-            continue  # tried first, or cannot beat the best so far even at its calm-water power
+        if r == k0 or floors[k] * _FLOOR_SLACK >= best:
+            continue  # tried first, or cannot beat the best so far (an infinite floor: not allowed at all)
         sog, fuel, ok = _eval_at(p, course, sea, speeds[k])
         if ok and sog > 0.0:
             rate = (fuel + lam) / sog
@@ -108,14 +120,15 @@ def cheapest_speed_at(p, course, sea, speeds, lam):  # pragma: no cover - compil
 
 @jit
 def _first_choice(
-    p, w, mode, speeds, lam, desired, step, vmin, lat, lon, course, t_h, sea
+    p, w, mode, speeds, lam, desired, step, vmin, lat, lon, course, t_h, sea, floors
 ):  # pragma: no cover - compiled
-    """The speed proposed at a piece's midpoint at its entry time; returns (stw, sog, fuel, ok, covered)."""
+    """The speed proposed at a piece's midpoint at its entry time (``floors``: :func:`cheapest_speed_at`'s work
+    row); returns (stw, sog, fuel, ok, covered)."""
     covered = sample_at(w[0], w[1], w[2], w[3], w[4], w[5], t_h, lat, lon, sea)
     if mode == MODE_TIME:
         stw, sog, fuel, ok = best_speed_at(p, course, sea, desired, step, vmin)
     else:
-        stw, sog, fuel, ok = cheapest_speed_at(p, course, sea, speeds, lam)
+        stw, sog, fuel, ok = cheapest_speed_at(p, course, sea, speeds, lam, floors)
     return stw, sog, fuel, ok and sog > 0.0, covered
 
 
@@ -232,11 +245,12 @@ def leg_points(length, n_pieces, check_nm):  # pragma: no cover - compiled
 def leg_workspace(m, n_speeds):  # pragma: no cover - compiled
     """Work arrays of :func:`cost_leg` for pieces of up to ``m`` check points, allocated once per batch of legs.
 
-    ``(work (5, max(m, n_speeds)), the sea at the points (m, N_POINT_FIELDS), vectors (7, max(m, N_POINT_FIELDS)))``:
-    the vectors' rows hold the segment lengths, latitudes, longitudes, courses and distances of the points,
-    the sea at one point and the piece's midpoint.
+    ``(work (6, max(m, n_speeds)), the sea at the points (m, N_POINT_FIELDS), vectors (7, max(m, N_POINT_FIELDS)))``:
+    the work rows are :func:`_checked_piece`'s five and :func:`cheapest_speed_at`'s floors; the vectors' rows hold
+    the segment lengths, latitudes, longitudes, courses and distances of the points, the sea at one point and the
+    piece's midpoint.
     """
-    return np.zeros((5, max(m, n_speeds))), np.empty((m, N_POINT_FIELDS)), np.empty((7, max(m, N_POINT_FIELDS)))
+    return np.zeros((6, max(m, n_speeds))), np.empty((m, N_POINT_FIELDS)), np.empty((7, max(m, N_POINT_FIELDS)))
 
 
 @jit
@@ -278,7 +292,7 @@ def cost_leg(
         for q in range(k + 1, n_pieces):
             rest += length[q]  # (summed afresh: exactly 0 after the last piece)
         stw0, sog0, f0, go, cov = _first_choice(
-            p, w, mode, speeds, lam, desired, step, vmin, lat[k], lon[k], course[k], t, sea
+            p, w, mode, speeds, lam, desired, step, vmin, lat[k], lon[k], course[k], t, sea, work[5]
         )
         if not cov:
             uncovered += 1

@@ -510,7 +510,8 @@ class _GridSearch:
         return shortest_path(
             self.grid, self.hood, segment_cost=cb, objective="cost", lambda_t_per_h=lam,
             cost_floor_per_nm=physics.cost_floor_per_nm(self.speeds, lam, self.v_bound - self.top_kn),
-            cost_ceiling=ceiling, cost_to_go=bound, **common,
+            cost_ceiling=ceiling, cost_to_go=None if bound is None else bound.to_end_t,
+            edge_cost_floor=None if bound is None else bound.edge_t, **common,
         )  # fmt: skip
 
 
