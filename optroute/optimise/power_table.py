@@ -271,34 +271,73 @@ def tabulate_ratio(
     given = np.asarray(speeds_kn, dtype=float)
     check = speed_tol is not None and given.size > 1
     speeds = np.sort(np.concatenate([given, 0.5 * (given[1:] + given[:-1])])) if check else given
+    fields = None
     if edges and heads.size > 1:
-        probe, over = _evaluate(model, base, sea, along_deg, speeds, heads[[0, -1]], sectors)
-        if np.array_equal(probe[:, :, 0], probe[:, :, 1]):
-            return _speed_checked(probe[:, :, :1], over[:, :, :1], np.zeros(1), edges, speeds, check, speed_tol)
-    ratio, over = _evaluate(model, base, sea, along_deg, speeds, heads, sectors)
-    return _speed_checked(ratio, over, heads, edges, speeds, check, speed_tol)
+        probe = _fields(model, base, sea, along_deg, speeds, heads[[0, -1]], sectors)
+        if all(_same(a, b) for a, b in zip(probe[0], probe[1], strict=True)):
+            fields, heads = probe[:1], np.zeros(1)
+    if fields is None:
+        fields = _fields(model, base, sea, along_deg, speeds, heads, sectors)
+    return _speed_checked(fields, np.size(along_deg), heads, edges, speeds, check, speed_tol)
+
+
+class _Field(NamedTuple):
+    """The ratio at one heading node and sector (:func:`_fields`): its distinct rows and each node's row."""
+
+    ratio: np.ndarray  # (R, nv) [-], capped at CAP_MCR · MCR / P_calm
+    capped: np.ndarray  # (R, nv) bool: the model gives no finite power there, or more than the cap
+    row: np.ndarray | None  # (N,) each node's row; None: R = N, in node order
+
+    def rows(self) -> np.ndarray:
+        """The ratio at the N nodes (N, nv)."""
+        return self.ratio if self.row is None else self.ratio[self.row]
+
+    def capped_count(self, speeds: slice) -> int:
+        """Capped values at the N nodes and the speeds ``speeds``."""
+        per_row = np.count_nonzero(self.capped[:, speeds], axis=1)
+        counts = np.ones(self.ratio.shape[0], dtype=np.int64) if self.row is None else np.bincount(
+            self.row, minlength=self.ratio.shape[0])  # fmt: skip
+        return int(per_row @ counts)
+
+
+def _same(a: _Field, b: _Field) -> bool:
+    """Whether two fields give every node the same ratio (compared once per pair of rows met)."""
+    if a.row is None or b.row is None:
+        return np.array_equal(a.rows(), b.rows())
+    pair = np.unique(a.row.astype(np.int64) * b.ratio.shape[0] + b.row)
+    ra, rb = np.divmod(pair, b.ratio.shape[0])
+    return np.array_equal(a.ratio[ra], b.ratio[rb])
 
 
 def _speed_checked(
-    ratio: np.ndarray, over: np.ndarray, heads: np.ndarray, edges: tuple, speeds: np.ndarray, check: bool,
+    fields: list[list[_Field]], n: int, heads: np.ndarray, edges: tuple, speeds: np.ndarray, check: bool,
     tol: float | None,
 ) -> RatioTable:  # fmt: skip
-    """The table on every other speed of ``speeds`` (the given nodes) where their spline is within ``tol`` of all
-    of ``ratio`` (N, nv, nd, nq) [-] but its capped values (``over``, :func:`_evaluate`), else on all of them
-    (without ``check``: as it is, error NaN)."""
-    if not check:
-        return RatioTable(ratio, heads, edges, float(np.mean(over)) if over.size else 0.0, speeds, float("nan"))
-    coarse = speeds[::2]
-    w = np.array(spline_weights(speeds, float(coarse[0]), float(coarse[1] - coarse[0]), coarse.size, np))  # (nc, nv)
-    fit = np.einsum("cv,ncdq->nvdq", w, ratio[:, ::2])
-    miss = np.abs(fit / ratio - 1.0)[~over]
-    error = float(miss.max()) if miss.size else 0.0
-    if error <= tol:
-        ratio, over, speeds = ratio[:, ::2], over[:, ::2], coarse
-    return RatioTable(ratio, heads, edges, float(np.mean(over)) if over.size else 0.0, speeds, error)
+    """The table (N, nv, nd, nq) of ``fields`` (per heading node and sector) on every other speed of ``speeds`` (the
+    given nodes) where their spline is within ``tol`` of every value but the capped ones, else on all of them
+    (without ``check``: as it is, error NaN).  The spline is checked on each field's distinct rows."""
+    error = float("nan")
+    keep = slice(None)
+    if check:
+        coarse = speeds[::2]
+        w = np.array(spline_weights(speeds, float(coarse[0]), float(coarse[1] - coarse[0]), coarse.size, np))
+        error = 0.0
+        for f in (f for per_heading in fields for f in per_heading):
+            miss = np.abs(np.einsum("cv,nc->nv", w, f.ratio[:, ::2]) / f.ratio - 1.0)[~f.capped]
+            error = max(error, float(miss.max()) if miss.size else 0.0)
+        if error <= tol:
+            keep, speeds = slice(None, None, 2), coarse
+    nv = speeds.size
+    ratio = np.empty((n, nv, len(fields), len(fields[0])))
+    capped = 0
+    for k, per_heading in enumerate(fields):
+        for q, f in enumerate(per_heading):
+            ratio[:, :, k, q] = f.rows()[:, keep]
+            capped += f.capped_count(keep)
+    return RatioTable(ratio, heads, edges, capped / ratio.size if ratio.size else 0.0, speeds, error)
 
 
-def _evaluate(
+def _fields(
     model: PerformanceModel,
     base: PowerModel,
     sea: SeaState,
@@ -306,46 +345,48 @@ def _evaluate(
     speeds_kn: np.ndarray,
     headings_deg: np.ndarray,
     sectors: list[tuple[float, float] | None],
-) -> tuple[np.ndarray, np.ndarray]:
-    """The ratio (N, nv, nd, nq) at the given heading nodes and sectors, capped at :data:`CAP_MCR`, and where it is
-    capped (the model gives no finite power, or more than the cap)."""
+) -> list[list[_Field]]:
+    """The ratio per heading node and sector (:class:`_Field`) at the N nodes and nv speeds, capped at
+    :data:`CAP_MCR` · MCR: one row per regime present (:func:`_model_power`), or per node."""
     v = np.asarray(speeds_kn, dtype=float)[None, :]
     p_calm = base.calm_power_kw(v)
     cap = CAP_MCR * base.mcr_kw
     col = lambda a: np.asarray(a, dtype=float)[:, None]  # noqa: E731
-    out = np.empty((np.size(along_deg), v.size, np.size(headings_deg), len(sectors)))
-    capped = np.zeros(out.shape, dtype=bool)
-    for k, psi in enumerate(np.asarray(headings_deg, dtype=float)):
+    out: list[list[_Field]] = []
+    for psi in np.asarray(headings_deg, dtype=float):
         at = model_sea(
             col(np.asarray(along_deg) - psi), col(sea.hs_m), col(sea.wave_from_deg), col(sea.wind_u_ms),
             col(sea.wind_v_ms),
         )  # fmt: skip
-        for q, sector in enumerate(sectors):
+        out.append([])
+        for sector in sectors:
             at_q = {**at, "wave_angle_deg": sector_angle(at["wave_angle_deg"], sector)}
-            p = _model_power(model, v, at_q, out.shape[0])
+            p, node_row = _model_power(model, v, at_q, np.size(along_deg))
             over = ~np.isfinite(p) | (p > cap)
-            capped[:, :, k, q] = over
-            out[:, :, k, q] = np.where(over, cap, p) / p_calm
-    return out, capped
+            out[-1].append(_Field(np.where(over, cap, p) / p_calm, over, node_row))
+    return out
 
 
-def _model_power(model: PerformanceModel, v_kn: np.ndarray, at: dict[str, np.ndarray], n: int) -> np.ndarray:
-    """``model.brake_power_kw`` at the speeds ``v_kn`` (1, nv) [kn] in the N seas ``at`` (:func:`model_sea`), (N, nv).
+def _model_power(
+    model: PerformanceModel, v_kn: np.ndarray, at: dict[str, np.ndarray], n: int
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """``model.brake_power_kw`` at the speeds ``v_kn`` (1, nv) [kn] in the N seas ``at`` (:func:`model_sea`):
+    ``(power (R, nv), each sea's row (N,))``, or ``(power (N, nv), None)``.
 
     A model whose power depends on the sea only through its regime (``power_by_regime``: Kwon's Beaufort number
     and sector, :attr:`optroute.physics.performance.KwonModel.power_by_regime`) is evaluated once per regime, at
-    the first sea of that regime, and the result handed to every sea of it: the same numbers as evaluating it at
+    the first sea of that regime, and its row handed to every sea of it: the same numbers as evaluating it at
     every node (a few dozen regimes against some 10⁵ nodes). Any other model is evaluated at every node.
     """
     if not getattr(model, "power_by_regime", False):
-        return np.broadcast_to(np.asarray(model.brake_power_kw(v_kn, **at), dtype=float), (n, v_kn.size))
+        return np.broadcast_to(np.asarray(model.brake_power_kw(v_kn, **at), dtype=float), (n, v_kn.size)), None
     seas = {name: np.broadcast_to(a, (n, 1)) for name, a in at.items()}
     regime = model.power_regime(
         hs_m=seas["hs_m"][:, 0], wave_angle_deg=seas["wave_angle_deg"][:, 0], wind_speed_ms=seas["wind_speed_ms"][:, 0]
     )
     _, first, inverse = np.unique(np.ravel(regime), return_index=True, return_inverse=True)
     p = model.brake_power_kw(v_kn, **{name: a[first] for name, a in seas.items()})
-    return np.broadcast_to(np.asarray(p, dtype=float), (first.size, v_kn.size))[np.ravel(inverse)]
+    return np.broadcast_to(np.asarray(p, dtype=float), (first.size, v_kn.size)), np.ravel(inverse)
 
 
 def sample_error(
