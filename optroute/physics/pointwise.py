@@ -351,8 +351,9 @@ def cost_rate_floor(p, stw_kn, lam_t_per_h, current_kn):  # pragma: no cover - c
 
 
 @jit
-def loss_range_at(p, course_deg, hs_m, wave_from_deg, wind_u_ms, wind_v_ms, current_kn, stw_min_kn):
-    # pragma: no cover - compiled
+def loss_range_at(
+    p, course_deg, hs_m, wave_from_deg, wind_u_ms, wind_v_ms, current_kn, stw_min_kn
+):  # pragma: no cover - compiled
     """The least and greatest Kwon loss per C_U [-] of any speed >= ``stw_min_kn`` [kn] making good ``course_deg``
     [deg true] at a point: (0, 0) for the calm-water model or where the sea is not known.
 

@@ -130,16 +130,16 @@ def run(graph, search, k, label, tarr, fuel, parent, poff, state):  # pragma: no
     """Settle nodes until the goal is settled or the open set is empty, costing each edge only when it is due.
 
     Label-setting A* (Dijkstra with ``h = 0``) with lazy edge costing: settling a node pushes each of its edges
-    worth costing (:func:`optroute.search._kernels.candidates`) with its lower bound ``label[x] + b(x, y) +
-    h[y]`` as key, not its cost, ``b`` the larger of ρ·length and the edge's own floor (``floor``, checked on every
-    costed edge).  The edge is costed only when its key is the least of the open set and its head
-    ``y`` is not yet settled; an improved ``label[y]`` pushes ``y``'s label entry (key ``label[y] + h[y]``), and
-    ``y`` is settled when that entry is the least.  Exact: with ``h`` consistent with the true costs
-    (``h(x) <= cost(x, y) + h(y)``: the geodesic heuristic is, being consistent with the bound, which the costs do not
-    undercut; a ``cost_to_go`` bound is checked on every costed edge), every edge that could still improve ``y`` has
-    a smaller key than ``y``'s label entry (its key is at most its tail's label plus its cost plus ``h(y)``, ``b``
-    being at most the cost; an
-    unsettled tail's own entry is smaller still, by consistency), so it is costed first.  The labels are therefore those of the batched loop of
+    worth costing (:func:`optroute.search._kernels.candidates`) with its lower bound ``label[x] + b(x, y) + h[y]``
+    as key, not its cost, ``b`` the larger of ρ·length and the edge's own floor (``floor``, checked on every costed
+    edge).  The edge is costed only when its key is the least of the open set and its head ``y`` is not yet
+    settled; an improved ``label[y]`` pushes ``y``'s label entry (key ``label[y] + h[y]``), and ``y`` is settled
+    when that entry is the least.  Exact: with ``h`` consistent with the true costs (``h(x) <= cost(x, y) + h(y)``:
+    the geodesic heuristic is, being consistent with the bound, which the costs do not undercut; a ``cost_to_go``
+    bound is checked on every costed edge), every edge that could still improve ``y`` has a smaller key than
+    ``y``'s label entry (its key is at most its tail's label plus its cost plus ``h(y)``, ``b`` being at most the
+    cost; an unsettled tail's own entry is smaller still, by consistency), so it is costed first.  The labels are
+    therefore those of the batched loop of
     :meth:`optroute.search.dijkstra._Search._loop` (the same edge tests and leg costing,
     :func:`optroute.search.passage_kernels.cost_leg`), which costs every edge its bounds allow into a node not yet
     settled, many of them into nodes that a better edge reaches first.  On an exact tie between two parents'
