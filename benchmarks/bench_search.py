@@ -38,7 +38,8 @@
 1d. The weather's end as the search's time limit: the fuel objective's λ
    rounds with the limit and without it (:func:`bench_time_limit`).
 1e. Where the compiled A*'s time goes: the band check on (with and without the node-bound
-   certificate of :mod:`optroute.search.band_bounds`) and off (:func:`bench_band_check_share`).
+   certificate of :mod:`optroute.search.band_bounds`) and off (:func:`bench_band_check_share`); the fuel
+   objective's edges deferred by their own cost bound or by ρ × length (:func:`bench_edge_bounds`).
 1f. (full mode) ``plan_voyage`` San Diego → Tokyo through the storms at 120 and 20 nm
    cells, end to end (the issue's target is <= 10 s), at 20 nm with the λ bisected on the default coarser
    grid beside the bisection on the route's own grid; before it, plan_voyage's λ bisection stopped at the
@@ -76,6 +77,7 @@ from optroute.search import (
     _kernels,
     angular_resolution,
     compass,
+    cost_bound,
     grid_edges,
     routing,
     shortest_path,
@@ -386,6 +388,45 @@ def bench_band_check_share(quick: bool) -> dict[str, Any]:
     return {"cell_nm": cell, "rows": rows}
 
 
+def bench_edge_bounds(quick: bool) -> dict[str, Any]:
+    """The fuel objective's lazy A* with each edge deferred by its own cost bound (the default) against the same
+    search keying edges by ρ × length (the bound's edges all set to 0: before), same run.
+
+    San Diego -> Tokyo through the storms at 20 nm cells (60 nm with ``--quick``), λ = 3.625 t/h (the λ
+    ``plan_voyage`` searches the route's grid at): CPU seconds of the call (the bound's build included), edges
+    costed, nodes expanded and the route's cost, which must be equal.
+    """
+    import warnings
+
+    ship = orx.Ship.preset("container_8000teu")
+    wx = orx.scenarios.north_pacific_storms()
+    cell = 60.0 if quick else 20.0
+    lam = 3.625
+    inner = cost_bound.cost_to_go
+    rows = []
+
+    def without_edges(*args: Any, **kw: Any) -> Any:
+        bound = inner(*args, **kw)
+        return None if bound is None else cost_bound.CostBound(bound.to_end_t, np.zeros_like(bound.edge_t))
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the ports are snapped to open water, with a warning
+        for keyed in (True, False):
+            cost_bound.cost_to_go = inner if keyed else without_edges
+            try:
+                cpu = time.process_time()
+                route = orx.search_route(orx.scenarios.SAN_DIEGO, orx.scenarios.TOKYO, wx, ship,
+                                         departure=wx.time.values[0], cell_nm=cell, objective="fuel",
+                                         lambda_t_per_h=lam)  # fmt: skip
+                cpu = time.process_time() - cpu
+            finally:
+                cost_bound.cost_to_go = inner
+            rows.append({"edge_bounds": keyed, "cpu_s": cpu, "edges": route.stats["evaluated_edges"],
+                         "expanded": route.stats["expanded"],
+                         "cost_t": route.total_fuel_t + lam * route.total_duration_h})  # fmt: skip
+    return {"cell_nm": cell, "lambda_t_per_h": lam, "rows": rows}
+
+
 def bench_time_limit(quick: bool) -> dict[str, Any]:
     """The weather's end as the search's time limit (issue 15): the fuel objective's λ rounds with and without it.
 
@@ -679,6 +720,19 @@ def run(quick: bool) -> dict[str, Any]:
             check = "every 10 nm + between (default)" if r["certificate"] else "every 10 nm + between, no certificate"
         print(f"| {r['weather']} | {check} | {r['cpu_s']:.2f} | {r['search_s']:.2f} | {r['expanded']:,} | "
               f"{r['edges']:,} | {r['arrival_h']:.9f} |")  # fmt: skip
+    print()
+    eb = bench_edge_bounds(quick)
+    print(f"### The fuel objective's lazy A*: each edge deferred by its own cost bound, San Diego → Tokyo, storms, "
+          f"{eb['cell_nm']:g} nm cells, λ {eb['lambda_t_per_h']:g} t/h, CPU seconds of this process, same run\n")  # fmt: skip
+    print(
+        "| edge key | search_route CPU, bound included [s] | edges costed | expanded | route cost [t] | CPU / before |"
+    )
+    print("|---|---:|---:|---:|---:|---:|")
+    base = next(r for r in eb["rows"] if not r["edge_bounds"])
+    for r in eb["rows"]:
+        key = "the edge's own bound (default)" if r["edge_bounds"] else "ρ × length (before)"
+        print(f"| {key} | {r['cpu_s']:.2f} | {r['edges']:,} | {r['expanded']:,} | {r['cost_t']:.6f} | "
+              f"{r['cpu_s'] / base['cpu_s']:.2f} |")  # fmt: skip
     print()
     tl = bench_time_limit(quick)
     print(f"### The weather's end as the search's time limit: fuel objective, San Diego → Tokyo, storms, "
