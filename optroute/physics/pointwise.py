@@ -72,6 +72,7 @@ __all__ = [
     "least_cost_per_nm",
     "loss_range_at",
     "point_params",
+    "rate_floor_at_power",
     "stw_for_sog",
     "wrap_360",
 ]
@@ -338,16 +339,24 @@ def fuel_rate(p, power_kw):  # pragma: no cover - compiled
 
 
 @jit
+def rate_floor_at_power(p, power_kw, stw_kn, lam_t_per_h, current_kn):  # pragma: no cover - compiled
+    """``(fuel_rate(max(P, P_min)) + λ) / (v + c)`` [t/nm]: a lower bound on (fuel + λ) / SOG of ``stw_kn`` [kn]
+    where its brake power is at least ``power_kw`` and the current at most ``current_kn`` [kn].
+
+    An allowed speed's power is at least the minimum load, the fuel rate (IMO GHG4 SFOC) increases with the
+    power, and the SOG is at most v + |current|.
+    """
+    return (fuel_rate(p, max(power_kw, p[P_MIN_POWER])) + lam_t_per_h) / (stw_kn + current_kn)
+
+
+@jit
 def cost_rate_floor(p, stw_kn, lam_t_per_h, current_kn):  # pragma: no cover - compiled
     """A lower bound on (fuel + λ) / SOG [t/nm] of ``stw_kn`` wherever the current is at most ``current_kn`` [kn].
 
-    ``(fuel_rate(max(P_calm(v), P_min)) + λ) / (v + c)``: the brake power of an
-    allowed speed is at least its calm-water power (Kwon's loss is floored at
-    0) and the minimum load, the fuel rate increases with the power, and the
-    SOG is at most v + |current| (see :func:`least_cost_per_nm`).
+    :func:`rate_floor_at_power` at the calm-water power: the brake power of an allowed speed is at least that
+    (Kwon's loss is floored at 0; see :func:`least_cost_per_nm`).
     """
-    power = max(calm_power(p, stw_kn), p[P_MIN_POWER])
-    return (fuel_rate(p, power) + lam_t_per_h) / (stw_kn + current_kn)
+    return rate_floor_at_power(p, calm_power(p, stw_kn), stw_kn, lam_t_per_h, current_kn)
 
 
 @jit
@@ -409,8 +418,7 @@ def cost_rate_floor_in_sea(p, stw_kn, lam_t_per_h, current_kn, loss_lo, loss_hi)
     l_lo = max(loss_lo * _cu_range(p, fn_v, max(fn_v, x * inv))[0], 0.0)
     if l_lo >= 1.0:
         return np.inf
-    power = max(calm_power(p, stw_kn) / (1.0 - l_lo) ** 3, p[P_MIN_POWER])
-    return (fuel_rate(p, power) + lam_t_per_h) / (stw_kn + current_kn)
+    return rate_floor_at_power(p, calm_power(p, stw_kn) / (1.0 - l_lo) ** 3, stw_kn, lam_t_per_h, current_kn)
 
 
 @jit

@@ -57,15 +57,14 @@ from optroute.physics.pointwise import (
     P_FORM_LINEAR,
     P_INV_SQRT_GL_KN,
     P_KWON,
-    P_MIN_POWER,
     P_V23,
     P_VMAX_KN,
     beaufort_from_hs,
     beaufort_from_wind,
     calm_power,
-    fuel_rate,
     kwon_direction_range,
     kwon_form_coefficient,
+    rate_floor_at_power,
 )
 from optroute.physics.speed_loss import KWON_BISECTIONS, KWON_SCAN_STEPS, calm_speed_point
 from optroute.weather.sample import grid_coordinates_at
@@ -176,7 +175,7 @@ def _rate_table(p, speeds, lam, current_kn, k_max):  # pragma: no cover - compil
             v1 = calm_speed_point(v, p[P_CU_A], p[P_CU_B], p[P_CU_C], k, p[P_INV_SQRT_GL_KN], p[P_VMAX_KN],
                                   np.int64(KWON_SCAN_STEPS), np.int64(KWON_BISECTIONS))  # fmt: skip
             if math.isfinite(v1):
-                best = min(best, (fuel_rate(p, max(calm_power(p, v1), p[P_MIN_POWER])) + lam) / (v + current_kn))
+                best = min(best, rate_floor_at_power(p, calm_power(p, v1), v, lam, current_kn))
         out[i] = best if math.isfinite(best) else 0.0
     return out
 
