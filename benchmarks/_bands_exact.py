@@ -51,7 +51,7 @@ BAND_SOLVES = 12
 V_MIN, V_MAX = 6.0, 24.0
 SEARCHES = (("budget 12", BAND_SOLVES), ("unlimited", 10_000), ("screened, budget 12", BAND_SOLVES))
 """The side searches checked: as ``optimise_corridor`` ran it before the Lagrangian screen, without a budget, and as it
-runs it now (only the flips the Lagrangian estimate does not rule out, ``optroute.optimise.nlp_solve.flip_gains``)."""
+runs it now (only the flips the Lagrangian estimate does not rule out, ``optroute.optimise.side_gains.flip_gains``)."""
 
 
 def _kkt_speeds(d: np.ndarray, k: np.ndarray, lo: np.ndarray, hi: np.ndarray, eta: float) -> np.ndarray:
@@ -69,7 +69,7 @@ def _kkt_speeds(d: np.ndarray, k: np.ndarray, lo: np.ndarray, hi: np.ndarray, et
 def _flip_gains(d: np.ndarray, k: np.ndarray, v: np.ndarray, lam: float, s: np.ndarray, a: np.ndarray,
                 forb: np.ndarray) -> np.ndarray:  # fmt: skip
     """Each leg's Lagrangian estimate of flipping its band side (``InnerOutcome.gain``; the closed form of
-    ``optroute.optimise.nlp_solve.flip_gains``): ``min c(V)`` over the other side less ``c(v)``, ``c(V) = k d V² + λ d/V``
+    ``optroute.optimise.side_gains.flip_gains``): ``min c(V)`` over the other side less ``c(v)``, ``c(V) = k d V² + λ d/V``
     (convex: its unconstrained minimiser ``(λ / 2k)^{1/3}`` clipped to the other side's interval); +inf off the bands."""
     other_lo = np.where(s > 0, V_MIN, np.maximum(V_MIN, forb[:, 1]))
     other_hi = np.where(s > 0, np.minimum(V_MAX, forb[:, 0]), V_MAX)

@@ -156,11 +156,18 @@ class InnerOutcome:
         The inner solver's full result.
     infeasibility : float
         How far from feasible (0 when feasible; used by the repair step, smaller is better).
-    gain : numpy.ndarray or None
+    gain : numpy.ndarray, callable or None
         Same shape: an estimate of the objective change of flipping each entry's group from this solution
-        (equal over a group; the NLP's Lagrangian estimate, ``optroute.optimise.nlp_solve.flip_gains``), whose sum
+        (equal over a group; the NLP's Lagrangian estimate, ``optroute.optimise.side_gains.flip_gains``), whose sum
         over a move's groups bounds the change from below where the inner problem is a convex fixed-path
         one; :func:`improve_sides` does not try a move it estimates not to improve. None: every move is tried.
+        A callable ``() -> array or None`` is called once, when the estimate is first needed
+        (:meth:`flip_gain`): only the solutions the search keeps are estimated, not every trial it rejects.
+    release_gain : numpy.ndarray, callable or None
+        Same shape and form: an estimate of the objective change of releasing each group's samples held below the
+        band's threshold (:data:`~formulations.common.BELOW_SIDE`) to their ``side_at_solution``
+        (``optroute.optimise.side_gains.release_gains``); :func:`improve_sides` does not try a release it
+        estimates not to improve (:meth:`release_estimate`). None: every release is tried.
     """
 
     feasible: bool
@@ -173,7 +180,25 @@ class InnerOutcome:
     status: str = ""
     payload: Any = field(default=None, repr=False)
     infeasibility: float = 0.0
-    gain: np.ndarray | None = None
+    gain: np.ndarray | Callable[[], np.ndarray | None] | None = None
+    release_gain: np.ndarray | Callable[[], np.ndarray | None] | None = None
+    _made: dict[str, np.ndarray | None] = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def flip_gain(self) -> np.ndarray | None:
+        """``gain`` as an array (or None), a callable one evaluated on the first call only."""
+        return self._resolved("gain")
+
+    def release_estimate(self) -> np.ndarray | None:
+        """``release_gain`` as an array (or None), a callable one evaluated on the first call only."""
+        return self._resolved("release_gain")
+
+    def _resolved(self, name: str) -> np.ndarray | None:
+        value = getattr(self, name)
+        if not callable(value):
+            return value
+        if name not in self._made:
+            self._made[name] = value()
+        return self._made[name]
 
 
 SolveFn = Callable[[np.ndarray, np.ndarray], InnerOutcome]
@@ -279,19 +304,25 @@ def _promising(
     beyond ``rel_tol``; every move where the solve gave no estimate. The estimate screens, it does not order: a
     first-order (tangent) bound promises far more than a large move gives (on a band case of ``bench_bands``
     about −6 t for flips that changed the fuel by −1 to +2.3 t), so the multipliers' order stands."""
-    if cur.gain is None:
+    gain = cur.flip_gain() if moves else None
+    if gain is None:
         return moves
-    per = {int(g): float(np.max(cur.gain[grp == g])) for g in np.unique(grp)}
+    per = {int(g): float(np.max(gain[grp == g])) for g in np.unique(grp)}
     floor = -rel_tol * max(1.0, abs(cur.objective))
     return [move for move in moves if sum(per[g] for g in move) < floor]
 
 
-def _releases(cur: InnerOutcome, sides: np.ndarray, applies: np.ndarray, grp: np.ndarray) -> list[int]:
+def _releases(cur: InnerOutcome, sides: np.ndarray, applies: np.ndarray, grp: np.ndarray, rel_tol: float) -> list[int]:
     """Groups with a binding row "Hs below the threshold" (:data:`~formulations.common.BELOW_SIDE`), most binding
-    first: releasing one lets its samples into the band's seas on the side the solution is on there."""
+    first: releasing one lets its samples into the band's seas on the side the solution is on there. Where the
+    solve estimates each release's change (``InnerOutcome.release_gain``), only those estimated to improve beyond
+    ``rel_tol``, as :func:`_promising` screens the flips."""
     if cur.side_at_solution is None:
         return []
     held = cur.active & (sides == BELOW_SIDE) & ~applies
+    estimate = cur.release_estimate() if held.any() else None
+    if estimate is not None:
+        held &= estimate < -rel_tol * max(1.0, abs(cur.objective))
     labels = np.unique(grp[held])
     strength = np.array([np.max(np.where(held & (grp == g), cur.weight, -np.inf)) for g in labels])
     return [int(g) for g in labels[np.argsort(-strength, kind="stable")]]
@@ -406,7 +437,7 @@ def improve_sides(
                 moves += [(int(g), int(h)) for g, h in itertools.combinations(labels, 2)]
                 moves += [(int(g), h) for g in labels for h in others]
             moves = _promising(moves, grp, cur, rel_tol)
-            releases = _releases(cur, cur_s, cur_a, grp)
+            releases = _releases(cur, cur_s, cur_a, grp, rel_tol)
             improved, tried = False, 0
             for move in [("release", g) for g in releases] + moves:
                 if counter.exhausted:
@@ -624,6 +655,7 @@ def nlp_band_solver(
     violation_tol: float = 1e-6,
     later: Callable[[], Any] | None = None,
     gains: Callable[[Any], np.ndarray | None] | None = None,
+    release_gains: Callable[[Any, np.ndarray], np.ndarray | None] | None = None,
     **solve_kwargs: Any,
 ) -> SolveFn:
     """Inner solver wrapping :meth:`formulations.speed_nlp.SpeedNLP.solve` (duck-typed).
@@ -646,6 +678,10 @@ def nlp_band_solver(
     gains : callable, optional
         ``gains(result) -> array (N, m, B) or None``: the estimated change of flipping each group from a
         feasible solve (``InnerOutcome.gain``). Default: none (every move is tried).
+    release_gains : callable, optional
+        ``release_gains(result, side_at_solution) -> array (N, m, B) or None``: the estimated change of releasing
+        each group held below a band's threshold (``InnerOutcome.release_gain``). Default: none (every release is
+        tried). Both estimates are made only for the solutions the search keeps.
     **solve_kwargs
         ETA, objective, prices and the initial warm start, passed to ``nlp.solve`` (multipliers
         ``lam_x0``/``lam_g0``, if given, to its first solve only).
@@ -683,18 +719,20 @@ def nlp_band_solver(
         kwargs.pop("lam_g0", None)
         feasible = bool(res.success and res.max_violation <= violation_tol)
         st = res.samples
+        take = _side_to_take(st, feasible)
         out = InnerOutcome(
             feasible=feasible,
             objective=float(res.objective) if feasible else float("inf"),
             active=res.band_active,
             weight=np.abs(res.band_multiplier),
             applies=st.applies,
-            side_at_solution=_side_to_take(st, feasible),
+            side_at_solution=take,
             inside=st.inside,
             status=res.status,
             payload=res,
             infeasibility=0.0 if feasible else float(res.max_violation),
-            gain=gains(res) if gains is not None and feasible else None,
+            gain=(lambda: gains(res)) if gains is not None and feasible else None,
+            release_gain=(lambda: release_gains(res, take)) if release_gains is not None and feasible else None,
         )
         if feasible and not st.inside.any() and res.objective < best["objective"]:
             best["objective"] = float(res.objective)

@@ -27,7 +27,7 @@ from formulations.disjunctive import (
 )
 from formulations.speed_nlp import SpeedNLP
 from formulations.weather_grid import WeatherGrid
-from optroute.optimise.nlp_solve import flip_gains
+from optroute.optimise.side_gains import flip_gains
 
 
 def test_select_sides_by_hand() -> None:

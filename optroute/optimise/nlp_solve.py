@@ -3,7 +3,7 @@
 * :class:`Problem` holds the domain → formulation adapters of one call (:mod:`optroute.optimise.nlp_inputs`)
   and builds and solves :class:`formulations.speed_nlp.SpeedNLP` with the disjunctive outer loop
   (:func:`formulations.disjunctive.improve_sides`), which tries only the side flips the Lagrangian
-  estimate of each solve (:func:`flip_gains`) does not rule out; :class:`Tightening` is what the
+  estimate of each solve (:mod:`optroute.optimise.side_gains`) does not rule out; :class:`Tightening` is what the
   verification loop changes between solves.
 * Warm starts: a search route's speeds (:func:`route_warm_start`), Boeing's speed reduction leg by
   leg with the true model (:func:`safe_warm_start`), moved clear of an exclusion circle
@@ -27,6 +27,7 @@ from optroute import units
 from optroute.geo.tracks import Exclusion, gc_points, project_to_polyline
 from optroute.optimise.nlp_inputs import CorridorFrame, formulation_bands, moving_exclusion
 from optroute.optimise.rows import nlp_row_legs, sample_layout
+from optroute.optimise.side_gains import LegCosts, flip_gains, flippable_groups, leg_costs, release_gains
 from optroute.optimise.timed_no_go import NoPassageWindows
 from optroute.physics.passage import best_speed
 from optroute.physics.safety import BandRules
@@ -45,8 +46,6 @@ __all__ = [
     "clear_of_exclusion",
     "desired_speed",
     "edges_through",
-    "flip_gains",
-    "flippable_groups",
     "route_warm_start",
     "safe_warm_start",
     "warm_rules",
@@ -401,132 +400,25 @@ def band_solver(nlp: SpeedNLP, trial: Callable[[], SpeedNLP], kwargs: dict[str, 
 
     The first solve uses the full NLP; the later ones (side flips, applicability re-checks) an
     instance with an iteration cap. Every solve is warm-started from the best valid solution so far, and
-    estimates the change of each side flip from its solution (:func:`flip_gains`) for the side search.
+    estimates the change of each side flip and release from its solution (:func:`~optroute.optimise.side_gains.
+    flip_gains`, :func:`~optroute.optimise.side_gains.release_gains`) for the side search, on the solutions the
+    search keeps only.
     """
+    prices = {k: kwargs[k] for k in ("objective", "fuel_price", "hourly_cost")}
+    made: list[tuple[NLPResult, LegCosts | None]] = []  # the last solve's cost table, shared by both estimates
+
+    def costs(res: NLPResult) -> LegCosts | None:
+        if not made or made[0][0] is not res:
+            made[:] = [(res, leg_costs(nlp, res, **prices))]
+        return made[0][1]
 
     def gains(res: NLPResult) -> np.ndarray | None:
-        return flip_gains(nlp, res, objective=kwargs["objective"], fuel_price=kwargs["fuel_price"],
-                          hourly_cost=kwargs["hourly_cost"])  # fmt: skip
+        return flip_gains(nlp, res, **prices, costs=costs(res))
 
-    return nlp_band_solver(nlp, violation_tol=VIOLATION_TOL, later=trial, gains=gains, **kwargs)
+    def releases(res: NLPResult, take: np.ndarray) -> np.ndarray | None:
+        return release_gains(nlp, res, take, costs(res))
 
-
-def flippable_groups(
-    nlp: SpeedNLP, state: Any, offset_nm: np.ndarray, time_h: np.ndarray, n_speeds: int = 24
-) -> np.ndarray:
-    """(leg, band) groups whose both sides a ship can reach at every sample (speed and power bounds).
-
-    At the samples of ``state`` (the warm start: offsets (N+1,) [nm], times (N+1,) [h]) each side of a
-    band is tested on ``n_speeds`` speeds in the NLP's speed range, with the NLP's own power
-    (:meth:`SpeedNLP.power_at_speeds`, the tabulated ship model) within the load limits. A side no
-    allowed speed reaches cannot be flipped to: the flip would only cost a failed solve. The side a sample of the
-    start is on counts as reachable. Shape
-    (N, m, B), constant over the samples of a group.
-    """
-    n, m, nb = nlp.n_legs, nlp.samples_per_leg, nlp.n_bands
-    speeds = np.linspace(float(np.min(nlp.v_min_kn)), float(np.max(nlp.v_max_kn)), n_speeds)
-    power, _ = nlp.power_at_speeds(offset_nm, time_h, speeds)
-    ok_power = _load_ok(nlp.power, power)
-    ratio = _ratios_at_speeds(nlp, state, speeds)
-    out = np.zeros((n, m, nb), dtype=bool)
-    lower, upper = nlp.sample_edges()
-    for i, b in enumerate(nlp.bands):
-        if len(b.allowed_sides) < 2:
-            continue
-        # a side the start is on is reachable (the speed grid can miss a narrow window: above the surf-riding band
-        # and below the engine's limit, 25.60-25.62 kn for the 54 000 dwt ship in a following-seas case)
-        lo, hi = lower[:, :, i], upper[:, :, i]
-        low = (state.ratio[:, :, i] <= lo) | np.any(ok_power & (ratio[:, :, i] <= lo[:, :, None]), axis=-1)
-        high = (state.ratio[:, :, i] >= hi) | np.any(ok_power & (ratio[:, :, i] >= hi[:, :, None]), axis=-1)
-        both = low & high
-        out[:, :, i] = np.all(both | ~state.applies[:, :, i], axis=1)[:, None]
-    return out
-
-
-def flip_gains(
-    nlp: SpeedNLP,
-    res: NLPResult,
-    *,
-    objective: str,
-    fuel_price: float,
-    hourly_cost: float,
-    n_speeds: int = 96,
-) -> np.ndarray | None:
-    """Lagrangian estimate of the objective change of flipping each (leg, band) group of a solve; None where none.
-
-    With the ETA's multiplier λ of the solve ``res`` (objective units per h) a leg's Lagrangian cost at speed
-    through water V [kn] is ``w_f · (d/V) · r(V) + (w_t + λ) · d/V`` (``d`` the leg's length [nm], ``r`` its
-    fuel rate [t/h] at its samples, the NLP's own model with the samples held where and when they are;
-    ``w_f, w_t`` = 1, 0 for fuel, the fuel price and hourly cost for cost). Flipping the group (leg ``i``,
-    band ``b``) moves leg ``i`` to the other side of band ``b``, keeping the sides of its other bands and the
-    load limits: its estimate is the least Lagrangian cost over the speeds (``n_speeds`` over the NLP's range)
-    allowed there, less the largest step of the cost between neighbouring speeds (the grid can miss the
-    band's edge by one step), minus the leg's cost at the solution.
-
-    On a fixed path in static weather without current, where each leg's cost is convex in its time, the rest
-    of the passage's least cost is convex in the time left to it with slope −λ, so a flip of any set of
-    groups on different legs gives at least the solution's objective plus the sum of their estimates
-    (Lagrangian duality, as the ship's certificate): a move whose estimate is not negative cannot improve.
-    Elsewhere (time-varying weather, lateral freedom) it is the first-order estimate of the same change.
-    Shape (N, m, B), equal over a group's samples; +inf where the other side has no allowed speed. None for
-    the time objective and where a current makes the speed over ground differ from the speed through water.
-    """
-    nb = nlp.n_bands
-    if objective == "time" or nb == 0 or nlp.has_current_rows:
-        return None
-    n, m = nlp.n_legs, nlp.samples_per_leg
-    w_f, w_t = (1.0, float(hourly_cost)) if objective == "cost" else (1.0, 0.0)
-    if objective == "cost":
-        w_f = float(fuel_price)
-    lam = max(float(res.eta_multiplier), 0.0)
-    st = res.samples
-    d = np.asarray(res.distance_nm, dtype=float)
-    lo, hi = np.broadcast_to(nlp.v_min_kn, (n,)), np.broadcast_to(nlp.v_max_kn, (n,))
-    speeds = np.linspace(float(np.min(lo)), float(np.max(hi)), n_speeds)
-    power, rate = nlp.power_at_speeds(res.offset_nm, res.time_h, speeds)
-    weight = np.broadcast_to(np.asarray(nlp.sample_layout.weight, dtype=float), (n, m))
-    hours = d[:, None] / speeds[None, :]  # (N, K)
-    cost = w_f * hours * np.einsum("ijk,ij->ik", rate, weight) + (w_t + lam) * hours
-    now = d / np.asarray(res.stw_kn, dtype=float)
-    cost_now = w_f * now * np.sum(st.fuel_rate_tph * weight, axis=1) + (w_t + lam) * now
-    in_range = (speeds[None, :] >= lo[:, None] - 1e-9) & (speeds[None, :] <= hi[:, None] + 1e-9)
-    jumps = np.abs(np.diff(np.where(in_range, cost, np.nan), axis=1))
-    step = np.max(np.where(np.isfinite(jumps), jumps, 0.0), axis=1)  # the grid's largest cost step per leg
-    ratio = _ratios_at_speeds(nlp, st, speeds)  # (N, m, B, K)
-    lower, upper = (e[..., None] for e in nlp.sample_edges())  # (N, m, B, 1), as the rows impose them
-    side, app = res.sides[..., None], res.applies[..., None]
-    keep = ~app | np.where(side < 0, ratio <= lower, ratio >= upper)  # (N, m, B, K)
-    flip = ~app | np.where(side < 0, ratio >= upper, ratio <= lower)
-    load = _load_ok(nlp.power, power)  # (N, m, K)
-    gain = np.full((n, nb), np.inf)
-    for b in range(nb):
-        others = np.all(np.delete(keep, b, axis=2), axis=2)
-        ok = np.all(load & others & flip[:, :, b], axis=1) & in_range  # (N, K)
-        best = np.min(np.where(ok, cost, np.inf), axis=1)
-        gain[:, b] = best - step - cost_now
-    return np.broadcast_to(gain[:, None, :], (n, m, nb)).copy()
-
-
-def _load_ok(pw: PowerModel, power_kw: np.ndarray) -> np.ndarray:
-    """Brake powers [kW] within the NLP's load limits (P/MCR in [min_load, max_load])."""
-    load = power_kw / pw.mcr_kw
-    return (load <= pw.max_load) & (load >= pw.min_load)
-
-
-def _ratios_at_speeds(nlp: SpeedNLP, state: Any, speeds: np.ndarray) -> np.ndarray:
-    """Every band's ratio (:class:`formulations.common.Band`) at the samples of ``state`` for speeds through water
-    ``speeds`` (K,) [kn], the heading and sea held: shape (N, m, B, K), the NLP's own expressions."""
-    v = np.asarray(speeds, dtype=float)[None, None, :]
-    per = state.period_s[..., None]
-    along = v * state.cos_chi[..., None]
-    a = nlp.g_over_2pi
-    out = np.empty((*np.shape(state.period_s), nlp.n_bands, v.size))
-    for i, b in enumerate(nlp.bands):
-        if b.kind == "te_over_tr":
-            out[:, :, i] = a * per**2 / (b.param * np.maximum(np.abs(a * per - along), 1e-9))
-        else:
-            out[:, :, i] = along / {"v_over_c": a * per, "v_over_cg": 0.5 * a * per}.get(b.kind, b.param)
-    return out
+    return nlp_band_solver(nlp, violation_tol=VIOLATION_TOL, later=trial, gains=gains, release_gains=releases, **kwargs)
 
 
 def route_warm_start(route: Route, frame: CorridorFrame) -> dict[str, np.ndarray]:
