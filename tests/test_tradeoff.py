@@ -186,23 +186,26 @@ def test_a_rising_point_is_solved_again_from_the_earlier_plan_and_no_longer_rise
     assert front.solve.values[1] == "eta" and front.nlp_solves.values[1] >= 2
 
 
-def test_one_solve_per_point_and_the_slow_neighbour_sped_up_to_arrive_by_the_next_eta(calm_front):
-    interior = calm_front.solve.values == "eta"
-    assert calm_front.attrs["risen_points"] == 0 and calm_front.attrs["monotonicity_resolves"] == 0
-    assert (calm_front.nlp_solves.values[interior] >= 1).all()
-    # the warm start of the next (earlier) ETA: the 40 h plan's speeds times 40/35, arriving by 35 h on the
-    # same path in calm water, where the time of a leg is its distance over its speed (by hand)
-    legs = CORRIDOR.resample(150.0)
-    stw = np.array([14.0, 16.0, 15.0, 15.5, 14.5])
-    stw = stw * (legs.leg_distance_nm / stw).sum() / 40.0  # arrives at 40 h
-    later = points_mod.FrontPoint(
-        40.0, "eta", "optimal", totals={"duration_h": 40.0}, carry=points_mod.WarmStart(legs.waypoints, stw)
-    )
-    sped = points_mod.retimed_start(later, 35.0)
-    np.testing.assert_allclose(sped.stw_kn, stw * 40.0 / 35.0 * (1 + 1e-6), rtol=1e-15)
-    arrival = float((legs.leg_distance_nm / sped.stw_kn).sum())
-    assert 35.0 * (1 - 2e-6) < arrival <= 35.0
-    assert points_mod.retimed_start(later, 45.0) is later.carry  # a later ETA: the plan arrives by it as it is
+def test_one_solve_per_point_each_started_from_the_earlier_neighbours_plan_as_it_is(monkeypatch):
+    """The sweep runs from the fast end: each interior point's warm plan is its earlier neighbour's plan, speeds
+    unchanged to the bit (it arrives before the later ETA), so no point of a chain ends above its neighbour."""
+    started: list[np.ndarray] = []
+    real = points_mod.solve_prepared
+
+    def spying(*args, warm_plan=None, **kw):
+        if warm_plan is not None:
+            started.append(np.asarray(warm_plan.stw_kn, dtype=float).copy())
+        return real(*args, warm_plan=warm_plan, **kw)
+
+    monkeypatch.setattr(points_mod, "solve_prepared", spying)
+    front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, n=5, chains=1, **KW)
+    interior = np.flatnonzero(front.solve.values == "eta")
+    assert front.attrs["risen_points"] == 0 and front.attrs["monotonicity_resolves"] == 0
+    assert (front.nlp_solves.values[interior] >= 1).all()
+    assert len(started) == interior.size  # the ends start from their own candidates
+    for i, stw in zip(interior, started, strict=True):
+        np.testing.assert_array_equal(stw, front.leg_stw_kn.values[i - 1])  # the earlier point's plan, as it is
+    assert np.all(np.diff(front.fuel_t.values) < 0)
 
 
 def test_each_point_starts_from_its_neighbours_plan_and_multipliers_and_reaches_the_cold_front():
@@ -223,7 +226,7 @@ def test_each_point_starts_from_its_neighbours_plan_and_multipliers_and_reaches_
     np.testing.assert_allclose(warm.fuel_t.values[interior], by_hand, rtol=1e-5)
 
 
-def test_a_retimed_start_below_the_minimum_load_is_mended_up_to_it_by_the_propeller_law():
+def test_a_start_below_the_minimum_load_is_mended_up_to_it_by_the_propeller_law():
     """Calm water, fixed path: a leg slowed below the engine's minimum load moves up to the speed where the
     ship's own calm-water power meets it (by hand, bisection on ``Ship.calm_power_kw``), and no faster than
     the repair's step beyond; the others keep their speeds, so the plan arrives earlier and verifies."""
@@ -256,11 +259,11 @@ def _bisect(f, lo: float, hi: float) -> float:
     return hi
 
 
-def test_chains_split_by_eta_alone_descending_from_the_slow_end():
+def test_chains_split_by_eta_alone_ascending_from_the_fast_end():
     split = runners_mod.split_chains
-    assert split([1.0, 2.0, 3.0, 4.0, 5.0], 2, True) == [[3.0, 2.0, 1.0], [5.0, 4.0]]
-    assert split([1.0, 2.0, 3.0], 2, False) == [[1.0, 2.0], [3.0]]
-    assert split([1.0, 2.0], 4, True) == [[1.0], [2.0]]  # never an empty chain
+    assert split([1.0, 2.0, 3.0, 4.0, 5.0], 2) == [[1.0, 2.0, 3.0], [4.0, 5.0]]
+    assert split([1.0, 2.0, 3.0], 2) == [[1.0, 2.0], [3.0]]
+    assert split([1.0, 2.0], 4) == [[1.0], [2.0]]  # never an empty chain
 
 
 def test_a_failed_minimum_time_solve_starts_the_front_from_the_fastest_verified_plan(monkeypatch):

@@ -58,7 +58,6 @@ __all__ = [
     "point_from_plan",
     "prepared_corridor",
     "replace_fields",
-    "retimed_start",
     "solve_chain",
     "solve_chain_by_token",
     "solve_point",
@@ -74,8 +73,9 @@ FORBIDDEN_OPTIONS = ("eta", "eta_mode", "objective", "warm_plan", "route", "depa
 # --------------------------------------------------------------------------- one point (runs on a worker)
 
 #: A chain's point takes its previous point's verified plan as its only start (:attr:`WarmStart.sole_start`); a
-#: chain's first point, started from an end's plan sped up across the ETAs of the chains between, is also compared
-#: with the centreline's start, unless that end is its neighbour in the front (``end_adjacent``).
+#: chain's first point, started from an end's plan that arrives long before it (across the ETAs of the chains
+#: between), is also compared with the centreline's start, unless that end is its neighbour in the front
+#: (``end_adjacent``).
 SOLE_START = True
 #: A front's solves measure no power-table error (``solver_stats``' ``start_tabulation`` and ``tabulation``, two
 #: referee evaluations per solve that :func:`point_from_plan` drops; on ``benchmarks/bench_front.py``'s storm corridor
@@ -186,12 +186,13 @@ def solve_point(
     ``duals=False``: start from the warm plan's track and speeds alone, not its multipliers (a benchmark's
     primal-only continuation).  ``end_adjacent``: ``warm`` (an end's point, or an earlier ETA's plan for a
     point that rose above it) is the point's neighbour, so its verified plan is the only start, as a chain's
-    previous point is (:data:`SOLE_START`); an end's plan sped up across other chains' ETAs is compared with
-    the centreline's start too.
+    previous point is (:data:`SOLE_START`); an end's plan from across other chains' ETAs is compared with
+    the centreline's start too.  A neighbour is an earlier ETA's point (the front is swept from its fast end), so
+    its plan arrives by the point's ETA as it is.
     """
     solver_process()  # Ipopt's BLAS on one thread (the rounding of a Dask worker), glibc's thresholds raised
     started = _time.perf_counter()
-    carry = retimed_start(warm, eta_h) if kind == "eta" else warm.carry if isinstance(warm, FrontPoint) else warm
+    carry = warm.carry if isinstance(warm, FrontPoint) else warm
     if not duals and carry is not None and carry.duals is not None:
         carry = WarmStart(carry.waypoints, carry.stw_kn)
     objective = "time" if kind == "minimum_time" else spec.objective if kind == "eta" else "fuel"
@@ -221,8 +222,8 @@ def solve_point(
         else:
             with lock:  # one solve at a time: its cached builds are set up per solve (a worker may have threads)
                 if kind == "eta" and isinstance(warm, FrontPoint) and carry is not None and eta is not None:
-                    # a chain's previous point is the only start; an end's plan, sped up across a whole chain's
-                    # span, is compared with the centreline's start
+                    # a chain's previous point is the only start; an end's plan, from across a whole chain's span,
+                    # is compared with the centreline's start
                     sole = SOLE_START and (warm.kind == "eta" or end_adjacent)
                     carry = replace_fields(mended_start(prepared, carry, eta), sole_start=sole)
                 plan = solve_prepared(
@@ -265,36 +266,16 @@ def solve_point(
     return point
 
 
-def retimed_start(warm: FrontPoint | WarmStart | None, eta_h: float | None) -> WarmStart | None:
-    """A later ETA's plan sped up to arrive by ``eta_h``: the continuation's start from the slow side.
-
-    The optimiser starts Ipopt from a warm plan only when the referee accepts that plan for the new
-    ETA; a neighbour that arrives later never is.  Its speeds through the water scaled by
-    ``arrival / eta_h`` (plus 1e-6) arrive by ``eta_h`` wherever the speed over ground is the speed
-    through the water (no current); where the faster plan breaks the engine's limits or a danger
-    band, the referee refuses it and the optimiser starts from its own candidates, as cold.
-    """
-    if not isinstance(warm, FrontPoint):
-        return warm
-    carry = warm.carry
-    arrival_h = warm.totals.get("duration_h", math.nan)
-    if carry is None or eta_h is None or not math.isfinite(arrival_h) or arrival_h <= eta_h:
-        return carry
-    stw = np.asarray(carry.stw_kn, dtype=float) * (arrival_h / eta_h * (1.0 + 1e-6))
-    return WarmStart(carry.waypoints, stw, carry.duals)
-
-
 def mended_start(prepared: PreparedCorridor, carry: WarmStart, eta: np.datetime64) -> WarmStart:
-    """The retimed neighbour's plan with the engine's range mended leg by leg: the continuation's start.
+    """The neighbour's plan verified for the point's ETA, the engine's range mended leg by leg: the continuation's start.
 
-    Sped up to arrive by an earlier ETA, the neighbour's plan passes every point of the track earlier, in
-    other weather: on the benchmark's storm corridor the slow-steaming plan, at the engine's minimum load,
-    fell below it on 18–28 legs at the next four ETAs (following seas), so the referee refused it and every
-    point near the slow end started from the centreline (46–84 Ipopt iterations against 12–17 from a
-    neighbour).  :func:`optroute.optimise.starts.repaired_plan` moves the speed of each such leg to the
-    limit by the propeller law, as the optimiser does for a search route's plan; raising a leg's speed
-    only arrives earlier, so the ETA still holds.  Where it cannot be mended the retimed plan is returned
-    unchanged (the optimiser then starts from its own candidates).
+    The earlier neighbour's plan arrives by the later ETA as it is, and the referee's verdict on it for that ETA
+    (:attr:`WarmStart.verified`) spares the start stage a second verification of the same track and speeds.  Where
+    the referee finds the engine outside its range (a plan carried to another ETA than its own, a plan not the
+    NLP's), :func:`optroute.optimise.starts.repaired_plan` moves the speed of each such leg to the limit by the
+    propeller law, as the optimiser does for a search route's plan; raising a leg's speed only arrives earlier, so
+    the ETA still holds.  Where it cannot be verified the plan is returned unchanged (the optimiser then judges it
+    with its own candidates).
     """
     plan, _ = repaired_plan(
         prepared.plan_context(eta),

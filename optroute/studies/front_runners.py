@@ -161,12 +161,11 @@ class DaskRunner:
         return max(1, sum(int(n) for n in self.client.nthreads(self.workers).values()))
 
 
-def split_chains(etas: list[float], k: int, from_slow: bool) -> list[list[float]]:
-    """``k`` contiguous chains of the ETAs, each in solving order: descending from the slow end with ``from_slow``.
+def split_chains(etas: list[float], k: int) -> list[list[float]]:
+    """``k`` contiguous chains of the ETAs, each in solving order: ascending from the fast end.
 
     The chains depend on the ETAs and ``k`` alone, never on the workers: the front is the same serial and
     on any cluster.
     """
     k = max(1, min(k, len(etas)))
-    parts = [[float(h) for h in a] for a in np.array_split(np.asarray(etas, dtype=float), k)]
-    return [part[::-1] if from_slow else part for part in parts]
+    return [[float(h) for h in a] for a in np.array_split(np.asarray(etas, dtype=float), k)]
