@@ -61,10 +61,12 @@ def _calm():
 
 
 def test_a_mended_neighbour_is_verified_once_per_point(monkeypatch):
-    """The front's mended start (:func:`mended_start`) is the referee's verified plan for the point's ETA: the start
-    stage takes it as the warm plan's verdict instead of evaluating and verifying the same track and speeds again
-    (main verified it twice per point: once mending, once scoring). Counted against the interior points by hand;
-    the front is still the calm-water optimum, and identical to the one whose start stage verifies it again."""
+    """The front's start is the referee's verified plan for the point's ETA: the start stage takes it as the warm
+    plan's verdict instead of evaluating and verifying the same track and speeds again. The chain's first point
+    gets it from :func:`mended_start` (the end's plan evaluated for its ETA), the others from :func:`carried_start`
+    (the earlier neighbour's verified plan, not evaluated again). Counted against the interior points by hand;
+    the front is still the calm-water optimum, and identical to the bit to the one whose start stage evaluates
+    and verifies every start itself."""
     calls: list[int] = []
     original = stage_mod.verified_plan
 
@@ -74,18 +76,23 @@ def test_a_mended_neighbour_is_verified_once_per_point(monkeypatch):
         return original(*args, **kwargs)
 
     monkeypatch.setattr(stage_mod, "verified_plan", counting)
+    evaluated: list[int] = []
+    real_mended = points_mod.mended_start
+    monkeypatch.setattr(points_mod, "mended_start", lambda *a: evaluated.append(1) or real_mended(*a))
     front = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, n=6, chains=1, **KW)
     interior = front.solve.values == "eta"
     assert interior.sum() == 4
-    # the four points' warm plans come verified by mended_start (the ends have none)
-    assert len(calls) == 0
+    # the four points' warm plans come verified (the ends have none): the first by mended_start, three carried
+    assert len(calls) == 0 and len(evaluated) == 1
     v = CORRIDOR.length_nm / front.eta_h.values[interior]
     by_hand = front.eta_h.values[interior] * SHIP.fuel_rate_tph(SHIP.calm_power_kw(v))
     np.testing.assert_allclose(front.fuel_t.values[interior], by_hand, rtol=1e-5)
 
-    # the same front with the verdict dropped (the start stage verifies the mended plan itself): bit-identical
+    # the same front with the verdicts dropped (the start stage evaluates and verifies each start itself):
+    # bit-identical, so the carried verdict is the one an evaluation gives
     mended = points_mod.mended_start
     monkeypatch.setattr(points_mod, "mended_start", lambda *a: points_mod.replace_fields(mended(*a), verified=None))
+    monkeypatch.setattr(points_mod, "carried_start", lambda *a: None)
     again = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, n=6, chains=1, **KW)
     assert len(calls) == interior.sum()
     np.testing.assert_array_equal(again.fuel_t.values, front.fuel_t.values)
@@ -108,3 +115,17 @@ def test_a_chain_started_across_other_chains_etas_compares_the_centreline(monkey
     by_hand = two.eta_h.values[interior] * SHIP.fuel_rate_tph(SHIP.calm_power_kw(v))
     np.testing.assert_allclose(two.fuel_t.values[interior], by_hand, rtol=1e-5)
     np.testing.assert_allclose(one.fuel_t.values, two.fuel_t.values, rtol=1e-5)
+
+
+def test_a_carried_start_is_the_plan_verified_for_a_later_eta_and_never_for_an_earlier_one():
+    """:func:`carried_start` against the referee: the plan of a 40 h ETA, re-labelled for 45 h, verifies there
+    (``Plan.verify()`` in its new context) with the same legs; for 35 h, or from an exact-ETA plan, it is refused."""
+    plan = orx.optimise_corridor(CORRIDOR, _calm(), SHIP, departure=T0, eta=T0 + np.timedelta64(40, "h"), **KW)
+    later = points_mod.carried_start(plan, T0 + np.timedelta64(45, "h"))
+    assert later is not None and later.status == "start" and later.context.eta == T0 + np.timedelta64(45, "h")
+    assert later.verify() == [] and later.total_fuel_t == plan.total_fuel_t
+    np.testing.assert_array_equal(later.stw_kn, plan.stw_kn)
+    assert points_mod.carried_start(plan, T0 + np.timedelta64(35, "h")) is None  # an earlier ETA: not its verdict
+    exact = orx.optimise_corridor(CORRIDOR, _calm(), SHIP, departure=T0, eta=T0 + np.timedelta64(40, "h"),
+                                  eta_mode="eq", **KW)  # fmt: skip
+    assert points_mod.carried_start(exact, T0 + np.timedelta64(45, "h")) is None  # "eq": arriving early breaks it

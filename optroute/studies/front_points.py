@@ -54,6 +54,7 @@ __all__ = [
     "front_token",
     "has_spec",
     "install_spec",
+    "carried_start",
     "mended_start",
     "point_from_plan",
     "prepared_corridor",
@@ -180,6 +181,7 @@ def solve_point(
     route: Any = None,
     duals: bool = True,
     end_adjacent: bool = False,
+    keep_plan: bool = False,
 ) -> FrontPoint:
     """One solve; an unreachable ETA or a solver failure becomes the point's status, not an exception.
 
@@ -188,7 +190,9 @@ def solve_point(
     point that rose above it) is the point's neighbour, so its verified plan is the only start, as a chain's
     previous point is (:data:`SOLE_START`); an end's plan from across other chains' ETAs is compared with
     the centreline's start too.  A neighbour is an earlier ETA's point (the front is swept from its fast end), so
-    its plan arrives by the point's ETA as it is.
+    its plan arrives by the point's ETA as it is: where it carries that plan (``keep_plan`` kept it in its
+    :attr:`WarmStart.verified`, as :func:`solve_chain` does inside a chain) the plan is the point's verified start
+    without a second evaluation (:func:`carried_start`), else :func:`mended_start` evaluates and verifies it.
     """
     solver_process()  # Ipopt's BLAS on one thread (the rounding of a Dask worker), glibc's thresholds raised
     started = _time.perf_counter()
@@ -225,7 +229,9 @@ def solve_point(
                     # a chain's previous point is the only start; an end's plan, from across a whole chain's span,
                     # is compared with the centreline's start
                     sole = SOLE_START and (warm.kind == "eta" or end_adjacent)
-                    carry = replace_fields(mended_start(prepared, carry, eta), sole_start=sole)
+                    held = None if carry.verified is None else carried_start(carry.verified, eta)
+                    start = mended_start(prepared, carry, eta) if held is None else replace_fields(carry, verified=held)
+                    carry = replace_fields(start, sole_start=sole)
                 plan = solve_prepared(
                     prepared,
                     eta,
@@ -261,9 +267,32 @@ def solve_point(
         return failed(f"infeasible: {exc}")
     arrival_h = float(plan.duration_h)
     point = point_from_plan(plan, arrival_h if eta_h is None else eta_h, kind, _time.perf_counter() - started)
-    if plan_duals is not None and point.carry is not None:
-        point = replace_fields(point, carry=replace_fields(point.carry, duals=plan_duals))
+    if point.carry is not None and (plan_duals is not None or keep_plan):
+        point = replace_fields(
+            point, carry=replace_fields(point.carry, duals=plan_duals, verified=plan if keep_plan else None)
+        )
     return point
+
+
+def carried_start(plan: Plan, eta: np.datetime64) -> Plan | None:
+    """An earlier ETA's verified plan as the verified start of a later ETA, without evaluating it again; None where
+    it is not one.
+
+    The referee's verdict on a plan depends on the ETA only through the arrival check: the legs, their sea and
+    every band and engine check are those of the same track, speeds and departure. A plan verified in a context
+    with ETA ``plan.context.eta`` (mode ``"le"``) that arrives by ``eta`` (not earlier than that ETA) passes in the
+    same context with ``eta``. Returned as :func:`~optroute.optimise.starts.verified_plan` labels a start
+    (``status="start"``, no solver statistics, no shadow price), its dense evaluation shared.
+    """
+    ctx = plan.context
+    if ctx.eta is None or ctx.eta_mode != "le" or eta < ctx.eta or plan.arrival > eta:
+        return None
+    out = replace_fields(plan, status="start", solver_stats={}, eta_shadow_price_t_per_h=math.nan,
+                         context=replace_fields(ctx, eta=eta))  # fmt: skip
+    dense = getattr(plan, "_dense", None)
+    if dense is not None:
+        object.__setattr__(out, "_dense", dense)  # the evaluation verify() reads (Plan.from_context's)
+    return out
 
 
 def mended_start(prepared: PreparedCorridor, carry: WarmStart, eta: np.datetime64) -> WarmStart:
@@ -307,9 +336,11 @@ def solve_chain(
     """
     out = []
     for i, eta_h in enumerate(etas):
-        p = solve_point(spec, eta_h, "eta", None if cold else warm, duals=duals, end_adjacent=end_adjacent and i == 0)
+        p = solve_point(spec, eta_h, "eta", None if cold else warm, duals=duals, end_adjacent=end_adjacent and i == 0,
+                        keep_plan=True)  # fmt: skip
         warm = p if p.ok else warm
-        out.append(p)
+        # the plan stays with the chain (the next point's start); the point returned carries arrays only
+        out.append(p if p.carry is None else replace_fields(p, carry=replace_fields(p.carry, verified=None)))
     return out
 
 
