@@ -187,6 +187,18 @@ def test_serial_study_matches_closed_form(tmp_path):
     xr.testing.assert_identical(load_study(tmp_path / "s"), ds)
 
 
+def test_a_resumed_study_reads_each_stored_case_once_and_combines_the_same_dataset(tmp_path, monkeypatch):
+    # the check of the stored cases' inputs loads each case; the combination takes those, not the files again
+    first = run_study(AXES, fuel_case, tmp_path / "s", scheduler_address="synchronous")
+    reads: list[str] = []
+    real = _store.read_case
+    monkeypatch.setattr(_store, "read_case", lambda path: reads.append(Path(path).name) or real(path))
+    again = run_study(AXES, fuel_case, tmp_path / "s", scheduler_address="synchronous")
+    assert sorted(Counter(reads).values()) == [1] * N_CASES
+    xr.testing.assert_identical(again, first)
+    np.testing.assert_allclose(again.fuel_t.values, analytic_fuel(), rtol=1e-15)
+
+
 def test_n_workers_zero_is_synchronous(tmp_path):
     ds = run_study(AXES, fuel_case, tmp_path / "s", n_workers=0)
     np.testing.assert_allclose(ds.fuel_t.values, analytic_fuel(), rtol=1e-15)

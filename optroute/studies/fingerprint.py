@@ -38,7 +38,7 @@ import os
 import pickle
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -237,10 +237,14 @@ class StoredCases:
         Axis indices → (path, status) of every readable case computed from this call's inputs.
     recomputed : list
         Axis indices of the cases removed to be computed again (corrupt, or of changed inputs).
+    decoded : dict
+        Axis indices → the case of ``ok`` as :func:`optroute._store.read_case` loaded it for the check, for the
+        combination (:func:`optroute._store.combine`'s ``decoded``) instead of reading the file a second time.
     """
 
     ok: dict[tuple[int, ...], tuple[Path, str]]
     recomputed: list[tuple[int, ...]]
+    decoded: dict[tuple[int, ...], xr.Dataset] = field(default_factory=dict, repr=False)
 
 
 def check_stored_cases(
@@ -284,11 +288,12 @@ def check_stored_cases(
         cases of changed inputs are being recomputed.
     """
     ok: dict[tuple[int, ...], tuple[Path, str]] = {}
+    decoded: dict[tuple[int, ...], xr.Dataset] = {}
     changed: list[tuple[tuple[int, ...], Path, list[str]]] = []
     recomputed: list[tuple[int, ...]] = []
     for index, path in sorted(existing.items()):
         try:
-            attrs = _store.read_case(path).attrs
+            case = _store.read_case(path)
         except _store.StudyError as exc:
             aside = _store.quarantine(path)
             warnings.warn(
@@ -298,6 +303,7 @@ def check_stored_cases(
             )
             recomputed.append(index)
             continue
+        attrs = case.attrs
         if expected is not None:
             now = expected(index)
             try:
@@ -309,6 +315,7 @@ def check_stored_cases(
                 changed.append((index, path, diffs))
                 continue
         ok[index] = (path, str(attrs[_store.STATUS_ATTR]))
+        decoded[index] = case
     if changed and on_changed_inputs == "error":
         index, path, diffs = changed[0]
         more = f" (and {len(changed) - 1} other case(s))" if len(changed) > 1 else ""
@@ -327,4 +334,4 @@ def check_stored_cases(
             f"(first: {label(changed[0][0])}: {'; '.join(changed[0][2])})",
             stacklevel=3,
         )
-    return StoredCases(ok, sorted(recomputed))
+    return StoredCases(ok, sorted(recomputed), decoded)

@@ -572,7 +572,9 @@ def run_study(
                 retried = {index for index in pending if index in existing}
                 _run_distributed(client, case_fn, pending, params, reserved, on_outcome, store_arg, retried, inputs_of)
 
-        ds = _store.combine(store, manifest, recorder.fresh)
+        # the cases kept from the store as the check loaded them, the new ones as the workers decoded them
+        kept = {i: case for i, case in checked.decoded.items() if i in done}
+        ds = _store.combine(store, manifest, {**kept, **recorder.fresh})
         try:
             _store.write_dataset(ds, out_path)
         except OSError as exc:
