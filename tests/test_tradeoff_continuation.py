@@ -63,10 +63,10 @@ def _calm():
 def test_a_mended_neighbour_is_verified_once_per_point(monkeypatch):
     """The front's start is the referee's verified plan for the point's ETA: the start stage takes it as the warm
     plan's verdict instead of evaluating and verifying the same track and speeds again. The chain's first point
-    gets it from :func:`mended_start` (the end's plan evaluated for its ETA), the others from :func:`carried_start`
-    (the earlier neighbour's verified plan, not evaluated again). Counted against the interior points by hand;
-    the front is still the calm-water optimum, and identical to the bit to the one whose start stage evaluates
-    and verifies every start itself."""
+    gets it from :func:`mended_start` (the end's plan evaluated for its ETA), the others from
+    :meth:`~optroute.plan.result.Plan.for_later_eta` (the earlier neighbour's verified plan, not evaluated again).
+    Counted against the interior points by hand; the front is still the calm-water optimum, and identical to the
+    bit to the one whose start stage evaluates and verifies every start itself."""
     calls: list[int] = []
     original = stage_mod.verified_plan
 
@@ -92,7 +92,7 @@ def test_a_mended_neighbour_is_verified_once_per_point(monkeypatch):
     # bit-identical, so the carried verdict is the one an evaluation gives
     mended = points_mod.mended_start
     monkeypatch.setattr(points_mod, "mended_start", lambda *a: points_mod.replace_fields(mended(*a), verified=None))
-    monkeypatch.setattr(points_mod, "carried_start", lambda *a: None)
+    monkeypatch.setattr(orx.Plan, "for_later_eta", lambda self, *a, **k: None)
     again = tradeoff(CORRIDOR, _calm(), SHIP, departure=T0, n=6, chains=1, **KW)
     assert len(calls) == interior.sum()
     np.testing.assert_array_equal(again.fuel_t.values, front.fuel_t.values)
@@ -117,15 +117,16 @@ def test_a_chain_started_across_other_chains_etas_compares_the_centreline(monkey
     np.testing.assert_allclose(one.fuel_t.values, two.fuel_t.values, rtol=1e-5)
 
 
-def test_a_carried_start_is_the_plan_verified_for_a_later_eta_and_never_for_an_earlier_one():
-    """:func:`carried_start` against the referee: the plan of a 40 h ETA, re-labelled for 45 h, verifies there
-    (``Plan.verify()`` in its new context) with the same legs; for 35 h, or from an exact-ETA plan, it is refused."""
+def test_a_plan_for_a_later_eta_is_the_plan_verified_there_and_never_for_an_earlier_one():
+    """:meth:`~optroute.plan.result.Plan.for_later_eta` against the referee: the plan of a 40 h ETA, re-labelled for
+    45 h, verifies there (``Plan.verify()`` in its new context) with the same legs; for 35 h, or from an exact-ETA
+    plan, it is refused."""
     plan = orx.optimise_corridor(CORRIDOR, _calm(), SHIP, departure=T0, eta=T0 + np.timedelta64(40, "h"), **KW)
-    later = points_mod.carried_start(plan, T0 + np.timedelta64(45, "h"))
+    later = plan.for_later_eta(T0 + np.timedelta64(45, "h"), status="start")
     assert later is not None and later.status == "start" and later.context.eta == T0 + np.timedelta64(45, "h")
     assert later.verify() == [] and later.total_fuel_t == plan.total_fuel_t
     np.testing.assert_array_equal(later.stw_kn, plan.stw_kn)
-    assert points_mod.carried_start(plan, T0 + np.timedelta64(35, "h")) is None  # an earlier ETA: not its verdict
+    assert plan.for_later_eta(T0 + np.timedelta64(35, "h"), status="start") is None  # an earlier ETA: not its verdict
     exact = orx.optimise_corridor(CORRIDOR, _calm(), SHIP, departure=T0, eta=T0 + np.timedelta64(40, "h"),
                                   eta_mode="eq", **KW)  # fmt: skip
-    assert points_mod.carried_start(exact, T0 + np.timedelta64(45, "h")) is None  # "eq": arriving early breaks it
+    assert exact.for_later_eta(T0 + np.timedelta64(45, "h"), status="start") is None  # "eq": arriving early breaks it

@@ -367,6 +367,27 @@ class Plan:
         """Speed through the water of every leg [kn]."""
         return self.legs["stw_kn"].to_numpy(dtype=float)
 
+    def for_later_eta(self, eta: np.datetime64, *, status: str) -> Plan | None:
+        """The same plan judged against a later ETA, without evaluating it again; None where that is not one.
+
+        :meth:`verify` reads the ETA only in its arrival check, "by the ETA" in mode ``"le"``: the legs, their sea
+        and every band, engine, land and corridor check belong to the track, speeds and departure alone. A plan
+        whose context has an ETA in mode ``"le"`` therefore gets, against any ``eta`` [UTC] at or after it, the
+        verdict it gets now. The result shares this plan's legs and its dense evaluation (which
+        :meth:`verify` reads); its ``status`` is the one given, with no solver statistics and no shadow price
+        (they were this plan's solve's). None for an earlier ``eta``, one before the plan's arrival, an ETA in mode
+        ``"eq"``, or no ETA.
+        """
+        ctx = self.context
+        if ctx.eta is None or ctx.eta_mode != "le" or eta < ctx.eta or self.arrival > eta:
+            return None
+        out = replace(self, status=status, solver_stats={}, eta_shadow_price_t_per_h=float("nan"),
+                      context=replace(ctx, eta=eta))  # fmt: skip
+        held = getattr(self, "_dense", None)
+        if held is not None:
+            object.__setattr__(out, "_dense", held)
+        return out
+
     def in_weather(self, weather: xr.Dataset | WeatherSampler, *, step_nm: float = 5.0) -> Plan:
         """The same track and speeds through water sailed in another weather (an ensemble member, the truth).
 

@@ -50,7 +50,6 @@ __all__ = [
     "FrontSpec",
     "SpecMissing",
     "WarmStart",
-    "carried_start",
     "failure_text",
     "front_token",
     "has_spec",
@@ -192,7 +191,8 @@ def solve_point(
     the centreline's start too.  A neighbour is an earlier ETA's point (the front is swept from its fast end), so
     its plan arrives by the point's ETA as it is: where it carries that plan (``keep_plan`` kept it in its
     :attr:`WarmStart.verified`, as :func:`solve_chain` does inside a chain) the plan is the point's verified start
-    without a second evaluation (:func:`carried_start`), else :func:`mended_start` evaluates and verifies it.
+    without a second evaluation (:meth:`~optroute.plan.result.Plan.for_later_eta`), else :func:`mended_start`
+    evaluates and verifies it.
     """
     solver_process()  # Ipopt's BLAS on one thread (the rounding of a Dask worker), glibc's thresholds raised
     started = _time.perf_counter()
@@ -229,7 +229,7 @@ def solve_point(
                     # a chain's previous point is the only start; an end's plan, from across a whole chain's span,
                     # is compared with the centreline's start
                     sole = SOLE_START and (warm.kind == "eta" or end_adjacent)
-                    held = None if carry.verified is None else carried_start(carry.verified, eta)
+                    held = None if carry.verified is None else carry.verified.for_later_eta(eta, status="start")
                     start = mended_start(prepared, carry, eta) if held is None else replace_fields(carry, verified=held)
                     carry = replace_fields(start, sole_start=sole)
                 plan = solve_prepared(
@@ -272,27 +272,6 @@ def solve_point(
             point, carry=replace_fields(point.carry, duals=plan_duals, verified=plan if keep_plan else None)
         )
     return point
-
-
-def carried_start(plan: Plan, eta: np.datetime64) -> Plan | None:
-    """An earlier ETA's verified plan as the verified start of a later ETA, without evaluating it again; None where
-    it is not one.
-
-    The referee's verdict on a plan depends on the ETA only through the arrival check: the legs, their sea and
-    every band and engine check are those of the same track, speeds and departure. A plan verified in a context
-    with ETA ``plan.context.eta`` (mode ``"le"``) that arrives by ``eta`` (not earlier than that ETA) passes in the
-    same context with ``eta``. Returned as :func:`~optroute.optimise.starts.verified_plan` labels a start
-    (``status="start"``, no solver statistics, no shadow price), its dense evaluation shared.
-    """
-    ctx = plan.context
-    if ctx.eta is None or ctx.eta_mode != "le" or eta < ctx.eta or plan.arrival > eta:
-        return None
-    out = replace_fields(plan, status="start", solver_stats={}, eta_shadow_price_t_per_h=math.nan,
-                         context=replace_fields(ctx, eta=eta))  # fmt: skip
-    dense = getattr(plan, "_dense", None)
-    if dense is not None:
-        object.__setattr__(out, "_dense", dense)  # the evaluation verify() reads (Plan.from_context's)
-    return out
 
 
 def mended_start(prepared: PreparedCorridor, carry: WarmStart, eta: np.datetime64) -> WarmStart:
