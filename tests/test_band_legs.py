@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 
 import optroute as orx
 from benchmarks import bench_compare
+from optroute import geodesy as geo
 from optroute.errors import ConfigError
 from optroute.optimise.corridor_problem import PreparedCorridor
 from optroute.optimise.rows import cut_where_binding
@@ -33,6 +34,25 @@ def test_a_leg_is_cut_into_the_fewest_equal_pieces_no_longer_than_its_own_length
     np.testing.assert_allclose(out.half_width_nm, [10.0, 12.5, 15.0, 17.5, 20.0, 30.0], rtol=1e-9)
     # one length for every leg is the same as that length given per leg
     np.testing.assert_array_equal(EQUATOR.resample(50.0).waypoints, EQUATOR.resample([50.0, 50.0]).waypoints)
+
+
+def test_a_corridor_cut_at_given_distances_keeps_its_waypoints_and_puts_the_cuts_on_its_great_circles() -> None:
+    """``Corridor.cut_at`` (the legs a free-arrival minimum time solves on when it starts from the 3-D DP's plan):
+    on the equator every cut is at latitude 0 and at its distance from the start by the WGS84 geodesic
+    (:func:`optroute.geodesy.distance_nm`, independent of the cut); a cut within 0.05 nm of a waypoint or of an
+    earlier cut, or outside the corridor, is left out; half-widths are interpolated along track by hand."""
+    d0 = float(EQUATOR.leg_distance_nm[0])
+    out = EQUATOR.cut_at([30.0, 90.0, 90.02, d0 + 0.03, d0 + 20.0, -5.0, 1e4])
+    assert out.waypoints.shape[0] == 3 + 3
+    np.testing.assert_allclose(out.waypoints[[0, 3, 5]], EQUATOR.waypoints, atol=1e-12)
+    np.testing.assert_allclose(out.waypoints[:, 0], 0.0, atol=1e-9)
+    from_start = geo.distance_nm(0.0, -30.0, out.waypoints[:, 0], out.waypoints[:, 1])
+    np.testing.assert_allclose(from_start, [0.0, 30.0, 90.0, d0, d0 + 20.0, EQUATOR.length_nm], atol=1e-6)
+    np.testing.assert_allclose(out.half_width_nm[[1, 2, 4]], [10 + 10 * 30 / d0, 10 + 10 * 90 / d0, 20 + 10 * 20 / (
+        EQUATOR.length_nm - d0)], rtol=1e-9)  # fmt: skip
+    assert EQUATOR.cut_at([0.01, d0, EQUATOR.length_nm]) is EQUATOR  # nothing to cut: the corridor itself
+    with pytest.raises(ConfigError, match="s_nm"):
+        EQUATOR.cut_at([np.nan])
 
 
 @pytest.mark.parametrize("bad", [[], [50.0, 0.0], [50.0, np.nan], [[50.0, 50.0]], [50.0, 50.0, 50.0]])

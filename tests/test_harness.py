@@ -264,6 +264,27 @@ def test_where_the_cheapest_and_the_earliest_label_are_stopped_a_bins_earliest_l
     assert plan.solver_stats["starts"]["3-D DP"]["verified"]
 
 
+def test_a_minimum_time_from_the_dps_plan_solves_on_the_dps_own_legs_and_improves_on_it():
+    """Harness seed 13 (the 8000 TEU ship by a cyclone, minimum time): the start is the 3-D DP's verified plan
+    (23.07 h), whose speed changes every stage. Averaged onto the NLP's 50 nm legs it sailed through a parametric-roll
+    band, Ipopt found that start infeasible and the DP's plan was returned unimproved. The legs are now cut where the
+    DP's plan changes speed or offset for that solve: the NLP starts from the plan itself and returns a faster one,
+    which passes the referee and the harness's independent 0.1 nm check. The prepared corridor keeps its own legs
+    afterwards, and the solve's statistics count every Ipopt call of it. About 4 CPU-s."""
+    from optroute.optimise.corridor_problem import PreparedCorridor
+
+    case, ship, wx, corridor = _case(13)
+    prepared = PreparedCorridor(corridor, wx, ship, departure=T0, objective="time")
+    legs, solves = prepared.frame.n_legs, prepared.problem.solves
+    plan = prepared.solve(objective="time")
+    stats = plan.solver_stats
+    assert any("legs cut where the 3-D DP's plan" in line for line in stats["tightening"]), stats["tightening"]
+    assert stats["n_legs"] > legs and prepared.frame.n_legs == legs
+    assert prepared.problem.solves - solves == stats["nlp_solves"] >= 1
+    assert plan.verify() == [] and check_plan(plan, wx, ship) == ([], 0)
+    assert plan.status == "optimal" and plan.duration_h < stats["starts"]["3-D DP"]["score"] - 0.1
+
+
 def test_the_start_stages_dp_keeps_several_labels_per_bin_and_finds_the_cheaper_passage_by_the_eta():
     """Harness seed 4 (a storm, least fuel by the ETA the harness gives: the minimum time × its factor). With one
     label per arrival bin the 3-D DP's plan was no better than racing: the call returned the minimum-time plan's

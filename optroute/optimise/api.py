@@ -130,8 +130,9 @@ def optimise_corridor(
         speed as often as the 3-D DP start does (:func:`optroute.optimise.rows.cut_where_binding`).
         Default :data:`optroute.optimise.rows.BAND_LEG_NM`, 20 nm, the DP's stage spacing; None:
         ``max_leg_nm`` everywhere (``python -m benchmarks --only compare`` runs both side by side). Not for
-        a free-arrival minimum time (``objective="time"`` without an ETA). ``solver_stats["n_legs"]`` gives
-        the legs solved.
+        a free-arrival minimum time (``objective="time"`` without an ETA): started from the 3-D DP's plan,
+        its legs are cut where that plan changes speed or lateral offset instead, for that solve.
+        ``solver_stats["n_legs"]`` gives the legs solved.
     samples_per_leg : int
         NLP samples per leg of the midpoint-rule time and fuel (every constraint is imposed there too).
     constraint_rows : {"midpoints", "referee"}

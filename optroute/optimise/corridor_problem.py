@@ -72,6 +72,7 @@ from optroute.optimise.rows import (
     only_where_binding,
     points_of,
 )
+from optroute.optimise.start_legs import OWN_LEGS_BAND_SOLVES, plan_on_own_legs
 from optroute.optimise.start_stage import Starts, discrete_start_mode, start_stage, warm_candidate
 from optroute.optimise.starts import ENGINE_KINDS, Candidate, repaired_plan, score, warm_is_plan
 from optroute.physics.performance import PerformanceModel
@@ -119,6 +120,7 @@ class _Call:
     first_solve: str | None = None  # the first solve's verdict: "verified", "mended", "rejected: ...", "Ipopt ..."
     starts: Starts | None = None  # the start stage's candidates and why the global starts ran
     start_in_bands: dict[str, int] | None = None  # the first verified start solved from, inside the NLP's bands
+    own_legs: bool = False  # solved on its verified start's own legs (PreparedCorridor._on_start_legs)
     edges_through: int | None = None  # (sample, band) edges the first solve from a verified start moved through it
     stage_cpu_s: dict[str, float] = field(default_factory=dict)
     tabulate: bool = True  # the power table's error at the warm start and the solution (statistics alone)
@@ -478,10 +480,61 @@ class PreparedCorridor(CorridorReport):
             "starts: "
             + "; ".join(f"{c.label} {c.score:.6g}" if c.plan is not None else f"{c.label} unverified" for c in cands)
         )
+        on_legs = self._on_start_legs(call, start) if first is start else None
+        if on_legs is not None:
+            start = first = on_legs[0]
         call.begin("solve and verify")  # stages: solve (with the band sides), verify
-        best = self._solve_stage(call, start, first)
-        call.begin("plan")
-        return self._plan_stage(call, cands, start, first, best)
+        try:
+            best = self._solve_stage(call, start, first)
+            call.begin("plan")
+            return self._plan_stage(call, cands, start, first, best)
+        finally:
+            if on_legs is not None:
+                self._restore_legs(on_legs[1])
+
+    def _on_start_legs(self, call: _Call, start: Candidate) -> tuple[Candidate, tuple[Any, ...]] | None:
+        """For a free-arrival minimum time started from a verified plan on other legs (the 3-D DP's stages, which a
+        corridor prepared for it keeps whole): this solve on that plan's own legs
+        (:func:`~optroute.optimise.start_legs.plan_on_own_legs`, :meth:`cut_to`), the band-side search's budget
+        :data:`~optroute.optimise.start_legs.OWN_LEGS_BAND_SOLVES`. Returns the candidate on those legs and the legs'
+        state to restore after the solve (:meth:`_restore_legs`); None where the start is on the NLP's legs already
+        or its plan does not verify on the cut legs.
+
+        A first solve that fails there is not diagnosed by the elastic phase-1 problem (:meth:`_first_failure`): it
+        started from a plan the referee passed on its own legs, so a safe start is not what it lacks, and that plan
+        stands."""
+        plan = start.plan
+        if plan is None or call.objective != "time" or call.eta_user_h is not None or warm_is_plan(start, self.frame):
+            return None
+        own = plan_on_own_legs(call.ctx, self.frame, plan, self.departure, self.verify_step_nm)
+        if own is None:
+            call.log.append(f"the {start.label}'s plan does not verify on the NLP's legs cut at its stages")
+            return None
+        saved = (self.setup, self.frame, self.y_lo, self.y_hi, self.problem, self.exclusion_backoff_nm)
+        self.cut_to(own.frame)
+        self.problem.absorb_counts(saved[4])  # this call's counts run on: the old problem's so far, then the new's
+        self.problem.dual_starts = saved[4].dual_starts
+        call.log.append(f"legs cut where the {start.label}'s plan changes speed or offset: {own.frame.n_legs} legs")
+        call.own_legs = True
+        val = self._score(own.plan, call)
+        return replace(start, warm=own.warm, plan=own.plan, score=val, estimate=min(val, start.estimate)), saved
+
+    def _budget(self, call: _Call) -> int:
+        """The band-side search's budget of solves in ``call``: on a verified start's own legs at most
+        :data:`~optroute.optimise.start_legs.OWN_LEGS_BAND_SOLVES` (the DP chose its sides across the corridor)."""
+        return min(self.band_solves, OWN_LEGS_BAND_SOLVES) if call.own_legs else self.band_solves
+
+    def _restore_legs(self, saved: tuple[Any, ...]) -> None:
+        """The prepared legs back after a solve on legs cut for it (:meth:`_on_start_legs`), with that solve's builds and
+        solves counted in their problem."""
+        cut = self.problem
+        self.setup, self.frame, self.y_lo, self.y_hi, self.problem, self.exclusion_backoff_nm = saved
+        self.problem.add_counts(cut, (self.problem.build_time_s, self.problem.solves, self.problem.iterations,
+                                      self.problem.solve_time_s))  # fmt: skip
+        self.problem.builds, self.problem.dual_starts = cut.builds, cut.dual_starts
+        self.__dict__.pop("binding", None)  # the cut legs' cached property
+        self._row_points = None
+        self.last_duals = None  # the cut legs' multipliers fit no solve on these legs
 
     # ------------------------------------------------------------------ the stages of a solve
 
@@ -532,7 +585,9 @@ class PreparedCorridor(CorridorReport):
                 if best is not None and self._score(best[0], call) <= start.score:
                     break
                 call.log.append(f"again from the verified {cand.label}")
-            found = self._solve_from(call, cand, diagnose=k == 0, verified_start=start.plan is not None)
+            found = self._solve_from(
+                call, cand, diagnose=k == 0 and not call.own_legs, verified_start=start.plan is not None
+            )
             if found is not None and (best is None or self._score(found[0], call) < self._score(best[0], call)):
                 best = found
         return best
@@ -581,7 +636,7 @@ class PreparedCorridor(CorridorReport):
                 break
             # a start the referee passed, as the NLP sees it: the NLP's band edges may pass through it
             through = from_plan and warm is first_warm
-            sol = prob.solve(nlp, eta_h=eta_solve, warm=warm, budget=self.band_solves, through_start=through,
+            sol = prob.solve(nlp, eta_h=eta_solve, warm=warm, budget=self._budget(call), through_start=through,
                              **call.solve_kw)  # fmt: skip
             if through and call.edges_through is None:
                 call.edges_through = sol.edges_through
@@ -701,7 +756,7 @@ class PreparedCorridor(CorridorReport):
             eta_user_h=call.eta_user_h,
             t0=self.departure,
             route=call.route,
-            budget=self.band_solves,
+            budget=self._budget(call),
             step_nm=self.verify_step_nm,
             solve_kw=call.solve_kw,
             first_warm=warm,
@@ -767,7 +822,7 @@ class PreparedCorridor(CorridorReport):
             emit(call.progress, "done", 1.0)
             return replace(start.plan, status="start", solver_stats=stats)  # type: ignore[arg-type]
         plan, sol, _ = best
-        status, reason = self._status(sol)
+        status, reason = self._status(sol, call)
         if reason:
             stats["status_reason"] = reason
         shadow = float("nan")
@@ -811,7 +866,7 @@ class PreparedCorridor(CorridorReport):
             best_plan=route_plan(call.route, call.ctx, self.verify_step_nm),
         )
 
-    def _status(self, sol: Solved) -> tuple[str, str | None]:
+    def _status(self, sol: Solved, call: _Call) -> tuple[str, str | None]:
         """The returned NLP plan's status and why it is not ``"optimal"`` (None when it is)."""
         res = sol.res
         converged = res.status == "Solve_Succeeded"
@@ -823,7 +878,7 @@ class PreparedCorridor(CorridorReport):
         if converged and sol.sides_settled:
             return "optimal", None
         if converged:
-            return "sides_unsettled", f"the band-side search stopped on its budget of {self.band_solves} solves"
+            return "sides_unsettled", f"the band-side search stopped on its budget of {self._budget(call)} solves"
         return "feasible", f"Ipopt stopped with {res.status}; its last iterate's plan passes verification"
 
     def _stats(

@@ -164,6 +164,34 @@ class Corridor:
         hw = np.interp(s_all, s, self.half_width_nm)
         return Corridor(np.column_stack([np.concatenate(lats), np.concatenate(lons)]), hw)
 
+    def cut_at(self, s_nm: ArrayLike, min_piece_nm: float = 0.05) -> Corridor:
+        """The same corridor with its legs also cut at the along-track positions ``s_nm`` [nm], on the great circles.
+
+        The original waypoints are kept; a cut within ``min_piece_nm`` [nm] of a waypoint or of an earlier cut, or
+        outside the corridor, is left out. Half-widths are interpolated along track.
+        """
+        s = self.along_track_nm
+        cuts = np.sort(finite("s_nm", s_nm, error=ConfigError).ravel())
+        kept: list[float] = []
+        for x in cuts:
+            if min_piece_nm < x < s[-1] - min_piece_nm and np.min(np.abs(s - x)) > min_piece_nm:
+                if not kept or x - kept[-1] > min_piece_nm:
+                    kept.append(float(x))
+        if not kept:
+            return self
+        at = np.asarray(kept)
+        k = np.clip(np.searchsorted(s, at, side="right") - 1, 0, self.n_legs - 1)
+        lat, lon = np.empty(at.size), np.empty(at.size)
+        for leg in np.unique(k):
+            sel = k == leg
+            f = (at[sel] - s[leg]) / (s[leg + 1] - s[leg])
+            la, lo = geo.intermediate_points(*self.waypoints[leg], *self.waypoints[leg + 1], f)
+            lat[sel], lon[sel] = la, lo
+        s_all = np.concatenate([s, at])
+        order = np.argsort(s_all, kind="stable")
+        points = np.vstack([self.waypoints, np.column_stack([lat, lon])])[order]
+        return Corridor(points, np.interp(s_all[order], s, self.half_width_nm))
+
 
 @dataclass(frozen=True)
 class Route:
