@@ -53,11 +53,28 @@ class OwnLegs:
 def plan_on_own_legs(
     ctx: PlanContext, frame: CorridorFrame, plan: Plan, departure: np.datetime64, step_nm: float
 ) -> OwnLegs | None:
-    """``plan`` on ``frame``'s legs cut at its own vertices, verified again there (the referee's spacing
-    ``step_nm`` [nm], departure [UTC]); None where it is on ``frame``'s legs already, or verifies on neither cut.
+    """``plan`` on ``frame``'s legs cut at its own vertices, verified again there.
 
     The cuts are first the vertices where the plan changes speed through water or lateral offset (by more than
     :data:`OFFSET_CHANGE_NM`), then every vertex.
+
+    Parameters
+    ----------
+    ctx : PlanContext
+        The solve's context (ship, model, rules, weather, ETA) the plan is verified in.
+    frame : CorridorFrame
+        The NLP's legs; the plan's vertices are projected on its centreline.
+    plan : Plan
+        A verified plan on the corridor (the 3-D DP's), its vertices anywhere along it.
+    departure : numpy.datetime64
+        Departure [UTC].
+    step_nm : float
+        The referee's check spacing [nm].
+
+    Returns
+    -------
+    OwnLegs or None
+        None where no vertex falls between ``frame``'s waypoints, or the plan verifies on neither cut.
     """
     wp = np.asarray(plan.waypoints, dtype=float)
     stw = np.asarray(plan.stw_kn, dtype=float)
