@@ -43,7 +43,7 @@ from optroute.errors import (
     SolverFailure,
     WeatherCoverageError,
 )
-from optroute.optimise.corridor_setup import ProgressFn, emit, prepare_corridor, recut
+from optroute.optimise.corridor_setup import CorridorSetup, ProgressFn, emit, prepare_corridor, recut
 from optroute.optimise.corridor_stats import CorridorReport
 from optroute.optimise.nlp_inputs import CorridorFrame, exclusion_frame_error_nm, formulation_bands
 from optroute.optimise.nlp_solve import (
@@ -289,6 +289,11 @@ class PreparedCorridor(CorridorReport):
             use_land_mask=self.use_land_mask, timed_no_passage=bool(args["timed_no_passage"]),
             solver_options=args["solver_options"], jit=args["jit"],
         )  # fmt: skip
+        self._use_setup(su)
+
+    def _use_setup(self, su: CorridorSetup) -> None:
+        """Solve on the legs of the setup ``su`` (:meth:`cut_to`, and back after a solve on cut legs): its frame,
+        lateral bounds and problem, and what is derived from the legs computed again."""
         self.setup, self.frame, self.y_lo, self.y_hi, self.problem = su, su.frame, su.y_lo, su.y_hi, su.problem
         self.__dict__.pop("binding", None)  # the cached property, of the old legs
         self._row_points = None
@@ -492,7 +497,7 @@ class PreparedCorridor(CorridorReport):
             if on_legs is not None:
                 self._restore_legs(on_legs[1])
 
-    def _on_start_legs(self, call: _Call, start: Candidate) -> tuple[Candidate, tuple[Any, ...]] | None:
+    def _on_start_legs(self, call: _Call, start: Candidate) -> tuple[Candidate, CorridorSetup] | None:
         """For a free-arrival minimum time started from a verified plan on other legs (the 3-D DP's stages, which a
         corridor prepared for it keeps whole): this solve on that plan's own legs
         (:func:`~optroute.optimise.start_legs.plan_on_own_legs`, :meth:`cut_to`), the band-side search's budget
@@ -510,10 +515,9 @@ class PreparedCorridor(CorridorReport):
         if own is None:
             call.log.append(f"the {start.label}'s plan does not verify on the NLP's legs cut at its stages")
             return None
-        saved = (self.setup, self.frame, self.y_lo, self.y_hi, self.problem, self.exclusion_backoff_nm)
+        saved = self.setup
         self.cut_to(own.frame)
-        self.problem.absorb_counts(saved[4])  # this call's counts run on: the old problem's so far, then the new's
-        self.problem.dual_starts = saved[4].dual_starts
+        self.problem.take_counts(saved.problem)  # this call's counts run on in the cut legs' problem
         call.log.append(f"legs cut where the {start.label}'s plan changes speed or offset: {own.frame.n_legs} legs")
         call.own_legs = True
         val = self._score(own.plan, call)
@@ -524,16 +528,12 @@ class PreparedCorridor(CorridorReport):
         :data:`~optroute.optimise.start_legs.OWN_LEGS_BAND_SOLVES` (the DP chose its sides across the corridor)."""
         return min(self.band_solves, OWN_LEGS_BAND_SOLVES) if call.own_legs else self.band_solves
 
-    def _restore_legs(self, saved: tuple[Any, ...]) -> None:
-        """The prepared legs back after a solve on legs cut for it (:meth:`_on_start_legs`), with that solve's builds and
-        solves counted in their problem."""
+    def _restore_legs(self, saved: CorridorSetup) -> None:
+        """The prepared legs (their setup ``saved``) back after a solve on legs cut for it (:meth:`_on_start_legs`),
+        with that solve's builds and solves counted in their problem."""
         cut = self.problem
-        self.setup, self.frame, self.y_lo, self.y_hi, self.problem, self.exclusion_backoff_nm = saved
-        self.problem.add_counts(cut, (self.problem.build_time_s, self.problem.solves, self.problem.iterations,
-                                      self.problem.solve_time_s))  # fmt: skip
-        self.problem.builds, self.problem.dual_starts = cut.builds, cut.dual_starts
-        self.__dict__.pop("binding", None)  # the cut legs' cached property
-        self._row_points = None
+        self._use_setup(saved)
+        self.problem.take_counts(cut)
         self.last_duals = None  # the cut legs' multipliers fit no solve on these legs
 
     # ------------------------------------------------------------------ the stages of a solve

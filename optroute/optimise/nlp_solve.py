@@ -185,6 +185,13 @@ class Problem:
         self.iterations += other.iterations
         self.solve_time_s += other.solve_time_s
 
+    def take_counts(self, other: Problem) -> None:
+        """These builds, solves and their totals set to ``other``'s: one problem's running record handed to the one
+        that stands in for it (:meth:`optroute.optimise.corridor_problem.PreparedCorridor.solve` on legs cut for
+        one call, and back)."""
+        self.builds, self.build_time_s, self.dual_starts = other.builds, other.build_time_s, other.dual_starts
+        self.solves, self.iterations, self.solve_time_s = other.solves, other.iterations, other.solve_time_s
+
     def add_counts(self, other: Problem, before: tuple[float, int, int, float]) -> None:
         """Add what ``other`` (a problem made for this one: the minimum-time twin's) built and solved since ``before``,
         its (build time [s], solves, iterations, Ipopt time [s]) then."""
