@@ -52,10 +52,8 @@ The sweep runs from the fast end, not from the slow one, by measurement: near th
 minimum load and the SFOC's rise at low load make the problem nonconvex and flat (its points take the most
 Ipopt iterations whichever way they are reached), and a later neighbour's plan must be sped up to arrive in
 time, which raises its fuel by about 4 % per step on the benchmark's storm corridor before Ipopt works it
-back down; the earlier neighbour's plan needs no change.  On that corridor (``bench_front``, 30 ETAs, 4
-chains, both directions in one process) the sweep from the fast end took 15.5 against 18.0 CPU-s and 1 363
-against 1 638 Ipopt iterations, ended lower at 17 points and higher at 8 (by at most 0.19 %; lower by up
-to 0.39 %), and needed no monotonicity re-solve (one from the slow end).
+back down; the earlier neighbour's plan needs no change (``python -m benchmarks.bench_front`` measures the
+front).
 
 Monotonicity
 ------------
@@ -497,8 +495,7 @@ def _rest(
     nearest = min(todo, default=math.nan)
     chains: list[Chain] = [(etas, fast, bool(etas) and etas[0] == nearest) for etas in split_chains(todo, n_chains)]
     # the costliest chain first, so that a cluster never starts it last: the one at the slow end, whose points sit at
-    # the engine's minimum load (on the benchmark's storm corridor 1 030 of 1 363 Ipopt iterations are in the last
-    # two chains); each chain is independent, so the order changes nothing in the front
+    # the engine's minimum load; each chain is independent, so the order changes nothing in the front
     chains.reverse()
     for p in runner.chains(spec, chains, warm_start is False, report, warm_start is True):
         done[p.eta_h] = p
